@@ -1,0 +1,36 @@
+// btflod — umbrella header: includes every public header of the library.
+// Engines may include the per-area headers instead to keep compile times down.
+#pragma once
+
+// core
+#include "btflod/core/bytes.hpp"
+#include "btflod/core/color.hpp"
+#include "btflod/core/file_io.hpp"
+#include "btflod/core/half.hpp"
+#include "btflod/core/image.hpp"
+#include "btflod/core/math.hpp"
+#include "btflod/core/progress.hpp"
+#include "btflod/core/result.hpp"
+#include "btflod/core/thread_pool.hpp"
+
+// btf
+#include "btflod/btf/directions.hpp"
+#include "btflod/btf/tabulated_btf.hpp"
+
+// angular
+
+// factor
+
+// metrics
+
+// lod
+
+// vt
+
+// codec
+
+// stream
+
+// shader
+
+// backend

@@ -1,0 +1,40 @@
+// btflod — small math helpers on top of GLM: angles and directions in the local frame
+// (z = surface normal; θ measured from +z; φ = atan2(y, x); DESIGN.md).
+#pragma once
+
+#include <cmath>
+#include <numbers>
+
+#include <glm/glm.hpp>
+
+namespace btflod {
+
+inline constexpr float kPi = std::numbers::pi_v<float>;
+inline constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+
+constexpr float degrees_to_radians(float deg) noexcept { return deg * (kPi / 180.0f); }
+constexpr float radians_to_degrees(float rad) noexcept { return rad * (180.0f / kPi); }
+
+/// Unit vector for polar angle theta (from +z) and azimuth phi, both in radians.
+inline glm::vec3 direction_from_spherical(float theta, float phi) noexcept {
+  const float s = std::sin(theta);
+  return {s * std::cos(phi), s * std::sin(phi), std::cos(theta)};
+}
+
+/// (theta, phi) in radians of a direction; phi in (−π, π]. The input need not be normalised;
+/// a zero vector gives (0, 0).
+inline glm::vec2 spherical_from_direction(glm::vec3 d) noexcept {
+  const float len = glm::length(d);
+  if (!(len > 0.0f)) return {0.0f, 0.0f};
+  const float z = glm::clamp(d.z / len, -1.0f, 1.0f);
+  return {std::acos(z), std::atan2(d.y, d.x)};
+}
+
+/// Wraps an angle in degrees to [−180, 180).
+inline float wrap_degrees_signed(float deg) noexcept {
+  float r = std::fmod(deg + 180.0f, 360.0f);
+  if (r < 0.0f) r += 360.0f;
+  return r - 180.0f;
+}
+
+}  // namespace btflod

@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# btflod's one entry point for a fresh Debian 12 machine.
+#   ./run.sh demo [demo args...]  install what is missing, build, run the demo on built-in data
+#   ./run.sh test                 install what is missing, build and run every test
+#                                 (release with -Werror, then ASan+UBSan, then fuzz smoke runs)
+#   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
+# Environment: BTFLOD_JOBS (parallel build jobs, default nproc), BTFLOD_BUILD_DIR (default build).
+set -euo pipefail
+cd "$(dirname "$0")"
+
+# The Debian packages btflod needs; DEVELOPERS.md explains each one.
+PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-dev libgtest-dev
+  libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libegl-dev libopengl-dev
+  libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
+  libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev)
+
+install_packages() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local line="apt-get install -y --no-install-recommends ${missing[*]}"
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "btflod: missing Debian packages. Run as root:" >&2
+    echo "  apt-get update && $line" >&2
+    exit 1
+  fi
+  echo "btflod: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  # shellcheck disable=SC2086
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
+
+JOBS=${BTFLOD_JOBS:-$(nproc)}
+BUILD=${BTFLOD_BUILD_DIR:-build}
+
+configure_and_build() {  # dir, extra cmake args...
+  local dir=$1; shift
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  cmake --build "$dir" -j "$JOBS"
+}
+
+cmd=${1:-}
+shift || true
+case "$cmd" in
+  demo)
+    install_packages
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=OFF -DBTFLOD_BUILD_BENCH=OFF
+    mkdir -p out
+    "$BUILD"/samples/demo/btflod-demo --out out/demo "$@"
+    ;;
+  test)
+    install_packages
+    start=$(date +%s)
+    echo "== release build (-Werror) =="
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON
+    (cd "$BUILD" && ctest --output-on-failure -j "$JOBS" --timeout 900)
+    echo "== ASan+UBSan build: unit tests =="
+    configure_and_build "$BUILD-asan" -DBTFLOD_SANITIZE=ON -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF \
+      -DCMAKE_BUILD_TYPE=RelWithDebInfo
+    (cd "$BUILD-asan" && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j "$JOBS" -L unit --timeout 900)
+    echo "== libFuzzer smoke runs (clang) =="
+    CC=clang CXX=clang++ configure_and_build "$BUILD-fuzz" -DBTFLOD_BUILD_FUZZ=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=OFF
+    (cd "$BUILD-fuzz" && ctest --output-on-failure -j "$JOBS" -L fuzz --timeout 900)
+    echo "btflod: all test stages passed in $(( $(date +%s) - start )) s"
+    ;;
+  bench)
+    install_packages
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON
+    mkdir -p "$BUILD/bench-results"
+    for b in "$BUILD"/bench/bench_*; do
+      [ -x "$b" ] || continue
+      name=$(basename "$b")
+      "$b" --benchmark_filter="${1:-.}" --benchmark_out="$BUILD/bench-results/$name.json" --benchmark_out_format=json
+    done
+    ;;
+  *)
+    echo "usage: ./run.sh demo|test|bench" >&2
+    exit 2
+    ;;
+esac

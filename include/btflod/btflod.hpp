@@ -18,6 +18,7 @@
 #include "btflod/btf/tabulated_btf.hpp"
 
 // angular
+#include "btflod/angular/angular_sample.hpp"
 
 // factor
 
@@ -26,6 +27,7 @@
 // lod
 
 // vt
+#include "btflod/vt/tile_id.hpp"
 
 // codec
 

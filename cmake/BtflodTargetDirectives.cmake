@@ -1,0 +1,49 @@
+# Per-file build directives, so a test or benchmark can declare what it needs without anyone
+# editing a shared CMakeLists.txt. Lines in the source file of the form
+#   // btflod-link: CURL::libcurl PkgConfig::BTFLOD_TURBOJPEG
+#   // btflod-label: gpu
+# add link libraries (targets that must exist; the file is skipped with a message when one is
+# missing) and ctest labels (default label: unit).
+#
+# Optional libraries found here and usable in btflod-link lines:
+#   CURL::libcurl, PkgConfig::BTFLOD_TURBOJPEG, PkgConfig::BTFLOD_LIBDEFLATE,
+#   PkgConfig::BTFLOD_ZSTD, OpenGL::EGL, OpenGL::OpenGL, Vulkan::Vulkan, and any target that
+#   samples/ defines (samples are added before tests and benchmarks).
+find_package(CURL QUIET)
+find_package(OpenGL QUIET COMPONENTS EGL OpenGL)
+find_package(Vulkan QUIET)
+pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
+pkg_check_modules(BTFLOD_LIBDEFLATE QUIET IMPORTED_TARGET GLOBAL libdeflate)
+pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
+
+# btflod_read_directives(<source> <out_links> <out_labels> <out_ok>)
+function(btflod_read_directives src out_links out_labels out_ok)
+  file(STRINGS ${src} link_lines REGEX "^// btflod-link:")
+  file(STRINGS ${src} label_lines REGEX "^// btflod-label:")
+  set(links "")
+  set(labels "")
+  set(ok TRUE)
+  foreach(line IN LISTS link_lines)
+    string(REGEX REPLACE "^// btflod-link:[ ]*" "" rest "${line}")
+    separate_arguments(items UNIX_COMMAND "${rest}")
+    foreach(t IN LISTS items)
+      if(TARGET ${t})
+        list(APPEND links ${t})
+      else()
+        message(STATUS "btflod: skipping ${src}: link target ${t} not available")
+        set(ok FALSE)
+      endif()
+    endforeach()
+  endforeach()
+  foreach(line IN LISTS label_lines)
+    string(REGEX REPLACE "^// btflod-label:[ ]*" "" rest "${line}")
+    separate_arguments(items UNIX_COMMAND "${rest}")
+    list(APPEND labels ${items})
+  endforeach()
+  if(NOT labels)
+    set(labels unit)
+  endif()
+  set(${out_links} ${links} PARENT_SCOPE)
+  set(${out_labels} ${labels} PARENT_SCOPE)
+  set(${out_ok} ${ok} PARENT_SCOPE)
+endfunction()

@@ -1,0 +1,75 @@
+// Half-float bulk conversion: F16C path vs its scalar twin, in the same run.
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <vector>
+
+#include "btflod/core/half.hpp"
+
+namespace {
+
+std::vector<float> random_floats(size_t n) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> d(-4.0f, 4.0f);
+  std::vector<float> v(n);
+  for (auto& f : v) f = d(rng);
+  return v;
+}
+
+constexpr size_t kCount = 72 * 72 * 4;  // one padded RGBA tile
+
+void BM_FloatToHalf_Scalar(benchmark::State& state) {
+  const auto in = random_floats(kCount);
+  std::vector<uint16_t> out(kCount);
+  for (auto _ : state) {
+    btflod::float_to_half_scalar(in, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+}
+BENCHMARK(BM_FloatToHalf_Scalar);
+
+void BM_HalfToFloat_Scalar(benchmark::State& state) {
+  const auto f = random_floats(kCount);
+  std::vector<uint16_t> in(kCount);
+  btflod::float_to_half_scalar(f, in);
+  std::vector<float> out(kCount);
+  for (auto _ : state) {
+    btflod::half_to_float_scalar(in, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+}
+BENCHMARK(BM_HalfToFloat_Scalar);
+
+#if BTFLOD_HAS_X86_DISPATCH
+void BM_FloatToHalf_F16C(benchmark::State& state) {
+  if (!btflod::cpu_has_f16c()) return state.SkipWithError("no F16C on this CPU");
+  const auto in = random_floats(kCount);
+  std::vector<uint16_t> out(kCount);
+  for (auto _ : state) {
+    btflod::float_to_half_f16c(in, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+}
+BENCHMARK(BM_FloatToHalf_F16C);
+
+void BM_HalfToFloat_F16C(benchmark::State& state) {
+  if (!btflod::cpu_has_f16c()) return state.SkipWithError("no F16C on this CPU");
+  const auto f = random_floats(kCount);
+  std::vector<uint16_t> in(kCount);
+  btflod::float_to_half_scalar(f, in);
+  std::vector<float> out(kCount);
+  for (auto _ : state) {
+    btflod::half_to_float_f16c(in, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+}
+BENCHMARK(BM_HalfToFloat_F16C);
+#endif
+
+}  // namespace
+
+BENCHMARK_MAIN();

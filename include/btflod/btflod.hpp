@@ -8,6 +8,7 @@
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
+#include "btflod/core/image_io.hpp"
 #include "btflod/core/math.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"

@@ -16,6 +16,7 @@
 
 // btf
 #include "btflod/btf/directions.hpp"
+#include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
 
 // angular

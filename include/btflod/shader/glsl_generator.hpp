@@ -1,0 +1,506 @@
+// btflod — GLSL source generators for OpenGL 4.5 core, Vulkan GLSL 450 and GLSL ES 3.00.
+//
+// generate_program() turns a plain ShaderConfig (shader/shader_config.hpp) into a vertex and a
+// fragment shader. Every program shares one vertex shader, the uniform block BtflodParams
+// (ShaderParams), the binding table ShaderBinding and the angular lookup code; the programs:
+//
+//   fmf          FMF rendering, paper 000 eq. 5, with 9-tap angular interpolation (§4)
+//   bsvtf        the same through page table + tile cache (paper 000 eq. 3), bilinear inside
+//                padded tiles, trilinear across levels when both are resident
+//   feedback     paper 000 eq. 1–2, writes the packed word to an R32UI attachment
+//   laplacian    Laplacian-pyramid PCA with continuous range-based LOD, paper 001 eq. 7
+//   lpca         local PCA with the 3D-texture layout and one manual lerp, paper 002 §6.2
+//   pca_views    PCA over groups of k views, L = [m | UΣ], R = [1; Vᵀ], paper 004 §6.3
+//
+// The generated text is deterministic (same config → same bytes). docs/shaders.md describes
+// the texture layouts each program expects.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "btflod/core/result.hpp"
+#include "btflod/shader/shader_config.hpp"
+
+namespace btflod {
+
+enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views };
+
+inline constexpr ShaderProgram kAllShaderPrograms[] = {ShaderProgram::fmf,       ShaderProgram::bsvtf,
+                                                       ShaderProgram::feedback,  ShaderProgram::laplacian,
+                                                       ShaderProgram::lpca,      ShaderProgram::pca_views};
+inline constexpr GlslTarget kAllGlslTargets[] = {GlslTarget::gl450_core, GlslTarget::vulkan450, GlslTarget::es300};
+
+/// Stable lower-case name, e.g. "bsvtf". Never null.
+constexpr const char* shader_program_name(ShaderProgram p) noexcept {
+  switch (p) {
+    case ShaderProgram::fmf: return "fmf";
+    case ShaderProgram::bsvtf: return "bsvtf";
+    case ShaderProgram::feedback: return "feedback";
+    case ShaderProgram::laplacian: return "laplacian";
+    case ShaderProgram::lpca: return "lpca";
+    case ShaderProgram::pca_views: return "pca_views";
+  }
+  return "unknown";
+}
+/// Stable lower-case name, e.g. "es300". Never null.
+constexpr const char* glsl_target_name(GlslTarget t) noexcept {
+  switch (t) {
+    case GlslTarget::gl450_core: return "gl450_core";
+    case GlslTarget::vulkan450: return "vulkan450";
+    case GlslTarget::es300: return "es300";
+  }
+  return "unknown";
+}
+
+/// Generated source of one program.
+struct GlslProgramSource {
+  std::string vertex;
+  std::string fragment;
+};
+
+/// A sampler's GLSL name and its binding point. GLSL ES 3.00 has no binding qualifier, so an ES
+/// host sets each sampler uniform to its unit by name (glUniform1i(location, binding)); the
+/// uniform block BtflodParams must be bound to point 0 with glUniformBlockBinding.
+struct SamplerName {
+  const char* name;
+  ShaderBinding binding;
+};
+
+/// Every sampler any program declares, with its binding. Programs declare a subset.
+inline std::span<const SamplerName> shader_sampler_names() noexcept {
+  static constexpr SamplerName kNames[] = {
+      {"btflod_eigen_abrdfs", ShaderBinding::eigen_abrdfs},
+      {"btflod_angular_index", ShaderBinding::angular_index},
+      {"btflod_angular_weight", ShaderBinding::angular_weight},
+      {"btflod_eigen_textures", ShaderBinding::eigen_textures},
+      {"btflod_tile_cache", ShaderBinding::tile_cache},
+      {"btflod_page_table", ShaderBinding::page_table},
+      {"btflod_laplacian_eigen", ShaderBinding::laplacian_eigen},
+      {"btflod_laplacian_weights", ShaderBinding::laplacian_weights},
+      {"btflod_laplacian_mean", ShaderBinding::laplacian_mean},
+      {"btflod_lpca_cluster", ShaderBinding::lpca_cluster},
+      {"btflod_lpca_weights", ShaderBinding::lpca_weights},
+      {"btflod_lpca_volume", ShaderBinding::lpca_volume},
+      {"btflod_pca_l", ShaderBinding::pca_l},
+      {"btflod_pca_r", ShaderBinding::pca_r},
+  };
+  return kNames;
+}
+
+namespace detail {
+
+inline void glsl_version(std::string& s, GlslTarget t) {
+  switch (t) {
+    case GlslTarget::gl450_core: s += "#version 450 core\n"; break;
+    case GlslTarget::vulkan450: s += "#version 450\n"; break;
+    case GlslTarget::es300:
+      s += "#version 300 es\n"
+           "precision highp float;\nprecision highp int;\n"
+           "precision highp sampler2D;\nprecision highp sampler2DArray;\nprecision highp sampler3D;\n"
+           "precision highp usampler2D;\nprecision highp usampler2DArray;\n";
+      break;
+  }
+}
+
+inline void glsl_params_block(std::string& s, GlslTarget t) {
+  switch (t) {
+    case GlslTarget::gl450_core: s += "layout(std140, binding = 0) uniform BtflodParams {\n"; break;
+    case GlslTarget::vulkan450: s += "layout(std140, set = 0, binding = 0) uniform BtflodParams {\n"; break;
+    case GlslTarget::es300: s += "layout(std140) uniform BtflodParams {\n"; break;
+  }
+  s += "  mat4 model_view_proj;\n  mat4 model;\n  vec4 camera_pos;\n  vec4 light;\n  vec4 light_color;\n"
+       "  vec4 lod;\n  uvec4 ids;\n} btflod;\n";
+}
+
+inline void glsl_sampler(std::string& s, GlslTarget t, const char* type, const char* name, ShaderBinding b) {
+  const unsigned binding = static_cast<unsigned>(b);
+  switch (t) {
+    case GlslTarget::gl450_core: s += format_message("layout(binding = %u) uniform %s %s;\n", binding, type, name); break;
+    case GlslTarget::vulkan450:
+      s += format_message("layout(set = 0, binding = %u) uniform %s %s;\n", binding, type, name);
+      break;
+    case GlslTarget::es300: s += format_message("uniform %s %s;\n", type, name); break;
+  }
+}
+
+// Varying declaration: GLSL ES 3.00 has no location qualifier on varyings; Vulkan requires it.
+inline void glsl_varying(std::string& s, GlslTarget t, unsigned loc, const char* dir, const char* decl) {
+  if (t == GlslTarget::es300)
+    s += format_message("%s %s;\n", dir, decl);
+  else
+    s += format_message("layout(location = %u) %s %s;\n", loc, dir, decl);
+}
+
+inline void glsl_varyings(std::string& s, GlslTarget t, const char* dir) {
+  glsl_varying(s, t, 0, dir, "vec3 v_world_pos");
+  glsl_varying(s, t, 1, dir, "vec3 v_normal");
+  glsl_varying(s, t, 2, dir, "vec4 v_tangent");
+  glsl_varying(s, t, 3, dir, "vec2 v_uv");
+}
+
+inline std::string glsl_vertex(GlslTarget t) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  s += "layout(location = 0) in vec3 btflod_position;\n"
+       "layout(location = 1) in vec3 btflod_normal;\n"
+       "layout(location = 2) in vec4 btflod_tangent;\n"
+       "layout(location = 3) in vec2 btflod_uv;\n";
+  glsl_varyings(s, t, "out");
+  s += "void main() {\n"
+       "  v_world_pos = (btflod.model * vec4(btflod_position, 1.0)).xyz;\n"
+       "  v_normal = mat3(btflod.model) * btflod_normal;\n"
+       "  v_tangent = vec4(mat3(btflod.model) * btflod_tangent.xyz, btflod_tangent.w);\n"
+       "  v_uv = btflod_uv;\n"
+       "  gl_Position = btflod.model_view_proj * vec4(btflod_position, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+// Local frame (z = normal, both directions away from the surface; DESIGN.md) and the
+// direction → unit-square maps, twins of shader_direction_to_unit_square().
+inline void glsl_frame_and_param(std::string& s, const ShaderConfig& c) {
+  s += "void btflod_local_dirs(out vec3 wl, out vec3 wv) {\n"
+       "  vec3 n = normalize(v_normal);\n"
+       "  vec3 t = normalize(v_tangent.xyz - n * dot(n, v_tangent.xyz));\n"
+       "  vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);\n"
+       "  vec3 to_eye = normalize(btflod.camera_pos.xyz - v_world_pos);\n"
+       "  vec3 to_light = btflod.light.w > 0.5 ? normalize(btflod.light.xyz - v_world_pos)"
+       " : normalize(btflod.light.xyz);\n"
+       "  wl = vec3(dot(to_light, t), dot(to_light, b), dot(to_light, n));\n"
+       "  wv = vec3(dot(to_eye, t), dot(to_eye, b), dot(to_eye, n));\n"
+       "}\n";
+  s += "vec2 btflod_param(vec3 d) {\n"
+       "  d.z = max(d.z, 0.0);\n"
+       "  float len = length(d);\n"
+       "  if (!(len > 1e-20)) return vec2(0.5);\n"
+       "  d /= len;\n";
+  if (c.angular.parameterisation == DirectionParameterisation::parabolic) {
+    s += "  return d.xy / (1.0 + d.z) * 0.5 + 0.5;  // parabolic map, paper 000 §4\n";
+  } else {
+    s += "  // elevated concentric map (paper 002 §6.1): disk radius sqrt(1 - z), Shirley-Chiu inverse\n"
+         "  vec2 disk = d.xy / sqrt(1.0 + d.z);\n"
+         "  float r = length(disk);\n"
+         "  if (r < 1e-7) return vec2(0.5);\n"
+         "  const float q = 0.78539816339744831;\n"
+         "  float phi = atan(disk.y, disk.x);\n"
+         "  if (phi < -q) phi += 8.0 * q;\n"
+         "  float a; float b;\n"
+         "  if (phi < q) { a = r; b = phi * a / q; }\n"
+         "  else if (phi < 3.0 * q) { b = r; a = -(phi - 2.0 * q) * b / q; }\n"
+         "  else if (phi < 5.0 * q) { a = -r; b = (phi - 4.0 * q) * a / q; }\n"
+         "  else { b = -r; a = -(phi - 6.0 * q) * b / q; }\n"
+         "  return vec2(a, b) * 0.5 + 0.5;\n";
+  }
+  s += "}\n";
+}
+
+// Angular lookup: index + barycentric weight tables (paper 000 §4). layer 0 = light, 1 = view.
+inline void glsl_angular(std::string& s, GlslTarget t, const ShaderConfig& c, bool force_nearest) {
+  glsl_sampler(s, t, "usampler2DArray", "btflod_angular_index", ShaderBinding::angular_index);
+  glsl_sampler(s, t, "sampler2DArray", "btflod_angular_weight", ShaderBinding::angular_weight);
+  s += format_message("const int kAngularRes = %u;\n", c.angular.resolution);
+  s += "void btflod_angular(int layer, vec3 d, out ivec3 idx, out vec3 w) {\n"
+       "  ivec2 texel = clamp(ivec2(floor(btflod_param(d) * float(kAngularRes))), ivec2(0), ivec2(kAngularRes - 1));\n"
+       "  idx = ivec3(texelFetch(btflod_angular_index, ivec3(texel, layer), 0).xyz);\n"
+       "  w = texelFetch(btflod_angular_weight, ivec3(texel, layer), 0).xyz;\n";
+  if (force_nearest || c.angular.lookup == AngularLookup::nearest) {
+    s += "  // nearest: the first index with the largest weight\n"
+         "  int k = 0;\n"
+         "  if (w.y > w.x) k = 1;\n"
+         "  if (w.z > w[k]) k = 2;\n"
+         "  idx = ivec3(idx[k]);\n"
+         "  w = vec3(1.0, 0.0, 0.0);\n";
+  }
+  s += "}\n";
+}
+
+inline int angular_taps(const ShaderConfig& c) { return c.angular.lookup == AngularLookup::nearest ? 1 : 3; }
+
+// Σ_c U_c(ωl, ωv) · V_c(x), paper 000 eq. 5; U interpolated over 3 × 3 direction pairs (§4).
+inline void glsl_fmf_sum(std::string& s, GlslTarget t, const ShaderConfig& c) {
+  glsl_sampler(s, t, "sampler2DArray", "btflod_eigen_abrdfs", ShaderBinding::eigen_abrdfs);
+  s += format_message("const int kComponents = %u;\nconst int kGroups = %u;\nconst int kTaps = %d;\n", c.components,
+                      c.component_groups(), angular_taps(c));
+  s += "vec3 btflod_eq5(vec4 v[kGroups], vec3 wl, vec3 wv) {\n"
+       "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
+       "  btflod_angular(0, wl, il, al);\n"
+       "  btflod_angular(1, wv, iv, av);\n"
+       "  vec3 rho = vec3(0.0);\n"
+       "  for (int c = 0; c < kComponents; ++c) {\n"
+       "    vec3 u = vec3(0.0);\n"
+       "    for (int i = 0; i < kTaps; ++i) {\n"
+       "      for (int j = 0; j < kTaps; ++j) {\n"
+       "        float w = al[i] * av[j];\n"
+       "        if (w > 0.0) u += w * texelFetch(btflod_eigen_abrdfs, ivec3(il[i], iv[j], c), 0).rgb;\n"
+       "      }\n"
+       "    }\n"
+       "    rho += u * v[c / 4][c % 4];\n"
+       "  }\n"
+       "  return rho;\n"
+       "}\n";
+}
+
+inline void glsl_color_output(std::string& s) { s += "layout(location = 0) out vec4 btflod_color;\n"; }
+
+inline void glsl_vt_common(std::string& s, GlslTarget t, const ShaderConfig& c) {
+  const VirtualTextureConfig& v = c.vt;
+  glsl_sampler(s, t, "usampler2DArray", "btflod_page_table", ShaderBinding::page_table);
+  s += format_message(
+      "const int kFinestLevel = %u;\nconst float kTileSize = %u.0;\nconst float kBorder = %u.0;\n"
+      "const float kPaddedTile = %u.0;\nconst uint kSlotsX = %uu;\nconst uint kSlotsPerLayer = %uu;\n"
+      "const vec2 kCacheSize = vec2(%u.0, %u.0);\nconst float kVirtualSize = %u.0;\n",
+      v.finest_level, v.tile_size, v.border, v.padded_tile_size(), v.slots_x, v.slots_x * v.slots_y, v.cache_width(),
+      v.cache_height(), v.virtual_size());
+  s += "// Desired continuous level, paper 000 eq. 1: l = L - log2 max(|dPi/dx|, |dPi/dy|), minus the LOD bias.\n"
+       "float btflod_vt_lambda(vec2 uv) {\n"
+       "  vec2 tx = uv * kVirtualSize;\n"
+       "  vec2 dx = dFdx(tx);\n"
+       "  vec2 dy = dFdy(tx);\n"
+       "  float m = max(dot(dx, dx), dot(dy, dy));\n"
+       "  return float(kFinestLevel) - 0.5 * log2(max(m, 1e-20)) - btflod.lod.x;\n"
+       "}\n";
+}
+
+inline std::string glsl_fmf_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  glsl_color_output(s);
+  glsl_frame_and_param(s, c);
+  glsl_angular(s, t, c, false);
+  glsl_fmf_sum(s, t, c);
+  glsl_sampler(s, t, "sampler2DArray", "btflod_eigen_textures", ShaderBinding::eigen_textures);
+  s += "void main() {\n"
+       "  vec4 v[kGroups];\n"
+       "  for (int g = 0; g < kGroups; ++g) v[g] = texture(btflod_eigen_textures, vec3(v_uv, float(g)));\n"
+       "  if (btflod.ids.z == 1u) { btflod_color = v[0]; return; }\n"
+       "  vec3 wl; vec3 wv;\n"
+       "  btflod_local_dirs(wl, wv);\n"
+       "  btflod_color = vec4(btflod_eq5(v, wl, wv) * btflod.light_color.rgb, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+inline std::string glsl_bsvtf_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  glsl_color_output(s);
+  glsl_frame_and_param(s, c);
+  glsl_angular(s, t, c, false);
+  glsl_fmf_sum(s, t, c);
+  glsl_vt_common(s, t, c);
+  glsl_sampler(s, t, "sampler2DArray", "btflod_tile_cache", ShaderBinding::tile_cache);
+  s += format_message("const bool kTrilinear = %s;\n", c.vt.trilinear ? "true" : "false");
+  s += "uint btflod_page_entry(int layer, vec2 uv, int level) {\n"
+       "  int n = 1 << level;\n"
+       "  ivec2 tile = clamp(ivec2(floor(uv * float(n))), ivec2(0), ivec2(n - 1));\n"
+       "  return texelFetch(btflod_page_table, ivec3(tile, layer), kFinestLevel - level).x;\n"
+       "}\n"
+       "// Paper 000 eq. 3: cache texel = slot origin + border + in-tile offset at the resident level l'.\n"
+       "vec4 btflod_cache_sample(uint entry, vec2 uv) {\n"
+       "  uint slot = entry & 0xFFFFFFu;\n"
+       "  float tiles = exp2(float(entry >> 24u));\n"
+       "  vec2 tp = uv * tiles;\n"
+       "  uint r = slot % kSlotsPerLayer;\n"
+       "  vec2 origin = vec2(float(r % kSlotsX), float(r / kSlotsX)) * kPaddedTile + kBorder;\n"
+       "  vec2 texel = origin + (tp - floor(tp)) * kTileSize;\n"
+       "  return textureLod(btflod_tile_cache, vec3(texel / kCacheSize, float(slot / kSlotsPerLayer)), 0.0);\n"
+       "}\n"
+       "vec4 btflod_vt_fetch(int layer, vec2 uv, float lambda) {\n"
+       "  float l = clamp(lambda, 0.0, float(kFinestLevel));\n"
+       "  int l0 = int(floor(l));\n"
+       "  int l1 = min(l0 + 1, kFinestLevel);\n"
+       "  uint e1 = btflod_page_entry(layer, uv, l1);\n"
+       "  vec4 s1 = btflod_cache_sample(e1, uv);\n"
+       "  if (!kTrilinear || l1 == l0 || int(e1 >> 24u) != l1) return s1;\n"
+       "  uint e0 = btflod_page_entry(layer, uv, l0);\n"
+       "  if (int(e0 >> 24u) != l0) return s1;\n"
+       "  return mix(btflod_cache_sample(e0, uv), s1, l - float(l0));  // trilinear across levels\n"
+       "}\n"
+       "void main() {\n"
+       "  float lambda = btflod_vt_lambda(v_uv);\n"
+       "  vec2 uv = fract(v_uv);\n"
+       "  vec4 v[kGroups];\n"
+       "  for (int g = 0; g < kGroups; ++g) v[g] = btflod_vt_fetch(int(btflod.ids.x) + g, uv, lambda);\n"
+       "  if (btflod.ids.z == 1u) { btflod_color = v[0]; return; }\n"
+       "  vec3 wl; vec3 wv;\n"
+       "  btflod_local_dirs(wl, wv);\n"
+       "  btflod_color = vec4(btflod_eq5(v, wl, wv) * btflod.light_color.rgb, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+inline std::string glsl_feedback_fragment(GlslTarget t, const ShaderConfig& c) {
+  const FeedbackWordLayout& f = c.vt.feedback;
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  s += "layout(location = 0) out uint btflod_feedback;\n";
+  glsl_vt_common(s, t, c);
+  auto mask = [](uint32_t bits) { return bits >= 32 ? 0xffffffffu : ((1u << bits) - 1u); };
+  s += "void main() {\n"
+       "  // lod.y = log2(screen / feedback size): derivatives here are that much larger.\n"
+       "  float lambda = btflod_vt_lambda(v_uv) + btflod.lod.y;\n"
+       "  // request the finest level the renderer blends in (ceil), tolerant of float noise\n"
+       "  int level = clamp(int(ceil(lambda - 1e-3)), 0, kFinestLevel);\n"
+       "  uint n = 1u << uint(level);\n"
+       "  uvec2 tile = min(uvec2(floor(fract(v_uv) * float(n))), uvec2(n - 1u));  // paper 000 eq. 2\n";
+  s += format_message(
+      "  btflod_feedback = ((tile.x & %uu) << %uu) | ((tile.y & %uu) << %uu) | ((uint(level) & %uu) << %uu)"
+      " | ((btflod.ids.y & %uu) << %uu);\n",
+      mask(f.x_bits), f.x_shift, mask(f.y_bits), f.y_shift, mask(f.level_bits), f.level_shift, mask(f.texture_bits),
+      f.texture_shift);
+  s += "}\n";
+  return s;
+}
+
+inline std::string glsl_laplacian_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  glsl_color_output(s);
+  glsl_frame_and_param(s, c);
+  glsl_angular(s, t, c, true);  // paper 001 §3.4 step 1: nearest light and view direction
+  glsl_sampler(s, t, "sampler2DArray", "btflod_laplacian_eigen", ShaderBinding::laplacian_eigen);
+  glsl_sampler(s, t, "sampler2DArray", "btflod_laplacian_weights", ShaderBinding::laplacian_weights);
+  glsl_sampler(s, t, "sampler2D", "btflod_laplacian_mean", ShaderBinding::laplacian_mean);
+  s += format_message("const int kComponents = %u;\nconst int kMaxLevel = %u;\nconst bool kYCbCr = %s;\n", c.components,
+                      c.laplacian.max_level, c.laplacian.ycbcr_output ? "true" : "false");
+  s += "void main() {\n"
+       "  vec3 wl; vec3 wv;\n"
+       "  btflod_local_dirs(wl, wv);\n"
+       "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
+       "  btflod_angular(0, wl, il, al);\n"
+       "  btflod_angular(1, wv, iv, av);\n"
+       "  ivec2 lv = ivec2(il.x, iv.x);\n"
+       "  // range-based LOD (paper 001 §3.4 step 2): lambda = min(lambda_max, max(log2(d), 0))\n"
+       "  float d = distance(btflod.camera_pos.xyz, v_world_pos) * btflod.lod.z;\n"
+       "  float lambda = clamp(log2(max(d, 1e-20)), 0.0, float(kMaxLevel));\n"
+       "  vec3 acc = texelFetch(btflod_laplacian_mean, lv, 0).rgb;  // mu'_lambda_max\n"
+       "  for (int k = 0; k <= kMaxLevel; ++k) {\n"
+       "    float wk = clamp(1.0 - lambda + float(k), 0.0, 1.0);  // paper 001 eq. 7 weight w_k\n"
+       "    if (wk <= 0.0) continue;\n"
+       "    for (int j = 0; j < kComponents; ++j) {\n"
+       "      float dkj = textureLod(btflod_laplacian_weights, vec3(v_uv, float(j / 4)), float(k))[j % 4];\n"
+       "      acc += wk * dkj * texelFetch(btflod_laplacian_eigen, ivec3(lv, k * kComponents + j), 0).rgb;\n"
+       "    }\n"
+       "  }\n"
+       "  if (kYCbCr) acc = vec3(acc.x + 1.402 * acc.z, acc.x - 0.344136 * acc.y - 0.714136 * acc.z,"
+       " acc.x + 1.772 * acc.y);\n"
+       "  btflod_color = vec4(acc * btflod.light_color.rgb, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+inline std::string glsl_lpca_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  glsl_color_output(s);
+  glsl_frame_and_param(s, c);
+  glsl_sampler(s, t, "usampler2D", "btflod_lpca_cluster", ShaderBinding::lpca_cluster);
+  glsl_sampler(s, t, "sampler2DArray", "btflod_lpca_weights", ShaderBinding::lpca_weights);
+  glsl_sampler(s, t, "sampler3D", "btflod_lpca_volume", ShaderBinding::lpca_volume);
+  s += format_message("const int kComponents = %u;\nconst float kClusters = %u.0;\nconst float kGrid = %u.0;\n",
+                      c.components, c.lpca.clusters, c.lpca.grid_resolution);
+  s += "// Grid coordinate s in [0,1] sampled at i/(R-1) -> texel centre inside a cell of R texels.\n"
+       "float btflod_cell(float s) { return (0.5 + clamp(s, 0.0, 1.0) * (kGrid - 1.0)) / kGrid; }\n"
+       "void main() {\n"
+       "  vec3 wl; vec3 wv;\n"
+       "  btflod_local_dirs(wl, wv);\n"
+       "  vec2 sv = btflod_param(wv);\n"
+       "  vec2 sl = btflod_param(wl);\n"
+       "  ivec2 size = textureSize(btflod_lpca_cluster, 0);\n"
+       "  ivec2 texel = clamp(ivec2(fract(v_uv) * vec2(size)), ivec2(0), size - 1);\n"
+       "  float k = float(texelFetch(btflod_lpca_cluster, texel, 0).x);\n"
+       "  // paper 002 §6.2: t_l discretised at i/(R-1); one manual lerp between slabs i and i+1\n"
+       "  float tl = clamp(sl.y, 0.0, 1.0) * (kGrid - 1.0);\n"
+       "  float i0 = min(floor(tl), kGrid - 1.0);\n"
+       "  float i1 = min(i0 + 1.0, kGrid - 1.0);\n"
+       "  float w = tl - i0;\n"
+       "  float y = (k + btflod_cell(sv.y)) / kClusters;\n"
+       "  float z1 = (i0 + btflod_cell(sl.x)) / kGrid;\n"
+       "  float z2 = (i1 + btflod_cell(sl.x)) / kGrid;\n"
+       "  vec3 acc = vec3(0.0);\n"
+       "  for (int j = 0; j <= kComponents; ++j) {\n"
+       "    // j = 0 is the cluster mean (weight 1); weights already divided by the 8-bit scales\n"
+       "    float alpha = j == 0 ? 1.0 : texelFetch(btflod_lpca_weights, ivec3(texel, (j - 1) / 4), 0)[(j - 1) % 4];\n"
+       "    float x = (float(j) + btflod_cell(sv.x)) / float(kComponents + 1);\n"
+       "    vec3 e = mix(texture(btflod_lpca_volume, vec3(x, y, z1)).rgb, texture(btflod_lpca_volume, vec3(x, y, z2)).rgb, w);\n"
+       "    acc += alpha * e;\n"
+       "  }\n"
+       "  btflod_color = vec4(acc * btflod.light_color.rgb, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+inline std::string glsl_pca_views_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_version(s, t);
+  glsl_params_block(s, t);
+  glsl_varyings(s, t, "in");
+  glsl_color_output(s);
+  glsl_frame_and_param(s, c);
+  glsl_angular(s, t, c, false);  // paper 004 §4.4: 3 closest directions with barycentric weights
+  glsl_sampler(s, t, "sampler2DArray", "btflod_pca_l", ShaderBinding::pca_l);
+  glsl_sampler(s, t, "sampler2D", "btflod_pca_r", ShaderBinding::pca_r);
+  s += format_message("const int kComponents = %u;\nconst int kViewsPerGroup = %u;\nconst int kLightCount = %u;\n"
+                      "const int kTaps = %d;\n",
+                      c.components, c.pca.views_per_group, c.pca.light_count, angular_taps(c));
+  s += "void main() {\n"
+       "  vec3 wl; vec3 wv;\n"
+       "  btflod_local_dirs(wl, wv);\n"
+       "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
+       "  btflod_angular(0, wl, il, al);\n"
+       "  btflod_angular(1, wv, iv, av);\n"
+       "  vec3 acc = vec3(0.0);\n"
+       "  for (int j = 0; j < kTaps; ++j) {\n"
+       "    int view = iv[j];\n"
+       "    int base = (view / kViewsPerGroup) * (kComponents + 1);  // PCA group b of k views\n"
+       "    vec3 mean = texture(btflod_pca_l, vec3(v_uv, float(base))).rgb;  // L = [m | U Sigma]\n"
+       "    for (int i = 0; i < kTaps; ++i) {\n"
+       "      float w = al[i] * av[j];\n"
+       "      if (w <= 0.0) continue;\n"
+       "      int row = il[i] + kLightCount * view;\n"
+       "      vec3 val = mean;  // R = [1; V^T]: the mean has weight 1\n"
+       "      for (int c = 1; c <= kComponents; ++c)\n"
+       "        val += texture(btflod_pca_l, vec3(v_uv, float(base + c))).rgb * texelFetch(btflod_pca_r, ivec2(c - 1, row), 0).r;\n"
+       "      acc += w * val;\n"
+       "    }\n"
+       "  }\n"
+       "  btflod_color = vec4(acc * btflod.light_color.rgb, 1.0);\n"
+       "}\n";
+  return s;
+}
+
+}  // namespace detail
+
+/// Generates the vertex and fragment shader of `program` for `target`.
+/// Returns invalid_argument when the config fails validate_shader_config(). The source is
+/// deterministic. Allocates (set-up time only). Thread-safe (no shared state).
+inline Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTarget target, const ShaderConfig& config) {
+  if (VoidResult v = validate_shader_config(config); !v) return v.error();
+  GlslProgramSource out;
+  out.vertex = detail::glsl_vertex(target);
+  switch (program) {
+    case ShaderProgram::fmf: out.fragment = detail::glsl_fmf_fragment(target, config); break;
+    case ShaderProgram::bsvtf: out.fragment = detail::glsl_bsvtf_fragment(target, config); break;
+    case ShaderProgram::feedback: out.fragment = detail::glsl_feedback_fragment(target, config); break;
+    case ShaderProgram::laplacian: out.fragment = detail::glsl_laplacian_fragment(target, config); break;
+    case ShaderProgram::lpca: out.fragment = detail::glsl_lpca_fragment(target, config); break;
+    case ShaderProgram::pca_views: out.fragment = detail::glsl_pca_views_fragment(target, config); break;
+    default: return make_error(Status::invalid_argument, "generate_program: unknown program %d", static_cast<int>(program));
+  }
+  return out;
+}
+
+}  // namespace btflod

@@ -1,0 +1,315 @@
+// btflod — plain configuration structs and GPU data encodings shared by the GLSL generators
+// (shader/glsl_generator.hpp) and the backends (backend/backend.hpp).
+//
+// Everything here is API-neutral: no GL or Vulkan header. The encodings (page-table entry,
+// feedback word, slot placement, uniform block) are the contract between the CPU side that
+// fills textures and the generated shaders that read them; docs/shaders.md describes them.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+
+#include "btflod/core/result.hpp"
+
+namespace btflod {
+
+/// Shading-language dialect a generator emits.
+enum class GlslTarget : unsigned char {
+  gl450_core,  ///< `#version 450 core`, explicit bindings, OpenGL 4.5 core
+  vulkan450,   ///< `#version 450` for glslc/glslangValidator -V: set = 0, explicit locations
+  es300,       ///< `#version 300 es` (WebGL 2): no binding qualifiers; samplers set by name
+};
+
+/// Mapping of a hemisphere direction (local frame, z = normal) to the unit square [0,1]².
+/// Mirrors angular/: parabolic p = (x, y) / (1 + z) mapped from [−1,1]² to [0,1]²;
+/// elevated concentric = Shirley–Chiu concentric map with z = 1 − r² (paper 002 §6.1).
+enum class DirectionParameterisation : unsigned char { parabolic, elevated_concentric };
+
+/// How the angular lookup tables are used in a shader.
+enum class AngularLookup : unsigned char {
+  barycentric,  ///< 3 light × 3 view indices blended by barycentric weights (paper 000 §4: 9 taps)
+  nearest,      ///< the index with the largest weight only (1 tap per direction)
+};
+
+/// Angular lookup tables (paper 000 §4, after [ND06]): a square index texture (3 direction
+/// indices per texel, RGBA32UI, .w unused) and a weight texture (3 barycentric weights, RGBA32F),
+/// rastered over the parameterised unit square. Both are 2-layer array textures: layer 0 for the
+/// light directions, layer 1 for the view directions.
+struct AngularTableConfig {
+  DirectionParameterisation parameterisation = DirectionParameterisation::parabolic;
+  AngularLookup lookup = AngularLookup::barycentric;
+  uint32_t resolution = 64;  ///< texels per side of each table
+};
+
+/// Bit layout of the packed 32-bit feedback word (paper 000 §3, eq. 1–2: tile index i, level l,
+/// texture τ). Engineer E's lod/ feedback word is the authority; until it is wired in, this
+/// configurable layout stands in for it. `empty_word` marks pixels no BTF covers (the clear value).
+struct FeedbackWordLayout {
+  uint32_t x_shift = 0, x_bits = 10;
+  uint32_t y_shift = 10, y_bits = 10;
+  uint32_t level_shift = 20, level_bits = 4;
+  uint32_t texture_shift = 24, texture_bits = 8;
+  uint32_t empty_word = 0xffffffffu;
+};
+
+/// Decoded feedback word.
+struct FeedbackSample {
+  uint32_t texture = 0;
+  uint32_t level = 0;  ///< paper 000 level, 0 = coarsest
+  uint32_t x = 0;
+  uint32_t y = 0;
+  friend constexpr bool operator==(const FeedbackSample&, const FeedbackSample&) = default;
+};
+
+namespace detail {
+constexpr uint32_t low_mask(uint32_t bits) noexcept { return bits >= 32 ? 0xffffffffu : ((1u << bits) - 1u); }
+}  // namespace detail
+
+/// Packs a feedback sample (fields are masked to their widths). Same arithmetic as the shader.
+/// Thread-safe, noexcept.
+constexpr uint32_t pack_feedback_word(const FeedbackWordLayout& l, FeedbackSample s) noexcept {
+  return ((s.x & detail::low_mask(l.x_bits)) << l.x_shift) | ((s.y & detail::low_mask(l.y_bits)) << l.y_shift) |
+         ((s.level & detail::low_mask(l.level_bits)) << l.level_shift) |
+         ((s.texture & detail::low_mask(l.texture_bits)) << l.texture_shift);
+}
+/// Unpacks a feedback word. The caller checks `word != layout.empty_word` first.
+/// Safe for any input value (untrusted words decode to in-range fields).
+constexpr FeedbackSample unpack_feedback_word(const FeedbackWordLayout& l, uint32_t word) noexcept {
+  return FeedbackSample{(word >> l.texture_shift) & detail::low_mask(l.texture_bits),
+                        (word >> l.level_shift) & detail::low_mask(l.level_bits),
+                        (word >> l.x_shift) & detail::low_mask(l.x_bits),
+                        (word >> l.y_shift) & detail::low_mask(l.y_bits)};
+}
+
+/// Page-table entry (paper 000 §3 lookup table L: level l' and cache position i'). One R32UI
+/// texel: bits [23..0] cache slot, bits [31..24] resident level l' (paper numbering).
+inline constexpr uint32_t kPageEntrySlotBits = 24;
+inline constexpr uint32_t kPageEntrySlotMask = (1u << kPageEntrySlotBits) - 1u;
+constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexcept {
+  return (resident_level << kPageEntrySlotBits) | (slot & kPageEntrySlotMask);
+}
+constexpr uint32_t page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
+constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
+
+/// Virtual-texture (BSVTF) layout as the shaders see it.
+///
+/// Eigen-textures: C components packed 4 per RGBA texel ("component groups"); group g of
+/// material m is virtual texture `page_table_layer = first_layer(m) + g`.
+/// Tile cache: a 2D-array texture of `cache_layers` layers, each slots_x × slots_y slots of
+/// (tile_size + 2·border)² texels; slot s lives in layer s / (slots_x·slots_y), column
+/// (s mod slots_x·slots_y) mod slots_x, row (s mod slots_x·slots_y) / slots_x.
+/// Page table: a R32UI 2D-array texture (one layer per virtual texture) with finest_level + 1
+/// mips; mip m = finest_level − level holds, for each tile (x, y) of that level, the entry of
+/// the tile the cache uses for it (itself or its nearest resident ancestor), see pack_page_entry.
+struct VirtualTextureConfig {
+  uint32_t tile_size = 64;     ///< T, texels per tile side without border
+  uint32_t border = 4;         ///< texels of border on each side (≥ 1 for bilinear)
+  uint32_t slots_x = 16;       ///< slots per cache row
+  uint32_t slots_y = 16;       ///< slot rows per cache layer
+  uint32_t cache_layers = 1;   ///< layers of the cache array texture
+  uint32_t finest_level = 4;   ///< L: the virtual texture is T·2^L texels per side
+  bool trilinear = true;       ///< blend levels ⌊λ⌋ and ⌊λ⌋+1 when both are resident
+  FeedbackWordLayout feedback;
+
+  constexpr uint32_t padded_tile_size() const noexcept { return tile_size + 2 * border; }
+  constexpr uint32_t slot_count() const noexcept { return slots_x * slots_y * cache_layers; }
+  constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
+  constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
+  constexpr uint32_t virtual_size() const noexcept { return tile_size << finest_level; }
+};
+
+/// Texel origin (top-left of the padded slot, border included) and layer of a cache slot.
+struct SlotPlacement {
+  uint32_t x = 0;
+  uint32_t y = 0;
+  uint32_t layer = 0;
+};
+/// Where slot `slot` lives in the cache texture. Precondition: slot < config.slot_count().
+constexpr SlotPlacement slot_placement(const VirtualTextureConfig& c, uint32_t slot) noexcept {
+  const uint32_t per_layer = c.slots_x * c.slots_y;
+  const uint32_t r = slot % per_layer;
+  return SlotPlacement{(r % c.slots_x) * c.padded_tile_size(), (r / c.slots_x) * c.padded_tile_size(),
+                       slot / per_layer};
+}
+
+/// Laplacian-pyramid LOD (paper 001 §3.4, eq. 7).
+/// Textures: eigen Laplacian BRDFs, 2D array RGBA32F, texel (light, view), layer = k·C + j;
+/// PCA weight maps, mipmapped 2D array RGBA, layer = j / 4, mip k = pyramid level k;
+/// mean, 2D RGBA32F texel (light, view) (tabulated stand-in for the fitted μ'_{λmax}).
+struct LaplacianLodConfig {
+  uint32_t max_level = 4;  ///< λmax
+  bool ycbcr_output = true;  ///< reconstructed values are YCbCr (paper 001 §3.1) → convert to RGB
+};
+
+/// Local PCA with the 3D-texture layout of paper 002 §6.2.
+/// Textures: cluster index per texel (R32UI 2D, nearest); PCA weights α/s per texel (2D array
+/// RGBA32F, layer = j / 4, scales folded in); eigen-BRDF volume (3D RGBA, linear filtering):
+/// x = (j + s_v)/(C+1) with j = 0 the cluster mean, y = (k + t_v)/clusters,
+/// z = (i + s_l)/n(t_l) for the discretised t_l index i — one manual lerp in t_l.
+struct LpcaConfig {
+  uint32_t clusters = 8;
+  uint32_t grid_resolution = 16;  ///< R: samples per side of s_v, t_v, s_l and the count n(t_l)
+};
+
+/// PCA over groups of k neighbouring views (paper 004 §4.3.2, §6.3): L = [m | UΣ] per group,
+/// R = [1; Vᵀ]. Textures: L as a 2D array RGBA (spatial), layer = group·(C+1) + c, c = 0 the
+/// mean; R as 2D R32F, texel (c, light + light_count·view).
+struct PcaViewsConfig {
+  uint32_t views_per_group = 1;  ///< k (1 = PCA-RF; all views = PCA-BTF)
+  uint32_t light_count = 81;
+};
+
+/// All parameters of the generated programs.
+struct ShaderConfig {
+  uint32_t components = 8;  ///< C: eigen-texture components (FMF / BSVTF / PCA / LPCA / Laplacian)
+  AngularTableConfig angular;
+  VirtualTextureConfig vt;
+  LaplacianLodConfig laplacian;
+  LpcaConfig lpca;
+  PcaViewsConfig pca;
+
+  constexpr uint32_t component_groups() const noexcept { return (components + 3) / 4; }
+};
+
+/// Uniform block `BtflodParams` (std140, binding 0) mirrored byte for byte. Matrices are
+/// column-major (GLM). The backends upload it as one uniform buffer.
+struct alignas(16) ShaderParams {
+  glm::mat4 model_view_proj{1.0f};
+  glm::mat4 model{1.0f};
+  glm::vec4 camera_pos{0.0f, 0.0f, 1.0f, 1.0f};   ///< world position of the eye (xyz)
+  glm::vec4 light{0.0f, 0.0f, 1.0f, 0.0f};        ///< w = 0: direction towards the light; w = 1: position
+  glm::vec4 light_color{1.0f, 1.0f, 1.0f, 1.0f};  ///< rgb radiance scale
+  /// x: LOD bias in levels; y: log2(screen size / feedback size); z: range-LOD distance scale
+  /// (paper 001: λ = log2(distance·z)); w: unused.
+  glm::vec4 lod{0.0f, 0.0f, 1.0f, 0.0f};
+  /// x: page-table layer of component group 0 of this material; y: texture id written to the
+  /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: unused.
+  glm::uvec4 ids{0u, 0u, 0u, 0u};
+};
+static_assert(sizeof(ShaderParams) == 208, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, ids) == 192, "ShaderParams must match the std140 block in the shaders");
+
+/// Binding points (GL binding = Vulkan set 0 binding = ES texture unit) used by every program.
+enum class ShaderBinding : uint32_t {
+  params = 0,           ///< uniform block BtflodParams
+  eigen_abrdfs = 1,     ///< FMF/BSVTF U: sampler2DArray, texel (light, view), layer c, rgb
+  angular_index = 2,    ///< usampler2DArray, 2 layers (light, view)
+  angular_weight = 3,   ///< sampler2DArray, 2 layers (light, view)
+  eigen_textures = 4,   ///< FMF V: sampler2DArray, layer = component group, hardware filtered
+  tile_cache = 5,       ///< BSVTF cache: sampler2DArray, linear, no mips
+  page_table = 6,       ///< BSVTF page table: usampler2DArray with mips
+  laplacian_eigen = 7,  ///< paper 001 eigen Laplacian BRDFs
+  laplacian_weights = 8,
+  laplacian_mean = 9,
+  lpca_cluster = 10,  ///< paper 002 cluster index
+  lpca_weights = 11,
+  lpca_volume = 12,
+  pca_l = 13,  ///< paper 004 L = [m | UΣ]
+  pca_r = 14,  ///< paper 004 R = [1; Vᵀ]
+};
+
+/// Vertex attribute locations of every generated vertex shader.
+enum class VertexAttribute : uint32_t { position = 0, normal = 1, tangent = 2, uv = 3 };
+
+/// CPU twin of the shaders' direction → unit-square mapping (used to build lookup tables and
+/// reference images). Directions below the horizon are clamped to it (z = max(z, 0), then
+/// renormalised); a zero vector maps to the centre. Returns coordinates in [0,1]².
+/// Thread-safe, noexcept.
+inline glm::vec2 shader_direction_to_unit_square(DirectionParameterisation p, glm::vec3 d) noexcept {
+  d.z = std::max(d.z, 0.0f);
+  const float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  if (!(len > 1e-20f)) return glm::vec2(0.5f);
+  d /= len;
+  if (p == DirectionParameterisation::parabolic) {
+    return glm::vec2(d.x, d.y) / (1.0f + d.z) * 0.5f + 0.5f;
+  }
+  // Elevated concentric (paper 002): disk radius r = sqrt(1 − z), so the disk point is
+  // (x, y) · r / |(x, y)| = (x, y) / sqrt(1 + z); then the inverse Shirley–Chiu map.
+  const glm::vec2 disk = glm::vec2(d.x, d.y) / std::sqrt(1.0f + d.z);
+  const float r = std::sqrt(disk.x * disk.x + disk.y * disk.y);
+  if (r < 1e-7f) return glm::vec2(0.5f);
+  constexpr float kQuarter = 0.78539816339744831f;
+  float phi = std::atan2(disk.y, disk.x);
+  if (phi < -kQuarter) phi += 8.0f * kQuarter;
+  float a, b;
+  if (phi < kQuarter) {
+    a = r;
+    b = phi * a / kQuarter;
+  } else if (phi < 3.0f * kQuarter) {
+    b = r;
+    a = -(phi - 2.0f * kQuarter) * b / kQuarter;
+  } else if (phi < 5.0f * kQuarter) {
+    a = -r;
+    b = (phi - 4.0f * kQuarter) * a / kQuarter;
+  } else {
+    b = -r;
+    a = -(phi - 6.0f * kQuarter) * b / kQuarter;
+  }
+  return glm::vec2(a, b) * 0.5f + 0.5f;
+}
+
+/// Lookup-table texel the shaders read for a unit-square coordinate (nearest, clamped).
+inline glm::ivec2 shader_table_texel(glm::vec2 unit, uint32_t resolution) noexcept {
+  const int res = static_cast<int>(resolution);
+  const int x = static_cast<int>(std::floor(unit.x * static_cast<float>(res)));
+  const int y = static_cast<int>(std::floor(unit.y * static_cast<float>(res)));
+  return glm::ivec2(std::clamp(x, 0, res - 1), std::clamp(y, 0, res - 1));
+}
+
+/// Checks a configuration before generation. Returns invalid_argument with the offending field
+/// (what, expected vs found) or success. Safe for any values.
+inline VoidResult validate_shader_config(const ShaderConfig& c) {
+  if (c.components == 0 || c.components > 64)
+    return make_error(Status::invalid_argument, "shader config: components = %u, expected 1..64", c.components);
+  if (c.angular.resolution == 0 || c.angular.resolution > 4096)
+    return make_error(Status::invalid_argument, "shader config: angular.resolution = %u, expected 1..4096",
+                      c.angular.resolution);
+  const VirtualTextureConfig& v = c.vt;
+  if (v.tile_size == 0 || v.tile_size > 1024 || v.border == 0 || v.border > v.tile_size)
+    return make_error(Status::invalid_argument, "shader config: tile_size = %u, border = %u, expected 1..1024, 1..tile_size",
+                      v.tile_size, v.border);
+  if (v.slots_x == 0 || v.slots_y == 0 || v.cache_layers == 0 ||
+      static_cast<uint64_t>(v.slots_x) * v.slots_y * v.cache_layers > kPageEntrySlotMask + 1ull)
+    return make_error(Status::invalid_argument, "shader config: cache %u×%u×%u slots, expected 1..2^24 slots", v.slots_x,
+                      v.slots_y, v.cache_layers);
+  if (v.finest_level > 15)
+    return make_error(Status::invalid_argument, "shader config: vt.finest_level = %u, expected ≤ 15", v.finest_level);
+  const FeedbackWordLayout& f = v.feedback;
+  const uint32_t shifts[4] = {f.x_shift, f.y_shift, f.level_shift, f.texture_shift};
+  const uint32_t bits[4] = {f.x_bits, f.y_bits, f.level_bits, f.texture_bits};
+  uint64_t used = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (bits[i] == 0 || shifts[i] + bits[i] > 32)
+      return make_error(Status::invalid_argument, "shader config: feedback field %d at bit %u width %u exceeds 32 bits", i,
+                        shifts[i], bits[i]);
+    const uint64_t m = ((1ull << bits[i]) - 1ull) << shifts[i];
+    if (used & m) return make_error(Status::invalid_argument, "shader config: feedback field %d overlaps another", i);
+    used |= m;
+  }
+  if (f.level_bits < 32 && v.finest_level >= (1u << f.level_bits))
+    return make_error(Status::invalid_argument, "shader config: feedback level field (%u bits) cannot hold level %u",
+                      f.level_bits, v.finest_level);
+  if (f.x_bits < 32 && v.finest_level > f.x_bits)
+    return make_error(Status::invalid_argument, "shader config: feedback x field (%u bits) cannot hold 2^%u tiles",
+                      f.x_bits, v.finest_level);
+  if (f.y_bits < 32 && v.finest_level > f.y_bits)
+    return make_error(Status::invalid_argument, "shader config: feedback y field (%u bits) cannot hold 2^%u tiles",
+                      f.y_bits, v.finest_level);
+  if (c.laplacian.max_level > 15)
+    return make_error(Status::invalid_argument, "shader config: laplacian.max_level = %u, expected ≤ 15",
+                      c.laplacian.max_level);
+  if (c.lpca.clusters == 0 || c.lpca.grid_resolution < 2)
+    return make_error(Status::invalid_argument, "shader config: lpca clusters = %u, grid = %u, expected ≥ 1, ≥ 2",
+                      c.lpca.clusters, c.lpca.grid_resolution);
+  if (c.pca.views_per_group == 0 || c.pca.light_count == 0)
+    return make_error(Status::invalid_argument, "shader config: pca views_per_group = %u, light_count = %u, expected ≥ 1",
+                      c.pca.views_per_group, c.pca.light_count);
+  return {};
+}
+
+}  // namespace btflod

@@ -1,0 +1,187 @@
+// Shader generators: every program × target × a set of configs compiles with glslangValidator
+// (run as a subprocess), the output is deterministic, bad configs are rejected, and the CPU
+// twins of the shader encodings (feedback word, page entry, parameterisations) are right.
+// btflod-link: btflod_shader_tools
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/shader/shader_config.hpp"
+
+using namespace btflod;
+
+namespace {
+
+// Runs glslangValidator on one stage; returns "" on success, else the tool output.
+std::string validate_stage(const std::string& source, GlslTarget target, const char* stage, const std::string& tag) {
+  const std::string dir = BTFLOD_TEST_TMP_DIR;
+  const std::string path = dir + "/shader_" + tag + "." + stage;
+  const std::string log = path + ".log";
+  {
+    std::ofstream f(path, std::ios::binary);
+    f << source;
+  }
+  std::string cmd = std::string("\"") + BTFLOD_GLSLANG_VALIDATOR + "\" ";
+  if (target == GlslTarget::vulkan450) cmd += "-V --target-env vulkan1.1 -o \"" + path + ".spv\" ";
+  cmd += "\"" + path + "\" > \"" + log + "\" 2>&1";
+  const int rc = std::system(cmd.c_str());
+  if (rc == 0) return {};
+  std::ifstream in(log);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return "exit " + std::to_string(rc) + ": " + text;
+}
+
+std::vector<std::pair<std::string, ShaderConfig>> configs() {
+  std::vector<std::pair<std::string, ShaderConfig>> out;
+  ShaderConfig a;  // defaults: C = 8, parabolic, barycentric, T = 64 + 4
+  out.emplace_back("default", a);
+  ShaderConfig b;
+  b.components = 3;  // a partial component group
+  b.angular.parameterisation = DirectionParameterisation::elevated_concentric;
+  b.angular.lookup = AngularLookup::nearest;
+  b.vt.tile_size = 128;
+  b.vt.border = 1;
+  b.vt.slots_x = 8;
+  b.vt.slots_y = 4;
+  b.vt.cache_layers = 3;
+  b.vt.finest_level = 7;
+  b.vt.trilinear = false;
+  b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
+  b.laplacian.max_level = 0;
+  b.laplacian.ycbcr_output = false;
+  b.lpca.clusters = 1;
+  b.lpca.grid_resolution = 2;
+  b.pca.views_per_group = 151;
+  b.pca.light_count = 151;
+  out.emplace_back("variant", b);
+  ShaderConfig c;
+  c.components = 16;
+  c.angular.parameterisation = DirectionParameterisation::elevated_concentric;
+  c.vt.finest_level = 0;
+  out.emplace_back("c16_l0", c);
+  return out;
+}
+
+}  // namespace
+
+TEST(ShaderGlsl, EveryProgramAndTargetCompilesWithGlslang) {
+  if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
+  int compiled = 0;
+  for (const auto& [name, config] : configs()) {
+    for (ShaderProgram p : kAllShaderPrograms) {
+      for (GlslTarget t : kAllGlslTargets) {
+        Result<GlslProgramSource> src = generate_program(p, t, config);
+        ASSERT_TRUE(src.ok()) << src.message();
+        const std::string tag = name + "_" + shader_program_name(p) + "_" + glsl_target_name(t);
+        EXPECT_EQ(validate_stage(src->vertex, t, "vert", tag), "") << tag << " vertex:\n" << src->vertex;
+        EXPECT_EQ(validate_stage(src->fragment, t, "frag", tag), "") << tag << " fragment:\n" << src->fragment;
+        compiled += 2;
+      }
+    }
+  }
+  EXPECT_EQ(compiled, 3 * 6 * 3 * 2);
+}
+
+TEST(ShaderGlsl, ValidatorRejectsBrokenSource) {
+  // Guards the harness itself: a broken shader must be reported, or the test above proves nothing.
+  if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
+  EXPECT_NE(validate_stage("#version 450 core\nvoid main() { undefined_call(); }\n", GlslTarget::gl450_core, "frag",
+                           "broken"),
+            "");
+}
+
+TEST(ShaderGlsl, OutputIsDeterministicAndConfigDriven) {
+  ShaderConfig c;
+  auto a = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
+  auto b = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->fragment, b->fragment);
+  EXPECT_NE(a->fragment.find("const int kComponents = 8;"), std::string::npos);
+  EXPECT_NE(a->fragment.find("const float kPaddedTile = 72.0;"), std::string::npos);
+  EXPECT_NE(a->fragment.find("layout(binding = 5) uniform sampler2DArray btflod_tile_cache;"), std::string::npos);
+  c.components = 5;
+  auto d = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
+  ASSERT_TRUE(d.ok());
+  EXPECT_NE(d->fragment.find("const int kGroups = 2;"), std::string::npos);
+  auto es = generate_program(ShaderProgram::fmf, GlslTarget::es300, c);
+  ASSERT_TRUE(es.ok());
+  EXPECT_EQ(es->fragment.find("binding"), std::string::npos) << "GLSL ES 3.00 has no binding qualifier";
+  EXPECT_EQ(es->fragment.rfind("#version 300 es\n", 0), 0u);
+  auto vk = generate_program(ShaderProgram::fmf, GlslTarget::vulkan450, c);
+  ASSERT_TRUE(vk.ok());
+  EXPECT_NE(vk->fragment.find("set = 0, binding = 1"), std::string::npos);
+}
+
+TEST(ShaderGlsl, InvalidConfigsAreRejectedWithAMessage) {
+  ShaderConfig c;
+  c.components = 0;
+  auto r = generate_program(ShaderProgram::fmf, GlslTarget::gl450_core, c);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status(), Status::invalid_argument);
+  EXPECT_NE(r.message().find("components"), std::string::npos);
+  ShaderConfig o;
+  o.vt.feedback.level_shift = 5;  // overlaps x (bits 0..9)
+  EXPECT_FALSE(validate_shader_config(o).ok());
+  ShaderConfig l;
+  l.vt.finest_level = 12;  // x/y fields have 10 bits
+  EXPECT_FALSE(validate_shader_config(l).ok());
+  ShaderConfig z;
+  z.vt.border = 0;  // bilinear would bleed into the neighbouring slot
+  EXPECT_FALSE(validate_shader_config(z).ok());
+  EXPECT_TRUE(validate_shader_config(ShaderConfig{}).ok());
+}
+
+TEST(ShaderConfig, FeedbackWordRoundTripsAndMasks) {
+  FeedbackWordLayout l;
+  const FeedbackSample s{200, 9, 1023, 517};
+  const uint32_t w = pack_feedback_word(l, s);
+  EXPECT_EQ(w, (200u << 24) | (9u << 20) | (517u << 10) | 1023u);
+  EXPECT_EQ(unpack_feedback_word(l, w), s);
+  // out-of-range fields are masked, never spill into the neighbours
+  EXPECT_EQ(unpack_feedback_word(l, pack_feedback_word(l, {1, 0, 1024, 0})), (FeedbackSample{1, 0, 0, 0}));
+}
+
+TEST(ShaderConfig, PageEntryAndSlotPlacement) {
+  EXPECT_EQ(page_entry_slot(pack_page_entry(123456, 7)), 123456u);
+  EXPECT_EQ(page_entry_level(pack_page_entry(123456, 7)), 7u);
+  VirtualTextureConfig v;
+  v.slots_x = 4;
+  v.slots_y = 2;
+  v.cache_layers = 2;
+  const SlotPlacement p = slot_placement(v, 13);  // layer 1, slot 5 of the layer = row 1, column 1
+  EXPECT_EQ(p.layer, 1u);
+  EXPECT_EQ(p.x, 72u);
+  EXPECT_EQ(p.y, 72u);
+  EXPECT_EQ(v.cache_width(), 288u);
+}
+
+TEST(ShaderConfig, ParameterisationsMapKnownDirections) {
+  using P = DirectionParameterisation;
+  for (P p : {P::parabolic, P::elevated_concentric}) {
+    const glm::vec2 n = shader_direction_to_unit_square(p, {0, 0, 1});
+    EXPECT_NEAR(n.x, 0.5f, 1e-6f);
+    EXPECT_NEAR(n.y, 0.5f, 1e-6f);
+    const glm::vec2 e = shader_direction_to_unit_square(p, {1, 0, 0});  // horizon, φ = 0
+    EXPECT_NEAR(e.x, 1.0f, 1e-6f);
+    EXPECT_NEAR(e.y, 0.5f, 1e-6f);
+    const glm::vec2 below = shader_direction_to_unit_square(p, {0, -1, -0.5f});  // clamped to the horizon
+    EXPECT_NEAR(below.y, 0.0f, 1e-6f);
+  }
+  // concentric: the horizon at φ = 45° is the corner of the square; parabolic: the inscribed circle
+  const glm::vec3 d45(std::sqrt(0.5f), std::sqrt(0.5f), 0.0f);
+  const glm::vec2 c = shader_direction_to_unit_square(P::elevated_concentric, d45);
+  EXPECT_NEAR(c.x, 1.0f, 1e-5f);
+  EXPECT_NEAR(c.y, 1.0f, 1e-5f);
+  const glm::vec2 q = shader_direction_to_unit_square(P::parabolic, d45);
+  EXPECT_NEAR(q.x, 0.5f + 0.5f * std::sqrt(0.5f), 1e-6f);
+  // elevated concentric: z = 1 − r², so θ = 60° (z = 0.5) lies at disk radius sqrt(0.5)
+  const glm::vec2 m = shader_direction_to_unit_square(P::elevated_concentric, {std::sqrt(0.75f), 0.0f, 0.5f});
+  EXPECT_NEAR(m.x, 0.5f + 0.5f * std::sqrt(0.5f), 1e-6f);
+  EXPECT_NEAR(m.y, 0.5f, 1e-6f);
+  EXPECT_EQ(shader_table_texel({1.0f, -0.2f}, 64), glm::ivec2(63, 0));
+}

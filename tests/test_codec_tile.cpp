@@ -1,0 +1,333 @@
+// Tests for codec/tile_codec.hpp: parent up-sampling geometry, round trip within the tolerance,
+// closed-loop residual coding along a 6-level chain without drift, and failure classes
+// (truncated, trailing bytes, corrupted, wrong layout, missing parent, decompression bomb).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include <zlib.h>
+
+#include "btflod/codec/tile_codec.hpp"
+
+namespace {
+
+using btflod::Status;
+using btflod::TileDecoder;
+using btflod::TileEncoder;
+using btflod::TileLayout;
+
+// A smooth multi-frequency "eigen-texture" over [0,1]², 4 components of different ranges, plus
+// a little deterministic texel noise, sampled at texel centres of level `level` (64·2^level
+// texels per side) with clamped borders — the same construction a tile pyramid builder uses.
+float texture_value(uint32_t c, double u, double v, uint32_t level) {
+  const double amp[4] = {1.0, 0.2, 0.05, 3.0};
+  double f = amp[c] * (std::sin(6.3 * u + c) * std::cos(4.1 * v - c) + 0.3 * std::sin(40.0 * u * v + c) +
+                       0.1 * std::cos(150.0 * (u + 0.3 * v)));
+  // Hash noise at the finest scale of this level.
+  const uint64_t h = (static_cast<uint64_t>(u * 1e6) * 0x9E3779B97F4A7C15ull) ^ (static_cast<uint64_t>(v * 1e6) * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull) ^ level;
+  f += amp[c] * 0.01 * (static_cast<double>(h % 1000) / 1000.0 - 0.5);
+  return static_cast<float>(f);
+}
+
+std::vector<float> make_tile(const TileLayout& layout, uint32_t level, uint32_t tx, uint32_t ty) {
+  const uint32_t s = layout.stored_size();
+  const double w = static_cast<double>(layout.tile_size) * (1u << level);
+  std::vector<float> t(layout.sample_count());
+  for (uint32_t j = 0; j < s; ++j)
+    for (uint32_t i = 0; i < s; ++i) {
+      double x = static_cast<double>(tx) * layout.tile_size - layout.border + i;
+      double y = static_cast<double>(ty) * layout.tile_size - layout.border + j;
+      x = std::clamp(x, 0.0, w - 1);
+      y = std::clamp(y, 0.0, w - 1);
+      for (uint32_t c = 0; c < layout.channels; ++c)
+        t[(j * s + i) * layout.channels + c] = texture_value(c, (x + 0.5) / w, (y + 0.5) / w, level);
+    }
+  return t;
+}
+
+// Largest 8×8-block RMS error of channel c.
+double max_block_rms(const TileLayout& layout, const std::vector<float>& a, const std::vector<float>& b, uint32_t c) {
+  const uint32_t s = layout.stored_size();
+  double worst = 0;
+  for (uint32_t by = 0; by < s / 8; ++by)
+    for (uint32_t bx = 0; bx < s / 8; ++bx) {
+      double e = 0;
+      for (uint32_t y = 0; y < 8; ++y)
+        for (uint32_t x = 0; x < 8; ++x) {
+          const size_t i = ((by * 8 + y) * s + bx * 8 + x) * layout.channels + c;
+          e += (static_cast<double>(a[i]) - b[i]) * (static_cast<double>(a[i]) - b[i]);
+        }
+      worst = std::max(worst, std::sqrt(e / 64));
+    }
+  return worst;
+}
+
+std::vector<float> tolerances(float quality) {
+  const float ranges[4] = {2.6f, 0.52f, 0.13f, 7.8f};
+  std::vector<float> t(4);
+  for (int c = 0; c < 4; ++c) t[c] = btflod::tolerance_for_quality(quality, ranges[c]);
+  return t;
+}
+
+struct Encoded {
+  std::vector<uint8_t> bytes;
+  std::vector<float> reconstruction;
+};
+
+Encoded encode(TileEncoder& enc, const std::vector<float>& tile, const std::vector<float>* parent, uint32_t qx,
+               uint32_t qy, const std::vector<float>& tol) {
+  Encoded e;
+  e.bytes.resize(enc.bound());
+  e.reconstruction.resize(enc.layout().sample_count());
+  size_t written = 0;
+  const Status s = enc.encode(tile, parent ? std::span<const float>(*parent) : std::span<const float>(), qx, qy, tol,
+                              e.bytes, written, e.reconstruction);
+  EXPECT_EQ(s, Status::success) << enc.message();
+  e.bytes.resize(written);
+  return e;
+}
+
+TEST(CodecTile, UpsamplingReproducesLinearFunctionsAtTheChildGeometry) {
+  const TileLayout layout;  // 64 + 2·4, 4 channels
+  const uint32_t s = layout.stored_size();
+  // Parent tile (px, py) = (3, 5) at level l−1 holds F(X', Y') = 0.25 X' − 0.5 Y' + 2 (level l−1 texels).
+  const uint32_t px = 3, py = 5;
+  std::vector<float> parent(layout.sample_count());
+  auto f = [](double x, double y, uint32_t c) { return 0.25 * x - 0.5 * y + 2.0 + c; };
+  for (uint32_t j = 0; j < s; ++j)
+    for (uint32_t i = 0; i < s; ++i)
+      for (uint32_t c = 0; c < 4; ++c)
+        parent[(j * s + i) * 4 + c] = static_cast<float>(f(px * 64.0 - 4 + i, py * 64.0 - 4 + j, c));
+  std::vector<float> pred(layout.sample_count());
+  for (uint32_t q = 0; q < 4; ++q) {
+    const uint32_t cx = 2 * px + (q & 1), cy = 2 * py + (q >> 1);
+    btflod::upsample_parent(layout, parent.data(), q & 1, q >> 1, pred.data());
+    for (uint32_t j = 0; j < s; ++j)
+      for (uint32_t i = 0; i < s; ++i) {
+        // Child texel centre X + 0.5 at level l is (X + 0.5)/2 at level l−1, i.e. texel coordinate (X − 0.5)/2.
+        const double x = (cx * 64.0 - 4 + i - 0.5) / 2.0, y = (cy * 64.0 - 4 + j - 0.5) / 2.0;
+        for (uint32_t c = 0; c < 4; ++c) ASSERT_NEAR(pred[(j * s + i) * 4 + c], f(x, y, c), 1e-4) << i << "," << j << " q" << q;
+      }
+  }
+}
+
+TEST(CodecTile, RoundTripWithoutParentStaysWithinTolerance) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  TileDecoder dec(layout);
+  const auto tile = make_tile(layout, 0, 0, 0);
+  for (float quality : {10.0f, 50.0f, 90.0f}) {
+    const auto tol = tolerances(quality);
+    const auto e = encode(enc, tile, nullptr, 0, 0, tol);
+    std::vector<float> out(layout.sample_count());
+    ASSERT_EQ(dec.decode(e.bytes, {}, 0, 0, out), Status::success) << dec.message();
+    EXPECT_EQ(0, std::memcmp(out.data(), e.reconstruction.data(), out.size() * 4)) << "encoder's reconstruction differs";
+    for (uint32_t c = 0; c < 4; ++c) {
+      const double err = max_block_rms(layout, tile, out, c);
+      EXPECT_LE(err, tol[c] * 1.001) << "quality " << quality << " channel " << c;
+      EXPECT_GT(err, 0.0);
+    }
+    EXPECT_LT(e.bytes.size(), layout.texel_count() * 8) << "no smaller than raw halves";
+  }
+}
+
+TEST(CodecTile, HigherQualityCostsMoreBytesAndLessError) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  const auto tile = make_tile(layout, 2, 1, 2);
+  size_t previous_size = 0;
+  for (float quality : {5.0f, 30.0f, 60.0f, 95.0f}) {
+    const auto e = encode(enc, tile, nullptr, 0, 0, tolerances(quality));
+    EXPECT_GT(e.bytes.size(), previous_size);
+    previous_size = e.bytes.size();
+  }
+}
+
+// The 6-level decode chain: each level coded against the decoded parent; a client decoding the
+// chain from the root gets bit-identical tiles, and the error at level 5 is still within the
+// tolerance (no drift).
+TEST(CodecTile, SixLevelChainDecodesWithoutDrift) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  const auto tol = tolerances(50);
+  std::vector<std::vector<float>> originals;
+  std::vector<Encoded> coded;
+  std::vector<std::array<uint32_t, 2>> quadrant;
+  uint32_t x = 0, y = 0;
+  for (uint32_t level = 0; level < 6; ++level) {
+    if (level > 0) {
+      const uint32_t qx = level & 1u, qy = (level >> 1) & 1u;
+      x = 2 * x + qx;
+      y = 2 * y + qy;
+      quadrant.push_back({qx, qy});
+    } else {
+      quadrant.push_back({0, 0});
+    }
+    originals.push_back(make_tile(layout, level, x, y));
+    coded.push_back(encode(enc, originals.back(), level ? &coded.back().reconstruction : nullptr, quadrant.back()[0],
+                           quadrant.back()[1], tol));
+  }
+  TileDecoder dec(layout);
+  std::vector<float> parent, out(layout.sample_count());
+  for (uint32_t level = 0; level < 6; ++level) {
+    ASSERT_EQ(dec.decode(coded[level].bytes, parent, quadrant[level][0], quadrant[level][1], out), Status::success)
+        << dec.message();
+    ASSERT_EQ(0, std::memcmp(out.data(), coded[level].reconstruction.data(), out.size() * 4)) << "level " << level;
+    for (uint32_t c = 0; c < 4; ++c) EXPECT_LE(max_block_rms(layout, originals[level], out, c), tol[c] * 1.001) << level;
+    if (level > 0) {
+      // Residual coding pays: the same tile coded without its parent is larger.
+      const auto alone = encode(enc, originals[level], nullptr, 0, 0, tol);
+      EXPECT_LT(coded[level].bytes.size(), alone.bytes.size()) << "level " << level;
+    }
+    parent = out;
+  }
+}
+
+TEST(CodecTile, DecoderRejectsWrongArguments) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  TileDecoder dec(layout);
+  const auto tile = make_tile(layout, 1, 1, 0);
+  const auto parent_tile = make_tile(layout, 0, 0, 0);
+  const auto e = encode(enc, tile, &parent_tile, 1, 0, tolerances(50));
+  std::vector<float> out(layout.sample_count());
+  EXPECT_EQ(dec.decode(e.bytes, {}, 1, 0, out), Status::invalid_argument) << "residual tile needs its parent";
+  EXPECT_EQ(dec.decode(e.bytes, parent_tile, 1, 0, std::span<float>(out).first(out.size() - 1)), Status::insufficient_space);
+  TileDecoder other(TileLayout{32, 4, 4});
+  std::vector<float> small(TileLayout{32, 4, 4}.sample_count());
+  EXPECT_EQ(other.decode(e.bytes, parent_tile, 1, 0, small), Status::bad_data) << "wrong layout";
+  TileDecoder invalid(TileLayout{64, 3, 4});
+  EXPECT_EQ(invalid.decode(e.bytes, parent_tile, 1, 0, out), Status::invalid_argument);
+}
+
+TEST(CodecTile, EncoderRejectsNonFiniteInputAndSmallOutput) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  auto tile = make_tile(layout, 0, 0, 0);
+  std::vector<uint8_t> out(enc.bound());
+  size_t written = 1;
+  const auto tol = tolerances(50);
+  tile[777] = std::nanf("");
+  EXPECT_EQ(enc.encode(tile, {}, 0, 0, tol, out, written), Status::invalid_argument);
+  EXPECT_EQ(written, 0u);
+  tile[777] = 0;
+  std::vector<float> zero_tol(4, 0.0f);
+  EXPECT_EQ(enc.encode(tile, {}, 0, 0, zero_tol, out, written), Status::invalid_argument);
+  std::vector<uint8_t> tiny(40);
+  EXPECT_EQ(enc.encode(tile, {}, 0, 0, tol, tiny, written), Status::insufficient_space);
+  EXPECT_EQ(enc.encode(tile, {}, 0, 0, tol, out, written), Status::success) << "encoder recovers after failures";
+}
+
+class CodecTileFailures : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    parent_ = make_tile(layout_, 0, 0, 0);
+    encoded_ = encode(enc_, make_tile(layout_, 1, 0, 1), &parent_, 0, 1, tolerances(50));
+    // Canaries around the output span catch out-of-bounds writes.
+    storage_.assign(layout_.sample_count() + 64, 12345.0f);
+  }
+  std::span<float> out() { return std::span<float>(storage_).subspan(32, layout_.sample_count()); }
+  void expect_canaries() {
+    for (int i = 0; i < 32; ++i) {
+      ASSERT_EQ(storage_[i], 12345.0f);
+      ASSERT_EQ(storage_[storage_.size() - 1 - i], 12345.0f);
+    }
+  }
+  TileLayout layout_;
+  TileEncoder enc_{layout_};
+  TileDecoder dec_{layout_};
+  std::vector<float> parent_;
+  Encoded encoded_;
+  std::vector<float> storage_;
+};
+
+TEST_F(CodecTileFailures, TruncatedPayloadIsShortOutputOrBadData) {
+  const auto& b = encoded_.bytes;
+  for (size_t n = 0; n < b.size(); n += (n < 64 ? 1 : 13)) {
+    const Status s = dec_.decode(std::span<const uint8_t>(b).first(n), parent_, 0, 1, out());
+    ASSERT_NE(s, Status::success) << "prefix " << n;
+    if (n >= btflod::tile_header_size(4) + 8) {
+      EXPECT_EQ(s, Status::short_output) << "prefix " << n << ": " << dec_.message();
+    }
+  }
+  expect_canaries();
+  EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::success) << "decoder recovers after failures";
+}
+
+TEST_F(CodecTileFailures, TrailingBytesAreBadData) {
+  auto b = encoded_.bytes;
+  b.push_back(0);
+  EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::bad_data);
+  EXPECT_STREQ(dec_.message(), "trailing bytes after the deflate stream");
+}
+
+TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
+  auto mutate = [&](size_t offset, uint8_t value) {
+    auto b = encoded_.bytes;
+    b[offset] = value;
+    return dec_.decode(b, parent_, 0, 1, out());
+  };
+  EXPECT_EQ(mutate(0, 2), Status::bad_data);     // version
+  EXPECT_EQ(mutate(1, 16), Status::bad_data);    // block size
+  EXPECT_EQ(mutate(2, 5), Status::bad_data);     // channels
+  EXPECT_EQ(mutate(3, 0x81), Status::bad_data);  // unknown flag
+  EXPECT_EQ(mutate(4, 80), Status::bad_data);    // width ≠ height
+  EXPECT_EQ(mutate(11, 0xFF), Status::bad_data);  // tolerance → NaN
+  auto b = encoded_.bytes;
+  const uint32_t too_many = static_cast<uint32_t>(layout_.sample_count() * 5 + 1);
+  std::memcpy(b.data() + 24, &too_many, 4);
+  EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::bad_data) << "oversized symbol count";
+  uint32_t declared = 0;
+  std::memcpy(&declared, encoded_.bytes.data() + 24, 4);
+  b = encoded_.bytes;
+  const uint32_t more = declared + 1;
+  std::memcpy(b.data() + 24, &more, 4);
+  EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::bad_data) << "declared size larger than the stream";
+  b = encoded_.bytes;
+  const uint32_t fewer = declared - 1;
+  std::memcpy(b.data() + 24, &fewer, 4);
+  EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::bad_data) << "stream larger than declared";
+  expect_canaries();
+}
+
+TEST_F(CodecTileFailures, DecompressionBombIsRejectedWithoutInflatingIt) {
+  // A valid header followed by 64 MiB of zeros deflated (≈ 64 KiB): the decoder must stop at the
+  // declared symbol count instead of inflating it all.
+  std::vector<uint8_t> zeros(64u << 20, 0);
+  z_stream z{};
+  ASSERT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::vector<uint8_t> packed(deflateBound(&z, zeros.size()));
+  z.next_in = zeros.data();
+  z.avail_in = static_cast<uInt>(zeros.size());
+  z.next_out = packed.data();
+  z.avail_out = static_cast<uInt>(packed.size());
+  ASSERT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
+  packed.resize(z.total_out);
+  deflateEnd(&z);
+  std::vector<uint8_t> bomb(encoded_.bytes.begin(), encoded_.bytes.begin() + btflod::tile_header_size(4));
+  bomb.insert(bomb.end(), packed.begin(), packed.end());
+  EXPECT_EQ(dec_.decode(bomb, parent_, 0, 1, out()), Status::bad_data);
+  EXPECT_STREQ(dec_.message(), "deflate stream inflates beyond the declared size");
+  expect_canaries();
+}
+
+TEST_F(CodecTileFailures, RandomCorruptionNeverCrashesAndSuccessIsFinite) {
+  std::mt19937 rng(99);
+  int successes = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    auto b = encoded_.bytes;
+    const int flips = 1 + trial % 4;
+    for (int f = 0; f < flips; ++f) b[rng() % b.size()] ^= static_cast<uint8_t>(1u << (rng() % 8));
+    if (dec_.decode(b, parent_, 0, 1, out()) == Status::success) {
+      ++successes;
+      for (float v : out()) ASSERT_TRUE(std::isfinite(v));
+    }
+  }
+  expect_canaries();
+  EXPECT_LT(successes, 600);
+}
+
+}  // namespace

@@ -10,6 +10,15 @@
 #include <string>
 #include <sys/wait.h>
 
+// angular/ and lod/ are written in parallel by other engineers: cross-check when present.
+#if __has_include("btflod/angular/parameterization.hpp")
+#include "btflod/angular/parameterization.hpp"
+#define BTFLOD_TEST_HAS_ANGULAR 1
+#endif
+#if __has_include("btflod/lod/feedback.hpp")
+#include "btflod/lod/feedback.hpp"
+#define BTFLOD_TEST_HAS_LOD_FEEDBACK 1
+#endif
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
 
@@ -125,10 +134,10 @@ TEST(ShaderGlsl, InvalidConfigsAreRejectedWithAMessage) {
   EXPECT_EQ(r.status(), Status::invalid_argument);
   EXPECT_NE(r.message().find("components"), std::string::npos);
   ShaderConfig o;
-  o.vt.feedback.level_shift = 5;  // overlaps x (bits 0..9)
+  o.vt.feedback.level_shift = 5;  // overlaps x (bits 0..8)
   EXPECT_FALSE(validate_shader_config(o).ok());
   ShaderConfig l;
-  l.vt.finest_level = 12;  // x/y fields have 10 bits
+  l.vt.finest_level = 16;  // beyond the tile-id budget
   EXPECT_FALSE(validate_shader_config(l).ok());
   ShaderConfig z;
   z.vt.border = 0;  // bilinear would bleed into the neighbouring slot
@@ -138,13 +147,55 @@ TEST(ShaderGlsl, InvalidConfigsAreRejectedWithAMessage) {
 
 TEST(ShaderConfig, FeedbackWordRoundTripsAndMasks) {
   FeedbackWordLayout l;
-  const FeedbackSample s{200, 9, 1023, 517};
+  const FeedbackSample s{200, 9, 511, 317};
   const uint32_t w = pack_feedback_word(l, s);
-  EXPECT_EQ(w, (200u << 24) | (9u << 20) | (517u << 10) | 1023u);
+  EXPECT_EQ(w, (200u << 22) | (9u << 18) | (317u << 9) | 511u);
   EXPECT_EQ(unpack_feedback_word(l, w), s);
   // out-of-range fields are masked, never spill into the neighbours
-  EXPECT_EQ(unpack_feedback_word(l, pack_feedback_word(l, {1, 0, 1024, 0})), (FeedbackSample{1, 0, 0, 0}));
+  EXPECT_EQ(unpack_feedback_word(l, pack_feedback_word(l, {1, 0, 512, 0})), (FeedbackSample{1, 0, 0, 0}));
+  EXPECT_EQ(l.max_level(), 9u);
+  EXPECT_EQ(l.empty_word, kFeedbackNone);
 }
+
+TEST(ShaderConfig, DefaultFeedbackLayoutIsTheLodFeedbackWord) {
+  // The shader's default word must be exactly lod/feedback.hpp's, or votes go to wrong tiles.
+  const FeedbackWordLayout l;
+  for (uint32_t m : {0u, 1u, 77u, 1022u})
+    for (uint32_t level : {0u, 3u, 9u, 15u})
+      for (uint32_t x : {0u, 5u, 511u})
+        for (uint32_t y : {0u, 300u, 511u}) {
+          const uint32_t ours = pack_feedback_word(l, {m, level, x, y});
+#ifdef BTFLOD_TEST_HAS_LOD_FEEDBACK
+          EXPECT_EQ(ours, pack_feedback(FeedbackTile{m, level, x, y}));
+#endif
+          // lod/feedback.hpp's documented layout: [31..22] material [21..18] level [17..9] y [8..0] x
+          EXPECT_EQ(ours, (m << 22) | (level << 18) | (y << 9) | x);
+          EXPECT_EQ(unpack_feedback_word(l, ours), (FeedbackSample{m, level, x, y}));
+        }
+}
+
+#ifdef BTFLOD_TEST_HAS_ANGULAR
+TEST(ShaderConfig, ParameterisationTwinsMatchAngularMaps) {
+  // shader_direction_to_unit_square is the CPU twin of the GLSL; angular/ builds the tables.
+  // They must agree or table lookups in the shader land on the wrong texel.
+  uint32_t state = 12345u;
+  auto rnd = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<float>(state >> 8) / 16777216.0f;
+  };
+  for (int i = 0; i < 2000; ++i) {
+    const glm::vec3 d(rnd() * 2.0f - 1.0f, rnd() * 2.0f - 1.0f, rnd() * 1.2f - 0.2f);
+    const glm::vec2 a = shader_direction_to_unit_square(DirectionParameterisation::parabolic, d);
+    const glm::vec2 b = ParabolicMap::to_square(d);
+    EXPECT_NEAR(a.x, b.x, 2e-6f);
+    EXPECT_NEAR(a.y, b.y, 2e-6f);
+    const glm::vec2 c = shader_direction_to_unit_square(DirectionParameterisation::elevated_concentric, d);
+    const glm::vec2 e = ElevatedConcentricMap::to_square(d);
+    EXPECT_NEAR(c.x, e.x, 2e-6f);
+    EXPECT_NEAR(c.y, e.y, 2e-6f);
+  }
+}
+#endif
 
 TEST(ShaderConfig, PageEntryAndSlotPlacement) {
   EXPECT_EQ(page_entry_slot(pack_page_entry(123456, 7)), 123456u);

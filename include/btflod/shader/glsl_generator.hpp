@@ -111,7 +111,7 @@ inline void glsl_params_block(std::string& s, GlslTarget t) {
     case GlslTarget::es300: s += "layout(std140) uniform BtflodParams {\n"; break;
   }
   s += "  mat4 model_view_proj;\n  mat4 model;\n  vec4 camera_pos;\n  vec4 light;\n  vec4 light_color;\n"
-       "  vec4 lod;\n  uvec4 ids;\n} btflod;\n";
+       "  vec4 lod;\n  vec4 vt_extent;\n  uvec4 ids;\n} btflod;\n";
 }
 
 inline void glsl_sampler(std::string& s, GlslTarget t, const char* type, const char* name, ShaderBinding b) {
@@ -249,18 +249,25 @@ inline void glsl_vt_common(std::string& s, GlslTarget t, const ShaderConfig& c) 
   const VirtualTextureConfig& v = c.vt;
   glsl_sampler(s, t, "usampler2DArray", "btflod_page_table", ShaderBinding::page_table);
   s += format_message(
-      "const int kFinestLevel = %u;\nconst float kTileSize = %u.0;\nconst float kBorder = %u.0;\n"
+      "const float kTileSize = %u.0;\nconst float kBorder = %u.0;\n"
       "const float kPaddedTile = %u.0;\nconst uint kSlotsX = %uu;\nconst uint kSlotsPerLayer = %uu;\n"
-      "const vec2 kCacheSize = vec2(%u.0, %u.0);\nconst float kVirtualSize = %u.0;\n",
-      v.finest_level, v.tile_size, v.border, v.padded_tile_size(), v.slots_x, v.slots_x * v.slots_y, v.cache_width(),
-      v.cache_height(), v.virtual_size());
-  s += "// Desired continuous level, paper 000 eq. 1: l = L - log2 max(|dPi/dx|, |dPi/dy|), minus the LOD bias.\n"
+      "const vec2 kCacheSize = vec2(%u.0, %u.0);\n",
+      v.tile_size, v.border, v.padded_tile_size(), v.slots_x, v.slots_x * v.slots_y, v.cache_width(),
+      v.cache_height());
+  s += "int btflod_vt_finest() { return int(btflod.vt_extent.z); }\n"
+       "// Desired continuous level, paper 000 eq. 1: l = L - log2 max(|dPi/dx|, |dPi/dy|), minus the LOD bias.\n"
        "float btflod_vt_lambda(vec2 uv) {\n"
-       "  vec2 tx = uv * kVirtualSize;\n"
+       "  vec2 tx = uv * btflod.vt_extent.xy;\n"
        "  vec2 dx = dFdx(tx);\n"
        "  vec2 dy = dFdy(tx);\n"
        "  float m = max(dot(dx, dx), dot(dy, dy));\n"
-       "  return float(kFinestLevel) - 0.5 * log2(max(m, 1e-20)) - btflod.lod.x;\n"
+       "  return btflod.vt_extent.z - 0.5 * log2(max(m, 1e-20)) - btflod.lod.x;\n"
+       "}\n"
+       "// Level-l texel coordinate of uv (uv in [0,1)), and the tile grid size at level l.\n"
+       "vec2 btflod_level_texel(vec2 uv, int level) { return uv * btflod.vt_extent.xy * exp2(float(level - btflod_vt_finest())); }\n"
+       "ivec2 btflod_level_tiles(int level) { return max(ivec2(ceil(btflod.vt_extent.xy * exp2(float(level - btflod_vt_finest())) / kTileSize)), ivec2(1)); }\n"
+       "ivec2 btflod_tile_of(vec2 uv, int level) {  // paper 000 eq. 2\n"
+       "  return clamp(ivec2(floor(btflod_level_texel(uv, level) / kTileSize)), ivec2(0), btflod_level_tiles(level) - 1);\n"
        "}\n";
 }
 
@@ -298,24 +305,23 @@ inline std::string glsl_bsvtf_fragment(GlslTarget t, const ShaderConfig& c) {
   glsl_sampler(s, t, "sampler2DArray", "btflod_tile_cache", ShaderBinding::tile_cache);
   s += format_message("const bool kTrilinear = %s;\n", c.vt.trilinear ? "true" : "false");
   s += "uint btflod_page_entry(int layer, vec2 uv, int level) {\n"
-       "  int n = 1 << level;\n"
-       "  ivec2 tile = clamp(ivec2(floor(uv * float(n))), ivec2(0), ivec2(n - 1));\n"
-       "  return texelFetch(btflod_page_table, ivec3(tile, layer), kFinestLevel - level).x;\n"
+       "  return texelFetch(btflod_page_table, ivec3(btflod_tile_of(uv, level), layer), btflod_vt_finest() - level).x;\n"
        "}\n"
        "// Paper 000 eq. 3: cache texel = slot origin + border + in-tile offset at the resident level l'.\n"
        "vec4 btflod_cache_sample(uint entry, vec2 uv) {\n"
        "  uint slot = entry & 0xFFFFFFu;\n"
-       "  float tiles = exp2(float(entry >> 24u));\n"
-       "  vec2 tp = uv * tiles;\n"
+       "  int level = int(entry >> 24u);\n"
+       "  vec2 s = btflod_level_texel(uv, level);\n"
+       "  vec2 in_tile = s - vec2(btflod_tile_of(uv, level)) * kTileSize;\n"
        "  uint r = slot % kSlotsPerLayer;\n"
        "  vec2 origin = vec2(float(r % kSlotsX), float(r / kSlotsX)) * kPaddedTile + kBorder;\n"
-       "  vec2 texel = origin + (tp - floor(tp)) * kTileSize;\n"
-       "  return textureLod(btflod_tile_cache, vec3(texel / kCacheSize, float(slot / kSlotsPerLayer)), 0.0);\n"
+       "  return textureLod(btflod_tile_cache, vec3((origin + in_tile) / kCacheSize, float(slot / kSlotsPerLayer)), 0.0);\n"
        "}\n"
        "vec4 btflod_vt_fetch(int layer, vec2 uv, float lambda) {\n"
-       "  float l = clamp(lambda, 0.0, float(kFinestLevel));\n"
+       "  int finest = btflod_vt_finest();\n"
+       "  float l = clamp(lambda, 0.0, float(finest));\n"
        "  int l0 = int(floor(l));\n"
-       "  int l1 = min(l0 + 1, kFinestLevel);\n"
+       "  int l1 = min(l0 + 1, finest);\n"
        "  uint e1 = btflod_page_entry(layer, uv, l1);\n"
        "  vec4 s1 = btflod_cache_sample(e1, uv);\n"
        "  if (!kTrilinear || l1 == l0 || int(e1 >> 24u) != l1) return s1;\n"
@@ -348,10 +354,9 @@ inline std::string glsl_feedback_fragment(GlslTarget t, const ShaderConfig& c) {
   s += "void main() {\n"
        "  // lod.y = log2(screen / feedback size): derivatives here are that much larger.\n"
        "  float lambda = btflod_vt_lambda(v_uv) + btflod.lod.y;\n"
-       "  // request the finest level the renderer blends in (ceil), tolerant of float noise\n"
-       "  int level = clamp(int(ceil(lambda - 1e-3)), 0, kFinestLevel);\n"
-       "  uint n = 1u << uint(level);\n"
-       "  uvec2 tile = min(uvec2(floor(fract(v_uv) * float(n))), uvec2(n - 1u));  // paper 000 eq. 2\n";
+       "  // request the finest level the renderer blends in (ceil), tolerant of float noise\n";
+  s += format_message("  int level = clamp(int(ceil(lambda - 1e-3)), 0, min(btflod_vt_finest(), %u));\n", f.max_level());
+  s += "  uvec2 tile = uvec2(btflod_tile_of(fract(v_uv), level));  // paper 000 eq. 2\n";
   s += format_message(
       "  btflod_feedback = ((tile.x & %uu) << %uu) | ((tile.y & %uu) << %uu) | ((uint(level) & %uu) << %uu)"
       " | ((btflod.ids.y & %uu) << %uu);\n",

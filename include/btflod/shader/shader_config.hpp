@@ -47,14 +47,24 @@ struct AngularTableConfig {
 };
 
 /// Bit layout of the packed 32-bit feedback word (paper 000 §3, eq. 1–2: tile index i, level l,
-/// texture τ). Engineer E's lod/ feedback word is the authority; until it is wired in, this
-/// configurable layout stands in for it. `empty_word` marks pixels no BTF covers (the clear value).
+/// texture τ). The defaults are lod/feedback.hpp's word (pack_feedback: x 9 bits at 0, y 9 at 9,
+/// level 4 at 18, material 10 at 22, kFeedbackNone = 0xffffffff); the fields are configurable so
+/// a host with another word layout can still use the generated shaders. `empty_word` is the
+/// clear value for pixels no streamed material covers. The shader clamps the level to what the
+/// x/y/level fields can hold (lod/feedback.hpp: "the feedback pass then clamps its level to 9").
 struct FeedbackWordLayout {
-  uint32_t x_shift = 0, x_bits = 10;
-  uint32_t y_shift = 10, y_bits = 10;
-  uint32_t level_shift = 20, level_bits = 4;
-  uint32_t texture_shift = 24, texture_bits = 8;
+  uint32_t x_shift = 0, x_bits = 9;
+  uint32_t y_shift = 9, y_bits = 9;
+  uint32_t level_shift = 18, level_bits = 4;
+  uint32_t texture_shift = 22, texture_bits = 10;
   uint32_t empty_word = 0xffffffffu;
+
+  /// Finest level whose tile indices and level number fit the fields.
+  constexpr uint32_t max_level() const noexcept {
+    uint32_t m = x_bits < y_bits ? x_bits : y_bits;
+    const uint32_t lmax = level_bits >= 5 ? 31u : (1u << level_bits) - 1u;
+    return m < lmax ? m : lmax;
+  }
 };
 
 /// Decoded feedback word.
@@ -103,16 +113,20 @@ constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> k
 /// Tile cache: a 2D-array texture of `cache_layers` layers, each slots_x × slots_y slots of
 /// (tile_size + 2·border)² texels; slot s lives in layer s / (slots_x·slots_y), column
 /// (s mod slots_x·slots_y) mod slots_x, row (s mod slots_x·slots_y) / slots_x.
-/// Page table: a R32UI 2D-array texture (one layer per virtual texture) with finest_level + 1
-/// mips; mip m = finest_level − level holds, for each tile (x, y) of that level, the entry of
-/// the tile the cache uses for it (itself or its nearest resident ancestor), see pack_page_entry.
+/// Page table: a R32UI 2D-array texture (one layer per virtual texture) of 2^finest_level
+/// texels per side at mip 0 and finest_level + 1 mips. For a material whose own finest level is
+/// L_m ≤ finest_level (ShaderParams::vt_extent.z), mip m = L_m − level holds, for each tile
+/// (x, y) of that level (top-left tiles_x × tiles_y texels used), the entry of the tile the
+/// cache uses for it (itself or its nearest resident ancestor), see pack_page_entry.
+/// Addressing: level-l texel coordinate s = uv · (M, N) · 2^(l − L_m) with uv wrapped to [0,1)
+/// (vt/vt_layout.hpp geometry: tiles on a grid aligned to the origin, M×N need not be square).
 struct VirtualTextureConfig {
   uint32_t tile_size = 64;     ///< T, texels per tile side without border
   uint32_t border = 4;         ///< texels of border on each side (≥ 1 for bilinear)
   uint32_t slots_x = 16;       ///< slots per cache row
   uint32_t slots_y = 16;       ///< slot rows per cache layer
   uint32_t cache_layers = 1;   ///< layers of the cache array texture
-  uint32_t finest_level = 4;   ///< L: the virtual texture is T·2^L texels per side
+  uint32_t finest_level = 4;   ///< largest L of any material: the page table has L + 1 mips
   bool trilinear = true;       ///< blend levels ⌊λ⌋ and ⌊λ⌋+1 when both are resident
   FeedbackWordLayout feedback;
 
@@ -120,7 +134,6 @@ struct VirtualTextureConfig {
   constexpr uint32_t slot_count() const noexcept { return slots_x * slots_y * cache_layers; }
   constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
   constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
-  constexpr uint32_t virtual_size() const noexcept { return tile_size << finest_level; }
 };
 
 /// Texel origin (top-left of the padded slot, border included) and layer of a cache slot.
@@ -187,12 +200,15 @@ struct alignas(16) ShaderParams {
   /// x: LOD bias in levels; y: log2(screen size / feedback size); z: range-LOD distance scale
   /// (paper 001: λ = log2(distance·z)); w: unused.
   glm::vec4 lod{0.0f, 0.0f, 1.0f, 0.0f};
+  /// BSVTF / feedback: x, y = M, N (finest-level texels of this material), z = its finest level
+  /// L_m (≤ VirtualTextureConfig::finest_level), w unused.
+  glm::vec4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
   /// x: page-table layer of component group 0 of this material; y: texture id written to the
   /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: unused.
   glm::uvec4 ids{0u, 0u, 0u, 0u};
 };
-static_assert(sizeof(ShaderParams) == 208, "ShaderParams must match the std140 block in the shaders");
-static_assert(offsetof(ShaderParams, ids) == 192, "ShaderParams must match the std140 block in the shaders");
+static_assert(sizeof(ShaderParams) == 224, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, ids) == 208, "ShaderParams must match the std140 block in the shaders");
 
 /// Binding points (GL binding = Vulkan set 0 binding = ES texture unit) used by every program.
 enum class ShaderBinding : uint32_t {
@@ -291,15 +307,6 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
     if (used & m) return make_error(Status::invalid_argument, "shader config: feedback field %d overlaps another", i);
     used |= m;
   }
-  if (f.level_bits < 32 && v.finest_level >= (1u << f.level_bits))
-    return make_error(Status::invalid_argument, "shader config: feedback level field (%u bits) cannot hold level %u",
-                      f.level_bits, v.finest_level);
-  if (f.x_bits < 32 && v.finest_level > f.x_bits)
-    return make_error(Status::invalid_argument, "shader config: feedback x field (%u bits) cannot hold 2^%u tiles",
-                      f.x_bits, v.finest_level);
-  if (f.y_bits < 32 && v.finest_level > f.y_bits)
-    return make_error(Status::invalid_argument, "shader config: feedback y field (%u bits) cannot hold 2^%u tiles",
-                      f.y_bits, v.finest_level);
   if (c.laplacian.max_level > 15)
     return make_error(Status::invalid_argument, "shader config: laplacian.max_level = %u, expected ≤ 15",
                       c.laplacian.max_level);

@@ -1,0 +1,333 @@
+// Tests for codec/container.hpp: build → read round trip (metadata, U packets, weights, tiles
+// decoded down the hierarchy within the tolerance), the contiguous coarse-to-fine prefix,
+// determinism across thread counts, and failure classes (truncated, trailing bytes, wrong
+// checksum, wrong signature/version, oversized counts, offsets outside the file, overlaps).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "btflod/codec/container.hpp"
+
+namespace {
+
+using namespace btflod;
+
+struct Material {
+  BsvtfMetadata metadata;
+  std::vector<float> u;
+  std::vector<std::vector<float>> samples;
+  std::vector<BsvtfTileInput> tiles;
+};
+
+float value(uint32_t comp, double u, double v) {
+  return static_cast<float>((1.0 + comp) * (std::sin(7.0 * u + comp) * std::cos(5.0 * v) + 0.2 * std::sin(37.0 * u * v + comp)));
+}
+
+// A small synthetic material: T = 16, B = 4 (24² stored), 3 levels, 6 components (2 textures).
+Material make_material(uint32_t levels = 3, uint32_t components = 6) {
+  Material m;
+  auto& md = m.metadata;
+  md.material_name = "synthetic";
+  md.tile_size = 16;
+  md.border = 4;
+  md.level_count = levels;
+  md.width = md.height = 16u << (levels - 1);
+  md.component_count = components;
+  md.u_rows = 10;
+  md.light_set = "L";
+  md.view_set = "V";
+  md.light_directions = {0, 0, 1, 0.6f, 0, 0.8f};
+  md.view_directions = {0, 0, 1};
+  for (uint32_t r = 0; r < md.u_rows; ++r)
+    for (uint32_t c = 0; c < components; ++c) m.u.push_back(0.01f * static_cast<float>(r * components + c) - 0.3f);
+  const TileLayout layout = md.layout();
+  const uint32_t s = layout.stored_size();
+  for (uint32_t g = 0; g < md.texture_count(); ++g)
+    for (uint32_t l = 0; l < levels; ++l)
+      for (uint32_t y = 0; y < (1u << l); ++y)
+        for (uint32_t x = 0; x < (1u << l); ++x) {
+          std::vector<float> t(layout.sample_count(), 0.0f);
+          const double w = 16.0 * (1u << l);
+          for (uint32_t j = 0; j < s; ++j)
+            for (uint32_t i = 0; i < s; ++i) {
+              const double px = std::clamp(x * 16.0 - 4 + i, 0.0, w - 1), py = std::clamp(y * 16.0 - 4 + j, 0.0, w - 1);
+              for (uint32_t k = 0; k < 4; ++k)
+                if (4 * g + k < components) t[(j * s + i) * 4 + k] = value(4 * g + k, (px + 0.5) / w, (py + 0.5) / w);
+            }
+          m.samples.push_back(std::move(t));
+          m.tiles.push_back({TileId{g, l, x, y}, {}, 0.5f / (1.0f + l + x)});
+        }
+  for (size_t i = 0; i < m.tiles.size(); ++i) m.tiles[i].samples = m.samples[i];
+  return m;
+}
+
+std::vector<uint8_t> build(const Material& m, float quality = 50, ThreadPool* pool = nullptr) {
+  BsvtfBuildOptions o;
+  o.quality = quality;
+  o.pool = pool;
+  auto r = build_bsvtf(m.metadata, m.u, m.tiles, o);
+  EXPECT_TRUE(r.ok()) << r.message();
+  return r.ok() ? r.value() : std::vector<uint8_t>{};
+}
+
+void fix_header_crc(std::vector<uint8_t>& f) {
+  const uint32_t c = crc32_of(std::span<const uint8_t>(f).first(kBsvtfHeaderSize - 4));
+  std::memcpy(f.data() + kBsvtfHeaderSize - 4, &c, 4);
+}
+template <class T>
+void patch(std::vector<uint8_t>& f, size_t at, T v) {
+  std::memcpy(f.data() + at, &v, sizeof v);
+}
+// Header field offsets (docs/bsvtf_format.md).
+constexpr size_t kOffMetaSize = 40, kOffMetaCrc = 44, kOffPacketCount = 56, kOffTileCount = 72, kOffIndexCrc = 76,
+                 kOffIndex = 64;
+
+TEST(CodecContainer, RoundTripMetadataPacketsWeightsAndTiles) {
+  const Material m = make_material();
+  const auto file = build(m);
+  auto dir = read_bsvtf(file);
+  ASSERT_TRUE(dir.ok()) << dir.message();
+  const auto& md = dir->metadata;
+  EXPECT_EQ(md.material_name, "synthetic");
+  EXPECT_EQ(md.width, 64u);
+  EXPECT_EQ(md.level_count, 3u);
+  EXPECT_EQ(md.component_count, 6u);
+  EXPECT_EQ(md.light_directions, m.metadata.light_directions);
+  EXPECT_EQ(md.light_set, "L");
+  EXPECT_EQ(md.component_ranges.size(), 6u);
+  EXPECT_EQ(md.component_scales, std::vector<float>(6, 1.0f));
+  EXPECT_FLOAT_EQ(md.quality, 50.0f);
+  // Components 4..5 live in packet 1, channels 0..1; channels 2..3 are zero padding.
+  ASSERT_EQ(dir->packets.size(), 2u);
+  std::vector<float> packet(md.u_rows * 4);
+  const auto& p1 = dir->packets[1];
+  const auto p1_bytes = std::span<const uint8_t>(file).subspan(p1.offset, p1.size);
+  ASSERT_EQ(verify_bsvtf_payload(p1.size, p1.crc, p1_bytes), Status::success);
+  unpack_bsvtf_packet(p1_bytes, packet);
+  for (uint32_t r = 0; r < md.u_rows; ++r) {
+    EXPECT_NEAR(packet[r * 4 + 0], m.u[r * 6 + 4], 1e-3);
+    EXPECT_NEAR(packet[r * 4 + 1], m.u[r * 6 + 5], 1e-3);
+    EXPECT_EQ(packet[r * 4 + 2], 0.0f);
+  }
+  // Every tile: checksum, weight, and decoded down the hierarchy within the tolerance.
+  ASSERT_EQ(dir->tiles.size(), m.tiles.size());
+  const TileLayout layout = md.layout();
+  TileDecoder dec(layout);
+  std::unordered_map<uint64_t, std::vector<float>> decoded;
+  for (uint32_t level = 0; level < 3; ++level)
+    for (size_t i = 0; i < m.tiles.size(); ++i) {
+      const TileId id = m.tiles[i].id;
+      if (id.level != level) continue;
+      const auto* e = dir->find(id);
+      ASSERT_NE(e, nullptr);
+      EXPECT_FLOAT_EQ(e->weight, m.tiles[i].weight);
+      const auto bytes = std::span<const uint8_t>(file).subspan(e->offset, e->size);
+      ASSERT_EQ(verify_bsvtf_payload(e->size, e->crc, bytes), Status::success);
+      std::vector<float> out(layout.sample_count());
+      std::span<const float> parent;
+      if (level > 0) parent = decoded.at(id.parent().key());
+      ASSERT_EQ(dec.decode(bytes, parent, id.x & 1, id.y & 1, out), Status::success) << dec.message();
+      for (uint32_t k = 0; k < 4; ++k) {
+        const uint32_t comp = 4 * id.texture + k;
+        const float t = comp < 6 ? tolerance_for_quality(50, md.component_ranges[comp]) : 1.0f;
+        double e2 = 0;
+        for (size_t s = k; s < out.size(); s += 4) e2 += (out[s] - m.samples[i][s]) * (out[s] - m.samples[i][s]);
+        EXPECT_LE(std::sqrt(e2 / layout.texel_count()), t * 1.001) << "tile level " << level << " comp " << comp;
+      }
+      decoded[id.key()] = out;
+    }
+  EXPECT_EQ(dir->find(TileId{0, 2, 3, 3})->id, (TileId{0, 2, 3, 3}));
+  EXPECT_EQ(dir->find(TileId{2, 0, 0, 0}), nullptr);
+}
+
+TEST(CodecContainer, CoarseToFinePrefixIsContiguousAndDirectoryParsesAlone) {
+  const Material m = make_material(4, 4);
+  const auto file = build(m);
+  auto dir = read_bsvtf(file);
+  ASSERT_TRUE(dir.ok()) << dir.message();
+  // The directory alone (what a streaming client fetches first) parses.
+  auto alone = parse_bsvtf_directory(std::span<const uint8_t>(file).first(dir->header.directory_size), file.size());
+  ASSERT_TRUE(alone.ok()) << alone.message();
+  auto too_short = parse_bsvtf_directory(std::span<const uint8_t>(file).first(dir->header.directory_size - 1), file.size());
+  EXPECT_EQ(too_short.status(), Status::short_output);
+  for (uint32_t level = 0; level < 4; ++level) {
+    const uint64_t prefix = dir->prefix_size(level);
+    for (const auto& t : dir->tiles) {
+      if (t.id.level <= level) {
+        EXPECT_LE(t.offset + t.size, prefix);
+      } else {
+        EXPECT_GE(t.offset, prefix) << "a finer tile lies inside the level-" << level << " prefix";
+      }
+    }
+    for (const auto& p : dir->packets) EXPECT_LE(p.offset + p.size, dir->prefix_size(0));
+  }
+  EXPECT_EQ(dir->prefix_size(3), file.size());
+}
+
+TEST(CodecContainer, BuildIsDeterministicAcrossThreadCounts) {
+  const Material m = make_material();
+  ThreadPool one(1), two(2);
+  EXPECT_EQ(build(m, 40, &one), build(m, 40, &two));
+}
+
+TEST(CodecContainer, HigherQualityGivesLargerFile) {
+  const Material m = make_material();
+  EXPECT_LT(build(m, 20).size(), build(m, 90).size());
+}
+
+TEST(CodecContainer, WriterRejectsInconsistentInput) {
+  Material m = make_material(2, 4);
+  auto dup = m.tiles;
+  dup.push_back(dup.back());
+  EXPECT_EQ(build_bsvtf(m.metadata, m.u, dup).status(), Status::invalid_argument);
+  auto orphan = m.tiles;
+  orphan.erase(orphan.begin());  // drop the root
+  auto r = build_bsvtf(m.metadata, m.u, orphan);
+  EXPECT_EQ(r.status(), Status::invalid_argument);
+  EXPECT_NE(r.message().find("no parent"), std::string::npos) << r.message();
+  auto wrong_size = m.tiles;
+  wrong_size[0].samples = wrong_size[0].samples.first(10);
+  EXPECT_EQ(build_bsvtf(m.metadata, m.u, wrong_size).status(), Status::invalid_argument);
+  auto short_u = m.u;
+  short_u.pop_back();
+  EXPECT_EQ(build_bsvtf(m.metadata, short_u, m.tiles).status(), Status::invalid_argument);
+  auto bad_meta = m.metadata;
+  bad_meta.width = 1000;
+  EXPECT_EQ(build_bsvtf(bad_meta, m.u, m.tiles).status(), Status::invalid_argument);
+  BsvtfBuildOptions cancel;
+  cancel.progress = [](std::string_view, double f) { return f < 0.3; };
+  EXPECT_EQ(build_bsvtf(m.metadata, m.u, m.tiles, cancel).status(), Status::cancelled);
+}
+
+class CodecContainerFailures : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    file_ = build(make_material());
+    auto d = read_bsvtf(file_);
+    ASSERT_TRUE(d.ok());
+    dir_ = d.value();
+  }
+  Status read(const std::vector<uint8_t>& f) { return read_bsvtf(f).status(); }
+  std::vector<uint8_t> file_;
+  BsvtfDirectory dir_;
+};
+
+TEST_F(CodecContainerFailures, TruncatedFileIsShortOutput) {
+  for (size_t n : {size_t{0}, size_t{7}, size_t{127}, size_t{128}, size_t{200}, file_.size() - 1}) {
+    std::vector<uint8_t> f(file_.begin(), file_.begin() + n);
+    EXPECT_EQ(read(f), Status::short_output) << n;
+  }
+  // Any prefix fails cleanly.
+  for (size_t n = 0; n < dir_.header.directory_size; n += 3) ASSERT_FALSE(read_bsvtf(std::span<const uint8_t>(file_).first(n)).ok());
+}
+
+TEST_F(CodecContainerFailures, TrailingBytesAreBadData) {
+  auto f = file_;
+  f.push_back(0);
+  auto r = read_bsvtf(f);
+  EXPECT_EQ(r.status(), Status::bad_data);
+  EXPECT_NE(r.message().find("trailing"), std::string::npos) << r.message();
+}
+
+TEST_F(CodecContainerFailures, WrongSignatureVersionAndChecksums) {
+  auto f = file_;
+  f[0] = 'X';
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint32_t>(f, 8, 2);
+  fix_header_crc(f);
+  EXPECT_EQ(read(f), Status::unsupported);
+  f = file_;
+  f[20] ^= 1;  // inside the header, not fixed up
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  f[kBsvtfHeaderSize + 3] ^= 1;  // metadata byte
+  auto r = read_bsvtf(f);
+  EXPECT_EQ(r.status(), Status::bad_data);
+  EXPECT_NE(r.message().find("metadata: checksum"), std::string::npos) << r.message();
+  f = file_;
+  f[dir_.header.tile_index_offset + 9] ^= 1;  // tile index byte
+  EXPECT_EQ(read(f), Status::bad_data);
+  // A flipped payload byte is caught by the payload checksum (the directory is still fine).
+  f = file_;
+  const auto& e = dir_.tiles[5];
+  f[e.offset + e.size / 2] ^= 0x10;
+  ASSERT_EQ(read(f), Status::success);
+  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(f).subspan(e.offset, e.size)), Status::bad_data);
+  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(file_).subspan(e.offset, e.size - 1)), Status::short_output);
+}
+
+TEST_F(CodecContainerFailures, OversizedCountsAreBadDataWithoutHugeAllocations) {
+  auto f = file_;
+  patch<uint32_t>(f, kOffTileCount, 0xFFFFFFF0u);
+  fix_header_crc(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint32_t>(f, kOffPacketCount, 0x7FFFFFFFu);
+  fix_header_crc(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint32_t>(f, kOffMetaSize, 0xFFFFFFFFu);
+  fix_header_crc(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  // A light count of 2^32 − 1 inside a checksummed metadata block.
+  f = file_;
+  patch<uint32_t>(f, kBsvtfHeaderSize + 36, 0xFFFFFFFFu);
+  const uint32_t meta_size = dir_.header.metadata_size;
+  patch<uint32_t>(f, kOffMetaCrc, crc32_of(std::span<const uint8_t>(f).subspan(kBsvtfHeaderSize, meta_size)));
+  fix_header_crc(f);
+  auto r = read_bsvtf(f);
+  EXPECT_EQ(r.status(), Status::bad_data);
+  EXPECT_NE(r.message().find("light direction"), std::string::npos) << r.message();
+}
+
+TEST_F(CodecContainerFailures, IndexEntriesOutsideThePayloadOrOverlappingAreBadData) {
+  const size_t index = dir_.header.tile_index_offset;
+  auto refix = [&](std::vector<uint8_t>& f) {
+    patch<uint32_t>(f, kOffIndexCrc, crc32_of(std::span<const uint8_t>(f).subspan(index, dir_.tiles.size() * kBsvtfTileEntrySize)));
+    fix_header_crc(f);
+  };
+  auto f = file_;
+  patch<uint64_t>(f, index + 8, file_.size() - 10);  // entry 0 offset near the end: runs past it
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint64_t>(f, index + 8, 0xFFFFFFFFFFFFFFF0ull);  // overflow bait
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint64_t>(f, index + 8, 16);  // points into the header
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint64_t>(f, index + kBsvtfTileEntrySize + 8, dir_.tiles[0].offset + 1);  // overlaps entry 0
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint32_t>(f, index + 16, 0x7FFFFFFF);  // absurd tile size
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  f = file_;
+  patch<uint64_t>(f, index, TileId{9, 0, 0, 0}.key());  // texture beyond the material
+  refix(f);
+  EXPECT_EQ(read(f), Status::bad_data);
+  (void)kOffIndex;
+}
+
+TEST_F(CodecContainerFailures, RandomDirectoryCorruptionNeverCrashes) {
+  std::mt19937 rng(17);
+  int accepted = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    auto f = file_;
+    const size_t at = rng() % dir_.header.directory_size;
+    f[at] ^= static_cast<uint8_t>(1 + rng() % 255);
+    if (trial % 2) fix_header_crc(f);  // get past the header checksum half of the time
+    if (read_bsvtf(f).ok()) ++accepted;
+  }
+  EXPECT_LT(accepted, 40);  // only bytes outside any checked field (reserved, crc-fixed padding) may pass
+}
+
+}  // namespace

@@ -1,0 +1,240 @@
+// btflod — the packed 32-bit feedback word, decimated feedback, and the votes of paper 000 eq. 9.
+//
+// Feedback word bit budget (most significant first):
+//   [31..22] material  10 bits  0 … 1022   (1023 with all other bits set is kFeedbackNone)
+//   [21..18] level      4 bits  0 … 15     (paper-000 level, 0 = coarsest)
+//   [17..9]  tile y     9 bits  0 … 511
+//   [8..0]   tile x     9 bits  0 … 511
+// Limits: at most 1023 materials per feedback buffer (a material stands for all of its ⌈C/4⌉
+// virtual textures: their votes are the same, paper 000 §5.2), and at most 512 × 512 tiles at
+// the requested level, i.e. finest level ≤ 9, or 32,768 × 32,768 texels at T = 64. A finer
+// hierarchy can still be used: the feedback pass then clamps its level to 9.
+// kFeedbackNone (0xffffffff) marks pixels that show no streamed material (background).
+//
+// VoteCounter turns a span of words into v(i, l) (eq. 9: a pixel votes for its tile and every
+// ancestor) with flat arrays: one run of equal words at a time is added to the tile's direct
+// count, then each distinct voted tile pushes its count up its ancestor chain once. Cost:
+// O(pixels) sequential reads + O(distinct tiles · L); no hash maps, no allocation per frame.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace btflod {
+
+inline constexpr uint32_t kFeedbackNone = 0xffffffffu;
+inline constexpr uint32_t kFeedbackMaxMaterials = 1023;
+inline constexpr uint32_t kFeedbackMaxLevel = 9;  ///< 512 tiles per side
+inline constexpr uint32_t kFeedbackMaxTiles = 512;
+
+/// The fields of one feedback word.
+struct FeedbackTile {
+  uint32_t material = 0;
+  uint32_t level = 0;
+  uint32_t x = 0;
+  uint32_t y = 0;
+  friend constexpr bool operator==(const FeedbackTile&, const FeedbackTile&) = default;
+};
+
+/// Packs a tile into a feedback word. Returns kFeedbackNone when a field exceeds its budget
+/// (material ≥ 1023, level > 15, x or y ≥ 512). constexpr, noexcept.
+constexpr uint32_t pack_feedback(const FeedbackTile& t) noexcept {
+  if (t.material >= kFeedbackMaxMaterials || t.level > 15 || t.x >= kFeedbackMaxTiles || t.y >= kFeedbackMaxTiles)
+    return kFeedbackNone;
+  return (t.material << 22) | (t.level << 18) | (t.y << 9) | t.x;
+}
+
+/// Inverse of pack_feedback. For kFeedbackNone returns material 1023 (check the word first).
+constexpr FeedbackTile unpack_feedback(uint32_t word) noexcept {
+  return FeedbackTile{word >> 22, (word >> 18) & 0xfu, word & 0x1ffu, (word >> 9) & 0x1ffu};
+}
+
+/// Sample position inside a factor×factor block for decimated feedback at frame `frame`:
+/// every position is visited once every factor² frames, in an order that spreads consecutive
+/// samples apart (bit-reversed index scattered over the block). Writes dx, dy in [0, factor).
+/// Precondition: factor ≥ 1. noexcept, thread-safe.
+inline void feedback_sample_offset(uint64_t frame, uint32_t factor, uint32_t& dx, uint32_t& dy) noexcept {
+  if (factor <= 1) {
+    dx = dy = 0;
+    return;
+  }
+  const uint64_t n = static_cast<uint64_t>(factor) * factor;
+  uint64_t bits = 0;
+  while ((1ull << bits) < n) ++bits;
+  // Bit-reverse the frame index over `bits` bits, skip values ≥ n (still a permutation of 0 … n−1).
+  uint64_t idx = frame % n;
+  uint64_t k = 0;
+  for (uint64_t candidate = 0;; ++candidate) {
+    uint64_t r = 0;
+    for (uint64_t b = 0; b < bits; ++b) r |= ((candidate >> b) & 1ull) << (bits - 1 - b);
+    if (r < n) {
+      if (k == idx) {
+        idx = r;
+        break;
+      }
+      ++k;
+    }
+  }
+  dx = static_cast<uint32_t>(idx % factor);
+  dy = static_cast<uint32_t>(idx / factor);
+}
+
+/// Shape of one material's tile hierarchy as the vote counter needs it: the finest level and
+/// the tile counts there (level l has ⌈tiles / 2^(L−l)⌉ tiles per side).
+struct VoteLayout {
+  uint32_t finest_level = 0;
+  uint32_t tiles_x = 1;  ///< tiles per row at the finest level
+  uint32_t tiles_y = 1;  ///< tiles per column at the finest level
+};
+
+/// Counts votes v(i, l) of paper 000 eq. 9 per material and tile. Set-up allocates; count()
+/// does not. Not thread-safe (one counter per thread); deterministic. Hostile words are safe:
+/// they are counted in rejected() and ignored.
+class VoteCounter {
+ public:
+  VoteCounter() = default;
+  /// One entry per material, in material order. Precondition: finest_level ≤ 15.
+  explicit VoteCounter(std::span<const VoteLayout> materials) {
+    uint32_t total = 0;
+    for (const VoteLayout& m : materials) {
+      Material mm;
+      mm.finest_level = std::min<uint32_t>(m.finest_level, 15);
+      mm.base = total;
+      uint32_t off = 0;
+      for (uint32_t l = 0; l <= mm.finest_level; ++l) {
+        const uint32_t s = mm.finest_level - l;
+        mm.tiles_x[l] = (m.tiles_x + (1u << s) - 1) >> s;
+        mm.tiles_y[l] = (m.tiles_y + (1u << s) - 1) >> s;
+        mm.offset[l] = off;
+        off += mm.tiles_x[l] * mm.tiles_y[l];
+      }
+      mm.offset[mm.finest_level + 1] = off;
+      total += off;
+      materials_.push_back(mm);
+    }
+    votes_.assign(total, 0);
+    direct_.assign(total, 0);
+    touched_.reserve(total);
+    touched_words_.reserve(total);
+  }
+
+  /// Clears the previous frame and counts `words`. Each word adds `weight` votes (use the
+  /// decimation factor² to keep vote units independent of the feedback resolution). level_drop
+  /// coarsens every request by that many levels (global LOD bias under overload). Returns the
+  /// number of words that named a valid tile. noexcept; no allocation.
+  size_t count(std::span<const uint32_t> words, uint32_t weight = 1, uint32_t level_drop = 0) noexcept {
+    clear();
+    size_t valid = 0;
+    const size_t n = words.size();
+    const uint32_t* w = words.data();
+    size_t i = 0;
+    while (i < n) {
+      const uint32_t word = w[i];
+      size_t j = i + 1;
+      while (j < n && w[j] == word) ++j;  // one run of equal words at a time
+      const uint32_t run = static_cast<uint32_t>(j - i);
+      if (word != kFeedbackNone) {
+        if (add_direct(word, run * weight, level_drop)) valid += run;
+        else rejected_ += run;
+      }
+      i = j;
+    }
+    // Eq. 9: every pixel also votes for all ancestors. Push each directly voted tile's count
+    // up the chain once (the touched list grows with newly reached ancestors, which are not
+    // pushed again because their direct count is 0).
+    const size_t direct_tiles = touched_.size();
+    for (size_t k = 0; k < direct_tiles; ++k) {
+      const uint32_t idx = touched_[k];
+      const uint32_t count = direct_[idx];
+      FeedbackTile t = unpack_feedback(touched_words_[k]);
+      const Material& m = materials_[t.material];
+      while (t.level > 0) {
+        --t.level;
+        t.x >>= 1;
+        t.y >>= 1;
+        const uint32_t a = m.base + m.offset[t.level] + t.y * m.tiles_x[t.level] + t.x;
+        if (votes_[a] == 0) {
+          touched_.push_back(a);
+          touched_words_.push_back(pack_feedback(t));
+        }
+        votes_[a] += count;
+      }
+    }
+    return valid;
+  }
+
+  /// v(i, l): votes of a tile of a material (its own pixels and its descendants').
+  /// Returns 0 for tiles outside the hierarchy. noexcept.
+  uint32_t votes(uint32_t material, uint32_t level, uint32_t x, uint32_t y) const noexcept {
+    if (material >= materials_.size()) return 0;
+    const Material& m = materials_[material];
+    if (level > m.finest_level || x >= m.tiles_x[level] || y >= m.tiles_y[level]) return 0;
+    return votes_[m.base + m.offset[level] + y * m.tiles_x[level] + x];
+  }
+  /// Votes by flat index within a material (VtLevelTable order: coarse to fine, row-major).
+  /// Precondition: material and index in range.
+  uint32_t votes_at(uint32_t material, uint32_t flat_index) const noexcept {
+    return votes_[materials_[material].base + flat_index];
+  }
+  /// Pixels whose own requested tile this is (without descendants). Precondition: in range.
+  uint32_t direct_votes_at(uint32_t material, uint32_t flat_index) const noexcept {
+    return direct_[materials_[material].base + flat_index];
+  }
+  /// Every tile with v > 0 this frame, as feedback words (directly voted tiles first, in first-
+  /// seen order, then ancestors). Valid until the next count().
+  std::span<const uint32_t> touched() const noexcept { return touched_words_; }
+  /// Words ignored since construction because they named no tile of a known material.
+  uint64_t rejected() const noexcept { return rejected_; }
+  uint32_t material_count() const noexcept { return static_cast<uint32_t>(materials_.size()); }
+  uint32_t finest_level(uint32_t material) const noexcept { return materials_[material].finest_level; }
+
+ private:
+  struct Material {
+    uint32_t finest_level = 0;
+    uint32_t base = 0;
+    uint32_t offset[17] = {};
+    uint32_t tiles_x[16] = {};
+    uint32_t tiles_y[16] = {};
+  };
+
+  void clear() noexcept {
+    for (uint32_t idx : touched_) {
+      votes_[idx] = 0;
+      direct_[idx] = 0;
+    }
+    touched_.clear();
+    touched_words_.clear();
+  }
+
+  bool add_direct(uint32_t word, uint32_t count, uint32_t level_drop) noexcept {
+    FeedbackTile t = unpack_feedback(word);
+    if (t.material >= materials_.size()) return false;
+    const Material& m = materials_[t.material];
+    if (t.level > m.finest_level || t.x >= m.tiles_x[t.level] || t.y >= m.tiles_y[t.level]) return false;
+    if (level_drop > 0) {
+      const uint32_t drop = std::min(level_drop, t.level);
+      t.level -= drop;
+      t.x >>= drop;
+      t.y >>= drop;
+    }
+    const uint32_t idx = m.base + m.offset[t.level] + t.y * m.tiles_x[t.level] + t.x;
+    if (votes_[idx] == 0) {
+      touched_.push_back(idx);
+      touched_words_.push_back(pack_feedback(t));
+    }  // (ancestors are pushed only after all runs, so v > 0 here means a direct count)
+    votes_[idx] += count;
+    direct_[idx] += count;
+    return true;
+  }
+
+  std::vector<Material> materials_;
+  std::vector<uint32_t> votes_;
+  std::vector<uint32_t> direct_;
+  std::vector<uint32_t> touched_;        // flat indices with v > 0 (for clearing)
+  std::vector<uint32_t> touched_words_;  // the same tiles as feedback words
+  uint64_t rejected_ = 0;
+};
+
+}  // namespace btflod

@@ -1,0 +1,172 @@
+// Tests for lod/: LOD selectors (paper 000 eq. 1, paper 001 §3.4), the feedback word and the
+// votes of paper 000 eq. 9 (checked against a brute-force count).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+#include <tuple>
+#include <vector>
+
+#include "btflod/lod/feedback.hpp"
+#include "btflod/lod/lod_selector.hpp"
+
+using namespace btflod;
+
+TEST(LodSelector, DerivativeFollowsEquation1) {
+  DerivativeLod d;
+  EXPECT_FLOAT_EQ(d.level({1.0f, 1.0f, 1.0f}, 5), 5.0f);
+  EXPECT_FLOAT_EQ(d.level({2.0f, 1.0f, 1.0f}, 5), 4.0f);  // max of the two axes
+  EXPECT_FLOAT_EQ(d.level({1.0f, 4.0f, 1.0f}, 5), 3.0f);
+  EXPECT_FLOAT_EQ(d.level({0.25f, 0.25f, 1.0f}, 5), 5.0f);  // magnification clamps to L
+  EXPECT_FLOAT_EQ(d.level({1024.0f, 1.0f, 1.0f}, 5), 0.0f);  // clamps to the root
+  d.bias = 1.0f;
+  EXPECT_FLOAT_EQ(d.level({2.0f, 1.0f, 1.0f}, 5), 3.0f);
+  EXPECT_FLOAT_EQ(d.level({std::nanf(""), 1.0f, 1.0f}, 5), 5.0f);
+}
+
+TEST(LodSelector, AnisotropyUsesMinorAxisUpToRatio) {
+  DerivativeLod iso, aniso;
+  aniso.max_anisotropy = 4.0f;
+  // 8:1 footprint: isotropic takes 8 (L − 3); 4× anisotropic takes max(8/4, 1) = 2 (L − 1).
+  EXPECT_FLOAT_EQ(iso.level({8.0f, 1.0f, 1.0f}, 6), 3.0f);
+  EXPECT_FLOAT_EQ(aniso.level({8.0f, 1.0f, 1.0f}, 6), 5.0f);
+  // 2:1 within the ratio: the minor axis (1) decides → L.
+  EXPECT_FLOAT_EQ(aniso.level({2.0f, 1.0f, 1.0f}, 6), 6.0f);
+}
+
+TEST(LodSelector, RangeBasedFollowsPaper001) {
+  RangeLod r;
+  r.reference_distance = 2.0f;
+  EXPECT_FLOAT_EQ(r.level({1, 1, 1.0f}, 4), 4.0f);   // d < d0 → λ = 0
+  EXPECT_FLOAT_EQ(r.level({1, 1, 8.0f}, 4), 2.0f);   // λ = log2(4) = 2
+  EXPECT_FLOAT_EQ(r.level({1, 1, 1e9f}, 4), 0.0f);   // λ clamped to λmax = L
+  EXPECT_FLOAT_EQ(r.level({1, 1, std::numeric_limits<float>::infinity()}, 4), 0.0f);
+}
+
+TEST(LodSelector, FeedbackLevelIsTheFinerTrilinearLevel) {
+  EXPECT_EQ(feedback_level(2.0f, 5), 2u);
+  EXPECT_EQ(feedback_level(2.1f, 5), 3u);
+  EXPECT_EQ(feedback_level(-1.0f, 5), 0u);
+  EXPECT_EQ(feedback_level(7.5f, 5), 5u);
+}
+
+TEST(FeedbackWord, RoundTripsEveryFieldAtItsLimits) {
+  std::mt19937 rng(3);
+  for (int i = 0; i < 10000; ++i) {
+    FeedbackTile t{uint32_t(rng()) % kFeedbackMaxMaterials, uint32_t(rng()) % 16, uint32_t(rng()) % 512, uint32_t(rng()) % 512};
+    const uint32_t w = pack_feedback(t);
+    ASSERT_NE(w, kFeedbackNone);
+    EXPECT_EQ(unpack_feedback(w), t);
+  }
+  EXPECT_EQ(unpack_feedback(pack_feedback({1022, 15, 511, 511})), (FeedbackTile{1022, 15, 511, 511}));
+  EXPECT_EQ(pack_feedback({1023, 0, 0, 0}), kFeedbackNone);
+  EXPECT_EQ(pack_feedback({0, 16, 0, 0}), kFeedbackNone);
+  EXPECT_EQ(pack_feedback({0, 9, 512, 0}), kFeedbackNone);
+  EXPECT_EQ(pack_feedback({0, 9, 0, 512}), kFeedbackNone);
+}
+
+TEST(FeedbackDecimation, VisitsEveryPositionOncePerCycle) {
+  for (uint32_t factor : {1u, 2u, 3u, 4u, 8u}) {
+    std::set<std::pair<uint32_t, uint32_t>> seen;
+    for (uint64_t f = 0; f < factor * factor; ++f) {
+      uint32_t dx = 99, dy = 99;
+      feedback_sample_offset(f, factor, dx, dy);
+      ASSERT_LT(dx, factor);
+      ASSERT_LT(dy, factor);
+      seen.insert({dx, dy});
+    }
+    EXPECT_EQ(seen.size(), factor * factor) << "factor " << factor;
+  }
+  // Consecutive frames do not sample neighbouring positions in a 4×4 block.
+  uint32_t x0, y0, x1, y1;
+  feedback_sample_offset(0, 4, x0, y0);
+  feedback_sample_offset(1, 4, x1, y1);
+  EXPECT_GE(std::abs(int(x0) - int(x1)) + std::abs(int(y0) - int(y1)), 2);
+}
+
+namespace {
+// Brute force of eq. 9: v(i, l) = #{pixels whose tile (i', l') has l' ≥ l and i = ⌊2^(l−l') i'⌋}.
+std::map<std::tuple<uint32_t, uint32_t, uint32_t, uint32_t>, uint32_t> brute_votes(
+    const std::vector<uint32_t>& words, const std::vector<VoteLayout>& layouts) {
+  std::map<std::tuple<uint32_t, uint32_t, uint32_t, uint32_t>, uint32_t> v;
+  for (uint32_t w : words) {
+    if (w == kFeedbackNone) continue;
+    const FeedbackTile t = unpack_feedback(w);
+    if (t.material >= layouts.size()) continue;
+    const VoteLayout& m = layouts[t.material];
+    if (t.level > m.finest_level) continue;
+    const uint32_t s = m.finest_level - t.level;
+    if (t.x >= ((m.tiles_x + (1u << s) - 1) >> s) || t.y >= ((m.tiles_y + (1u << s) - 1) >> s)) continue;
+    for (uint32_t l = 0; l <= t.level; ++l) ++v[{t.material, l, t.x >> (t.level - l), t.y >> (t.level - l)}];
+  }
+  return v;
+}
+}  // namespace
+
+TEST(Votes, MatchBruteForceEquation9OnRandomBuffers) {
+  const std::vector<VoteLayout> layouts = {{3, 8, 8}, {4, 13, 5}, {0, 1, 1}};
+  VoteCounter counter(layouts);
+  std::mt19937 rng(7);
+  for (int round = 0; round < 20; ++round) {
+    std::vector<uint32_t> words;
+    for (int i = 0; i < 3000; ++i) {
+      const uint32_t r = uint32_t(rng()) % 10;
+      if (r == 0) words.push_back(kFeedbackNone);
+      else if (r == 1) words.push_back(uint32_t(rng()));  // hostile: any bits
+      else if (r < 5 && !words.empty()) words.push_back(words.back());  // runs
+      else {
+        const uint32_t m = uint32_t(rng()) % 3;
+        const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
+        const uint32_t s = layouts[m].finest_level - l;
+        const uint32_t tx = (layouts[m].tiles_x + (1u << s) - 1) >> s, ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
+        words.push_back(pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty}));
+      }
+    }
+    counter.count(words);
+    const auto want = brute_votes(words, layouts);
+    size_t nonzero = 0;
+    for (uint32_t m = 0; m < layouts.size(); ++m)
+      for (uint32_t l = 0; l <= layouts[m].finest_level; ++l) {
+        const uint32_t s = layouts[m].finest_level - l;
+        for (uint32_t y = 0; y < ((layouts[m].tiles_y + (1u << s) - 1) >> s); ++y)
+          for (uint32_t x = 0; x < ((layouts[m].tiles_x + (1u << s) - 1) >> s); ++x) {
+            auto it = want.find({m, l, x, y});
+            const uint32_t expected = it == want.end() ? 0 : it->second;
+            ASSERT_EQ(counter.votes(m, l, x, y), expected) << m << " " << l << " " << x << " " << y;
+            nonzero += expected > 0;
+          }
+      }
+    EXPECT_EQ(counter.touched().size(), nonzero);
+  }
+  EXPECT_GT(counter.rejected(), 0u);
+}
+
+TEST(Votes, PreviousFrameIsClearedAndWeightsScale) {
+  const std::vector<VoteLayout> layouts = {{2, 4, 4}};
+  VoteCounter counter(layouts);
+  std::vector<uint32_t> a(100, pack_feedback({0, 2, 3, 3}));
+  counter.count(a);
+  EXPECT_EQ(counter.votes(0, 2, 3, 3), 100u);
+  EXPECT_EQ(counter.votes(0, 1, 1, 1), 100u);
+  EXPECT_EQ(counter.votes(0, 0, 0, 0), 100u);
+  std::vector<uint32_t> b(10, pack_feedback({0, 1, 0, 0}));
+  counter.count(b, 16);  // decimated 4×4: each word stands for 16 pixels
+  EXPECT_EQ(counter.votes(0, 2, 3, 3), 0u);
+  EXPECT_EQ(counter.votes(0, 1, 1, 1), 0u);
+  EXPECT_EQ(counter.votes(0, 1, 0, 0), 160u);
+  EXPECT_EQ(counter.direct_votes_at(0, 1), 160u);
+  EXPECT_EQ(counter.votes(0, 0, 0, 0), 160u);
+  EXPECT_EQ(counter.direct_votes_at(0, 0), 0u);
+}
+
+TEST(Votes, LevelDropCoarsensRequests) {
+  const std::vector<VoteLayout> layouts = {{3, 8, 8}};
+  VoteCounter counter(layouts);
+  std::vector<uint32_t> w(5, pack_feedback({0, 3, 7, 6}));
+  counter.count(w, 1, 2);
+  EXPECT_EQ(counter.votes(0, 3, 7, 6), 0u);
+  EXPECT_EQ(counter.votes(0, 1, 1, 1), 5u);
+  EXPECT_EQ(counter.direct_votes_at(0, 1 + 3), 5u);  // level 1 starts at flat index 1; (1,1) → +3
+}

@@ -16,7 +16,9 @@
 
 // btf
 #include "btflod/btf/directions.hpp"
+#include "btflod/btf/heightfield.hpp"
 #include "btflod/btf/measured_brdf.hpp"
+#include "btflod/btf/synthesizer.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
 
 // angular

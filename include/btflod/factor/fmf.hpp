@@ -1,0 +1,217 @@
+// btflod — Full Matrix Factorisation (FMF) of a BTF, paper 000 §4, eq. 4–5.
+//
+// The BTF is the matrix A with rows r = (v·n_light + l)·3 + c (view, light, colour) and
+// columns = texels t = y·W + x. A truncated SVD to rank C gives A ≈ U·Σ·Vᵀ; we keep
+// U (m × C) and V := V·Σ (n × C, the "eigen-textures"), so that (eq. 5)
+//   ρ'(x, l, v)_c = Σ_k U_k(l, v, c) · V_k(x).
+// The "152nd basis illumination" of paper 000 §7 is stored as an extra ambient table per
+// view: U_amb(v, c) = Σ_l w_l · U(l, v, c) with cosine weights w_l = cos θ_l / Σ cos θ_l', i.e.
+// the cosine-weighted mean reflectance under a uniform white environment.
+#pragma once
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "btflod/angular/angular_sample.hpp"
+#include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/core/file_io.hpp"
+#include "btflod/factor/factor_file.hpp"
+#include "btflod/factor/truncated_svd.hpp"
+
+namespace btflod {
+
+/// Options of factorize_fmf().
+struct FmfOptions {
+  int components = 16;  ///< rank C
+  SvdOptions svd{};
+};
+
+/// A BTF as rank-C factors U (angular) and V·Σ (spatial), paper 000 eq. 4–5.
+struct Fmf {
+  BtfShape shape;
+  int components = 0;
+  /// U, row-major (m × C): row (v·n_light + l)·3 + c.
+  std::vector<float> u;
+  /// V·Σ, row-major (texels × C): row y·W + x.
+  std::vector<float> v;
+  /// Ambient basis (paper 000 §7), row-major (n_view·3 × C): row v·3 + c.
+  std::vector<float> u_ambient;
+  /// Singular values of the kept components (diagnostic; not needed for evaluation).
+  std::vector<float> singular_values;
+
+  /// ρ' at texel (x, y), measured view index `view` and light index `light`, RGB.
+  /// Precondition: indices in range (asserted in debug). Thread-safe, allocation-free.
+  glm::vec3 evaluate_measured(int x, int y, uint32_t view, uint32_t light) const noexcept {
+    assert(x >= 0 && x < shape.width && y >= 0 && y < shape.height && view < shape.view_count() &&
+           light < shape.light_count());
+    const size_t cc = static_cast<size_t>(components);
+    const float* vt = v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
+    const float* ur = u.data() + (static_cast<size_t>(view) * shape.light_count() + light) * 3 * cc;
+    glm::vec3 out(0.0f);
+    for (size_t k = 0; k < cc; ++k) {
+      out.r += ur[k] * vt[k];
+      out.g += ur[cc + k] * vt[k];
+      out.b += ur[2 * cc + k] * vt[k];
+    }
+    return out;
+  }
+  /// ρ' at texel (x, y) for interpolated light and view directions: the 3 × 3 taps of the two
+  /// AngularSamples with multiplied weights. Thread-safe, allocation-free.
+  glm::vec3 evaluate(int x, int y, const AngularSample& light, const AngularSample& view) const noexcept {
+    return combine_angular_taps(light, view,
+                                [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
+  }
+  /// The view-dependent ambient term at texel (x, y) (paper 000 §7). Thread-safe.
+  glm::vec3 evaluate_ambient(int x, int y, const AngularSample& view) const noexcept {
+    const size_t cc = static_cast<size_t>(components);
+    const float* vt = v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
+    glm::vec3 out(0.0f);
+    for (int i = 0; i < 3; ++i) {
+      const float w = view.weight[static_cast<size_t>(i)];
+      if (w == 0.0f) continue;
+      const float* ur = u_ambient.data() + static_cast<size_t>(view.index[static_cast<size_t>(i)]) * 3 * cc;
+      for (size_t k = 0; k < cc; ++k) {
+        out.r += w * ur[k] * vt[k];
+        out.g += w * ur[cc + k] * vt[k];
+        out.b += w * ur[2 * cc + k] * vt[k];
+      }
+    }
+    return out;
+  }
+
+  /// Bytes of the factors as float32 (U, V·Σ and the ambient table).
+  size_t size_bytes() const noexcept { return (u.size() + v.size() + u_ambient.size()) * sizeof(float); }
+  /// Float32 source BTF bytes / size_bytes().
+  double compression_ratio() const noexcept {
+    return size_bytes() ? static_cast<double>(shape.float_bytes()) / static_cast<double>(size_bytes()) : 0.0;
+  }
+
+  /// The full reconstruction U·(VΣ)ᵀ as a BTF (allocates the BTF).
+  BtfFloat reconstruct() const {
+    BtfFloat out(shape.width, shape.height, shape.views, shape.lights);
+    const Eigen::Index m = static_cast<Eigen::Index>(shape.view_count() * shape.light_count() * 3);
+    const Eigen::Index n = static_cast<Eigen::Index>(shape.texel_count());
+    using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    Eigen::Map<const RowMat> um(u.data(), m, components);
+    Eigen::Map<const RowMat> vm(v.data(), n, components);
+    const size_t nvl = shape.view_count() * shape.light_count();
+    // Image i occupies rows 3i..3i+2; its memory is a 3 × n column-major block.
+    for (size_t i = 0; i < nvl; ++i) {
+      Eigen::Map<Eigen::MatrixXf> img(out.samples().data() + i * static_cast<size_t>(n) * 3, 3, n);
+      img.noalias() = um.middleRows(static_cast<Eigen::Index>(3 * i), 3) * vm.transpose();
+    }
+    return out;
+  }
+
+  /// Serialises to the factor file format (factor_file.hpp; sections SHAP, META, FMFU, FMFV,
+  /// FMFA, FMFS). Allocates.
+  std::vector<uint8_t> serialize() const {
+    FactorFileWriter w(FactorKind::fmf);
+    w.add_shape(shape);
+    ByteWriter meta;
+    meta.u32(static_cast<uint32_t>(components));
+    w.add(factor_tag("META"), meta.take());
+    w.add_array<float>(factor_tag("FMFU"), u);
+    w.add_array<float>(factor_tag("FMFV"), v);
+    w.add_array<float>(factor_tag("FMFA"), u_ambient);
+    w.add_array<float>(factor_tag("FMFS"), singular_values);
+    return w.finish();
+  }
+  /// Parses a serialised FMF. Safe for untrusted input: every size is checked against the
+  /// shape; returns an error naming the bad section.
+  static Result<Fmf> deserialize(std::span<const uint8_t> bytes) {
+    auto file = FactorFile::parse(bytes);
+    if (!file) return file.error();
+    if (file->kind != FactorKind::fmf) return make_error(Status::bad_data, "factor file: kind %u is not FMF (1)", static_cast<unsigned>(file->kind));
+    auto shape = file->shape();
+    if (!shape) return shape.error();
+    auto meta = file->section(factor_tag("META"));
+    if (!meta) return meta.error();
+    ByteReader r(*meta);
+    const uint32_t comps = r.u32();
+    if (!r.ok() || r.remaining() != 0) return make_error(Status::bad_data, "FMF: META has %zu bytes, expected 4", meta->size());
+    const size_t m = shape->view_count() * shape->light_count() * 3;
+    const size_t n = shape->texel_count();
+    if (comps == 0 || comps > std::min(m, n))
+      return make_error(Status::bad_data, "FMF: %u components for a %zu x %zu matrix", comps, m, n);
+    const size_t remaining = bytes.size();
+    if (static_cast<uint64_t>(m + n + shape->view_count() * 3) * comps * 4 > remaining)
+      return make_error(Status::short_output, "FMF: %u components need more than the %zu bytes of the file", comps, remaining);
+    Fmf f;
+    f.shape = std::move(*shape);
+    f.components = static_cast<int>(comps);
+    if (auto s = file->read_array<float>(factor_tag("FMFU"), m * comps, f.u); !s) return s.error();
+    if (auto s = file->read_array<float>(factor_tag("FMFV"), n * comps, f.v); !s) return s.error();
+    if (auto s = file->read_array<float>(factor_tag("FMFA"), f.shape.view_count() * 3 * comps, f.u_ambient); !s)
+      return s.error();
+    if (auto s = file->read_array<float>(factor_tag("FMFS"), comps, f.singular_values); !s) return s.error();
+    return f;
+  }
+};
+
+/// Copies columns (texels) [t0, t0 + count) of the FMF matrix of `btf` into `out` (m × count,
+/// already sized): out(r, j) with r = (v·n_light + l)·3 + c. Thread-safe for disjoint outputs.
+inline void gather_fmf_columns(const BtfFloat& btf, size_t t0, size_t count, Eigen::MatrixXf& out) {
+  const size_t nvl = btf.view_count() * btf.light_count();
+  const size_t n = btf.texel_count();
+  const float* base = btf.samples().data();
+  for (size_t i = 0; i < nvl; ++i) {
+    // The texel range of image i is a contiguous 3 × count column-major block.
+    Eigen::Map<const Eigen::MatrixXf> src(base + (i * n + t0) * 3, 3, static_cast<Eigen::Index>(count));
+    out.middleRows(static_cast<Eigen::Index>(3 * i), 3) = src;
+  }
+}
+
+/// Cosine weights of the ambient term: w_l = max(cos θ_l, 0) / Σ (uniform if all are 0).
+inline std::vector<float> ambient_light_weights(const DirectionSet& lights) {
+  std::vector<float> w(lights.size());
+  double sum = 0.0;
+  for (size_t l = 0; l < lights.size(); ++l) {
+    w[l] = std::max(0.0f, lights[l].vector.z);
+    sum += w[l];
+  }
+  for (auto& x : w) x = sum > 0.0 ? static_cast<float>(x / sum) : 1.0f / static_cast<float>(w.size());
+  return w;
+}
+
+/// Factorises `btf` by truncated SVD (paper 000 §4): exact BDCSVD or the blocked randomised
+/// SVD per options.svd. Returns the factors, or an error for an empty BTF / bad rank, or
+/// Status::cancelled. Uses options.svd.pool for threads. Memory: randomised path ≈ input +
+/// O((m + n)·C); exact path materialises a copy of the matrix.
+inline Result<Fmf> factorize_fmf(const BtfFloat& btf, const FmfOptions& options = {},
+                                 const ProgressCallback& progress = {}) {
+  if (btf.empty()) return make_error(Status::invalid_argument, "factorize_fmf: empty BTF");
+  const size_t m = btf.view_count() * btf.light_count() * 3;
+  const size_t n = btf.texel_count();
+  auto svd = truncated_svd(
+      m, n, options.components,
+      [&btf](size_t t0, size_t count, Eigen::MatrixXf& out) { gather_fmf_columns(btf, t0, count, out); }, options.svd,
+      progress);
+  if (!svd) return svd.error();
+  Fmf f;
+  f.shape = BtfShape{btf.width(), btf.height(), btf.views(), btf.lights()};
+  const Eigen::Index c = svd->s.size();
+  f.components = static_cast<int>(c);
+  using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  f.u.resize(m * static_cast<size_t>(c));
+  f.v.resize(n * static_cast<size_t>(c));
+  Eigen::Map<RowMat>(f.u.data(), static_cast<Eigen::Index>(m), c) = svd->u;
+  Eigen::Map<RowMat>(f.v.data(), static_cast<Eigen::Index>(n), c) = svd->v * svd->s.asDiagonal();  // V := VΣ
+  f.singular_values.assign(svd->s.data(), svd->s.data() + c);
+  // Ambient basis (paper 000 §7).
+  const auto w = ambient_light_weights(btf.lights());
+  const size_t nl = btf.light_count(), cc = static_cast<size_t>(c);
+  f.u_ambient.assign(btf.view_count() * 3 * cc, 0.0f);
+  for (size_t vi = 0; vi < btf.view_count(); ++vi)
+    for (size_t l = 0; l < nl; ++l)
+      for (size_t ch = 0; ch < 3; ++ch)
+        for (size_t k = 0; k < cc; ++k)
+          f.u_ambient[(vi * 3 + ch) * cc + k] += w[l] * f.u[((vi * nl + l) * 3 + ch) * cc + k];
+  return f;
+}
+
+}  // namespace btflod

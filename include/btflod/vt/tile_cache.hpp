@@ -1,0 +1,393 @@
+// btflod — the physical tile cache and the page tables (paper 000 §3, §5.1).
+//
+// The cache is a grid of S slots of (T + 2B)² texels (default: a 4032×4032 RGBA16F texture =
+// 56×56 slots of 72×72). It knows nothing about the GPU: it does the bookkeeping (which tile
+// lives in which slot, a free list) and keeps one page table per virtual texture with one entry
+// per finest-level tile naming the level and slot of the best (deepest) resident tile covering
+// it — the lookup table L of eq. 3. Every change to a page table is also reported as a small
+// delta (a rectangle of entries set to one value) for the backend to upload.
+//
+// Invariants (check_invariants() verifies them; tests call it after every operation):
+//  * the root tile of every virtual texture is resident and pinned, hence every texel of every
+//    virtual texture is covered by some resident tile;
+//  * every page-table entry names the deepest resident tile that covers its finest tile;
+//  * slots are either free (exactly once in the free list), reserved, or hold exactly one tile.
+// All operations after create() are noexcept, allocation-free and deterministic (the free list
+// hands out the lowest free slot first). Not thread-safe: one owner thread.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "btflod/core/result.hpp"
+#include "btflod/vt/tile_id.hpp"
+#include "btflod/vt/vt_layout.hpp"
+
+namespace btflod {
+
+inline constexpr uint32_t kNoSlot = 0xffffffffu;
+
+/// Page-table entry: (level << 24) | slot. Level is paper 000's (0 = coarsest).
+constexpr uint32_t make_page_entry(uint32_t level, uint32_t slot) noexcept { return (level << 24) | (slot & 0xffffffu); }
+constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> 24; }
+constexpr uint32_t page_entry_slot(uint32_t entry) noexcept { return entry & 0xffffffu; }
+
+/// One page-table change: entries [x, x + width) × [y, y + height) (finest-level tile
+/// coordinates) of virtual texture `texture` now hold `entry`.
+struct PageTableDelta {
+  uint32_t texture = 0;
+  uint32_t x = 0;
+  uint32_t y = 0;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  uint32_t entry = 0;
+};
+
+struct TileCacheConfig {
+  uint32_t slots_x = 56;  ///< slots per row of the cache texture (4032 / 72)
+  uint32_t slots_y = 56;
+  /// Deltas kept between clear_deltas() calls; beyond it deltas_overflowed() turns true and the
+  /// backend must upload whole page tables.
+  uint32_t delta_capacity = 1u << 16;
+};
+
+/// What one slot holds.
+struct SlotInfo {
+  TileId tile;               ///< tile.texture is the virtual texture
+  uint32_t flat_index = 0;   ///< tile index within its virtual texture (VtLevelTable order)
+  uint64_t added_frame = 0;  ///< frame of insertion (for hysteresis)
+  enum class State : uint8_t { free, reserved, used } state = State::free;
+};
+
+class TileCache {
+ public:
+  /// Builds the bookkeeping for every virtual texture of `set` and makes every root tile
+  /// resident (pinned) in slots 0 … (textures − 1). Returns insufficient_space when the cache
+  /// has fewer slots than virtual textures, invalid_argument for an empty set or > 2^24 slots.
+  /// Allocates; keeps a pointer to `set`, which must outlive the cache.
+  static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {}) {
+    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y;
+    if (set.texture_count() == 0 || slots == 0 || slots >= (1u << 24))
+      return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
+                        set.texture_count(), static_cast<unsigned long long>(slots));
+    if (slots < set.texture_count())
+      return make_error(Status::insufficient_space,
+                        "tile cache: %llu slots cannot pin the root tiles of %u virtual textures",
+                        static_cast<unsigned long long>(slots), set.texture_count());
+    TileCache c;
+    c.set_ = &set;
+    c.config_ = config;
+    c.slots_.assign(slots, SlotInfo{});
+    c.visible_.assign(slots, 0);
+    c.free_.reserve(slots);
+    for (uint64_t s = slots; s-- > 0;) c.free_.push_back(static_cast<uint32_t>(s));  // lowest slot on top
+    c.textures_.resize(set.texture_count());
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const VtLevelTable& lv = set.levels_of(t);
+      Texture& tx = c.textures_[t];
+      tx.slot_of.assign(lv.tile_count(), kNoSlot);
+      tx.resident_below.assign(lv.tile_count(), 0);
+      const uint32_t L = lv.finest_level();
+      tx.page_table.assign(static_cast<size_t>(lv.tiles_x[L]) * lv.tiles_y[L], make_page_entry(0, kNoSlot & 0xffffffu));
+    }
+    c.deltas_.reserve(config.delta_capacity);
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const uint32_t slot = c.reserve_slot();
+      const uint32_t L = set.levels_of(t).finest_level();
+      // The root covers everything: set the whole table directly, then count visibility.
+      Texture& tx = c.textures_[t];
+      tx.slot_of[0] = slot;
+      c.slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
+      ++c.used_;
+      std::fill(tx.page_table.begin(), tx.page_table.end(), make_page_entry(0, slot));
+      c.visible_[slot] = static_cast<uint32_t>(tx.page_table.size());
+      c.push_delta(PageTableDelta{t, 0, 0, set.levels_of(t).tiles_x[L], set.levels_of(t).tiles_y[L],
+                                  make_page_entry(0, slot)});
+    }
+    return c;
+  }
+
+  uint32_t slot_count() const noexcept { return static_cast<uint32_t>(slots_.size()); }
+  uint32_t free_count() const noexcept { return static_cast<uint32_t>(free_.size()); }
+  uint32_t used_count() const noexcept { return used_; }
+  const TileCacheConfig& config() const noexcept { return config_; }
+  const VtSet& set() const noexcept { return *set_; }
+  const SlotInfo& slot(uint32_t s) const noexcept { return slots_[s]; }
+  /// Finest-level page-table entries naming slot s (0 = the tile is hidden by its descendants).
+  uint32_t visible_entries(uint32_t s) const noexcept { return visible_[s]; }
+  /// Top-left texel of slot s in the cache texture (the i' of eq. 3, without the border).
+  void slot_origin(uint32_t s, uint32_t& x, uint32_t& y) const noexcept {
+    const uint32_t stored = set_->levels_of(0).geometry.stored_size();
+    x = (s % config_.slots_x) * stored;
+    y = (s / config_.slots_x) * stored;
+  }
+
+  /// Slot holding the tile, or kNoSlot. Returns kNoSlot for ids outside the hierarchy. noexcept.
+  uint32_t slot_of(const TileId& t) const noexcept {
+    if (t.texture >= textures_.size()) return kNoSlot;
+    const VtLevelTable& lv = set_->levels_of(t.texture);
+    if (!lv.geometry.contains(t)) return kNoSlot;
+    return textures_[t.texture].slot_of[lv.index(t)];
+  }
+  /// Same by flat index. Precondition: texture and index in range.
+  uint32_t slot_at(uint32_t texture, uint32_t flat_index) const noexcept {
+    return textures_[texture].slot_of[flat_index];
+  }
+  bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
+  /// Resident strict descendants of a tile (0 = it is a leaf of the resident tree).
+  /// Precondition: texture and index in range.
+  uint32_t resident_below_at(uint32_t texture, uint32_t flat_index) const noexcept {
+    return textures_[texture].resident_below[flat_index];
+  }
+  /// Page table of a virtual texture: tiles_x(L) × tiles_y(L) entries, row-major.
+  std::span<const uint32_t> page_table(uint32_t texture) const noexcept { return textures_[texture].page_table; }
+
+  /// Takes the lowest free slot out of the free list (state reserved). Returns kNoSlot when full.
+  uint32_t reserve_slot() noexcept {
+    if (free_.empty()) return kNoSlot;
+    const uint32_t s = free_.back();
+    free_.pop_back();
+    slots_[s].state = SlotInfo::State::reserved;
+    return s;
+  }
+  /// Returns a reserved slot to the free list. invalid_argument if it is not reserved.
+  Status release_slot(uint32_t s) noexcept {
+    if (s >= slots_.size() || slots_[s].state != SlotInfo::State::reserved) return Status::invalid_argument;
+    free_slot(s);
+    return Status::success;
+  }
+
+  /// Makes tile t resident in reserved slot s and updates the page table (no removals).
+  /// invalid_argument when t is outside the hierarchy, already resident, or s not reserved.
+  Status insert(const TileId& t, uint32_t s, uint64_t frame) noexcept {
+    if (t.texture >= textures_.size() || !set_->levels_of(t.texture).geometry.contains(t) || resident(t) ||
+        s >= slots_.size() || slots_[s].state != SlotInfo::State::reserved)
+      return Status::invalid_argument;
+    const VtLevelTable& lv = set_->levels_of(t.texture);
+    const uint32_t idx = lv.index(t);
+    Texture& tx = textures_[t.texture];
+    tx.slot_of[idx] = s;
+    slots_[s] = SlotInfo{t, idx, frame, SlotInfo::State::used};
+    ++used_;
+    for (TileId a = t; a.level > 0;) {
+      a = a.parent();
+      ++tx.resident_below[lv.index(a)];
+    }
+    refresh(t, make_page_entry(t.level, s));
+    return Status::success;
+  }
+
+  /// Paper 000 §5.1 `add`: inserts t (whose parent must be resident) into reserved slot s, then
+  /// removes every ancestor that is now completely covered by resident descendants (root
+  /// excepted). Returns the number of removed ancestors through `removed` (may be null).
+  /// invalid_argument as insert(), or when the parent is not resident.
+  Status add(const TileId& t, uint32_t s, uint64_t frame, uint32_t* removed = nullptr) noexcept {
+    if (t.level == 0 || !resident(t.parent())) return Status::invalid_argument;
+    const Status st = insert(t, s, frame);
+    if (st != Status::success) return st;
+    const uint32_t n = remove_hidden_ancestors(t);
+    if (removed != nullptr) *removed = n;
+    return Status::success;
+  }
+
+  /// Removes every resident, non-root, proper ancestor of t that shows on no page-table entry
+  /// (the post-condition of `add`). Returns how many were removed. noexcept.
+  uint32_t remove_hidden_ancestors(const TileId& t) noexcept {
+    uint32_t n = 0;
+    for (TileId a = t; a.level > 1;) {
+      a = a.parent();
+      const uint32_t s = slot_of(a);
+      if (s != kNoSlot && visible_[s] == 0 && remove(a) == Status::success) ++n;
+    }
+    return n;
+  }
+
+  /// Removes a resident tile; its page-table entries fall back to the deepest resident
+  /// ancestor (so coverage holds). invalid_argument for the root (pinned) or a non-resident tile.
+  Status remove(const TileId& t) noexcept {
+    const uint32_t s = slot_of(t);
+    if (s == kNoSlot || t.level == 0) return Status::invalid_argument;
+    const VtLevelTable& lv = set_->levels_of(t.texture);
+    Texture& tx = textures_[t.texture];
+    tx.slot_of[lv.index(t)] = kNoSlot;
+    uint32_t best = kNoSlot;
+    uint32_t best_level = 0;
+    for (TileId a = t; a.level > 0;) {
+      a = a.parent();
+      const uint32_t ai = lv.index(a);
+      --tx.resident_below[ai];
+      if (best == kNoSlot && tx.slot_of[ai] != kNoSlot) {
+        best = tx.slot_of[ai];
+        best_level = a.level;
+      }
+    }
+    --used_;
+    refresh(t, make_page_entry(best_level, best));
+    free_slot(s);
+    return Status::success;
+  }
+
+  /// Paper 000 §5.1 `swap`, first half: removes resident tiles a and b (same virtual texture,
+  /// neither the root) and returns in `ancestor` their deepest common ancestor at a level below
+  /// both; the caller inserts it (insert()) once its data is there, into the slot freed here.
+  /// Coverage holds meanwhile (the removed regions show a coarser resident ancestor).
+  /// invalid_argument when a == b, textures differ, or either is not resident / is a root.
+  Status swap_remove(const TileId& a, const TileId& b, TileId& ancestor) noexcept {
+    if (a == b || a.texture != b.texture || a.level == 0 || b.level == 0 || !resident(a) || !resident(b))
+      return Status::invalid_argument;
+    ancestor = common_ancestor(a, b);
+    remove(a);
+    remove(b);
+    return Status::success;
+  }
+
+  /// Deepest tile covering both a and b at a level below min(level a, level b) (same texture).
+  static TileId common_ancestor(const TileId& a, const TileId& b) noexcept {
+    uint32_t l = std::min(a.level, b.level);
+    l = l > 0 ? l - 1 : 0;
+    while (l > 0 && a.ancestor(l) != b.ancestor(l)) --l;
+    return a.ancestor(l);
+  }
+
+  /// Page-table deltas since the last clear_deltas(), in order.
+  std::span<const PageTableDelta> deltas() const noexcept { return deltas_; }
+  /// True when more deltas happened than delta_capacity: upload whole tables instead.
+  bool deltas_overflowed() const noexcept { return deltas_overflowed_; }
+  void clear_deltas() noexcept {
+    deltas_.clear();
+    deltas_overflowed_ = false;
+  }
+
+  /// Verifies every invariant listed at the top of this file by brute force (allocates; for
+  /// tests and debugging). Returns true, or false with a description in *why.
+  bool check_invariants(std::string* why = nullptr) const {
+    const auto fail = [&](std::string msg) {
+      if (why != nullptr) *why = std::move(msg);
+      return false;
+    };
+    std::vector<uint32_t> visible(slots_.size(), 0);
+    uint32_t used = 0;
+    for (uint32_t s = 0; s < slots_.size(); ++s) {
+      if (slots_[s].state != SlotInfo::State::used) continue;
+      ++used;
+      const SlotInfo& si = slots_[s];
+      if (slot_of(si.tile) != s) return fail(format_message("slot %u: tile not mapped back", s));
+    }
+    if (used != used_) return fail(format_message("used count %u != %u", used_, used));
+    std::vector<uint8_t> in_free(slots_.size(), 0);
+    for (uint32_t s : free_) {
+      if (s >= slots_.size() || in_free[s] || slots_[s].state != SlotInfo::State::free)
+        return fail(format_message("free list entry %u bad", s));
+      in_free[s] = 1;
+    }
+    for (uint32_t s = 0; s < slots_.size(); ++s)
+      if (slots_[s].state == SlotInfo::State::free && !in_free[s]) return fail(format_message("slot %u lost", s));
+    for (uint32_t t = 0; t < textures_.size(); ++t) {
+      const VtLevelTable& lv = set_->levels_of(t);
+      const Texture& tx = textures_[t];
+      if (tx.slot_of[0] == kNoSlot) return fail(format_message("texture %u: root not resident", t));
+      const uint32_t L = lv.finest_level();
+      for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+        const TileId id = lv.tile(t, i);
+        uint32_t below = 0;
+        if (id.level < L)
+          for (uint32_t j = lv.offset[id.level + 1]; j < lv.tile_count(); ++j)
+            if (tx.slot_of[j] != kNoSlot && id.covers(lv.tile(t, j))) ++below;
+        if (below != tx.resident_below[i])
+          return fail(format_message("texture %u tile %u: resident_below %u != %u", t, i, tx.resident_below[i], below));
+      }
+      for (uint32_t y = 0; y < lv.tiles_y[L]; ++y)
+        for (uint32_t x = 0; x < lv.tiles_x[L]; ++x) {
+          TileId f{t, L, x, y};
+          uint32_t want = kNoSlot, want_level = 0;
+          for (uint32_t l = L + 1; l-- > 0;) {
+            const uint32_t s = tx.slot_of[lv.index(f.ancestor(l))];
+            if (s != kNoSlot) {
+              want = s;
+              want_level = l;
+              break;
+            }
+          }
+          if (want == kNoSlot) return fail(format_message("texture %u finest tile (%u,%u) uncovered", t, x, y));
+          const uint32_t e = tx.page_table[static_cast<size_t>(y) * lv.tiles_x[L] + x];
+          if (e != make_page_entry(want_level, want))
+            return fail(format_message("texture %u entry (%u,%u) = level %u slot %u, expected level %u slot %u", t, x, y,
+                                       page_entry_level(e), page_entry_slot(e), want_level, want));
+          ++visible[want];
+        }
+    }
+    for (uint32_t s = 0; s < slots_.size(); ++s)
+      if (visible[s] != visible_[s])
+        return fail(format_message("slot %u: visible %u != %u", s, visible_[s], visible[s]));
+    return true;
+  }
+
+ private:
+  struct Texture {
+    std::vector<uint32_t> slot_of;         // per tile (flat index)
+    std::vector<uint32_t> resident_below;  // per tile: resident strict descendants
+    std::vector<uint32_t> page_table;      // per finest tile
+  };
+
+  void free_slot(uint32_t s) noexcept {
+    slots_[s] = SlotInfo{};
+    // Keep the free list sorted descending so the lowest slot is handed out first (determinism
+    // independent of the order of removals). Insertion is O(free) but only moves integers.
+    auto it = std::lower_bound(free_.begin(), free_.end(), s, [](uint32_t a, uint32_t b) { return a > b; });
+    free_.insert(it, s);  // capacity reserved at create(): no allocation
+  }
+
+  void push_delta(const PageTableDelta& d) noexcept {
+    if (deltas_.size() < config_.delta_capacity) deltas_.push_back(d);
+    else deltas_overflowed_ = true;
+  }
+
+  // Rewrites the page-table entries under tile t: below t, `best` applies unless a deeper
+  // resident tile takes over. Descends only into subtrees that hold resident tiles.
+  void refresh(const TileId& t, uint32_t best) noexcept {
+    const VtLevelTable& lv = set_->levels_of(t.texture);
+    Texture& tx = textures_[t.texture];
+    const uint32_t idx = lv.index(t);
+    if (tx.slot_of[idx] != kNoSlot) best = make_page_entry(t.level, tx.slot_of[idx]);
+    const uint32_t L = lv.finest_level();
+    if (t.level == L || tx.resident_below[idx] == 0) {
+      const uint32_t shift = L - t.level;
+      const uint32_t x0 = t.x << shift, y0 = t.y << shift;
+      const uint32_t x1 = std::min(x0 + (1u << shift), lv.tiles_x[L]);
+      const uint32_t y1 = std::min(y0 + (1u << shift), lv.tiles_y[L]);
+      bool changed = false;
+      for (uint32_t y = y0; y < y1; ++y) {
+        uint32_t* row = tx.page_table.data() + static_cast<size_t>(y) * lv.tiles_x[L];
+        for (uint32_t x = x0; x < x1; ++x) {
+          if (row[x] == best) continue;
+          const uint32_t old_slot = page_entry_slot(row[x]);
+          if (old_slot < visible_.size()) --visible_[old_slot];
+          ++visible_[page_entry_slot(best)];
+          row[x] = best;
+          changed = true;
+        }
+      }
+      if (changed) push_delta(PageTableDelta{t.texture, x0, y0, x1 - x0, y1 - y0, best});
+      return;
+    }
+    for (uint32_t i = 0; i < 4; ++i) {
+      const TileId c = t.child(i);
+      if (c.x < lv.tiles_x[c.level] && c.y < lv.tiles_y[c.level]) refresh(c, best);
+    }
+  }
+
+  const VtSet* set_ = nullptr;
+  TileCacheConfig config_;
+  std::vector<SlotInfo> slots_;
+  std::vector<uint32_t> visible_;
+  std::vector<uint32_t> free_;  // sorted descending; back() is the lowest free slot
+  std::vector<Texture> textures_;
+  std::vector<PageTableDelta> deltas_;
+  bool deltas_overflowed_ = false;
+  uint32_t used_ = 0;
+};
+
+}  // namespace btflod

@@ -1,0 +1,265 @@
+// btflod — the abstract rendering backend: what a GPU API (or the CPU reference) must offer so
+// that btflod can stream and shade BTFs with the generated shaders (shader/glsl_generator.hpp).
+//
+// No GL or Vulkan header here. samples/gl (OpenGL 4.5 + EGL) and samples/vulkan (Vulkan 1.1+,
+// headless) implement it; a CPU reference backend can implement it with the same arithmetic.
+// The data formats are those of shader/shader_config.hpp: page-table entries
+// (pack_page_entry), slot placement (slot_placement), the feedback word (FeedbackWordLayout),
+// the uniform block (ShaderParams). docs/shaders.md walks through a frame.
+//
+// Threading: a backend object is used from one thread (the one that created it). Calls that run
+// per frame (upload_tiles, apply_page_table_deltas, begin_frame, draw, draw_feedback, end_frame,
+// poll_feedback) do not allocate after set-up, never block on the GPU and return a Status.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "btflod/core/image.hpp"
+#include "btflod/core/result.hpp"
+#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/shader/shader_config.hpp"
+#include "btflod/vt/tile_id.hpp"
+
+namespace btflod {
+
+/// One vertex of a mesh: position and local frame in object space, texture coordinate.
+/// tangent.w = ±1 is the handedness of the bitangent (b = cross(n, t) · w).
+struct MeshVertex {
+  float position[3];
+  float normal[3];
+  float tangent[4];
+  float uv[2];
+};
+static_assert(sizeof(MeshVertex) == 48);
+
+/// Triangle list. Precondition: every index < vertices.size().
+struct MeshData {
+  std::span<const MeshVertex> vertices;
+  std::span<const uint32_t> indices;
+};
+
+/// Angular lookup tables (paper 000 §4): for light (layer 0) and view (layer 1), res × res
+/// texels, row-major (row = unit-square y), 3 direction indices and 3 barycentric weights per
+/// texel. Built by angular/ (e.g. a rasterised Delaunay triangulation); the shader reads the
+/// texel shader_table_texel(shader_direction_to_unit_square(d), res).
+struct AngularTablesData {
+  uint32_t resolution = 0;
+  std::span<const uint32_t> light_index;  ///< res² · 3
+  std::span<const float> light_weight;    ///< res² · 3
+  std::span<const uint32_t> view_index;   ///< res² · 3
+  std::span<const float> view_weight;     ///< res² · 3
+};
+
+/// An FMF material (paper 000 eq. 5): U' with E's EigenTextures layout
+/// (vt/vt_layout.hpp: u[((light · view_count + view) · 3 + colour) · C + c]) and optionally the
+/// eigen-textures V' (M × N texels, C channels, Σ folded in) for the fmf program. A material used
+/// only with the bsvtf program leaves eigen_textures empty: its V' comes from the tile cache.
+struct FmfMaterialData {
+  uint32_t components = 0;  ///< C; must equal ShaderConfig::components
+  uint32_t light_count = 0;
+  uint32_t view_count = 0;
+  std::span<const float> eigen_abrdfs;    ///< light_count · view_count · 3 · C floats
+  ImageView<const float> eigen_textures;  ///< M × N × C, or empty
+  bool mipmaps = true;                    ///< build a mip chain for V' (hardware trilinear)
+  AngularTablesData angular;
+};
+
+/// One tile to copy into a cache slot: (T + 2B)² RGBA half texels (4 components), row-major,
+/// border included — the layout of vt/tile_pyramid.hpp's tiles.
+struct TileUpload {
+  uint32_t slot = 0;                ///< < VirtualTextureConfig::slot_count()
+  std::span<const uint16_t> texels; ///< (T + 2B)² · 4 half bits
+};
+
+/// One page-table texel to overwrite. `tile` names the texel: layer tile.texture (virtual
+/// texture), tile (x, y) at paper level tile.level; page_mip = material finest level − tile.level
+/// is the mip it lives in (ShaderParams::vt_extent.z − level). entry = pack_page_entry(slot,
+/// resident level) of the tile the cache uses for it (itself or its nearest resident ancestor).
+struct PageTableDelta {
+  TileId tile;
+  uint32_t page_mip = 0;
+  uint32_t entry = 0;
+};
+
+/// Builds the delta for tile `t` of a material whose finest level is `material_finest_level`.
+/// Precondition: t.level ≤ material_finest_level.
+constexpr PageTableDelta make_page_table_delta(TileId t, uint32_t material_finest_level, uint32_t slot,
+                                               uint32_t resident_level) noexcept {
+  return PageTableDelta{t, material_finest_level - t.level, pack_page_entry(slot, resident_level)};
+}
+
+/// Checks a material against the shader config before upload: C matches, spans have the sizes
+/// the counts imply, table indices name existing directions and weights are finite. Returns
+/// invalid_argument naming the field (expected vs found). Safe for untrusted data.
+inline VoidResult validate_material(const FmfMaterialData& m, const ShaderConfig& config) {
+  if (m.components != config.components)
+    return make_error(Status::invalid_argument, "material: C = %u, shaders were generated for C = %u", m.components,
+                      config.components);
+  if (m.light_count == 0 || m.view_count == 0 || m.light_count > 65536 || m.view_count > 65536)
+    return make_error(Status::invalid_argument, "material: %u lights × %u views, expected 1..65536 each", m.light_count,
+                      m.view_count);
+  const size_t u = static_cast<size_t>(m.light_count) * m.view_count * 3 * m.components;
+  if (m.eigen_abrdfs.size() != u)
+    return make_error(Status::invalid_argument, "material: U' has %zu floats, expected %zu", m.eigen_abrdfs.size(), u);
+  if (!m.eigen_textures.empty() && m.eigen_textures.channels() != static_cast<int>(m.components))
+    return make_error(Status::invalid_argument, "material: eigen-textures have %d channels, expected %u",
+                      m.eigen_textures.channels(), m.components);
+  const AngularTablesData& a = m.angular;
+  if (a.resolution != config.angular.resolution)
+    return make_error(Status::invalid_argument, "material: angular tables %u², shaders expect %u²", a.resolution,
+                      config.angular.resolution);
+  const size_t n = static_cast<size_t>(a.resolution) * a.resolution * 3;
+  if (a.light_index.size() != n || a.light_weight.size() != n || a.view_index.size() != n || a.view_weight.size() != n)
+    return make_error(Status::invalid_argument, "material: angular table spans %zu/%zu/%zu/%zu, expected %zu each",
+                      a.light_index.size(), a.light_weight.size(), a.view_index.size(), a.view_weight.size(), n);
+  for (size_t i = 0; i < n; ++i) {
+    if (a.light_index[i] >= m.light_count || a.view_index[i] >= m.view_count)
+      return make_error(Status::invalid_argument, "material: angular index %zu names direction %u/%u, have %u/%u", i,
+                        a.light_index[i], a.view_index[i], m.light_count, m.view_count);
+    if (!std::isfinite(a.light_weight[i]) || !std::isfinite(a.view_weight[i]))
+      return make_error(Status::invalid_argument, "material: angular weight %zu is not finite", i);
+  }
+  return {};
+}
+
+/// U' as the eigen_abrdfs texture wants it: RGBA32F 2D array, texel (light, view), layer c,
+/// rgb = colour, a = 0. Returns light·view·C·4 floats. Precondition: validate_material passed.
+inline std::vector<float> pack_eigen_abrdfs_rgba(const FmfMaterialData& m) {
+  const size_t C = m.components;
+  std::vector<float> out(static_cast<size_t>(m.light_count) * m.view_count * C * 4, 0.0f);
+  for (uint32_t l = 0; l < m.light_count; ++l)
+    for (uint32_t v = 0; v < m.view_count; ++v)
+      for (size_t c = 0; c < C; ++c)
+        for (size_t k = 0; k < 3; ++k)
+          out[((c * m.view_count + v) * m.light_count + l) * 4 + k] =
+              m.eigen_abrdfs[((static_cast<size_t>(l) * m.view_count + v) * 3 + k) * C + c];
+  return out;
+}
+
+/// The angular tables as two 2-layer textures (layer 0 light, 1 view): indices RGBA32UI and
+/// weights RGBA32F, res² texels per layer, .w = 0. Precondition: validate_material passed.
+inline void pack_angular_tables_rgba(const AngularTablesData& a, std::vector<uint32_t>& index,
+                                     std::vector<float>& weight) {
+  const size_t n = static_cast<size_t>(a.resolution) * a.resolution;
+  index.assign(n * 2 * 4, 0u);
+  weight.assign(n * 2 * 4, 0.0f);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t k = 0; k < 3; ++k) {
+      index[i * 4 + k] = a.light_index[i * 3 + k];
+      weight[i * 4 + k] = a.light_weight[i * 3 + k];
+      index[(n + i) * 4 + k] = a.view_index[i * 3 + k];
+      weight[(n + i) * 4 + k] = a.view_weight[i * 3 + k];
+    }
+}
+
+/// Eigen-textures V' as the eigen_textures texture wants them: RGBA32F 2D array of ⌈C/4⌉
+/// layers (components 4g … 4g+3, zero past C), M × N texels per layer, row 0 = first image row.
+inline std::vector<float> pack_eigen_textures_rgba(ImageView<const float> v) {
+  const int groups = (v.channels() + 3) / 4;
+  const size_t plane = static_cast<size_t>(v.width()) * static_cast<size_t>(v.height()) * 4;
+  std::vector<float> out(plane * static_cast<size_t>(groups), 0.0f);
+  for (int g = 0; g < groups; ++g)
+    for (int y = 0; y < v.height(); ++y)
+      for (int x = 0; x < v.width(); ++x)
+        for (int k = 0; k < 4 && 4 * g + k < v.channels(); ++k)
+          out[plane * static_cast<size_t>(g) + (static_cast<size_t>(y) * v.width() + x) * 4 + k] = v.at(x, y, 4 * g + k);
+  return out;
+}
+
+/// Checks page-table deltas against the page-table shape (layers, finest level); shared by
+/// the backends so they reject the same inputs. Returns invalid_argument or success. noexcept.
+inline Status check_page_table_deltas(std::span<const PageTableDelta> deltas, uint32_t layers,
+                                      uint32_t finest_level) noexcept {
+  for (const PageTableDelta& d : deltas) {
+    if (d.tile.texture >= layers || d.page_mip > finest_level) return Status::invalid_argument;
+    const uint32_t side = 1u << (finest_level - d.page_mip);
+    if (d.tile.x >= side || d.tile.y >= side) return Status::invalid_argument;
+  }
+  return Status::success;
+}
+
+/// Opaque handles (index + 1; 0 = none).
+struct MeshHandle {
+  uint32_t id = 0;
+};
+struct MaterialHandle {
+  uint32_t id = 0;
+};
+
+/// Size of the frame targets. The colour target is RGBA32F (linear radiance); the feedback
+/// target is R32UI, usually 1/8–1/32 of the screen (ShaderParams::lod.y = log2 of the factor).
+struct FrameDesc {
+  uint32_t width = 256;
+  uint32_t height = 256;
+  uint32_t feedback_width = 32;
+  uint32_t feedback_height = 32;
+  float clear_color[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+};
+
+/// A finished feedback readback. `words` stays valid until the next poll_feedback() or
+/// end_frame(); width·height words, row 0 = top row of the image.
+struct FeedbackFrame {
+  uint64_t frame = 0;  ///< the end_frame() counter value of the frame it was rendered in
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::span<const uint32_t> words;
+};
+
+/// The rendering backend. See the file comment for threading and allocation rules.
+class Backend {
+ public:
+  virtual ~Backend() = default;
+
+  /// Human-readable name including the driver, e.g. "OpenGL 4.5 (llvmpipe)". Never null.
+  virtual const char* name() const noexcept = 0;
+
+  // --- set-up (may allocate; returns a readable error) ------------------------------------
+  /// Generates and compiles the fmf, bsvtf and feedback programs for `config` and creates the
+  /// tile cache (RGBA16F, config.vt.slot_count() slots) and the page table (R32UI array of
+  /// `virtual_texture_count` layers, config.vt.finest_level + 1 mips, entries 0 = slot 0 at
+  /// level 0). Call once, before anything else.
+  virtual VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) = 0;
+  /// Uploads a mesh. Returns its handle.
+  virtual Result<MeshHandle> create_mesh(const MeshData& mesh) = 0;
+  /// Uploads an FMF material (U', angular tables, optional V'). Returns its handle.
+  virtual Result<MaterialHandle> create_material(const FmfMaterialData& material) = 0;
+
+  // --- streaming (per frame; no allocation, no GPU wait) ----------------------------------
+  /// Copies tiles into cache slots. Returns invalid_argument (and uploads nothing) when a slot
+  /// is out of range or a span has the wrong size.
+  virtual Status upload_tiles(std::span<const TileUpload> tiles) noexcept = 0;
+  /// Overwrites page-table texels. Returns invalid_argument (and applies nothing) when a delta
+  /// names a layer, mip or texel outside the page table.
+  virtual Status apply_page_table_deltas(std::span<const PageTableDelta> deltas) noexcept = 0;
+
+  // --- frame (per frame) -------------------------------------------------------------------
+  /// Starts a frame: clears the colour target and the feedback target (to the config's
+  /// FeedbackWordLayout::empty_word). Targets are (re)created when the size changes.
+  virtual Status begin_frame(const FrameDesc& frame) noexcept = 0;
+  /// Draws a mesh with `program` (fmf or bsvtf) and the given shader parameters.
+  virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
+                      const ShaderParams& params) noexcept = 0;
+  /// Draws a mesh into the feedback target (paper 000 eq. 1–2).
+  virtual Status draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept = 0;
+  /// Submits the frame and starts the asynchronous feedback readback into a ring of
+  /// feedback_ring_size() buffers. When every ring buffer is still in flight the oldest
+  /// readback is dropped (counted in dropped_feedback()); the call never waits.
+  virtual Status end_frame() noexcept = 0;
+  /// Non-blocking: returns true and fills `out` with the oldest finished readback, false when
+  /// none has finished yet.
+  virtual bool poll_feedback(FeedbackFrame& out) noexcept = 0;
+  virtual uint32_t feedback_ring_size() const noexcept = 0;
+  virtual uint64_t dropped_feedback() const noexcept = 0;
+
+  // --- tests and image output (blocking) ---------------------------------------------------
+  /// Waits for the last frame and copies the colour target into `out` (width × height × 4
+  /// floats, row 0 = top). Returns invalid_argument when the view has the wrong shape.
+  virtual Status read_color(ImageView<float> out) noexcept = 0;
+  /// Waits until every submitted frame, including its feedback readback, has finished.
+  virtual Status wait_idle() noexcept = 0;
+};
+
+}  // namespace btflod

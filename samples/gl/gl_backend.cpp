@@ -1,0 +1,564 @@
+// btflod sample — headless OpenGL 4.5 core backend (EGL surfaceless / device platform).
+// See gl_backend.hpp. GL 4.5 direct state access throughout; one uniform buffer updated per
+// draw; feedback read back through a ring of pixel-pack buffers guarded by fences.
+#include "gl_backend.hpp"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <glad/gl.h>
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "btflod/core/half.hpp"
+
+namespace btflod::samples {
+namespace {
+
+struct GlMesh {
+  GLuint vao = 0, vbo = 0, ibo = 0;
+  GLsizei index_count = 0;
+};
+
+struct GlMaterial {
+  GLuint eigen_abrdfs = 0, angular_index = 0, angular_weight = 0, eigen_textures = 0;
+};
+
+struct FeedbackSlot {
+  GLuint pbo = 0;
+  GLsync fence = nullptr;
+  uint64_t frame = 0;
+  uint32_t width = 0, height = 0;
+  bool pending = false;  ///< holds a readback not yet returned by poll_feedback
+};
+
+std::string shader_log(GLuint obj, bool program) {
+  GLint len = 0;
+  if (program)
+    glGetProgramiv(obj, GL_INFO_LOG_LENGTH, &len);
+  else
+    glGetShaderiv(obj, GL_INFO_LOG_LENGTH, &len);
+  std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
+  if (program)
+    glGetProgramInfoLog(obj, len, nullptr, log.data());
+  else
+    glGetShaderInfoLog(obj, len, nullptr, log.data());
+  return log;
+}
+
+Result<GLuint> compile_program(const GlslProgramSource& src, const char* what) {
+  GLuint stages[2] = {glCreateShader(GL_VERTEX_SHADER), glCreateShader(GL_FRAGMENT_SHADER)};
+  const char* texts[2] = {src.vertex.c_str(), src.fragment.c_str()};
+  for (int i = 0; i < 2; ++i) {
+    glShaderSource(stages[i], 1, &texts[i], nullptr);
+    glCompileShader(stages[i]);
+    GLint ok = 0;
+    glGetShaderiv(stages[i], GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      std::string log = shader_log(stages[i], false);
+      glDeleteShader(stages[0]);
+      glDeleteShader(stages[1]);
+      return make_error(Status::unsupported, "GL: %s %s shader does not compile: %s", what, i ? "fragment" : "vertex",
+                        log.c_str());
+    }
+  }
+  GLuint prog = glCreateProgram();
+  glAttachShader(prog, stages[0]);
+  glAttachShader(prog, stages[1]);
+  glLinkProgram(prog);
+  glDeleteShader(stages[0]);
+  glDeleteShader(stages[1]);
+  GLint ok = 0;
+  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    std::string log = shader_log(prog, true);
+    glDeleteProgram(prog);
+    return make_error(Status::unsupported, "GL: %s program does not link: %s", what, log.c_str());
+  }
+  return prog;
+}
+
+class GlBackend final : public Backend {
+ public:
+  static int& live_backends() {
+    static int n = 0;
+    return n;
+  }
+
+  GlBackend(EGLDisplay display, EGLContext context, const GlBackendOptions& options)
+      : display_(display), context_(context), ring_(std::max<uint32_t>(options.feedback_ring_size, 1)) {
+    ++live_backends();
+    name_ = std::string("OpenGL ") + reinterpret_cast<const char*>(glGetString(GL_VERSION)) + " (" +
+            reinterpret_cast<const char*>(glGetString(GL_RENDERER)) + ")";
+  }
+
+  ~GlBackend() override {
+    eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_);
+    for (GLuint p : {fmf_, bsvtf_, feedback_}) glDeleteProgram(p);
+    for (GlMesh& m : meshes_) {
+      glDeleteVertexArrays(1, &m.vao);
+      glDeleteBuffers(1, &m.vbo);
+      glDeleteBuffers(1, &m.ibo);
+    }
+    for (GlMaterial& m : materials_) {
+      GLuint t[4] = {m.eigen_abrdfs, m.angular_index, m.angular_weight, m.eigen_textures};
+      glDeleteTextures(4, t);
+    }
+    for (FeedbackSlot& s : ring_) {
+      if (s.fence) glDeleteSync(s.fence);
+      glDeleteBuffers(1, &s.pbo);
+    }
+    destroy_targets();
+    GLuint t[2] = {cache_, page_table_};
+    glDeleteTextures(2, t);
+    glDeleteBuffers(1, &ubo_);
+    eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(display_, context_);
+    // EGL displays are per-process singletons: terminate only when the last backend goes.
+    if (--live_backends() == 0) eglTerminate(display_);
+  }
+
+  const char* name() const noexcept override { return name_.c_str(); }
+
+  VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) override {
+    if (VoidResult v = validate_shader_config(config); !v) return v;
+    if (virtual_texture_count == 0 || virtual_texture_count > 2048)
+      return make_error(Status::invalid_argument, "GL: %u virtual textures, expected 1..2048", virtual_texture_count);
+    config_ = config;
+    vt_layers_ = virtual_texture_count;
+    const ShaderProgram programs[3] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback};
+    GLuint* out[3] = {&fmf_, &bsvtf_, &feedback_};
+    for (int i = 0; i < 3; ++i) {
+      Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::gl450_core, config);
+      if (!src) return src.error();
+      Result<GLuint> prog = compile_program(*src, shader_program_name(programs[i]));
+      if (!prog) return prog.error();
+      *out[i] = *prog;
+    }
+    const VirtualTextureConfig& vt = config.vt;
+    GLint max_size = 0, max_layers = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+    if (vt.cache_width() > static_cast<uint32_t>(max_size) || vt.cache_height() > static_cast<uint32_t>(max_size) ||
+        vt.cache_layers > static_cast<uint32_t>(max_layers) || (1u << vt.finest_level) > static_cast<uint32_t>(max_size))
+      return make_error(Status::unsupported, "GL: cache %u×%u×%u or page table 2^%u exceeds the limits (%d, %d layers)",
+                        vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level, max_size, max_layers);
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_);
+    glTextureStorage3D(cache_, 1, GL_RGBA16F, static_cast<GLsizei>(vt.cache_width()),
+                       static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers));
+    glTextureParameteri(cache_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(cache_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(cache_, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    const float zero[4] = {0, 0, 0, 0};
+    glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &page_table_);
+    const GLsizei side = 1 << vt.finest_level;
+    glTextureStorage3D(page_table_, static_cast<GLsizei>(vt.finest_level + 1), GL_R32UI, side, side,
+                       static_cast<GLsizei>(virtual_texture_count));
+    glTextureParameteri(page_table_, GL_TEXTURE_MIN_FILTER, GL_NEAREST_MIPMAP_NEAREST);
+    glTextureParameteri(page_table_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    const GLuint zero_entry = 0;
+    for (uint32_t m = 0; m <= vt.finest_level; ++m)
+      glClearTexImage(page_table_, static_cast<GLint>(m), GL_RED_INTEGER, GL_UNSIGNED_INT, &zero_entry);
+    glCreateBuffers(1, &ubo_);
+    glNamedBufferStorage(ubo_, sizeof(ShaderParams), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    for (FeedbackSlot& s : ring_) glCreateBuffers(1, &s.pbo);
+    if (GLenum e = glGetError(); e != GL_NO_ERROR)
+      return make_error(Status::unsupported, "GL: error 0x%04x while creating the cache and page table", e);
+    initialised_ = true;
+    return {};
+  }
+
+  Result<MeshHandle> create_mesh(const MeshData& mesh) override {
+    if (mesh.vertices.empty() || mesh.indices.empty() || mesh.indices.size() % 3 != 0)
+      return make_error(Status::invalid_argument, "GL: mesh with %zu vertices, %zu indices (need a triangle list)",
+                        mesh.vertices.size(), mesh.indices.size());
+    for (uint32_t i : mesh.indices)
+      if (i >= mesh.vertices.size())
+        return make_error(Status::invalid_argument, "GL: mesh index %u ≥ %zu vertices", i, mesh.vertices.size());
+    GlMesh m;
+    glCreateBuffers(1, &m.vbo);
+    glNamedBufferStorage(m.vbo, static_cast<GLsizeiptr>(mesh.vertices.size_bytes()), mesh.vertices.data(), 0);
+    glCreateBuffers(1, &m.ibo);
+    glNamedBufferStorage(m.ibo, static_cast<GLsizeiptr>(mesh.indices.size_bytes()), mesh.indices.data(), 0);
+    glCreateVertexArrays(1, &m.vao);
+    glVertexArrayVertexBuffer(m.vao, 0, m.vbo, 0, sizeof(MeshVertex));
+    glVertexArrayElementBuffer(m.vao, m.ibo);
+    const struct {
+      VertexAttribute a;
+      GLint n;
+      GLuint off;
+    } attrs[4] = {{VertexAttribute::position, 3, offsetof(MeshVertex, position)},
+                  {VertexAttribute::normal, 3, offsetof(MeshVertex, normal)},
+                  {VertexAttribute::tangent, 4, offsetof(MeshVertex, tangent)},
+                  {VertexAttribute::uv, 2, offsetof(MeshVertex, uv)}};
+    for (const auto& a : attrs) {
+      const GLuint loc = static_cast<GLuint>(a.a);
+      glEnableVertexArrayAttrib(m.vao, loc);
+      glVertexArrayAttribFormat(m.vao, loc, a.n, GL_FLOAT, GL_FALSE, a.off);
+      glVertexArrayAttribBinding(m.vao, loc, 0);
+    }
+    m.index_count = static_cast<GLsizei>(mesh.indices.size());
+    meshes_.push_back(m);
+    return MeshHandle{static_cast<uint32_t>(meshes_.size())};
+  }
+
+  Result<MaterialHandle> create_material(const FmfMaterialData& data) override {
+    if (!initialised_) return make_error(Status::invalid_argument, "GL: create_material before init");
+    if (VoidResult v = validate_material(data, config_); !v) return v.error();
+    GlMaterial m;
+    const std::vector<float> u = pack_eigen_abrdfs_rgba(data);
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.eigen_abrdfs);
+    glTextureStorage3D(m.eigen_abrdfs, 1, GL_RGBA32F, static_cast<GLsizei>(data.light_count),
+                       static_cast<GLsizei>(data.view_count), static_cast<GLsizei>(data.components));
+    glTextureSubImage3D(m.eigen_abrdfs, 0, 0, 0, 0, static_cast<GLsizei>(data.light_count),
+                        static_cast<GLsizei>(data.view_count), static_cast<GLsizei>(data.components), GL_RGBA, GL_FLOAT,
+                        u.data());
+    set_nearest(m.eigen_abrdfs);
+    std::vector<uint32_t> index;
+    std::vector<float> weight;
+    pack_angular_tables_rgba(data.angular, index, weight);
+    const GLsizei res = static_cast<GLsizei>(data.angular.resolution);
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.angular_index);
+    glTextureStorage3D(m.angular_index, 1, GL_RGBA32UI, res, res, 2);
+    glTextureSubImage3D(m.angular_index, 0, 0, 0, 0, res, res, 2, GL_RGBA_INTEGER, GL_UNSIGNED_INT, index.data());
+    set_nearest(m.angular_index);
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.angular_weight);
+    glTextureStorage3D(m.angular_weight, 1, GL_RGBA32F, res, res, 2);
+    glTextureSubImage3D(m.angular_weight, 0, 0, 0, 0, res, res, 2, GL_RGBA, GL_FLOAT, weight.data());
+    set_nearest(m.angular_weight);
+    if (!data.eigen_textures.empty()) {
+      const std::vector<float> v = pack_eigen_textures_rgba(data.eigen_textures);
+      const GLsizei w = data.eigen_textures.width(), h = data.eigen_textures.height();
+      GLsizei levels = 1;
+      if (data.mipmaps)
+        while ((std::max(w, h) >> levels) > 0) ++levels;
+      glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.eigen_textures);
+      glTextureStorage3D(m.eigen_textures, levels, GL_RGBA32F, w, h, static_cast<GLsizei>(config_.component_groups()));
+      glTextureSubImage3D(m.eigen_textures, 0, 0, 0, 0, w, h, static_cast<GLsizei>(config_.component_groups()), GL_RGBA,
+                          GL_FLOAT, v.data());
+      if (levels > 1) glGenerateTextureMipmap(m.eigen_textures);
+      glTextureParameteri(m.eigen_textures, GL_TEXTURE_MIN_FILTER, levels > 1 ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR);
+      glTextureParameteri(m.eigen_textures, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      glTextureParameteri(m.eigen_textures, GL_TEXTURE_WRAP_S, GL_REPEAT);
+      glTextureParameteri(m.eigen_textures, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    }
+    if (GLenum e = glGetError(); e != GL_NO_ERROR)
+      return make_error(Status::unsupported, "GL: error 0x%04x while creating a material", e);
+    materials_.push_back(m);
+    return MaterialHandle{static_cast<uint32_t>(materials_.size())};
+  }
+
+  Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
+    if (!initialised_) return Status::invalid_argument;
+    const VirtualTextureConfig& vt = config_.vt;
+    const size_t padded = vt.padded_tile_size();
+    for (const TileUpload& t : tiles)
+      if (t.slot >= vt.slot_count() || t.texels.size() != padded * padded * 4) return Status::invalid_argument;
+    for (const TileUpload& t : tiles) {
+      const SlotPlacement p = slot_placement(vt, t.slot);
+      glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
+                          static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA, GL_HALF_FLOAT,
+                          t.texels.data());
+    }
+    return Status::success;
+  }
+
+  Status apply_page_table_deltas(std::span<const PageTableDelta> deltas) noexcept override {
+    if (!initialised_) return Status::invalid_argument;
+    if (Status s = check_page_table_deltas(deltas, vt_layers_, config_.vt.finest_level); s != Status::success) return s;
+    for (const PageTableDelta& d : deltas)
+      glTextureSubImage3D(page_table_, static_cast<GLint>(d.page_mip), static_cast<GLint>(d.tile.x),
+                          static_cast<GLint>(d.tile.y), static_cast<GLint>(d.tile.texture), 1, 1, 1, GL_RED_INTEGER,
+                          GL_UNSIGNED_INT, &d.entry);
+    return Status::success;
+  }
+
+  Status begin_frame(const FrameDesc& frame) noexcept override {
+    if (!initialised_ || frame.width == 0 || frame.height == 0 || frame.feedback_width == 0 ||
+        frame.feedback_height == 0 || frame.width > 16384 || frame.height > 16384)
+      return Status::invalid_argument;
+    if (frame.width != frame_.width || frame.height != frame_.height || frame.feedback_width != frame_.feedback_width ||
+        frame.feedback_height != frame_.feedback_height || !color_fbo_) {
+      destroy_targets();
+      frame_ = frame;
+      create_targets();  // set-up work: only when the size changes
+    }
+    frame_ = frame;
+    glClearNamedFramebufferfv(color_fbo_, GL_COLOR, 0, frame.clear_color);
+    const float one = 1.0f;
+    glClearNamedFramebufferfv(color_fbo_, GL_DEPTH, 0, &one);
+    const GLuint empty[4] = {config_.vt.feedback.empty_word, 0, 0, 0};
+    glClearNamedFramebufferuiv(feedback_fbo_, GL_COLOR, 0, empty);
+    glClearNamedFramebufferfv(feedback_fbo_, GL_DEPTH, 0, &one);
+    feedback_drawn_ = false;
+    return Status::success;
+  }
+
+  Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
+              const ShaderParams& params) noexcept override {
+    if (!color_fbo_ || mesh.id == 0 || mesh.id > meshes_.size() || material.id == 0 || material.id > materials_.size())
+      return Status::invalid_argument;
+    const GlMaterial& m = materials_[material.id - 1];
+    GLuint prog = 0;
+    if (program == ShaderProgram::fmf) {
+      if (!m.eigen_textures) return Status::invalid_argument;  // BSVTF-only material
+      prog = fmf_;
+    } else if (program == ShaderProgram::bsvtf) {
+      prog = bsvtf_;
+    } else {
+      return Status::invalid_argument;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, color_fbo_);
+    glViewport(0, 0, static_cast<GLsizei>(frame_.width), static_cast<GLsizei>(frame_.height));
+    glUseProgram(prog);
+    bind(ShaderBinding::eigen_abrdfs, m.eigen_abrdfs);
+    bind(ShaderBinding::angular_index, m.angular_index);
+    bind(ShaderBinding::angular_weight, m.angular_weight);
+    if (program == ShaderProgram::fmf) {
+      bind(ShaderBinding::eigen_textures, m.eigen_textures);
+    } else {
+      bind(ShaderBinding::tile_cache, cache_);
+      bind(ShaderBinding::page_table, page_table_);
+    }
+    submit_draw(meshes_[mesh.id - 1], params);
+    return Status::success;
+  }
+
+  Status draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept override {
+    if (!feedback_fbo_ || mesh.id == 0 || mesh.id > meshes_.size()) return Status::invalid_argument;
+    glBindFramebuffer(GL_FRAMEBUFFER, feedback_fbo_);
+    glViewport(0, 0, static_cast<GLsizei>(frame_.feedback_width), static_cast<GLsizei>(frame_.feedback_height));
+    glUseProgram(feedback_);
+    bind(ShaderBinding::page_table, page_table_);
+    submit_draw(meshes_[mesh.id - 1], params);
+    feedback_drawn_ = true;
+    return Status::success;
+  }
+
+  Status end_frame() noexcept override {
+    if (!color_fbo_) return Status::invalid_argument;
+    if (feedback_drawn_) {
+      // Ring full of unconsumed readbacks: drop the oldest (never wait for the GPU).
+      FeedbackSlot* slot = nullptr;
+      for (FeedbackSlot& s : ring_)
+        if (!s.pending) {
+          slot = &s;
+          break;
+        }
+      if (!slot) {
+        slot = &*std::min_element(ring_.begin(), ring_.end(),
+                                  [](const FeedbackSlot& a, const FeedbackSlot& b) { return a.frame < b.frame; });
+        release(*slot);
+        ++dropped_;
+      }
+      const size_t bytes = static_cast<size_t>(frame_.feedback_width) * frame_.feedback_height * 4;
+      if (slot_capacity(*slot) < bytes) {
+        glNamedBufferData(slot->pbo, static_cast<GLsizeiptr>(bytes), nullptr, GL_STREAM_READ);  // resize only
+      }
+      glBindBuffer(GL_PIXEL_PACK_BUFFER, slot->pbo);
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, feedback_fbo_);
+      glReadBuffer(GL_COLOR_ATTACHMENT0);
+      glPixelStorei(GL_PACK_ALIGNMENT, 4);
+      glReadPixels(0, 0, static_cast<GLsizei>(frame_.feedback_width), static_cast<GLsizei>(frame_.feedback_height),
+                   GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+      glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+      slot->fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+      slot->frame = frame_counter_;
+      slot->width = frame_.feedback_width;
+      slot->height = frame_.feedback_height;
+      slot->pending = true;
+    }
+    glFlush();
+    ++frame_counter_;
+    return glGetError() == GL_NO_ERROR ? Status::success : Status::io_error;
+  }
+
+  bool poll_feedback(FeedbackFrame& out) noexcept override {
+    FeedbackSlot* oldest = nullptr;
+    for (FeedbackSlot& s : ring_)
+      if (s.pending && (!oldest || s.frame < oldest->frame)) oldest = &s;
+    if (!oldest) return false;
+    const GLenum r = glClientWaitSync(oldest->fence, GL_SYNC_FLUSH_COMMANDS_BIT, 0);  // timeout 0: poll
+    if (r != GL_ALREADY_SIGNALED && r != GL_CONDITION_SATISFIED) return false;
+    const size_t n = static_cast<size_t>(oldest->width) * oldest->height;
+    if (readback_.size() < n) readback_.resize(n);  // grows to the largest feedback size once
+    const uint32_t* src = static_cast<const uint32_t*>(
+        glMapNamedBufferRange(oldest->pbo, 0, static_cast<GLsizeiptr>(n * 4), GL_MAP_READ_BIT));
+    if (!src) return false;
+    for (uint32_t y = 0; y < oldest->height; ++y)  // GL rows are bottom-up; FeedbackFrame is top-down
+      std::memcpy(readback_.data() + static_cast<size_t>(y) * oldest->width,
+                  src + static_cast<size_t>(oldest->height - 1 - y) * oldest->width, oldest->width * 4u);
+    glUnmapNamedBuffer(oldest->pbo);
+    out.frame = oldest->frame;
+    out.width = oldest->width;
+    out.height = oldest->height;
+    out.words = std::span<const uint32_t>(readback_.data(), n);
+    release(*oldest);
+    return true;
+  }
+
+  uint32_t feedback_ring_size() const noexcept override { return static_cast<uint32_t>(ring_.size()); }
+  uint64_t dropped_feedback() const noexcept override { return dropped_; }
+
+  Status read_color(ImageView<float> out) noexcept override {
+    if (!color_fbo_ || out.width() != static_cast<int>(frame_.width) ||
+        out.height() != static_cast<int>(frame_.height) || out.channels() != 4)
+      return Status::invalid_argument;
+    const size_t row = static_cast<size_t>(frame_.width) * 4;
+    if (color_staging_.size() < row * frame_.height) color_staging_.resize(row * frame_.height);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, color_fbo_);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glReadPixels(0, 0, static_cast<GLsizei>(frame_.width), static_cast<GLsizei>(frame_.height), GL_RGBA, GL_FLOAT,
+                 color_staging_.data());
+    for (uint32_t y = 0; y < frame_.height; ++y)
+      for (uint32_t x = 0; x < frame_.width; ++x)
+        for (int c = 0; c < 4; ++c)
+          out.at(static_cast<int>(x), static_cast<int>(y), c) =
+              color_staging_[(frame_.height - 1 - y) * row + x * 4 + static_cast<size_t>(c)];
+    return glGetError() == GL_NO_ERROR ? Status::success : Status::io_error;
+  }
+
+  Status wait_idle() noexcept override {
+    glFinish();
+    return Status::success;
+  }
+
+ private:
+  static void set_nearest(GLuint tex) {
+    glTextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  }
+  static void bind(ShaderBinding b, GLuint tex) { glBindTextureUnit(static_cast<GLuint>(b), tex); }
+
+  void submit_draw(const GlMesh& mesh, const ShaderParams& params) {
+    glNamedBufferSubData(ubo_, 0, sizeof(ShaderParams), &params);
+    glBindBufferBase(GL_UNIFORM_BUFFER, static_cast<GLuint>(ShaderBinding::params), ubo_);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LEQUAL);
+    glDisable(GL_CULL_FACE);
+    glBindVertexArray(mesh.vao);
+    glDrawElements(GL_TRIANGLES, mesh.index_count, GL_UNSIGNED_INT, nullptr);
+  }
+
+  static size_t slot_capacity(const FeedbackSlot& s) {
+    GLint64 size = 0;
+    glGetNamedBufferParameteri64v(s.pbo, GL_BUFFER_SIZE, &size);
+    return static_cast<size_t>(size);
+  }
+
+  static void release(FeedbackSlot& s) {
+    if (s.fence) glDeleteSync(s.fence);
+    s.fence = nullptr;
+    s.pending = false;
+  }
+
+  void create_targets() {
+    auto make_fbo = [](GLenum color_format, uint32_t w, uint32_t h, GLuint& fbo, GLuint& color, GLuint& depth) {
+      glCreateTextures(GL_TEXTURE_2D, 1, &color);
+      glTextureStorage2D(color, 1, color_format, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
+      glCreateRenderbuffers(1, &depth);
+      glNamedRenderbufferStorage(depth, GL_DEPTH_COMPONENT24, static_cast<GLsizei>(w), static_cast<GLsizei>(h));
+      glCreateFramebuffers(1, &fbo);
+      glNamedFramebufferTexture(fbo, GL_COLOR_ATTACHMENT0, color, 0);
+      glNamedFramebufferRenderbuffer(fbo, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    };
+    make_fbo(GL_RGBA32F, frame_.width, frame_.height, color_fbo_, color_tex_, color_depth_);
+    make_fbo(GL_R32UI, frame_.feedback_width, frame_.feedback_height, feedback_fbo_, feedback_tex_, feedback_depth_);
+  }
+
+  void destroy_targets() {
+    GLuint fbos[2] = {color_fbo_, feedback_fbo_};
+    GLuint texs[2] = {color_tex_, feedback_tex_};
+    GLuint rbs[2] = {color_depth_, feedback_depth_};
+    glDeleteFramebuffers(2, fbos);
+    glDeleteTextures(2, texs);
+    glDeleteRenderbuffers(2, rbs);
+    color_fbo_ = feedback_fbo_ = color_tex_ = feedback_tex_ = color_depth_ = feedback_depth_ = 0;
+  }
+
+  EGLDisplay display_;
+  EGLContext context_;
+  std::string name_;
+  ShaderConfig config_;
+  uint32_t vt_layers_ = 0;
+  bool initialised_ = false;
+  GLuint fmf_ = 0, bsvtf_ = 0, feedback_ = 0;
+  GLuint cache_ = 0, page_table_ = 0, ubo_ = 0;
+  GLuint color_fbo_ = 0, color_tex_ = 0, color_depth_ = 0;
+  GLuint feedback_fbo_ = 0, feedback_tex_ = 0, feedback_depth_ = 0;
+  FrameDesc frame_{0, 0, 0, 0, {0, 0, 0, 0}};
+  bool feedback_drawn_ = false;
+  uint64_t frame_counter_ = 0;
+  uint64_t dropped_ = 0;
+  std::vector<GlMesh> meshes_;
+  std::vector<GlMaterial> materials_;
+  std::vector<FeedbackSlot> ring_;
+  std::vector<uint32_t> readback_;
+  std::vector<float> color_staging_;
+};
+
+EGLDisplay open_display(std::string& why) {
+  auto get_platform_display =
+      reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
+  if (!get_platform_display) {
+    why = "eglGetPlatformDisplayEXT missing (no EGL_EXT_platform_base)";
+    return EGL_NO_DISPLAY;
+  }
+  // Surfaceless first (Mesa: llvmpipe without X or a GPU), then the device platform.
+  EGLDisplay d = get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  EGLint major = 0, minor = 0;
+  if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor)) return d;
+  auto query_devices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+  if (query_devices) {
+    EGLDeviceEXT devices[8];
+    EGLint count = 0;
+    if (query_devices(8, devices, &count))
+      for (EGLint i = 0; i < count; ++i) {
+        d = get_platform_display(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr);
+        if (d != EGL_NO_DISPLAY && eglInitialize(d, &major, &minor)) return d;
+      }
+  }
+  why = "no EGL display on the surfaceless or device platform";
+  return EGL_NO_DISPLAY;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Backend>> create_gl_backend(const GlBackendOptions& options) {
+  std::string why;
+  EGLDisplay display = open_display(why);
+  if (display == EGL_NO_DISPLAY) return make_error(Status::unsupported, "GL backend: %s", why.c_str());
+  // Failure paths below leave the display initialised: another backend may be using it.
+  if (!eglBindAPI(EGL_OPENGL_API)) {
+    return make_error(Status::unsupported, "GL backend: eglBindAPI(EGL_OPENGL_API) failed");
+  }
+  const EGLint config_attribs[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+  EGLConfig config = nullptr;
+  EGLint count = 0;
+  eglChooseConfig(display, config_attribs, &config, 1, &count);  // may be 0: EGL_KHR_no_config_context
+  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
+                                    EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+  EGLContext context = eglCreateContext(display, count > 0 ? config : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, context_attribs);
+  if (context == EGL_NO_CONTEXT) {
+    return make_error(Status::unsupported, "GL backend: no OpenGL 4.5 core context (EGL error 0x%04x)", eglGetError());
+  }
+  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
+    eglDestroyContext(display, context);
+    return make_error(Status::unsupported, "GL backend: eglMakeCurrent without surface failed (0x%04x)", eglGetError());
+  }
+  if (!gladLoadGL(reinterpret_cast<GLADloadfunc>(eglGetProcAddress)) || !GLAD_GL_VERSION_4_5) {
+    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroyContext(display, context);
+    return make_error(Status::unsupported, "GL backend: could not load OpenGL 4.5 entry points");
+  }
+  return std::unique_ptr<Backend>(new GlBackend(display, context, options));
+}
+
+}  // namespace btflod::samples

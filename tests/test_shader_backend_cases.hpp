@@ -1,0 +1,296 @@
+// The backend test cases, written once and instantiated for each GPU backend
+// (test_gl_backend.cpp, test_vk_backend.cpp) with BTFLOD_BACKEND_TEST_CASES(Name, factory),
+// where factory is `std::unique_ptr<btflod::Backend>(std::string& why_unavailable)`.
+// A backend that cannot be created skips with the reason (never passes silently).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "test_shader_scene.hpp"
+
+namespace btflod::backend_cases {
+
+using namespace btflod::test_scene;
+
+inline ShaderConfig fmf_config(DirectionParameterisation p, AngularLookup lookup) {
+  ShaderConfig c;
+  c.components = 5;
+  c.angular.parameterisation = p;
+  c.angular.lookup = lookup;
+  c.angular.resolution = 32;
+  c.vt.tile_size = 64;
+  c.vt.border = 4;
+  c.vt.slots_x = 4;
+  c.vt.slots_y = 4;
+  c.vt.cache_layers = 2;
+  c.vt.finest_level = 2;
+  return c;
+}
+
+inline FrameDesc frame_desc() {
+  FrameDesc f;
+  f.width = kSize;
+  f.height = kSize;
+  f.feedback_width = 32;
+  f.feedback_height = 32;
+  return f;
+}
+
+/// Mean and spread of the rgb values: a blank or constant render must not pass.
+inline void expect_has_content(const Image<float>& img) {
+  double sum = 0, sq = 0;
+  size_t n = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      for (int c = 0; c < 3; ++c) {
+        sum += img.at(x, y, c);
+        sq += static_cast<double>(img.at(x, y, c)) * img.at(x, y, c);
+        ++n;
+      }
+  const double mean = sum / static_cast<double>(n);
+  EXPECT_GT(mean, 0.05);
+  EXPECT_GT(sq / static_cast<double>(n) - mean * mean, 1e-4);
+}
+
+template <class Factory>
+void fmf_matches_cpu(Factory make, DirectionParameterisation p, AngularLookup lookup) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(p, lookup);
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const Material m = make_material(config, 40, 24);
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  auto mat = be->create_material(m.data(true));
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  const ShaderParams params = make_params();
+  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  Image<float> img(kSize, kSize, 4);
+  ASSERT_EQ(be->read_color(img.view()), Status::success);
+  const Image<float> ref = reference_fmf(m, params);
+  expect_has_content(ref);
+  expect_has_content(img);
+  const double psnr = psnr_rgb(ref, img);
+  std::printf("[ %s ] FMF %s/%s PSNR vs CPU = %.2f dB\n", be->name(),
+              p == DirectionParameterisation::parabolic ? "parabolic" : "concentric",
+              lookup == AngularLookup::barycentric ? "9-tap" : "nearest", psnr);
+  EXPECT_GE(psnr, 40.0);
+}
+
+/// BSVTF through a partially filled cache: raw component group 0 (debug view) and the shaded
+/// image agree with the CPU reference at LOD bias 0 (finest level where resident) and 0.5
+/// (trilinear where both levels are resident).
+template <class Factory>
+void bsvtf_partial_cache(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+  const int M = 256, N = 256;  // T = 64 → L = 2: 1 + 4 + 16 tiles per group
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const Material m = make_material(config, M, N);
+  const Pyramid pyr = build_pyramid(m, 2);
+  const CacheFill fill = fill_cache(pyr, config.vt, M, N);
+  ASSERT_EQ(fill.uploads.size(), 2u * (1 + 4 + 8));
+  ASSERT_EQ(be->upload_tiles(fill.uploads), Status::success);
+  ASSERT_EQ(be->apply_page_table_deltas(fill.deltas), Status::success);
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok());
+  auto mat = be->create_material(m.data(false));  // V' comes only from the cache
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  for (float bias : {0.0f, 0.5f}) {
+    ShaderParams params = make_params();
+    params.vt_extent = glm::vec4(M, N, 2, 0);
+    params.lod.x = bias;
+    const float lambda = 2.0f - std::log2(static_cast<float>(M) / kSize) - bias;
+    for (uint32_t debug : {1u, 0u}) {
+      params.ids = glm::uvec4(0, 0, debug, 0);
+      ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
+      ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+      ASSERT_EQ(be->end_frame(), Status::success);
+      Image<float> img(kSize, kSize, 4);
+      ASSERT_EQ(be->read_color(img.view()), Status::success);
+      Image<float> ref(kSize, kSize, 4, 0.0f);
+      Image<float> finest_only(kSize, kSize, 4, 0.0f);  // what a renderer ignoring the page table shows
+      for (int y = 0; y < kSize; ++y)
+        for (int x = 0; x < kSize; ++x) {
+          glm::vec3 world;
+          glm::vec2 uv;
+          pixel_to_quad(x, y, kSize, kSize, 1.0f, world, uv);
+          float v[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+          reference_vt_sample(pyr, config.vt, M, N, 0, uv, lambda, v);
+          reference_vt_sample(pyr, config.vt, M, N, 1, uv, lambda, v + 4);
+          float f[8];
+          bilinear(pyr.levels[0][2], uv.x * M, uv.y * N, false, f);
+          bilinear(pyr.levels[1][2], uv.x * M, uv.y * N, false, f + 4);
+          if (debug) {
+            for (int k = 0; k < 4; ++k) {
+              ref.at(x, y, k) = v[k];
+              finest_only.at(x, y, k) = f[k];
+            }
+          } else {
+            const glm::vec3 c = eq5(m, world, params, v), cf = eq5(m, world, params, f);
+            for (int k = 0; k < 3; ++k) {
+              ref.at(x, y, k) = c[k];
+              finest_only.at(x, y, k) = cf[k];
+            }
+          }
+        }
+      expect_has_content(img);
+      const double psnr = psnr_rgb(ref, img);
+      const double psnr_wrong = psnr_rgb(finest_only, img);
+      std::printf("[ %s ] BSVTF bias %.1f %s: PSNR vs CPU = %.2f dB (vs finest-only %.2f dB)\n", be->name(), bias,
+                  debug ? "raw V" : "shaded", psnr, psnr_wrong);
+      EXPECT_GE(psnr, 40.0);
+      EXPECT_LT(psnr_wrong, psnr - 6.0) << "the partial cache must be visible: the right half is coarser";
+    }
+  }
+}
+
+template <class Factory>
+void feedback_words(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok());
+  // Quad over the middle half of the screen: at 32×32 feedback, 16 texels/pixel in x, 8 in y;
+  // lod.y = log2(256/32) = 3 restores screen-resolution derivatives: λ = 2 − log2(16) + 3 = 1.
+  ShaderParams params = make_params(0.5f);
+  params.vt_extent = glm::vec4(256, 256, 2, 0);
+  params.lod.y = 3.0f;
+  params.ids = glm::uvec4(0, 37, 0, 0);
+  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be->draw_feedback(*mesh, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  ASSERT_EQ(be->wait_idle(), Status::success);
+  FeedbackFrame fb;
+  ASSERT_TRUE(be->poll_feedback(fb));
+  ASSERT_EQ(fb.width, 32u);
+  ASSERT_EQ(fb.height, 32u);
+  ASSERT_EQ(fb.words.size(), 32u * 32u);
+  const FeedbackWordLayout layout;
+  int covered = 0, mismatches = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) {
+      const uint32_t w = fb.words[static_cast<size_t>(y) * 32 + static_cast<size_t>(x)];
+      uint32_t expect = layout.empty_word;
+      if (x >= 8 && x < 24) {
+        glm::vec3 world;
+        glm::vec2 uv;
+        pixel_to_quad(x, y, 32, 32, 0.5f, world, uv);
+        expect = pack_feedback_word(layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f),
+                                                            static_cast<uint32_t>(uv.y * 2.0f)});
+        ++covered;
+      }
+      if (w != expect && ++mismatches <= 5)
+        ADD_FAILURE() << "feedback (" << x << ", " << y << "): word " << std::hex << w << " expected " << expect;
+    }
+  EXPECT_EQ(covered, 16 * 32);
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_FALSE(be->poll_feedback(fb)) << "one frame gives one readback";
+}
+
+template <class Factory>
+void feedback_ring(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok());
+  const uint32_t ring = be->feedback_ring_size();
+  ASSERT_GE(ring, 2u);
+  ShaderParams params = make_params();
+  params.vt_extent = glm::vec4(256, 256, 2, 0);
+  const uint32_t frames = ring + 2;
+  for (uint32_t f = 0; f < frames; ++f) {
+    params.ids.y = f;  // the frame number travels in the material field
+    ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
+    ASSERT_EQ(be->draw_feedback(*mesh, params), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);  // never waits: the oldest readbacks are dropped
+  }
+  EXPECT_EQ(be->dropped_feedback(), 2u);
+  // Poll without waiting until everything arrives (bounded), in frame order.
+  uint64_t expected = 2;
+  FeedbackFrame fb;
+  for (int spin = 0; spin < 2000 && expected < frames; ++spin) {
+    if (be->poll_feedback(fb)) {
+      EXPECT_EQ(fb.frame, expected);
+      EXPECT_EQ(unpack_feedback_word(FeedbackWordLayout{}, fb.words[16 * 32 + 16]).texture, expected);
+      ++expected;
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  EXPECT_EQ(expected, frames);
+  EXPECT_FALSE(be->poll_feedback(fb));
+}
+
+template <class Factory>
+void rejects_bad_input(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+  ASSERT_TRUE(be->init(config, 2).ok());
+  std::vector<uint16_t> texels(72 * 72 * 4, 0);
+  const TileUpload bad_slot{config.vt.slot_count(), texels};
+  EXPECT_EQ(be->upload_tiles({&bad_slot, 1}), Status::invalid_argument);
+  const TileUpload short_tile{0, std::span<const uint16_t>(texels).first(100)};
+  EXPECT_EQ(be->upload_tiles({&short_tile, 1}), Status::invalid_argument);
+  const PageTableDelta bad_layer{TileId{2, 0, 0, 0}, 2, 0};
+  EXPECT_EQ(be->apply_page_table_deltas({&bad_layer, 1}), Status::invalid_argument);
+  const PageTableDelta bad_texel{TileId{0, 1, 2, 0}, 1, 0};  // mip 1 is 2×2
+  EXPECT_EQ(be->apply_page_table_deltas({&bad_texel, 1}), Status::invalid_argument);
+  Material m = make_material(config, 8, 8);
+  m.light_index[5] = 999;  // names a direction that does not exist
+  auto mat = be->create_material(m.data(true));
+  ASSERT_FALSE(mat.ok());
+  EXPECT_NE(mat.message().find("angular index"), std::string::npos) << mat.message();
+  Material wrong_c = make_material(fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric), 8, 8);
+  wrong_c.config.components = 4;
+  FmfMaterialData d = wrong_c.data(true);
+  d.components = 4;
+  EXPECT_FALSE(be->create_material(d).ok());
+  const std::vector<uint32_t> bad_idx = {0, 1, 7};
+  const auto verts = quad_vertices();
+  EXPECT_FALSE(be->create_mesh(MeshData{verts, bad_idx}).ok());
+  EXPECT_EQ(be->draw(ShaderProgram::fmf, MeshHandle{1}, MaterialHandle{1}, ShaderParams{}), Status::invalid_argument);
+}
+
+}  // namespace btflod::backend_cases
+
+#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                                \
+  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                                      \
+    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::parabolic,                 \
+                                           btflod::AngularLookup::barycentric);                                   \
+  }                                                                                                               \
+  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                                  \
+    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::elevated_concentric,       \
+                                           btflod::AngularLookup::nearest);                                       \
+  }                                                                                                               \
+  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) { btflod::backend_cases::bsvtf_partial_cache(factory); } \
+  TEST(Name##Backend, FeedbackDecodesToExpectedWords) { btflod::backend_cases::feedback_words(factory); }          \
+  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) { btflod::backend_cases::feedback_ring(factory); }     \
+  TEST(Name##Backend, RejectsBadInput) { btflod::backend_cases::rejects_bad_input(factory); }

@@ -15,6 +15,7 @@
 #include "btflod/core/thread_pool.hpp"
 
 // btf
+#include "btflod/btf/bonn_btf.hpp"
 #include "btflod/btf/directions.hpp"
 #include "btflod/btf/heightfield.hpp"
 #include "btflod/btf/measured_brdf.hpp"

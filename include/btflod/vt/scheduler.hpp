@@ -1,0 +1,571 @@
+// btflod — the BSVTF scheduler: add/swap decisions of paper 000 §5.1–5.2, U-column priority of
+// §6, budgets, hysteresis and a global LOD bias under overload.
+//
+// Per frame (plan()):
+//  1. Add candidates: every tile with votes v > 0 (eq. 9, from a VoteCounter; a material's votes
+//     apply to each of its ⌈C/4⌉ virtual textures) that is not resident, not requested, and whose
+//     parent is resident (§5.2 restricts add to that case). Priority P = w(i, l, l−1)·v(i, l).
+//  2. Swap candidates: resident leaves (no resident descendants, not the root, not inserted
+//     during the last `hysteresis_frames` frames). For two leaves of the same virtual texture,
+//     the swap removes both and inserts their deepest common ancestor A at a level below both
+//     (already resident: nothing to insert, two slots freed). Cost (eq. 10) per removed tile t:
+//       c(l', t) = v(t) · Σ_{k = r+1}^{l_t} w(anc_k(t), k, k−1),  r = max(l', deepest resident ancestor)
+//     i.e. the weights of the in-between levels whose detail the swap reveals. (Eq. 10 as printed
+//     starts the sum at k = l', which would also charge A's own weight w(A, l', l'−1), a detail
+//     that A keeps; we start at l'+1.) Pairs come from the four cheapest leaves of each virtual
+//     texture (pairs (1st, 2nd) and (3rd, 4th)), so no O(S²) search.
+//  3. Decision (§5.2): take add candidates by descending P; with a free slot, add; otherwise find
+//     the three lowest-cost swaps and perform the cheapest valid one only if c* < P*, then add;
+//     else stop — the cache already holds the better set.
+//  4. §6 (optional, stream_u_columns): the U'-packet of the next virtual texture of a material
+//     (four columns U'_c, like the RGBA packing) has priority Σ v(i, l)·‖T_il‖²_F/T² over the
+//     resident tiles of that texture; it is requested before an add whose P is lower. Tiles of
+//     virtual textures whose U'-packet is not loaded are not added (they could not contribute).
+// Requests go out as TileRequest; the pipeline reports begin_decode()/finish_decode(); uploads
+// are applied by apply_uploads() within the per-frame upload budget. Every budget refusal and
+// every visible-but-missing tile is counted. Everything after create() is allocation-free,
+// noexcept and deterministic (ties broken by texture and tile index). Not thread-safe.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "btflod/core/result.hpp"
+#include "btflod/lod/feedback.hpp"
+#include "btflod/vt/tile_cache.hpp"
+#include "btflod/vt/vt_layout.hpp"
+
+namespace btflod {
+
+/// Every budget of the streaming path in one place.
+struct SchedulerBudgets {
+  uint32_t uploads_per_frame = 32;         ///< tiles written into the cache per frame
+  uint32_t tiles_decoding = 16;            ///< tiles being decoded at once
+  uint32_t requests_in_flight = 64;        ///< requested, not yet uploaded
+  uint64_t bytes_in_flight = 16ull << 20;  ///< bytes of those requests
+};
+
+enum class PriorityMode : uint8_t {
+  weighted,    ///< paper 000: P = w·v, cost eq. 10
+  votes_only,  ///< w ≡ 1: P = v, cost = v · revealed levels (LibVT/Unreal-style)
+};
+
+struct SchedulerConfig {
+  SchedulerBudgets budgets;
+  PriorityMode mode = PriorityMode::weighted;
+  uint32_t hysteresis_frames = 1;  ///< a tile inserted at frame f is not swapped out before f + this
+  uint64_t tile_bytes = 41472;     ///< bytes requested per tile (72×72 RGBA16F uncompressed)
+  // Global LOD bias under overload.
+  uint32_t overload_missing_tiles = 512;  ///< visible-but-missing tiles above which a frame is overloaded
+  uint32_t overload_frames = 4;           ///< consecutive overloaded frames before the bias rises one level
+  uint32_t calm_frames = 30;              ///< consecutive calm frames before it falls one level
+  uint32_t max_lod_bias = 2;
+  // Paper 000 §6.
+  bool stream_u_columns = false;           ///< false: every U' packet is loaded from the start
+  uint64_t u_packet_bytes = 534ull << 10;  ///< four U' columns, 151² directions × RGB × 4 × half
+};
+
+/// Counters of one frame (frame()) and since creation (total()).
+struct SchedulerCounters {
+  uint64_t adds = 0;                   ///< add operations issued
+  uint64_t swaps = 0;                  ///< swap operations performed
+  uint64_t ancestors_removed = 0;      ///< post-condition removals of covered ancestors
+  uint64_t requests = 0;               ///< tile requests issued
+  uint64_t u_requests = 0;             ///< U' packet requests issued
+  uint64_t bytes_requested = 0;
+  uint64_t uploads = 0;                ///< tiles written into the cache
+  uint64_t visible_missing = 0;        ///< (texture, tile) pairs voted for directly but not resident
+  uint64_t upload_budget_hits = 0;
+  uint64_t decoding_budget_hits = 0;
+  uint64_t request_budget_hits = 0;
+  uint64_t byte_budget_hits = 0;
+  uint64_t swaps_rejected = 0;  ///< best add not taken because c* ≥ P* (or no swap possible)
+  uint64_t budget_hits() const noexcept {
+    return upload_budget_hits + decoding_budget_hits + request_budget_hits + byte_budget_hits;
+  }
+  void accumulate(const SchedulerCounters& f) noexcept {
+    adds += f.adds, swaps += f.swaps, ancestors_removed += f.ancestors_removed, requests += f.requests;
+    u_requests += f.u_requests, bytes_requested += f.bytes_requested, uploads += f.uploads;
+    visible_missing += f.visible_missing, upload_budget_hits += f.upload_budget_hits;
+    decoding_budget_hits += f.decoding_budget_hits, request_budget_hits += f.request_budget_hits;
+    byte_budget_hits += f.byte_budget_hits, swaps_rejected += f.swaps_rejected;
+  }
+};
+
+/// One request for the tile source. For a U' packet, tile = {texture, 0, 0, 0} and u_packet.
+struct TileRequest {
+  uint32_t id = 0;  ///< pass back to begin_decode()/finish_decode()/cancel()
+  TileId tile;
+  uint64_t bytes = 0;
+  bool u_packet = false;
+};
+
+class Scheduler {
+ public:
+  /// Allocates every per-frame array. The cache (and its VtSet) must outlive the scheduler.
+  /// invalid_argument when a budget is zero.
+  static Result<Scheduler> create(TileCache& cache, const SchedulerConfig& config = {}) {
+    const SchedulerBudgets& b = config.budgets;
+    if (b.uploads_per_frame == 0 || b.tiles_decoding == 0 || b.requests_in_flight == 0 || b.bytes_in_flight == 0)
+      return make_error(Status::invalid_argument, "scheduler: every budget must be > 0");
+    Scheduler s;
+    s.cache_ = &cache;
+    s.config_ = config;
+    const VtSet& set = cache.set();
+    s.pending_.assign(b.requests_in_flight, Pending{});
+    s.free_requests_.reserve(b.requests_in_flight);
+    for (uint32_t i = b.requests_in_flight; i-- > 0;) s.free_requests_.push_back(i);
+    s.requested_.resize(set.texture_count());
+    for (uint32_t t = 0; t < set.texture_count(); ++t) s.requested_[t].assign(set.levels_of(t).tile_count(), 0);
+    s.u_loaded_.assign(set.material_count(), 0);
+    s.u_requested_.assign(set.material_count(), 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      s.u_loaded_[m] = config.stream_u_columns ? 0 : set.material(m).texture_count;
+    s.u_priority_.assign(set.material_count(), 0.0);
+    s.adds_.reserve(b.requests_in_flight + 2);
+    s.leaves_.assign(static_cast<size_t>(set.texture_count()) * kLeavesPerTexture, Leaf{});
+    s.leaf_count_.assign(set.texture_count(), 0);
+    s.leaf_textures_.reserve(set.texture_count());
+    s.pairs_.reserve(static_cast<size_t>(set.texture_count()) * 2);
+    s.requests_out_.reserve(b.requests_in_flight);
+    s.protected_stamp_.assign(cache.slot_count(), 0);
+    return s;
+  }
+
+  const SchedulerConfig& config() const noexcept { return config_; }
+  const SchedulerCounters& frame() const noexcept { return frame_counters_; }
+  const SchedulerCounters& total() const noexcept { return total_counters_; }
+  /// Levels by which the feedback requests should be coarsened (VoteCounter level_drop or the
+  /// LOD selector's bias). Rises under sustained overload, falls when calm.
+  uint32_t lod_bias() const noexcept { return lod_bias_; }
+  /// U' packets (virtual textures) of a material that are loaded.
+  uint32_t u_loaded(uint32_t material) const noexcept { return u_loaded_[material]; }
+  /// Last computed §6 priority of the material's next U' packet.
+  double u_priority(uint32_t material) const noexcept { return u_priority_[material]; }
+  uint32_t requests_in_flight() const noexcept { return in_flight_; }
+  uint64_t bytes_in_flight() const noexcept { return bytes_in_flight_; }
+
+  /// Plans frame `frame` from this frame's votes: issues add/swap operations (swaps remove
+  /// their two tiles at once; inserts wait for data) and returns the new requests (valid until
+  /// the next plan()). Also updates the LOD bias. noexcept, no allocation, deterministic.
+  /// Precondition: votes were built for the same materials as the cache's VtSet.
+  std::span<const TileRequest> plan(const VoteCounter& votes, uint64_t frame) noexcept {
+    frame_ = frame;
+    frame_counters_ = SchedulerCounters{};
+    requests_out_.clear();
+    collect_adds(votes);
+    collect_leaves(votes);
+    decide(votes);
+    update_bias();
+    total_counters_.accumulate(frame_counters_);
+    return requests_out_;
+  }
+
+  /// The data of request `id` arrived and may be decoded. Returns false (and counts a decoding
+  /// budget hit) when tiles_decoding are already being decoded; call again later.
+  bool begin_decode(uint32_t id) noexcept {
+    if (id >= pending_.size() || pending_[id].state != State::requested) return false;
+    if (decoding_ >= config_.budgets.tiles_decoding) {
+      ++frame_counters_.decoding_budget_hits;
+      ++total_counters_.decoding_budget_hits;
+      return false;
+    }
+    pending_[id].state = State::decoding;
+    ++decoding_;
+    return true;
+  }
+  /// Request `id` is decoded and ready for upload.
+  void finish_decode(uint32_t id) noexcept {
+    if (id >= pending_.size() || pending_[id].state != State::decoding) return;
+    pending_[id].state = State::ready;
+    --decoding_;
+  }
+  /// Drops a request (e.g. the source failed); its reserved slot is freed.
+  void cancel(uint32_t id) noexcept {
+    if (id >= pending_.size() || pending_[id].state == State::idle) return;
+    Pending& p = pending_[id];
+    if (p.state == State::decoding) --decoding_;
+    if (p.u_packet) u_requested_[cache_->set().material_of(p.tile.texture)] = 0;
+    else {
+      cache_->release_slot(p.slot);
+      requested_[p.tile.texture][cache_->set().levels_of(p.tile.texture).index(p.tile)] = 0;
+    }
+    retire(id);
+  }
+
+  /// Writes ready requests into the cache in request order, at most uploads_per_frame (counts
+  /// a budget hit when more were ready). Calls upload(request) for each tile before it becomes
+  /// visible, so the backend can copy its texels into the slot. Returns tiles uploaded.
+  template <class UploadFn>
+  uint32_t apply_uploads(UploadFn&& upload) noexcept {
+    uint32_t done = 0;
+    for (;;) {
+      const uint32_t next = oldest_ready();  // oldest request first
+      if (next == kNoRequest) break;
+      if (done == config_.budgets.uploads_per_frame) {
+        ++frame_counters_.upload_budget_hits;
+        ++total_counters_.upload_budget_hits;
+        break;
+      }
+      Pending& p = pending_[next];
+      TileRequest r{next, p.tile, p.bytes, p.u_packet};
+      if (p.u_packet) {
+        const uint32_t m = cache_->set().material_of(p.tile.texture);
+        u_loaded_[m] = std::max(u_loaded_[m], p.tile.texture - cache_->set().material(m).first_texture + 1);
+        u_requested_[m] = 0;
+        upload(r);
+      } else {
+        upload(r);
+        requested_[p.tile.texture][cache_->set().levels_of(p.tile.texture).index(p.tile)] = 0;
+        if (cache_->insert(p.tile, p.slot, frame_) == Status::success) {
+          const uint32_t removed = cache_->remove_hidden_ancestors(p.tile);  // add post-condition
+          frame_counters_.ancestors_removed += removed;
+          total_counters_.ancestors_removed += removed;
+        } else {
+          cache_->release_slot(p.slot);
+        }
+      }
+      ++frame_counters_.uploads;
+      ++total_counters_.uploads;
+      ++done;
+      retire(next);
+    }
+    return done;
+  }
+  uint32_t apply_uploads() noexcept {
+    return apply_uploads([](const TileRequest&) {});
+  }
+
+  /// Convenience for an immediate tile source (memory, tests, replay): plan, decode every
+  /// request within the decoding budget, apply uploads. Returns the frame's counters.
+  const SchedulerCounters& run_frame(const VoteCounter& votes, uint64_t frame) noexcept {
+    plan(votes, frame);
+    for (uint32_t id = 0; id < pending_.size(); ++id)
+      if (pending_[id].state == State::requested && begin_decode(id)) finish_decode(id);
+    apply_uploads();
+    return frame_counters_;
+  }
+
+ private:
+  static constexpr uint32_t kLeavesPerTexture = 4;
+  static constexpr uint32_t kNoRequest = 0xffffffffu;
+  enum class State : uint8_t { idle, requested, decoding, ready };
+  struct Pending {
+    TileId tile;
+    uint32_t slot = kNoSlot;
+    uint64_t bytes = 0;
+    uint64_t sequence = 0;
+    State state = State::idle;
+    bool u_packet = false;
+  };
+  struct AddCandidate {
+    double priority = 0;
+    uint32_t texture = 0;
+    uint32_t flat = 0;
+  };
+  struct Leaf {
+    double cost = 0;  // to its deepest resident ancestor
+    uint32_t flat = 0;
+    uint32_t slot = 0;
+  };
+  struct Pair {
+    double cost = 0;
+    uint32_t texture = 0;
+    uint32_t a = 0, b = 0;  // leaf positions within the texture's leaf list
+  };
+
+  float weight(uint32_t texture, uint32_t flat) const noexcept {
+    if (config_.mode == PriorityMode::votes_only) return 1.0f;
+    return cache_->set().weights(texture)[flat].to_float();
+  }
+
+  static bool add_before(const AddCandidate& a, const AddCandidate& b) noexcept {
+    if (a.priority != b.priority) return a.priority > b.priority;
+    if (a.texture != b.texture) return a.texture < b.texture;
+    return a.flat < b.flat;
+  }
+
+  void collect_adds(const VoteCounter& votes) noexcept {
+    adds_.clear();
+    const VtSet& set = cache_->set();
+    // One more than can be requested, so a refusal by the request budget is seen and counted.
+    const size_t keep = config_.budgets.requests_in_flight + 1;
+    for (const uint32_t word : votes.touched()) {
+      const FeedbackTile ft = unpack_feedback(word);
+      if (ft.material >= set.material_count()) continue;
+      const VtMaterial& m = set.material(ft.material);
+      if (ft.level > m.levels.finest_level()) continue;
+      const uint32_t flat = m.levels.index(ft.level, ft.x, ft.y);
+      const uint32_t v = votes.votes_at(ft.material, flat);
+      const uint32_t direct = votes.direct_votes_at(ft.material, flat);
+      const uint32_t parent_flat = ft.level > 0 ? m.levels.index(ft.level - 1, ft.x >> 1, ft.y >> 1) : 0;
+      const uint32_t usable = std::min(u_loaded_[ft.material], m.texture_count);
+      for (uint32_t k = 0; k < usable; ++k) {
+        const uint32_t tex = m.first_texture + k;
+        if (cache_->slot_at(tex, flat) != kNoSlot) continue;
+        if (direct > 0) ++frame_counters_.visible_missing;
+        if (requested_[tex][flat] || cache_->slot_at(tex, parent_flat) == kNoSlot) continue;
+        const AddCandidate c{static_cast<double>(weight(tex, flat)) * v, tex, flat};  // paper 000 §5.2
+        if (c.priority <= 0.0) continue;
+        if (adds_.size() == keep && !add_before(c, adds_.back())) continue;
+        // Insert into the descending list (at most `keep` entries; capacity reserved).
+        auto it = std::upper_bound(adds_.begin(), adds_.end(), c, add_before);
+        if (adds_.size() == keep) adds_.pop_back();
+        adds_.insert(it, c);
+      }
+    }
+  }
+
+  // One pass over the slots: per-texture cheapest leaves and §6 U' packet priorities.
+  void collect_leaves(const VoteCounter& votes) noexcept {
+    const VtSet& set = cache_->set();
+    for (uint32_t t : leaf_textures_) leaf_count_[t] = 0;
+    leaf_textures_.clear();
+    pairs_.clear();
+    pairs_sorted_ = 0;
+    std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
+    for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
+      const SlotInfo& si = cache_->slot(s);
+      if (si.state != SlotInfo::State::used) continue;
+      const uint32_t tex = si.tile.texture;
+      const uint32_t mat = set.material_of(tex);
+      const uint32_t v = votes.votes_at(mat, si.flat_index);
+      if (config_.stream_u_columns) {
+        const uint32_t k = tex - set.material(mat).first_texture;
+        if (k == u_loaded_[mat])  // paper 000 §6: Σ v·‖T‖²_F over tiles of the next packet
+          u_priority_[mat] += static_cast<double>(v) * set.energies(tex)[si.flat_index].to_float();
+      }
+      if (si.tile.level == 0 || cache_->resident_below_at(tex, si.flat_index) != 0) continue;
+      if (si.added_frame + config_.hysteresis_frames > frame_) continue;  // hysteresis
+      const VtLevelTable& lv = set.levels_of(tex);
+      // Cost of revealing the deepest resident ancestor (eq. 10 with l' = that ancestor).
+      double wsum = 0;
+      for (TileId a = si.tile; a.level > 0;) {
+        wsum += weight(tex, lv.index(a));
+        a = a.parent();
+        if (cache_->slot_at(tex, lv.index(a)) != kNoSlot) break;
+      }
+      const Leaf leaf{wsum * v, si.flat_index, s};
+      uint32_t& n = leaf_count_[tex];
+      if (n == 0) leaf_textures_.push_back(tex);
+      Leaf* list = &leaves_[static_cast<size_t>(tex) * kLeavesPerTexture];
+      // Keep the kLeavesPerTexture cheapest, ascending by (cost, flat index).
+      uint32_t pos = n;
+      while (pos > 0 && (leaf.cost < list[pos - 1].cost ||
+                         (leaf.cost == list[pos - 1].cost && leaf.flat < list[pos - 1].flat)))
+        --pos;
+      if (pos >= kLeavesPerTexture) continue;
+      for (uint32_t i = std::min(n, kLeavesPerTexture - 1); i > pos; --i) list[i] = list[i - 1];
+      list[pos] = leaf;
+      if (n < kLeavesPerTexture) ++n;
+    }
+  }
+
+  // Eq. 10 for one removed tile when A (level la) is the inserted/resident ancestor.
+  double removal_cost(uint32_t tex, const TileId& t, uint32_t la, uint32_t v) const noexcept {
+    const VtLevelTable& lv = cache_->set().levels_of(tex);
+    double wsum = 0;
+    for (TileId a = t; a.level > la;) {
+      wsum += weight(tex, lv.index(a));
+      a = a.parent();
+      if (cache_->slot_at(tex, lv.index(a)) != kNoSlot) break;
+    }
+    return wsum * v;
+  }
+
+  void build_pairs(const VoteCounter& votes) noexcept {
+    const VtSet& set = cache_->set();
+    for (uint32_t tex : leaf_textures_) {
+      const uint32_t n = leaf_count_[tex];
+      const Leaf* list = &leaves_[static_cast<size_t>(tex) * kLeavesPerTexture];
+      const VtLevelTable& lv = set.levels_of(tex);
+      const uint32_t mat = set.material_of(tex);
+      for (uint32_t i = 0; i + 1 < n; i += 2) {
+        const TileId a = lv.tile(tex, list[i].flat), b = lv.tile(tex, list[i + 1].flat);
+        const TileId anc = TileCache::common_ancestor(a, b);
+        const double cost = removal_cost(tex, a, anc.level, votes.votes_at(mat, list[i].flat)) +
+                            removal_cost(tex, b, anc.level, votes.votes_at(mat, list[i + 1].flat));
+        pairs_.push_back(Pair{cost, tex, i, i + 1});
+      }
+    }
+    const auto less = [](const Pair& x, const Pair& y) {
+      if (x.cost != y.cost) return x.cost < y.cost;
+      if (x.texture != y.texture) return x.texture < y.texture;
+      return x.a < y.a;
+    };
+    const size_t k = std::min<size_t>(pairs_.size(), 2u * config_.budgets.requests_in_flight + 3);
+    std::partial_sort(pairs_.begin(), pairs_.begin() + static_cast<ptrdiff_t>(k), pairs_.end(), less);
+    pairs_.resize(k);
+    pairs_sorted_ = 1;
+    next_pair_ = 0;
+  }
+
+  bool pair_valid(const Pair& p) const noexcept {
+    const Leaf* list = &leaves_[static_cast<size_t>(p.texture) * kLeavesPerTexture];
+    for (const uint32_t i : {p.a, p.b}) {
+      const uint32_t s = list[i].slot;
+      const SlotInfo& si = cache_->slot(s);
+      if (si.state != SlotInfo::State::used || si.tile.texture != p.texture || si.flat_index != list[i].flat) return false;
+      if (protected_stamp_[s] == frame_ + 1) return false;  // parent of an add issued this frame
+      if (cache_->resident_below_at(p.texture, list[i].flat) != 0) return false;
+    }
+    return true;
+  }
+
+  bool can_request(uint64_t bytes, uint32_t count) noexcept {
+    if (in_flight_ + count > config_.budgets.requests_in_flight || free_requests_.size() < count) {
+      ++frame_counters_.request_budget_hits;
+      return false;
+    }
+    if (bytes_in_flight_ + bytes > config_.budgets.bytes_in_flight) {
+      ++frame_counters_.byte_budget_hits;
+      return false;
+    }
+    return true;
+  }
+
+  void issue(const TileId& tile, uint32_t slot, uint64_t bytes, bool u_packet) noexcept {
+    const uint32_t id = free_requests_.back();
+    free_requests_.pop_back();
+    pending_[id] = Pending{tile, slot, bytes, sequence_++, State::requested, u_packet};
+    ++in_flight_;
+    bytes_in_flight_ += bytes;
+    requests_out_.push_back(TileRequest{id, tile, bytes, u_packet});
+    ++frame_counters_.requests;
+    frame_counters_.bytes_requested += bytes;
+    if (u_packet) {
+      ++frame_counters_.u_requests;
+    } else {
+      requested_[tile.texture][cache_->set().levels_of(tile.texture).index(tile)] = 1;
+    }
+  }
+
+  void retire(uint32_t id) noexcept {
+    --in_flight_;
+    bytes_in_flight_ -= pending_[id].bytes;
+    pending_[id] = Pending{};
+    free_requests_.push_back(id);
+  }
+
+  uint32_t oldest_ready() const noexcept {
+    uint32_t best = kNoRequest;
+    for (uint32_t i = 0; i < pending_.size(); ++i)
+      if (pending_[i].state == State::ready && (best == kNoRequest || pending_[i].sequence < pending_[best].sequence))
+        best = i;
+    return best;
+  }
+
+  // §6: request the next U' packet of the material with the highest priority above `p`.
+  bool maybe_request_u(double p) noexcept {
+    if (!config_.stream_u_columns) return true;
+    const VtSet& set = cache_->set();
+    for (;;) {
+      uint32_t best = kNoRequest;
+      for (uint32_t m = 0; m < set.material_count(); ++m) {
+        if (u_requested_[m] || u_loaded_[m] >= set.material(m).texture_count || u_priority_[m] <= p) continue;
+        if (best == kNoRequest || u_priority_[m] > u_priority_[best]) best = m;
+      }
+      if (best == kNoRequest) return true;
+      if (!can_request(config_.u_packet_bytes, 1)) return false;
+      const TileId packet{set.material(best).first_texture + u_loaded_[best], 0, 0, 0};
+      issue(packet, kNoSlot, config_.u_packet_bytes, true);
+      u_requested_[best] = 1;
+    }
+  }
+
+  void decide(const VoteCounter& votes) noexcept {
+    // U' packets need no cache slot: once the adds are decided, any packet with priority > 0
+    // that fits the budgets is requested too.
+    if (decide_adds(votes)) maybe_request_u(0.0);
+  }
+
+  // Returns false when a request budget stopped the frame.
+  bool decide_adds(const VoteCounter& votes) noexcept {
+    const VtSet& set = cache_->set();
+    for (const AddCandidate& c : adds_) {
+      if (!maybe_request_u(c.priority)) return false;
+      const TileId tile = set.levels_of(c.texture).tile(c.texture, c.flat);
+      // A swap earlier this frame may have removed the parent or requested this very tile.
+      if (requested_[c.texture][c.flat] || !cache_->resident(tile.parent())) continue;
+      if (!can_request(config_.tile_bytes, 1)) return false;
+      if (cache_->free_count() == 0) {
+        // §5.2: among the three lowest-cost swaps, the cheapest still valid; only if c* < P*.
+        if (!pairs_sorted_) build_pairs(votes);
+        while (next_pair_ < pairs_.size() && !pair_valid(pairs_[next_pair_])) ++next_pair_;
+        if (next_pair_ == pairs_.size() || !(pairs_[next_pair_].cost < c.priority)) {
+          ++frame_counters_.swaps_rejected;
+          return true;  // candidates are sorted: no later add is worth a swap either
+        }
+        const Pair p = pairs_[next_pair_++];
+        const Leaf* list = &leaves_[static_cast<size_t>(p.texture) * kLeavesPerTexture];
+        const VtLevelTable& lv = set.levels_of(p.texture);
+        const TileId a = lv.tile(p.texture, list[p.a].flat), b = lv.tile(p.texture, list[p.b].flat);
+        const TileId anc = TileCache::common_ancestor(a, b);
+        const bool insert_anc = !cache_->resident(anc) && !requested_[p.texture][lv.index(anc)];
+        if (insert_anc && !can_request(2 * config_.tile_bytes, 2)) return false;
+        TileId ancestor;
+        if (cache_->swap_remove(a, b, ancestor) != Status::success) continue;
+        ++frame_counters_.swaps;
+        if (insert_anc) issue(anc, cache_->reserve_slot(), config_.tile_bytes, false);
+      }
+      const uint32_t slot = cache_->reserve_slot();
+      if (slot == kNoSlot) return true;
+      // The parent must survive this frame's swaps (add needs it, §5.2).
+      const uint32_t parent_slot = cache_->slot_of(tile.parent());
+      if (parent_slot != kNoSlot) protected_stamp_[parent_slot] = frame_ + 1;
+      issue(tile, slot, config_.tile_bytes, false);
+      ++frame_counters_.adds;
+    }
+    return true;
+  }
+
+  void update_bias() noexcept {
+    const bool overloaded =
+        frame_counters_.budget_hits() > 0 || frame_counters_.visible_missing > config_.overload_missing_tiles;
+    if (overloaded) {
+      calm_streak_ = 0;
+      if (++overload_streak_ >= config_.overload_frames) {
+        overload_streak_ = 0;
+        if (lod_bias_ < config_.max_lod_bias) ++lod_bias_;
+      }
+    } else {
+      overload_streak_ = 0;
+      if (++calm_streak_ >= config_.calm_frames) {
+        calm_streak_ = 0;
+        if (lod_bias_ > 0) --lod_bias_;
+      }
+    }
+  }
+
+  TileCache* cache_ = nullptr;
+  SchedulerConfig config_;
+  uint64_t frame_ = 0;
+  uint64_t sequence_ = 0;
+  SchedulerCounters frame_counters_;
+  SchedulerCounters total_counters_;
+  std::vector<Pending> pending_;
+  std::vector<uint32_t> free_requests_;
+  std::vector<std::vector<uint8_t>> requested_;  // per texture, per tile: a request is pending
+  std::vector<uint32_t> u_loaded_;
+  std::vector<uint8_t> u_requested_;
+  std::vector<double> u_priority_;
+  std::vector<AddCandidate> adds_;
+  std::vector<Leaf> leaves_;
+  std::vector<uint32_t> leaf_count_;
+  std::vector<uint32_t> leaf_textures_;
+  std::vector<Pair> pairs_;
+  std::vector<TileRequest> requests_out_;
+  std::vector<uint64_t> protected_stamp_;
+  size_t next_pair_ = 0;
+  uint32_t pairs_sorted_ = 0;
+  uint32_t in_flight_ = 0;
+  uint64_t bytes_in_flight_ = 0;
+  uint32_t decoding_ = 0;
+  uint32_t lod_bias_ = 0;
+  uint32_t overload_streak_ = 0;
+  uint32_t calm_streak_ = 0;
+};
+
+}  // namespace btflod

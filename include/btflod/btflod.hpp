@@ -24,6 +24,13 @@
 
 // angular
 #include "btflod/angular/angular_sample.hpp"
+#include "btflod/angular/delaunay.hpp"
+#include "btflod/angular/interpolators.hpp"
+#include "btflod/angular/nine_tap.hpp"
+#include "btflod/angular/parameterization.hpp"
+#include "btflod/angular/regular_grid.hpp"
+#include "btflod/angular/ring_search.hpp"
+#include "btflod/angular/triangle_locator.hpp"
 
 // factor
 

@@ -1,0 +1,158 @@
+// btflod-convert info FILE... — what a material file holds: format, sizes, directions, values.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "command.hpp"
+#include "common/btf_files.hpp"
+
+namespace {
+
+using namespace btflod;
+using btflod::samples::BtfFileKind;
+
+void print_directions(const char* what, const DirectionSet& d) {
+  float max_theta = 0.0f;
+  for (const auto& dir : d) max_theta = std::max(max_theta, dir.theta);
+  std::printf("  %-7s %zu directions (%s), theta up to %.1f deg\n", what, d.size(),
+              d.name().empty() ? "custom" : d.name().c_str(), static_cast<double>(radians_to_degrees(max_theta)));
+}
+
+void print_value_range(const BtfFloat& btf) {
+  float lo = INFINITY, hi = -INFINITY;
+  double sum = 0.0;
+  size_t non_finite = 0;
+  for (float v : btf.samples()) {
+    if (!std::isfinite(v)) {
+      ++non_finite;
+      continue;
+    }
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+    sum += v;
+  }
+  std::printf("  values  min %.6g, max %.6g, mean %.6g", static_cast<double>(lo), static_cast<double>(hi),
+              sum / static_cast<double>(std::max<size_t>(btf.samples().size(), 1)));
+  if (non_finite) std::printf(", %zu non-finite", non_finite);
+  std::printf("\n");
+}
+
+int info_mbsdf(const std::string& path) {
+  auto brdf = read_mbsdf(path);
+  if (!brdf) {
+    std::fprintf(stderr, "btflod-convert info: %s\n", brdf.message().c_str());
+    return convert::kExitFailure;
+  }
+  std::printf("%s: NVIDIA ARC MBSDF V1 measured isotropic BRDF\n", path.c_str());
+  std::printf("  grid    %u x %u x %u (theta_in x theta_out x phi_diff), %s, cell centres at (i+0.5)*90/%u deg\n",
+              brdf->res_theta(), brdf->res_theta(), brdf->res_phi(), brdf->channels() == 3 ? "RGB" : "scalar",
+              brdf->res_theta());
+  std::printf("  values  max %.6g, %zu negative (measurement noise, clamped to 0 on evaluation)\n",
+              static_cast<double>(brdf->max_value()), brdf->negative_count());
+  std::printf("  parts   reflection%s\n", brdf->had_transmission() ? " + transmission (ignored)" : "");
+  const glm::vec3 normal = brdf->evaluate(glm::vec3(0, 0, 1), glm::vec3(0, 0, 1));
+  const glm::vec3 l45 = direction_from_spherical(degrees_to_radians(45.0f), 0.0f);
+  const glm::vec3 mirror45 = brdf->evaluate(l45, direction_from_spherical(degrees_to_radians(45.0f), kPi));
+  std::printf("  rho     normal incidence (%.4g, %.4g, %.4g) /sr; 45 deg mirror (%.4g, %.4g, %.4g) /sr\n",
+              static_cast<double>(normal.r), static_cast<double>(normal.g), static_cast<double>(normal.b),
+              static_cast<double>(mirror45.r), static_cast<double>(mirror45.g), static_cast<double>(mirror45.b));
+  return convert::kExitOk;
+}
+
+#if BTFLOD_SAMPLES_HAVE_BONN
+int info_bonn(const std::string& path, bool values) {
+  auto file = read_bonn_btf(path);
+  if (!file) {
+    std::fprintf(stderr, "btflod-convert info: %s\n", file.message().c_str());
+    return convert::kExitFailure;
+  }
+  const auto& f = *file;
+  std::printf("%s: Bonn binary BTF, %s\n", path.c_str(),
+              f.format == BonnFormat::dfmf ? "DFMF (per-channel factor matrices)" : "FMF (one factor matrix)");
+  std::printf("  texels  %d x %d\n", f.width, f.height);
+  print_directions("views", f.views);
+  print_directions("lights", f.lights);
+  std::printf("  meta    version %u, setup \"%s\", sensor \"%s\", light \"%s\", %.3g px/mm\n", f.meta_version,
+              f.measurement_setup.c_str(), f.image_sensor.c_str(), f.light_source.c_str(),
+              static_cast<double>(f.ppmm));
+  std::printf("  colour  %zu channels, model %d, cosine in data: %s\n", f.channel_count(),
+              static_cast<int>(f.color_model), f.cosine_in_data ? "yes" : "no");
+  for (size_t c = 0; c < f.factors.size(); ++c)
+    std::printf("  factors [%zu] %lld components, U %lld x %lld, SxV %lld x %lld, %u-byte scalars\n", c,
+                static_cast<long long>(f.factors[c].u.cols()), static_cast<long long>(f.factors[c].u.rows()),
+                static_cast<long long>(f.factors[c].u.cols()), static_cast<long long>(f.factors[c].sxv.rows()),
+                static_cast<long long>(f.factors[c].sxv.cols()), f.factors[c].scalar_size);
+  for (const auto& w : f.warnings) std::printf("  warning %s\n", w.c_str());
+  if (values) {
+    auto btf = reconstruct_bonn_btf(f);
+    if (!btf) {
+      std::fprintf(stderr, "btflod-convert info: %s: %s\n", path.c_str(), btf.message().c_str());
+      return convert::kExitFailure;
+    }
+    print_value_range(*btf);
+  }
+  return convert::kExitOk;
+}
+#endif
+
+int info_generic(const std::string& path) {
+  auto btf = samples::load_btf(path);
+  if (!btf) {
+    std::fprintf(stderr, "btflod-convert info: %s\n", btf.message().c_str());
+    return convert::kExitFailure;
+  }
+  std::printf("%s: %s\n", path.c_str(), samples::file_kind_name(samples::detect_btf_file(path)));
+  std::printf("  texels  %d x %d\n", btf->width(), btf->height());
+  print_directions("views", btf->views());
+  print_directions("lights", btf->lights());
+  print_value_range(*btf);
+  return convert::kExitOk;
+}
+
+int run_info(int argc, char** argv) {
+  convert::Options opt(argc, argv);
+  if (opt.wants_help()) {
+    std::puts(
+        "usage: btflod-convert info FILE... [--values]\n"
+        "  Prints what each file holds: format, texel size, view and light directions, and for\n"
+        "  measured BRDFs the grid and a few values. Reads NVIDIA ARC .mbsdf files, Bonn .btf files\n"
+        "  (!DFMF08FCR, !FMF12FCER) and UBO2003-style image folders (when compiled in).\n"
+        "  --values   also reconstruct the data and print its value range (may be slow)");
+    return convert::kExitOk;
+  }
+  const bool values = opt.flag("values");
+  if (!opt.finish()) return convert::kExitUsage;
+  if (opt.positional().empty()) {
+    std::fprintf(stderr, "btflod-convert info: no FILE given (see --help)\n");
+    return convert::kExitUsage;
+  }
+  int result = convert::kExitOk;
+  for (const auto& path : opt.positional()) {
+    int r = convert::kExitFailure;
+    switch (samples::detect_btf_file(path)) {
+      case BtfFileKind::missing:
+        std::fprintf(stderr, "btflod-convert info: %s: cannot open (missing or unreadable)\n", path.c_str());
+        break;
+      case BtfFileKind::unknown:
+        std::fprintf(stderr, "btflod-convert info: %s: not a format btflod reads\n", path.c_str());
+        break;
+      case BtfFileKind::mbsdf: r = info_mbsdf(path); break;
+      case BtfFileKind::bonn:
+#if BTFLOD_SAMPLES_HAVE_BONN
+        r = info_bonn(path, values);
+#else
+        r = info_generic(path);
+#endif
+        break;
+      case BtfFileKind::image_folder: r = info_generic(path); break;
+    }
+    if (r != convert::kExitOk) result = r;
+  }
+  (void)values;
+  return result;
+}
+
+}  // namespace
+
+BTFLOD_CONVERT_COMMAND(info, "what a material file holds (.mbsdf, Bonn .btf, UBO2003 folder)", run_info);

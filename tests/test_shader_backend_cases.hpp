@@ -104,7 +104,7 @@ void bsvtf_partial_cache(Factory make) {
   const CacheFill fill = fill_cache(pyr, config.vt, M, N);
   ASSERT_EQ(fill.uploads.size(), 2u * (1 + 4 + 8));
   ASSERT_EQ(be->upload_tiles(fill.uploads), Status::success);
-  ASSERT_EQ(be->apply_page_table_deltas(fill.deltas), Status::success);
+  ASSERT_EQ(be->apply_page_table_writes(fill.deltas), Status::success);
   const auto verts = quad_vertices();
   const auto idx = quad_indices();
   auto mesh = be->create_mesh(MeshData{verts, idx});
@@ -259,10 +259,10 @@ void rejects_bad_input(Factory make) {
   EXPECT_EQ(be->upload_tiles({&bad_slot, 1}), Status::invalid_argument);
   const TileUpload short_tile{0, std::span<const uint16_t>(texels).first(100)};
   EXPECT_EQ(be->upload_tiles({&short_tile, 1}), Status::invalid_argument);
-  const PageTableDelta bad_layer{TileId{2, 0, 0, 0}, 2, 0};
-  EXPECT_EQ(be->apply_page_table_deltas({&bad_layer, 1}), Status::invalid_argument);
-  const PageTableDelta bad_texel{TileId{0, 1, 2, 0}, 1, 0};  // mip 1 is 2×2
-  EXPECT_EQ(be->apply_page_table_deltas({&bad_texel, 1}), Status::invalid_argument);
+  const PageTableWrite bad_layer{TileId{2, 0, 0, 0}, 2, 0};
+  EXPECT_EQ(be->apply_page_table_writes({&bad_layer, 1}), Status::invalid_argument);
+  const PageTableWrite bad_texel{TileId{0, 1, 2, 0}, 1, 0};  // mip 1 is 2×2
+  EXPECT_EQ(be->apply_page_table_writes({&bad_texel, 1}), Status::invalid_argument);
   Material m = make_material(config, 8, 8);
   m.light_index[5] = 999;  // names a direction that does not exist
   auto mat = be->create_material(m.data(true));

@@ -198,8 +198,8 @@ TEST(ShaderConfig, ParameterisationTwinsMatchAngularMaps) {
 #endif
 
 TEST(ShaderConfig, PageEntryAndSlotPlacement) {
-  EXPECT_EQ(page_entry_slot(pack_page_entry(123456, 7)), 123456u);
-  EXPECT_EQ(page_entry_level(pack_page_entry(123456, 7)), 7u);
+  EXPECT_EQ(unpack_page_entry_slot(pack_page_entry(123456, 7)), 123456u);
+  EXPECT_EQ(unpack_page_entry_level(pack_page_entry(123456, 7)), 7u);
   VirtualTextureConfig v;
   v.slots_x = 4;
   v.slots_y = 2;

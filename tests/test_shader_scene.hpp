@@ -308,7 +308,7 @@ inline std::vector<uint16_t> tile_texels(const Pyramid& p, int group, uint32_t l
 struct CacheFill {
   std::vector<std::vector<uint16_t>> texels;
   std::vector<TileUpload> uploads;
-  std::vector<PageTableDelta> deltas;
+  std::vector<PageTableWrite> deltas;
   std::vector<std::vector<int>> slot_of;  // [group][flat (level, y, x)] → slot or −1
 };
 
@@ -359,7 +359,7 @@ inline CacheFill fill_cache(const Pyramid& p, const VirtualTextureConfig& vt, in
             ry >>= 1;
           }
           const uint32_t s = static_cast<uint32_t>(slots[static_cast<size_t>(g)][rl][ry * tiles_at(rl, width) + rx]);
-          f.deltas.push_back(make_page_table_delta(TileId{static_cast<uint32_t>(g), l, x, y}, p.finest, s, rl));
+          f.deltas.push_back(make_page_table_write(TileId{static_cast<uint32_t>(g), l, x, y}, p.finest, s, rl));
         }
   return f;
 }

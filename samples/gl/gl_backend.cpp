@@ -267,10 +267,10 @@ class GlBackend final : public Backend {
     return Status::success;
   }
 
-  Status apply_page_table_deltas(std::span<const PageTableDelta> deltas) noexcept override {
+  Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override {
     if (!initialised_) return Status::invalid_argument;
-    if (Status s = check_page_table_deltas(deltas, vt_layers_, config_.vt.finest_level); s != Status::success) return s;
-    for (const PageTableDelta& d : deltas)
+    if (Status s = check_page_table_writes(writes, vt_layers_, config_.vt.finest_level); s != Status::success) return s;
+    for (const PageTableWrite& d : writes)
       glTextureSubImage3D(page_table_, static_cast<GLint>(d.page_mip), static_cast<GLint>(d.tile.x),
                           static_cast<GLint>(d.tile.y), static_cast<GLint>(d.tile.texture), 1, 1, 1, GL_RED_INTEGER,
                           GL_UNSIGNED_INT, &d.entry);

@@ -8,7 +8,7 @@
 // the uniform block (ShaderParams). docs/shaders.md walks through a frame.
 //
 // Threading: a backend object is used from one thread (the one that created it). Calls that run
-// per frame (upload_tiles, apply_page_table_deltas, begin_frame, draw, draw_feedback, end_frame,
+// per frame (upload_tiles, apply_page_table_writes, begin_frame, draw, draw_feedback, end_frame,
 // poll_feedback) do not allocate after set-up, never block on the GPU and return a Status.
 #pragma once
 
@@ -74,21 +74,24 @@ struct TileUpload {
   std::span<const uint16_t> texels; ///< (T + 2B)² · 4 half bits
 };
 
-/// One page-table texel to overwrite. `tile` names the texel: layer tile.texture (virtual
-/// texture), tile (x, y) at paper level tile.level; page_mip = material finest level − tile.level
-/// is the mip it lives in (ShaderParams::vt_extent.z − level). entry = pack_page_entry(slot,
-/// resident level) of the tile the cache uses for it (itself or its nearest resident ancestor).
-struct PageTableDelta {
+/// One texel of the GPU page table to overwrite. The GPU page table has one level per mip (so
+/// the shader can blend two resident levels); vt/tile_cache.hpp's finest-level deltas are turned
+/// into these writes by backend/page_table_writes.hpp. `tile` names the texel: layer
+/// tile.texture (virtual texture), tile (x, y) at paper level tile.level; page_mip = material
+/// finest level − tile.level is the mip it lives in (ShaderParams::vt_extent.z − level).
+/// entry = pack_page_entry(slot, resident level) (= vt/tile_cache.hpp make_page_entry(level,
+/// slot)) of the tile the cache uses for it: itself or its deepest resident ancestor.
+struct PageTableWrite {
   TileId tile;
   uint32_t page_mip = 0;
   uint32_t entry = 0;
 };
 
-/// Builds the delta for tile `t` of a material whose finest level is `material_finest_level`.
+/// Builds the write for tile `t` of a material whose finest level is `material_finest_level`.
 /// Precondition: t.level ≤ material_finest_level.
-constexpr PageTableDelta make_page_table_delta(TileId t, uint32_t material_finest_level, uint32_t slot,
+constexpr PageTableWrite make_page_table_write(TileId t, uint32_t material_finest_level, uint32_t slot,
                                                uint32_t resident_level) noexcept {
-  return PageTableDelta{t, material_finest_level - t.level, pack_page_entry(slot, resident_level)};
+  return PageTableWrite{t, material_finest_level - t.level, pack_page_entry(slot, resident_level)};
 }
 
 /// Checks a material against the shader config before upload: C matches, spans have the sizes
@@ -169,11 +172,11 @@ inline std::vector<float> pack_eigen_textures_rgba(ImageView<const float> v) {
   return out;
 }
 
-/// Checks page-table deltas against the page-table shape (layers, finest level); shared by
+/// Checks page-table writes against the page-table shape (layers, finest level); shared by
 /// the backends so they reject the same inputs. Returns invalid_argument or success. noexcept.
-inline Status check_page_table_deltas(std::span<const PageTableDelta> deltas, uint32_t layers,
+inline Status check_page_table_writes(std::span<const PageTableWrite> writes, uint32_t layers,
                                       uint32_t finest_level) noexcept {
-  for (const PageTableDelta& d : deltas) {
+  for (const PageTableWrite& d : writes) {
     if (d.tile.texture >= layers || d.page_mip > finest_level) return Status::invalid_argument;
     const uint32_t side = 1u << (finest_level - d.page_mip);
     if (d.tile.x >= side || d.tile.y >= side) return Status::invalid_argument;
@@ -231,9 +234,9 @@ class Backend {
   /// Copies tiles into cache slots. Returns invalid_argument (and uploads nothing) when a slot
   /// is out of range or a span has the wrong size.
   virtual Status upload_tiles(std::span<const TileUpload> tiles) noexcept = 0;
-  /// Overwrites page-table texels. Returns invalid_argument (and applies nothing) when a delta
+  /// Overwrites page-table texels. Returns invalid_argument (and applies nothing) when a write
   /// names a layer, mip or texel outside the page table.
-  virtual Status apply_page_table_deltas(std::span<const PageTableDelta> deltas) noexcept = 0;
+  virtual Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept = 0;
 
   // --- frame (per frame) -------------------------------------------------------------------
   /// Starts a frame: clears the colour target and the feedback target (to the config's

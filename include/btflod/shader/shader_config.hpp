@@ -103,8 +103,8 @@ inline constexpr uint32_t kPageEntrySlotMask = (1u << kPageEntrySlotBits) - 1u;
 constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexcept {
   return (resident_level << kPageEntrySlotBits) | (slot & kPageEntrySlotMask);
 }
-constexpr uint32_t page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
-constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
+constexpr uint32_t unpack_page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
+constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
 
 /// Virtual-texture (BSVTF) layout as the shaders see it.
 ///

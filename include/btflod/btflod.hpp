@@ -21,6 +21,7 @@
 #include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/btf/ubo2003_folder.hpp"
 
 // angular
 #include "btflod/angular/angular_sample.hpp"

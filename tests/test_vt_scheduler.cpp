@@ -30,6 +30,7 @@ struct Rig {
   }
   void set_weight(uint32_t tex, uint32_t level, uint32_t x, uint32_t y, float w) {
     set.weights(tex)[set.levels_of(tex).index(level, x, y)] = Half(w);
+    sched->refresh_weights();
   }
   const SchedulerCounters& frame(const std::vector<uint32_t>& words, uint64_t f) {
     votes->count(words);

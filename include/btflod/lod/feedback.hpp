@@ -133,7 +133,15 @@ class VoteCounter {
     while (i < n) {
       const uint32_t word = w[i];
       size_t j = i + 1;
-      while (j < n && w[j] == word) ++j;  // one run of equal words at a time
+      // One run of equal words at a time; skip long runs 8 words per step (branch-free inner
+      // block the compiler vectorises; plain C++, so there is no SIMD path needing a twin).
+      while (j + 8 <= n) {
+        uint32_t diff = 0;
+        for (size_t k = 0; k < 8; ++k) diff |= w[j + k] ^ word;
+        if (diff != 0) break;
+        j += 8;
+      }
+      while (j < n && w[j] == word) ++j;
       const uint32_t run = static_cast<uint32_t>(j - i);
       if (word != kFeedbackNone) {
         if (add_direct(word, run * weight, level_drop)) valid += run;

@@ -117,8 +117,14 @@ class Scheduler {
     s.pending_.assign(b.requests_in_flight, Pending{});
     s.free_requests_.reserve(b.requests_in_flight);
     for (uint32_t i = b.requests_in_flight; i-- > 0;) s.free_requests_.push_back(i);
-    s.requested_.resize(set.texture_count());
-    for (uint32_t t = 0; t < set.texture_count(); ++t) s.requested_[t].assign(set.levels_of(t).tile_count(), 0);
+    // Per-tile arrays are tile-major per material (index = base + flat · K + k), like the
+    // cache's slot table, so one material tile's K virtual textures share a cache line.
+    s.material_base_.assign(set.material_count() + 1, 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      s.material_base_[m + 1] = s.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+    s.requested_.assign(s.material_base_.back(), 0);
+    s.weights_.assign(s.material_base_.back(), 1.0f);
+    s.refresh_weights();
     s.u_loaded_.assign(set.material_count(), 0);
     s.u_requested_.assign(set.material_count(), 0);
     for (uint32_t m = 0; m < set.material_count(); ++m)
@@ -132,6 +138,17 @@ class Scheduler {
     s.requests_out_.reserve(b.requests_in_flight);
     s.protected_stamp_.assign(cache.slot_count(), 0);
     return s;
+  }
+
+  /// Re-reads w from the VtSet (call after changing weights there; create() reads them once).
+  /// In votes_only mode every weight is 1. noexcept, no allocation.
+  void refresh_weights() noexcept {
+    const VtSet& set = cache_->set();
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const std::span<const Half> w = set.weights(t);
+      for (uint32_t i = 0; i < w.size(); ++i)
+        weights_[index(t, i)] = config_.mode == PriorityMode::votes_only ? 1.0f : w[i].to_float();
+    }
   }
 
   const SchedulerConfig& config() const noexcept { return config_; }
@@ -190,7 +207,7 @@ class Scheduler {
     if (p.u_packet) u_requested_[cache_->set().material_of(p.tile.texture)] = 0;
     else {
       cache_->release_slot(p.slot);
-      requested_[p.tile.texture][cache_->set().levels_of(p.tile.texture).index(p.tile)] = 0;
+      requested_[index(p.tile.texture, cache_->set().levels_of(p.tile.texture).index(p.tile))] = 0;
     }
     retire(id);
   }
@@ -218,7 +235,7 @@ class Scheduler {
         upload(r);
       } else {
         upload(r);
-        requested_[p.tile.texture][cache_->set().levels_of(p.tile.texture).index(p.tile)] = 0;
+        requested_[index(p.tile.texture, cache_->set().levels_of(p.tile.texture).index(p.tile))] = 0;
         if (cache_->insert(p.tile, p.slot, frame_) == Status::success) {
           const uint32_t removed = cache_->remove_hidden_ancestors(p.tile);  // add post-condition
           frame_counters_.ancestors_removed += removed;
@@ -276,10 +293,13 @@ class Scheduler {
     uint32_t a = 0, b = 0;  // leaf positions within the texture's leaf list
   };
 
-  float weight(uint32_t texture, uint32_t flat) const noexcept {
-    if (config_.mode == PriorityMode::votes_only) return 1.0f;
-    return cache_->set().weights(texture)[flat].to_float();
+  size_t index(uint32_t texture, uint32_t flat) const noexcept {
+    const VtSet& set = cache_->set();
+    const uint32_t m = set.material_of(texture);
+    const VtMaterial& mat = set.material(m);
+    return material_base_[m] + static_cast<size_t>(flat) * mat.texture_count + (texture - mat.first_texture);
   }
+  float weight(uint32_t texture, uint32_t flat) const noexcept { return weights_[index(texture, flat)]; }
 
   static bool add_before(const AddCandidate& a, const AddCandidate& b) noexcept {
     if (a.priority != b.priority) return a.priority > b.priority;
@@ -302,12 +322,16 @@ class Scheduler {
       const uint32_t direct = votes.direct_votes_at(ft.material, flat);
       const uint32_t parent_flat = ft.level > 0 ? m.levels.index(ft.level - 1, ft.x >> 1, ft.y >> 1) : 0;
       const uint32_t usable = std::min(u_loaded_[ft.material], m.texture_count);
+      const uint32_t* slots = cache_->material_slots(ft.material, flat);
+      const uint32_t* parent_slots = cache_->material_slots(ft.material, parent_flat);
+      const size_t base = material_base_[ft.material] + static_cast<size_t>(flat) * m.texture_count;
+      const uint8_t* requested = requested_.data() + base;
+      const float* weights = weights_.data() + base;
       for (uint32_t k = 0; k < usable; ++k) {
-        const uint32_t tex = m.first_texture + k;
-        if (cache_->slot_at(tex, flat) != kNoSlot) continue;
+        if (slots[k] != kNoSlot) continue;
         if (direct > 0) ++frame_counters_.visible_missing;
-        if (requested_[tex][flat] || cache_->slot_at(tex, parent_flat) == kNoSlot) continue;
-        const AddCandidate c{static_cast<double>(weight(tex, flat)) * v, tex, flat};  // paper 000 §5.2
+        if (requested[k] || parent_slots[k] == kNoSlot || ft.level == 0) continue;
+        const AddCandidate c{static_cast<double>(weights[k]) * v, m.first_texture + k, flat};  // paper 000 §5.2
         if (c.priority <= 0.0) continue;
         if (adds_.size() == keep && !add_before(c, adds_.back())) continue;
         // Insert into the descending list (at most `keep` entries; capacity reserved).
@@ -438,7 +462,7 @@ class Scheduler {
     if (u_packet) {
       ++frame_counters_.u_requests;
     } else {
-      requested_[tile.texture][cache_->set().levels_of(tile.texture).index(tile)] = 1;
+      requested_[index(tile.texture, cache_->set().levels_of(tile.texture).index(tile))] = 1;
     }
   }
 
@@ -488,7 +512,7 @@ class Scheduler {
       if (!maybe_request_u(c.priority)) return false;
       const TileId tile = set.levels_of(c.texture).tile(c.texture, c.flat);
       // A swap earlier this frame may have removed the parent or requested this very tile.
-      if (requested_[c.texture][c.flat] || !cache_->resident(tile.parent())) continue;
+      if (requested_[index(c.texture, c.flat)] || !cache_->resident(tile.parent())) continue;
       if (!can_request(config_.tile_bytes, 1)) return false;
       if (cache_->free_count() == 0) {
         // §5.2: among the three lowest-cost swaps, the cheapest still valid; only if c* < P*.
@@ -503,7 +527,7 @@ class Scheduler {
         const VtLevelTable& lv = set.levels_of(p.texture);
         const TileId a = lv.tile(p.texture, list[p.a].flat), b = lv.tile(p.texture, list[p.b].flat);
         const TileId anc = TileCache::common_ancestor(a, b);
-        const bool insert_anc = !cache_->resident(anc) && !requested_[p.texture][lv.index(anc)];
+        const bool insert_anc = !cache_->resident(anc) && !requested_[index(p.texture, lv.index(anc))];
         if (insert_anc && !can_request(2 * config_.tile_bytes, 2)) return false;
         TileId ancestor;
         if (cache_->swap_remove(a, b, ancestor) != Status::success) continue;
@@ -547,7 +571,9 @@ class Scheduler {
   SchedulerCounters total_counters_;
   std::vector<Pending> pending_;
   std::vector<uint32_t> free_requests_;
-  std::vector<std::vector<uint8_t>> requested_;  // per texture, per tile: a request is pending
+  std::vector<uint32_t> material_base_;  // per material (+ total), tile-major arrays below
+  std::vector<uint8_t> requested_;       // a request for (texture, tile) is pending
+  std::vector<float> weights_;           // w(i, l, l−1) as float (1 in votes_only mode)
   std::vector<uint32_t> u_loaded_;
   std::vector<uint8_t> u_requested_;
   std::vector<double> u_priority_;

@@ -85,10 +85,16 @@ class TileCache {
     c.free_.reserve(slots);
     for (uint64_t s = slots; s-- > 0;) c.free_.push_back(static_cast<uint32_t>(s));  // lowest slot on top
     c.textures_.resize(set.texture_count());
+    c.material_base_.resize(set.material_count() + 1, 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      c.material_base_[m + 1] = c.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+    c.slot_of_.assign(c.material_base_.back(), kNoSlot);
     for (uint32_t t = 0; t < set.texture_count(); ++t) {
       const VtLevelTable& lv = set.levels_of(t);
       Texture& tx = c.textures_[t];
-      tx.slot_of.assign(lv.tile_count(), kNoSlot);
+      const VtMaterial& mat = set.material(set.material_of(t));
+      tx.base = c.material_base(set, set.material_of(t)) + (t - mat.first_texture);
+      tx.stride = mat.texture_count;
       tx.resident_below.assign(lv.tile_count(), 0);
       const uint32_t L = lv.finest_level();
       tx.page_table.assign(static_cast<size_t>(lv.tiles_x[L]) * lv.tiles_y[L], make_page_entry(0, kNoSlot & 0xffffffu));
@@ -99,7 +105,7 @@ class TileCache {
       const uint32_t L = set.levels_of(t).finest_level();
       // The root covers everything: set the whole table directly, then count visibility.
       Texture& tx = c.textures_[t];
-      tx.slot_of[0] = slot;
+      c.slot_of_[tx.base] = slot;
       c.slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
       ++c.used_;
       std::fill(tx.page_table.begin(), tx.page_table.end(), make_page_entry(0, slot));
@@ -130,11 +136,17 @@ class TileCache {
     if (t.texture >= textures_.size()) return kNoSlot;
     const VtLevelTable& lv = set_->levels_of(t.texture);
     if (!lv.geometry.contains(t)) return kNoSlot;
-    return textures_[t.texture].slot_of[lv.index(t)];
+    return slot_at(t.texture, lv.index(t));
   }
   /// Same by flat index. Precondition: texture and index in range.
   uint32_t slot_at(uint32_t texture, uint32_t flat_index) const noexcept {
-    return textures_[texture].slot_of[flat_index];
+    return slot_of_[textures_[texture].base + flat_index * textures_[texture].stride];
+  }
+  /// Slots of tile `flat_index` in every virtual texture of a material: texture_count entries
+  /// (kNoSlot where not resident), contiguous, so the scheduler reads them in one cache line.
+  /// Precondition: material and index in range.
+  const uint32_t* material_slots(uint32_t material, uint32_t flat_index) const noexcept {
+    return slot_of_.data() + material_base_[material] + static_cast<size_t>(flat_index) * set_->material(material).texture_count;
   }
   bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
   /// Resident strict descendants of a tile (0 = it is a leaf of the resident tree).
@@ -169,7 +181,7 @@ class TileCache {
     const VtLevelTable& lv = set_->levels_of(t.texture);
     const uint32_t idx = lv.index(t);
     Texture& tx = textures_[t.texture];
-    tx.slot_of[idx] = s;
+    c_slot(tx, idx) = s;
     slots_[s] = SlotInfo{t, idx, frame, SlotInfo::State::used};
     ++used_;
     for (TileId a = t; a.level > 0;) {
@@ -212,15 +224,15 @@ class TileCache {
     if (s == kNoSlot || t.level == 0) return Status::invalid_argument;
     const VtLevelTable& lv = set_->levels_of(t.texture);
     Texture& tx = textures_[t.texture];
-    tx.slot_of[lv.index(t)] = kNoSlot;
+    c_slot(tx, lv.index(t)) = kNoSlot;
     uint32_t best = kNoSlot;
     uint32_t best_level = 0;
     for (TileId a = t; a.level > 0;) {
       a = a.parent();
       const uint32_t ai = lv.index(a);
       --tx.resident_below[ai];
-      if (best == kNoSlot && tx.slot_of[ai] != kNoSlot) {
-        best = tx.slot_of[ai];
+      if (best == kNoSlot && c_slot(tx, ai) != kNoSlot) {
+        best = c_slot(tx, ai);
         best_level = a.level;
       }
     }
@@ -288,14 +300,14 @@ class TileCache {
     for (uint32_t t = 0; t < textures_.size(); ++t) {
       const VtLevelTable& lv = set_->levels_of(t);
       const Texture& tx = textures_[t];
-      if (tx.slot_of[0] == kNoSlot) return fail(format_message("texture %u: root not resident", t));
+      if (c_slot(tx, 0) == kNoSlot) return fail(format_message("texture %u: root not resident", t));
       const uint32_t L = lv.finest_level();
       for (uint32_t i = 0; i < lv.tile_count(); ++i) {
         const TileId id = lv.tile(t, i);
         uint32_t below = 0;
         if (id.level < L)
           for (uint32_t j = lv.offset[id.level + 1]; j < lv.tile_count(); ++j)
-            if (tx.slot_of[j] != kNoSlot && id.covers(lv.tile(t, j))) ++below;
+            if (c_slot(tx, j) != kNoSlot && id.covers(lv.tile(t, j))) ++below;
         if (below != tx.resident_below[i])
           return fail(format_message("texture %u tile %u: resident_below %u != %u", t, i, tx.resident_below[i], below));
       }
@@ -304,7 +316,7 @@ class TileCache {
           TileId f{t, L, x, y};
           uint32_t want = kNoSlot, want_level = 0;
           for (uint32_t l = L + 1; l-- > 0;) {
-            const uint32_t s = tx.slot_of[lv.index(f.ancestor(l))];
+            const uint32_t s = c_slot(tx, lv.index(f.ancestor(l)));
             if (s != kNoSlot) {
               want = s;
               want_level = l;
@@ -327,7 +339,8 @@ class TileCache {
 
  private:
   struct Texture {
-    std::vector<uint32_t> slot_of;         // per tile (flat index)
+    uint32_t base = 0;                     // slot_of_[base + flat · stride]
+    uint32_t stride = 1;                   // virtual textures of the material (tile-major layout)
     std::vector<uint32_t> resident_below;  // per tile: resident strict descendants
     std::vector<uint32_t> page_table;      // per finest tile
   };
@@ -351,7 +364,7 @@ class TileCache {
     const VtLevelTable& lv = set_->levels_of(t.texture);
     Texture& tx = textures_[t.texture];
     const uint32_t idx = lv.index(t);
-    if (tx.slot_of[idx] != kNoSlot) best = make_page_entry(t.level, tx.slot_of[idx]);
+    if (c_slot(tx, idx) != kNoSlot) best = make_page_entry(t.level, c_slot(tx, idx));
     const uint32_t L = lv.finest_level();
     if (t.level == L || tx.resident_below[idx] == 0) {
       const uint32_t shift = L - t.level;
@@ -379,7 +392,13 @@ class TileCache {
     }
   }
 
+  uint32_t material_base(const VtSet&, uint32_t m) const noexcept { return material_base_[m]; }
+  uint32_t& c_slot(const Texture& tx, uint32_t flat) noexcept { return slot_of_[tx.base + flat * tx.stride]; }
+  uint32_t c_slot(const Texture& tx, uint32_t flat) const noexcept { return slot_of_[tx.base + flat * tx.stride]; }
+
   const VtSet* set_ = nullptr;
+  std::vector<uint32_t> slot_of_;        // tile-major per material: [material base + flat · K + k]
+  std::vector<uint32_t> material_base_;  // per material, + total
   TileCacheConfig config_;
   std::vector<SlotInfo> slots_;
   std::vector<uint32_t> visible_;

@@ -17,6 +17,9 @@
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define BTFLOD_HAS_X86_DISPATCH 1
 #include <immintrin.h>
+#if defined(__clang__)
+#include <cpuid.h>
+#endif
 #else
 #define BTFLOD_HAS_X86_DISPATCH 0
 #endif
@@ -107,8 +110,19 @@ inline bool cpu_has_f16c() noexcept {
   static const bool has = [] {
     const char* env = std::getenv("BTFLOD_DISABLE_SIMD");
     if (env != nullptr && env[0] != '\0' && env[0] != '0') return false;
+#if defined(__clang__)
+    // clang (14) rejects "f16c" in __builtin_cpu_supports: ask CPUID directly (leaf 1, ECX bits
+    // 29 F16C, 28 AVX, 27 OSXSAVE) and check with XGETBV that the OS saves the YMM state.
+    unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
+    if (!__get_cpuid(1, &eax, &ebx, &ecx, &edx)) return false;
+    if (!(ecx & (1u << 29)) || !(ecx & (1u << 28)) || !(ecx & (1u << 27))) return false;
+    unsigned xcr0_lo = 0, xcr0_hi = 0;
+    __asm__ volatile("xgetbv" : "=a"(xcr0_lo), "=d"(xcr0_hi) : "c"(0));
+    return (xcr0_lo & 6u) == 6u;
+#else
     __builtin_cpu_init();
     return __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+#endif
   }();
   return has;
 #else

@@ -48,6 +48,7 @@ TEST(LodSelector, RangeBasedFollowsPaper001) {
 TEST(LodSelector, FeedbackLevelIsTheFinerTrilinearLevel) {
   EXPECT_EQ(feedback_level(2.0f, 5), 2u);
   EXPECT_EQ(feedback_level(2.1f, 5), 3u);
+  EXPECT_EQ(feedback_level(2.001f, 5), 2u);  // float noise above an integer
   EXPECT_EQ(feedback_level(-1.0f, 5), 0u);
   EXPECT_EQ(feedback_level(7.5f, 5), 5u);
 }

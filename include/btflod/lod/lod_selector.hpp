@@ -64,10 +64,12 @@ struct RangeLod {
 };
 
 /// The tile level the feedback pass requests for a continuous level: the finer of the two
-/// levels trilinear filtering blends (ceil), clamped to [0, L]. noexcept, thread-safe.
+/// levels trilinear filtering blends (ceil), clamped to [0, L]. Levels within 1/256 above an
+/// integer count as that integer, so float noise in the derivatives (a footprint of 3.9999
+/// texels) does not request a level twice as fine. noexcept, thread-safe.
 inline uint32_t feedback_level(float continuous_level, uint32_t finest_level) noexcept {
   if (!(continuous_level > 0.0f)) return 0;
-  const float c = std::ceil(continuous_level);
+  const float c = std::ceil(continuous_level - 1.0f / 256.0f);
   return c >= static_cast<float>(finest_level) ? finest_level : static_cast<uint32_t>(c);
 }
 

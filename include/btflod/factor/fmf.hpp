@@ -139,7 +139,8 @@ struct Fmf {
     if (comps == 0 || comps > std::min(m, n))
       return make_error(Status::bad_data, "FMF: %u components for a %zu x %zu matrix", comps, m, n);
     const size_t remaining = bytes.size();
-    if (static_cast<uint64_t>(m + n + shape->view_count() * 3) * comps * 4 > remaining)
+    // Division instead of a product: comps·(m + n)·4 may overflow for hostile shapes.
+    if (comps > remaining / ((m + n + shape->view_count() * 3) * 4))
       return make_error(Status::short_output, "FMF: %u components need more than the %zu bytes of the file", comps, remaining);
     Fmf f;
     f.shape = std::move(*shape);

@@ -281,6 +281,8 @@ struct LaplacianPca {
         if (c > std::min<size_t>(images, static_cast<size_t>(w) * static_cast<size_t>(h)))
           return make_error(Status::bad_data, "Laplacian PCA: mip %u channel %zu has %u components", k, ch, c);
         m.components[ch] = static_cast<int>(c);
+        if (c > bytes.size() / (4 * (static_cast<size_t>(w) * static_cast<size_t>(h) + images)))  // no overflow
+          return make_error(Status::short_output, "Laplacian PCA: mip %u channel %zu: %u components exceed the file", k, ch, c);
         wsize += static_cast<size_t>(w) * static_cast<size_t>(h) * c;
         esize += images * c;
       }

@@ -147,6 +147,9 @@ struct PcaViews {
         return make_error(Status::bad_data, "PCA-k: group %u (first %u, %u views, %u comps) is invalid", i,
                           g.first_view, g.view_count, c);
       g.components = static_cast<int>(c);
+      if (static_cast<size_t>(c) + 1 > bytes.size() / (4 * (n + cols)))  // division: no overflow
+        return make_error(Status::short_output, "PCA-k: group %u with %u components needs more than %zu bytes", i, c,
+                          bytes.size());
       lsize += n * (c + 1);
       rsize += (c + 1) * cols;
       p.groups.push_back(std::move(g));

@@ -1,0 +1,126 @@
+// Tests of Local PCA (paper 002 §3, ref. [10]) and its 8-bit quantisation (paper 002 §6.3).
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "btflod/factor/local_pca.hpp"
+#include "btflod/factor/low_rank_btf.hpp"
+
+namespace btflod {
+namespace {
+
+// Texel t belongs to "material" t·3 / n (three vertical bands); each material is its own
+// mean plus a 2-dimensional subspace, so K = 3, C = 2 represents the BTF exactly.
+BtfFloat three_subspace_btf(int w = 12, int h = 8) {
+  BtfFloat btf(w, h, small_direction_set(2, 3, "v"), small_direction_set(3, 3, "l"));
+  const size_t n = btf.texel_count(), d = btf.view_count() * btf.light_count() * 3;
+  detail::NormalGenerator gen(21);
+  std::vector<float> mean(3 * d), basis(3 * 2 * d);
+  for (auto& v : mean) v = 0.5f + 0.3f * static_cast<float>(gen.next());
+  for (auto& v : basis) v = 0.2f * static_cast<float>(gen.next());
+  for (size_t t = 0; t < n; ++t) {
+    const size_t j = (t % static_cast<size_t>(w)) * 3 / static_cast<size_t>(w);
+    const float a = static_cast<float>(gen.next()), b = static_cast<float>(gen.next());
+    for (size_t i = 0; i < d; ++i)
+      btf.samples()[((i / 3) * n + t) * 3 + i % 3] = mean[j * d + i] + a * basis[(j * 2) * d + i] + b * basis[(j * 2 + 1) * d + i];
+  }
+  return btf;
+}
+
+double rms(const BtfFloat& a, const BtfFloat& b) {
+  double s = 0.0;
+  for (size_t i = 0; i < a.samples().size(); ++i) {
+    const double d = static_cast<double>(a.samples()[i]) - b.samples()[i];
+    s += d * d;
+  }
+  return std::sqrt(s / static_cast<double>(a.samples().size()));
+}
+
+TEST(FactorLocalPca, RecoversClustersAndIsExactOnUnionOfSubspaces) {
+  const auto btf = three_subspace_btf();
+  LocalPcaOptions o;
+  o.clusters = 3;
+  o.components = 2;
+  o.quantize_8bit = false;
+  auto p = factorize_local_pca(btf, o);
+  ASSERT_TRUE(p.ok()) << p.message();
+  EXPECT_LT(rms(btf, p->reconstruct()), 1e-4);
+  // Each band maps to one cluster and the three bands to different clusters.
+  std::set<uint16_t> seen;
+  for (int band = 0; band < 3; ++band) {
+    const uint16_t c = p->cluster_of[static_cast<size_t>(band * 4)];
+    for (int y = 0; y < 8; ++y)
+      for (int x = band * 4; x < band * 4 + 4; ++x) EXPECT_EQ(p->cluster_of[static_cast<size_t>(y * 12 + x)], c);
+    seen.insert(c);
+  }
+  EXPECT_EQ(seen.size(), 3u);
+}
+
+TEST(FactorLocalPca, ReclusteringLowersTheError) {
+  const auto btf = make_low_rank_btf(12, 8, small_direction_set(2, 3), small_direction_set(3, 3), 10, 0.9f, 0.02f, 4);
+  LocalPcaOptions o;
+  o.clusters = 4;
+  o.components = 2;
+  o.quantize_8bit = false;
+  o.max_iterations = 0;  // initial (nearest-seed) clusters only
+  const double e0 = rms(btf, factorize_local_pca(btf, o)->reconstruct());
+  o.max_iterations = 30;
+  auto p = factorize_local_pca(btf, o);
+  ASSERT_TRUE(p.ok());
+  EXPECT_GE(p->iterations, 1);
+  EXPECT_LT(rms(btf, p->reconstruct()), e0);
+}
+
+TEST(FactorLocalPca, EightBitQuantisationFoldsScalesIntoWeights) {
+  const auto btf = three_subspace_btf();
+  LocalPcaOptions o;
+  o.clusters = 3;
+  o.components = 2;
+  o.quantize_8bit = false;
+  auto f = factorize_local_pca(btf, o);
+  o.quantize_8bit = true;
+  auto q = factorize_local_pca(btf, o);
+  ASSERT_TRUE(f.ok() && q.ok());
+  EXPECT_TRUE(q->eigen.empty());
+  ASSERT_EQ(q->eigen_q.size(), f->eigen.size());
+  // Every component uses the full int8 range (its largest |value| maps to ±127).
+  for (int j = 0; j < 3; ++j)
+    for (int k = 0; k < 2; ++k) {
+      int mx = 0;
+      const size_t d = q->angular_size();
+      for (size_t i = 0; i < d; ++i) mx = std::max(mx, std::abs(static_cast<int>(q->eigen_q[(j * d + i) * 2 + k])));
+      EXPECT_EQ(mx, 127);
+    }
+  // The quantised evaluation is close to the float one: error ≤ Σ|w'|·0.5/127 per value.
+  const double e = rms(f->reconstruct(), q->reconstruct());
+  EXPECT_GT(e, 0.0);
+  EXPECT_LT(e, 5e-3);
+  EXPECT_LT(q->size_bytes(), f->size_bytes());
+}
+
+TEST(FactorLocalPca, RoundTripAndRejectsBadClusterIds) {
+  const auto btf = three_subspace_btf();
+  LocalPcaOptions o;
+  o.clusters = 3;
+  o.components = 2;
+  auto p = factorize_local_pca(btf, o);
+  ASSERT_TRUE(p.ok());
+  const auto bytes = p->serialize();
+  auto back = LocalPca::deserialize(bytes);
+  ASSERT_TRUE(back.ok()) << back.message();
+  EXPECT_EQ(back->serialize(), bytes);
+  AngularSample l{{0, 1, 2}, {0.5f, 0.5f, 0.0f}}, v{{3, 3, 3}, {1.0f, 0.0f, 0.0f}};
+  EXPECT_EQ(back->evaluate(5, 5, l, v), p->evaluate(5, 5, l, v));
+  LocalPca bad = *p;
+  bad.cluster_of[7] = 3;  // K = 3
+  auto r = LocalPca::deserialize(bad.serialize());
+  EXPECT_FALSE(r.ok());
+  EXPECT_NE(r.message().find("texel 7"), std::string::npos);
+  for (size_t cut = 0; cut < bytes.size(); cut += 89) EXPECT_FALSE(LocalPca::deserialize(std::span(bytes).first(cut)).ok());
+  LocalPcaOptions too_many;
+  too_many.clusters = 1000;
+  EXPECT_EQ(factorize_local_pca(btf, too_many).status(), Status::invalid_argument);
+}
+
+}  // namespace
+}  // namespace btflod

@@ -132,7 +132,9 @@ TEST(CodecContainer, RoundTripMetadataPacketsWeightsAndTiles) {
       ASSERT_EQ(dec.decode(bytes, parent, id.x & 1, id.y & 1, out), Status::success) << dec.message();
       for (uint32_t k = 0; k < 4; ++k) {
         const uint32_t comp = 4 * id.texture + k;
-        const float t = comp < 6 ? tolerance_for_quality(50, md.component_ranges[comp]) : 1.0f;
+        // Default ToleranceReference::shared_max: one absolute tolerance from the largest range.
+        const float max_range = *std::max_element(md.component_ranges.begin(), md.component_ranges.end());
+        const float t = comp < 6 ? tolerance_for_quality(50, max_range) : 1.0f;
         double e2 = 0;
         for (size_t s = k; s < out.size(); s += 4) e2 += (out[s] - m.samples[i][s]) * (out[s] - m.samples[i][s]);
         EXPECT_LE(std::sqrt(e2 / layout.texel_count()), t * 1.001) << "tile level " << level << " comp " << comp;
@@ -171,6 +173,24 @@ TEST(CodecContainer, BuildIsDeterministicAcrossThreadCounts) {
   const Material m = make_material();
   ThreadPool one(1), two(2);
   EXPECT_EQ(build(m, 40, &one), build(m, 40, &two));
+}
+
+TEST(CodecContainer, PerComponentToleranceSpendsMoreBitsOnSmallComponents) {
+  const Material m = make_material();  // component ranges grow with the index (amplitude 1 + c)
+  BsvtfBuildOptions shared, per;
+  per.tolerance_reference = ToleranceReference::per_component;
+  const auto a = build_bsvtf(m.metadata, m.u, m.tiles, shared).value();
+  const auto b = build_bsvtf(m.metadata, m.u, m.tiles, per).value();
+  EXPECT_LT(a.size(), b.size());
+  // The stored per-channel tolerance of the root tile differs accordingly.
+  const auto da = read_bsvtf(a).value(), db = read_bsvtf(b).value();
+  TileHeaderInfo ia, ib;
+  const auto* ea = da.find({0, 0, 0, 0});
+  const auto* eb = db.find({0, 0, 0, 0});
+  ASSERT_EQ(tile_peek_header(std::span<const uint8_t>(a).subspan(ea->offset, ea->size), ia), Status::success);
+  ASSERT_EQ(tile_peek_header(std::span<const uint8_t>(b).subspan(eb->offset, eb->size), ib), Status::success);
+  EXPECT_FLOAT_EQ(ia.tolerance[0], ia.tolerance[3]);
+  EXPECT_LT(ib.tolerance[0], ib.tolerance[3]);
 }
 
 TEST(CodecContainer, HigherQualityGivesLargerFile) {

@@ -557,15 +557,28 @@ struct BsvtfTileInput {
   float weight = 0.0f;
 };
 
+/// Which value range scales a component's codec tolerance (tolerance_for_quality).
+enum class ToleranceReference : uint8_t {
+  /// The largest component range, for every component. With FMF the eigen-textures are V·Σ and
+  /// U has orthonormal columns (paper 000 eq. 4–5), so an error e_c in any component adds
+  /// ‖e_c‖² to the rendered BTF's squared error: one absolute tolerance for all components
+  /// spends bits where they reduce the rendered error. The default.
+  shared_max,
+  /// Each component's own range (every eigen-texture coded to the same relative precision).
+  per_component,
+};
+
 /// Options for build_bsvtf.
 struct BsvtfBuildOptions {
   float quality = 50.0f;      ///< 1..100, see tolerance_for_quality
+  ToleranceReference tolerance_reference = ToleranceReference::shared_max;
   int deflate_level = 6;      ///< zlib level 0..9
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
   ProgressCallback progress;  ///< stage "encode tiles", fraction of tiles done; false cancels
 };
 
 /// Encodes tiles coarse to fine with the closed-loop residual codec and writes the container.
+/// Tolerances come from options.quality and options.tolerance_reference.
 /// metadata.component_ranges is filled from the tiles when empty, component_scales with 1 when
 /// empty, and metadata.quality from the options. Tiles of one level are encoded in parallel on
 /// the pool; each tile is coded against its parent's reconstruction. Returns the file bytes,
@@ -595,6 +608,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
     for (uint32_t c = 0; c < metadata.component_count; ++c) metadata.component_ranges[c] = hi[c] >= lo[c] ? hi[c] - lo[c] : 0.0f;
   }
   if (metadata.component_scales.empty()) metadata.component_scales.assign(metadata.component_count, 1.0f);
+  float max_range = 0.0f;
+  for (float r : metadata.component_ranges) max_range = std::max(max_range, std::isfinite(r) ? r : 0.0f);
   if (auto ok = detail::bsvtf_check_metadata(metadata); !ok) return ok.error();
 
   // Coarse to fine: indices of tiles per level.
@@ -637,7 +652,10 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
         float tolerance[4];
         for (uint32_t k = 0; k < 4; ++k) {
           const uint64_t c = uint64_t{t.id.texture} * 4 + k;
-          tolerance[k] = tolerance_for_quality(options.quality, c < metadata.component_count ? metadata.component_ranges[c] : 0.0f);
+          const float range = c >= metadata.component_count ? 0.0f
+                              : options.tolerance_reference == ToleranceReference::shared_max ? max_range
+                                                                                              : metadata.component_ranges[c];
+          tolerance[k] = tolerance_for_quality(options.quality, range);
         }
         std::vector<float>& recon = current.find(t.id.key())->second;
         recon.resize(layout.sample_count());

@@ -100,6 +100,7 @@ struct TileRequest {
   TileId tile;
   uint64_t bytes = 0;
   bool u_packet = false;
+  uint32_t slot = kNoSlot;  ///< cache slot reserved for the tile (kNoSlot for U' packets)
 };
 
 class Scheduler {
@@ -227,7 +228,7 @@ class Scheduler {
         break;
       }
       Pending& p = pending_[next];
-      TileRequest r{next, p.tile, p.bytes, p.u_packet};
+      TileRequest r{next, p.tile, p.bytes, p.u_packet, p.slot};
       if (p.u_packet) {
         const uint32_t m = cache_->set().material_of(p.tile.texture);
         u_loaded_[m] = std::max(u_loaded_[m], p.tile.texture - cache_->set().material(m).first_texture + 1);
@@ -456,7 +457,7 @@ class Scheduler {
     pending_[id] = Pending{tile, slot, bytes, sequence_++, State::requested, u_packet};
     ++in_flight_;
     bytes_in_flight_ += bytes;
-    requests_out_.push_back(TileRequest{id, tile, bytes, u_packet});
+    requests_out_.push_back(TileRequest{id, tile, bytes, u_packet, slot});
     ++frame_counters_.requests;
     frame_counters_.bytes_requested += bytes;
     if (u_packet) {

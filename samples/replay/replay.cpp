@@ -1,0 +1,460 @@
+// btflod-replay — replay harness for the sparse virtual texture path (issue 5, paper 000 §5).
+//
+// A camera path over a scene of four FMF materials (a plane, a sphere, two tori); per frame the
+// CPU reference renders the feedback buffer (decimated, rotating sample), the votes of eq. 9 are
+// counted, the scheduler issues add/swap operations within its budgets, tiles are uploaded into
+// a CPU copy of the cache, and the ABRDF error E of eq. 7 (against FMF with everything resident)
+// is measured on every pixel. Three strategies run on the same path in one run:
+//   weighted    paper 000: P = w·v, swap cost eq. 10           (cache of S slots)
+//   votes-only  P = v, cost = v·levels (LibVT/Unreal-style)      (same cache)
+//   distance    range-based mip (paper 001 §3.4), no cache limit (every needed tile loaded)
+// Eigen-textures are synthetic but shaped like an SVD: component c has amplitude ∝ 1/(c+1), and
+// the materials mix smooth and detailed regions, so tiles differ in how much error they remove.
+//
+// Usage: btflod-replay [--frames N] [--width W] [--height H] [--decimation D] [--texture M]
+//                      [--components C] [--slots-x X] [--slots-y Y] [--uploads U]
+//                      [--doc docs/vt.md] [--check-determinism]
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "btflod/backend/cpu_reference.hpp"
+#include "btflod/lod/feedback.hpp"
+#include "btflod/lod/lod_selector.hpp"
+#include "btflod/vt/scheduler.hpp"
+#include "btflod/vt/tile_cache.hpp"
+#include "btflod/vt/tile_pyramid.hpp"
+
+using namespace btflod;
+
+namespace {
+
+struct Options {
+  uint32_t frames = 120;
+  uint32_t width = 320;
+  uint32_t height = 180;
+  uint32_t decimation = 4;
+  uint32_t texture = 512;
+  uint32_t components = 16;
+  uint32_t slots_x = 8;  // 48 slots for 16 virtual textures: the cache limit matters
+  uint32_t slots_y = 6;
+  uint32_t uploads = 8;
+  std::string doc;
+  bool check_determinism = false;
+};
+
+bool parse_u32(const char* s, uint32_t& out) {
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(s, &end, 10);
+  if (end == s || *end != '\0' || v == 0 || v > 1000000) return false;
+  out = static_cast<uint32_t>(v);
+  return true;
+}
+
+bool parse(int argc, char** argv, Options& o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto next_u32 = [&](uint32_t& v) {
+      if (i + 1 >= argc || !parse_u32(argv[i + 1], v)) {
+        std::fprintf(stderr, "btflod-replay: %s needs a positive integer\n", a.c_str());
+        return false;
+      }
+      ++i;
+      return true;
+    };
+    bool ok = true;
+    if (a == "--frames") ok = next_u32(o.frames);
+    else if (a == "--width") ok = next_u32(o.width);
+    else if (a == "--height") ok = next_u32(o.height);
+    else if (a == "--decimation") ok = next_u32(o.decimation);
+    else if (a == "--texture") ok = next_u32(o.texture);
+    else if (a == "--components") ok = next_u32(o.components);
+    else if (a == "--slots-x") ok = next_u32(o.slots_x);
+    else if (a == "--slots-y") ok = next_u32(o.slots_y);
+    else if (a == "--uploads") ok = next_u32(o.uploads);
+    else if (a == "--check-determinism") o.check_determinism = true;
+    else if (a == "--doc" && i + 1 < argc) o.doc = argv[++i];
+    else {
+      std::fprintf(stderr, "btflod-replay: unknown argument '%s'\n", a.c_str());
+      return false;
+    }
+    if (!ok) return false;
+  }
+  if (o.texture < 64) {
+    std::fprintf(stderr, "btflod-replay: --texture must be >= 64\n");
+    return false;
+  }
+  return true;
+}
+
+uint32_t hash32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352du;
+  x ^= x >> 15;
+  x *= 0x846ca68bu;
+  x ^= x >> 16;
+  return x;
+}
+
+// Tileable value noise in [−1, 1] with `cells` lattice cells across the texture.
+float value_noise(uint32_t seed, float x, float y, uint32_t cells) {
+  const float fx = x * static_cast<float>(cells), fy = y * static_cast<float>(cells);
+  const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+  const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
+  const auto lattice = [&](int ix, int iy) {
+    const uint32_t cx = static_cast<uint32_t>((ix % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
+    const uint32_t cy = static_cast<uint32_t>((iy % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
+    return static_cast<float>(hash32(seed ^ hash32(cx * 73856093u ^ cy * 19349663u)) & 0xffffu) / 32767.5f - 1.0f;
+  };
+  const float sx = ax * ax * (3 - 2 * ax), sy = ay * ay * (3 - 2 * ay);
+  const float top = lattice(x0, y0) + (lattice(x0 + 1, y0) - lattice(x0, y0)) * sx;
+  const float bot = lattice(x0, y0 + 1) + (lattice(x0 + 1, y0 + 1) - lattice(x0, y0 + 1)) * sx;
+  return top + (bot - top) * sy;
+}
+
+// Eigen-textures shaped like an SVD of a BTF: amplitude 1/(c+1); coarse structure everywhere and
+// fine detail only where the material's detail mask says so (so w varies across tiles).
+EigenTextures synth_material(uint32_t material, uint32_t size, uint32_t components) {
+  EigenTextures e;
+  e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
+  e.light_count = 1;
+  e.view_count = 1;
+  e.angular.assign(3 * components, 0.0f);
+  for (uint32_t c = 0; c < components; ++c) e.angular[c] = e.angular[components + c] = e.angular[2 * components + c] = 1.0f;
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x) {
+      const float u = (static_cast<float>(x) + 0.5f) / static_cast<float>(size);
+      const float v = (static_cast<float>(y) + 0.5f) / static_cast<float>(size);
+      float detail = 1.0f;
+      switch (material) {
+        case 0: detail = 0.5f + 0.5f * value_noise(7, u, v, 2); break;              // patchy
+        case 1: detail = u < 0.5f ? 0.05f : 1.0f; break;                          // smooth | detailed
+        case 2: detail = std::pow(0.5f + 0.5f * value_noise(11, u, v, 3), 4.0f); break;  // sparse spots
+        default: detail = 0.3f; break;                                            // uniformly mild
+      }
+      for (uint32_t c = 0; c < components; ++c) {
+        const uint32_t seed = material * 1000u + c * 17u + 1u;
+        const float coarse = value_noise(seed, u, v, 4) + 0.5f * value_noise(seed + 1, u, v, 8);
+        const float fine = value_noise(seed + 2, u, v, size / 8) + 0.5f * value_noise(seed + 3, u, v, size / 4);
+        const float comp_detail = material == 3 ? (c >= components / 2 ? 3.0f : 0.2f) : 1.0f;  // late comps busy
+        e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
+            (coarse + detail * comp_detail * fine) / static_cast<float>(c + 1);
+      }
+    }
+  return e;
+}
+
+struct World {
+  Options opt;
+  std::vector<TilePyramid> pyramids;
+  VtSet set;
+  Scene scene;
+  std::vector<float> reference_distance;  // per material: d0 of the range-based LOD
+
+  explicit World(const Options& o) : opt(o) {
+    for (uint32_t m = 0; m < 4; ++m) {
+      auto p = TilePyramid::build(synth_material(m, o.texture, o.components));
+      if (!p.ok()) {
+        std::fprintf(stderr, "btflod-replay: %s\n", p.error().message.c_str());
+        std::exit(2);
+      }
+      pyramids.push_back(std::move(p.value()));
+      const uint32_t id = set.add_material(pyramids.back().geometry(), pyramids.back().texture_count());
+      pyramids.back().copy_weights_to(set, id);
+    }
+    scene.add(Shape::plane(0, {-4, 0, -4}, {1, 0, 0}, {0, 0, 1}, 8.0f, 8.0f, {4, 4}));
+    scene.add(Shape::sphere(1, {0, 1.0f, 0}, 1.0f, {4, 2}));
+    scene.add(Shape::torus(2, {2.2f, 0.45f, 0.6f}, 0.8f, 0.35f, {6, 2}));
+    scene.add(Shape::torus(3, {-2.0f, 0.45f, -1.0f}, 0.7f, 0.35f, {6, 2}));
+    // d0: distance at which one finest texel covers one pixel (head-on), per material.
+    const float pixel_angle = 2.0f * std::tan(degrees_to_radians(45.0f) * 0.5f) / static_cast<float>(o.height);
+    const float texels = static_cast<float>(o.texture);
+    const float texel_world[4] = {8.0f / 4.0f / texels, kTwoPi * 1.0f / 4.0f / texels, kTwoPi * 0.8f / 6.0f / texels,
+                                  kTwoPi * 0.7f / 6.0f / texels};
+    for (float t : texel_world) reference_distance.push_back(t / pixel_angle);
+  }
+
+  Camera camera(uint32_t frame) const {
+    Camera cam;
+    cam.width = opt.width;
+    cam.height = opt.height;
+    const float t = static_cast<float>(frame) / static_cast<float>(std::max(opt.frames, 2u) - 1);
+    const float angle = 0.3f + 4.0f * t;
+    const float radius = 4.0f + 2.5f * std::sin(3.0f * t);
+    cam.position = {radius * std::cos(angle), 1.2f + 1.0f * std::sin(2.0f * t), radius * std::sin(angle)};
+    cam.target = {0.0f, 0.6f, 0.0f};
+    return cam;
+  }
+};
+
+// Per frame: hits and the "everything resident" reference (finest level) for every pixel.
+struct FrameData {
+  std::vector<SurfaceHit> hits;
+  std::vector<float> reference;  // per pixel, per virtual texture of its material (≤ kMaxVts), 4 floats
+  uint32_t max_vts = 0;
+  std::vector<uint32_t> feedback;
+};
+
+void prepare_frame(const World& w, const Camera& cam, uint64_t frame, FrameData& fd) {
+  const size_t n = static_cast<size_t>(cam.width) * cam.height;
+  fd.max_vts = 0;
+  for (const auto& p : w.pyramids) fd.max_vts = std::max(fd.max_vts, p.texture_count());
+  fd.hits.resize(n);
+  fd.reference.assign(n * fd.max_vts * 4, 0.0f);
+  for (uint32_t y = 0; y < cam.height; ++y)
+    for (uint32_t x = 0; x < cam.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * cam.width + x;
+      fd.hits[i] = w.scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+      const SurfaceHit& h = fd.hits[i];
+      if (!h.hit) continue;
+      const TilePyramid& p = w.pyramids[h.material];
+      for (uint32_t k = 0; k < p.texture_count(); ++k)
+        p.sample(k, p.geometry().finest_level, h.texcoord.x, h.texcoord.y, &fd.reference[(i * fd.max_vts + k) * 4]);
+    }
+  const uint32_t d = w.opt.decimation;
+  fd.feedback.assign(static_cast<size_t>((cam.width + d - 1) / d) * ((cam.height + d - 1) / d), kFeedbackNone);
+  render_feedback(w.scene, cam, w.set, DerivativeLod{}, d, frame, fd.feedback);
+}
+
+// Mean over covered pixels of E (eq. 7) summed over the material's virtual textures.
+template <class Approx>
+double frame_error(const World& w, const FrameData& fd, Approx&& approx) {
+  double sum = 0.0;
+  uint64_t pixels = 0;
+  for (size_t i = 0; i < fd.hits.size(); ++i) {
+    const SurfaceHit& h = fd.hits[i];
+    if (!h.hit) continue;
+    const uint32_t vts = w.pyramids[h.material].texture_count();
+    double e = 0.0;
+    for (uint32_t k = 0; k < vts; ++k) {
+      float got[4];
+      approx(i, h, k, got);
+      const float* ref = &fd.reference[(i * fd.max_vts + k) * 4];
+      for (int c = 0; c < 4; ++c) e += static_cast<double>(ref[c] - got[c]) * (ref[c] - got[c]);
+    }
+    sum += e;
+    ++pixels;
+  }
+  return pixels ? sum / static_cast<double>(pixels) : 0.0;
+}
+
+struct Result {
+  std::string name;
+  std::vector<double> error;      // per frame
+  std::vector<double> occupancy;  // per frame, used / slots
+  uint64_t bytes = 0;
+  uint64_t swaps = 0, adds = 0, budget_hits = 0, visible_missing = 0;
+  std::vector<uint64_t> schedule;  // request keys in order (for determinism)
+};
+
+// One cache-limited strategy (weighted or votes-only).
+class CachedStrategy {
+ public:
+  CachedStrategy(const World& w, PriorityMode mode) : w_(w) {
+    result_.name = mode == PriorityMode::weighted ? "weighted (paper 000: P = w·v)" : "votes-only (P = v)";
+    cache_ = std::make_unique<TileCache>(std::move(TileCache::create(w.set, {w.opt.slots_x, w.opt.slots_y}).value()));
+    SchedulerConfig cfg;
+    cfg.mode = mode;
+    cfg.budgets.uploads_per_frame = w.opt.uploads;
+    cfg.budgets.requests_in_flight = 2 * w.opt.uploads;
+    sched_ = std::make_unique<Scheduler>(std::move(Scheduler::create(*cache_, cfg).value()));
+    votes_ = std::make_unique<VoteCounter>(vote_layouts(w.set));
+    texture_ = std::make_unique<CpuCacheTexture>(*cache_);
+    for (uint32_t t = 0; t < w.set.texture_count(); ++t) upload(TileId{t, 0, 0, 0}, cache_->slot_of(TileId{t, 0, 0, 0}));
+  }
+
+  void frame(const FrameData& fd, uint64_t f) {
+    const uint32_t d = w_.opt.decimation;
+    votes_->count(fd.feedback, d * d, sched_->lod_bias());
+    const auto requests = sched_->plan(*votes_, f);
+    for (const TileRequest& r : requests) {
+      result_.schedule.push_back(r.tile.key());
+      if (sched_->begin_decode(r.id)) sched_->finish_decode(r.id);  // immediate source
+    }
+    sched_->apply_uploads([&](const TileRequest& r) {
+      if (!r.u_packet) upload(r.tile, r.slot);
+    });
+    const SchedulerCounters& c = sched_->frame();
+    result_.swaps += c.swaps;
+    result_.adds += c.adds;
+    result_.budget_hits += c.budget_hits();
+    result_.visible_missing += c.visible_missing;
+    result_.bytes = sched_->total().bytes_requested;
+    result_.occupancy.push_back(static_cast<double>(cache_->used_count()) / cache_->slot_count());
+    result_.error.push_back(frame_error(w_, fd, [&](size_t, const SurfaceHit& h, uint32_t k, float* out) {
+      texture_->sample(*cache_, w_.set.material(h.material).first_texture + k, h.texcoord.x, h.texcoord.y, out);
+    }));
+    std::string why;
+    if (!cache_->check_invariants(&why)) {
+      std::fprintf(stderr, "btflod-replay: cache invariant broken at frame %llu: %s\n",
+                   static_cast<unsigned long long>(f), why.c_str());
+      std::exit(3);
+    }
+  }
+  const Result& result() const { return result_; }
+
+ private:
+  void upload(const TileId& t, uint32_t slot) {
+    const uint32_t m = w_.set.material_of(t.texture);
+    const uint32_t k = t.texture - w_.set.material(m).first_texture;
+    texture_->upload(*cache_, slot, w_.pyramids[m].tile_texels(k, w_.set.levels_of(t.texture).index(t)));
+  }
+
+  const World& w_;
+  Result result_;
+  std::unique_ptr<TileCache> cache_;
+  std::unique_ptr<Scheduler> sched_;
+  std::unique_ptr<VoteCounter> votes_;
+  std::unique_ptr<CpuCacheTexture> texture_;
+};
+
+// Range-based mip selection (paper 001 §3.4), every tile it touches is loaded: no cache limit.
+class DistanceStrategy {
+ public:
+  explicit DistanceStrategy(const World& w) : w_(w) {
+    result_.name = "distance mip, no cache limit";
+    for (uint32_t t = 0; t < w.set.texture_count(); ++t) loaded_.emplace_back(w.set.levels_of(t).tile_count(), 0);
+  }
+  void frame(const FrameData& fd, const Camera& cam) {
+    uint64_t used = 0;
+    result_.error.push_back(frame_error(w_, fd, [&](size_t, const SurfaceHit& h, uint32_t k, float* out) {
+      const TilePyramid& p = w_.pyramids[h.material];
+      const VtGeometry& g = p.geometry();
+      RangeLod lod;
+      lod.reference_distance = w_.reference_distance[h.material];
+      const uint32_t level = feedback_level(lod.level(LodInput{1, 1, h.t}, g.finest_level), g.finest_level);
+      p.sample(k, level, h.texcoord.x, h.texcoord.y, out);
+      // Account the tile once (for every virtual texture of the material).
+      const uint32_t tex = w_.set.material(h.material).first_texture + k;
+      const VtLevelTable& lv = w_.set.levels_of(tex);
+      const float scale = static_cast<float>(g.tile_size << (g.finest_level - level));
+      const uint32_t tx = std::min(static_cast<uint32_t>(h.texcoord.x * g.width / scale), lv.tiles_x[level] - 1);
+      const uint32_t ty = std::min(static_cast<uint32_t>(h.texcoord.y * g.height / scale), lv.tiles_y[level] - 1);
+      uint8_t& flag = loaded_[tex][lv.index(level, tx, ty)];
+      if (!flag) {
+        flag = 1;
+        result_.bytes += p.tile_bytes();
+      }
+    }));
+    (void)cam;
+    for (const auto& l : loaded_)
+      for (uint8_t f : l) used += f;
+    result_.occupancy.push_back(static_cast<double>(used));  // tiles held (no limit)
+  }
+  const Result& result() const { return result_; }
+
+ private:
+  const World& w_;
+  Result result_;
+  std::vector<std::vector<uint8_t>> loaded_;
+};
+
+double mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+}
+
+std::string report(const Options& o, const World& w, const Result& a, const Result& b, const Result& c,
+                   const std::string& command) {
+  std::ostringstream s;
+  char line[512];
+  uint32_t tiles = 0;
+  for (uint32_t t = 0; t < w.set.texture_count(); ++t) tiles += w.set.levels_of(t).tile_count();
+  std::snprintf(line, sizeof line,
+                "Scene: 4 materials (plane, sphere, 2 tori), %u×%u texels, C = %u → %u virtual textures, %u tiles "
+                "in all; cache %u×%u = %u slots; %u frames at %u×%u, feedback 1/%u with rotating sample; %u uploads/frame.\n\n",
+                o.texture, o.texture, o.components, w.set.texture_count(), tiles, o.slots_x, o.slots_y,
+                o.slots_x * o.slots_y, o.frames, o.width, o.height, o.decimation, o.uploads);
+  s << line;
+  s << "Command: `" << command << "`\n\n";
+  s << "| strategy | mean E per frame | E, last frame | mean E, 2nd half | MB requested | mean occupancy |\n";
+  s << "|---|---|---|---|---|---|\n";
+  for (const Result* r : {&a, &b, &c}) {
+    const std::vector<double> second(r->error.begin() + static_cast<ptrdiff_t>(r->error.size() / 2), r->error.end());
+    const bool unlimited = r == &c;
+    std::snprintf(line, sizeof line, "| %s | %.5f | %.5f | %.5f | %.2f | %s |\n", r->name.c_str(), mean(r->error),
+                  r->error.empty() ? 0.0 : r->error.back(), mean(second), static_cast<double>(r->bytes) / 1048576.0,
+                  unlimited ? (std::to_string(static_cast<uint64_t>(r->occupancy.empty() ? 0 : r->occupancy.back())) +
+                               " tiles (no limit)").c_str()
+                            : (std::to_string(static_cast<int>(100.0 * mean(r->occupancy) + 0.5)) + " %").c_str());
+    s << line;
+  }
+  std::snprintf(line, sizeof line,
+                "\nweighted: %llu adds, %llu swaps, %llu budget hits; votes-only: %llu adds, %llu swaps, %llu budget hits.\n",
+                static_cast<unsigned long long>(a.adds), static_cast<unsigned long long>(a.swaps),
+                static_cast<unsigned long long>(a.budget_hits), static_cast<unsigned long long>(b.adds),
+                static_cast<unsigned long long>(b.swaps), static_cast<unsigned long long>(b.budget_hits));
+  s << line;
+  const double ratio = mean(b.error) > 0 ? mean(a.error) / mean(b.error) : 0.0;
+  std::snprintf(line, sizeof line, "Weighted / votes-only mean E: %.3f (%s).\n", ratio,
+                ratio < 0.999   ? "the paper's priority wins at equal cache size"
+                : ratio > 1.001 ? "the paper's priority does NOT win here"
+                                : "a tie: the cache limit was not reached or both chose the same tiles");
+  s << line;
+  return s.str();
+}
+
+bool write_doc(const std::string& path, const std::string& body) {
+  std::string text;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (in) {
+      std::ostringstream ss;
+      ss << in.rdbuf();
+      text = ss.str();
+    }
+  }
+  const std::string begin = "<!-- replay:begin -->", end = "<!-- replay:end -->";
+  const std::string block = begin + "\n" + body + end;
+  const size_t b = text.find(begin), e = text.find(end);
+  if (b != std::string::npos && e != std::string::npos && e > b) text.replace(b, e + end.size() - b, block);
+  else text += "\n" + block + "\n";
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  return static_cast<bool>(out);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, o)) return 2;
+  std::string command = "btflod-replay";
+  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
+
+  const World w(o);
+  CachedStrategy weighted(w, PriorityMode::weighted), votes_only(w, PriorityMode::votes_only);
+  std::unique_ptr<CachedStrategy> again;
+  if (o.check_determinism) again = std::make_unique<CachedStrategy>(w, PriorityMode::weighted);
+  DistanceStrategy distance(w);
+  FrameData fd;
+  for (uint32_t f = 0; f < o.frames; ++f) {
+    const Camera cam = w.camera(f);
+    prepare_frame(w, cam, f, fd);
+    weighted.frame(fd, f);
+    votes_only.frame(fd, f);
+    if (again) again->frame(fd, f);
+    distance.frame(fd, cam);
+  }
+  const std::string text = report(o, w, weighted.result(), votes_only.result(), distance.result(), command);
+  std::fputs(text.c_str(), stdout);
+  if (again) {
+    const bool same = again->result().error == weighted.result().error &&
+                      again->result().schedule == weighted.result().schedule;
+    std::printf("deterministic: %s (%zu requests replayed)\n", same ? "yes" : "NO", weighted.result().schedule.size());
+    if (!same) return 1;
+  }
+  if (!o.doc.empty() && !write_doc(o.doc, text)) {
+    std::fprintf(stderr, "btflod-replay: cannot write %s\n", o.doc.c_str());
+    return 1;
+  }
+  return 0;
+}

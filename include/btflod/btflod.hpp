@@ -34,18 +34,41 @@
 #include "btflod/angular/triangle_locator.hpp"
 
 // factor
+#include "btflod/factor/any_factorization.hpp"
+#include "btflod/factor/factor_file.hpp"
+#include "btflod/factor/fmf.hpp"
+#include "btflod/factor/laplacian_pca.hpp"
+#include "btflod/factor/local_pca.hpp"
+#include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/factor/pca_views.hpp"
+#include "btflod/factor/truncated_svd.hpp"
 
 // metrics
+#include "btflod/metrics/btf_metrics.hpp"
+#include "btflod/metrics/image_metrics.hpp"
 
 // lod
+#include "btflod/lod/feedback.hpp"
+#include "btflod/lod/lod_selector.hpp"
 
 // vt
+#include "btflod/vt/scheduler.hpp"
+#include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_id.hpp"
+#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/vt/vt_layout.hpp"
 
 // codec
+#include "btflod/codec/container.hpp"
+#include "btflod/codec/dct.hpp"
+#include "btflod/codec/quantize.hpp"
+#include "btflod/codec/tile_codec.hpp"
 
-// stream
+// stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
+#include "btflod/stream/pipeline.hpp"
+#include "btflod/stream/tile_source.hpp"
 
 // shader
 
 // backend
+#include "btflod/backend/cpu_reference.hpp"

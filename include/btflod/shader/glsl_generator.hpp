@@ -154,8 +154,10 @@ inline std::string glsl_vertex(GlslTarget t) {
        "  v_normal = mat3(btflod.model) * btflod_normal;\n"
        "  v_tangent = vec4(mat3(btflod.model) * btflod_tangent.xyz, btflod_tangent.w);\n"
        "  v_uv = btflod_uv;\n"
-       "  gl_Position = btflod.model_view_proj * vec4(btflod_position, 1.0);\n"
-       "}\n";
+       "  gl_Position = btflod.model_view_proj * vec4(btflod_position, 1.0);\n";
+  if (t == GlslTarget::vulkan450)  // one set of (OpenGL-convention) matrices for every API: z from [-w, w] to [0, w]
+    s += "  gl_Position.z = 0.5 * (gl_Position.z + gl_Position.w);\n";
+  s += "}\n";
   return s;
 }
 

@@ -190,7 +190,9 @@ struct ShaderConfig {
 };
 
 /// Uniform block `BtflodParams` (std140, binding 0) mirrored byte for byte. Matrices are
-/// column-major (GLM). The backends upload it as one uniform buffer.
+/// column-major (GLM). The backends upload it as one uniform buffer. Conventions are OpenGL's
+/// for every target: clip z in [−w, w] (the Vulkan vertex shader remaps it to [0, w]) and NDC
+/// y = +1 at the top of the image (the Vulkan backend uses a negative-height viewport).
 struct alignas(16) ShaderParams {
   glm::mat4 model_view_proj{1.0f};
   glm::mat4 model{1.0f};

@@ -1,0 +1,129 @@
+// btflod-convert factor — factorise a BTF into one of the representations of factor/ and
+// write it in the factor file format (factor/factor_file.hpp).
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "command.hpp"
+#include "common/btf_files.hpp"
+#include "common/progress_bar.hpp"
+
+#include "btflod/factor/any_factorization.hpp"
+
+namespace {
+
+using namespace btflod;
+
+int run_factor(int argc, char** argv) {
+  convert::Options opt(argc, argv);
+  if (opt.wants_help()) {
+    std::puts(
+        "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca [--components C]\n"
+        "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
+        "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
+        "                             [--power-iterations Q] [--oversampling P] [--float] [--quiet]\n"
+        "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
+        "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
+        "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
+        "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
+        "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
+        "             8-bit eigen-BRDFs unless --float\n"
+        "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.");
+    return convert::kExitOk;
+  }
+  const std::string method = opt.string("method", "fmf");
+  const auto components_text = opt.value("components");
+  const int k = static_cast<int>(opt.integer("k", 3, 0, 1 << 16));
+  const int clusters = static_cast<int>(opt.integer("clusters", 8, 1, 65535));
+  const int iterations = static_cast<int>(opt.integer("iterations", 20, 0, 1000));
+  const int mips = static_cast<int>(opt.integer("mips", 0, 0, 16));
+  const int cbcr = static_cast<int>(opt.integer("components-cbcr", 2, 0, 4096));
+  const std::string svd = opt.string("svd", "auto");
+  const int power = static_cast<int>(opt.integer("power-iterations", 2, 0, 20));
+  const int oversampling = static_cast<int>(opt.integer("oversampling", 10, 0, 1000));
+  const bool use_float = opt.flag("float");
+  const bool quiet = opt.flag("quiet", 'q');
+  if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca")
+    opt.error("--method " + method + ": expected fmf, pca-k, laplacian or lpca");
+  if (svd != "auto" && svd != "exact" && svd != "randomized") opt.error("--svd " + svd + ": expected auto, exact or randomized");
+  int components = method == "fmf" ? 16 : method == "lpca" ? 4 : 8;
+  if (components_text) {
+    char* end = nullptr;
+    const long c = std::strtol(components_text->c_str(), &end, 10);
+    if (end == components_text->c_str() || *end != '\0' || c < 1 || c > 100000)
+      opt.error("--components " + *components_text + ": expected an integer in [1, 100000]");
+    else
+      components = static_cast<int>(c);
+  }
+  if (!opt.finish()) return convert::kExitUsage;
+  if (opt.positional().size() != 2) {
+    std::fprintf(stderr, "btflod-convert factor: expected IN and OUT (got %zu arguments)\n", opt.positional().size());
+    return convert::kExitUsage;
+  }
+  const std::string in = opt.positional()[0], out = opt.positional()[1];
+
+  auto btf = samples::load_btf(in);
+  if (!btf) {
+    std::fprintf(stderr, "btflod-convert factor: %s\n", btf.message().c_str());
+    return convert::kExitFailure;
+  }
+  SvdOptions so;
+  so.method = svd == "exact" ? SvdMethod::exact : svd == "randomized" ? SvdMethod::randomized : SvdMethod::automatic;
+  so.power_iterations = power;
+  so.oversampling = oversampling;
+  samples::ProgressBar bar("factor", stderr, !quiet);
+  const auto t0 = std::chrono::steady_clock::now();
+  Result<AnyFactorization> result = make_error(Status::invalid_argument, "no method");
+  auto wrap = [](auto r) -> Result<AnyFactorization> {
+    if (!r) return r.error();
+    return AnyFactorization(std::move(*r));
+  };
+  if (method == "fmf") {
+    FmfOptions o;
+    o.components = components;
+    o.svd = so;
+    result = wrap(factorize_fmf(*btf, o, bar.callback()));
+  } else if (method == "pca-k") {
+    PcaViewsOptions o;
+    o.views_per_group = k;
+    o.components = components;
+    o.svd = so;
+    result = wrap(factorize_pca_views(*btf, o, bar.callback()));
+  } else if (method == "laplacian") {
+    LaplacianPcaOptions o;
+    o.mip_count = mips;
+    o.components = {components, cbcr, cbcr};
+    o.svd = so;
+    result = wrap(factorize_laplacian_pca(*btf, o, bar.callback()));
+  } else {
+    LocalPcaOptions o;
+    o.clusters = clusters;
+    o.components = components;
+    o.max_iterations = iterations;
+    o.quantize_8bit = !use_float;
+    o.svd = so;
+    result = wrap(factorize_local_pca(*btf, o, bar.callback()));
+  }
+  bar.finish();
+  if (!result) {
+    std::fprintf(stderr, "btflod-convert factor: %s\n", result.message().c_str());
+    return convert::kExitFailure;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (auto s = save_factorization(*result, out); !s) {
+    std::fprintf(stderr, "btflod-convert factor: %s\n", s.message().c_str());
+    return convert::kExitFailure;
+  }
+  std::printf("%s: %dx%d, %zu views x %zu lights -> %s %s: %zu bytes, ratio %.1f:1 (vs float32), %.2f s\n",
+              in.c_str(), btf->width(), btf->height(), btf->view_count(), btf->light_count(),
+              factorization_name(*result), out.c_str(), factorization_size_bytes(*result),
+              factorization_compression_ratio(*result), seconds);
+  if (const auto* lp = std::get_if<LaplacianPca>(&*result))
+    std::printf("  paper 001 3.3 packing: eigen Laplacian BRDF map %zu bytes, PCA weight map %zu bytes\n",
+                lp->packed_eigen_map_bytes(), lp->packed_weight_map_bytes());
+  return convert::kExitOk;
+}
+
+}  // namespace
+
+BTFLOD_CONVERT_COMMAND(factor, "factorise a BTF (fmf, pca-k, laplacian, lpca) into a factor file", run_factor);

@@ -67,6 +67,10 @@
 #include "btflod/stream/tile_source.hpp"
 
 // shader
+#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/shader/shader_config.hpp"
 
 // backend
+#include "btflod/backend/backend.hpp"
 #include "btflod/backend/cpu_reference.hpp"
+#include "btflod/backend/page_table_writes.hpp"

@@ -34,6 +34,7 @@
 #include "btflod/angular/triangle_locator.hpp"
 
 // factor
+#include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
@@ -43,6 +44,7 @@
 #include "btflod/factor/truncated_svd.hpp"
 
 // metrics
+#include "btflod/metrics/btf_metrics.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 
 // lod

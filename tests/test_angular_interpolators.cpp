@@ -257,6 +257,18 @@ TEST(AngularInterpolators, RingSearchAgreesWithTriangulationWhereUnambiguous) {
   }
 }
 
+TEST(AngularInterpolators, DefaultConstructedAreSafe) {
+  // Never built: queries must not read out of bounds and still return a partition of unity.
+  const ExactGridInterpolator<ParabolicMap> a;
+  const LookupTableInterpolator<ElevatedConcentricMap> b;
+  const NearestLookupInterpolator<ParabolicMap> c;
+  const RingSearchInterpolator d;
+  for (const AngularSample& s : {a.query({0, 0, 1}), b.query({0, 0, 1}), c.query({1, 0, 0}), d.query({0, 1, 1})}) {
+    EXPECT_EQ(s.weight[0] + s.weight[1] + s.weight[2], 1.0f);
+    EXPECT_EQ(s.index[0], 0u);
+  }
+}
+
 TEST(AngularInterpolators, NineTapMultipliesWeights) {
   AngularSample l{{1, 2, 3}, {0.5f, 0.3f, 0.2f}};
   AngularSample v{{7, 8, 9}, {0.6f, 0.4f, 0.0f}};

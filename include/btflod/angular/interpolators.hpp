@@ -105,6 +105,7 @@ class LookupTableInterpolator {
   /// with GL_NEAREST). noexcept, allocation-free, thread-safe.
   AngularSample query(glm::vec3 dir) const noexcept { return query_square(P::to_square(dir)); }
   AngularSample query_square(glm::vec2 st) const noexcept {
+    if (resolution_ <= 0) return AngularSample{};  // default-constructed: no table
     st = detail::clamp_unit_square(st);
     const float r = static_cast<float>(resolution_);
     const int x = glm::min(static_cast<int>(st.x * r), resolution_ - 1);
@@ -157,6 +158,7 @@ class NearestLookupInterpolator {
   /// {nearest index ×3, weights {1, 0, 0}} from the texel containing P::to_square(dir).
   /// noexcept, allocation-free, thread-safe.
   AngularSample query(glm::vec3 dir) const noexcept {
+    if (resolution_ <= 0) return AngularSample{};  // default-constructed: no table
     const glm::vec2 st = P::to_square(dir);
     const float r = static_cast<float>(resolution_);
     const int x = glm::clamp(static_cast<int>(st.x * r), 0, resolution_ - 1);

@@ -515,6 +515,18 @@ TEST(BonnBtf, ReconstructRefusesHugeAndUnsupported) {
   EXPECT_NE(r.message().find("colour model 2"), std::string::npos);
 }
 
+TEST(BonnBtf, ConvenienceWriteAndLoad) {
+  const BtfFloat btf = low_rank_btf(1, 11);
+  const std::string path = std::string(BTFLOD_TEST_TMP_DIR) + "/bonn_convenience.btf";
+  std::filesystem::create_directories(BTFLOD_TEST_TMP_DIR);
+  DfmfFactorizeOptions opt;
+  opt.components = 3;
+  ASSERT_TRUE(write_bonn_dfmf(path, btf, opt));
+  auto back = load_bonn_btf(path);
+  ASSERT_TRUE(back) << back.message();
+  EXPECT_LT(max_abs_diff(*back, btf), 2e-5);
+}
+
 TEST(BonnBtf, MissingFileIsIoError) {
   auto f = read_bonn_btf(std::string("/nonexistent/x.btf"));
   EXPECT_EQ(f.status(), Status::io_error);

@@ -895,4 +895,24 @@ inline Result<BonnBtfFile> factorize_bonn_dfmf(const BtfFloat& btf, const DfmfFa
   return f;
 }
 
+/// Convenience for demos: factorises `btf` (factorize_bonn_dfmf) and writes the DFMF file.
+/// Errors as factorize_bonn_dfmf() and write_bonn_dfmf().
+inline VoidResult write_bonn_dfmf(const std::string& path, const BtfFloat& btf,
+                                  const DfmfFactorizeOptions& options = {}) {
+  auto f = factorize_bonn_dfmf(btf, options);
+  if (!f) return Error{f.status(), path + ": " + f.message()};
+  return write_bonn_dfmf(path, *f);
+}
+
+/// Convenience: read_bonn_btf(path) followed by reconstruct_bonn_btf(). Errors of both, with
+/// the path. Safe on untrusted files.
+inline Result<BtfFloat> load_bonn_btf(const std::string& path, const BonnReadOptions& read_options = {},
+                                      const BonnReconstructOptions& options = {}) {
+  auto f = read_bonn_btf(path, read_options);
+  if (!f) return f.error();
+  auto btf = reconstruct_bonn_btf(*f, options);
+  if (!btf) return Error{btf.status(), path + ": " + btf.message()};
+  return btf;
+}
+
 }  // namespace btflod

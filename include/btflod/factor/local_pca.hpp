@@ -15,6 +15,7 @@
 #pragma once
 
 #include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -228,7 +229,23 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
       for (size_t i = 0; i < members.size(); ++i) m.col(static_cast<Index>(i)) = x.col(members[i]);
       means.col(j) = m.rowwise().mean();
       m.colwise() -= means.col(j);
-      if (C > 0 && members.size() > 1) {
+      const Index cols = m.cols();
+      if (C > 0 && cols > 1 && cols < static_cast<Index>(d)) {
+        // Fewer members than dimensions (the usual case): the left singular vectors follow
+        // from the members × members Gram matrix (Eigen's SelfAdjointEigenSolver),
+        // U_k = M·v_k / sqrt(λ_k) — d·members² flops instead of an SVD of the d × members
+        // matrix. Components with λ_k below 1e-6 of the largest (noise of the float Gram
+        // matrix) are left at zero.
+        const Eigen::MatrixXd g = (m.transpose() * m).template cast<double>();
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(g);
+        const double top = es.eigenvalues()[cols - 1];
+        for (Index k = 0; k < std::min<Index>(C, cols); ++k) {
+          const Index idx = cols - 1 - k;  // eigenvalues ascend
+          const double lambda = es.eigenvalues()[idx];
+          if (!(lambda > 1e-6 * top)) break;
+          e.col(k) = (m * es.eigenvectors().col(idx).template cast<float>()) / static_cast<float>(std::sqrt(lambda));
+        }
+      } else if (C > 0 && cols > 1) {
         auto svd = truncated_svd(m, static_cast<int>(C), options.svd);
         if (!svd) return svd.error();
         e.leftCols(svd->u.cols()) = svd->u;

@@ -1,0 +1,243 @@
+// btflod-demo — outputs of the streaming fly-through: report.json (every per-frame figure),
+// report.html (inline SVG plots: SSIM vs bytes received, cache occupancy and error per frame,
+// texture memory BSVTF vs FMF, frame time BSVTF vs FMF) and a PNG contact sheet of frames.
+#pragma once
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "btflod/core/image_io.hpp"
+#include "stream_render.hpp"
+
+namespace btflod::demo {
+
+/// Everything the report shows.
+struct RunSummary {
+  std::string backend;
+  std::string command;
+  uint32_t materials = 0, width = 0, height = 0, slots = 0, tiles = 0;
+  uint64_t payload_bytes = 0;
+  double bytes_per_second = 0;
+  double seconds_prepare = 0, seconds_flight = 0;
+  std::vector<std::string> material_names;
+  std::vector<double> fmf_errors;
+  MemoryFigures memory;
+  std::vector<FrameRecord> frames;
+
+  double median(double FrameRecord::*field, size_t first = 0) const {
+    std::vector<double> v;
+    for (size_t i = first; i < frames.size(); ++i) v.push_back(frames[i].*field);
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  }
+};
+
+namespace detail_report {
+
+struct Series {
+  std::string name;
+  std::string color;
+  std::vector<double> x, y;
+};
+
+inline std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return b;
+}
+
+/// A line chart as inline SVG: axes with min/max labels, one polyline per series, legend.
+inline std::string line_chart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
+                              const std::vector<Series>& series, double ymin_hint = 0.0) {
+  const double W = 560, H = 300, L = 60, R = 150, T = 30, B = 45;
+  double x0 = 1e300, x1 = -1e300, y0 = ymin_hint, y1 = -1e300;
+  for (const auto& s : series)
+    for (size_t i = 0; i < s.x.size(); ++i) {
+      x0 = std::min(x0, s.x[i]), x1 = std::max(x1, s.x[i]);
+      y0 = std::min(y0, s.y[i]), y1 = std::max(y1, s.y[i]);
+    }
+  if (!(x1 > x0)) x1 = x0 + 1;
+  if (!(y1 > y0)) y1 = y0 + 1;
+  const auto px = [&](double x) { return L + (x - x0) / (x1 - x0) * (W - L - R); };
+  const auto py = [&](double y) { return H - B - (y - y0) / (y1 - y0) * (H - T - B); };
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>\n";
+  s << "<text x='" << W / 2 - R / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title << "</text>\n";
+  s << "<rect x='" << L << "' y='" << T << "' width='" << W - L - R << "' height='" << H - T - B
+    << "' fill='#fafafa' stroke='#999'/>\n";
+  for (int k = 1; k < 4; ++k) {
+    const double yy = T + (H - T - B) * k / 4.0;
+    s << "<line x1='" << L << "' x2='" << W - R << "' y1='" << yy << "' y2='" << yy << "' stroke='#e0e0e0'/>\n";
+  }
+  s << "<text x='" << L << "' y='" << H - B + 14 << "'>" << fmt(x0) << "</text>";
+  s << "<text x='" << W - R << "' y='" << H - B + 14 << "' text-anchor='end'>" << fmt(x1) << "</text>";
+  s << "<text x='" << (L + W - R) / 2 << "' y='" << H - 8 << "' text-anchor='middle'>" << xlabel << "</text>\n";
+  s << "<text x='" << L - 4 << "' y='" << py(y0) << "' text-anchor='end'>" << fmt(y0) << "</text>";
+  s << "<text x='" << L - 4 << "' y='" << py(y1) + 8 << "' text-anchor='end'>" << fmt(y1) << "</text>";
+  s << "<text transform='translate(14," << (T + H - B) / 2 << ") rotate(-90)' text-anchor='middle'>" << ylabel << "</text>\n";
+  int row = 0;
+  for (const auto& se : series) {
+    s << "<polyline fill='none' stroke-width='2' stroke='" << se.color << "' points='";
+    for (size_t i = 0; i < se.x.size(); ++i) s << px(se.x[i]) << "," << py(se.y[i]) << " ";
+    s << "'/>\n";
+    const double ly = T + 12 + 16 * row++;
+    s << "<line x1='" << W - R + 10 << "' x2='" << W - R + 30 << "' y1='" << ly << "' y2='" << ly << "' stroke='" << se.color
+      << "' stroke-width='3'/><text x='" << W - R + 34 << "' y='" << ly + 4 << "'>" << se.name << "</text>\n";
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+/// Horizontal bars (label, value, colour) as inline SVG.
+inline std::string bar_chart(const std::string& title, const std::string& unit,
+                             const std::vector<std::tuple<std::string, double, std::string>>& bars) {
+  const double W = 560, L = 190, bar = 26, T = 30;
+  const double H = T + bars.size() * (bar + 10) + 10;
+  double vmax = 1e-30;
+  for (const auto& b : bars) vmax = std::max(vmax, std::get<1>(b));
+  std::ostringstream s;
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>\n";
+  s << "<text x='" << W / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title << "</text>\n";
+  double y = T;
+  for (const auto& [label, value, color] : bars) {
+    const double w = value / vmax * (W - L - 90);
+    s << "<text x='" << L - 6 << "' y='" << y + bar * 0.65 << "' text-anchor='end'>" << label << "</text>";
+    s << "<rect x='" << L << "' y='" << y << "' width='" << w << "' height='" << bar << "' fill='" << color << "'/>";
+    s << "<text x='" << L + w + 6 << "' y='" << y + bar * 0.65 << "'>" << fmt(value) << " " << unit << "</text>\n";
+    y += bar + 10;
+  }
+  s << "</svg>\n";
+  return s.str();
+}
+
+}  // namespace detail_report
+
+/// Writes DIR/report.json. Returns an io_error naming the file on failure.
+inline VoidResult write_report_json(const std::string& path, const RunSummary& r) {
+  std::ofstream o(path, std::ios::binary | std::ios::trunc);
+  if (!o) return make_error(Status::io_error, "%s: cannot open for writing", path.c_str());
+  char b[512];
+  o << "{\n  \"backend\": \"" << r.backend << "\",\n";
+  std::snprintf(b, sizeof b,
+                "  \"materials\": %u,\n  \"width\": %u,\n  \"height\": %u,\n  \"cache_slots\": %u,\n  \"tiles_total\": %u,\n"
+                "  \"payload_bytes_total\": %llu,\n  \"link_bytes_per_second\": %.0f,\n  \"seconds_prepare\": %.3f,\n"
+                "  \"seconds_flight\": %.3f,\n",
+                r.materials, r.width, r.height, r.slots, r.tiles, static_cast<unsigned long long>(r.payload_bytes),
+                r.bytes_per_second, r.seconds_prepare, r.seconds_flight);
+  o << b;
+  o << "  \"fmf_relative_error\": [";
+  for (size_t i = 0; i < r.fmf_errors.size(); ++i) o << (i ? ", " : "") << detail_report::fmt(r.fmf_errors[i]);
+  o << "],\n";
+  const size_t half = r.frames.size() / 2;
+  std::snprintf(b, sizeof b,
+                "  \"memory\": {\"fmf_texture_bytes\": %llu, \"bsvtf_texture_bytes\": %llu, \"bsvtf_over_fmf\": %.4f, "
+                "\"shared_u_and_tables_bytes\": %llu},\n",
+                static_cast<unsigned long long>(r.memory.fmf_bytes), static_cast<unsigned long long>(r.memory.bsvtf_bytes),
+                r.memory.fmf_bytes ? static_cast<double>(r.memory.bsvtf_bytes) / static_cast<double>(r.memory.fmf_bytes) : 0.0,
+                static_cast<unsigned long long>(r.memory.u_bytes));
+  o << b;
+  const double mb = r.median(&FrameRecord::ms_bsvtf, half), mf = r.median(&FrameRecord::ms_fmf, half);
+  std::snprintf(b, sizeof b,
+                "  \"frame_time\": {\"median_ms_bsvtf\": %.3f, \"median_ms_fmf\": %.3f, \"bsvtf_fps_over_fmf_fps\": %.4f, "
+                "\"over\": \"second half of the flight\"},\n",
+                mb, mf, mb > 0 ? mf / mb : 0.0);
+  o << b;
+  o << "  \"frames\": [\n";
+  for (size_t i = 0; i < r.frames.size(); ++i) {
+    const FrameRecord& f = r.frames[i];
+    std::snprintf(b, sizeof b,
+                  "    {\"frame\": %u, \"bytes_received\": %llu, \"tiles_delivered\": %u, \"occupancy\": %.4f, \"ssim\": %.5f, "
+                  "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u}%s\n",
+                  f.frame, static_cast<unsigned long long>(f.bytes_received), f.tiles_delivered, f.occupancy, f.ssim, f.rmse,
+                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, i + 1 < r.frames.size() ? "," : "");
+    o << b;
+  }
+  o << "  ]\n}\n";
+  if (!o) return make_error(Status::io_error, "%s: write failed", path.c_str());
+  return {};
+}
+
+/// Writes DIR/report.html with the four plots and a short table.
+inline VoidResult write_report_html(const std::string& path, const RunSummary& r) {
+  using detail_report::Series;
+  std::vector<double> frame, mb, ssim, occ, rmse, tb, tf;
+  for (const FrameRecord& f : r.frames) {
+    frame.push_back(f.frame);
+    mb.push_back(static_cast<double>(f.bytes_received) / 1048576.0);
+    ssim.push_back(f.ssim);
+    occ.push_back(100.0 * f.occupancy);
+    rmse.push_back(f.rmse);
+    tb.push_back(f.ms_bsvtf);
+    tf.push_back(f.ms_fmf);
+  }
+  const size_t half = r.frames.size() / 2;
+  const double mbs = r.median(&FrameRecord::ms_bsvtf, half), mfs = r.median(&FrameRecord::ms_fmf, half);
+  std::ostringstream h;
+  h << "<!doctype html><html><head><meta charset='utf-8'><title>btflod demo report</title>"
+       "<style>body{font-family:sans-serif;max-width:1180px;margin:20px auto;color:#222}"
+       "div.g{display:flex;flex-wrap:wrap;gap:16px}td,th{padding:2px 10px;text-align:left}</style></head><body>\n";
+  h << "<h1>btflod demo: streaming BTF fly-through</h1>\n<p>Backend: <b>" << r.backend << "</b>. " << r.materials
+    << " synthesised materials (FMF, C = 8), " << r.frames.size() << " frames at " << r.width << "×" << r.height
+    << ", cache of " << r.slots << " slots for " << r.tiles << " tiles, tiles streamed through a throttled link of "
+    << detail_report::fmt(r.bytes_per_second / 1024.0) << " KiB/s (" << detail_report::fmt(r.payload_bytes / 1024.0)
+    << " KiB of tiles in all). Command: <code>" << r.command << "</code></p>\n";
+  h << "<table><tr><th>figure</th><th>BSVTF</th><th>FMF</th><th>ratio</th></tr>";
+  char row[512];
+  std::snprintf(row, sizeof row, "<tr><td>texture memory</td><td>%.1f KiB</td><td>%.1f KiB</td><td>%.1f %%</td></tr>",
+                r.memory.bsvtf_bytes / 1024.0, r.memory.fmf_bytes / 1024.0,
+                r.memory.fmf_bytes ? 100.0 * r.memory.bsvtf_bytes / r.memory.fmf_bytes : 0.0);
+  h << row;
+  std::snprintf(row, sizeof row,
+                "<tr><td>median frame time (2nd half)</td><td>%.2f ms (incl. feedback pass)</td><td>%.2f ms</td>"
+                "<td>BSVTF at %.2f× the FMF frame rate</td></tr>",
+                mbs, mfs, mbs > 0 ? mfs / mbs : 0.0);
+  h << row;
+  std::snprintf(row, sizeof row, "<tr><td>final SSIM vs FMF render</td><td>%.4f</td><td>1</td><td></td></tr></table>\n",
+                r.frames.empty() ? 0.0 : r.frames.back().ssim);
+  h << row;
+  h << "<div class='g'>\n";
+  h << detail_report::line_chart("SSIM vs converged (FMF) image", "MiB of tiles received", "SSIM",
+                                 {Series{"BSVTF frame", "#1f77b4", mb, ssim}}, std::min(0.0, 0.0));
+  h << detail_report::line_chart("Cache occupancy per frame", "frame", "% of slots used",
+                                 {Series{"occupancy", "#2ca02c", frame, occ}});
+  h << detail_report::line_chart("Error per frame (RMSE vs FMF)", "frame", "RMSE (linear radiance)",
+                                 {Series{"RMSE", "#d62728", frame, rmse}});
+  h << detail_report::line_chart("Frame time, same view", "frame", "ms", {Series{"BSVTF (+feedback)", "#1f77b4", frame, tb},
+                                                                            Series{"FMF", "#ff7f0e", frame, tf}});
+  h << detail_report::bar_chart("Texture memory", "KiB",
+                                {{"FMF (V' RGBA32F + mips)", r.memory.fmf_bytes / 1024.0, "#ff7f0e"},
+                                 {"BSVTF (cache + page table)", r.memory.bsvtf_bytes / 1024.0, "#1f77b4"}});
+  h << "</div>\n<p><img src='contact_sheet_frames.png' alt='frames'></p>\n";
+  h << "<p>Materials:";
+  for (size_t i = 0; i < r.material_names.size(); ++i)
+    h << " " << r.material_names[i] << " (FMF relative error " << detail_report::fmt(r.fmf_errors[i]) << ")";
+  h << ".</p></body></html>\n";
+  std::ofstream o(path, std::ios::binary | std::ios::trunc);
+  o << h.str();
+  if (!o) return make_error(Status::io_error, "%s: cannot write", path.c_str());
+  return {};
+}
+
+/// A contact sheet of up to 12 frames (every n-th), each at half size, 4 per row.
+inline VoidResult write_frame_sheet(const std::string& path, const std::vector<Image<float>>& frames) {
+  if (frames.empty()) return {};
+  const int cols = 4, rows = static_cast<int>((frames.size() + 3) / 4);
+  const int w = frames[0].width() / 2, h = frames[0].height() / 2, gap = 4;
+  Image<float> sheet(cols * (w + gap) + gap, rows * (h + gap) + gap, 3, 1.0f);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const int x0 = gap + static_cast<int>(i % 4) * (w + gap), y0 = gap + static_cast<int>(i / 4) * (h + gap);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int c = 0; c < 3; ++c)
+          sheet.at(x0 + x, y0 + y, c) = 0.25f * (frames[i].at(2 * x, 2 * y, c) + frames[i].at(2 * x + 1, 2 * y, c) +
+                                                 frames[i].at(2 * x, 2 * y + 1, c) + frames[i].at(2 * x + 1, 2 * y + 1, c));
+  }
+  return write_png_srgb(path, sheet.view());
+}
+
+}  // namespace btflod::demo

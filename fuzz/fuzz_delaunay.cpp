@@ -1,0 +1,65 @@
+// Fuzz target: Delaunay triangulation + grid locator + ring search on hostile point sets.
+// Input: pairs of little-endian u16 → points on a 65535² lattice of [0, 1]² (so duplicates,
+// collinear runs and co-circular quadruples are frequent), at most 256 points. Checks the
+// invariants the tests check (CCW, every distinct point used, triangles tile the hull, empty
+// circumcircles) and that every query returns a partition of unity.
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <vector>
+
+#include "btflod/angular/delaunay.hpp"
+#include "btflod/angular/ring_search.hpp"
+#include "btflod/angular/triangle_locator.hpp"
+
+using namespace btflod;
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const size_t n = std::min<size_t>(size / 4, 256);
+  std::vector<glm::dvec2> pts(n);
+  for (size_t i = 0; i < n; ++i) {
+    const uint16_t x = static_cast<uint16_t>(data[4 * i] | (data[4 * i + 1] << 8));
+    const uint16_t y = static_cast<uint16_t>(data[4 * i + 2] | (data[4 * i + 3] << 8));
+    pts[i] = {x / 65535.0, y / 65535.0};
+  }
+  auto r = delaunay_triangulate(std::span<const glm::dvec2>(pts));
+  if (!r) return 0;
+  const Triangulation& t = *r;
+  std::vector<char> used(n, 0);
+  ExactInt128 area = 0, hull_area = 0;
+  for (const auto& v : t.triangles) {
+    const ExactInt128 a2 = static_cast<ExactInt128>(t.snapped[v[1]].x - t.snapped[v[0]].x) *
+                               (t.snapped[v[2]].y - t.snapped[v[0]].y) -
+                           static_cast<ExactInt128>(t.snapped[v[1]].y - t.snapped[v[0]].y) *
+                               (t.snapped[v[2]].x - t.snapped[v[0]].x);
+    if (a2 <= 0) std::abort();
+    area += a2;
+    for (uint32_t i : v) used[i] = 1;
+    for (size_t i = 0; i < n; ++i)
+      if (incircle_exact(t.snapped[v[0]], t.snapped[v[1]], t.snapped[v[2]], t.snapped[i]) > 0) std::abort();
+  }
+  for (size_t i = 0; i < n; ++i)
+    if ((t.representative[i] == i) != (used[i] != 0)) std::abort();
+  for (size_t k = 0; k < t.hull.size(); ++k) {
+    const SnappedPoint a = t.snapped[t.hull[0]], b = t.snapped[t.hull[k]], c = t.snapped[t.hull[(k + 1) % t.hull.size()]];
+    hull_area += static_cast<ExactInt128>(b.x - a.x) * (c.y - a.y) - static_cast<ExactInt128>(b.y - a.y) * (c.x - a.x);
+  }
+  if (area != hull_area) std::abort();
+  const TriangleGridLocator loc(t);
+  for (size_t i = 0; i < n; ++i) {
+    const AngularSample s = loc.locate(glm::vec2(pts[n - 1 - i].y, pts[i].x));
+    const float sum = s.weight[0] + s.weight[1] + s.weight[2];
+    if (!(sum > 0.999f && sum < 1.001f)) std::abort();
+    for (int k = 0; k < 3; ++k)
+      if (s.weight[k] < 0.0f || s.index[k] >= n) std::abort();
+  }
+  // Ring detection on the same points read as (θ, φ): must either fail cleanly or answer.
+  std::vector<std::pair<float, float>> tp;
+  for (const auto& p : pts) tp.emplace_back(static_cast<float>(p.x) * 1.5f, static_cast<float>(p.y) * 6.3f);
+  auto ring = RingSearchInterpolator::build(DirectionSet::from_radians("fuzz", tp));
+  if (ring) {
+    const AngularSample s = ring->query(glm::vec3(pts[0].x - 0.5, pts[0].y - 0.5, 0.3));
+    if (s.index[0] >= n || s.index[1] >= n || s.index[2] >= n) std::abort();
+  }
+  return 0;
+}

@@ -26,6 +26,12 @@
 #else
 #define BTFLOD_SAMPLES_HAVE_BONN 0
 #endif
+#if __has_include("btflod/btf/ubo2003_folder.hpp")
+#include "btflod/btf/ubo2003_folder.hpp"
+#define BTFLOD_SAMPLES_HAVE_UBO_FOLDER 1
+#else
+#define BTFLOD_SAMPLES_HAVE_UBO_FOLDER 0
+#endif
 
 namespace btflod::samples {
 
@@ -84,8 +90,15 @@ inline Result<BtfFloat> load_btf(const std::string& path, const ProgressCallback
       return make_error(Status::unsupported, "%s: this build has no Bonn .btf reader", path.c_str());
 #endif
     }
-    case BtfFileKind::image_folder:
+    case BtfFileKind::image_folder: {
+#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
+      auto folder = read_ubo2003_folder(path);
+      if (!folder) return folder.error();
+      return std::move(folder->btf);
+#else
       return make_error(Status::unsupported, "%s: this build has no UBO2003 image-folder reader", path.c_str());
+#endif
+    }
   }
   return make_error(Status::unsupported, "%s: unknown file kind", path.c_str());
 }
@@ -103,7 +116,8 @@ inline bool is_bonn_path(const std::string& path) {
 }
 
 /// Writes a BTF: a path ending in .btf becomes a Bonn DFMF file (factorised to
-/// options.components per channel), any other path a UBO2003-style PNG folder.
+/// options.components per channel), any other path a UBO2003-style folder of 8-bit sRGB PNGs
+/// (values clamped to [0, 1]).
 inline VoidResult save_btf(const BtfFloat& btf, const std::string& path, const SaveOptions& options = {}) {
   (void)btf;  // unused when a writer is not compiled in
   (void)options;
@@ -119,8 +133,13 @@ inline VoidResult save_btf(const BtfFloat& btf, const std::string& path, const S
     return make_error(Status::unsupported, "%s: this build has no Bonn .btf writer", path.c_str());
 #endif
   }
+#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
+  // 8-bit sRGB PNGs: values are clamped to [0, 1] (specular peaks above 1 are lost).
+  return write_ubo2003_folder(btf, path);
+#else
   return make_error(Status::unsupported, "%s: this build has no UBO2003 image-folder writer (use a .btf path)",
                     path.c_str());
+#endif
 }
 
 }  // namespace btflod::samples

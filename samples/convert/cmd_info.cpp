@@ -96,7 +96,27 @@ int info_bonn(const std::string& path, bool values) {
 }
 #endif
 
-int info_generic(const std::string& path) {
+#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
+int info_folder(const std::string& path) {
+  auto folder = read_ubo2003_folder(path);
+  if (!folder) {
+    std::fprintf(stderr, "btflod-convert info: %s\n", folder.message().c_str());
+    return convert::kExitFailure;
+  }
+  const BtfFloat& btf = folder->btf;
+  std::printf("%s: UBO2003-style image folder, %zu images (8-bit sRGB, linearised)\n", path.c_str(),
+              folder->image_paths.size());
+  std::printf("  texels  %d x %d\n", btf.width(), btf.height());
+  print_directions("views", btf.views());
+  print_directions("lights", btf.lights());
+  if (!folder->image_paths.empty()) std::printf("  first   %s\n", folder->image_paths.front().c_str());
+  print_value_range(btf);
+  for (const auto& w : folder->warnings) std::printf("  warning %s\n", w.c_str());
+  return convert::kExitOk;
+}
+#endif
+
+[[maybe_unused]] int info_generic(const std::string& path) {
   auto btf = samples::load_btf(path);
   if (!btf) {
     std::fprintf(stderr, "btflod-convert info: %s\n", btf.message().c_str());
@@ -145,7 +165,13 @@ int run_info(int argc, char** argv) {
         r = info_generic(path);
 #endif
         break;
-      case BtfFileKind::image_folder: r = info_generic(path); break;
+      case BtfFileKind::image_folder:
+#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
+        r = info_folder(path);
+#else
+        r = info_generic(path);
+#endif
+        break;
     }
     if (r != convert::kExitOk) result = r;
   }

@@ -1,0 +1,158 @@
+// btflod-convert build — an FMF factor file → the `.bsvtf` streaming container
+// (docs/bsvtf_format.md): eigen-texture tile pyramid (vt/tile_pyramid.hpp), tiles coded coarse to
+// fine as closed-loop residuals to their parents (codec/tile_codec.hpp), U in packets of 4.
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "command.hpp"
+#include "common/progress_bar.hpp"
+
+#include "btflod/codec/container.hpp"
+#include "btflod/core/file_io.hpp"
+#include "btflod/core/half.hpp"
+#include "btflod/factor/fmf.hpp"
+#include "btflod/vt/tile_pyramid.hpp"
+
+namespace {
+
+using namespace btflod;
+
+int run_build(int argc, char** argv) {
+  convert::Options opt(argc, argv);
+  if (opt.wants_help()) {
+    std::puts(
+        "usage: btflod-convert build IN.fmf OUT.bsvtf [--quality Q] [--tile T] [--border B]\n"
+        "                            [--per-component] [--deflate-level N] [--quiet]\n"
+        "  IN is an FMF factor file (btflod-convert factor --method fmf).\n"
+        "  --quality Q      1..100 (default 50): the block-RMS error tolerance is\n"
+        "                   range/128 x JPEG's quality scale (docs/bsvtf_format.md)\n"
+        "  --tile T         interior texels per tile (default 64); --border B texels (default 4)\n"
+        "  --per-component  scale each component's tolerance by its own range (default: one shared\n"
+        "                   tolerance from the largest range, which minimises the BTF's error)\n"
+        "  --deflate-level  zlib level 0..9 (default 6)");
+    return convert::kExitOk;
+  }
+  const double quality = opt.number("quality", 50.0, 1.0, 100.0);
+  const auto tile = static_cast<uint32_t>(opt.integer("tile", 64, 8, 1016));
+  const auto border = static_cast<uint32_t>(opt.integer("border", 4, 1, 64));
+  const bool per_component = opt.flag("per-component");
+  const int deflate_level = static_cast<int>(opt.integer("deflate-level", 6, 0, 9));
+  const bool quiet = opt.flag("quiet", 'q');
+  if (!opt.finish()) return convert::kExitUsage;
+  if (opt.positional().size() != 2) {
+    std::fprintf(stderr, "btflod-convert build: expected IN.fmf and OUT.bsvtf (got %zu arguments)\n", opt.positional().size());
+    return convert::kExitUsage;
+  }
+  if (!TileLayout{tile, border, 4}.valid()) {
+    std::fprintf(stderr, "btflod-convert build: --tile %u --border %u: T + 2B must be a multiple of 8 (T even, T >= 8)\n", tile,
+                 border);
+    return convert::kExitUsage;
+  }
+  const std::string in = opt.positional()[0], out = opt.positional()[1];
+  const auto t0 = std::chrono::steady_clock::now();
+
+  auto bytes = read_file_bytes(in);
+  if (!bytes) {
+    std::fprintf(stderr, "btflod-convert build: %s\n", bytes.message().c_str());
+    return convert::kExitFailure;
+  }
+  auto fmf = Fmf::deserialize(*bytes);
+  if (!fmf) {
+    std::fprintf(stderr, "btflod-convert build: %s: %s\n", in.c_str(), fmf.message().c_str());
+    return convert::kExitFailure;
+  }
+  const auto comps = static_cast<uint32_t>(fmf->components);
+  const int w = fmf->shape.width, h = fmf->shape.height;
+
+  EigenTextures eigen;
+  eigen.textures.resize(w, h, static_cast<int>(comps));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (uint32_t c = 0; c < comps; ++c)
+        eigen.textures.at(x, y, static_cast<int>(c)) = fmf->v[(static_cast<size_t>(y) * w + x) * comps + c];
+  eigen.angular = fmf->u;  // stored in the producer's row order (FMF: (view · n_light + light) · 3 + colour)
+  eigen.light_count = static_cast<uint32_t>(fmf->shape.light_count());
+  eigen.view_count = static_cast<uint32_t>(fmf->shape.view_count());
+  auto pyramid = TilePyramid::build(eigen, tile, border);
+  if (!pyramid) {
+    std::fprintf(stderr, "btflod-convert build: %s\n", pyramid.message().c_str());
+    return convert::kExitFailure;
+  }
+
+  BsvtfMetadata md;
+  const size_t slash = in.find_last_of('/');
+  md.material_name = slash == std::string::npos ? in : in.substr(slash + 1);
+  md.width = static_cast<uint32_t>(w);
+  md.height = static_cast<uint32_t>(h);
+  md.tile_size = tile;
+  md.border = border;
+  md.level_count = pyramid->geometry().level_count();
+  md.component_count = comps;
+  md.color_channels = 3;
+  md.color_mode = ColorMode::linear_rgb;
+  md.u_rows = static_cast<uint32_t>(fmf->u.size() / comps);
+  md.light_set = fmf->shape.lights.name();
+  md.view_set = fmf->shape.views.name();
+  for (size_t i = 0; i < fmf->shape.lights.size(); ++i)
+    for (int k = 0; k < 3; ++k) md.light_directions.push_back(fmf->shape.lights[i].vector[k]);
+  for (size_t i = 0; i < fmf->shape.views.size(); ++i)
+    for (int k = 0; k < 3; ++k) md.view_directions.push_back(fmf->shape.views[i].vector[k]);
+
+  // Tiles (half texels from the pyramid, as float) with their eq. 8 weights.
+  const VtLevelTable& levels = pyramid->levels();
+  const TileLayout layout{tile, border, 4};
+  std::vector<std::vector<float>> samples;
+  std::vector<BsvtfTileInput> tiles;
+  for (uint32_t k = 0; k < pyramid->texture_count(); ++k)
+    for (uint32_t l = 0; l < md.level_count; ++l)
+      for (uint32_t y = 0; y < levels.tiles_y[l]; ++y)
+        for (uint32_t x = 0; x < levels.tiles_x[l]; ++x) {
+          const uint32_t index = levels.index(l, x, y);
+          std::vector<float> s(layout.sample_count());
+          half_to_float(pyramid->tile_texels(k, index), s);
+          samples.push_back(std::move(s));
+          tiles.push_back({TileId{k, l, x, y}, {}, pyramid->weights(k)[index].to_float()});
+        }
+  for (size_t i = 0; i < tiles.size(); ++i) tiles[i].samples = samples[i];
+
+  samples::ProgressBar bar("build", stderr, !quiet);
+  BsvtfBuildOptions options;
+  options.quality = static_cast<float>(quality);
+  options.deflate_level = deflate_level;
+  options.tolerance_reference = per_component ? ToleranceReference::per_component : ToleranceReference::shared_max;
+  options.progress = bar.callback();
+  auto file = build_bsvtf(md, fmf->u, tiles, options);
+  bar.finish();
+  if (!file) {
+    std::fprintf(stderr, "btflod-convert build: %s\n", file.message().c_str());
+    return convert::kExitFailure;
+  }
+  if (auto s = write_file_bytes(out, *file); !s) {
+    std::fprintf(stderr, "btflod-convert build: %s\n", s.message().c_str());
+    return convert::kExitFailure;
+  }
+  const auto dir = read_bsvtf(*file);
+  if (!dir) {  // never expected: the writer's output must read back
+    std::fprintf(stderr, "btflod-convert build: written file does not read back: %s\n", dir.message().c_str());
+    return convert::kExitFailure;
+  }
+  uint64_t tile_bytes = 0;
+  for (const auto& e : dir->tiles) tile_bytes += e.size;
+  const double raw = static_cast<double>(tiles.size()) * static_cast<double>(layout.sample_count()) * 2.0;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("%s: %dx%d, %u components, %u levels of %u+2x%u tiles -> %s: %zu bytes (%zu tiles, %llu tile bytes, %.2f:1 vs raw "
+              "half tiles; directory %llu bytes; U %zu packets), quality %.0f, %.2f s\n",
+              in.c_str(), w, h, comps, md.level_count, tile, border, out.c_str(), file->size(), tiles.size(),
+              static_cast<unsigned long long>(tile_bytes), raw / static_cast<double>(tile_bytes),
+              static_cast<unsigned long long>(dir->header.directory_size), dir->packets.size(), quality, seconds);
+  for (uint32_t l = 0; l < md.level_count; ++l)
+    std::printf("  levels 0..%u: first %llu bytes\n", l, static_cast<unsigned long long>(dir->prefix_size(l)));
+  return convert::kExitOk;
+}
+
+}  // namespace
+
+BTFLOD_CONVERT_COMMAND(build, "code an FMF factor file into a .bsvtf streaming container (tiles, U packets, index)",
+                       run_build);

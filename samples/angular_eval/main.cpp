@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -98,15 +99,32 @@ std::shared_ptr<const I> must(Result<I> r, const char* what) {
   return std::make_shared<const I>(std::move(r.value()));
 }
 
+// Interpolators depend only on the direction set: build each once and share it between the
+// three paints.
+std::map<std::string, std::shared_ptr<const void>>& interpolator_cache() {
+  static std::map<std::string, std::shared_ptr<const void>> cache;
+  return cache;
+}
+
+template <class I, class Build>
+std::shared_ptr<const I> cached(const std::string& key, Build&& build, const char* what) {
+  auto& c = interpolator_cache();
+  auto it = c.find(key);
+  if (it != c.end()) return std::static_pointer_cast<const I>(it->second);
+  auto made = must(build(), what);
+  c[key] = made;
+  return made;
+}
+
 template <class P>
 void add_plane_methods(std::vector<Method>& out, const DirectionSet& set, const std::vector<glm::vec3>* table) {
   const size_t n = set.size();
   const std::string p = P::kName;
-  out.push_back(nine_tap_method("exact grid (paper 003) / " + p, must(ExactGridInterpolator<P>::build(set), "exact"), table, n));
+  out.push_back(nine_tap_method("exact grid (paper 003) / " + p, cached<ExactGridInterpolator<P>>(set.name() + "exact" + p, [&] { return ExactGridInterpolator<P>::build(set); }, "exact"), table, n));
   out.push_back(nine_tap_method("lookup table 256² (paper 000) / " + p,
-                                must(LookupTableInterpolator<P>::build(set, 256), "lut"), table, n));
+                                cached<LookupTableInterpolator<P>>(set.name() + "lut" + p, [&] { return LookupTableInterpolator<P>::build(set, 256); }, "lut"), table, n));
   out.push_back(nine_tap_method("nearest table 256² (paper 001) / " + p,
-                                must(NearestLookupInterpolator<P>::build(set, 256), "nearest"), table, n));
+                                cached<NearestLookupInterpolator<P>>(set.name() + "nearest" + p, [&] { return NearestLookupInterpolator<P>::build(set, 256); }, "nearest"), table, n));
 }
 
 }  // namespace
@@ -176,10 +194,12 @@ int main(int argc, char** argv) {
       add_plane_methods<ParabolicMap>(m, set, &tables[b]);
       add_plane_methods<ElevatedConcentricMap>(m, set, &tables[b]);
       add_plane_methods<OrthographicMap>(m, set, &tables[b]);
-      m.push_back(nine_tap_method("UBO ring search (paper 004)", must(RingSearchInterpolator::build(set), "ring"),
+      m.push_back(nine_tap_method("UBO ring search (paper 004)", cached<RingSearchInterpolator>(set.name() + "ring", [&] { return RingSearchInterpolator::build(set); }, "ring"),
                                   &tables[b], n));
       // Paper 002 §6.2: resample (via the exact concentric interpolator) onto the regular grid.
-      auto exact = must(ExactGridInterpolator<ElevatedConcentricMap>::build(set), "exact");
+      auto exact = cached<ExactGridInterpolator<ElevatedConcentricMap>>(
+          set.name() + "exact" + ElevatedConcentricMap::kName,
+          [&] { return ExactGridInterpolator<ElevatedConcentricMap>::build(set); }, "exact");
       const auto* table = &tables[b];
       auto g = must(RegularAngularGrid<ElevatedConcentricMap>::resample(
                         grid, grid, 3,

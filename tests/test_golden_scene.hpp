@@ -1,0 +1,262 @@
+// Golden-image cases shared by test_golden_gl.cpp and test_golden_vk.cpp: the same scene (a
+// tilted plane, perspective camera, directional light) rendered by a GPU backend and by the CPU
+// reference of backend/cpu_reference.hpp (ray-cast Scene + Camera, CpuCacheTexture sampled
+// through the vt/ TileCache page table, shade_fmf's 9-tap eq. 5) must agree: PSNR ≥ 40 dB at
+// 256×256, for FMF and for BSVTF with a partially filled cache. The view magnifies the texture
+// everywhere (with a negative LOD bias), so the GPU's desired level is the finest one and both
+// renderers read the deepest resident tile — the CPU reference's rule.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "btflod/backend/cpu_reference.hpp"
+#include "btflod/backend/page_table_writes.hpp"
+#include "btflod/vt/tile_cache.hpp"
+#include "btflod/vt/tile_pyramid.hpp"
+#include "test_shader_scene.hpp"
+
+namespace btflod::golden {
+
+using namespace btflod::test_scene;
+
+inline constexpr int kTexture = 256;  // M = N; T = 64 → finest level 2
+
+inline ShaderConfig golden_config() {
+  ShaderConfig c;
+  c.components = 8;
+  c.angular.parameterisation = DirectionParameterisation::parabolic;
+  c.angular.lookup = AngularLookup::barycentric;
+  c.angular.resolution = 32;
+  c.vt.tile_size = 64;
+  c.vt.border = 4;
+  c.vt.slots_x = 6;
+  c.vt.slots_y = 6;
+  c.vt.cache_layers = 1;
+  c.vt.finest_level = 2;
+  c.vt.trilinear = true;
+  return c;
+}
+
+/// The plane: origin corner, axes u (→ uv.x) and v (→ uv.y), 2 × 2 units, tilted towards the camera.
+struct PlaneSetup {
+  glm::vec3 origin{-1.0f, -1.0f, 0.0f};
+  glm::vec3 axis_u{1.0f, 0.0f, 0.0f};
+  glm::vec3 axis_v = glm::normalize(glm::vec3(0.0f, 0.94f, -0.34f));
+  float size = 2.0f;
+};
+
+inline Camera golden_camera() {
+  Camera cam;
+  cam.position = glm::vec3(0.25f, -0.1f, 1.6f);
+  cam.target = glm::vec3(0.05f, 0.05f, -0.2f);
+  cam.up = glm::vec3(0.0f, 1.0f, 0.0f);
+  cam.fov_y_degrees = 45.0f;
+  cam.width = kSize;
+  cam.height = kSize;
+  return cam;
+}
+
+inline ShaderParams golden_params(const Camera& cam) {
+  ShaderParams p;
+  const glm::mat4 proj = glm::perspective(degrees_to_radians(cam.fov_y_degrees), 1.0f, 0.05f, 50.0f);
+  p.model_view_proj = proj * glm::lookAt(cam.position, cam.target, cam.up);
+  p.model = glm::mat4(1.0f);
+  p.camera_pos = glm::vec4(cam.position, 1.0f);
+  p.light = glm::vec4(glm::normalize(glm::vec3(-0.5f, 0.4f, 0.8f)), 0.0f);
+  p.light_color = glm::vec4(1.6f, 1.2f, 1.0f, 1.0f);
+  p.vt_extent = glm::vec4(kTexture, kTexture, 2, 0);
+  p.lod.x = -1.5f;  // LOD bias: finer than the pixel footprint everywhere (λ clamps to L)
+  return p;
+}
+
+/// The plane as a mesh with the frame the CPU reference uses (t = u axis, n = u × v, b = v).
+inline void plane_mesh(const PlaneSetup& s, std::vector<MeshVertex>& v, std::vector<uint32_t>& idx) {
+  const glm::vec3 n = glm::normalize(glm::cross(s.axis_u, s.axis_v));
+  const float c[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  v.clear();
+  for (const auto& k : c) {
+    const glm::vec3 p = s.origin + k[0] * s.size * s.axis_u + k[1] * s.size * s.axis_v;
+    v.push_back(MeshVertex{{p.x, p.y, p.z}, {n.x, n.y, n.z}, {s.axis_u.x, s.axis_u.y, s.axis_u.z, 1.0f}, {k[0], k[1]}});
+  }
+  idx = {0, 1, 2, 0, 2, 3};
+}
+
+/// CPU reference image: ray-cast the plane, V' from `sample_v(hit, out[C])`, eq. 5 with the
+/// shader's angular lookup (test_scene::lookup), times the light colour. Background 0.
+template <class SampleV>
+Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& sample_v) {
+  const PlaneSetup s;
+  Scene scene;
+  scene.add(Shape::plane(0, s.origin, s.axis_u, s.axis_v, s.size, s.size));
+  const Camera cam = golden_camera();
+  EigenTextures e;
+  e.textures = m.v;
+  e.angular = m.u;
+  e.light_count = m.lights;
+  e.view_count = m.views;
+  Image<float> out(kSize, kSize, 4, 0.0f);
+  std::vector<float> comps(m.config.components);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
+      const SurfaceHit h = scene.intersect(cam.ray(px, py));
+      if (!h.hit) continue;
+      sample_v(h, comps.data());
+      const glm::vec3 wl = to_local(h, glm::normalize(glm::vec3(p.light)));
+      const glm::vec3 wv = to_local(h, glm::normalize(glm::vec3(p.camera_pos) - h.position));
+      AngularSample ls, vs;
+      lookup(m, m.light_index, m.light_weight, wl, ls.index.data(), ls.weight.data());
+      lookup(m, m.view_index, m.view_weight, wv, vs.index.data(), vs.weight.data());
+      const glm::vec3 rgb = shade_fmf(e, ls, vs, comps) * glm::vec3(p.light_color);
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = rgb[c];
+      out.at(x, y, 3) = 1.0f;
+    }
+  return out;
+}
+
+inline FrameDesc backend_frame() {
+  FrameDesc f;
+  f.width = kSize;
+  f.height = kSize;
+  f.feedback_width = 32;
+  f.feedback_height = 32;
+  return f;
+}
+
+/// FMF: V' bilinear with repeat at the finest level on both sides (no mip chain on the GPU).
+/// A blank or flat image must not pass: mean and spread of the rgb values.
+inline void expect_content(const Image<float>& img) {
+  double sum = 0, sq = 0;
+  size_t n = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      for (int c = 0; c < 3; ++c, ++n) {
+        sum += img.at(x, y, c);
+        sq += static_cast<double>(img.at(x, y, c)) * img.at(x, y, c);
+      }
+  const double mean = sum / static_cast<double>(n);
+  EXPECT_GT(mean, 0.05);
+  EXPECT_GT(sq / static_cast<double>(n) - mean * mean, 1e-4);
+}
+
+template <class Factory>
+void golden_fmf(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+  const ShaderConfig config = golden_config();
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const Material m = make_material(config, kTexture, kTexture);
+  std::vector<MeshVertex> verts;
+  std::vector<uint32_t> idx;
+  plane_mesh(PlaneSetup{}, verts, idx);
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  FmfMaterialData d = m.data(true);
+  d.mipmaps = false;
+  auto mat = be->create_material(d);
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  const ShaderParams params = golden_params(golden_camera());
+  ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
+  ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  Image<float> img(kSize, kSize, 4);
+  ASSERT_EQ(be->read_color(img.view()), Status::success);
+  const Image<float> ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
+    bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
+  });
+  expect_content(ref);
+  expect_content(img);
+  const double psnr = psnr_rgb(ref, img);
+  std::printf("[ %s ] golden FMF vs CPU reference: PSNR %.2f dB\n", be->name(), psnr);
+  EXPECT_GE(psnr, 40.0);
+}
+
+/// BSVTF: a vt/ TileCache holding every tile of levels 0–1 and the left half of level 2,
+/// uploaded to the GPU and to a CpuCacheTexture; page table from the cache.
+template <class Factory>
+void golden_bsvtf_partial(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+  const ShaderConfig config = golden_config();
+  const Material m = make_material(config, kTexture, kTexture);
+  EigenTextures e;
+  e.textures = m.v;
+  e.angular = m.u;
+  e.light_count = m.lights;
+  e.view_count = m.views;
+  auto pyr = TilePyramid::build(e, 64, 4);
+  ASSERT_TRUE(pyr.ok()) << pyr.message();
+  VtSet set;
+  set.add_material(pyr->geometry(), pyr->texture_count());
+  auto cache_r = TileCache::create(set, TileCacheConfig{config.vt.slots_x, config.vt.slots_y, 1024});
+  ASSERT_TRUE(cache_r.ok()) << cache_r.message();
+  TileCache& cache = *cache_r;
+  ASSERT_TRUE(be->init(config, set.texture_count()).ok());
+  const VtLevelTable& lv = set.levels_of(0);
+  for (uint32_t k = 0; k < set.texture_count(); ++k)
+    for (uint32_t l = 1; l <= 2; ++l)
+      for (uint32_t y = 0; y < lv.tiles_y[l]; ++y)
+        for (uint32_t x = 0; x < lv.tiles_x[l]; ++x) {
+          if (l == 2 && x >= lv.tiles_x[l] / 2) continue;
+          const uint32_t s = cache.reserve_slot();
+          ASSERT_NE(s, kNoSlot);
+          ASSERT_EQ(cache.insert(TileId{k, l, x, y}, s, 0), Status::success);
+        }
+  CpuCacheTexture cpu_cache(cache);
+  std::vector<TileUpload> uploads;
+  for (uint32_t s = 0; s < cache.slot_count(); ++s) {
+    const SlotInfo& info = cache.slot(s);
+    if (info.state != SlotInfo::State::used) continue;
+    const auto texels = pyr->tile_texels(info.tile.texture, info.flat_index);
+    ASSERT_TRUE(cpu_cache.upload(cache, s, texels));
+    uploads.push_back(TileUpload{s, texels});
+  }
+  ASSERT_EQ(uploads.size(), 2u * (1 + 4 + 8));
+  ASSERT_EQ(be->upload_tiles(uploads), Status::success);
+  std::vector<PageTableWrite> writes;
+  for (uint32_t t = 0; t < set.texture_count(); ++t) append_full_page_table_writes(cache, t, writes);
+  ASSERT_EQ(be->apply_page_table_writes(writes), Status::success);
+  std::vector<MeshVertex> verts;
+  std::vector<uint32_t> idx;
+  plane_mesh(PlaneSetup{}, verts, idx);
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  auto mat = be->create_material(m.data(false));
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  const ShaderParams params = golden_params(golden_camera());
+  ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
+  ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  Image<float> img(kSize, kSize, 4);
+  ASSERT_EQ(be->read_color(img.view()), Status::success);
+  uint64_t finest = 0, coarser = 0;
+  const Image<float> ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
+    for (uint32_t k = 0; k < set.texture_count(); ++k) {
+      float v4[4];
+      const uint32_t level = cpu_cache.sample(cache, k, h.texcoord.x, h.texcoord.y, v4);
+      if (k == 0) ++(level == 2 ? finest : coarser);
+      for (int c = 0; c < 4; ++c) out[4 * k + c] = v4[c];
+    }
+  });
+  // A renderer that ignored the page table (finest level everywhere) must not pass.
+  const Image<float> wrong = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
+    for (uint32_t k = 0; k < set.texture_count(); ++k) pyr->sample(k, 2, h.texcoord.x, h.texcoord.y, out + 4 * k);
+  });
+  expect_content(ref);
+  expect_content(img);
+  EXPECT_GT(finest, 1000u);
+  EXPECT_GT(coarser, 1000u) << "the view must show both resident and missing finest tiles";
+  const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
+  std::printf("[ %s ] golden BSVTF (partial cache) vs CPU reference: PSNR %.2f dB (vs finest-only %.2f dB)\n", be->name(),
+              psnr, psnr_wrong);
+  EXPECT_GE(psnr, 40.0);
+  EXPECT_LT(psnr_wrong, psnr - 3.0);
+}
+
+}  // namespace btflod::golden

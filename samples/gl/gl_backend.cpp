@@ -123,6 +123,7 @@ class GlBackend final : public Backend {
   const char* name() const noexcept override { return name_.c_str(); }
 
   VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) override {
+    make_current();
     if (VoidResult v = validate_shader_config(config); !v) return v;
     if (virtual_texture_count == 0 || virtual_texture_count > 2048)
       return make_error(Status::invalid_argument, "GL: %u virtual textures, expected 1..2048", virtual_texture_count);
@@ -173,6 +174,7 @@ class GlBackend final : public Backend {
   }
 
   Result<MeshHandle> create_mesh(const MeshData& mesh) override {
+    make_current();
     if (mesh.vertices.empty() || mesh.indices.empty() || mesh.indices.size() % 3 != 0)
       return make_error(Status::invalid_argument, "GL: mesh with %zu vertices, %zu indices (need a triangle list)",
                         mesh.vertices.size(), mesh.indices.size());
@@ -207,6 +209,7 @@ class GlBackend final : public Backend {
   }
 
   Result<MaterialHandle> create_material(const FmfMaterialData& data) override {
+    make_current();
     if (!initialised_) return make_error(Status::invalid_argument, "GL: create_material before init");
     if (VoidResult v = validate_material(data, config_); !v) return v.error();
     GlMaterial m;
@@ -253,6 +256,7 @@ class GlBackend final : public Backend {
   }
 
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
+    make_current();
     if (!initialised_) return Status::invalid_argument;
     const VirtualTextureConfig& vt = config_.vt;
     const size_t padded = vt.padded_tile_size();
@@ -268,6 +272,7 @@ class GlBackend final : public Backend {
   }
 
   Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override {
+    make_current();
     if (!initialised_) return Status::invalid_argument;
     if (Status s = check_page_table_writes(writes, vt_layers_, config_.vt.finest_level); s != Status::success) return s;
     for (const PageTableWrite& d : writes)
@@ -278,6 +283,7 @@ class GlBackend final : public Backend {
   }
 
   Status begin_frame(const FrameDesc& frame) noexcept override {
+    make_current();
     if (!initialised_ || frame.width == 0 || frame.height == 0 || frame.feedback_width == 0 ||
         frame.feedback_height == 0 || frame.width > 16384 || frame.height > 16384)
       return Status::invalid_argument;
@@ -378,6 +384,7 @@ class GlBackend final : public Backend {
   }
 
   bool poll_feedback(FeedbackFrame& out) noexcept override {
+    make_current();
     FeedbackSlot* oldest = nullptr;
     for (FeedbackSlot& s : ring_)
       if (s.pending && (!oldest || s.frame < oldest->frame)) oldest = &s;
@@ -405,6 +412,7 @@ class GlBackend final : public Backend {
   uint64_t dropped_feedback() const noexcept override { return dropped_; }
 
   Status read_color(ImageView<float> out) noexcept override {
+    make_current();
     if (!color_fbo_ || out.width() != static_cast<int>(frame_.width) ||
         out.height() != static_cast<int>(frame_.height) || out.channels() != 4)
       return Status::invalid_argument;
@@ -424,11 +432,18 @@ class GlBackend final : public Backend {
   }
 
   Status wait_idle() noexcept override {
+    make_current();
     glFinish();
     return Status::success;
   }
 
  private:
+  /// Several backends may live on one thread: each entry point except draw, draw_feedback and
+  /// end_frame (which follow begin_frame) makes this context current (cheap when it already is).
+  void make_current() {
+    if (eglGetCurrentContext() != context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_);
+  }
+
   static void set_nearest(GLuint tex) {
     glTextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_NEAREST);

@@ -222,8 +222,10 @@ class Backend {
   // --- set-up (may allocate; returns a readable error) ------------------------------------
   /// Generates and compiles the fmf, bsvtf and feedback programs for `config` and creates the
   /// tile cache (RGBA16F, config.vt.slot_count() slots) and the page table (R32UI array of
-  /// `virtual_texture_count` layers, config.vt.finest_level + 1 mips, entries 0 = slot 0 at
-  /// level 0). Call once, before anything else.
+  /// `virtual_texture_count` layers, config.vt.finest_level + 1 mips, every entry 0 = slot 0 at
+  /// level 0). Call once, before anything else; then upload the root tiles and the initial page
+  /// tables (with vt/tile_cache.hpp: append_full_page_table_writes() per virtual texture, since
+  /// the cache pins root t in slot t).
   virtual VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) = 0;
   /// Uploads a mesh. Returns its handle.
   virtual Result<MeshHandle> create_mesh(const MeshData& mesh) = 0;

@@ -1,0 +1,113 @@
+// Frame time of BSVTF vs FMF rendering of the same scene and view, on the GL backend (llvmpipe
+// on CI) and the Vulkan backend (lavapipe). FMF is the in-run baseline (paper 000 Table 2:
+// BSVTF ≈ 28% slower); the counters give the texture memory each path keeps for V'.
+// Each iteration: begin_frame, one full-screen draw, end_frame, wait_idle (so the GPU work is
+// inside the timing). BSVTF runs with levels 0..2 resident and the finest level over the left
+// half of the texture (the quad is shown at about one texel per pixel at 512²).
+// btflod-link: btflod_gl_backend btflod_vk_backend
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "../tests/test_shader_scene.hpp"
+#include "gl_backend.hpp"
+#include "vk_backend.hpp"
+
+using namespace btflod;
+using namespace btflod::test_scene;
+
+namespace {
+
+constexpr int kTextureSize = 512;  // M = N, T = 64 → L = 3
+
+struct Scene {
+  std::unique_ptr<Backend> backend;
+  MeshHandle mesh;
+  MaterialHandle fmf, bsvtf;
+  ShaderParams params;
+  FrameDesc frame;
+  double fmf_bytes = 0, bsvtf_bytes = 0;
+  std::string error;
+};
+
+Scene make_scene(bool vulkan) {
+  Scene s;
+  auto r = vulkan ? samples::create_vk_backend() : samples::create_gl_backend();
+  if (!r) {
+    s.error = r.message();
+    return s;
+  }
+  s.backend = std::move(r.value());
+  ShaderConfig c;
+  c.components = 8;
+  c.angular.resolution = 32;
+  c.vt.slots_x = 12;
+  c.vt.slots_y = 12;
+  c.vt.finest_level = 3;
+  if (VoidResult v = s.backend->init(c, 2); !v) {
+    s.error = v.message();
+    s.backend.reset();
+    return s;
+  }
+  static const Material m = make_material(c, kTextureSize, kTextureSize);
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  s.mesh = *s.backend->create_mesh(MeshData{verts, idx});
+  s.fmf = *s.backend->create_material(m.data(true));
+  s.bsvtf = *s.backend->create_material(m.data(false));
+  // Levels 0..2 resident everywhere, the finest level (3) over the left half: 2 × 53 slots.
+  static const Pyramid pyr = build_pyramid(m, 3);
+  const CacheFill fill = fill_cache(pyr, c.vt, kTextureSize, kTextureSize);
+  s.backend->upload_tiles(fill.uploads);
+  s.backend->apply_page_table_writes(fill.deltas);
+  s.params = make_params();
+  s.params.vt_extent = glm::vec4(kTextureSize, kTextureSize, 3, 0);
+  // V' memory: FMF keeps the whole eigen-texture array (RGBA32F, ⌈C/4⌉ layers, mips ≈ 4/3);
+  // BSVTF keeps the resident tiles (RGBA16F, (T + 2B)² each) and the page tables.
+  s.fmf_bytes = 16.0 * kTextureSize * kTextureSize * c.component_groups() * 4.0 / 3.0;
+  s.bsvtf_bytes = 8.0 * c.vt.padded_tile_size() * c.vt.padded_tile_size() * static_cast<double>(fill.uploads.size()) +
+                  4.0 * 2 * (64 + 16 + 4 + 1);
+  return s;
+}
+
+void render(benchmark::State& state, bool vulkan, ShaderProgram program) {
+  const int size = static_cast<int>(state.range(0));
+  static Scene scenes[2];  // one backend per API, built once per process
+  Scene& s = scenes[vulkan ? 1 : 0];
+  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
+  if (!s.backend) {
+    state.SkipWithError(("backend unavailable: " + s.error).c_str());
+    return;
+  }
+  const MaterialHandle mat = program == ShaderProgram::fmf ? s.fmf : s.bsvtf;
+  s.frame.width = s.frame.height = static_cast<uint32_t>(size);
+  for (int warm = 0; warm < 2; ++warm) {  // JIT of the shader variant and target (re)creation
+    s.backend->begin_frame(s.frame);
+    s.backend->draw(program, s.mesh, mat, s.params);
+    s.backend->end_frame();
+    s.backend->wait_idle();
+  }
+  for (auto _ : state) {
+    s.backend->begin_frame(s.frame);
+    s.backend->draw(program, s.mesh, mat, s.params);
+    s.backend->end_frame();
+    s.backend->wait_idle();
+  }
+  state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["V_MiB"] = (program == ShaderProgram::fmf ? s.fmf_bytes : s.bsvtf_bytes) / (1024.0 * 1024.0);
+}
+
+void BM_Gl_Fmf(benchmark::State& st) { render(st, false, ShaderProgram::fmf); }
+void BM_Gl_Bsvtf(benchmark::State& st) { render(st, false, ShaderProgram::bsvtf); }
+void BM_Vk_Fmf(benchmark::State& st) { render(st, true, ShaderProgram::fmf); }
+void BM_Vk_Bsvtf(benchmark::State& st) { render(st, true, ShaderProgram::bsvtf); }
+
+}  // namespace
+
+BENCHMARK(BM_Gl_Fmf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Gl_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Vk_Fmf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Vk_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_MAIN();

@@ -144,7 +144,7 @@ int run_factor_table(int argc, char** argv) {
   const std::string materials = opt.string("materials", "cloth,stone,carpaint");
   const std::string brdf_path = opt.string("brdf", default_shared_dir() + "/data/measured/carpaint_red.mbsdf");
   if (!opt.finish()) return convert::kExitUsage;
-  std::printf("Command: btflod-convert factor-table --size %d --dirs %s --materials %s\n\n", size, dirs.c_str(),
+  std::printf("Command: btflod-convert factor_table --size %d --dirs %s --materials %s\n\n", size, dirs.c_str(),
               materials.c_str());
   std::puts(kHeader);
   size_t start = 0;

@@ -30,8 +30,7 @@ std::vector<glm::vec3> queries(uint32_t seed) {
 }
 
 template <class I>
-void register_set(const std::string& set_name, const std::string& name, std::shared_ptr<const I> interp,
-                  size_t count) {
+void register_set(const std::string& set_name, const std::string& name, std::shared_ptr<const I> interp, size_t count) {
   auto q = std::make_shared<std::vector<glm::vec3>>(queries(1));
   auto q2 = std::make_shared<std::vector<glm::vec3>>(queries(2));
   benchmark::RegisterBenchmark((set_name + "/query/" + name).c_str(), [interp, q](benchmark::State& st) {
@@ -43,7 +42,8 @@ void register_set(const std::string& set_name, const std::string& name, std::sha
     st.SetItemsProcessed(st.iterations());
   });
   auto table = std::make_shared<std::vector<float>>(count * count, 0.5f);
-  benchmark::RegisterBenchmark((set_name + "/nine_tap/" + name).c_str(), [interp, q, q2, table, count](benchmark::State& st) {
+  benchmark::RegisterBenchmark((set_name + "/nine_tap/" + name).c_str(), [interp, q, q2, table,
+                                                                          count](benchmark::State& st) {
     size_t i = 0;
     for (auto _ : st) {
       const float v = interpolate_light_view(*interp, *interp, (*q)[i], (*q2)[i],

@@ -28,10 +28,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<char> used(n, 0);
   ExactInt128 area = 0, hull_area = 0;
   for (const auto& v : t.triangles) {
-    const ExactInt128 a2 = static_cast<ExactInt128>(t.snapped[v[1]].x - t.snapped[v[0]].x) *
-                               (t.snapped[v[2]].y - t.snapped[v[0]].y) -
-                           static_cast<ExactInt128>(t.snapped[v[1]].y - t.snapped[v[0]].y) *
-                               (t.snapped[v[2]].x - t.snapped[v[0]].x);
+    const ExactInt128 a2 =
+        static_cast<ExactInt128>(t.snapped[v[1]].x - t.snapped[v[0]].x) * (t.snapped[v[2]].y - t.snapped[v[0]].y) -
+        static_cast<ExactInt128>(t.snapped[v[1]].y - t.snapped[v[0]].y) * (t.snapped[v[2]].x - t.snapped[v[0]].x);
     if (a2 <= 0) std::abort();
     area += a2;
     for (uint32_t i : v) used[i] = 1;
@@ -41,7 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (size_t i = 0; i < n; ++i)
     if ((t.representative[i] == i) != (used[i] != 0)) std::abort();
   for (size_t k = 0; k < t.hull.size(); ++k) {
-    const SnappedPoint a = t.snapped[t.hull[0]], b = t.snapped[t.hull[k]], c = t.snapped[t.hull[(k + 1) % t.hull.size()]];
+    const SnappedPoint a = t.snapped[t.hull[0]], b = t.snapped[t.hull[k]],
+                       c = t.snapped[t.hull[(k + 1) % t.hull.size()]];
     hull_area += static_cast<ExactInt128>(b.x - a.x) * (c.y - a.y) - static_cast<ExactInt128>(b.y - a.y) * (c.x - a.x);
   }
   if (area != hull_area) std::abort();

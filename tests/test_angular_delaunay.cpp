@@ -33,8 +33,10 @@ void expect_valid_delaunay(const Triangulation& t) {
       ++used[v];
     }
   for (size_t i = 0; i < n; ++i) {
-    if (t.representative[i] == i) EXPECT_GT(used[i], 0) << "point " << i << " unused";
-    else EXPECT_EQ(used[i], 0) << "duplicate " << i << " used";
+    if (t.representative[i] == i)
+      EXPECT_GT(used[i], 0) << "point " << i << " unused";
+    else
+      EXPECT_EQ(used[i], 0) << "duplicate " << i << " used";
   }
   // Counter-clockwise, non-degenerate; adjacency symmetric and edges matching.
   std::map<std::pair<uint32_t, uint32_t>, int> directed;
@@ -124,8 +126,10 @@ void check_set(const DirectionSet& set) {
   // The hull is the last ring (a circle in the parabolic and orthographic planes; in the
   // concentric square the ring becomes a square whose edge points are only nearly collinear,
   // so some of them fall just inside the hull).
-  if (std::string(P::kName) != "concentric") EXPECT_EQ(t->hull.size(), 24u) << P::kName << " " << set.name();
-  else EXPECT_GE(t->hull.size(), 4u);
+  if (std::string(P::kName) != "concentric")
+    EXPECT_EQ(t->hull.size(), 24u) << P::kName << " " << set.name();
+  else
+    EXPECT_GE(t->hull.size(), 4u);
 }
 
 TEST(AngularDelaunay, Ubo2003AllMapsValid) {
@@ -196,8 +200,18 @@ TEST(AngularDelaunay, RandomPointsAndCollinearPrefix) {
   expect_valid_delaunay(*t);
   // Points on a circle (exactly representable: a 3-4-5 family) plus its centre.
   std::vector<glm::dvec2> circle = {{0.5, 0.5}};
-  for (auto [dx, dy] : {std::pair{3, 4}, {4, 3}, {-3, 4}, {-4, 3}, {3, -4}, {4, -3}, {-3, -4}, {-4, -3}, {5, 0}, {0, 5},
-                        {-5, 0}, {0, -5}})
+  for (auto [dx, dy] : {std::pair{3, 4},
+                        {4, 3},
+                        {-3, 4},
+                        {-4, 3},
+                        {3, -4},
+                        {4, -3},
+                        {-3, -4},
+                        {-4, -3},
+                        {5, 0},
+                        {0, 5},
+                        {-5, 0},
+                        {0, -5}})
     circle.emplace_back(0.5 + dx / 16.0, 0.5 + dy / 16.0);
   auto c = delaunay_triangulate(std::span<const glm::dvec2>(circle));
   ASSERT_TRUE(c.ok());

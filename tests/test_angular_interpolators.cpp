@@ -224,8 +224,8 @@ TEST(AngularInterpolators, RingSearchAgreesWithTriangulationWhereUnambiguous) {
   // Delaunay triangulation splits that quad along the same diagonal BC and the direction is
   // well inside one of the two triangles (all barycentric weights ≥ 0.1 in the parabolic
   // plane) and clearly closer to A or to D (dot products differ by ≥ 0.02; the thesis' d′ rule
-  // is only a proxy for the side of BC, and with a 0.01 margin one UBO2014 query in ~570 differs), the thesis' choice is unambiguous: both methods
-  // must pick the same triangle, and their weights describe nearly the same point.
+  // is only a proxy for the side of BC, and with a 0.01 margin one UBO2014 query in ~570 differs), the thesis' choice
+  // is unambiguous: both methods must pick the same triangle, and their weights describe nearly the same point.
   for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
     auto ring = RingSearchInterpolator::build(set);
     auto tri = ExactGridInterpolator<ParabolicMap>::build(set);

@@ -40,8 +40,8 @@ double held_out_error(const MeasuredBrdf& b, const DirectionSet& set, const I& i
   const int samples = 4000;
   for (int i = 0; i < samples; ++i) {
     const glm::vec3 l = dir(), v = dir();
-    const glm::vec3 got = interpolate_light_view(interp, interp, l, v,
-                                                 [&](uint32_t a, uint32_t c) noexcept { return table[a * n + c]; });
+    const glm::vec3 got =
+        interpolate_light_view(interp, interp, l, v, [&](uint32_t a, uint32_t c) noexcept { return table[a * n + c]; });
     const glm::vec3 e = got - b.evaluate(l, v);
     acc += mae ? (std::abs(e.x) + std::abs(e.y) + std::abs(e.z)) : glm::dot(e, e);
   }

@@ -120,7 +120,8 @@ TEST(AngularParameterization, ClampsHostileInput) {
     const glm::vec3 c = clamp_to_hemisphere(d);
     EXPECT_GE(c.z, 0.0f);
     EXPECT_NEAR(glm::length(c), 1.0f, 1e-6f);
-    for (glm::vec2 st : {ParabolicMap::to_square(d), ElevatedConcentricMap::to_square(d), OrthographicMap::to_square(d)}) {
+    for (glm::vec2 st :
+         {ParabolicMap::to_square(d), ElevatedConcentricMap::to_square(d), OrthographicMap::to_square(d)}) {
       EXPECT_TRUE(st.x >= 0.0f && st.x <= 1.0f && st.y >= 0.0f && st.y <= 1.0f);
     }
   }
@@ -130,7 +131,8 @@ TEST(AngularParameterization, ClampsHostileInput) {
   EXPECT_EQ(c.z, 0.0f);
   // Square points outside [0, 1]² or NaN still give unit upper directions.
   for (glm::vec2 st : {glm::vec2(-3, 4), glm::vec2(nan, 0.5f), glm::vec2(1, 1)}) {
-    for (glm::vec3 d : {ParabolicMap::from_square(st), ElevatedConcentricMap::from_square(st), OrthographicMap::from_square(st)}) {
+    for (glm::vec3 d :
+         {ParabolicMap::from_square(st), ElevatedConcentricMap::from_square(st), OrthographicMap::from_square(st)}) {
       EXPECT_NEAR(glm::length(d), 1.0f, 1e-6f);
       EXPECT_GE(d.z, 0.0f);
     }

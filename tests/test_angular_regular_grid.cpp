@@ -79,13 +79,11 @@ TEST(AngularRegularGrid, NodesHoldTheFunctionAndLayoutIsSlabbed) {
 TEST(AngularRegularGrid, TrilinearPlusLerpEqualsQuadrilinear) {
   using P = ElevatedConcentricMap;
   const int nv = 9, nl = 7;
-  auto g = RegularAngularGrid<P>::resample(nv, nl, 1, [](glm::vec3 l, glm::vec3 v, float* out) {
-    out[0] = smooth(coords<P>(l, v));
-  });
+  auto g = RegularAngularGrid<P>::resample(
+      nv, nl, 1, [](glm::vec3 l, glm::vec3 v, float* out) { out[0] = smooth(coords<P>(l, v)); });
   ASSERT_TRUE(g.ok());
-  auto lin = RegularAngularGrid<P>::resample(nv, nl, 1, [](glm::vec3 l, glm::vec3 v, float* out) {
-    out[0] = multilinear(coords<P>(l, v));
-  });
+  auto lin = RegularAngularGrid<P>::resample(
+      nv, nl, 1, [](glm::vec3 l, glm::vec3 v, float* out) { out[0] = multilinear(coords<P>(l, v)); });
   ASSERT_TRUE(lin.ok());
   std::mt19937 rng(2);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);

@@ -120,11 +120,21 @@ template <class P>
 void add_plane_methods(std::vector<Method>& out, const DirectionSet& set, const std::vector<glm::vec3>* table) {
   const size_t n = set.size();
   const std::string p = P::kName;
-  out.push_back(nine_tap_method("exact grid (paper 003) / " + p, cached<ExactGridInterpolator<P>>(set.name() + "exact" + p, [&] { return ExactGridInterpolator<P>::build(set); }, "exact"), table, n));
-  out.push_back(nine_tap_method("lookup table 256² (paper 000) / " + p,
-                                cached<LookupTableInterpolator<P>>(set.name() + "lut" + p, [&] { return LookupTableInterpolator<P>::build(set, 256); }, "lut"), table, n));
-  out.push_back(nine_tap_method("nearest table 256² (paper 001) / " + p,
-                                cached<NearestLookupInterpolator<P>>(set.name() + "nearest" + p, [&] { return NearestLookupInterpolator<P>::build(set, 256); }, "nearest"), table, n));
+  out.push_back(
+      nine_tap_method("exact grid (paper 003) / " + p,
+                      cached<ExactGridInterpolator<P>>(
+                          set.name() + "exact" + p, [&] { return ExactGridInterpolator<P>::build(set); }, "exact"),
+                      table, n));
+  out.push_back(
+      nine_tap_method("lookup table 256² (paper 000) / " + p,
+                      cached<LookupTableInterpolator<P>>(
+                          set.name() + "lut" + p, [&] { return LookupTableInterpolator<P>::build(set, 256); }, "lut"),
+                      table, n));
+  out.push_back(nine_tap_method(
+      "nearest table 256² (paper 001) / " + p,
+      cached<NearestLookupInterpolator<P>>(
+          set.name() + "nearest" + p, [&] { return NearestLookupInterpolator<P>::build(set, 256); }, "nearest"),
+      table, n));
 }
 
 }  // namespace
@@ -144,11 +154,16 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--shared") shared = value();
-    else if (a == "--doc") doc = value();
-    else if (a == "--samples") samples = std::atoi(value().c_str());
-    else if (a == "--grid") grid = std::atoi(value().c_str());
-    else if (a == "--seed") seed = std::strtoull(value().c_str(), nullptr, 10);
+    if (a == "--shared")
+      shared = value();
+    else if (a == "--doc")
+      doc = value();
+    else if (a == "--samples")
+      samples = std::atoi(value().c_str());
+    else if (a == "--grid")
+      grid = std::atoi(value().c_str());
+    else if (a == "--seed")
+      seed = std::strtoull(value().c_str(), nullptr, 10);
     else {
       std::fprintf(stderr,
                    "usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--doc FILE]\n");
@@ -179,7 +194,8 @@ int main(int argc, char** argv) {
   std::ostringstream md;
   md << "Held-out pairs: " << samples << " random (light, view) pairs per BRDF, uniform on the cap θ ≤ 75°"
      << " (inside the last measured ring), seed " << seed << "; errors pooled over the three car paints and"
-     << " the RGB channels; ρ in 1/sr. MAE = mean |e|; relative RMSE = √(Σe²/Σρ²). Regular grid: " << grid << "⁴ nodes.\n\n";
+     << " the RGB channels; ρ in 1/sr. MAE = mean |e|; relative RMSE = √(Σe²/Σρ²). Regular grid: " << grid
+     << "⁴ nodes.\n\n";
   md << "| set | interpolator / parameterisation | RMSE | MAE | max error | relative RMSE |\n";
   md << "|---|---|---:|---:|---:|---:|\n";
   for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
@@ -194,30 +210,32 @@ int main(int argc, char** argv) {
       add_plane_methods<ParabolicMap>(m, set, &tables[b]);
       add_plane_methods<ElevatedConcentricMap>(m, set, &tables[b]);
       add_plane_methods<OrthographicMap>(m, set, &tables[b]);
-      m.push_back(nine_tap_method("UBO ring search (paper 004)", cached<RingSearchInterpolator>(set.name() + "ring", [&] { return RingSearchInterpolator::build(set); }, "ring"),
+      m.push_back(nine_tap_method("UBO ring search (paper 004)",
+                                  cached<RingSearchInterpolator>(
+                                      set.name() + "ring", [&] { return RingSearchInterpolator::build(set); }, "ring"),
                                   &tables[b], n));
       // Paper 002 §6.2: resample (via the exact concentric interpolator) onto the regular grid.
       auto exact = cached<ExactGridInterpolator<ElevatedConcentricMap>>(
           set.name() + "exact" + ElevatedConcentricMap::kName,
           [&] { return ExactGridInterpolator<ElevatedConcentricMap>::build(set); }, "exact");
       const auto* table = &tables[b];
-      auto g = must(RegularAngularGrid<ElevatedConcentricMap>::resample(
-                        grid, grid, 3,
-                        [&](glm::vec3 l, glm::vec3 v, float* out) {
-                          const glm::vec3 r = interpolate_light_view(
-                              *exact, *exact, l, v,
-                              [&](uint32_t a, uint32_t bb) noexcept { return (*table)[a * n + bb]; });
-                          out[0] = r.x;
-                          out[1] = r.y;
-                          out[2] = r.z;
-                        }),
-                    "grid");
-      m.push_back({"regular grid " + std::to_string(grid) + "⁴ + lerp (paper 002) / concentric",
-                   [g](glm::vec3 l, glm::vec3 v) {
-                     glm::vec3 r;
-                     g->evaluate(l, v, &r.x);
-                     return r;
-                   }});
+      auto g =
+          must(RegularAngularGrid<ElevatedConcentricMap>::resample(
+                   grid, grid, 3,
+                   [&](glm::vec3 l, glm::vec3 v, float* out) {
+                     const glm::vec3 r = interpolate_light_view(
+                         *exact, *exact, l, v, [&](uint32_t a, uint32_t bb) noexcept { return (*table)[a * n + bb]; });
+                     out[0] = r.x;
+                     out[1] = r.y;
+                     out[2] = r.z;
+                   }),
+               "grid");
+      m.push_back(
+          {"regular grid " + std::to_string(grid) + "⁴ + lerp (paper 002) / concentric", [g](glm::vec3 l, glm::vec3 v) {
+             glm::vec3 r;
+             g->evaluate(l, v, &r.x);
+             return r;
+           }});
     }
     std::vector<Stats> stats(methods[0].size());
     for (size_t b = 0; b < brdfs.size(); ++b) {

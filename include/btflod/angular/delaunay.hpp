@@ -88,12 +88,12 @@ inline int incircle_exact(SnappedPoint a, SnappedPoint b, SnappedPoint c, Snappe
 struct Triangulation {
   static constexpr uint32_t kNoTriangle = 0xffffffffu;
 
-  std::vector<glm::dvec2> points;                   ///< input points (unsnapped), by input index
-  std::vector<SnappedPoint> snapped;                ///< the points the predicates saw
-  std::vector<std::array<uint32_t, 3>> triangles;   ///< vertex indices into points, CCW
-  std::vector<std::array<uint32_t, 3>> neighbors;   ///< neighbor[t][i]: across edge (v[i+1], v[i+2])
-  std::vector<uint32_t> hull;                       ///< hull vertices, counter-clockwise
-  std::vector<uint32_t> representative;             ///< points[i] == points[representative[i]]; i for unique points
+  std::vector<glm::dvec2> points;                  ///< input points (unsnapped), by input index
+  std::vector<SnappedPoint> snapped;               ///< the points the predicates saw
+  std::vector<std::array<uint32_t, 3>> triangles;  ///< vertex indices into points, CCW
+  std::vector<std::array<uint32_t, 3>> neighbors;  ///< neighbor[t][i]: across edge (v[i+1], v[i+2])
+  std::vector<uint32_t> hull;                      ///< hull vertices, counter-clockwise
+  std::vector<uint32_t> representative;            ///< points[i] == points[representative[i]]; i for unique points
 
   /// Number of input points that are vertices (duplicates are merged into their first copy).
   size_t vertex_count() const noexcept {
@@ -203,7 +203,7 @@ class DelaunayBuilder {
         const int s = opposite_slot(outer, a, b);
         t_.neighbors[outer][s] = nt;
       }
-      t_.neighbors[nt][1] = prev;  // across (a, p)
+      t_.neighbors[nt][1] = prev;                                          // across (a, p)
       if (prev != Triangulation::kNoTriangle) t_.neighbors[prev][2] = nt;  // prev's (p, a) edge
       prev = nt;
       created.push_back(nt);
@@ -244,8 +244,8 @@ inline Result<Triangulation> delaunay_triangulate(std::span<const glm::dvec2> po
     const glm::dvec2 q = points[i];
     if (!std::isfinite(q.x) || !std::isfinite(q.y) || q.x < kSnapMin || q.x > kSnapMax || q.y < kSnapMin ||
         q.y > kSnapMax)
-      return make_error(Status::invalid_argument, "delaunay: point %zu = (%g, %g) is not finite or outside [%g, %g]",
-                        i, q.x, q.y, kSnapMin, kSnapMax);
+      return make_error(Status::invalid_argument, "delaunay: point %zu = (%g, %g) is not finite or outside [%g, %g]", i,
+                        q.x, q.y, kSnapMin, kSnapMax);
     tri.snapped[i] = snap_point(q);
   }
   std::vector<uint32_t> order(n);
@@ -273,7 +273,8 @@ inline Result<Triangulation> delaunay_triangulate(std::span<const glm::dvec2> po
     return make_error(Status::invalid_argument, "delaunay: need at least 3 distinct points, found %zu", unique.size());
   // Collinear prefix: the first point off the line through unique[0], unique[1].
   size_t m = 2;
-  while (m < unique.size() && orient2d_exact(tri.snapped[unique[0]], tri.snapped[unique[1]], tri.snapped[unique[m]]) == 0)
+  while (m < unique.size() &&
+         orient2d_exact(tri.snapped[unique[0]], tri.snapped[unique[1]], tri.snapped[unique[m]]) == 0)
     ++m;
   if (m == unique.size())
     return make_error(Status::invalid_argument, "delaunay: all %zu distinct points are collinear", unique.size());

@@ -163,7 +163,8 @@ class NearestLookupInterpolator {
     const float r = static_cast<float>(resolution_);
     const int x = glm::clamp(static_cast<int>(st.x * r), 0, resolution_ - 1);
     const int y = glm::clamp(static_cast<int>(st.y * r), 0, resolution_ - 1);
-    const uint32_t i = table_.data()[static_cast<size_t>(y) * static_cast<size_t>(resolution_) + static_cast<size_t>(x)];
+    const uint32_t i =
+        table_.data()[static_cast<size_t>(y) * static_cast<size_t>(resolution_) + static_cast<size_t>(x)];
     AngularSample s;
     s.index = {i, i, i};
     s.weight = {1.0f, 0.0f, 0.0f};

@@ -25,8 +25,10 @@ namespace btflod {
 ///   radially onto the horizon.
 template <class P>
 concept HemisphereParameterization = requires(glm::vec3 d, glm::vec2 st) {
-  { P::to_square(d) } noexcept -> std::same_as<glm::vec2>;
-  { P::from_square(st) } noexcept -> std::same_as<glm::vec3>;
+  { P::to_square(d) }
+  noexcept->std::same_as<glm::vec2>;
+  { P::from_square(st) }
+  noexcept->std::same_as<glm::vec3>;
   { P::kName } -> std::convertible_to<const char*>;
 };
 
@@ -93,13 +95,13 @@ struct ElevatedConcentricMap {
     const float r = std::sqrt(p.x * p.x + p.y * p.y);
     if (!(r > 0.0f)) return {0.0f, 0.0f};
     constexpr float kQuarter = 0.25f * kPi;
-    float phi = std::atan2(p.y, p.x);  // (−π, π]
-    if (phi < -kQuarter) phi += kTwoPi;  // [−π/4, 7π/4)
-    const float k = r / kQuarter;        // (4/π)·r
-    if (phi < kQuarter) return {r, phi * k};                        // region 1: a = ρ, φ = (π/4)·b/a
-    if (phi < 3.0f * kQuarter) return {(2.0f * kQuarter - phi) * k, r};  // region 2: b = ρ, φ = π/2 − (π/4)·a/b
-    if (phi < 5.0f * kQuarter) return {-r, (4.0f * kQuarter - phi) * k}; // region 3: a = −ρ
-    return {(phi - 6.0f * kQuarter) * k, -r};                       // region 4: b = −ρ
+    float phi = std::atan2(p.y, p.x);                                     // (−π, π]
+    if (phi < -kQuarter) phi += kTwoPi;                                   // [−π/4, 7π/4)
+    const float k = r / kQuarter;                                         // (4/π)·r
+    if (phi < kQuarter) return {r, phi * k};                              // region 1: a = ρ, φ = (π/4)·b/a
+    if (phi < 3.0f * kQuarter) return {(2.0f * kQuarter - phi) * k, r};   // region 2: b = ρ, φ = π/2 − (π/4)·a/b
+    if (phi < 5.0f * kQuarter) return {-r, (4.0f * kQuarter - phi) * k};  // region 3: a = −ρ
+    return {(phi - 6.0f * kQuarter) * k, -r};                             // region 4: b = −ρ
   }
 
   /// [−1, 1]² → unit disk (Shirley–Chiu map, paper 002 §6.1 "first region" and its analogues).

@@ -51,7 +51,8 @@ class RegularAngularGrid {
       return make_error(Status::invalid_argument,
                         "regular grid: n_view %d, n_light %d (expected 2..256), channels %d (expected 1..16)", n_view,
                         n_light, channels);
-    const double total = std::pow(static_cast<double>(n_view), 2) * std::pow(static_cast<double>(n_light), 2) * channels;
+    const double total =
+        std::pow(static_cast<double>(n_view), 2) * std::pow(static_cast<double>(n_light), 2) * channels;
     if (total > 1073741824.0)
       return make_error(Status::invalid_argument, "regular grid: %.0f floats exceeds the limit of 2^30", total);
     RegularAngularGrid g;

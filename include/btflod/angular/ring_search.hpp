@@ -25,10 +25,10 @@ namespace btflod {
 
 /// One ring of a ring-sampled direction set.
 struct DirectionRing {
-  float theta = 0.0f;      ///< polar angle, radians
-  float phi0 = 0.0f;       ///< azimuth of slot 0, radians
-  uint32_t count = 0;      ///< directions on the ring (1 for the pole)
-  uint32_t first_slot = 0; ///< slot k of the ring is RingSearchInterpolator::slots()[first_slot + k]
+  float theta = 0.0f;       ///< polar angle, radians
+  float phi0 = 0.0f;        ///< azimuth of slot 0, radians
+  uint32_t count = 0;       ///< directions on the ring (1 for the pole)
+  uint32_t first_slot = 0;  ///< slot k of the ring is RingSearchInterpolator::slots()[first_slot + k]
 };
 
 /// Interpolator for ring sets (paper 004 §4.4). query() is noexcept, allocation-free and

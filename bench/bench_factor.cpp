@@ -1,0 +1,153 @@
+// FMF factorisation time (paper 000 §4) for UBO2003-sized materials (81 × 81 directions,
+// 19,683 matrix rows) at rank 100: the blocked randomised SVD (oversampling 10, 2 power
+// iterations) next to the exact Eigen BDCSVD baseline at 64×64, with truncation errors and
+// peak memory (VmHWM, reset before each run via /proc/self/clear_refs).
+//
+// The 64×64 material is the synthesised cloth (btf/synthesizer.hpp). The 256×256 material
+// (19,683 × 65,536 floats = 5.2 GB) is that cloth tiled 4 × 4 with a small deterministic
+// per-sample perturbation (synthesising 256×256 directly takes far longer than the
+// factorisation); it runs only when BTFLOD_BENCH_LARGE=1, as it needs ~6 GB of RAM.
+//
+//   build-d/bench/bench_factor                      # 64×64: randomised vs BDCSVD
+//   BTFLOD_BENCH_LARGE=1 build-d/bench/bench_factor --benchmark_filter=256
+// For the FLOP figures build this benchmark (only) with -march=native in a separate
+// build directory: cmake -B build-d-native -DCMAKE_CXX_FLAGS=-march=native ...
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "btflod/btf/synthesizer.hpp"
+#include "btflod/factor/fmf.hpp"
+
+namespace {
+
+using namespace btflod;
+
+double vm_hwm_gb() {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::strtod(line.c_str() + 6, nullptr) / (1024.0 * 1024.0);
+  return 0.0;
+}
+void reset_hwm() {
+  std::ofstream f("/proc/self/clear_refs");
+  f << "5";
+}
+
+const BtfFloat& cloth64() {
+  static const BtfFloat btf = [] {
+    SynthesisOptions so;
+    return synthesize_material(SynthMaterial::cloth, 64, 64, 1, so).value();
+  }();
+  return btf;
+}
+
+// ‖A − U·(VΣ)ᵀ‖_F computed block by block (no m × n temporary).
+double fmf_error(const BtfFloat& btf, const Fmf& f) {
+  const size_t m = btf.view_count() * btf.light_count() * 3, n = btf.texel_count(), bc = 512;
+  using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  Eigen::Map<const RowMat> u(f.u.data(), static_cast<Eigen::Index>(m), f.components);
+  Eigen::Map<const RowMat> v(f.v.data(), static_cast<Eigen::Index>(n), f.components);
+  double sum = 0.0;
+  Eigen::MatrixXf a(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(bc));
+  for (size_t t0 = 0; t0 < n; t0 += bc) {
+    const size_t cnt = std::min(bc, n - t0);
+    a.resize(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(cnt));
+    gather_fmf_columns(btf, t0, cnt, a);
+    a.noalias() -= u * v.middleRows(static_cast<Eigen::Index>(t0), static_cast<Eigen::Index>(cnt)).transpose();
+    sum += static_cast<double>(a.squaredNorm());
+  }
+  return std::sqrt(sum);
+}
+
+struct Run {
+  double seconds = 0.0, error = 0.0, peak_gb = 0.0;
+};
+Run g_randomized64, g_exact64;
+
+Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool measure_error) {
+  Run r;
+  FmfOptions o;
+  o.components = 100;
+  o.svd.method = method;
+  for (auto _ : state) {
+    reset_hwm();
+    const auto t0 = std::chrono::steady_clock::now();
+    auto f = factorize_fmf(btf, o);
+    r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    r.peak_gb = vm_hwm_gb();
+    if (!f) {
+      state.SkipWithError(f.message().c_str());
+      return r;
+    }
+    if (measure_error) r.error = fmf_error(btf, *f);
+  }
+  const double input_gb = static_cast<double>(btf.size_bytes()) / (1024.0 * 1024.0 * 1024.0);
+  state.counters["seconds"] = r.seconds;
+  state.counters["input_GB"] = input_gb;
+  state.counters["peak_GB"] = r.peak_gb;
+  state.counters["peak/input"] = r.peak_gb / input_gb;
+  if (measure_error) state.counters["frob_error"] = r.error;
+  state.counters["threads"] = default_thread_pool().thread_count();
+  return r;
+}
+
+void BM_Fmf64Randomized(benchmark::State& state) {
+  g_randomized64 = run_fmf(state, cloth64(), SvdMethod::randomized, true);
+}
+void BM_Fmf64ExactBdcsvd(benchmark::State& state) {
+  g_exact64 = run_fmf(state, cloth64(), SvdMethod::exact, true);
+  if (g_randomized64.seconds > 0.0) {
+    state.counters["speedup_of_randomized"] = g_exact64.seconds / g_randomized64.seconds;
+    state.counters["error_ratio_randomized"] = g_randomized64.error / g_exact64.error;
+  }
+}
+
+void BM_Fmf256Randomized(benchmark::State& state) {
+  const char* env = std::getenv("BTFLOD_BENCH_LARGE");
+  if (!env || std::string(env) != "1") {
+    for (auto _ : state) {
+    }
+    state.SkipWithError("set BTFLOD_BENCH_LARGE=1 to run the 5.2 GB 256x256 case");
+    return;
+  }
+  BtfFloat big(256, 256, cloth64().views(), cloth64().lights());
+  {
+    const auto& small = cloth64();
+    for (size_t v = 0; v < big.view_count(); ++v)
+      for (size_t l = 0; l < big.light_count(); ++l)
+        for (int y = 0; y < 256; ++y)
+          for (int x = 0; x < 256; ++x)
+            for (int c = 0; c < 3; ++c) {
+              const uint32_t h = (static_cast<uint32_t>(x) * 73856093u) ^ (static_cast<uint32_t>(y) * 19349663u) ^
+                                 (static_cast<uint32_t>(v) * 83492791u + static_cast<uint32_t>(l) * 2654435761u +
+                                  static_cast<uint32_t>(c));
+              big.at(x, y, v, l, c) = small.value(x & 63, y & 63, v, l, c) * (1.0f + 0.02f * (static_cast<float>(h % 1024) / 1024.0f - 0.5f));
+            }
+  }
+  run_fmf(state, big, SvdMethod::randomized, false);
+}
+
+BENCHMARK(BM_Fmf64Randomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_Fmf64ExactBdcsvd)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_Fmf256Randomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  if (g_randomized64.seconds > 0.0 && g_exact64.seconds > 0.0)
+    std::printf("64x64 rank 100: randomised %.2f s vs BDCSVD %.2f s (%.1fx faster); error %.6g vs %.6g (ratio %.5f)\n",
+                g_randomized64.seconds, g_exact64.seconds, g_exact64.seconds / g_randomized64.seconds,
+                g_randomized64.error, g_exact64.error, g_randomized64.error / g_exact64.error);
+  return 0;
+}

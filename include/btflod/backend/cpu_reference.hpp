@@ -61,6 +61,7 @@ struct Shape {
   float size_v = 1.0f;  ///< plane: extent along axis_v; torus: minor radius
   glm::vec2 uv_scale{1.0f, 1.0f};
 
+  /// Rectangle origin + u·size_u·axis_u + v·size_v·axis_v (axes normalised here), two-sided.
   static Shape plane(uint32_t material, glm::vec3 origin, glm::vec3 axis_u, glm::vec3 axis_v, float size_u,
                      float size_v, glm::vec2 uv_scale = {1, 1}) noexcept {
     Shape s;
@@ -74,6 +75,7 @@ struct Shape {
     s.uv_scale = uv_scale;
     return s;
   }
+  /// Sphere of `radius` around center; u = azimuth / 2π, v = polar angle / π.
   static Shape sphere(uint32_t material, glm::vec3 center, float radius, glm::vec2 uv_scale = {1, 1}) noexcept {
     Shape s;
     s.kind = ShapeKind::sphere;
@@ -83,6 +85,7 @@ struct Shape {
     s.uv_scale = uv_scale;
     return s;
   }
+  /// Torus around +y: major radius `major`, tube radius `minor`; u around the ring, v around the tube.
   static Shape torus(uint32_t material, glm::vec3 center, float major, float minor, glm::vec2 uv_scale = {1, 1}) noexcept {
     Shape s;
     s.kind = ShapeKind::torus;
@@ -207,7 +210,9 @@ inline bool intersect_torus(const Shape& s, const Ray& r, float t_max, SurfaceHi
 /// A list of shapes. Set-up allocates; intersect() is noexcept and thread-safe.
 class Scene {
  public:
+  /// Adds a shape (allocates; set-up only).
   void add(const Shape& s) { shapes_.push_back(s); }
+  /// The shapes in insertion order.
   std::span<const Shape> shapes() const noexcept { return shapes_; }
 
   /// Closest hit along the ray (hit = false when none). noexcept, allocation-free.

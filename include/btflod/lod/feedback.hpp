@@ -195,7 +195,9 @@ class VoteCounter {
   std::span<const uint32_t> touched() const noexcept { return touched_words_; }
   /// Words ignored since construction because they named no tile of a known material.
   uint64_t rejected() const noexcept { return rejected_; }
+  /// Materials the counter was built for.
   uint32_t material_count() const noexcept { return static_cast<uint32_t>(materials_.size()); }
+  /// Finest level of a material. Precondition: material < material_count().
   uint32_t finest_level(uint32_t material) const noexcept { return materials_[material].finest_level; }
 
  private:

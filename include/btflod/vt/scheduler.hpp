@@ -85,6 +85,7 @@ struct SchedulerCounters {
   uint64_t budget_hits() const noexcept {
     return upload_budget_hits + decoding_budget_hits + request_budget_hits + byte_budget_hits;
   }
+  /// Adds another set of counters to this one.
   void accumulate(const SchedulerCounters& f) noexcept {
     adds += f.adds, swaps += f.swaps, ancestors_removed += f.ancestors_removed, requests += f.requests;
     u_requests += f.u_requests, bytes_requested += f.bytes_requested, uploads += f.uploads;
@@ -152,8 +153,11 @@ class Scheduler {
     }
   }
 
+  /// The configuration given to create().
   const SchedulerConfig& config() const noexcept { return config_; }
+  /// Counters of the current frame (since the last plan(), including its uploads).
   const SchedulerCounters& frame() const noexcept { return frame_counters_; }
+  /// Counters since create().
   const SchedulerCounters& total() const noexcept { return total_counters_; }
   /// Levels by which the feedback requests should be coarsened (VoteCounter level_drop or the
   /// LOD selector's bias). Rises under sustained overload, falls when calm.
@@ -162,7 +166,9 @@ class Scheduler {
   uint32_t u_loaded(uint32_t material) const noexcept { return u_loaded_[material]; }
   /// Last computed §6 priority of the material's next U' packet.
   double u_priority(uint32_t material) const noexcept { return u_priority_[material]; }
+  /// Requests issued and not yet uploaded or cancelled.
   uint32_t requests_in_flight() const noexcept { return in_flight_; }
+  /// Bytes of those requests.
   uint64_t bytes_in_flight() const noexcept { return bytes_in_flight_; }
 
   /// Plans frame `frame` from this frame's votes: issues add/swap operations (swaps remove
@@ -252,6 +258,7 @@ class Scheduler {
     }
     return done;
   }
+  /// apply_uploads() without a backend callback (bookkeeping only, e.g. tests).
   uint32_t apply_uploads() noexcept {
     return apply_uploads([](const TileRequest&) {});
   }

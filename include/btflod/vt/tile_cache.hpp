@@ -116,11 +116,17 @@ class TileCache {
     return c;
   }
 
+  /// S, all slots.
   uint32_t slot_count() const noexcept { return static_cast<uint32_t>(slots_.size()); }
+  /// Slots in the free list (not reserved, not used).
   uint32_t free_count() const noexcept { return static_cast<uint32_t>(free_.size()); }
+  /// Slots holding a tile.
   uint32_t used_count() const noexcept { return used_; }
+  /// The configuration given to create().
   const TileCacheConfig& config() const noexcept { return config_; }
+  /// The virtual textures this cache serves.
   const VtSet& set() const noexcept { return *set_; }
+  /// What slot s holds. Precondition: s < slot_count().
   const SlotInfo& slot(uint32_t s) const noexcept { return slots_[s]; }
   /// Finest-level page-table entries naming slot s (0 = the tile is hidden by its descendants).
   uint32_t visible_entries(uint32_t s) const noexcept { return visible_[s]; }
@@ -148,6 +154,7 @@ class TileCache {
   const uint32_t* material_slots(uint32_t material, uint32_t flat_index) const noexcept {
     return slot_of_.data() + material_base_[material] + static_cast<size_t>(flat_index) * set_->material(material).texture_count;
   }
+  /// True when t is in the cache (false for ids outside the hierarchy).
   bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
   /// Resident strict descendants of a tile (0 = it is a leaf of the resident tree).
   /// Precondition: texture and index in range.
@@ -268,6 +275,7 @@ class TileCache {
   std::span<const PageTableDelta> deltas() const noexcept { return deltas_; }
   /// True when more deltas happened than delta_capacity: upload whole tables instead.
   bool deltas_overflowed() const noexcept { return deltas_overflowed_; }
+  /// Forgets the reported deltas (after the backend uploaded them) and the overflow flag.
   void clear_deltas() noexcept {
     deltas_.clear();
     deltas_overflowed_ = false;

@@ -150,8 +150,11 @@ class TilePyramid {
     return p;
   }
 
+  /// Hierarchy shape shared by the material's virtual textures.
   const VtGeometry& geometry() const noexcept { return geometry_; }
+  /// Level offsets for flat tile indices.
   const VtLevelTable& levels() const noexcept { return levels_; }
+  /// ⌈C/4⌉ virtual textures.
   uint32_t texture_count() const noexcept { return static_cast<uint32_t>(level_images_.size()); }
   /// The 4-channel level-l image of virtual texture k. Precondition: k, level in range.
   const Image<float>& level_image(uint32_t k, uint32_t level) const noexcept { return level_images_[k][level]; }
@@ -166,7 +169,9 @@ class TilePyramid {
   std::span<const uint16_t> tile_texels(uint32_t k, uint32_t index) const noexcept {
     return std::span<const uint16_t>(tiles_[k]).subspan(tile_elements() * index, tile_elements());
   }
+  /// w(i, l, l−1) of eq. 8 per tile of virtual texture k (flat index). Precondition: k in range.
   std::span<const Half> weights(uint32_t k) const noexcept { return weights_[k]; }
+  /// ‖T‖²_F / T² per tile of virtual texture k (§6). Precondition: k in range.
   std::span<const Half> energies(uint32_t k) const noexcept { return energies_[k]; }
 
   /// Bilinear sample of virtual texture k at level `level` and texture coordinates (u, v) in

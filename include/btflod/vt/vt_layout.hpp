@@ -56,6 +56,7 @@ struct VtGeometry {
     return width > 0 && height > 0 && tile_size > 0 && border < tile_size &&
            (static_cast<uint64_t>(tile_size) << finest_level) >= std::max(width, height);
   }
+  /// L + 1.
   uint32_t level_count() const noexcept { return finest_level + 1; }
   /// Side of a stored tile including both borders: T + 2B.
   constexpr uint32_t stored_size() const noexcept { return tile_size + 2 * border; }
@@ -98,6 +99,7 @@ struct VtLevelTable {
   uint32_t tiles_y[kMaxTileLevel + 1] = {};
 
   VtLevelTable() = default;
+  /// Precomputes offsets and tile counts of every level of g. Precondition: g.valid().
   explicit VtLevelTable(const VtGeometry& g) noexcept : geometry(g) {
     uint32_t off = 0;
     for (uint32_t l = 0; l <= g.finest_level; ++l) {
@@ -108,10 +110,13 @@ struct VtLevelTable {
     }
     offset[g.finest_level + 1] = off;
   }
+  /// L.
   uint32_t finest_level() const noexcept { return geometry.finest_level; }
+  /// Tiles over all levels.
   uint32_t tile_count() const noexcept { return offset[geometry.finest_level + 1]; }
   /// Flat index of tile (level, x, y). Precondition: the tile exists.
   uint32_t index(uint32_t level, uint32_t x, uint32_t y) const noexcept { return offset[level] + y * tiles_x[level] + x; }
+  /// Flat index of t (texture field ignored). Precondition: the tile exists.
   uint32_t index(const TileId& t) const noexcept { return index(t.level, t.x, t.y); }
   /// Inverse of index(): the tile with flat index i of virtual texture `texture`.
   /// Precondition: i < tile_count(). O(L).
@@ -133,6 +138,7 @@ struct EigenTextures {
   uint32_t light_count = 0;
   uint32_t view_count = 0;
 
+  /// C, the number of eigen-texture components.
   uint32_t components() const noexcept { return static_cast<uint32_t>(textures.channels()); }
   /// Number of RGBA virtual textures for C components: ⌈C/4⌉.
   uint32_t virtual_texture_count() const noexcept {
@@ -177,16 +183,23 @@ class VtSet {
     materials_.push_back(m);
     return static_cast<uint32_t>(materials_.size() - 1);
   }
+  /// Materials added so far.
   uint32_t material_count() const noexcept { return static_cast<uint32_t>(materials_.size()); }
+  /// Virtual textures over all materials (indices are stable).
   uint32_t texture_count() const noexcept { return static_cast<uint32_t>(texture_material_.size()); }
+  /// Material m. Precondition: m < material_count().
   const VtMaterial& material(uint32_t m) const noexcept { return materials_[m]; }
+  /// Material owning a virtual texture. Precondition: texture < texture_count().
   uint32_t material_of(uint32_t texture) const noexcept { return texture_material_[texture]; }
+  /// Hierarchy of a virtual texture (its material's). Precondition: texture in range.
   const VtLevelTable& levels_of(uint32_t texture) const noexcept { return materials_[texture_material_[texture]].levels; }
   /// w(i, l, l−1) per tile (flat index), paper 000 eq. 8. For the root: mean squared norm.
   std::span<Half> weights(uint32_t texture) noexcept { return weights_[texture]; }
+  /// Read-only w per tile. Precondition: texture in range.
   std::span<const Half> weights(uint32_t texture) const noexcept { return weights_[texture]; }
   /// ‖T‖²_F / T² per tile (flat index), paper 000 §6.
   std::span<Half> energies(uint32_t texture) noexcept { return energies_[texture]; }
+  /// Read-only ‖T‖²_F / T² per tile. Precondition: texture in range.
   std::span<const Half> energies(uint32_t texture) const noexcept { return energies_[texture]; }
 
  private:

@@ -19,6 +19,7 @@ struct DemoConfig {
   int materials = 4;                              ///< --materials N synthesised materials
   std::string backend = "gl";                     ///< --backend gl|cpu
   double bandwidth_kib = 96.0;                    ///< --bandwidth KiB/s of the throttled link
+  int settle = 60;                                ///< --settle N: max frames at the last view
   SynthMaterial material = SynthMaterial::cloth;  ///< --material NAME
   uint64_t seed = 1;                              ///< --seed N
   int components = 32;                            ///< --components K (DFMF, per channel)
@@ -28,14 +29,16 @@ struct DemoConfig {
 
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
-    "                   [--bandwidth KIB_PER_S] [--seed N] [--quiet]\n"
+    "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--quiet]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
     "  BTF-textured tori on a plane while streaming tiles through a throttled source and the\n"
     "  streaming pipeline, rendering BSVTF (and FMF as the converged reference) with the GL\n"
     "  backend. Writes DIR/frames/frame_NNNN.png, DIR/contact_sheet_frames.png,\n"
     "  DIR/report.html and DIR/report.json.\n"
-    "  defaults: --frames 90 --size 32 --materials 4 --backend gl --bandwidth 96 --seed 1";
+    "  After the flight the camera holds the last view for up to --settle frames (60) while the\n"
+    "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
+    "  defaults: --frames 90 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
 /// --help, with *exit_code = 0; otherwise 2).
@@ -83,6 +86,9 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     } else if (a == "--materials") {
       if (!parse_int(value, 1, 64, &n)) return fail("--materials " + std::string(value) + ": expected 1..64");
       cfg.materials = static_cast<int>(n);
+    } else if (a == "--settle") {
+      if (!parse_int(value, 0, 100000, &n)) return fail("--settle " + std::string(value) + ": expected 0..100000");
+      cfg.settle = static_cast<int>(n);
     } else if (a == "--backend") {
       cfg.backend = value;
       if (cfg.backend != "gl" && cfg.backend != "cpu") return fail("--backend " + cfg.backend + ": expected gl or cpu");

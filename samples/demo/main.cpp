@@ -1,12 +1,15 @@
 // btflod-demo — the main job: synthesise a few procedural BTFs, factorise them (FMF), build
 // .bsvtf containers, then fly a camera through a scene of BTF-textured tori on a plane while
 // streaming tiles through a throttled source and the streaming pipeline, rendering BSVTF with
-// the GL backend (FMF of the same view is the converged reference). Writes frames, a contact
+// the GL backend (or, without GL, the CPU reference ray-caster, saying so; FMF of the same view
+// is the converged reference). Writes frames, a contact
 // sheet, report.html and report.json. The phases live in materials.hpp, stream_render.hpp,
 // report.hpp and samples/scene/demo_scene.hpp; this file only calls them in order.
 #include <cstdio>
 #include <filesystem>
+#include <chrono>
 #include <string>
+#include <thread>
 
 #include "command_line.hpp"
 #include "demo_steps.hpp"
@@ -34,18 +37,24 @@ int main(int argc, char** argv) {
     return 1;
   };
 
-  // 1. Backend first, so a missing GPU API is reported before the slow steps.
-  if (cfg->backend == "cpu")
-    return fail("backend", "the CPU reference backend is not wired into the demo yet (use --backend gl)");
+  // 1. Renderer: the GL backend, or the CPU reference ray-caster when there is no GL (said so).
+  std::unique_ptr<Backend> gpu;
+  std::unique_ptr<demo::FrameRenderer> renderer;
+  if (cfg->backend == "gl") {
 #if BTFLOD_DEMO_HAS_GL
-  auto backend = samples::create_gl_backend();
+    auto backend = samples::create_gl_backend();
 #else
-  Result<std::unique_ptr<Backend>> backend = make_error(Status::unsupported, "built without btflod_gl_backend");
+    Result<std::unique_ptr<Backend>> backend = make_error(Status::unsupported, "built without btflod_gl_backend");
 #endif
-  if (!backend)
-    return fail("backend", "no OpenGL 4.5 (EGL) available: " + backend.message() +
-                               "; a CPU fallback for the demo is not implemented yet");
-  std::printf("btflod demo: backend %s\n", (*backend)->name());
+    if (backend) {
+      gpu = std::move(*backend);
+      renderer = std::make_unique<demo::GpuFrameRenderer>(*gpu);
+    } else {
+      std::printf("btflod demo: no OpenGL 4.5 (%s): FALLING BACK to the CPU reference renderer\n", backend.message().c_str());
+    }
+  }
+  if (!renderer) renderer = std::make_unique<demo::CpuFrameRenderer>();
+  std::printf("btflod demo: renderer %s\n", renderer->name().c_str());
 
   // 2. Materials: synthesise, factorise (FMF), build .bsvtf.
   const demo::Stopwatch prep_clock;
@@ -66,20 +75,20 @@ int main(int argc, char** argv) {
   // 3. Fly-through with streaming.
   demo::StreamSettings ss;
   ss.bytes_per_second = cfg->bandwidth_kib * 1024.0;
-  auto renderer = demo::StreamingRenderer::create(**backend, materials, ss, static_cast<uint32_t>(materials.size()));
-  if (!renderer) return fail("streaming set-up", renderer.message());
+  auto streamer = demo::StreamingRenderer::create(*renderer, materials, ss);
+  if (!streamer) return fail("streaming set-up", streamer.message());
   demo::RunSummary run;
-  run.backend = (*backend)->name();
+  run.backend = renderer->name();
   for (int i = 0; i < argc; ++i) run.command += (i ? " " : "") + std::string(argv[i]);
   run.materials = static_cast<uint32_t>(materials.size());
   run.width = ss.width;
   run.height = ss.height;
-  run.slots = (*renderer)->slot_count();
-  run.tiles = (*renderer)->tile_count();
-  run.payload_bytes = (*renderer)->total_payload_bytes();
+  run.slots = (*streamer)->slot_count();
+  run.tiles = (*streamer)->tile_count();
+  run.payload_bytes = (*streamer)->total_payload_bytes();
   run.bytes_per_second = ss.bytes_per_second;
   run.seconds_prepare = prep_seconds;
-  run.memory = (*renderer)->memory();
+  run.memory = (*streamer)->memory();
   for (const auto& m : materials) {
     run.material_names.push_back(m.name);
     run.fmf_errors.push_back(m.fmf_relative_error);
@@ -91,7 +100,7 @@ int main(int argc, char** argv) {
   const uint32_t sheet_every = std::max(1u, (frames + 11) / 12);
   const demo::Stopwatch flight_clock;
   for (uint32_t f = 0; f < frames; ++f) {
-    auto rec = (*renderer)->frame(f, frames, bsvtf_img, fmf_img);
+    auto rec = (*streamer)->frame(f, f, frames, bsvtf_img, fmf_img);
     if (!rec) return fail("frame", rec.message());
     run.frames.push_back(*rec);
     char name[64];
@@ -104,6 +113,27 @@ int main(int argc, char** argv) {
                   rec->ms_fmf);
   }
   run.seconds_flight = flight_clock.seconds();
+  // Settle: the camera stays at the last view while the remaining tiles stream in, until nothing
+  // was requested, pending or uploaded for 5 frames (or --settle frames): SSIM vs bytes for a fixed view.
+  const size_t settle_first = run.frames.size();
+  uint32_t quiet_frames = 0;
+  for (uint32_t k = 0; frames > 0 && k < static_cast<uint32_t>(cfg->settle) && quiet_frames < 5; ++k) {
+    auto rec = (*streamer)->frame(frames + k, frames - 1, frames, bsvtf_img, fmf_img);
+    if (!rec) return fail("settle frame", rec.message());
+    rec->settle = true;
+    quiet_frames = rec->requests == 0 && rec->uploads == 0 && (*streamer)->pending_tiles() == 0 ? quiet_frames + 1 : 0;
+    run.frames.push_back(*rec);
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));  // let the throttled link deliver
+  }
+  if (run.frames.size() > settle_first) {
+    sheet.push_back(bsvtf_img);
+    char name[64];
+    std::snprintf(name, sizeof name, "settled_%04u.png", frames - 1);
+    if (auto w = write_png_srgb((out / "frames" / name).string(), bsvtf_img.view()); !w) return fail("frame png", w.message());
+    std::printf("  settle      %zu frames at the last view: SSIM %.4f -> %.4f, %.1f KiB received\n",
+                run.frames.size() - settle_first, run.frames[settle_first].ssim, run.frames.back().ssim,
+                static_cast<double>(run.frames.back().bytes_received) / 1024.0);
+  }
 
   // 4. Outputs.
   if (auto w = demo::write_frame_sheet((out / "contact_sheet_frames.png").string(), sheet); !w) return fail("contact sheet", w.message());
@@ -118,12 +148,15 @@ int main(int argc, char** argv) {
   std::printf("  outputs     %s/report.html, report.json, contact_sheet_frames.png, %u frames; %.1f s prepare, %.1f s flight\n",
               cfg->out_dir.c_str(), frames, prep_seconds, run.seconds_flight);
 
-  // 5. Sanity checks (the ctest relies on them): SSIM rises with bytes received and ends high.
-  if (!run.frames.empty()) {
-    const double first = run.frames.front().ssim, last = run.frames.back().ssim;
-    const bool rises = last > first + 0.005 || first > 0.98;
-    const bool high = last >= 0.85;
-    std::printf("  checks      SSIM first %.4f -> last %.4f: %s\n", first, last, rises && high ? "checks passed" : "FAILED");
+  // 5. Sanity checks (the ctests rely on them): for the fixed last view, SSIM rises with the
+  // bytes received during the settle phase and ends high. The CPU reference's converged image is
+  // unfiltered (finest level, no mips), so it aliases on the far ground and its bound is lower.
+  if (run.frames.size() > settle_first) {
+    const double first = run.frames[settle_first].ssim, last = run.frames.back().ssim;
+    const bool rises = last > first + 0.002 || first > 0.98;
+    const bool high = last >= (gpu ? 0.85 : 0.6);
+    std::printf("  checks      settle SSIM %.4f -> %.4f (bound %.2f): %s\n", first, last, gpu ? 0.85 : 0.6,
+                rises && high ? "checks passed" : "FAILED");
     if (!rises || !high) return 1;
   }
   return 0;

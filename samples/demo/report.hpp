@@ -152,9 +152,9 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
     const FrameRecord& f = r.frames[i];
     std::snprintf(b, sizeof b,
                   "    {\"frame\": %u, \"bytes_received\": %llu, \"tiles_delivered\": %u, \"occupancy\": %.4f, \"ssim\": %.5f, "
-                  "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u}%s\n",
+                  "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u, \"settle\": %s}%s\n",
                   f.frame, static_cast<unsigned long long>(f.bytes_received), f.tiles_delivered, f.occupancy, f.ssim, f.rmse,
-                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, i + 1 < r.frames.size() ? "," : "");
+                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, f.settle ? "true" : "false", i + 1 < r.frames.size() ? "," : "");
     o << b;
   }
   o << "  ]\n}\n";

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <thread>
@@ -18,7 +19,9 @@
 #include <vector>
 
 #include "btflod/backend/backend.hpp"
+#include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/page_table_writes.hpp"
+#include "btflod/core/thread_pool.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/metrics/image_metrics.hpp"
@@ -53,6 +56,7 @@ struct FrameRecord {
   double ms_bsvtf = 0;          ///< BSVTF colour pass + feedback pass, submit to read-back
   double ms_fmf = 0;            ///< FMF colour pass, submit to read-back
   uint32_t requests = 0, uploads = 0;
+  bool settle = false;          ///< camera held at the last view (convergence phase)
 };
 
 /// Linear RGBA radiance → sRGB-encoded RGB in [0, 1] (clamped), for SSIM and PNG.
@@ -74,72 +78,252 @@ struct MemoryFigures {
   uint64_t u_bytes = 0;      ///< U' and lookup tables (the same for both, not counted above)
 };
 
-/// The streaming renderer over a backend. Set-up allocates; frame() does the per-frame loop.
+
+/// What the streaming loop needs from a renderer: the GPU Backend (GpuFrameRenderer) or the CPU
+/// reference ray-caster of backend/cpu_reference.hpp (CpuFrameRenderer, the fallback).
+class FrameRenderer {
+ public:
+  virtual ~FrameRenderer() = default;
+  virtual std::string name() const = 0;
+  /// Set-up: shaders/targets, meshes or shapes, materials. `cache` and `set` outlive the renderer.
+  virtual VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache& cache,
+                          const std::vector<DemoMaterial>& materials, const std::vector<scene::SceneObject>& objects) = 0;
+  virtual Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) = 0;
+  virtual Status write_page_table(std::span<const PageTableWrite> writes) = 0;
+  /// BSVTF image + feedback words (screen / 2^shift), then the FMF image of the same view, with
+  /// the time of each pass in ms. `params(m)` gives material m's uniforms.
+  virtual VoidResult render(const scene::View& view, uint64_t frame, uint32_t feedback_shift,
+                            const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
+                            std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) = 0;
+};
+
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The GPU path: generated shaders on a Backend (samples/gl, samples/vulkan).
+class GpuFrameRenderer final : public FrameRenderer {
+ public:
+  explicit GpuFrameRenderer(Backend& be) : be_(be) {}
+  std::string name() const override { return be_.name(); }
+  VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache&, const std::vector<DemoMaterial>& materials,
+                  const std::vector<scene::SceneObject>& objects) override {
+    if (auto e = be_.init(config, set.texture_count()); !e) return e.error();
+    for (const auto& o : objects) {
+      auto h = be_.create_mesh(MeshData{o.vertices, o.indices});
+      if (!h) return h.error();
+      meshes_.push_back(*h);
+      material_of_.push_back(o.material);
+    }
+    for (const DemoMaterial& m : materials) {
+      auto a = be_.create_material(m.data(true));
+      if (!a) return a.error();
+      fmf_mats_.push_back(*a);
+      auto b = be_.create_material(m.data(false));
+      if (!b) return b.error();
+      bsvtf_mats_.push_back(*b);
+    }
+    return {};
+  }
+  Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) override {
+    const TileUpload up{slot, texels};
+    return be_.upload_tiles({&up, 1});
+  }
+  Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
+  VoidResult render(const scene::View& view, uint64_t, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
+                    Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
+                    double& ms_fmf) override {
+    FrameDesc desc;
+    desc.width = view.width;
+    desc.height = view.height;
+    desc.feedback_width = (view.width + (1u << shift) - 1) >> shift;
+    desc.feedback_height = (view.height + (1u << shift) - 1) >> shift;
+    desc.clear_color[0] = 0.45f, desc.clear_color[1] = 0.55f, desc.clear_color[2] = 0.7f, desc.clear_color[3] = 1.0f;
+    auto t0 = std::chrono::steady_clock::now();
+    if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
+    for (size_t i = 0; i < meshes_.size(); ++i) {
+      const uint32_t m = material_of_[i];
+      ShaderParams p = params(m);
+      p.lod.y = static_cast<float>(shift);
+      if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
+      if (be_.draw(ShaderProgram::bsvtf, meshes_[i], bsvtf_mats_[m], params(m)) != Status::success)
+        return make_error(Status::io_error, "draw (bsvtf) failed");
+    }
+    if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
+    if (be_.read_color(bsvtf.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
+    ms_bsvtf = ms_since(t0);
+    be_.wait_idle();
+    FeedbackFrame fb;
+    feedback.clear();
+    while (be_.poll_feedback(fb)) feedback.assign(fb.words.begin(), fb.words.end());
+    t0 = std::chrono::steady_clock::now();
+    if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
+    for (size_t i = 0; i < meshes_.size(); ++i) {
+      const uint32_t m = material_of_[i];
+      if (be_.draw(ShaderProgram::fmf, meshes_[i], fmf_mats_[m], params(m)) != Status::success)
+        return make_error(Status::io_error, "draw (fmf) failed");
+    }
+    if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
+    if (be_.read_color(fmf.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
+    ms_fmf = ms_since(t0);
+    be_.wait_idle();
+    while (be_.poll_feedback(fb)) {
+    }  // the FMF pass draws no feedback: drop its (empty) readback
+    return {};
+  }
+
+ private:
+  Backend& be_;
+  std::vector<MeshHandle> meshes_;
+  std::vector<uint32_t> material_of_;
+  std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;
+};
+
+/// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
+/// feedback by render_feedback (eq. 1–2), BSVTF through CpuCacheTexture (eq. 3, the deepest
+/// resident tile), FMF from V' at the finest level (bilinear, repeat), both shaded by
+/// shade_fmf's 9 taps with the same lookup tables as the shaders. Rows run on the thread pool.
+class CpuFrameRenderer final : public FrameRenderer {
+ public:
+  std::string name() const override { return "CPU reference (backend/cpu_reference.hpp ray-caster)"; }
+  VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache& cache,
+                  const std::vector<DemoMaterial>& materials, const std::vector<scene::SceneObject>&) override {
+    set_ = &set;
+    cache_ = &cache;
+    materials_ = &materials;
+    config_ = config;
+    texture_ = std::make_unique<CpuCacheTexture>(cache);
+    // The same scene as scene::make_demo_scene, as analytic shapes.
+    scene_.add(Shape::plane(0, {-6.0f, 0.0f, 6.0f}, {1, 0, 0}, {0, 0, -1}, 12.0f, 12.0f, {6.0f, 6.0f}));
+    const uint32_t n = static_cast<uint32_t>(materials.size());
+    for (uint32_t i = 0; i < 4; ++i) {
+      const float a = kTwoPi * static_cast<float>(i) / 4.0f + 0.4f;
+      const uint32_t m = n > 1 ? 1 + i % (n - 1) : 0;
+      scene_.add(Shape::torus(m, {2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a)}, 0.9f, 0.45f, {4.0f, 2.0f}));
+    }
+    return {};
+  }
+  Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) override {
+    return texture_->upload(*cache_, slot, texels) ? Status::success : Status::invalid_argument;
+  }
+  Status write_page_table(std::span<const PageTableWrite>) override { return Status::success; }  // reads the cache's table
+  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
+                    Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
+                    double& ms_fmf) override {
+    Camera cam;
+    cam.position = view.eye;
+    cam.target = view.target;
+    cam.fov_y_degrees = view.fov_y_degrees;
+    cam.width = view.width;
+    cam.height = view.height;
+    const ShaderParams p = params(0);
+    auto t0 = std::chrono::steady_clock::now();
+    const uint32_t d = 1u << shift;
+    feedback.assign(static_cast<size_t>((view.width + d - 1) / d) * ((view.height + d - 1) / d), kFeedbackNone);
+    render_feedback(scene_, cam, *set_, DerivativeLod{}, d, frame, feedback);
+    shade(cam, p, true, bsvtf);
+    ms_bsvtf = ms_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    shade(cam, p, false, fmf);
+    ms_fmf = ms_since(t0);
+    return {};
+  }
+
+ private:
+  void lookup(const DemoMaterial& m, const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 dir,
+              AngularSample& out) const {
+    const glm::ivec2 t = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, dir),
+                                            m.angular_resolution);
+    const size_t o = (static_cast<size_t>(t.y) * m.angular_resolution + static_cast<size_t>(t.x)) * 3;
+    for (int k = 0; k < 3; ++k) {
+      out.index[static_cast<size_t>(k)] = idx[o + static_cast<size_t>(k)];
+      out.weight[static_cast<size_t>(k)] = wt[o + static_cast<size_t>(k)];
+    }
+  }
+  void shade(const Camera& cam, const ShaderParams& p, bool bsvtf, Image<float>& out) const {
+    default_thread_pool().parallel_for(0, cam.height, 4, [&](size_t y0, size_t y1) {
+      float comps[64];
+      for (size_t y = y0; y < y1; ++y)
+        for (uint32_t x = 0; x < cam.width; ++x) {
+          const int xi = static_cast<int>(x), yi = static_cast<int>(y);
+          const SurfaceHit h = scene_.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+          if (!h.hit) {
+            out.at(xi, yi, 0) = 0.45f, out.at(xi, yi, 1) = 0.55f, out.at(xi, yi, 2) = 0.7f, out.at(xi, yi, 3) = 1.0f;
+            continue;
+          }
+          const DemoMaterial& m = (*materials_)[h.material];
+          const uint32_t groups = (m.components + 3) / 4;
+          for (uint32_t g = 0; g < groups; ++g) {
+            if (bsvtf) {
+              texture_->sample(*cache_, set_->material(h.material).first_texture + g, h.texcoord.x, h.texcoord.y, comps + 4 * g);
+            } else {
+              const Image<float>& v = m.eigen_textures;
+              const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f, fy = h.texcoord.y * static_cast<float>(v.height()) - 0.5f;
+              const int x0 = static_cast<int>(std::floor(fx)), y0i = static_cast<int>(std::floor(fy));
+              const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0i);
+              const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
+              const int xa = wrap(x0, v.width()), xb = wrap(x0 + 1, v.width()), ya = wrap(y0i, v.height()), yb = wrap(y0i + 1, v.height());
+              for (uint32_t k = 0; k < 4; ++k) {
+                const int c = static_cast<int>(4 * g + k);
+                if (c >= v.channels()) {
+                  comps[4 * g + k] = 0.0f;
+                  continue;
+                }
+                const float top = v.at(xa, ya, c) + (v.at(xb, ya, c) - v.at(xa, ya, c)) * ax;
+                const float bot = v.at(xa, yb, c) + (v.at(xb, yb, c) - v.at(xa, yb, c)) * ax;
+                comps[4 * g + k] = top + (bot - top) * ay;
+              }
+            }
+          }
+          AngularSample ls, vs;
+          lookup(m, m.light_index, m.light_weight, to_local(h, glm::normalize(glm::vec3(p.light))), ls);
+          lookup(m, m.view_index, m.view_weight, to_local(h, glm::normalize(view_eye(cam) - h.position)), vs);
+          const glm::vec3 rgb = shade_fmf(m.eigen, ls, vs, std::span<const float>(comps, m.components)) * glm::vec3(p.light_color);
+          for (int c = 0; c < 3; ++c) out.at(xi, yi, c) = rgb[c];
+          out.at(xi, yi, 3) = 1.0f;
+        }
+    });
+  }
+  static glm::vec3 view_eye(const Camera& c) { return c.position; }
+
+  const VtSet* set_ = nullptr;
+  const TileCache* cache_ = nullptr;
+  const std::vector<DemoMaterial>* materials_ = nullptr;
+  ShaderConfig config_;
+  Scene scene_;
+  std::unique_ptr<CpuCacheTexture> texture_;
+};
+
+/// The streaming renderer over a FrameRenderer. Set-up allocates; frame() does the per-frame loop.
 class StreamingRenderer {
  public:
-  /// Creates meshes, materials, the VT set, cache, scheduler and one pipeline per material over a
-  /// shared throttled link, and loads the pinned root tiles (blocking). Returns an error naming
-  /// the failing step.
-  static Result<std::unique_ptr<StreamingRenderer>> create(Backend& be, const std::vector<DemoMaterial>& materials,
-                                                           const StreamSettings& s, uint32_t material_count_in_scene) {
-    std::unique_ptr<StreamingRenderer> r(new StreamingRenderer(be, materials, s));
-    if (auto e = r->init(material_count_in_scene); !e) return e.error();
+  /// Creates the VT set, cache, scheduler, the renderer's resources and one pipeline per
+  /// material over a throttled link, and loads the pinned root tiles (blocking). Returns an
+  /// error naming the failing step. `renderer` and `materials` must outlive the object.
+  static Result<std::unique_ptr<StreamingRenderer>> create(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials,
+                                                           const StreamSettings& s) {
+    std::unique_ptr<StreamingRenderer> r(new StreamingRenderer(renderer, materials, s));
+    if (auto e = r->init(); !e) return e.error();
     return r;
   }
   ~StreamingRenderer() {
     for (auto& p : pipelines_) p->shutdown();
   }
 
-  /// Renders frame f of `frames` and streams; writes the two images (RGBA linear).
-  Result<FrameRecord> frame(uint32_t f, uint32_t frames, Image<float>& bsvtf_img, Image<float>& fmf_img) {
+  /// Renders frame f (camera at path position view_frame of `frames`) and streams; writes the
+  /// two images (RGBA linear).
+  Result<FrameRecord> frame(uint32_t f, uint32_t view_frame, uint32_t frames, Image<float>& bsvtf_img, Image<float>& fmf_img) {
     FrameRecord rec;
     rec.frame = f;
-    const scene::View view = scene::camera_path(f, frames, s_.width, s_.height);
+    const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
     const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
-    FrameDesc desc;
-    desc.width = s_.width;
-    desc.height = s_.height;
-    desc.feedback_width = (s_.width + (1u << s_.feedback_shift) - 1) >> s_.feedback_shift;
-    desc.feedback_height = (s_.height + (1u << s_.feedback_shift) - 1) >> s_.feedback_shift;
-    desc.clear_color[0] = 0.45f, desc.clear_color[1] = 0.55f, desc.clear_color[2] = 0.7f, desc.clear_color[3] = 1.0f;
-    // BSVTF pass (colour + feedback).
-    auto t0 = std::chrono::steady_clock::now();
-    if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
-    for (size_t i = 0; i < objects_.size(); ++i) {
-      const uint32_t m = objects_[i].material;
-      ShaderParams p = material_params(base, m);
-      p.lod.y = static_cast<float>(s_.feedback_shift);
-      if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
-      if (be_.draw(ShaderProgram::bsvtf, meshes_[i], bsvtf_mats_[m], material_params(base, m)) != Status::success)
-        return make_error(Status::io_error, "draw (bsvtf) failed");
-    }
-    if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
-    if (be_.read_color(bsvtf_img.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
-    rec.ms_bsvtf = ms_since(t0);
-    be_.wait_idle();
-    FeedbackFrame fb;
-    bool have = false;
-    while (be_.poll_feedback(fb)) {
-      feedback_.assign(fb.words.begin(), fb.words.end());
-      have = true;
-    }
-    // FMF pass (the converged reference).
-    t0 = std::chrono::steady_clock::now();
-    if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
-    for (size_t i = 0; i < objects_.size(); ++i) {
-      const uint32_t m = objects_[i].material;
-      if (be_.draw(ShaderProgram::fmf, meshes_[i], fmf_mats_[m], material_params(base, m)) != Status::success)
-        return make_error(Status::io_error, "draw (fmf) failed");
-    }
-    if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
-    if (be_.read_color(fmf_img.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
-    rec.ms_fmf = ms_since(t0);
-    be_.wait_idle();
-    while (be_.poll_feedback(fb)) {
-    }  // the FMF pass draws no feedback: drop its (empty) readback
+    if (auto e = renderer_.render(view, f, s_.feedback_shift, [&](uint32_t m) { return material_params(base, m); }, bsvtf_img,
+                                  fmf_img, feedback_, rec.ms_bsvtf, rec.ms_fmf);
+        !e)
+      return e.error();
 
     // Streaming: votes → plan → requests → pipeline → uploads → page table.
-    if (have) votes_->count(feedback_, 1u << (2 * s_.feedback_shift), sched_->lod_bias());
+    if (!feedback_.empty()) votes_->count(feedback_, 1u << (2 * s_.feedback_shift), sched_->lod_bias());
     const auto requests = sched_->plan(*votes_, f);
     rec.requests = static_cast<uint32_t>(requests.size());
     for (const TileRequest& q : requests) {
@@ -174,10 +358,9 @@ class StreamingRenderer {
     Status upload_status = Status::success;
     rec.uploads = sched_->apply_uploads([&](const TileRequest& q) {
       if (q.u_packet) return;
-      const TileUpload up{q.slot, staging_[q.id]};
-      if (be_.upload_tiles({&up, 1}) != Status::success) upload_status = Status::io_error;
+      if (renderer_.upload_tile(q.slot, staging_[q.id]) != Status::success) upload_status = Status::io_error;
     });
-    if (upload_status != Status::success) return make_error(upload_status, "upload_tiles failed");
+    if (upload_status != Status::success) return make_error(upload_status, "tile upload failed");
     if (auto e = write_page_tables(); !e) return e.error();
     for (const auto& p : pipelines_) {
       const PipelineProgress pr = p->progress();
@@ -198,6 +381,12 @@ class StreamingRenderer {
     return n;
   }
   const MemoryFigures& memory() const noexcept { return memory_; }
+  /// Tiles requested by the scheduler and not yet delivered.
+  size_t pending_tiles() const noexcept {
+    size_t n = 0;
+    for (const auto& o : outstanding_) n += o.size();
+    return n;
+  }
   uint32_t slot_count() const noexcept { return cache_->slot_count(); }
   uint32_t tile_count() const noexcept {
     uint32_t n = 0;
@@ -206,12 +395,8 @@ class StreamingRenderer {
   }
 
  private:
-  StreamingRenderer(Backend& be, const std::vector<DemoMaterial>& materials, const StreamSettings& s)
-      : be_(be), materials_(materials), s_(s) {}
-
-  static double ms_since(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  }
+  StreamingRenderer(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials, const StreamSettings& s)
+      : renderer_(renderer), materials_(materials), s_(s) {}
 
   ShaderParams material_params(const ShaderParams& base, uint32_t m) const {
     ShaderParams p = base;
@@ -232,12 +417,12 @@ class StreamingRenderer {
     writes_.clear();
     for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
     cache_->clear_deltas();
-    if (be_.apply_page_table_writes(writes_) != Status::success)
-      return make_error(Status::io_error, "apply_page_table_writes failed (%zu writes)", writes_.size());
+    if (renderer_.write_page_table(writes_) != Status::success)
+      return make_error(Status::io_error, "page-table writes failed (%zu writes)", writes_.size());
     return {};
   }
 
-  VoidResult init(uint32_t scene_materials) {
+  VoidResult init() {
     const DemoMaterial& first = materials_.front();
     ShaderConfig config;
     config.components = first.components;
@@ -246,14 +431,12 @@ class StreamingRenderer {
     config.angular.resolution = first.angular_resolution;
     uint32_t finest = 0;
     for (const auto& m : materials_) finest = std::max(finest, m.finest_level);
-    // VT set from the containers' geometry and weights (what a client knows before streaming).
+    // VT set from the containers' geometry (what a client knows before streaming).
     for (const DemoMaterial& m : materials_) {
       auto dir = read_bsvtf(m.bsvtf);
       if (!dir) return make_error(dir.status(), "%s: %s", m.bsvtf_path.c_str(), dir.message().c_str());
       const BsvtfMetadata& md = dir->metadata;
-      const VtGeometry g = VtGeometry::make(md.width, md.height, md.tile_size, md.border);
-      const uint32_t id = set_.add_material(g, md.texture_count());
-      (void)id;
+      set_.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
       tile_size_ = md.tile_size;
       border_ = md.border;
     }
@@ -269,7 +452,6 @@ class StreamingRenderer {
     config.vt.slots_y = s_.slots_y;
     config.vt.cache_layers = 1;
     config.vt.finest_level = finest;
-    if (auto e = be_.init(config, set_.texture_count()); !e) return e.error();
     auto cache = TileCache::create(set_, TileCacheConfig{s_.slots_x, s_.slots_y, 1u << 16});
     if (!cache) return cache.error();
     cache_ = std::make_unique<TileCache>(std::move(*cache));
@@ -285,20 +467,10 @@ class StreamingRenderer {
     staging_.resize(sc.budgets.requests_in_flight);
     outstanding_.resize(materials_.size());
     request_of_.resize(materials_.size());
-    // Scene, meshes, materials.
-    objects_ = scene::make_demo_scene(scene_materials);
-    for (const auto& o : objects_) {
-      auto h = be_.create_mesh(MeshData{o.vertices, o.indices});
-      if (!h) return h.error();
-      meshes_.push_back(*h);
-    }
+    objects_ = scene::make_demo_scene(static_cast<uint32_t>(materials_.size()));
+    if (auto e = renderer_.init(config, set_, *cache_, materials_, objects_); !e) return e.error();
+    // Texture memory as a GPU backend allocates it.
     for (const DemoMaterial& m : materials_) {
-      auto a = be_.create_material(m.data(true));
-      if (!a) return a.error();
-      fmf_mats_.push_back(*a);
-      auto b = be_.create_material(m.data(false));
-      if (!b) return b.error();
-      bsvtf_mats_.push_back(*b);
       const uint64_t groups = (m.components + 3) / 4;
       uint64_t mips = 0;
       for (uint64_t w = static_cast<uint64_t>(m.eigen_textures.width()), h = static_cast<uint64_t>(m.eigen_textures.height());;
@@ -314,9 +486,7 @@ class StreamingRenderer {
     memory_.bsvtf_bytes = static_cast<uint64_t>(config.vt.cache_width()) * config.vt.cache_height() * 8 +
                           pt * 4 * set_.texture_count();
     // Streaming: one pipeline per container, each over its share (1/n) of the throttled link.
-    for (const DemoMaterial& m : materials_) {
-      sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(m.bsvtf)));
-    }
+    for (const DemoMaterial& m : materials_) sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(m.bsvtf)));
     for (auto& src : sources_) {
       throttled_.push_back(std::make_unique<ThrottledSource>(*src, s_.bytes_per_second / static_cast<double>(sources_.size()),
                                                              std::chrono::microseconds(s_.latency_ms * 1000)));
@@ -341,8 +511,7 @@ class StreamingRenderer {
           std::vector<uint16_t> texels(d.samples.size());
           float_to_half(d.samples, texels);
           const TileId global{vm.first_texture + d.item.tile.texture, 0, 0, 0};
-          const TileUpload up{cache_->slot_of(global), texels};
-          if (be_.upload_tiles({&up, 1}) != Status::success) st = Status::io_error;
+          if (renderer_.upload_tile(cache_->slot_of(global), texels) != Status::success) st = Status::io_error;
           ++got;
         });
         if (st != Status::success) return make_error(st, "root tile upload failed");
@@ -354,7 +523,7 @@ class StreamingRenderer {
     return write_page_tables();
   }
 
-  Backend& be_;
+  FrameRenderer& renderer_;
   const std::vector<DemoMaterial>& materials_;
   StreamSettings s_;
   uint32_t tile_size_ = 32, border_ = 4;
@@ -371,8 +540,6 @@ class StreamingRenderer {
   std::vector<uint32_t> feedback_;
   std::vector<PageTableWrite> writes_;
   std::vector<scene::SceneObject> objects_;
-  std::vector<MeshHandle> meshes_;
-  std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;
   MemoryFigures memory_;
 };
 

@@ -1,5 +1,5 @@
 // FMF factorisation time (paper 000 §4) for UBO2003-sized materials (81 × 81 directions,
-// 19,683 matrix rows) at rank 100: the blocked randomised SVD (oversampling 10, 2 power
+// 19,683 matrix rows) at rank 100: the blocked randomised SVD (SvdOptions defaults: oversampling 30, 2 power
 // iterations) next to the exact Eigen BDCSVD baseline at 64×64, with truncation errors and
 // peak memory (VmHWM, reset before each run via /proc/self/clear_refs).
 //
@@ -76,6 +76,12 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
   FmfOptions o;
   o.components = 100;
   o.svd.method = method;
+  // BTFLOD_BENCH_Q / BTFLOD_BENCH_P override the power iterations / oversampling (defaults of
+  // SvdOptions otherwise), to chart the time/accuracy trade-off without rebuilding.
+  if (const char* q = std::getenv("BTFLOD_BENCH_Q")) o.svd.power_iterations = std::atoi(q);
+  if (const char* p = std::getenv("BTFLOD_BENCH_P")) o.svd.oversampling = std::atoi(p);
+  state.counters["q"] = o.svd.power_iterations;
+  state.counters["p"] = o.svd.oversampling;
   for (auto _ : state) {
     reset_hwm();
     const auto t0 = std::chrono::steady_clock::now();

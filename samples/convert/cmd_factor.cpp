@@ -40,7 +40,7 @@ int run_factor(int argc, char** argv) {
   const int cbcr = static_cast<int>(opt.integer("components-cbcr", 2, 0, 4096));
   const std::string svd = opt.string("svd", "auto");
   const int power = static_cast<int>(opt.integer("power-iterations", 2, 0, 20));
-  const int oversampling = static_cast<int>(opt.integer("oversampling", 10, 0, 1000));
+  const int oversampling = static_cast<int>(opt.integer("oversampling", 30, 0, 1000));
   const bool use_float = opt.flag("float");
   const bool quiet = opt.flag("quiet", 'q');
   if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca")

@@ -36,10 +36,12 @@ enum class SvdMethod : uint8_t {
   randomized,     ///< blocked randomised SVD (Halko et al.)
 };
 
-/// Options of truncated_svd(). Defaults: oversampling 10, 2 power iterations.
+/// Options of truncated_svd(). Defaults: oversampling 30, 2 power iterations. Measured on a 64×64
+/// UBO2003 cloth at rank 100 (bench_factor): error / Eckart–Young optimum = 1.0081 for p = 10,
+/// q = 2; 1.0029 for p = 10, q = 3; 1.0017 for p = 30, q = 2 (fewest flops of the last two).
 struct SvdOptions {
   SvdMethod method = SvdMethod::automatic;
-  int oversampling = 10;      ///< extra sketch columns p (k = rank + p)
+  int oversampling = 30;      ///< extra sketch columns p (k = rank + p)
   int power_iterations = 2;   ///< q: passes of Y ← A·Aᵀ·Q, each followed by re-orthonormalisation
   size_t block_columns = 256; ///< columns gathered per block
   int stripes = 4;            ///< fixed partition of the blocks for parallel, deterministic sums

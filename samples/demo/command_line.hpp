@@ -15,7 +15,7 @@ namespace btflod::demo {
 struct DemoConfig {
   std::string out_dir;                            ///< --out DIR (required)
   int size = 32;                                  ///< --size N texels (square) of each material
-  int frames = 90;                                ///< --frames N of the fly-through
+  int frames = 200;                               ///< --frames N of the fly-through
   int materials = 4;                              ///< --materials N synthesised materials
   std::string backend = "gl";                     ///< --backend gl|cpu
   double bandwidth_kib = 96.0;                    ///< --bandwidth KiB/s of the throttled link
@@ -38,7 +38,7 @@ inline constexpr const char* kDemoUsage =
     "  DIR/report.html and DIR/report.json.\n"
     "  After the flight the camera holds the last view for up to --settle frames (60) while the\n"
     "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
-    "  defaults: --frames 90 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
+    "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
 /// --help, with *exit_code = 0; otherwise 2).

@@ -148,12 +148,14 @@ int main(int argc, char** argv) {
   std::printf("  outputs     %s/report.html, report.json, contact_sheet_frames.png, %u frames; %.1f s prepare, %.1f s flight\n",
               cfg->out_dir.c_str(), frames, prep_seconds, run.seconds_flight);
 
-  // 5. Sanity checks (the ctests rely on them): for the fixed last view, SSIM rises with the
-  // bytes received during the settle phase and ends high. The CPU reference's converged image is
+  // 5. Sanity checks (the ctests rely on them): for the fixed last view, SSIM does not fall while
+  // the remaining bytes arrive during the settle phase, and ends high. The CPU reference's converged image is
   // unfiltered (finest level, no mips), so it aliases on the far ground and its bound is lower.
   if (run.frames.size() > settle_first) {
     const double first = run.frames[settle_first].ssim, last = run.frames.back().ssim;
-    const bool rises = last > first + 0.002 || first > 0.98;
+    // Non-decreasing (with a small tolerance): when the cache already held the last view's
+    // tiles when the flight ended, SSIM is flat at its converged value.
+    const bool rises = last >= first - 0.002;
     const bool high = last >= (gpu ? 0.85 : 0.6);
     std::printf("  checks      settle SSIM %.4f -> %.4f (bound %.2f): %s\n", first, last, gpu ? 0.85 : 0.6,
                 rises && high ? "checks passed" : "FAILED");

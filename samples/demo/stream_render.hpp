@@ -37,9 +37,9 @@ namespace btflod::demo {
 
 /// Streaming and rendering settings.
 struct StreamSettings {
-  uint32_t width = 320, height = 180;
+  uint32_t width = 480, height = 270;
   uint32_t feedback_shift = 3;             ///< feedback target = screen / 2^shift
-  uint32_t slots_x = 8, slots_y = 8;       ///< tile cache (one layer)
+  uint32_t slots_x = 12, slots_y = 12;     ///< tile cache (one layer): 144 slots of 40² texels
   double bytes_per_second = 256.0 * 1024;  ///< throttled link shared by all materials
   uint32_t latency_ms = 20;
   uint32_t uploads_per_frame = 16;

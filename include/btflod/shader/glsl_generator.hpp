@@ -273,13 +273,19 @@ inline void glsl_vt_common(std::string& s, GlslTarget t, const ShaderConfig& c) 
        "}\n";
 }
 
-inline std::string glsl_fmf_fragment(GlslTarget t, const ShaderConfig& c) {
-  std::string s;
+// What every shading fragment program (all but the feedback pass) starts with: version,
+// uniform block, varyings, colour output, local frame and direction maps.
+inline void glsl_shading_fragment_prelude(std::string& s, GlslTarget t, const ShaderConfig& c) {
   glsl_version(s, t);
   glsl_params_block(s, t);
   glsl_varyings(s, t, "in");
   glsl_color_output(s);
   glsl_frame_and_param(s, c);
+}
+
+inline std::string glsl_fmf_fragment(GlslTarget t, const ShaderConfig& c) {
+  std::string s;
+  glsl_shading_fragment_prelude(s, t, c);
   glsl_angular(s, t, c, false);
   glsl_fmf_sum(s, t, c);
   glsl_sampler(s, t, "sampler2DArray", "btflod_eigen_textures", ShaderBinding::eigen_textures);
@@ -296,11 +302,7 @@ inline std::string glsl_fmf_fragment(GlslTarget t, const ShaderConfig& c) {
 
 inline std::string glsl_bsvtf_fragment(GlslTarget t, const ShaderConfig& c) {
   std::string s;
-  glsl_version(s, t);
-  glsl_params_block(s, t);
-  glsl_varyings(s, t, "in");
-  glsl_color_output(s);
-  glsl_frame_and_param(s, c);
+  glsl_shading_fragment_prelude(s, t, c);
   glsl_angular(s, t, c, false);
   glsl_fmf_sum(s, t, c);
   glsl_vt_common(s, t, c);
@@ -376,11 +378,7 @@ inline std::string glsl_feedback_fragment(GlslTarget t, const ShaderConfig& c) {
 
 inline std::string glsl_laplacian_fragment(GlslTarget t, const ShaderConfig& c) {
   std::string s;
-  glsl_version(s, t);
-  glsl_params_block(s, t);
-  glsl_varyings(s, t, "in");
-  glsl_color_output(s);
-  glsl_frame_and_param(s, c);
+  glsl_shading_fragment_prelude(s, t, c);
   glsl_angular(s, t, c, true);  // paper 001 §3.4 step 1: nearest light and view direction
   glsl_sampler(s, t, "sampler2DArray", "btflod_laplacian_eigen", ShaderBinding::laplacian_eigen);
   glsl_sampler(s, t, "sampler2DArray", "btflod_laplacian_weights", ShaderBinding::laplacian_weights);
@@ -415,11 +413,7 @@ inline std::string glsl_laplacian_fragment(GlslTarget t, const ShaderConfig& c) 
 
 inline std::string glsl_lpca_fragment(GlslTarget t, const ShaderConfig& c) {
   std::string s;
-  glsl_version(s, t);
-  glsl_params_block(s, t);
-  glsl_varyings(s, t, "in");
-  glsl_color_output(s);
-  glsl_frame_and_param(s, c);
+  glsl_shading_fragment_prelude(s, t, c);
   glsl_sampler(s, t, "usampler2D", "btflod_lpca_cluster", ShaderBinding::lpca_cluster);
   glsl_sampler(s, t, "sampler2DArray", "btflod_lpca_weights", ShaderBinding::lpca_weights);
   glsl_sampler(s, t, "sampler3D", "btflod_lpca_volume", ShaderBinding::lpca_volume);
@@ -458,11 +452,7 @@ inline std::string glsl_lpca_fragment(GlslTarget t, const ShaderConfig& c) {
 
 inline std::string glsl_pca_views_fragment(GlslTarget t, const ShaderConfig& c) {
   std::string s;
-  glsl_version(s, t);
-  glsl_params_block(s, t);
-  glsl_varyings(s, t, "in");
-  glsl_color_output(s);
-  glsl_frame_and_param(s, c);
+  glsl_shading_fragment_prelude(s, t, c);
   glsl_angular(s, t, c, false);  // paper 004 §4.4: 3 closest directions with barycentric weights
   glsl_sampler(s, t, "sampler2DArray", "btflod_pca_l", ShaderBinding::pca_l);
   glsl_sampler(s, t, "sampler2D", "btflod_pca_r", ShaderBinding::pca_r);

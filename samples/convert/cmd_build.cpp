@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "common/bsvtf_input.hpp"
 #include "common/progress_bar.hpp"
 
 #include "btflod/codec/container.hpp"
@@ -93,29 +94,10 @@ int run_build(int argc, char** argv) {
   md.color_channels = 3;
   md.color_mode = ColorMode::linear_rgb;
   md.u_rows = static_cast<uint32_t>(fmf->u.size() / comps);
-  md.light_set = fmf->shape.lights.name();
-  md.view_set = fmf->shape.views.name();
-  for (size_t i = 0; i < fmf->shape.lights.size(); ++i)
-    for (int k = 0; k < 3; ++k) md.light_directions.push_back(fmf->shape.lights[i].vector[k]);
-  for (size_t i = 0; i < fmf->shape.views.size(); ++i)
-    for (int k = 0; k < 3; ++k) md.view_directions.push_back(fmf->shape.views[i].vector[k]);
+  samples::set_bsvtf_directions(md, fmf->shape.lights, fmf->shape.views);
 
   // Tiles (half texels from the pyramid, as float) with their eq. 8 weights.
-  const VtLevelTable& levels = pyramid->levels();
-  const TileLayout layout{tile, border, 4};
-  std::vector<std::vector<float>> samples;
-  std::vector<BsvtfTileInput> tiles;
-  for (uint32_t k = 0; k < pyramid->texture_count(); ++k)
-    for (uint32_t l = 0; l < md.level_count; ++l)
-      for (uint32_t y = 0; y < levels.tiles_y[l]; ++y)
-        for (uint32_t x = 0; x < levels.tiles_x[l]; ++x) {
-          const uint32_t index = levels.index(l, x, y);
-          std::vector<float> s(layout.sample_count());
-          half_to_float(pyramid->tile_texels(k, index), s);
-          samples.push_back(std::move(s));
-          tiles.push_back({TileId{k, l, x, y}, {}, pyramid->weights(k)[index].to_float()});
-        }
-  for (size_t i = 0; i < tiles.size(); ++i) tiles[i].samples = samples[i];
+  const samples::BsvtfTileInputs inputs = samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, tile, border);
 
   samples::ProgressBar bar("build", stderr, !quiet);
   BsvtfBuildOptions options;
@@ -123,7 +105,7 @@ int run_build(int argc, char** argv) {
   options.deflate_level = deflate_level;
   options.tolerance_reference = per_component ? ToleranceReference::per_component : ToleranceReference::shared_max;
   options.progress = bar.callback();
-  auto file = build_bsvtf(md, fmf->u, tiles, options);
+  auto file = build_bsvtf(md, fmf->u, inputs.tiles, options);
   bar.finish();
   if (!file) {
     std::fprintf(stderr, "btflod-convert build: %s\n", file.message().c_str());
@@ -140,11 +122,12 @@ int run_build(int argc, char** argv) {
   }
   uint64_t tile_bytes = 0;
   for (const auto& e : dir->tiles) tile_bytes += e.size;
-  const double raw = static_cast<double>(tiles.size()) * static_cast<double>(layout.sample_count()) * 2.0;
+  const double raw = static_cast<double>(inputs.tiles.size()) *
+                     static_cast<double>(TileLayout{tile, border, 4}.sample_count()) * 2.0;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf("%s: %dx%d, %u components, %u levels of %u+2x%u tiles -> %s: %zu bytes (%zu tiles, %llu tile bytes, %.2f:1 vs raw "
               "half tiles; directory %llu bytes; U %zu packets), quality %.0f, %.2f s\n",
-              in.c_str(), w, h, comps, md.level_count, tile, border, out.c_str(), file->size(), tiles.size(),
+              in.c_str(), w, h, comps, md.level_count, tile, border, out.c_str(), file->size(), inputs.tiles.size(),
               static_cast<unsigned long long>(tile_bytes), raw / static_cast<double>(tile_bytes),
               static_cast<unsigned long long>(dir->header.directory_size), dir->packets.size(), quality, seconds);
   for (uint32_t l = 0; l < md.level_count; ++l)

@@ -18,6 +18,7 @@
 #include "btflod/core/half.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
+#include "common/bsvtf_input.hpp"
 
 namespace btflod::demo {
 
@@ -157,30 +158,12 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   md.level_count = pyramid->geometry().level_count();
   md.component_count = C;
   md.u_rows = L * V * 3;
-  md.light_set = btf->lights().name();
-  md.view_set = btf->views().name();
-  for (size_t i = 0; i < btf->lights().size(); ++i)
-    for (int k = 0; k < 3; ++k) md.light_directions.push_back(btf->lights()[i].vector[k]);
-  for (size_t i = 0; i < btf->views().size(); ++i)
-    for (int k = 0; k < 3; ++k) md.view_directions.push_back(btf->views()[i].vector[k]);
-  const VtLevelTable& levels = pyramid->levels();
-  const TileLayout layout{s.tile_size, s.border, 4};
-  std::vector<std::vector<float>> samples;
-  std::vector<BsvtfTileInput> tiles;
-  for (uint32_t k = 0; k < pyramid->texture_count(); ++k)
-    for (uint32_t l = 0; l < md.level_count; ++l)
-      for (uint32_t y = 0; y < levels.tiles_y[l]; ++y)
-        for (uint32_t x = 0; x < levels.tiles_x[l]; ++x) {
-          const uint32_t i = levels.index(l, x, y);
-          std::vector<float> t(layout.sample_count());
-          half_to_float(pyramid->tile_texels(k, i), t);
-          samples.push_back(std::move(t));
-          tiles.push_back({TileId{k, l, x, y}, {}, pyramid->weights(k)[i].to_float()});
-        }
-  for (size_t i = 0; i < tiles.size(); ++i) tiles[i].samples = samples[i];
+  samples::set_bsvtf_directions(md, btf->lights(), btf->views());
+  const samples::BsvtfTileInputs inputs =
+      samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
   BsvtfBuildOptions bo;
   bo.quality = s.quality;
-  auto file = build_bsvtf(md, m.u, tiles, bo);
+  auto file = build_bsvtf(md, m.u, inputs.tiles, bo);
   if (!file) return file.error();
   m.bsvtf = std::move(*file);
   m.bsvtf_path = (std::filesystem::path(out_dir) / (m.name + ".bsvtf")).string();

@@ -182,6 +182,8 @@ class StreamingPipeline {
       }
     }
     work_.notify_all();
+    slot_free_.notify_all();  // a cancelled job may be waiting for a ready slot or another fetch
+    fetch_done_.notify_all();
   }
 
   /// Hands at most `budget` decoded items to `sink(const StreamDelivery&)`, oldest first, and
@@ -263,6 +265,7 @@ class StreamingPipeline {
     }
     work_.notify_all();
     slot_free_.notify_all();
+    fetch_done_.notify_all();
     for (auto& t : workers_) t.join();
     workers_.clear();
   }
@@ -271,6 +274,8 @@ class StreamingPipeline {
   struct Job {  // one per worker: what it is working on
     StreamItem item;
     bool active = false;
+    bool fetching = false;  // reading `fetching_key` from the source right now
+    uint64_t fetching_key = 0;
     std::atomic<bool> cancel{false};
   };
   struct ReadySlot {
@@ -400,29 +405,47 @@ class StreamingPipeline {
   // Fetches and verifies one payload into `bytes` (from the cache or the source).
   Status fetch(const StreamItem& item, uint64_t offset, uint32_t size, uint32_t crc, bool ancestor, Job& job,
                std::vector<uint8_t>& bytes, std::string& why) {
+    const uint64_t key = item.key();
     {
-      std::lock_guard lock(mutex_);
-      if (cache_get(item.key(), bytes)) {
+      // Another worker reading the same payload (a tile fetched as an ancestor while it is also
+      // requested itself) is waited for, so every payload crosses the network once.
+      std::unique_lock lock(mutex_);
+      fetch_done_.wait(lock, [&] { return stopping_ || job.cancel.load() || !fetching_elsewhere(key, job); });
+      if (stopping_ || job.cancel.load()) return Status::cancelled;
+      if (cache_get(key, bytes)) {
         ++progress_.cache_hits;
         return Status::success;
       }
       ++progress_.fetches;
       if (ancestor) ++progress_.ancestor_fetches;
+      job.fetching = true;
+      job.fetching_key = key;
     }
     bytes.resize(size);
     auto r = source_.read(offset, bytes, &job.cancel);
+    Status s = r ? verify_bsvtf_payload(size, crc, bytes) : r.status();
     if (!r) {
       why = r.message();
-      return r.status();
-    }
-    if (verify_bsvtf_payload(size, crc, bytes) != Status::success) {
+    } else if (s != Status::success) {
       why = format_message("payload of %u bytes at %llu fails its checksum %08x", size, static_cast<unsigned long long>(offset), crc);
-      return Status::bad_data;
+      s = Status::bad_data;
     }
-    std::lock_guard lock(mutex_);
-    progress_.bytes_received += size;
-    cache_put(item.key(), bytes);
-    return Status::success;
+    {
+      std::lock_guard lock(mutex_);
+      job.fetching = false;
+      if (s == Status::success) {
+        progress_.bytes_received += size;
+        cache_put(key, bytes);
+      }
+    }
+    fetch_done_.notify_all();
+    return s;
+  }
+
+  bool fetching_elsewhere(uint64_t key, const Job& self) const {  // mutex_ held
+    for (const auto& job : jobs_)
+      if (&job != &self && job.fetching && job.fetching_key == key) return true;
+    return false;
   }
 
   // Decodes a tile and its missing ancestors into `out`. Returns the failing status and item.
@@ -525,18 +548,20 @@ class StreamingPipeline {
           }
           break;
         }
-        if (s == Status::cancelled || stopping_ || job.cancel.load()) break;
+        if (s == Status::cancelled) break;
         if (decode_failed) {  // verified bytes that do not decode: skip, no retry
           ++progress_.decode_failures;
           ++progress_.skipped;
           record(failed, Status::bad_data, true, std::move(why));
           break;
         }
+        // A fault is counted even when the item was cancelled meanwhile; it is just not retried.
         if (checksum) {
           ++progress_.checksum_failures;
         } else {
           ++progress_.source_errors;
         }
+        if (stopping_ || job.cancel.load()) break;
         const bool skip = attempt >= config_.max_retries;
         record(failed, s, skip, std::move(why));
         if (skip) {
@@ -557,7 +582,7 @@ class StreamingPipeline {
   TileLayout layout_;
 
   mutable std::mutex mutex_;
-  std::condition_variable work_, slot_free_;
+  std::condition_variable work_, slot_free_, fetch_done_;
   bool stopping_ = false;
   std::vector<StreamItem> pending_;
   size_t next_ = 0;

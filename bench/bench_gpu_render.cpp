@@ -4,12 +4,16 @@
 // Each iteration: begin_frame, one full-screen draw, end_frame, wait_idle (so the GPU work is
 // inside the timing). BSVTF runs with levels 0..2 resident and the finest level over the left
 // half of the texture (the quad is shown at about one texel per pixel at 512²).
+// BM_*_Pairs interleave the two programs and report the median per-pair frame-rate ratio.
 // btflod-link: btflod_gl_backend btflod_vk_backend
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "../tests/test_shader_scene.hpp"
 #include "gl_backend.hpp"
@@ -99,10 +103,53 @@ void render(benchmark::State& state, bool vulkan, ShaderProgram program) {
   state.counters["V_MiB"] = (program == ShaderProgram::fmf ? s.fmf_bytes : s.bsvtf_bytes) / (1024.0 * 1024.0);
 }
 
+// FMF and BSVTF frames interleaved (order alternating per iteration), so that load from other
+// processes hits both alike: the ratio counter is the median over iterations of the per-pair
+// BSVTF/FMF frame-rate ratio (t_fmf / t_bsvtf), next to each program's median frame time.
+void render_pairs(benchmark::State& state, bool vulkan) {
+  const int size = static_cast<int>(state.range(0));
+  static Scene scenes[2];
+  Scene& s = scenes[vulkan ? 1 : 0];
+  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
+  if (!s.backend) {
+    state.SkipWithError(("backend unavailable: " + s.error).c_str());
+    return;
+  }
+  s.frame.width = s.frame.height = static_cast<uint32_t>(size);
+  const auto one = [&](ShaderProgram program) {
+    const auto t0 = std::chrono::steady_clock::now();
+    s.backend->begin_frame(s.frame);
+    s.backend->draw(program, s.mesh, program == ShaderProgram::fmf ? s.fmf : s.bsvtf, s.params);
+    s.backend->end_frame();
+    s.backend->wait_idle();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (int warm = 0; warm < 2; ++warm) one(ShaderProgram::fmf), one(ShaderProgram::bsvtf);
+  std::vector<double> tf, tb, ratio;
+  for (auto _ : state) {
+    const bool fmf_first = (tf.size() & 1) == 0;
+    const double a = one(fmf_first ? ShaderProgram::fmf : ShaderProgram::bsvtf);
+    const double b = one(fmf_first ? ShaderProgram::bsvtf : ShaderProgram::fmf);
+    tf.push_back(fmf_first ? a : b);
+    tb.push_back(fmf_first ? b : a);
+    ratio.push_back(tf.back() / tb.back());
+  }
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["ms_fmf"] = median(tf);
+  state.counters["ms_bsvtf"] = median(tb);
+  state.counters["bsvtf_fps_over_fmf"] = median(ratio);
+}
+
 void BM_Gl_Fmf(benchmark::State& st) { render(st, false, ShaderProgram::fmf); }
 void BM_Gl_Bsvtf(benchmark::State& st) { render(st, false, ShaderProgram::bsvtf); }
 void BM_Vk_Fmf(benchmark::State& st) { render(st, true, ShaderProgram::fmf); }
 void BM_Vk_Bsvtf(benchmark::State& st) { render(st, true, ShaderProgram::bsvtf); }
+void BM_Gl_Pairs(benchmark::State& st) { render_pairs(st, false); }
+void BM_Vk_Pairs(benchmark::State& st) { render_pairs(st, true); }
 
 }  // namespace
 
@@ -110,4 +157,6 @@ BENCHMARK(BM_Gl_Fmf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseReal
 BENCHMARK(BM_Gl_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Vk_Fmf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Vk_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Gl_Pairs)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Vk_Pairs)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK_MAIN();

@@ -3,13 +3,16 @@
 // votes (eq. 9), the scheduler plans add/swap operations (§5, P = w·v), the requested tiles are
 // fetched from a THROTTLED source through the streaming pipeline (one .bsvtf container per
 // material), decoded, uploaded into the cache slots the scheduler reserved, and the GPU page
-// table is rewritten. The same view is then rendered with FMF (eq. 5, every eigen-texture
-// resident, uncompressed): that is the converged image the SSIM is measured against, and the
-// frame time of both programs is measured on the same view in the same run.
+// table is brought up to date with the cache's deltas (vt/tile_cache.hpp, converted by
+// backend/page_table_writes.hpp; whole tables only at start-up or after a delta overflow). The
+// same view is also rendered with FMF (eq. 5, every eigen-texture resident, uncompressed): that
+// is the converged image the SSIM is measured against, and the frame time of both programs is
+// measured on the same view in the same frame, in alternating order.
 #pragma once
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <memory>
@@ -56,6 +59,7 @@ struct FrameRecord {
   double ms_bsvtf = 0;          ///< BSVTF colour pass + feedback pass, submit to read-back
   double ms_fmf = 0;            ///< FMF colour pass, submit to read-back
   uint32_t requests = 0, uploads = 0;
+  uint32_t page_table_writes = 0;  ///< GPU page-table texels written after this frame (deltas)
   bool settle = false;          ///< camera held at the last view (convergence phase)
 };
 
@@ -90,8 +94,11 @@ class FrameRenderer {
                           const std::vector<DemoMaterial>& materials, const std::vector<scene::SceneObject>& objects) = 0;
   virtual Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) = 0;
   virtual Status write_page_table(std::span<const PageTableWrite> writes) = 0;
-  /// BSVTF image + feedback words (screen / 2^shift), then the FMF image of the same view, with
-  /// the time of each pass in ms. `params(m)` gives material m's uniforms.
+  /// True when the image depends on the writes above (GPU); the CPU reference reads the cache.
+  virtual bool renders_page_table() const { return false; }
+  /// BSVTF image + feedback words (screen / 2^shift) and the FMF image of the same view, with
+  /// the time of each pass in ms; even frames render BSVTF first, odd frames FMF first (so
+  /// neither pass always follows the streaming work). `params(m)` gives material m's uniforms.
   virtual VoidResult render(const scene::View& view, uint64_t frame, uint32_t feedback_shift,
                             const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
                             std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) = 0;
@@ -130,7 +137,8 @@ class GpuFrameRenderer final : public FrameRenderer {
     return be_.upload_tiles({&up, 1});
   }
   Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
-  VoidResult render(const scene::View& view, uint64_t, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
+  bool renders_page_table() const override { return true; }
+  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
                     Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
                     double& ms_fmf) override {
     FrameDesc desc;
@@ -139,24 +147,55 @@ class GpuFrameRenderer final : public FrameRenderer {
     desc.feedback_width = (view.width + (1u << shift) - 1) >> shift;
     desc.feedback_height = (view.height + (1u << shift) - 1) >> shift;
     desc.clear_color[0] = 0.45f, desc.clear_color[1] = 0.55f, desc.clear_color[2] = 0.7f, desc.clear_color[3] = 1.0f;
-    auto t0 = std::chrono::steady_clock::now();
+    if ((frame & 1) == 0) {
+      if (auto e = render_bsvtf(desc, frame, shift, params, bsvtf, feedback, ms_bsvtf); !e) return e;
+      return render_fmf(desc, params, fmf, ms_fmf);
+    }
+    if (auto e = render_fmf(desc, params, fmf, ms_fmf); !e) return e;
+    return render_bsvtf(desc, frame, shift, params, bsvtf, feedback, ms_bsvtf);
+  }
+
+ private:
+  // The feedback pass (1/2^shift of the screen, paper 000 §5 / issue #5) for every mesh first,
+  // then the BSVTF colour pass: one render-target switch per frame instead of two per mesh
+  // (on llvmpipe each switch flushes the binned scene). Each feedback texel samples one screen
+  // pixel of its 2^shift × 2^shift block, a different one every frame (lod/feedback.hpp's
+  // feedback_sample_offset): the projection is shifted by the offset from the texel centre.
+  VoidResult render_bsvtf(const FrameDesc& desc, uint64_t frame, uint32_t shift,
+                          const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf,
+                          std::vector<uint32_t>& feedback, double& ms) {
+    const uint32_t d = 1u << shift;
+    uint32_t dx = 0, dy = 0;
+    feedback_sample_offset(frame, d, dx, dy);
+    const float fd = static_cast<float>(d);
+    const glm::vec2 jitter{(0.5f - (static_cast<float>(dx) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_width),
+                           (0.5f - (static_cast<float>(dy) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_height)};
+    const glm::mat4 shift_ndc = glm::translate(glm::mat4(1.0f), glm::vec3(jitter, 0.0f));
+    const auto t0 = std::chrono::steady_clock::now();
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
     for (size_t i = 0; i < meshes_.size(); ++i) {
-      const uint32_t m = material_of_[i];
-      ShaderParams p = params(m);
+      ShaderParams p = params(material_of_[i]);
+      p.model_view_proj = shift_ndc * p.model_view_proj;
       p.lod.y = static_cast<float>(shift);
       if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
+    }
+    for (size_t i = 0; i < meshes_.size(); ++i) {
+      const uint32_t m = material_of_[i];
       if (be_.draw(ShaderProgram::bsvtf, meshes_[i], bsvtf_mats_[m], params(m)) != Status::success)
         return make_error(Status::io_error, "draw (bsvtf) failed");
     }
     if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
     if (be_.read_color(bsvtf.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
-    ms_bsvtf = ms_since(t0);
+    ms = ms_since(t0);
     be_.wait_idle();
     FeedbackFrame fb;
     feedback.clear();
     while (be_.poll_feedback(fb)) feedback.assign(fb.words.begin(), fb.words.end());
-    t0 = std::chrono::steady_clock::now();
+    return {};
+  }
+  VoidResult render_fmf(const FrameDesc& desc, const std::function<ShaderParams(uint32_t)>& params, Image<float>& fmf,
+                        double& ms) {
+    const auto t0 = std::chrono::steady_clock::now();
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
     for (size_t i = 0; i < meshes_.size(); ++i) {
       const uint32_t m = material_of_[i];
@@ -165,14 +204,14 @@ class GpuFrameRenderer final : public FrameRenderer {
     }
     if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
     if (be_.read_color(fmf.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
-    ms_fmf = ms_since(t0);
+    ms = ms_since(t0);
     be_.wait_idle();
+    FeedbackFrame fb;
     while (be_.poll_feedback(fb)) {
     }  // the FMF pass draws no feedback: drop its (empty) readback
     return {};
   }
 
- private:
   Backend& be_;
   std::vector<MeshHandle> meshes_;
   std::vector<uint32_t> material_of_;
@@ -361,7 +400,8 @@ class StreamingRenderer {
       if (renderer_.upload_tile(q.slot, staging_[q.id]) != Status::success) upload_status = Status::io_error;
     });
     if (upload_status != Status::success) return make_error(upload_status, "tile upload failed");
-    if (auto e = write_page_tables(); !e) return e.error();
+    if (auto e = write_page_tables(false); !e) return e.error();
+    rec.page_table_writes = static_cast<uint32_t>(writes_.size());
     for (const auto& p : pipelines_) {
       const PipelineProgress pr = p->progress();
       rec.bytes_received += pr.bytes_received;
@@ -413,14 +453,127 @@ class StreamingRenderer {
     o.erase(std::remove_if(o.begin(), o.end(), [&](const StreamItem& i) { return i.key() == key; }), o.end());
   }
 
-  VoidResult write_page_tables() {
+  // Brings the GPU page table in line with the cache. `full` (start-up) or a delta overflow:
+  // every texel of every level. Otherwise the cache's deltas (backend/page_table_writes.hpp)
+  // plus, for every tile that entered or left a slot since the last call, its own-level chain
+  // (append_tile_chain_writes): a tile inserted or removed while hidden by resident descendants
+  // changes no finest-level entry, so no delta names it. Slots are compared with a snapshot of
+  // the previous call (O(slots), no allocation once writes_ has grown).
+  VoidResult write_page_tables(bool full) {
     writes_.clear();
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
+    if (full || cache_->deltas_overflowed()) {
+      for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
+      ++full_rewrites_;
+    } else {
+      append_page_table_writes(*cache_, cache_->deltas(), writes_);
+      for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
+        const SlotInfo& si = cache_->slot(s);
+        const bool used = si.state == SlotInfo::State::used;
+        if (used == (slot_used_[s] != 0) && (!used || si.tile == slot_tiles_[s])) continue;
+        if (slot_used_[s]) append_tile_chain_writes(*cache_, slot_tiles_[s], writes_);
+        if (used) append_tile_chain_writes(*cache_, si.tile, writes_);
+      }
+    }
+    for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
+      const SlotInfo& si = cache_->slot(s);
+      slot_used_[s] = si.state == SlotInfo::State::used ? 1 : 0;
+      slot_tiles_[s] = si.tile;
+    }
     cache_->clear_deltas();
+    for (const PageTableWrite& w : writes_) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
+    total_page_table_writes_ += writes_.size();
     if (renderer_.write_page_table(writes_) != Status::success)
       return make_error(Status::io_error, "page-table writes failed (%zu writes)", writes_.size());
     return {};
   }
+
+  size_t mirror_index(const TileId& t) const { return set_.levels_of(t.texture).index(t); }
+
+  // The entry the BSVTF shader ends up sampling at tile t (level l, not the finest) for finest
+  // tile f below it, from page table `table` (function of a tile): btflod_vt_fetch's rule, its
+  // own entry when it is at level l, else the deeper of it and f's.
+  template <class Table>
+  static uint32_t sampled_entry(const Table& table, const TileId& t, const TileId& f) {
+    const uint32_t e = table(t);
+    if (page_entry_level(e) == t.level) return e;
+    const uint32_t ef = table(f);
+    return page_entry_level(ef) > page_entry_level(e) ? ef : e;
+  }
+
+ public:
+  /// Page-table writes since set-up (deltas), full-table rewrites (start-up, overflows), and
+  /// the writes one full rewrite of every table takes.
+  uint64_t total_page_table_writes() const noexcept { return total_page_table_writes_; }
+  uint32_t full_rewrites() const noexcept { return full_rewrites_; }
+  size_t full_page_table_size() const noexcept {
+    size_t n = 0;
+    for (uint32_t t = 0; t < set_.texture_count(); ++t) n += set_.levels_of(t).tile_count();
+    return n;
+  }
+
+  /// Checks that the page table built from deltas equals a from-scratch rebuild as far as the
+  /// shader can tell: for every texel of every level, the CPU mirror of the GPU table (every
+  /// write applied) and gpu_page_entry() of the cache give the same sampled entry (own entry
+  /// when resident at its level, else the deeper of it and the finest entry), and mip 0 is
+  /// identical. Then, on a GPU renderer, renders `view_frame` with the delta-built table,
+  /// rewrites every table from scratch, renders again and requires identical images. Returns
+  /// the first difference (texture, level, tile, entries) or the largest pixel difference.
+  VoidResult check_page_tables_against_rebuild(uint32_t view_frame, uint32_t frames, Image<float>& a, Image<float>& b) {
+    for (uint32_t t = 0; t < set_.texture_count(); ++t) {
+      const VtLevelTable& lv = set_.levels_of(t);
+      const uint32_t L = lv.finest_level();
+      const auto mirror = [&](const TileId& id) { return page_mirror_[t][lv.index(id)]; };
+      const auto rebuild = [&](const TileId& id) { return gpu_page_entry(*cache_, id); };
+      for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+        const TileId id = lv.tile(t, i);
+        if (id.level == L) {
+          if (mirror(id) != rebuild(id))
+            return make_error(Status::invalid_argument, "page table %u: finest tile (%u,%u) holds 0x%08x, rebuild 0x%08x", t,
+                              id.x, id.y, mirror(id), rebuild(id));
+          continue;
+        }
+        const uint32_t side = 1u << (L - id.level);
+        for (uint32_t y = id.y * side; y < std::min((id.y + 1) * side, lv.tiles_y[L]); ++y)
+          for (uint32_t x = id.x * side; x < std::min((id.x + 1) * side, lv.tiles_x[L]); ++x) {
+            const TileId f{t, L, x, y};
+            const uint32_t m = sampled_entry(mirror, id, f), r = sampled_entry(rebuild, id, f);
+            if (m != r)
+              return make_error(Status::invalid_argument,
+                                "page table %u: level %u tile (%u,%u) over finest (%u,%u) samples 0x%08x, rebuild 0x%08x", t,
+                                id.level, id.x, id.y, x, y, m, r);
+          }
+      }
+    }
+    if (!renderer_.renders_page_table()) return {};
+    const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
+    const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
+    const auto params = [&](uint32_t m) { return material_params(base, m); };
+    std::vector<uint32_t> feedback;
+    double ms_a = 0, ms_b = 0;
+    if (auto e = renderer_.render(view, 0, s_.feedback_shift, params, a, b, feedback, ms_a, ms_b); !e) return e;
+    Image<float> delta_built = a;
+    writes_.clear();
+    for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
+    if (renderer_.write_page_table(writes_) != Status::success)
+      return make_error(Status::io_error, "page-table rebuild failed (%zu writes)", writes_.size());
+    for (const PageTableWrite& w : writes_) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
+    if (auto e = renderer_.render(view, 0, s_.feedback_shift, params, a, b, feedback, ms_a, ms_b); !e) return e;
+    float worst = 0.0f;
+    int wx = 0, wy = 0;
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x)
+        for (int c = 0; c < 4; ++c) {
+          const float d = std::abs(a.at(x, y, c) - delta_built.at(x, y, c));
+          if (d > worst || std::isnan(d)) worst = std::isnan(d) ? 1e30f : d, wx = x, wy = y;
+        }
+    if (worst != 0.0f)
+      return make_error(Status::invalid_argument,
+                        "BSVTF image with the delta-built page table differs from the rebuilt one by %g at (%d,%d)",
+                        static_cast<double>(worst), wx, wy);
+    return {};
+  }
+
+ private:
 
   VoidResult init() {
     const DemoMaterial& first = materials_.front();
@@ -520,7 +673,12 @@ class StreamingRenderer {
       if (got < vm.texture_count) return make_error(Status::io_error, "%s: root tiles did not arrive", materials_[m].name.c_str());
       pipelines_[m]->request({});
     }
-    return write_page_tables();
+    slot_tiles_.assign(cache_->slot_count(), TileId{});
+    slot_used_.assign(cache_->slot_count(), 0);
+    page_mirror_.resize(set_.texture_count());
+    for (uint32_t t = 0; t < set_.texture_count(); ++t) page_mirror_[t].assign(set_.levels_of(t).tile_count(), 0u);
+    writes_.reserve(4096);
+    return write_page_tables(true);
   }
 
   FrameRenderer& renderer_;
@@ -539,6 +697,11 @@ class StreamingRenderer {
   std::vector<std::vector<uint16_t>> staging_;
   std::vector<uint32_t> feedback_;
   std::vector<PageTableWrite> writes_;
+  std::vector<TileId> slot_tiles_;                  // tile per slot at the last write_page_tables()
+  std::vector<uint8_t> slot_used_;                  // slot held a tile then
+  std::vector<std::vector<uint32_t>> page_mirror_;  // per texture: every GPU page-table texel written so far
+  uint64_t total_page_table_writes_ = 0;
+  uint32_t full_rewrites_ = 0;
   std::vector<scene::SceneObject> objects_;
   MemoryFigures memory_;
 };

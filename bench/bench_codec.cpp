@@ -20,8 +20,10 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <string>
 #include <vector>
 
+#include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 #include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
@@ -50,17 +52,19 @@ struct Content {
   size_t u_rows = 0;                // m: rows of U
 };
 
-// Eigen-textures of a synthesised, FMF-factorised material, as a tile pyramid.
-const Content& content() {
-  static const Content c = [] {
+// Eigen-textures of a synthesised, FMF-factorised material, as a tile pyramid. `brdf`, when not
+// null, is the base reflectance (a measured car paint) instead of the analytic one.
+Content make_content(SynthMaterial material, const MeasuredBrdf* brdf) {
+  {
     Content out;
     const float thetas[] = {0.0f, 30.0f, 60.0f};
     const int counts[] = {1, 6, 12};
     SynthesisOptions so;
     so.views = DirectionSet::from_rings("bench19", thetas, counts, {}, false);
     so.lights = so.views;
+    so.measured_brdf = brdf;
     const int w = 128;
-    auto btf = synthesize_material(SynthMaterial::stone, w, w, 7, so);
+    auto btf = synthesize_material(material, w, w, 7, so);
     if (!btf) {
       std::fprintf(stderr, "synthesis failed: %s\n", btf.message().c_str());
       std::exit(1);
@@ -122,8 +126,21 @@ const Content& content() {
       }
     out.raw_half_bytes = out.tiles.size() * kLayout.sample_count() * 2;
     return out;
-  }();
+  }
+}
+const Content& content() {  // the timed content: procedural stone, analytic BRDF (noisy, hard to code)
+  static const Content c = make_content(SynthMaterial::stone, nullptr);
   return c;
+}
+// A smoother material for the ratio table: leather mesostructure with a measured car-paint BRDF.
+const Content* smooth_content() {
+  static const MeasuredBrdf brdf = [] {
+    auto b = read_mbsdf(std::string(BTFLOD_SHARED_DIR) + "/data/measured/carpaint_red.mbsdf");
+    return b ? std::move(*b) : MeasuredBrdf{};
+  }();
+  if (brdf.empty()) return nullptr;
+  static const Content c = make_content(SynthMaterial::leather, &brdf);
+  return &c;
 }
 
 struct Coded {
@@ -136,14 +153,12 @@ struct Coded {
 
 // PSNR of the BTF reconstructed from the coded eigen-textures: U has orthonormal columns, so the
 // BTF's squared error per texel is Σ_c e_c² spread over m rows: RMSE_btf = RMSE_eig · √(C / m).
-double btf_psnr(double eigen_rmse) {
-  const Content& c = content();
+double btf_psnr(const Content& c, double eigen_rmse) {
   const double rmse_btf = eigen_rmse * std::sqrt(static_cast<double>(kComponents) / static_cast<double>(c.u_rows));
   return 20.0 * std::log10(c.btf_peak / rmse_btf);
 }
 
-Coded code_all(float quality) {
-  const Content& c = content();
+Coded code_all(float quality, const Content& c = content()) {
   Coded out;
   out.quality = quality;
   TileEncoder enc(kLayout);
@@ -176,11 +191,11 @@ struct Planes {
   std::vector<std::vector<uint8_t>> planes;
   std::vector<float> lo, scale;  // per plane
 };
-const Planes& planes() {
-  static const Planes p = [] {
+Planes make_planes(const Content& c) {
+  {
     Planes out;
     const uint32_t n = kLayout.stored_size();
-    for (const Tile& t : content().tiles)
+    for (const Tile& t : c.tiles)
       for (uint32_t k = 0; k < 4; ++k) {
         float lo = INFINITY, hi = -INFINITY;
         for (size_t i = k; i < t.samples.size(); i += 4) {
@@ -197,7 +212,10 @@ const Planes& planes() {
         out.scale.push_back(range / 255.0f);
       }
     return out;
-  }();
+  }
+}
+const Planes& planes() {
+  static const Planes p = make_planes(content());
   return p;
 }
 
@@ -208,8 +226,7 @@ struct JpegCoded {
   double rmse = 0;
 };
 
-JpegCoded jpeg_all(int quality) {
-  const Planes& p = planes();
+JpegCoded jpeg_all(int quality, const Content& content_ = content(), const Planes& p = planes()) {
   const int n = static_cast<int>(kLayout.stored_size());
   tjhandle c = tjInitCompress(), d = tjInitDecompress();
   JpegCoded out;
@@ -225,7 +242,7 @@ JpegCoded jpeg_all(int quality) {
     out.bytes += size;
     tjFree(buf);
     tjDecompress2(d, out.streams.back().data(), size, back.data(), n, n, n, TJPF_GRAY, 0);
-    const Tile& t = content().tiles[pi / 4];
+    const Tile& t = content_.tiles[pi / 4];
     const uint32_t k = static_cast<uint32_t>(pi % 4);
     for (size_t i = 0; i < back.size(); ++i) {
       const double v = p.lo[pi] + back[i] * p.scale[pi];
@@ -242,17 +259,17 @@ JpegCoded jpeg_all(int quality) {
 
 // The lowest JPEG quality whose RMSE is <= `target` (binary search; RMSE falls with quality),
 // or quality 100 when even that is above the target (8-bit rounding sets a floor).
-JpegCoded jpeg_matched(double target) {
+JpegCoded jpeg_matched(double target, const Content& c = content(), const Planes& p = planes()) {
   int lo = 1, hi = 100;
   while (lo < hi) {
     const int mid = (lo + hi) / 2;
-    if (jpeg_all(mid).rmse <= target) {
+    if (jpeg_all(mid, c, p).rmse <= target) {
       hi = mid;
     } else {
       lo = mid + 1;
     }
   }
-  return jpeg_all(lo);
+  return jpeg_all(lo, c, p);
 }
 
 constexpr float kBenchQuality = 50.0f;
@@ -294,6 +311,60 @@ void BM_btflod_decode_tile_zlib(benchmark::State& state) { decode_tiles(state, I
 BENCHMARK(BM_btflod_decode_tile_zlib);
 void BM_btflod_decode_tile_libdeflate(benchmark::State& state) { decode_tiles(state, InflateBackend::libdeflate); }
 BENCHMARK(BM_btflod_decode_tile_libdeflate);
+
+// Decode stages (profile): the same tiles, libdeflate backend. inflate = header checks + inflate
+// only; upsample = the parent prediction only; scalar = the whole decode with the AVX2 inverse
+// DCT disabled (its scalar twin). Symbol parsing + dequantisation + inverse DCT + add is the
+// whole decode minus inflate and upsample.
+void BM_btflod_decode_stage_inflate(benchmark::State& state) {
+  const Content& c = content();
+  const Coded& coded = coded_q();
+  TileDecoder dec(kLayout, InflateBackend::libdeflate);
+  std::vector<float> out(kLayout.sample_count());
+  size_t i = 0, symbols = 0;
+  for (auto _ : state) {
+    const Tile& t = c.tiles[i];
+    std::span<const float> parent;
+    if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
+    if (dec.inflate_symbols(coded.payloads[i], parent, out) != Status::success) state.SkipWithError("inflate");
+    symbols += dec.symbol_bytes();
+    i = (i + 1) % c.tiles.size();
+  }
+  set_rates(state, kLayout.sample_count());
+  state.counters["symbol_bytes_per_tile"] = static_cast<double>(symbols) / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_btflod_decode_stage_inflate);
+void BM_btflod_decode_stage_upsample(benchmark::State& state) {
+  const Coded& coded = coded_q();
+  const auto& parent = coded.recon.begin()->second;
+  std::vector<float> out(kLayout.sample_count());
+  uint32_t q = 0;
+  for (auto _ : state) {
+    upsample_parent(kLayout, parent.data(), q & 1, q >> 1 & 1, out.data());
+    benchmark::DoNotOptimize(out.data());
+    ++q;
+  }
+  set_rates(state, kLayout.sample_count());
+}
+BENCHMARK(BM_btflod_decode_stage_upsample);
+void BM_btflod_decode_tile_libdeflate_scalar(benchmark::State& state) {
+  const Content& c = content();
+  const Coded& coded = coded_q();
+  TileDecoder dec(kLayout, InflateBackend::libdeflate);
+  dec.set_simd(false);
+  std::vector<float> out(kLayout.sample_count());
+  size_t i = 0;
+  for (auto _ : state) {
+    const Tile& t = c.tiles[i];
+    std::span<const float> parent;
+    if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
+    if (dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) != Status::success) state.SkipWithError("decode");
+    benchmark::DoNotOptimize(out.data());
+    i = (i + 1) % c.tiles.size();
+  }
+  set_rates(state, kLayout.sample_count());
+}
+BENCHMARK(BM_btflod_decode_tile_libdeflate_scalar);
 
 void BM_turbojpeg_decode_tile_4_planes(benchmark::State& state) {
   const JpegCoded& j = jpeg_q();
@@ -458,26 +529,36 @@ void BM_zlib_deflate_raw_halves_encode_tile(benchmark::State& state) {
 BENCHMARK(BM_zlib_deflate_raw_halves_encode_tile);
 
 // --- compression ratio table -----------------------------------------------------------------
-void print_ratio_table() {
-  const Content& c = content();
-  std::printf("Tile content: %zu tiles of %ux%u x 4 components (FMF eigen-textures V*S of a synthesised stone BTF,\n"
-              "  %zu rows of U, BTF peak %.3f), raw halves %zu bytes\n",
-              c.tiles.size(), kLayout.stored_size(), kLayout.stored_size(), c.u_rows, c.btf_peak, c.raw_half_bytes);
-  std::printf("deflate(zlib 6) alone on raw halves: ratio %.2f:1 (lossless)\n",
-              static_cast<double>(c.raw_half_bytes) / deflated_halves().bytes);
+void print_ratio_table(const Content& c, const char* name) {
+  const Planes p = make_planes(c);
+  std::printf("Tile content: %s: %zu tiles of %ux%u x 4 components (FMF eigen-textures V*S, %zu rows of U,\n"
+              "  BTF peak %.3f), raw halves %zu bytes\n",
+              name, c.tiles.size(), kLayout.stored_size(), kLayout.stored_size(), c.u_rows, c.btf_peak, c.raw_half_bytes);
   std::printf("%7s | %13s %9s %12s %9s | %8s %9s %9s\n", "quality", "btflod B/tile", "ratio", "eigen RMSE", "BTF PSNR",
               "jpeg q", "ratio", "BTF PSNR");
   for (float q : {5.0f, 10.0f, 25.0f, 50.0f, 75.0f, 90.0f}) {
-    const Coded cd = code_all(q);
-    const JpegCoded j = jpeg_matched(cd.rmse);
+    const Coded cd = code_all(q, c);
+    const JpegCoded j = jpeg_matched(cd.rmse, c, p);
     std::printf("%7.0f | %13.0f %8.2f:1 %12.3g %8.2fdB | %8d %8.2f:1 %8.2fdB\n", q,
                 static_cast<double>(cd.bytes) / c.tiles.size(), static_cast<double>(c.raw_half_bytes) / cd.bytes, cd.rmse,
-                btf_psnr(cd.rmse), j.quality, static_cast<double>(c.raw_half_bytes) / j.bytes, btf_psnr(j.rmse));
+                btf_psnr(c, cd.rmse), j.quality, static_cast<double>(c.raw_half_bytes) / j.bytes, btf_psnr(c, j.rmse));
+  }
+  std::printf("\n");
+}
+
+void print_ratio_tables() {
+  std::printf("deflate(zlib 6) alone on the stone's raw halves: ratio %.2f:1 (lossless)\n",
+              static_cast<double>(content().raw_half_bytes) / deflated_halves().bytes);
+  print_ratio_table(content(), "procedural stone, analytic BRDF (noisy; the timed content)");
+  if (const Content* smooth = smooth_content()) {
+    print_ratio_table(*smooth, "procedural leather, measured car paint carpaint_red.mbsdf (smoother)");
+  } else {
+    std::printf("(car-paint material skipped: %s/data/measured/carpaint_red.mbsdf not readable)\n\n", BTFLOD_SHARED_DIR);
   }
   std::printf("(one shared absolute tolerance, ToleranceReference::shared_max; ratio = raw half floats / coded bytes;\n"
               " BTF PSNR = 20 log10(BTF peak / RMSE of the reconstructed BTF), exact from the eigen-texture error since U is\n"
               " orthonormal; JPEG codes each component plane as 8-bit gray over its own min..max at the lowest JPEG quality\n"
-              " whose RMSE is <= btflod's (100 when none is); the speeds below use quality %.0f)\n\n", kBenchQuality);
+              " whose RMSE is <= btflod's (100 when none is); the speeds below use quality %.0f on the stone)\n\n", kBenchQuality);
   std::fflush(stdout);
 }
 
@@ -486,7 +567,7 @@ void print_ratio_table() {
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  print_ratio_table();
+  print_ratio_tables();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

@@ -257,7 +257,11 @@ TEST_F(CodecContainerFailures, WrongSignatureVersionAndChecksums) {
   f[0] = 'X';
   EXPECT_EQ(read(f), Status::bad_data);
   f = file_;
-  patch<uint32_t>(f, 8, 2);
+  patch<uint32_t>(f, 8, 1);  // version 1 held tile format 1, which this decoder no longer reads
+  fix_header_crc(f);
+  EXPECT_EQ(read(f), Status::unsupported);
+  f = file_;
+  patch<uint32_t>(f, 8, kBsvtfVersion + 1);
   fix_header_crc(f);
   EXPECT_EQ(read(f), Status::unsupported);
   f = file_;

@@ -1,10 +1,17 @@
 // Tests for codec/tile_codec.hpp: parent up-sampling geometry, round trip within the tolerance,
-// closed-loop residual coding along a 6-level chain without drift, and failure classes
-// (truncated, trailing bytes, corrupted, wrong layout, missing parent, decompression bomb).
+// closed-loop residual coding along a 6-level chain without drift, the AVX2 inverse DCT against
+// its scalar twin, and failure classes (truncated, trailing bytes, corrupted, wrong layout,
+// missing parent, decompression bomb, hostile symbol streams: runs past the block, invalid
+// tokens, over-long varints, coefficients out of range, streams ending inside a block or
+// running past the tile). With BTFLOD_WRITE_TILE_SEEDS=<dir> it also writes the fuzz seeds of
+// fuzz/corpus/fuzz_tile_decoder into <dir>.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -270,14 +277,15 @@ TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
     b[offset] = value;
     return dec_.decode(b, parent_, 0, 1, out());
   };
-  EXPECT_EQ(mutate(0, 2), Status::bad_data);     // version
+  EXPECT_EQ(mutate(0, 1), Status::bad_data);     // version 1 is no longer read
+  EXPECT_EQ(mutate(0, 3), Status::bad_data);     // unknown version
   EXPECT_EQ(mutate(1, 16), Status::bad_data);    // block size
   EXPECT_EQ(mutate(2, 5), Status::bad_data);     // channels
   EXPECT_EQ(mutate(3, 0x81), Status::bad_data);  // unknown flag
   EXPECT_EQ(mutate(4, 80), Status::bad_data);    // width ≠ height
   EXPECT_EQ(mutate(11, 0xFF), Status::bad_data);  // tolerance → NaN
   auto b = encoded_.bytes;
-  const uint32_t too_many = static_cast<uint32_t>(layout_.sample_count() * 5 + 1);
+  const uint32_t too_many = static_cast<uint32_t>(btflod::tile_symbol_bound(layout_) + 1);
   std::memcpy(b.data() + 24, &too_many, 4);
   EXPECT_EQ(dec_.decode(b, parent_, 0, 1, out()), Status::bad_data) << "oversized symbol count";
   uint32_t declared = 0;
@@ -328,6 +336,215 @@ TEST_F(CodecTileFailures, RandomCorruptionNeverCrashesAndSuccessIsFinite) {
   }
   expect_canaries();
   EXPECT_LT(successes, 600);
+}
+
+// --- symbol stream (tile format 2) -----------------------------------------------------------
+
+// A payload with a valid header for `layout` and the given (hand-made) symbol stream.
+std::vector<uint8_t> payload_with_symbols(const TileLayout& layout, const std::vector<uint8_t>& symbols, float tol = 0.5f) {
+  std::vector<uint8_t> p(btflod::tile_header_size(layout.channels), 0);
+  p[0] = btflod::kTileFormatVersion;
+  p[1] = 8;
+  p[2] = static_cast<uint8_t>(layout.channels);
+  const uint16_t s = static_cast<uint16_t>(layout.stored_size());
+  std::memcpy(p.data() + 4, &s, 2);
+  std::memcpy(p.data() + 6, &s, 2);
+  for (uint32_t c = 0; c < layout.channels; ++c) std::memcpy(p.data() + 8 + 4 * c, &tol, 4);
+  const uint32_t n = static_cast<uint32_t>(symbols.size());
+  std::memcpy(p.data() + 8 + 4 * layout.channels, &n, 4);
+  z_stream z{};
+  EXPECT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::vector<uint8_t> packed(deflateBound(&z, symbols.size()) + 16);
+  z.next_in = const_cast<uint8_t*>(symbols.data());
+  z.avail_in = n;
+  z.next_out = packed.data();
+  z.avail_out = static_cast<uInt>(packed.size());
+  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
+  packed.resize(z.total_out);
+  deflateEnd(&z);
+  p.insert(p.end(), packed.begin(), packed.end());
+  return p;
+}
+
+class CodecTileSymbols : public ::testing::Test {
+ protected:
+  static constexpr size_t kBlocks = 3 * 3 * 4;  // 24×24 texels, 4 channels
+  // All blocks "DC 0, end of block", with block `index` replaced by `block`.
+  static std::vector<uint8_t> stream_with(size_t index, const std::vector<uint8_t>& block) {
+    std::vector<uint8_t> s;
+    for (size_t b = 0; b < kBlocks; ++b) {
+      if (b == index) {
+        s.insert(s.end(), block.begin(), block.end());
+      } else {
+        s.push_back(0);
+        s.push_back(0);
+      }
+    }
+    return s;
+  }
+  Status decode(const std::vector<uint8_t>& symbols) {
+    return dec_.decode(payload_with_symbols(layout_, symbols), {}, 0, 0, out_);
+  }
+  TileLayout layout_{16, 4, 4};
+  TileDecoder dec_{layout_};
+  std::vector<float> out_ = std::vector<float>(layout_.sample_count());
+};
+
+TEST_F(CodecTileSymbols, HandMadeStreamsDecodeToTheirCoefficients) {
+  // All-zero tile: the shortest valid stream.
+  ASSERT_EQ(decode(stream_with(kBlocks, {})), Status::success) << dec_.message();
+  for (float v : out_) ASSERT_EQ(v, 0.0f);
+  // Block 0 of channel 0: DC = +1 step (mapped 2), then coefficient 63 = −1 via three 16-zero runs
+  // and a run of 14 (positions 1..62 zero), no end-of-block byte after position 63.
+  ASSERT_EQ(decode(stream_with(0, {0x02, 0xF0, 0xF0, 0xF0, 0xE1})), Status::success) << dec_.message();
+  const auto& factors = btflod::quant_step_factors<8>();
+  const auto& basis = btflod::dct_basis<8, float>();
+  for (uint32_t y = 0; y < 8; ++y)
+    for (uint32_t x = 0; x < 8; ++x) {
+      // X = Cᵀ Y C with Y00 = 0.5·f0, Y77 = −0.5·f63 (tolerance 0.5).
+      const double expect = 0.5 * factors[0] * basis[0 * 8 + y] * basis[0 * 8 + x] -
+                            0.5 * factors[63] * basis[7 * 8 + y] * basis[7 * 8 + x];
+      ASSERT_NEAR(out_[(y * 24 + x) * 4], expect, 1e-5) << x << "," << y;
+    }
+  // The next block of channel 0 (block code 4) inherits DC = 1 step: a DC difference of 0 keeps it.
+  const double dc = 0.5 * factors[0] / 8.0;
+  EXPECT_NEAR(out_[(0 * 24 + 8) * 4], dc, 1e-6);
+  EXPECT_EQ(out_[(0 * 24 + 0) * 4 + 1], 0.0f) << "channel 1 untouched";
+  // Escaped value: mapped 15 + 100 = 115 → −58 at position 1; a 2-byte DC varint.
+  ASSERT_EQ(decode(stream_with(1, {0x80, 0x00, 0x0F, 100, 0x00})), Status::success) << dec_.message();
+  EXPECT_NEAR(out_[1] , -58.0 * 0.5 * factors[1] * basis[0] * basis[8 + 0], 1e-4);
+}
+
+TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
+  struct Case {
+    std::vector<uint8_t> symbols;
+    const char* message_part;
+  };
+  std::vector<uint8_t> too_long_tail = stream_with(kBlocks, {});
+  too_long_tail.push_back(0);
+  too_long_tail.push_back(0);
+  std::vector<uint8_t> ends_inside = stream_with(0, {0x80, 0x00, 0x00});  // 2-byte DC varint: one byte over
+  ends_inside.resize(ends_inside.size() - 2);                             // ... and the last block loses its EOB
+  ends_inside.push_back(0x00);                                            // last block: DC only
+  const Case cases[] = {
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF0, 0x00}), "zero run past the end"},  // 64 zeros
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF1, 0x00}), "zero run past the end"},  // value at 64
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xE1, 0x01}), "longer than the tile"},   // a token after 63
+      {stream_with(0, {0x00, 0x10, 0x00}), "invalid token"},
+      {stream_with(0, {0x80, 0x80, 0x80, 0x80, 0x80, 0x01, 0x00}), "DC varint"},        // 6-byte varint
+      {stream_with(0, {0xFF, 0xFF, 0xFF, 0xFF, 0x0F, 0x00}), "DC varint"},              // ≥ 2^31
+      {stream_with(0, {0x82, 0x80, 0x80, 0x80, 0x04, 0x00}), "DC coefficient beyond"},  // mapped 2^30+2: 2^29+1
+      {stream_with(0, {0x00, 0x0F, 0x80, 0x80, 0x80, 0x80, 0x04, 0x00}), "AC coefficient beyond"},
+      {stream_with(kBlocks - 1, {0x00, 0x0F, 0x80, 0x80}), "coefficient varint"},  // stream ends in the varint
+      {ends_inside, "ends inside a block"},
+      {too_long_tail, "longer than the tile"},
+  };
+  for (const Case& c : cases) {
+    std::fill(out_.begin(), out_.end(), 0.0f);
+    EXPECT_EQ(decode(c.symbols), Status::bad_data) << c.message_part;
+    EXPECT_NE(std::string(dec_.message()).find(c.message_part), std::string::npos) << dec_.message() << " vs " << c.message_part;
+  }
+  // Two DC differences of 2^29 each: the second block's DC leaves the ±2^29 range.
+  std::vector<uint8_t> s = stream_with(kBlocks, {});
+  const std::vector<uint8_t> half_range = {0x80, 0x80, 0x80, 0x80, 0x04, 0x00};  // mapped 2^30 = +2^29
+  s.erase(s.begin(), s.begin() + 2);
+  s.insert(s.begin(), half_range.begin(), half_range.end());
+  ASSERT_EQ(decode(s), Status::success) << "+2^29 steps is the largest allowed DC: " << dec_.message();
+  s.erase(s.begin() + 12, s.begin() + 14);  // block code 4 (6 + 3·2 bytes in) = channel 0 of block 1
+  s.insert(s.begin() + 12, half_range.begin(), half_range.end());
+  EXPECT_EQ(decode(s), Status::bad_data);
+  // A decoder that failed mid-block decodes the next good tile exactly (no stale coefficients).
+  ASSERT_EQ(decode(stream_with(kBlocks, {})), Status::success);
+  for (float v : out_) ASSERT_EQ(v, 0.0f);
+}
+
+TEST(CodecTile, SimdAndScalarDecodersAgree) {
+  const TileLayout layout;
+  TileEncoder enc(layout);
+  TileDecoder simd(layout), scalar(layout);
+  scalar.set_simd(false);
+  EXPECT_FALSE(scalar.uses_simd());
+  const auto parent_tile = make_tile(layout, 2, 1, 1);
+  const auto tile = make_tile(layout, 3, 2, 3);
+  for (float quality : {5.0f, 50.0f, 97.0f}) {
+    const auto e = encode(enc, tile, &parent_tile, 0, 1, tolerances(quality));
+    std::vector<float> a(layout.sample_count()), b(layout.sample_count());
+    ASSERT_EQ(simd.decode(e.bytes, parent_tile, 0, 1, a), Status::success) << simd.message();
+    ASSERT_EQ(scalar.decode(e.bytes, parent_tile, 0, 1, b), Status::success) << scalar.message();
+    double worst = 0;
+    for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::fabs(static_cast<double>(a[i]) - b[i]) / (1.0 + std::fabs(b[i])));
+    EXPECT_LT(worst, 2e-6) << "quality " << quality;
+    for (uint32_t c = 0; c < 4; ++c) EXPECT_LE(max_block_rms(layout, tile, b, c), tolerances(quality)[c] * 1.001);
+  }
+  if (!simd.uses_simd()) GTEST_SKIP() << "no AVX2/FMA here: both decoders ran the scalar twin";
+}
+
+TEST(CodecTile, ChannelCountsOneToThreeRoundTrip) {
+  for (uint32_t ch = 1; ch <= 3; ++ch) {
+    const TileLayout layout{16, 4, ch};
+    TileEncoder enc(layout);
+    TileDecoder dec(layout);
+    std::vector<float> tile(layout.sample_count());
+    for (size_t i = 0; i < tile.size(); ++i) tile[i] = std::sin(0.05f * static_cast<float>(i)) + 0.1f * static_cast<float>(i % 5);
+    std::vector<float> tol(ch, 0.01f), recon(layout.sample_count()), out(layout.sample_count());
+    std::vector<uint8_t> bytes(enc.bound());
+    size_t written = 0;
+    ASSERT_EQ(enc.encode(tile, {}, 0, 0, tol, bytes, written, recon), Status::success) << enc.message();
+    ASSERT_EQ(dec.decode(std::span<const uint8_t>(bytes).first(written), {}, 0, 0, out), Status::success) << dec.message();
+    EXPECT_EQ(0, std::memcmp(out.data(), recon.data(), out.size() * 4));
+    for (uint32_t c = 0; c < ch; ++c) EXPECT_LE(max_block_rms(layout, tile, out, c), 0.01 * 1.001);
+  }
+}
+
+// 36 block codes (24×24×4) using every token kind: runs of 16, escapes, multi-byte varints.
+std::vector<uint8_t> symbols_with_escapes_and_runs() {
+  std::vector<uint8_t> s = {0x02, 0xF0, 0xF0, 0xF0, 0xE1, 0x80, 0x00, 0x0F, 100, 0x00, 0x05, 0x21, 0x13, 0x0E, 0x00};
+  for (int b = 3; b < 36; ++b) {
+    s.push_back(b % 5 == 0 ? 0x03 : 0x00);
+    s.push_back(0x00);
+  }
+  return s;
+}
+
+// Fuzz seeds for fuzz/fuzz_tile_decoder.cpp (byte 0: even = decode mode with the quadrant in
+// bits 1..2, odd = round trip), written only when BTFLOD_WRITE_TILE_SEEDS names a folder.
+TEST(CodecTile, WritesFuzzSeedsWhenAsked) {
+  const char* dir = std::getenv("BTFLOD_WRITE_TILE_SEEDS");
+  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_TILE_SEEDS not set";
+  auto write = [&](const std::string& name, uint8_t mode, const std::vector<uint8_t>& payload) {
+    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    f.put(static_cast<char>(mode));
+    f.write(reinterpret_cast<const char*>(payload.data()), static_cast<std::streamsize>(payload.size()));
+    ASSERT_TRUE(f.good()) << name;
+  };
+  for (uint32_t stored : {24u, 72u}) {
+    const TileLayout layout{stored - 8, 4, 4};
+    TileEncoder enc(layout);
+    // The fuzzer's parent: (i % 17) / 8, as fuzz_tile_decoder.cpp builds it.
+    std::vector<float> parent(layout.sample_count());
+    for (size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<float>(i % 17) * 0.125f;
+    const auto root = encode(enc, make_tile(layout, 0, 0, 0), nullptr, 0, 0, tolerances(50));
+    const auto child = encode(enc, make_tile(layout, 1, 1, 0), &parent, 1, 0, tolerances(20));
+    const std::string tag = std::to_string(stored);
+    write("seed_root_" + tag, 0, root.bytes);
+    write("seed_residual_" + tag, 2, child.bytes);
+  }
+  for (uint32_t ch = 1; ch <= 3; ++ch) {
+    const TileLayout layout{16, 4, ch};
+    TileEncoder enc(layout);
+    std::vector<float> tile(layout.sample_count());
+    for (size_t i = 0; i < tile.size(); ++i) tile[i] = std::cos(0.07f * static_cast<float>(i)) * static_cast<float>(1 + i % 3);
+    std::vector<float> tol(ch, 0.02f);
+    std::vector<uint8_t> bytes(enc.bound());
+    size_t written = 0;
+    ASSERT_EQ(enc.encode(tile, {}, 0, 0, tol, bytes, written), Status::success);
+    bytes.resize(written);
+    write("seed_channels_" + std::to_string(ch), 0, bytes);
+  }
+  const TileLayout small{16, 4, 4};
+  write("seed_escapes_and_runs", 0,
+        payload_with_symbols(small, symbols_with_escapes_and_runs()));
+  write("seed_roundtrip", 1, std::vector<uint8_t>{7, 200, 13, 0, 255, 90, 33, 1});
 }
 
 }  // namespace

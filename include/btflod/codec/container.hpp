@@ -33,7 +33,7 @@
 namespace btflod {
 
 inline constexpr uint8_t kBsvtfMagic[8] = {'B', 'S', 'V', 'T', 'F', '\r', '\n', 0x1a};
-inline constexpr uint32_t kBsvtfVersion = 1;
+inline constexpr uint32_t kBsvtfVersion = 2;  // 2: tile format 2 (run-length symbols)
 inline constexpr size_t kBsvtfHeaderSize = 128;
 inline constexpr size_t kBsvtfPacketEntrySize = 24;
 inline constexpr size_t kBsvtfTileEntrySize = 32;

@@ -9,23 +9,43 @@
 // codes the children against exactly what a client will hold, and errors do not accumulate down
 // the hierarchy; paper 000 §6, T'_{i,l}(x,y) = T_{i,l}(x,y) − T_{⌊i/2⌋,l−1}(x/2, y/2)).
 //
-// Payload layout (little-endian):
-//   u8  format version (1)        u8  block size (8)       u8 channels C (1..4)
+// Payload layout (little-endian), tile format version 2:
+//   u8  format version (2)        u8  block size (8)       u8 channels C (1..4)
 //   u8  flags (bit 0: residual to the parent)              u16 stored width S, u16 stored height S
 //   f32 tolerance[C]              (absolute block-RMS error bound per channel, codec/quantize.hpp)
 //   u32 symbol bytes              (size of the inflated symbol stream)
 //   raw deflate stream            (RFC 1951, no zlib header) of the symbol stream
-// Symbol stream: for each channel, for each zig-zag position k, for each 8×8 block in raster
-// order, the quantised coefficient (the DC one as a difference to the previous block's DC),
-// zig-zag mapped to unsigned (0, −1, 1, −2, … → 0, 1, 2, 3, …) and written as one byte when
-// < 255, else 0xFF followed by the u32 value. Grouping by frequency puts the many zero high-
-// frequency coefficients next to each other, which deflate turns into long matches.
+// Symbol stream (JPEG-like run-length symbolisation, ITU T.81 F.1.2, but byte-aligned so that
+// deflate can model it): for each 8×8 block in raster order, for each channel c, one block code:
+//   DC   the quantised DC minus the previous block's DC of channel c (0 before the first block),
+//        zig-zag mapped to unsigned (0, −1, 1, −2, … → 0, 1, 2, 3, …), as a LEB128 varint
+//        (1..5 bytes, value < 2^31);
+//   AC   tokens over zig-zag positions 1..63: byte (r << 4 | m):
+//          0x00              end of block: the remaining coefficients are 0;
+//          0xF0              16 zero coefficients (r = 15, m = 0);
+//          m = 1..14         r zeros (0..15), then a coefficient whose zig-zag mapped value is m;
+//          m = 15            r zeros, then a coefficient whose mapped value is 15 + the LEB128
+//                            varint that follows;
+//        other bytes with m = 0 are invalid. A block whose last coefficient is at position 63
+//        has no end-of-block byte.
+// Every decoded coefficient lies within ±2^29 quantisation steps (the encoder's limit). Most
+// high-frequency coefficients of a residual are 0, so a block is typically a few bytes, inflate
+// produces far fewer bytes than one per coefficient, and the decoder skips the zero runs and runs
+// the inverse DCT only over the rows and columns that hold non-zero coefficients.
+// (Version 1 wrote one byte per coefficient grouped by frequency; it is no longer read.)
 //
 // Entropy backend: zlib's inflate by default. Defining BTFLOD_TILE_CODEC_LIBDEFLATE before
 // including this header (in every translation unit of the program, and linking libdeflate, e.g.
-// CMake PkgConfig::BTFLOD_LIBDEFLATE) adds libdeflate's decompressor, about twice as fast on
-// these streams (bench/bench_codec.cpp), and makes it the decoders' default. The format is the
-// same raw deflate either way.
+// CMake PkgConfig::BTFLOD_LIBDEFLATE) adds libdeflate's decompressor, faster on these streams
+// (bench/bench_codec.cpp), and makes it the decoders' default. The format is the same raw
+// deflate either way.
+//
+// SIMD: for C = 4 the inverse DCT of the four channels of a block position and the interleaved
+// add into the output have an AVX2/FMA path selected at run time (cpu_has_avx2_fma, as
+// codec/dct.hpp); the scalar twin is always available (TileDecoder::set_simd(false)). The two
+// differ only by float rounding (FMA), which the tests bound; the encoder's closed loop uses the
+// same decoder, so a client on the same kind of CPU reproduces the encoder's reconstruction bit
+// for bit.
 #pragma once
 
 #include <algorithm>
@@ -66,15 +86,28 @@ struct TileLayout {
   friend constexpr bool operator==(const TileLayout&, const TileLayout&) = default;
 };
 
-inline constexpr uint8_t kTileFormatVersion = 1;
+inline constexpr uint8_t kTileFormatVersion = 2;
 inline constexpr int kTileBlock = 8;
 inline constexpr uint32_t kTileMaxChannels = 4;
+/// Largest magnitude of a quantised coefficient, in quantisation steps (encoder and decoder).
+inline constexpr int64_t kTileMaxCoefficient = int64_t{1} << 29;
 
 /// Size of the payload header for `channels` channels.
 constexpr size_t tile_header_size(uint32_t channels) noexcept { return 12 + 4 * size_t{channels}; }
 
-/// Worst-case size of the symbol stream of one tile (every symbol escaped: 5 bytes).
-constexpr size_t tile_symbol_bound(const TileLayout& layout) noexcept { return layout.sample_count() * 5; }
+/// Number of 8×8 channel blocks of a tile: (S/8)² · C.
+constexpr size_t tile_block_count(uint32_t stored_size, uint32_t channels) noexcept {
+  return size_t{stored_size / kTileBlock} * (stored_size / kTileBlock) * channels;
+}
+/// Longest block code: a 5-byte DC varint and 63 tokens of 1 byte + a 5-byte varint each.
+inline constexpr size_t kTileMaxBlockCode = 5 + 63 * 6;
+/// Shortest block code: a 1-byte DC varint and the end-of-block byte.
+inline constexpr size_t kTileMinBlockCode = 2;
+
+/// Worst-case size of the symbol stream of one tile (every block at its longest code).
+constexpr size_t tile_symbol_bound(const TileLayout& layout) noexcept {
+  return tile_block_count(layout.stored_size(), layout.channels) * kTileMaxBlockCode;
+}
 
 /// Worst-case size of one encoded tile: the buffer size that tile_encode can always fill.
 /// Returns 0 for an invalid layout. Thread-safe.
@@ -83,38 +116,145 @@ inline size_t tile_encode_bound(const TileLayout& layout) noexcept {
   return tile_header_size(layout.channels) + static_cast<size_t>(compressBound(static_cast<uLong>(tile_symbol_bound(layout))));
 }
 
+namespace detail {
+template <uint32_t C>
+inline void upsample_parent_rows(uint32_t s, float base_x, float base_y, const float* parent, float* out) noexcept {
+  // Separable: per output row, blend the two parent rows vertically over the columns the row
+  // needs, then blend horizontally with per-column taps (computed once per call).
+  uint16_t x0s[1024];
+  float fxs[1024];
+  for (uint32_t i = 0; i < s; ++i) {
+    const float px = base_x + static_cast<float>(i) * 0.5f;
+    uint32_t x0 = static_cast<uint32_t>(px);
+    if (x0 > s - 2) x0 = s - 2;
+    x0s[i] = static_cast<uint16_t>(x0);
+    fxs[i] = px - static_cast<float>(x0);
+  }
+  const uint32_t lo = x0s[0], hi = x0s[s - 1] + 1u;  // parent columns used: [lo, hi]
+  float column[1024 * C];
+  for (uint32_t j = 0; j < s; ++j) {
+    const float py = base_y + static_cast<float>(j) * 0.5f;
+    uint32_t y0 = static_cast<uint32_t>(py);
+    if (y0 > s - 2) y0 = s - 2;
+    const float fy = py - static_cast<float>(y0), gy = 1.0f - fy;
+    const float* row0 = parent + (size_t{y0} * s + lo) * C;
+    const float* row1 = row0 + size_t{s} * C;
+    const uint32_t n = (hi - lo + 1) * C;
+    for (uint32_t k = 0; k < n; ++k) column[k] = gy * row0[k] + fy * row1[k];
+    float* dst = out + size_t{j} * s * C;
+    for (uint32_t i = 0; i < s; ++i) {
+      const float fx = fxs[i], gx = 1.0f - fx;
+      const float* a = column + (x0s[i] - lo) * C;
+      for (uint32_t k = 0; k < C; ++k) dst[i * C + k] = gx * a[k] + fx * a[C + k];
+    }
+  }
+}
+}  // namespace detail
+
 /// Bilinear up-sampling of a decoded parent tile to the prediction of its child in quadrant
 /// (qx, qy) ∈ {0,1}² (qx = child.x & 1, qy = child.y & 1). A child texel with stored index i
 /// lies at parent stored coordinate p = qx·T/2 + B/2 − 1/4 + i/2 (texel centres, level l → l−1
 /// halves coordinates); for B ≥ 1 every tap lies inside the parent's stored texels, so the
-/// borders provide the filter support. Preconditions: layout.valid(), parent and out hold
-/// layout.sample_count() floats. Thread-safe, no allocation.
+/// borders provide the filter support. Computed separably (vertical, then horizontal blend).
+/// Preconditions: layout.valid(), parent and out hold layout.sample_count() floats and do not
+/// overlap. Thread-safe, no allocation (≤ 20 KiB of stack).
 inline void upsample_parent(const TileLayout& layout, const float* parent, uint32_t qx, uint32_t qy,
                             float* out) noexcept {
   const uint32_t s = layout.stored_size();
-  const uint32_t c = layout.channels;
   const float base_x = static_cast<float>(qx & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
   const float base_y = static_cast<float>(qy & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
-  for (uint32_t j = 0; j < s; ++j) {
-    const float py = base_y + j * 0.5f;
-    uint32_t y0 = static_cast<uint32_t>(py);
-    if (y0 > s - 2) y0 = s - 2;
-    const float fy = py - static_cast<float>(y0);
-    const float* row0 = parent + size_t{y0} * s * c;
-    const float* row1 = row0 + size_t{s} * c;
-    float* dst = out + size_t{j} * s * c;
-    for (uint32_t i = 0; i < s; ++i) {
-      const float px = base_x + i * 0.5f;
-      uint32_t x0 = static_cast<uint32_t>(px);
-      if (x0 > s - 2) x0 = s - 2;
-      const float fx = px - static_cast<float>(x0);
-      const float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
-      const float* a = row0 + size_t{x0} * c;
-      const float* b = row1 + size_t{x0} * c;
-      for (uint32_t k = 0; k < c; ++k) dst[i * c + k] = w00 * a[k] + w10 * a[c + k] + w01 * b[k] + w11 * b[c + k];
+  switch (layout.channels) {
+    case 1: return detail::upsample_parent_rows<1>(s, base_x, base_y, parent, out);
+    case 2: return detail::upsample_parent_rows<2>(s, base_x, base_y, parent, out);
+    case 3: return detail::upsample_parent_rows<3>(s, base_x, base_y, parent, out);
+    default: return detail::upsample_parent_rows<4>(s, base_x, base_y, parent, out);
+  }
+}
+
+/// One 8×8 block of dequantised coefficients (natural order, (v, u) at v*8 + u) and the extent
+/// of its non-zero coefficients: rows v < rows and columns u < cols may be non-zero, the rest are
+/// 0 (rows = 0: the block is all zero).
+struct TileCoefBlock {
+  alignas(32) float coef[64];
+  uint32_t rows = 0;
+  uint32_t cols = 0;
+};
+
+/// Inverse 8×8 DCT of `b` added to an 8×8 block of channel samples at `dst` (row stride
+/// `row_stride` floats, column stride `step` floats), scalar path: only rows < b.rows and
+/// columns < b.cols of the coefficients are read (X = Cᵀ · Y · C, evaluated as (Y · C) first).
+/// Thread-safe, no allocation.
+inline void tile_idct_add_scalar(const TileCoefBlock& b, float* dst, size_t row_stride, size_t step) noexcept {
+  if (b.rows == 0) return;
+  const auto& c = dct_basis<8, float>();
+  float z[64];  // z = Y · C over the non-zero rows
+  for (uint32_t k = 0; k < b.rows; ++k)
+    for (int x = 0; x < 8; ++x) {
+      float acc = 0;
+      for (uint32_t u = 0; u < b.cols; ++u) acc += b.coef[k * 8 + u] * c[u * 8 + x];
+      z[k * 8 + x] = acc;
+    }
+  for (int y = 0; y < 8; ++y) {
+    float* row = dst + size_t(y) * row_stride;
+    for (int x = 0; x < 8; ++x) {
+      float acc = 0;
+      for (uint32_t k = 0; k < b.rows; ++k) acc += c[k * 8 + y] * z[k * 8 + x];
+      row[size_t(x) * step] += acc;
     }
   }
 }
+
+#if BTFLOD_HAS_X86_DISPATCH
+namespace detail {
+// X = Cᵀ · (Y · C) of one channel block as 8 row vectors.
+__attribute__((target("avx2,fma"))) inline void tile_idct8_avx2(const TileCoefBlock& b, __m256* rows) noexcept {
+  const auto& t = detail::dct8_tables();  // t.c: row k = basis vector k
+  if (b.rows == 0) {
+    for (int y = 0; y < 8; ++y) rows[y] = _mm256_setzero_ps();
+    return;
+  }
+  __m256 z[8];
+  for (uint32_t k = 0; k < b.rows; ++k) {
+    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(b.coef + k * 8), _mm256_load_ps(t.c));
+    for (uint32_t u = 1; u < b.cols; ++u)
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(b.coef + k * 8 + u), _mm256_load_ps(t.c + u * 8), acc);
+    z[k] = acc;
+  }
+  for (int y = 0; y < 8; ++y) {
+    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(t.ct + y * 8), z[0]);  // t.ct[y*8 + k] = C[k][y]
+    for (uint32_t k = 1; k < b.rows; ++k) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(t.ct + y * 8 + k), z[k], acc);
+    rows[y] = acc;
+  }
+}
+}  // namespace detail
+
+/// AVX2/FMA twin of four tile_idct_add_scalar calls for the four channels of one block position
+/// of a 4-channel tile: `dst` is the block's first texel, `row_stride` floats between texel
+/// rows; the four channel results are interleaved (transposed) and added to the texels.
+/// Precondition: cpu_has_avx2_fma(). Thread-safe, no allocation.
+__attribute__((target("avx2,fma"))) inline void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst,
+                                                                     size_t row_stride) noexcept {
+  __m256 r0[8], r1[8], r2[8], r3[8];
+  detail::tile_idct8_avx2(b[0], r0);
+  detail::tile_idct8_avx2(b[1], r1);
+  detail::tile_idct8_avx2(b[2], r2);
+  detail::tile_idct8_avx2(b[3], r3);
+  for (int y = 0; y < 8; ++y) {
+    // Transpose 4 channel rows of 8 texels into 8 texels of 4 channels.
+    const __m256 t0 = _mm256_unpacklo_ps(r0[y], r1[y]), t1 = _mm256_unpackhi_ps(r0[y], r1[y]);
+    const __m256 t2 = _mm256_unpacklo_ps(r2[y], r3[y]), t3 = _mm256_unpackhi_ps(r2[y], r3[y]);
+    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+    float* row = dst + size_t(y) * row_stride;
+    const __m256 x01 = _mm256_permute2f128_ps(u0, u1, 0x20), x23 = _mm256_permute2f128_ps(u2, u3, 0x20);
+    const __m256 x45 = _mm256_permute2f128_ps(u0, u1, 0x31), x67 = _mm256_permute2f128_ps(u2, u3, 0x31);
+    _mm256_storeu_ps(row, _mm256_add_ps(_mm256_loadu_ps(row), x01));
+    _mm256_storeu_ps(row + 8, _mm256_add_ps(_mm256_loadu_ps(row + 8), x23));
+    _mm256_storeu_ps(row + 16, _mm256_add_ps(_mm256_loadu_ps(row + 16), x45));
+    _mm256_storeu_ps(row + 24, _mm256_add_ps(_mm256_loadu_ps(row + 24), x67));
+  }
+}
+#endif
 
 /// What a payload header says, without decoding (tile_peek_header).
 struct TileHeaderInfo {
@@ -127,14 +267,15 @@ struct TileHeaderInfo {
 
 /// Parses and validates a payload header. Returns success, short_output (fewer bytes than a
 /// header) or bad_data (wrong version or block size, sizes out of range, tolerance not finite
-/// and positive). Safe on untrusted input; thread-safe, no allocation.
+/// and positive, symbol byte count outside [2, 383] bytes per channel block). Safe on untrusted
+/// input; thread-safe, no allocation.
 inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo& info, const char** why = nullptr) noexcept {
   auto fail = [&](Status s, const char* m) {
     if (why) *why = m;
     return s;
   };
   if (payload.size() < 4) return fail(Status::short_output, "tile payload shorter than its header");
-  if (payload[0] != kTileFormatVersion) return fail(Status::bad_data, "tile format version is not 1");
+  if (payload[0] != kTileFormatVersion) return fail(Status::bad_data, "tile format version is not 2");
   if (payload[1] != kTileBlock) return fail(Status::bad_data, "tile block size is not 8");
   const uint32_t channels = payload[2];
   if (channels < 1 || channels > kTileMaxChannels) return fail(Status::bad_data, "tile channel count not in 1..4");
@@ -154,8 +295,9 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
     info.tolerance[c] = t;
   }
   std::memcpy(&info.symbol_bytes, payload.data() + 8 + 4 * channels, 4);
-  const size_t count = size_t{w} * w * channels;
-  if (info.symbol_bytes < count || info.symbol_bytes > count * 5) return fail(Status::bad_data, "tile symbol byte count out of range");
+  const size_t blocks = tile_block_count(w, channels);
+  if (info.symbol_bytes < blocks * kTileMinBlockCode || info.symbol_bytes > blocks * kTileMaxBlockCode)
+    return fail(Status::bad_data, "tile symbol byte count out of range (2..383 per channel block)");
   return Status::success;
 }
 
@@ -167,6 +309,82 @@ inline constexpr InflateBackend kDefaultInflateBackend = InflateBackend::libdefl
 inline constexpr InflateBackend kDefaultInflateBackend = InflateBackend::zlib;
 #endif
 
+namespace detail {
+// LEB128 varint of at most 5 bytes with a value < 2^31. False when it runs past `end`, is longer
+// or is larger.
+inline bool tile_read_varint(const uint8_t*& p, const uint8_t* end, uint32_t& value) noexcept {
+  uint32_t v = 0;
+  for (int shift = 0; shift < 35; shift += 7) {
+    if (p == end) return false;
+    const uint32_t byte = *p++;
+    if (shift == 28 && byte >= 8) return false;
+    v |= (byte & 0x7Fu) << shift;
+    if ((byte & 0x80u) == 0) {
+      value = v;
+      return true;
+    }
+  }
+  return false;
+}
+inline uint8_t* tile_write_varint(uint8_t* p, uint32_t v) noexcept {
+  while (v >= 0x80u) {
+    *p++ = static_cast<uint8_t>(v | 0x80u);
+    v >>= 7;
+  }
+  *p++ = static_cast<uint8_t>(v);
+  return p;
+}
+constexpr int64_t tile_unzigzag(uint32_t u) noexcept { return static_cast<int64_t>(u >> 1) ^ -static_cast<int64_t>(u & 1u); }
+constexpr uint32_t tile_zigzag(int32_t v) noexcept { return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31); }
+
+enum class TileTokenKind : uint8_t { value, end_of_block, zero_run, escape, invalid };
+// Decoding table of the AC token bytes, plus the extent (rows, columns) of the coefficients up
+// to each zig-zag position. Built once; thread-safe.
+struct TileTokenTable {
+  uint8_t run[256];       // positions skipped before the coefficient (16 for 0xF0, 0 for 0x00)
+  TileTokenKind kind[256];
+  float value[256];       // the coefficient of a `value` token, in steps
+  uint8_t rows_up_to[64]; // 1 + the largest row among zig-zag positions 0..k
+  uint8_t cols_up_to[64];
+  uint8_t zigzag[64];     // zigzag_order<8>() as bytes
+};
+inline const TileTokenTable& tile_token_table() noexcept {
+  static const TileTokenTable table = [] {
+    TileTokenTable t{};
+    for (uint32_t b = 0; b < 256; ++b) {
+      const uint32_t r = b >> 4, m = b & 15u;
+      t.run[b] = static_cast<uint8_t>(r);
+      t.value[b] = 0.0f;
+      if (b == 0) {
+        t.kind[b] = TileTokenKind::end_of_block;
+      } else if (b == 0xF0u) {
+        t.kind[b] = TileTokenKind::zero_run;
+        t.run[b] = 16;
+      } else if (m == 0) {
+        t.kind[b] = TileTokenKind::invalid;
+        t.run[b] = 0;
+      } else if (m == 15) {
+        t.kind[b] = TileTokenKind::escape;
+      } else {
+        t.kind[b] = TileTokenKind::value;
+        t.value[b] = static_cast<float>(tile_unzigzag(m));
+      }
+    }
+    const auto& zigzag = zigzag_order<kTileBlock>();
+    uint8_t rows = 0, cols = 0;
+    for (int k = 0; k < 64; ++k) {
+      rows = std::max<uint8_t>(rows, static_cast<uint8_t>(zigzag[k] / 8 + 1));
+      cols = std::max<uint8_t>(cols, static_cast<uint8_t>(zigzag[k] % 8 + 1));
+      t.rows_up_to[k] = rows;
+      t.cols_up_to[k] = cols;
+      t.zigzag[k] = static_cast<uint8_t>(zigzag[k]);
+    }
+    return t;
+  }();
+  return table;
+}
+}  // namespace detail
+
 /// Tile decoder: owns its inflate state and scratch buffers, allocated in the constructor, so
 /// decode() does not allocate (zlib allocates its 32 KiB window once, on the first decode).
 /// One object per thread: decode() is not thread-safe on the same object; different objects are
@@ -176,10 +394,7 @@ class TileDecoder {
  public:
   /// `backend` libdeflate needs BTFLOD_TILE_CODEC_LIBDEFLATE; without it zlib is used.
   explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = kDefaultInflateBackend) : layout_(layout) {
-    if (layout_.valid()) {
-      symbols_.resize(tile_symbol_bound(layout_));
-      coefficients_.resize(layout_.sample_count());
-    }
+    if (layout_.valid()) symbols_.resize(tile_symbol_bound(layout_));
     std::memset(&stream_, 0, sizeof stream_);
     ready_ = layout_.valid() && inflateInit2(&stream_, -15) == Z_OK;
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
@@ -210,18 +425,33 @@ class TileDecoder {
 
   const TileLayout& layout() const noexcept { return layout_; }
 
+  /// Allows (default) or forbids the AVX2/FMA inverse-DCT path; with false the scalar twin runs
+  /// even on an AVX2 CPU (tests and benchmarks compare the two). Not thread-safe on this object.
+  void set_simd(bool allowed) noexcept { simd_allowed_ = allowed; }
+  /// True when decode() uses the AVX2/FMA path (allowed, CPU support, 4 channels).
+  bool uses_simd() const noexcept { return simd_allowed_ && layout_.channels == 4 && cpu_has_avx2_fma(); }
+
   /// Decodes one payload into `out` (layout().sample_count() floats, texel-interleaved).
   /// `parent` is the parent's decoded tile (same layout) when the payload is a residual (see
   /// tile_peek_header), else ignored and may be empty; (qx, qy) is the child's quadrant
   /// (x & 1, y & 1). Returns success; bad_data (malformed, wrong layout, inflates to more or
-  /// less than declared, trailing bytes); short_output (payload truncated);
-  /// insufficient_space (out too small); invalid_argument (parent missing or of the wrong size,
-  /// invalid layout). message() then says what failed. No allocation, no exceptions.
+  /// less than declared, trailing bytes, invalid tokens, zero runs past the block, coefficients
+  /// beyond ±2^29 steps); short_output (payload truncated); insufficient_space (out too small);
+  /// invalid_argument (parent missing or of the wrong size, invalid layout). message() then says
+  /// what failed. No allocation, no exceptions.
   Status decode(std::span<const uint8_t> payload, std::span<const float> parent, uint32_t qx, uint32_t qy,
                 std::span<float> out) noexcept {
+    if (Status s = inflate_symbols(payload, parent, out); s != Status::success) return s;
+    return reconstruct(info_, parent, qx, qy, out);
+  }
+
+  /// The entropy stage of decode() alone (header checks and inflate into the internal symbol
+  /// buffer), for profiling; same arguments and failures as decode() for those stages. After
+  /// success, symbol_bytes() is the inflated size.
+  Status inflate_symbols(std::span<const uint8_t> payload, std::span<const float> parent, std::span<float> out) noexcept {
     if (!ready_) return fail(Status::invalid_argument, "decoder has an invalid layout or inflateInit failed");
     if (out.size() < layout_.sample_count()) return fail(Status::insufficient_space, "output span smaller than the tile");
-    TileHeaderInfo info;
+    TileHeaderInfo& info = info_;
     const char* why = nullptr;
     if (Status s = tile_peek_header(payload, info, &why); s != Status::success) return fail(s, why);
     if (info.channels != layout_.channels || info.stored_size != layout_.stored_size())
@@ -241,7 +471,7 @@ class TileDecoder {
       if (r != LIBDEFLATE_SUCCESS) return fail(Status::bad_data, "deflate stream is corrupt or truncated");
       if (produced != info.symbol_bytes) return fail(Status::bad_data, "symbol stream shorter than declared");
       if (used != payload.size() - header) return fail(Status::bad_data, "trailing bytes after the deflate stream");
-      return reconstruct(info, parent, qx, qy, out);
+      return Status::success;
     }
 #endif
     inflateReset(&stream_);
@@ -259,8 +489,11 @@ class TileDecoder {
       if (stream_.avail_out == 0) return fail(Status::bad_data, "deflate stream inflates beyond the declared size");
       return fail(Status::short_output, "deflate stream truncated");
     }
-    return reconstruct(info, parent, qx, qy, out);
+    return Status::success;
   }
+
+  /// Size of the last inflated symbol stream (after a successful decode or inflate_symbols).
+  uint32_t symbol_bytes() const noexcept { return info_.symbol_bytes; }
 
   /// A static description of the last failure ("" after success). Never null.
   const char* message() const noexcept { return message_; }
@@ -271,47 +504,87 @@ class TileDecoder {
     return s;
   }
 
+  // Parses one block code into `b` (which must be all zero on entry). Returns nullptr and sets
+  // message_ on malformed input. `fast`: the caller checked that a longest block code fits
+  // before `end`, so the per-byte end checks are skipped (they cannot fire).
+  template <bool fast>
+  const uint8_t* parse_block(const uint8_t* p, const uint8_t* end, int64_t& dc, const float* steps, TileCoefBlock& b,
+                             const detail::TileTokenTable& tokens) noexcept {
+    const uint8_t* const zigzag = tokens.zigzag;
+    uint32_t u = 0;
+    if ((fast || p != end) && *p < 0x80u) {
+      u = *p++;
+    } else if (!detail::tile_read_varint(p, end, u)) {
+      message_ = "tile symbol stream: DC varint truncated or longer than 5 bytes";
+      return nullptr;
+    }
+    dc += detail::tile_unzigzag(u);
+    if (dc > kTileMaxCoefficient || dc < -kTileMaxCoefficient) {
+      message_ = "tile symbol stream: DC coefficient beyond 2^29 steps";
+      return nullptr;
+    }
+    int last = -1;  // zig-zag position of the last non-zero coefficient
+    if (dc != 0) {
+      b.coef[0] = static_cast<float>(dc) * steps[0];
+      last = 0;
+    }
+    int k = 1;
+    for (;;) {
+      if (!fast && p == end) {
+        message_ = "tile symbol stream ends inside a block";
+        return nullptr;
+      }
+      const uint32_t t = *p++;
+      k += tokens.run[t];
+      if (k < 64 && tokens.kind[t] == detail::TileTokenKind::value) {  // the common case
+        const int natural = zigzag[k];
+        b.coef[natural] = tokens.value[t] * steps[natural];
+        last = k;
+        if (++k == 64) break;
+        continue;
+      }
+      const detail::TileTokenKind kind = tokens.kind[t];
+      if (kind == detail::TileTokenKind::end_of_block) break;
+      if (kind == detail::TileTokenKind::invalid) {
+        message_ = "tile symbol stream: invalid token (zero value with a run < 16)";
+        return nullptr;
+      }
+      if (k >= 64) {
+        message_ = "tile symbol stream: zero run past the end of the block";
+        return nullptr;
+      }
+      if (kind == detail::TileTokenKind::zero_run) continue;
+      // escape: mapped value 15 + varint
+      uint32_t extra = 0;
+      if (!detail::tile_read_varint(p, end, extra)) {
+        message_ = "tile symbol stream: coefficient varint truncated or longer than 5 bytes";
+        return nullptr;
+      }
+      if (extra > 2u * static_cast<uint32_t>(kTileMaxCoefficient) - 15u) {
+        message_ = "tile symbol stream: AC coefficient beyond 2^29 steps";
+        return nullptr;
+      }
+      const int natural = zigzag[k];
+      b.coef[natural] = static_cast<float>(detail::tile_unzigzag(15u + extra)) * steps[natural];
+      last = k;
+      if (++k == 64) break;
+    }
+    if (last >= 0) {
+      b.rows = tokens.rows_up_to[last];
+      b.cols = tokens.cols_up_to[last];
+    }
+    return p;
+  }
+
   Status reconstruct(const TileHeaderInfo& info, std::span<const float> parent, uint32_t qx, uint32_t qy,
                      std::span<float> out) noexcept {
     const uint32_t s = layout_.stored_size();
     const uint32_t ch = layout_.channels;
     const uint32_t blocks_per_side = s / kTileBlock;
-    const size_t blocks = size_t{blocks_per_side} * blocks_per_side;
-    constexpr int kBlockArea = kTileBlock * kTileBlock;
-    const auto& zigzag = zigzag_order<kTileBlock>();
     const auto& factors = quant_step_factors<kTileBlock>();
-
-    // Symbols → dequantised coefficients, block-major so the inverse DCT reads them contiguously.
-    const uint8_t* p = symbols_.data();
-    const uint8_t* const end = p + info.symbol_bytes;
-    for (uint32_t c = 0; c < ch; ++c) {
-      float* coef = coefficients_.data() + size_t{c} * blocks * kBlockArea;
-      for (int k = 0; k < kBlockArea; ++k) {
-        const int natural = zigzag[k];
-        const float step = info.tolerance[c] * factors[natural];
-        int64_t dc = 0;  // DC (k = 0) symbols are differences to the previous block's DC
-        float* dst = coef + natural;
-        if (static_cast<size_t>(end - p) < blocks) return fail(Status::bad_data, "symbol stream ends before the last coefficient");
-        for (size_t b = 0; b < blocks; ++b, dst += kBlockArea) {
-          uint32_t u = *p++;
-          if (u == 0xFFu) {
-            if (end - p < 4) return fail(Status::bad_data, "escaped symbol truncated");
-            std::memcpy(&u, p, 4);
-            p += 4;
-            // Each escape consumed 4 extra bytes: re-check that the remaining blocks still fit.
-            if (static_cast<size_t>(end - p) < blocks - b - 1)
-              return fail(Status::bad_data, "symbol stream ends before the last coefficient");
-          }
-          int64_t v = static_cast<int64_t>(u >> 1) ^ -static_cast<int64_t>(u & 1u);
-          if (k == 0) {
-            dc += v;
-            v = dc;
-          }
-          *dst = static_cast<float>(v) * step;
-        }
-      }
-    }
-    if (p != end) return fail(Status::bad_data, "symbol stream longer than the tile");
+    alignas(32) float steps[kTileMaxChannels][64];
+    for (uint32_t c = 0; c < ch; ++c)
+      for (int k = 0; k < 64; ++k) steps[c][k] = info.tolerance[c] * factors[k];
 
     float* dst = out.data();
     if (info.residual) {
@@ -319,27 +592,50 @@ class TileDecoder {
     } else {
       std::fill(dst, dst + layout_.sample_count(), 0.0f);
     }
-    alignas(32) float block[kBlockArea];
-    for (uint32_t c = 0; c < ch; ++c) {
-      const float* coef = coefficients_.data() + size_t{c} * blocks * kBlockArea;
-      for (uint32_t by = 0; by < blocks_per_side; ++by)
-        for (uint32_t bx = 0; bx < blocks_per_side; ++bx) {
-          dct_inverse<kTileBlock, float>(coef + (size_t{by} * blocks_per_side + bx) * kBlockArea, block, kTileBlock);
-          for (int y = 0; y < kTileBlock; ++y) {
-            float* row = dst + ((size_t{by} * kTileBlock + y) * s + size_t{bx} * kTileBlock) * ch + c;
-            for (size_t x = 0; x < size_t{kTileBlock}; ++x) row[x * ch] += block[y * kTileBlock + x];
+    const bool simd = uses_simd();
+    const detail::TileTokenTable& tokens = detail::tile_token_table();
+    const uint8_t* p = symbols_.data();
+    const uint8_t* const end = p + info.symbol_bytes;
+    int64_t dc[kTileMaxChannels] = {};
+    const size_t row_stride = size_t{s} * ch;
+    for (uint32_t by = 0; by < blocks_per_side; ++by)
+      for (uint32_t bx = 0; bx < blocks_per_side; ++bx) {
+        for (uint32_t c = 0; c < ch; ++c) {
+          TileCoefBlock& b = blocks_[c];
+          if (b.rows != 0) {  // clear what the previous block position left
+            std::memset(b.coef, 0, sizeof b.coef);
+            b.rows = b.cols = 0;
+          }
+          p = static_cast<size_t>(end - p) >= kTileMaxBlockCode ? parse_block<true>(p, end, dc[c], steps[c], b, tokens)
+                                                                 : parse_block<false>(p, end, dc[c], steps[c], b, tokens);
+          if (p == nullptr) {  // parse_block may have written coefficients: leave blocks_ all zero
+            for (TileCoefBlock& z : blocks_) z = TileCoefBlock{};
+            return Status::bad_data;
           }
         }
-    }
+        float* first = dst + (size_t{by} * kTileBlock * s + size_t{bx} * kTileBlock) * ch;
+#if BTFLOD_HAS_X86_DISPATCH
+        if (simd) {
+          if (blocks_[0].rows | blocks_[1].rows | blocks_[2].rows | blocks_[3].rows) tile_idct_add4_avx2(blocks_, first, row_stride);
+          continue;
+        }
+#else
+        (void)simd;
+#endif
+        for (uint32_t c = 0; c < ch; ++c) tile_idct_add_scalar(blocks_[c], first + c, row_stride, ch);
+      }
+    if (p != end) return fail(Status::bad_data, "symbol stream longer than the tile");
     message_ = "";
     return Status::success;
   }
 
   TileLayout layout_;
   std::vector<uint8_t> symbols_;
-  std::vector<float> coefficients_;
+  TileCoefBlock blocks_[kTileMaxChannels] = {};
+  TileHeaderInfo info_;
   z_stream stream_;
   bool ready_ = false;
+  bool simd_allowed_ = true;
   const char* message_ = "";
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
   libdeflate_decompressor* libdeflate_ = nullptr;
@@ -350,8 +646,8 @@ class TileDecoder {
 /// reconstruction). Offline code, but encode() itself does not allocate. One object per thread.
 class TileEncoder {
  public:
-  /// `deflate_level` is zlib's 0..9 (6 = zlib's default balance).
-  explicit TileEncoder(TileLayout layout = {}, int deflate_level = 6) : layout_(layout), decoder_(layout) {
+  /// `deflate_level` is zlib's 0..9 (default 9: encoding is offline, and the streams are small).
+  explicit TileEncoder(TileLayout layout = {}, int deflate_level = 9) : layout_(layout), decoder_(layout) {
     if (layout_.valid()) {
       prediction_.resize(layout_.sample_count());
       quantised_.resize(layout_.sample_count());
@@ -424,38 +720,47 @@ class TileEncoder {
           int32_t* q = quantised_.data() + (size_t{c} * blocks + size_t{by} * blocks_per_side + bx) * kBlockArea;
           for (int k = 0; k < kBlockArea; ++k) {
             const float v = coef[k] * inv_step[k];
-            if (!(std::fabs(v) < 536870912.0f)) return fail(Status::invalid_argument, "sample not finite or too large for the tolerance");
+            if (!(std::fabs(v) < static_cast<float>(kTileMaxCoefficient)))
+              return fail(Status::invalid_argument, "sample not finite or too large for the tolerance");
             q[k] = static_cast<int32_t>(std::nearbyint(v));
           }
         }
     }
 
-    // Symbol stream (see the file comment).
+    // Symbol stream (see the file comment): block-major, channels interleaved, run-length tokens.
     const auto& zigzag = zigzag_order<kTileBlock>();
     uint8_t* sym = symbols_.data();
-    for (uint32_t c = 0; c < ch; ++c) {
-      const int32_t* q = quantised_.data() + size_t{c} * blocks * kBlockArea;
-      for (int k = 0; k < kBlockArea; ++k) {
-        const int natural = zigzag[k];
-        int32_t previous_dc = 0;
-        for (size_t b = 0; b < blocks; ++b) {
-          int32_t v = q[b * kBlockArea + natural];
-          if (k == 0) {
-            const int32_t d = v - previous_dc;
-            previous_dc = v;
-            v = d;
+    int32_t previous_dc[kTileMaxChannels] = {};
+    for (size_t b = 0; b < blocks; ++b)
+      for (uint32_t c = 0; c < ch; ++c) {
+        const int32_t* q = quantised_.data() + (size_t{c} * blocks + b) * kBlockArea;
+        sym = detail::tile_write_varint(sym, detail::tile_zigzag(q[0] - previous_dc[c]));
+        previous_dc[c] = q[0];
+        int last = 0;
+        for (int k = kBlockArea - 1; k > 0; --k)
+          if (q[zigzag[k]] != 0) {
+            last = k;
+            break;
           }
-          const uint32_t u = (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
-          if (u < 0xFFu) {
-            *sym++ = static_cast<uint8_t>(u);
+        uint32_t run = 0;
+        for (int k = 1; k <= last; ++k) {
+          const int32_t v = q[zigzag[k]];
+          if (v == 0) {
+            ++run;
+            continue;
+          }
+          for (; run >= 16; run -= 16) *sym++ = 0xF0;
+          const uint32_t u = detail::tile_zigzag(v);
+          if (u < 15) {
+            *sym++ = static_cast<uint8_t>(run << 4 | u);
           } else {
-            *sym++ = 0xFF;
-            std::memcpy(sym, &u, 4);
-            sym += 4;
+            *sym++ = static_cast<uint8_t>(run << 4 | 15u);
+            sym = detail::tile_write_varint(sym, u - 15);
           }
+          run = 0;
         }
+        if (last < kBlockArea - 1) *sym++ = 0;  // end of block
       }
-    }
     const uint32_t symbol_bytes = static_cast<uint32_t>(sym - symbols_.data());
 
     // Header.

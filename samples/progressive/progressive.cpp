@@ -29,7 +29,7 @@
 // contribute 0 (shade_fmf). Converged image = every tile + every packet, same renderer.
 // SSIM (metrics/image_metrics.hpp, Wang 2004, mean over RGB) of each frame against the converged
 // image of the same view, on display values: linear radiance clamped to [0, 1] and sRGB-encoded
-// (data range 1), like the demo. Single-threaded where it matters: no thread races the result.
+// (data range 1), like the demo's report. Single-threaded where it matters: no thread races the result.
 //
 // Usage: btflod-progressive --out DIR [--materials N] [--components C] [--size N] [--repeat R]
 //            [--quality Q] [--width W] [--height H] [--views V] [--bytes-per-frame B]
@@ -52,6 +52,7 @@
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/codec/container.hpp"
 #include "btflod/codec/tile_codec.hpp"
+#include "btflod/core/color.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/lod_selector.hpp"
 #include "btflod/metrics/image_metrics.hpp"
@@ -61,7 +62,6 @@
 #include "btflod/vt/tile_pyramid.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
-#include "stream_render.hpp"
 
 using namespace btflod;
 
@@ -428,8 +428,18 @@ struct Run {
   std::vector<uint64_t> order;  // arrival order (material, k, flat, packet) for determinism
 };
 
+// Linear radiance → display values in [0, 1]: clamped, sRGB-encoded (core/color.hpp), as the
+// demo's report does.
+Image<float> to_display(const Image<float>& linear) {
+  Image<float> out(linear.width(), linear.height(), 3);
+  for (int y = 0; y < linear.height(); ++y)
+    for (int x = 0; x < linear.width(); ++x)
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = linear_to_srgb(linear.at(x, y, c));
+  return out;
+}
+
 double frame_ssim(const Image<float>& linear, const Image<float>& converged_display) {
-  const Image<float> d = demo::to_display(linear);
+  const Image<float> d = to_display(linear);
   return mean_ssim(d.view(), converged_display.view());
 }
 
@@ -615,40 +625,45 @@ struct ViewResult {
   std::vector<Run> runs;
 };
 
+// Small multiples, one panel per view: x = bytes received (log scale), y = −log10(1 − SSIM)
+// ("nines": 0.9 → 1, 0.99 → 2; capped at 0.999) so that the 0.95 and 0.99 crossings are visible.
 std::string svg_plot(const std::vector<ViewResult>& views) {
-  const int pw = 300, ph = 220, ml = 46, mt = 28, gap = 20;
+  const int pw = 300, ph = 200, ml = 46, mt = 28, gap = 20;
   const int W = static_cast<int>(views.size()) * (pw + ml + gap) + gap, H = ph + mt + 70;
   const char* colours[] = {"#d62728", "#1f77b4", "#2ca02c"};
+  const double top = 3.0;  // SSIM 0.999
   std::ostringstream s;
   s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H
     << "' font-family='sans-serif' font-size='11'>\n<rect width='100%' height='100%' fill='white'/>\n";
   for (size_t v = 0; v < views.size(); ++v) {
     const int x0 = gap + static_cast<int>(v) * (pw + ml + gap) + ml, y0 = mt;
-    uint64_t max_bytes = 1;
-    double min_ssim = 1.0;
+    uint64_t max_bytes = 1, min_bytes = ~0ull;
     for (const Run& r : views[v].runs)
       for (const Sample& smp : r.samples) {
         max_bytes = std::max(max_bytes, smp.bytes);
-        min_ssim = std::min(min_ssim, smp.ssim);
+        if (smp.bytes > 0) min_bytes = std::min(min_bytes, smp.bytes);
       }
-    const double lo = std::max(0.0, std::floor(min_ssim * 10.0) / 10.0);
-    const auto X = [&](uint64_t b) { return x0 + static_cast<double>(b) / static_cast<double>(max_bytes) * pw; };
-    const auto Y = [&](double q) { return y0 + (1.0 - (std::clamp(q, lo, 1.0) - lo) / (1.0 - lo)) * ph; };
+    const double lx0 = std::log10(static_cast<double>(std::min(min_bytes, max_bytes))), lx1 = std::log10(static_cast<double>(max_bytes));
+    const auto X = [&](uint64_t b) {
+      const double l = std::log10(static_cast<double>(std::max<uint64_t>(b, 1)));
+      return x0 + std::clamp((l - lx0) / std::max(lx1 - lx0, 1e-9), 0.0, 1.0) * pw;
+    };
+    const auto Y = [&](double q) { return y0 + (1.0 - std::clamp(-std::log10(std::max(1.0 - q, 1e-3)), 0.0, top) / top) * ph; };
     s << "<text x='" << x0 << "' y='" << y0 - 10 << "'>view " << views[v].view << " (" << static_cast<int>(100 * views[v].coverage + 0.5)
       << "% of pixels textured)</text>\n";
     s << "<rect x='" << x0 << "' y='" << y0 << "' width='" << pw << "' height='" << ph << "' fill='none' stroke='#888'/>\n";
-    for (double t : {0.95, 0.99})
-      if (t > lo)
-        s << "<line x1='" << x0 << "' x2='" << x0 + pw << "' y1='" << Y(t) << "' y2='" << Y(t)
-          << "' stroke='#aaa' stroke-dasharray='4 3'/><text x='" << x0 - 4 << "' y='" << Y(t) + 4
-          << "' text-anchor='end'>" << t << "</text>\n";
-    s << "<text x='" << x0 - 4 << "' y='" << y0 + ph << "' text-anchor='end'>" << lo << "</text>\n";
-    s << "<text x='" << x0 - 4 << "' y='" << y0 + 8 << "' text-anchor='end'>1</text>\n";
-    char lab[96];
-    std::snprintf(lab, sizeof lab, "%.0f KiB", static_cast<double>(max_bytes) / 1024.0);
-    s << "<text x='" << x0 + pw << "' y='" << y0 + ph + 14 << "' text-anchor='end'>" << lab << "</text><text x='" << x0 << "' y='"
-      << y0 + ph + 14 << "'>0</text><text x='" << x0 + pw / 2 << "' y='" << y0 + ph + 28
-      << "' text-anchor='middle'>bytes received</text>\n";
+    for (double t : {0.5, 0.9, 0.95, 0.99, 0.999}) {
+      const bool key = t == 0.95 || t == 0.99;
+      s << "<line x1='" << x0 << "' x2='" << x0 + pw << "' y1='" << Y(t) << "' y2='" << Y(t) << "' stroke='" << (key ? "#999" : "#ddd")
+        << "' stroke-dasharray='4 3'/><text x='" << x0 - 4 << "' y='" << Y(t) + 4 << "' text-anchor='end'>" << t << "</text>\n";
+    }
+    for (double kib = 1; kib * 1024.0 <= static_cast<double>(max_bytes); kib *= 4) {
+      const uint64_t b = static_cast<uint64_t>(kib * 1024.0);
+      if (b < min_bytes) continue;
+      s << "<line x1='" << X(b) << "' x2='" << X(b) << "' y1='" << y0 + ph << "' y2='" << y0 + ph + 4 << "' stroke='#888'/><text x='"
+        << X(b) << "' y='" << y0 + ph + 15 << "' text-anchor='middle'>" << kib << "</text>\n";
+    }
+    s << "<text x='" << x0 + pw / 2 << "' y='" << y0 + ph + 30 << "' text-anchor='middle'>KiB received (log scale)</text>\n";
     for (size_t i = 0; i < views[v].runs.size(); ++i) {
       s << "<polyline fill='none' stroke-width='1.5' stroke='" << colours[i % 3] << "' points='";
       for (const Sample& smp : views[v].runs[i].samples) s << X(smp.bytes) << ',' << Y(smp.ssim) << ' ';
@@ -656,9 +671,10 @@ std::string svg_plot(const std::vector<ViewResult>& views) {
     }
   }
   for (size_t i = 0; i < views.front().runs.size(); ++i)
-    s << "<rect x='" << gap + ml + static_cast<int>(i) * 220 << "' y='" << H - 22 << "' width='14' height='4' fill='" << colours[i % 3]
-      << "'/><text x='" << gap + ml + static_cast<int>(i) * 220 + 18 << "' y='" << H - 17 << "'>" << views.front().runs[i].name
+    s << "<rect x='" << gap + ml + static_cast<int>(i) * 220 << "' y='" << H - 20 << "' width='14' height='4' fill='" << colours[i % 3]
+      << "'/><text x='" << gap + ml + static_cast<int>(i) * 220 + 18 << "' y='" << H - 15 << "'>" << views.front().runs[i].name
       << "</text>\n";
+  s << "<text x='" << W - gap << "' y='" << H - 15 << "' text-anchor='end'>y: SSIM vs converged, axis −log10(1 − SSIM)</text>\n";
   s << "</svg>\n";
   return s.str();
 }
@@ -734,7 +750,7 @@ int main(int argc, char** argv) {
   for (uint32_t v = 0; v < o.views; ++v) {
     const Camera cam = w.camera(v);
     const std::vector<Pixel> px = prepare_view(w, cam);
-    const Image<float> converged = demo::to_display(render(w, cam, px, ClientState(w, true)));
+    const Image<float> converged = to_display(render(w, cam, px, ClientState(w, true)));
     ViewResult vr;
     vr.view = v;
     size_t covered = 0;
@@ -812,6 +828,24 @@ int main(int argc, char** argv) {
                     static_cast<double>(r.samples.back().bytes) / 1024.0);
       doc << line;
     }
+  doc << "\nBytes relative to priority (a), per view:";
+  for (const ViewResult& vr : results) {
+    doc << " view " << vr.view << ":";
+    for (double t : {0.95, 0.99}) {
+      uint64_t a = 0;
+      bytes_to_reach(vr.runs[0], t, &a);
+      for (size_t i = 1; i < vr.runs.size(); ++i) {
+        uint64_t b = 0;
+        const bool reached = bytes_to_reach(vr.runs[i], t, &b).find("not") == std::string::npos;
+        if (a > 0 && reached) std::snprintf(line, sizeof line, " %s %.2f× to %.2f%s", vr.runs[i].name.c_str(),
+                                            static_cast<double>(b) / static_cast<double>(a), t, i + 1 < vr.runs.size() ? "," : "");
+        else std::snprintf(line, sizeof line, " %s n/a to %.2f%s", vr.runs[i].name.c_str(), t, i + 1 < vr.runs.size() ? "," : "");
+        doc << line;
+      }
+      doc << (t < 0.99 ? ";" : ".");
+    }
+  }
+  doc << "\n";
   if (!o.doc.empty() && !write_doc(o.doc, doc.str())) {
     std::fprintf(stderr, "btflod-progressive: cannot write %s\n", o.doc.c_str());
     return 1;

@@ -2,10 +2,15 @@
 // decoded down the hierarchy within the tolerance), the contiguous coarse-to-fine prefix,
 // determinism across thread counts, and failure classes (truncated, trailing bytes, wrong
 // checksum, wrong signature/version, oversized counts, offsets outside the file, overlaps).
+// With BTFLOD_WRITE_CONTAINER_SEEDS=<dir> it also writes the fuzz seeds of
+// fuzz/corpus/fuzz_container_reader into <dir>.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <string>
 #include <random>
 #include <vector>
 
@@ -352,6 +357,21 @@ TEST_F(CodecContainerFailures, RandomDirectoryCorruptionNeverCrashes) {
     if (read_bsvtf(f).ok()) ++accepted;
   }
   EXPECT_LT(accepted, 40);  // only bytes outside any checked field (reserved, crc-fixed padding) may pass
+}
+
+TEST(CodecContainer, WritesFuzzSeedsWhenAsked) {
+  const char* dir = std::getenv("BTFLOD_WRITE_CONTAINER_SEEDS");
+  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_CONTAINER_SEEDS not set";
+  auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
+    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    ASSERT_TRUE(f.good()) << name;
+  };
+  const auto small = build(make_material(2, 4), 30);
+  ASSERT_TRUE(read_bsvtf(small).ok());
+  write("seed_small.bsvtf", small);
+  write("seed_two_textures.bsvtf", build(make_material(2, 6), 10));
+  write("seed_truncated.bsvtf", std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
 }
 
 }  // namespace

@@ -772,7 +772,13 @@ int main(int argc, char** argv) {
           if (again->samples[i].ssim != vr.runs[0].samples[i].ssim || again->samples[i].bytes != vr.runs[0].samples[i].bytes)
             deterministic = false;
     }
-    // The fixed orders carry every byte and must end exactly at the converged image.
+    // The priority order must end at (or within SSIM 0.01 of) the converged image: it has every
+    // tile the view votes for. The fixed orders carry every byte and must end exactly there.
+    if (vr.runs[0].samples.empty() || vr.runs[0].samples.back().ssim < 0.99) {
+      std::fprintf(stderr, "btflod-progressive: view %u priority stream ended at SSIM %.4f (< 0.99)\n", v,
+                   vr.runs[0].samples.empty() ? 0.0 : vr.runs[0].samples.back().ssim);
+      converged_ok = false;
+    }
     for (size_t i = 1; i < vr.runs.size(); ++i) {
       const Run& r = vr.runs[i];
       if (r.samples.empty() || r.samples.back().bytes != w.total_bytes || !(r.samples.back().ssim > 0.999999)) {

@@ -1,8 +1,14 @@
-// btflod-convert info FILE... — what a material file holds: format, sizes, directions, values.
+// btflod-convert info FILE... — what a material file holds: format, sizes, directions, values;
+// for a .bsvtf streaming container: header, metadata, U packets, tiles and bytes per level.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <string>
+#include <vector>
+
+#include "btflod/codec/container.hpp"
 
 #include "command.hpp"
 #include "common/btf_files.hpp"
@@ -58,6 +64,110 @@ int info_mbsdf(const std::string& path) {
               static_cast<double>(normal.r), static_cast<double>(normal.g), static_cast<double>(normal.b),
               static_cast<double>(mirror45.r), static_cast<double>(mirror45.g), static_cast<double>(mirror45.b));
   return convert::kExitOk;
+}
+
+// True when the file starts with the .bsvtf signature.
+bool is_bsvtf(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  char magic[8] = {};
+  return f.read(magic, 8) && std::memcmp(magic, kBsvtfMagic, 8) == 0;
+}
+
+const char* color_mode_name(ColorMode m) {
+  switch (m) {
+    case ColorMode::linear_rgb: return "linear RGB";
+    case ColorMode::ycbcr: return "YCbCr";
+    case ColorMode::luminance: return "luminance";
+  }
+  return "unknown";
+}
+
+// Describes a .bsvtf container (codec/container.hpp, docs/bsvtf_format.md). `values`: also
+// check every payload's CRC-32 and decode every tile down the hierarchy.
+int info_bsvtf(const std::string& path, bool values) {
+  auto bytes = read_file_bytes(path);
+  if (!bytes) {
+    std::fprintf(stderr, "btflod-convert info: %s\n", bytes.message().c_str());
+    return convert::kExitFailure;
+  }
+  auto dir = read_bsvtf(*bytes);
+  if (!dir) {
+    std::fprintf(stderr, "btflod-convert info: %s: %s\n", path.c_str(), dir.message().c_str());
+    return convert::kExitFailure;
+  }
+  const BsvtfHeader& h = dir->header;
+  const BsvtfMetadata& m = dir->metadata;
+  std::printf("%s: btflod .bsvtf streaming container, version %u\n", path.c_str(), h.version);
+  std::printf("  file    %llu bytes: directory %llu (metadata %u, %u packet entries, %u tile entries), payloads %llu\n",
+              static_cast<unsigned long long>(h.file_size), static_cast<unsigned long long>(h.directory_size), h.metadata_size,
+              h.packet_count, h.tile_count, static_cast<unsigned long long>(h.payload_size));
+  std::printf("  material \"%s\", %u x %u texels, %u levels of %u+2*%u tiles, %u components in %u RGBA textures\n",
+              m.material_name.c_str(), m.width, m.height, m.level_count, m.tile_size, m.border, m.component_count,
+              m.texture_count());
+  std::printf("  colour  %u channels, %s; U %u rows x %u components; quality %.1f\n", m.color_channels,
+              color_mode_name(m.color_mode), m.u_rows, m.component_count, static_cast<double>(m.quality));
+  std::printf("  lights  %zu directions (%s)\n  views   %zu directions (%s)\n", m.light_directions.size() / 3,
+              m.light_set.c_str(), m.view_directions.size() / 3, m.view_set.c_str());
+  uint64_t packet_bytes = 0;
+  for (const auto& p : dir->packets) packet_bytes += p.size;
+  std::printf("  packets %zu U packets, %llu bytes\n", dir->packets.size(), static_cast<unsigned long long>(packet_bytes));
+  const size_t raw_tile = m.layout().sample_count() * 2;  // raw half floats
+  uint64_t all = 0;
+  for (uint32_t l = 0; l < m.level_count; ++l) {
+    uint64_t count = 0, sum = 0;
+    for (const auto& t : dir->tiles)
+      if (t.id.level == l) {
+        ++count;
+        sum += t.size;
+      }
+    all += sum;
+    std::printf("  level %-2u %6llu tiles, %10llu bytes, %8.0f bytes/tile, %5.2f:1 vs raw halves; prefix to here %llu bytes\n", l,
+                static_cast<unsigned long long>(count), static_cast<unsigned long long>(sum),
+                count ? static_cast<double>(sum) / static_cast<double>(count) : 0.0,
+                sum ? static_cast<double>(count * raw_tile) / static_cast<double>(sum) : 0.0,
+                static_cast<unsigned long long>(dir->prefix_size(l)));
+  }
+  std::printf("  tiles   %zu, %llu bytes, %.2f:1 vs raw halves\n", dir->tiles.size(), static_cast<unsigned long long>(all),
+              all ? static_cast<double>(dir->tiles.size() * raw_tile) / static_cast<double>(all) : 0.0);
+  if (!values) return convert::kExitOk;
+  const std::span<const uint8_t> file(*bytes);
+  size_t bad_crc = 0, bad_decode = 0, decoded = 0;
+  for (const auto& p : dir->packets)
+    if (verify_bsvtf_payload(p.size, p.crc, file.subspan(p.offset, p.size)) != Status::success) ++bad_crc;
+  TileDecoder decoder(m.layout());
+  std::vector<std::vector<float>> out(dir->tiles.size());
+  for (uint32_t l = 0; l < m.level_count; ++l)  // parents first: the index is sorted by key, level in the key
+    for (size_t i = 0; i < dir->tiles.size(); ++i) {
+      const auto& t = dir->tiles[i];
+      if (t.id.level != l) continue;
+      const auto payload = file.subspan(t.offset, t.size);
+      if (verify_bsvtf_payload(t.size, t.crc, payload) != Status::success) {
+        ++bad_crc;
+        continue;
+      }
+      std::span<const float> parent;
+      if (l > 0) {
+        const BsvtfTileEntry* pe = dir->find(t.id.parent());
+        const size_t pi = pe ? static_cast<size_t>(pe - dir->tiles.data()) : 0;
+        if (!pe || out[pi].empty()) {
+          ++bad_decode;
+          continue;
+        }
+        parent = out[pi];
+      }
+      out[i].resize(m.layout().sample_count());
+      if (decoder.decode(payload, parent, t.id.x & 1, t.id.y & 1, out[i]) != Status::success) {
+        std::fprintf(stderr, "  tile %u/%u/%u/%u: %s\n", t.id.texture, t.id.level, t.id.x, t.id.y, decoder.message());
+        out[i].clear();
+        ++bad_decode;
+        continue;
+      }
+      ++decoded;
+      if (l + 1 < m.level_count) continue;
+      std::vector<float>().swap(out[i]);  // finest level: nothing decodes against it
+    }
+  std::printf("  check   %zu payload checksum failures, %zu tiles decoded, %zu failed\n", bad_crc, decoded, bad_decode);
+  return (bad_crc || bad_decode) ? convert::kExitFailure : convert::kExitOk;
 }
 
 #if BTFLOD_SAMPLES_HAVE_BONN
@@ -137,8 +247,10 @@ int run_info(int argc, char** argv) {
         "usage: btflod-convert info FILE... [--values]\n"
         "  Prints what each file holds: format, texel size, view and light directions, and for\n"
         "  measured BRDFs the grid and a few values. Reads NVIDIA ARC .mbsdf files, Bonn .btf files\n"
-        "  (!DFMF08FCR, !FMF12FCER) and UBO2003-style image folders (when compiled in).\n"
-        "  --values   also reconstruct the data and print its value range (may be slow)");
+        "  (!DFMF08FCR, !FMF12FCER), UBO2003-style image folders (when compiled in) and .bsvtf\n"
+        "  streaming containers (header, metadata, U packets, tiles and bytes per level).\n"
+        "  --values   also reconstruct the data and print its value range (may be slow); for .bsvtf:\n"
+        "             check every payload checksum and decode every tile");
     return convert::kExitOk;
   }
   const bool values = opt.flag("values");
@@ -150,6 +262,11 @@ int run_info(int argc, char** argv) {
   int result = convert::kExitOk;
   for (const auto& path : opt.positional()) {
     int r = convert::kExitFailure;
+    if (is_bsvtf(path)) {
+      r = info_bsvtf(path, values);
+      if (r != convert::kExitOk) result = r;
+      continue;
+    }
     switch (samples::detect_btf_file(path)) {
       case BtfFileKind::missing:
         std::fprintf(stderr, "btflod-convert info: %s: cannot open (missing or unreadable)\n", path.c_str());
@@ -181,4 +298,4 @@ int run_info(int argc, char** argv) {
 
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(info, "what a material file holds (.mbsdf, Bonn .btf, UBO2003 folder)", run_info);
+BTFLOD_CONVERT_COMMAND(info, "what a material file holds (.mbsdf, Bonn .btf, UBO2003 folder, .bsvtf)", run_info);

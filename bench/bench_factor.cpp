@@ -1,6 +1,6 @@
 // FMF factorisation time (paper 000 §4) for UBO2003-sized materials (81 × 81 directions,
-// 19,683 matrix rows) at rank 100: the blocked randomised SVD (SvdOptions defaults: oversampling 30, 2 power
-// iterations) next to the exact Eigen BDCSVD baseline at 64×64, with truncation errors and
+// 19,683 matrix rows) at rank 100: the blocked randomised SVD (SvdOptions defaults: sparse sign
+// sketch, oversampling 50, 2 power iterations, fused last pass) next to the exact Eigen BDCSVD baseline at 64×64, with truncation errors and
 // peak memory (VmHWM, reset before each run via /proc/self/clear_refs).
 //
 // The 64×64 material is the synthesised cloth (btf/synthesizer.hpp). The 256×256 material
@@ -10,10 +10,13 @@
 //
 //   build-d/bench/bench_factor                      # 64×64: randomised vs BDCSVD
 //   BTFLOD_BENCH_LARGE=1 build-d/bench/bench_factor --benchmark_filter=256
-// For the FLOP figures build this benchmark (only) with -march=native in a separate
-// build directory: cmake -B build-d-native -DCMAKE_CXX_FLAGS=-march=native ...
+// This executable is built with the offline tools' flags (BTFLOD_OFFLINE_ARCH, default AUTO:
+// -march=x86-64-v3 when the build machine runs it); the counter avx2_fma says which build ran.
+// GFLOP/s counts the dense products only: 2·(2q)·m·n·k (sparse sketch: q ≥ 1) or, for the
+// Gaussian sketch (BTFLOD_BENCH_ZETA=0), 2·(2q + 1)·m·n·k; k = rank + p.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -80,8 +83,15 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
   // SvdOptions otherwise), to chart the time/accuracy trade-off without rebuilding.
   if (const char* q = std::getenv("BTFLOD_BENCH_Q")) o.svd.power_iterations = std::atoi(q);
   if (const char* p = std::getenv("BTFLOD_BENCH_P")) o.svd.oversampling = std::atoi(p);
+  if (const char* z = std::getenv("BTFLOD_BENCH_ZETA")) o.svd.sketch_nonzeros = std::atoi(z);
   state.counters["q"] = o.svd.power_iterations;
   state.counters["p"] = o.svd.oversampling;
+  state.counters["zeta"] = o.svd.sketch_nonzeros;
+#if defined(__AVX2__) && defined(__FMA__)
+  state.counters["avx2_fma"] = 1;
+#else
+  state.counters["avx2_fma"] = 0;
+#endif
   for (auto _ : state) {
     reset_hwm();
     const auto t0 = std::chrono::steady_clock::now();
@@ -96,6 +106,14 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
   }
   const double input_gb = static_cast<double>(btf.size_bytes()) / (1024.0 * 1024.0 * 1024.0);
   state.counters["seconds"] = r.seconds;
+  if (method == SvdMethod::randomized) {
+    const double m = static_cast<double>(btf.view_count() * btf.light_count() * 3), n = static_cast<double>(btf.texel_count());
+    const double k = std::min({static_cast<double>(o.components + o.svd.oversampling), m, n});
+    const int q = std::max(0, o.svd.power_iterations);
+    const int products = q == 0 ? (o.svd.sketch_nonzeros > 0 ? 1 : 2) : 2 * q + (o.svd.sketch_nonzeros > 0 ? 0 : 1);
+    state.counters["GFLOP"] = 2.0 * products * m * n * k / 1e9;
+    state.counters["GFLOP/s"] = 2.0 * products * m * n * k / 1e9 / r.seconds;
+  }
   state.counters["input_GB"] = input_gb;
   state.counters["peak_GB"] = r.peak_gb;
   state.counters["peak/input"] = r.peak_gb / input_gb;

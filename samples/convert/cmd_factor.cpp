@@ -21,13 +21,16 @@ int run_factor(int argc, char** argv) {
         "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca [--components C]\n"
         "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
         "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
-        "                             [--power-iterations Q] [--oversampling P] [--float] [--quiet]\n"
+        "                             [--power-iterations Q] [--oversampling P] [--sketch-nonzeros Z]\n"
+        "                             [--float] [--quiet]\n"
         "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
         "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
         "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
         "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
         "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
         "             8-bit eigen-BRDFs unless --float\n"
+        "  randomised SVD: Q power iterations (default 2; 3 for flat spectra), P oversampling\n"
+        "             (default 50), Z nonzeros per row of the sparse sketch (default 8, 0 = Gaussian)\n"
         "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.");
     return convert::kExitOk;
   }
@@ -39,8 +42,10 @@ int run_factor(int argc, char** argv) {
   const int mips = static_cast<int>(opt.integer("mips", 0, 0, 16));
   const int cbcr = static_cast<int>(opt.integer("components-cbcr", 2, 0, 4096));
   const std::string svd = opt.string("svd", "auto");
-  const int power = static_cast<int>(opt.integer("power-iterations", 2, 0, 20));
-  const int oversampling = static_cast<int>(opt.integer("oversampling", 30, 0, 1000));
+  const SvdOptions svd_defaults{};
+  const int power = static_cast<int>(opt.integer("power-iterations", svd_defaults.power_iterations, 0, 20));
+  const int oversampling = static_cast<int>(opt.integer("oversampling", svd_defaults.oversampling, 0, 1000));
+  const int sketch_nonzeros = static_cast<int>(opt.integer("sketch-nonzeros", svd_defaults.sketch_nonzeros, 0, 1000));
   const bool use_float = opt.flag("float");
   const bool quiet = opt.flag("quiet", 'q');
   if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca")
@@ -71,6 +76,7 @@ int run_factor(int argc, char** argv) {
   so.method = svd == "exact" ? SvdMethod::exact : svd == "randomized" ? SvdMethod::randomized : SvdMethod::automatic;
   so.power_iterations = power;
   so.oversampling = oversampling;
+  so.sketch_nonzeros = sketch_nonzeros;
   samples::ProgressBar bar("factor", stderr, !quiet);
   const auto t0 = std::chrono::steady_clock::now();
   Result<AnyFactorization> result = make_error(Status::invalid_argument, "no method");

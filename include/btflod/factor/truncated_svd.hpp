@@ -123,7 +123,8 @@ inline Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y) {
 /// Truncated SVD of the m × n matrix whose columns `gather(col0, count, out)` provides
 /// (`out` is resized by the caller to m × count and must be fully written).
 /// Returns the rank-min(rank, m, n) factors, or an error for empty shapes / rank < 1, or
-/// Status::cancelled when `progress` returns false.
+/// Status::cancelled when `progress` returns false. If A has lower numerical rank than asked,
+/// the trailing singular values are 0 (with orthonormal completions in u and v).
 /// Threading: gather is called concurrently from pool threads for disjoint column ranges,
 /// each with its own `out`; it must be thread-safe for that. Not safe for untrusted sizes
 /// (it allocates O((m + n)·k)).

@@ -113,6 +113,41 @@ TEST(TilePyramid, BordersMakeBilinearInsideATileSeamless) {
   for (int c = 0; c < 4; ++c) EXPECT_NEAR(from_tile[c], from_image[c], 2e-3f);
 }
 
+// A repeated material: the outer borders of edge tiles hold the texels of the opposite edge,
+// everything else (interior, inner borders, weights) equals the clamped pyramid.
+TEST(TilePyramid, WrappedEdgesTakeTheOppositeEdgeAndChangeNothingElse) {
+  const EigenTextures e = make_input(128, 96, 4, 9);
+  auto clamped = TilePyramid::build(e, 32, 4, TileEdge::clamp);
+  auto wrapped = TilePyramid::build(e, 32, 4, TileEdge::wrap);
+  ASSERT_TRUE(clamped.ok() && wrapped.ok());
+  const uint32_t stored = 40;
+  size_t differing = 0;
+  for (uint32_t l = 0; l <= wrapped->geometry().finest_level; ++l) {
+    const Image<float>& img = wrapped->level_image(0, l);
+    const int w = img.width(), h = img.height();
+    for (uint32_t ty = 0; ty < wrapped->levels().tiles_y[l]; ++ty)
+      for (uint32_t tx = 0; tx < wrapped->levels().tiles_x[l]; ++tx) {
+        const uint32_t idx = wrapped->levels().index(l, tx, ty);
+        const auto a = wrapped->tile_texels(0, idx), b = clamped->tile_texels(0, idx);
+        for (uint32_t y = 0; y < stored; ++y)
+          for (uint32_t x = 0; x < stored; ++x) {
+            const int ux = int(tx * 32 + x) - 4, uy = int(ty * 32 + y) - 4;
+            const int gx = (ux % w + w) % w, gy = (uy % h + h) % h;
+            for (int c = 0; c < 4; ++c) {
+              const size_t i = (size_t(y) * stored + x) * 4 + c;
+              ASSERT_EQ(a[i], float_to_half_bits(img.at(gx, gy, c))) << "level " << l << " texel " << x << "," << y;
+              if (ux >= 0 && ux < w && uy >= 0 && uy < h) {
+                ASSERT_EQ(a[i], b[i]);
+              }
+              differing += a[i] != b[i];
+            }
+          }
+        EXPECT_EQ(wrapped->weights(0)[idx].bits, clamped->weights(0)[idx].bits);
+      }
+  }
+  EXPECT_GT(differing, 1000u) << "random texels: wrapped outer borders must differ from clamped ones";
+}
+
 TEST(TilePyramid, WeightsFollowEquation8) {
   // Constant texture: every tile equals its up-sampled parent → w = 0; energy = value².
   EigenTextures flat = make_input(256, 256, 4, 4);

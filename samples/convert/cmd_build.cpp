@@ -25,13 +25,15 @@ int run_build(int argc, char** argv) {
   if (opt.wants_help()) {
     std::puts(
         "usage: btflod-convert build IN.fmf OUT.bsvtf [--quality Q] [--tile T] [--border B]\n"
-        "                            [--per-component] [--deflate-level N] [--quiet]\n"
+        "                            [--per-component] [--wrap] [--deflate-level N] [--quiet]\n"
         "  IN is an FMF factor file (btflod-convert factor --method fmf).\n"
         "  --quality Q      1..100 (default 50): the block-RMS error tolerance is\n"
         "                   range/128 x JPEG's quality scale (docs/bsvtf_format.md)\n"
         "  --tile T         interior texels per tile (default 64); --border B texels (default 4)\n"
         "  --per-component  scale each component's tolerance by its own range (default: one shared\n"
         "                   tolerance from the largest range, which minimises the BTF's error)\n"
+        "  --wrap           the material repeats: outer tile borders wrap to the opposite edge\n"
+        "                   (default: clamp; wrapped borders avoid a seam where uv repeats)\n"
         "  --deflate-level  zlib level 0..9 (default 6)");
     return convert::kExitOk;
   }
@@ -39,6 +41,7 @@ int run_build(int argc, char** argv) {
   const auto tile = static_cast<uint32_t>(opt.integer("tile", 64, 8, 1016));
   const auto border = static_cast<uint32_t>(opt.integer("border", 4, 1, 64));
   const bool per_component = opt.flag("per-component");
+  const bool wrap = opt.flag("wrap");
   const int deflate_level = static_cast<int>(opt.integer("deflate-level", 6, 0, 9));
   const bool quiet = opt.flag("quiet", 'q');
   if (!opt.finish()) return convert::kExitUsage;
@@ -76,7 +79,7 @@ int run_build(int argc, char** argv) {
   eigen.angular = fmf->u;  // stored in the producer's row order (FMF: (view · n_light + light) · 3 + colour)
   eigen.light_count = static_cast<uint32_t>(fmf->shape.light_count());
   eigen.view_count = static_cast<uint32_t>(fmf->shape.view_count());
-  auto pyramid = TilePyramid::build(eigen, tile, border);
+  auto pyramid = TilePyramid::build(eigen, tile, border, wrap ? TileEdge::wrap : TileEdge::clamp);
   if (!pyramid) {
     std::fprintf(stderr, "btflod-convert build: %s\n", pyramid.message().c_str());
     return convert::kExitFailure;

@@ -66,9 +66,9 @@ int main(int argc, char** argv) {
     auto m = demo::prepare_material(static_cast<uint32_t>(i), ms, cfg->out_dir);
     if (!m) return fail("material", m.message());
     std::printf("  material    %s: %dx%d texels x %u views x %u lights, FMF C=%u (relative error %.3f), %s (%zu bytes, "
-                "%zu outer border values wrapped)\n",
+                "outer tile borders wrapped)\n",
                 m->name.c_str(), m->eigen_textures.width(), m->eigen_textures.height(), m->view_count, m->light_count,
-                m->components, m->fmf_relative_error, m->bsvtf_path.c_str(), m->bsvtf.size(), m->wrapped_border_texels);
+                m->components, m->fmf_relative_error, m->bsvtf_path.c_str(), m->bsvtf.size());
     materials.push_back(std::move(*m));
   }
   const double prep_seconds = prep_clock.seconds();

@@ -34,39 +34,6 @@ struct MaterialSettings {
   uint64_t seed = 1;
 };
 
-/// Rewrites the B-texel borders of every tile in `inputs` (bsvtf_tiles_from_pyramid order) with
-/// wrapped addressing: texel (x, y) of a level-l tile (tx, ty) takes level image texel
-/// ((tx·T + x − B) mod w, (ty·T + y − B) mod h). TilePyramid clamps at the texture's outer edge;
-/// the scene repeats every material (the shader wraps uv with fract, FMF samples with
-/// GL_REPEAT), so a clamped border shows as a one-texel seam where the texture repeats.
-/// Interior texels and borders between tiles are unchanged (same texels either way); values go
-/// through half like the pyramid's own tiles. Returns how many border texels changed.
-inline size_t wrap_tile_borders(const TilePyramid& pyramid, uint32_t tile_size, uint32_t border,
-                                samples::BsvtfTileInputs& inputs) {
-  size_t changed = 0;
-  const uint32_t stored = tile_size + 2 * border;
-  for (size_t i = 0; i < inputs.tiles.size(); ++i) {
-    const TileId t = inputs.tiles[i].id;
-    const Image<float>& img = pyramid.level_image(t.texture, t.level);
-    const int w = img.width(), h = img.height();
-    std::vector<float>& out = inputs.samples[i];
-    for (uint32_t y = 0; y < stored; ++y)
-      for (uint32_t x = 0; x < stored; ++x) {
-        const int ux = static_cast<int>(t.x * tile_size + x) - static_cast<int>(border);
-        const int uy = static_cast<int>(t.y * tile_size + y) - static_cast<int>(border);
-        if (ux >= 0 && ux < w && uy >= 0 && uy < h) continue;  // inside the level: already exact
-        const int gx = ((ux % w) + w) % w, gy = ((uy % h) + h) % h;
-        for (int c = 0; c < 4; ++c) {
-          float& dst = out[(static_cast<size_t>(y) * stored + x) * 4 + static_cast<size_t>(c)];
-          const float v = half_bits_to_float(float_to_half_bits(img.at(gx, gy, c)));
-          if (dst != v) ++changed;
-          dst = v;
-        }
-      }
-  }
-  return changed;
-}
-
 /// The small direction set of the demo (views and lights): rings at θ = 0, 30, 55, 75° with
 /// 1, 6, 8, 8 directions — far fewer than UBO2003's 81 so that synthesis and FMF stay fast.
 inline DirectionSet demo_directions() {
@@ -91,7 +58,6 @@ struct DemoMaterial {
   std::vector<uint8_t> bsvtf;     ///< the container bytes
   double fmf_relative_error = 0;  ///< ‖BTF − U·Vᵀ‖ / ‖BTF‖ on the synthesised material
   uint32_t finest_level = 0;
-  size_t wrapped_border_texels = 0;  ///< tile border values changed from clamp to wrap (seam fix)
 
   /// The backend description (spans into this object).
   FmfMaterialData data(bool with_textures) const {
@@ -180,7 +146,9 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   copy_table(*vt, m.view_index, m.view_weight);
 
   // Tile pyramid and .bsvtf container (closed-loop residual codec, paper 000 §6).
-  auto pyramid = TilePyramid::build(m.eigen, s.tile_size, s.border);
+  // Every demo material is repeated over its object (scene/demo_scene.hpp; the shader wraps uv
+  // with fract, FMF samples with GL_REPEAT): wrapped outer borders, no seam at the repeat.
+  auto pyramid = TilePyramid::build(m.eigen, s.tile_size, s.border, TileEdge::wrap);
   if (!pyramid) return pyramid.error();
   m.finest_level = pyramid->geometry().finest_level;
   BsvtfMetadata md;
@@ -193,9 +161,8 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   md.component_count = C;
   md.u_rows = L * V * 3;
   samples::set_bsvtf_directions(md, btf->lights(), btf->views());
-  samples::BsvtfTileInputs inputs = samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
-  // Every demo material is repeated over its object (scene/demo_scene.hpp): wrap the outer borders.
-  m.wrapped_border_texels = wrap_tile_borders(*pyramid, s.tile_size, s.border, inputs);
+  const samples::BsvtfTileInputs inputs =
+      samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
   BsvtfBuildOptions bo;
   bo.quality = s.quality;
   auto file = build_bsvtf(md, m.u, inputs.tiles, bo);

@@ -589,7 +589,7 @@ class StreamingRenderer {
     }
     // Weights w for the scheduler (paper 000 eq. 8), from the material's tile pyramid.
     for (uint32_t mi = 0; mi < materials_.size(); ++mi) {
-      auto pyr = TilePyramid::build(materials_[mi].eigen, tile_size_, border_);
+      auto pyr = TilePyramid::build(materials_[mi].eigen, tile_size_, border_, TileEdge::wrap);
       if (!pyr) return pyr.error();
       pyr->copy_weights_to(set_, mi);
     }

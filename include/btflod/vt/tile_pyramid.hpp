@@ -2,7 +2,8 @@
 //
 // Pre-processing code (allocates, not per frame): box-filtered down-sampling of the eigen-
 // textures to every level, cutting each level into T×T tiles with B texels of border taken from
-// the neighbouring texels of the same level (clamp-to-edge outside the texture), so bilinear
+// the neighbouring texels of the same level (clamp-to-edge or wrapped outside the texture, see
+// TileEdge), so bilinear
 // filtering inside the physical cache matches bilinear filtering of the level image exactly;
 // stored as RGBA16F, four eigen-texture components per texel. Also computes the tile weights
 // w(i, l, l−1) of eq. 8 and the tile energies ‖T‖²_F/T² of §6, stored as half.
@@ -43,15 +44,22 @@ inline void sample_bilinear_clamped(const Image<float>& image, float s, float t,
   }
 }
 
+/// What the borders of tiles at the texture's outer edge hold. `clamp` repeats the edge texel
+/// (a texture shown once); `wrap` takes the texels of the opposite edge, so a material repeated
+/// over a surface (uv wrapped with fract / GL_REPEAT) filters across the repeat without a seam.
+/// Interior texels, borders between tiles, weights and energies are the same in both modes.
+enum class TileEdge : uint8_t { clamp, wrap };
+
 /// The tile pyramid of one material: per virtual texture (four components each) the level
 /// images (float, kept for reference sampling and error measurement) and every tile as half
 /// texels with borders, plus w and energies. Immutable after build(); thread-safe reads.
 class TilePyramid {
  public:
-  /// Builds every level and tile. Returns invalid_argument when the input is inconsistent
-  /// (empty texture, U' of the wrong size) or the hierarchy exceeds the tile-id bit budget.
+  /// Builds every level and tile, with outer borders as `edge` says. Returns invalid_argument
+  /// when the input is inconsistent (empty texture, U' of the wrong size) or the hierarchy
+  /// exceeds the tile-id bit budget.
   static Result<TilePyramid> build(const EigenTextures& input, uint32_t tile_size = kDefaultTileSize,
-                                   uint32_t border = kDefaultTileBorder) {
+                                   uint32_t border = kDefaultTileBorder, TileEdge edge = TileEdge::clamp) {
     if (!input.valid())
       return make_error(Status::invalid_argument,
                         "tile pyramid: eigen-textures invalid (texture %dx%dx%d, U' has %zu entries, expected %u)",
@@ -115,10 +123,12 @@ class TilePyramid {
             for (uint32_t y = 0; y < stored; ++y)
               for (uint32_t x = 0; x < stored; ++x) {
                 // Borders come from the neighbouring texels of the same level (seamless bilinear).
-                const int gx = std::clamp(static_cast<int>(tx * tile_size + x) - static_cast<int>(border), 0,
-                                          img.width() - 1);
-                const int gy = std::clamp(static_cast<int>(ty * tile_size + y) - static_cast<int>(border), 0,
-                                          img.height() - 1);
+                const int ux = static_cast<int>(tx * tile_size + x) - static_cast<int>(border);
+                const int uy = static_cast<int>(ty * tile_size + y) - static_cast<int>(border);
+                const int gx = edge == TileEdge::wrap ? ((ux % img.width()) + img.width()) % img.width()
+                                                      : std::clamp(ux, 0, img.width() - 1);
+                const int gy = edge == TileEdge::wrap ? ((uy % img.height()) + img.height()) % img.height()
+                                                      : std::clamp(uy, 0, img.height() - 1);
                 for (int c = 0; c < 4; ++c)
                   dst[(static_cast<size_t>(y) * stored + x) * 4 + static_cast<size_t>(c)] =
                       float_to_half_bits(img.at(gx, gy, c));

@@ -25,11 +25,12 @@ struct DemoConfig {
   int components = 32;                            ///< --components K (DFMF, per channel)
   bool interreflection = false;                   ///< --interreflection
   bool quiet = false;                             ///< --quiet: no progress bars
+  bool window = false;                            ///< --window: show the frames in an X11 window
 };
 
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
-    "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--quiet]\n"
+    "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
     "  BTF-textured tori on a plane while streaming tiles through a throttled source and the\n"
@@ -38,6 +39,8 @@ inline constexpr const char* kDemoUsage =
     "  DIR/report.html and DIR/report.json.\n"
     "  After the flight the camera holds the last view for up to --settle frames (60) while the\n"
     "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
+    "  --window shows each BSVTF frame in an X11 window (GL backend, needs DISPLAY; headless\n"
+    "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
@@ -66,6 +69,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
     if (a == "--interreflection") {
       cfg.interreflection = true;
+      continue;
+    }
+    if (a == "--window") {
+      cfg.window = true;
       continue;
     }
     if (a == "--quiet" || a == "-q") {

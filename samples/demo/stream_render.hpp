@@ -138,6 +138,9 @@ class GpuFrameRenderer final : public FrameRenderer {
   }
   Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
   bool renders_page_table() const override { return true; }
+  /// Called after each BSVTF colour pass, outside both timings, while its image is the
+  /// backend's colour target (the demo's --window presents it there).
+  void set_after_bsvtf(std::function<void()> f) { after_bsvtf_ = std::move(f); }
   VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
                     Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
                     double& ms_fmf) override {
@@ -182,6 +185,7 @@ class GpuFrameRenderer final : public FrameRenderer {
     if (be_.read_color(bsvtf.view()) != Status::success) return make_error(Status::io_error, "read_color failed");
     ms = ms_since(t0);
     be_.wait_idle();
+    if (after_bsvtf_) after_bsvtf_();
     FeedbackFrame fb;
     feedback.clear();
     while (be_.poll_feedback(fb)) feedback.assign(fb.words.begin(), fb.words.end());
@@ -207,6 +211,7 @@ class GpuFrameRenderer final : public FrameRenderer {
   }
 
   Backend& be_;
+  std::function<void()> after_bsvtf_;
   std::vector<MeshHandle> meshes_;
   std::vector<uint32_t> material_of_;
   std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "btflod/core/half.hpp"
+#include "gl_representations.hpp"
 
 namespace btflod::samples {
 namespace {
@@ -24,6 +25,7 @@ struct GlMesh {
 
 struct GlMaterial {
   GLuint eigen_abrdfs = 0, angular_index = 0, angular_weight = 0, eigen_textures = 0;
+  int representation = -1;  ///< index into reps_ for a laplacian / lpca / pca_views material
 };
 
 struct FeedbackSlot {
@@ -87,15 +89,22 @@ class GlBackend final : public Backend {
     return n;
   }
 
-  GlBackend(EGLDisplay display, EGLContext context, const GlBackendOptions& options)
-      : display_(display), context_(context), ring_(std::max<uint32_t>(options.feedback_ring_size, 1)) {
-    ++live_backends();
+  /// `owns_context`: false for a context made by gl_window.cpp (the window destroys it and its
+  /// surface; the backend then neither counts in live_backends() nor terminates the display).
+  GlBackend(EGLDisplay display, EGLContext context, const GlBackendOptions& options, EGLSurface surface = EGL_NO_SURFACE,
+            bool owns_context = true)
+      : display_(display),
+        context_(context),
+        surface_(surface),
+        owns_context_(owns_context),
+        ring_(std::max<uint32_t>(options.feedback_ring_size, 1)) {
+    if (owns_context_) ++live_backends();
     name_ = std::string("OpenGL ") + reinterpret_cast<const char*>(glGetString(GL_VERSION)) + " (" +
             reinterpret_cast<const char*>(glGetString(GL_RENDERER)) + ")";
   }
 
   ~GlBackend() override {
-    eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_);
+    eglMakeCurrent(display_, surface_, surface_, context_);
     for (GLuint p : {fmf_, bsvtf_, feedback_}) glDeleteProgram(p);
     for (GlMesh& m : meshes_) {
       glDeleteVertexArrays(1, &m.vao);
@@ -106,6 +115,7 @@ class GlBackend final : public Backend {
       GLuint t[4] = {m.eigen_abrdfs, m.angular_index, m.angular_weight, m.eigen_textures};
       glDeleteTextures(4, t);
     }
+    for (GlRepresentation& r : reps_) destroy_gl_representation(r);
     for (FeedbackSlot& s : ring_) {
       if (s.fence) glDeleteSync(s.fence);
       glDeleteBuffers(1, &s.pbo);
@@ -114,6 +124,7 @@ class GlBackend final : public Backend {
     GLuint t[2] = {cache_, page_table_};
     glDeleteTextures(2, t);
     glDeleteBuffers(1, &ubo_);
+    if (!owns_context_) return;  // the window keeps its context current until it destroys it
     eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     eglDestroyContext(display_, context_);
     // EGL displays are per-process singletons: terminate only when the last backend goes.
@@ -255,6 +266,14 @@ class GlBackend final : public Backend {
     return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
+  Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& data) override {
+    return add_representation(data);
+  }
+  Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& data) override { return add_representation(data); }
+  Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& data) override {
+    return add_representation(data);
+  }
+
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     make_current();
     if (!initialised_) return Status::invalid_argument;
@@ -309,6 +328,15 @@ class GlBackend final : public Backend {
     if (!color_fbo_ || mesh.id == 0 || mesh.id > meshes_.size() || material.id == 0 || material.id > materials_.size())
       return Status::invalid_argument;
     const GlMaterial& m = materials_[material.id - 1];
+    if (m.representation >= 0) {  // laplacian / lpca / pca_views (gl_representations.cpp)
+      const GlRepresentation& r = reps_[static_cast<size_t>(m.representation)];
+      if (r.program != program) return Status::invalid_argument;
+      glBindFramebuffer(GL_FRAMEBUFFER, color_fbo_);
+      glViewport(0, 0, static_cast<GLsizei>(frame_.width), static_cast<GLsizei>(frame_.height));
+      bind_gl_representation(r);
+      submit_draw(meshes_[mesh.id - 1], params);
+      return Status::success;
+    }
     GLuint prog = 0;
     if (program == ShaderProgram::fmf) {
       if (!m.eigen_textures) return Status::invalid_argument;  // BSVTF-only material
@@ -437,11 +465,37 @@ class GlBackend final : public Backend {
     return Status::success;
   }
 
+  /// The last frame's colour target, scaled to the current surface's default framebuffer
+  /// (linear → sRGB when that framebuffer is sRGB-capable). For gl_window.cpp.
+  Status blit_to_default_framebuffer(uint32_t width, uint32_t height) noexcept {
+    make_current();
+    if (!color_fbo_ || width == 0 || height == 0) return Status::invalid_argument;
+    glEnable(GL_FRAMEBUFFER_SRGB);
+    glBlitNamedFramebuffer(color_fbo_, 0, 0, 0, static_cast<GLint>(frame_.width), static_cast<GLint>(frame_.height), 0, 0,
+                           static_cast<GLint>(width), static_cast<GLint>(height), GL_COLOR_BUFFER_BIT, GL_LINEAR);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    return glGetError() == GL_NO_ERROR ? Status::success : Status::io_error;
+  }
+
  private:
   /// Several backends may live on one thread: each entry point except draw, draw_feedback and
   /// end_frame (which follow begin_frame) makes this context current (cheap when it already is).
   void make_current() {
-    if (eglGetCurrentContext() != context_) eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_);
+    if (eglGetCurrentContext() != context_) eglMakeCurrent(display_, surface_, surface_, context_);
+  }
+
+  template <class Data>
+  Result<MaterialHandle> add_representation(const Data& data) {
+    make_current();
+    if (!initialised_) return make_error(Status::invalid_argument, "GL: create a material before init");
+    if (VoidResult v = validate_material(data, config_); !v) return v.error();
+    Result<GlRepresentation> r = create_gl_representation(config_, data);
+    if (!r) return r.error();
+    reps_.push_back(*r);
+    GlMaterial m;
+    m.representation = static_cast<int>(reps_.size() - 1);
+    materials_.push_back(m);
+    return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
   static void set_nearest(GLuint tex) {
@@ -500,6 +554,8 @@ class GlBackend final : public Backend {
 
   EGLDisplay display_;
   EGLContext context_;
+  EGLSurface surface_;  // EGL_NO_SURFACE when headless
+  bool owns_context_;
   std::string name_;
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
@@ -514,6 +570,7 @@ class GlBackend final : public Backend {
   uint64_t dropped_ = 0;
   std::vector<GlMesh> meshes_;
   std::vector<GlMaterial> materials_;
+  std::vector<GlRepresentation> reps_;
   std::vector<FeedbackSlot> ring_;
   std::vector<uint32_t> readback_;
   std::vector<float> color_staging_;
@@ -574,6 +631,24 @@ Result<std::unique_ptr<Backend>> create_gl_backend(const GlBackendOptions& optio
     return make_error(Status::unsupported, "GL backend: could not load OpenGL 4.5 entry points");
   }
   return std::unique_ptr<Backend>(new GlBackend(display, context, options));
+}
+
+Result<std::unique_ptr<Backend>> create_gl_backend_on(const GlExternalContext& ctx, const GlBackendOptions& options) {
+  const EGLDisplay display = static_cast<EGLDisplay>(ctx.display);
+  const EGLContext context = static_cast<EGLContext>(ctx.context);
+  const EGLSurface surface = ctx.surface ? static_cast<EGLSurface>(ctx.surface) : EGL_NO_SURFACE;
+  if (display == EGL_NO_DISPLAY || context == EGL_NO_CONTEXT)
+    return make_error(Status::invalid_argument, "GL backend: no EGL display or context given");
+  if (!eglMakeCurrent(display, surface, surface, context))
+    return make_error(Status::unsupported, "GL backend: eglMakeCurrent on the given surface failed (0x%04x)", eglGetError());
+  if (!gladLoadGL(reinterpret_cast<GLADloadfunc>(eglGetProcAddress)) || !GLAD_GL_VERSION_4_5)
+    return make_error(Status::unsupported, "GL backend: could not load OpenGL 4.5 entry points");
+  return std::unique_ptr<Backend>(new GlBackend(display, context, options, surface, false));
+}
+
+Status gl_blit_color_to_default_framebuffer(Backend& backend, uint32_t width, uint32_t height) noexcept {
+  auto* gl = dynamic_cast<GlBackend*>(&backend);
+  return gl ? gl->blit_to_default_framebuffer(width, height) : Status::invalid_argument;
 }
 
 }  // namespace btflod::samples

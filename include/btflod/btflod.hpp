@@ -76,3 +76,4 @@
 #include "btflod/backend/backend.hpp"
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/page_table_writes.hpp"
+#include "btflod/backend/representation_packing.hpp"

@@ -12,6 +12,7 @@
 // poll_feedback) do not allocate after set-up, never block on the GPU and return a Status.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -172,6 +173,189 @@ inline std::vector<float> pack_eigen_textures_rgba(ImageView<const float> v) {
   return out;
 }
 
+// --- the other representations (laplacian, lpca, pca_views programs) ----------------------
+// Each material carries its data in the layout its generated program reads (docs/shaders.md,
+// "Representation layouts"); backend/representation_packing.hpp builds them from factor/'s
+// LaplacianPca, LocalPca and PcaViews. A backend generates the material's program at creation
+// from its init() config with the representation's own parameters (representation_config()),
+// so C, λmax, K, R and k need not match the FMF/BSVTF config. All float data is RGBA32F,
+// tightly packed, array layers outermost, then rows (row 0 = texture coordinate t = 0), then
+// texels; mip chains are concatenated finest first.
+
+/// Laplacian-pyramid PCA (paper 001 §3.3–3.4, eq. 7). Component j of pyramid level k is a weight
+/// d_kj per texel and an eigen Laplacian BRDF with one value per (light, view) and YCbCr channel
+/// (packing a channel's scalar component into its own rgb slot, the others 0, reproduces the
+/// per-channel PCA exactly). C = components per level, zero-padded to the largest level.
+struct LaplacianMaterialData {
+  uint32_t components = 0;  ///< C (Y + Cb + Cr components of the richest level)
+  uint32_t max_level = 0;   ///< λmax: levels 0 (finest band) … λmax (top)
+  uint32_t light_count = 0;
+  uint32_t view_count = 0;
+  uint32_t width = 0;   ///< finest weight map (level 0) width; power of two
+  uint32_t height = 0;  ///< power of two; level k is max(1, width >> k) × max(1, height >> k)
+  bool ycbcr = true;    ///< values are YCbCr (paper 001 §3.1): the shader converts to RGB
+  /// 2D array, texel (light, view), layer k·C + j: rgb = (Y, Cb, Cr) of E_kj. Sampled with
+  /// texelFetch. (λmax + 1)·C·views·lights·4 floats.
+  std::span<const float> eigen;
+  /// Mipmapped 2D array of ⌈C/4⌉ layers, mip k = pyramid level k, component j in layer j/4,
+  /// channel j%4; nearest filtering (paper 001 stores D_k per pyramid texel). Σ_k
+  /// ⌈C/4⌉·w_k·h_k·4 floats, mip 0 first.
+  std::span<const float> weights;
+  /// 2D, texel (light, view): rgb = μ'_{λmax} (paper 001 eq. 5–6: Phong Y mean, constant Cb, Cr)
+  /// tabulated at the measured directions. views·lights·4 floats.
+  std::span<const float> mean;
+  AngularTablesData angular;  ///< the shader uses the nearest (largest-weight) index (§3.4 step 1)
+};
+
+/// Local PCA with the 3D-texture layout of paper 002 §6.2: per texel a cluster k and C weights
+/// (8-bit scales folded in, §6.3); per cluster the mean (j = 0) and C eigen-BRDFs resampled on
+/// a regular R⁴ grid over (s_v, t_v, s_l, t_l) of the parameterised view and light directions,
+/// grid sample i at s = i/(R−1). Volume texel (x, y, z) with x = j·R + a (s_v = a/(R−1)),
+/// y = k·R + b (t_v = b/(R−1)), z = i·R + c (t_l = i/(R−1), s_l = c/(R−1)); linear filtering
+/// does s_v, t_v, s_l and the shader lerps t_l by hand.
+struct LpcaMaterialData {
+  uint32_t components = 0;  ///< C eigen-BRDFs per cluster
+  uint32_t clusters = 0;    ///< K
+  uint32_t grid_resolution = 0;  ///< R ≥ 2
+  uint32_t width = 0;
+  uint32_t height = 0;
+  DirectionParameterisation parameterisation = DirectionParameterisation::elevated_concentric;
+  std::span<const uint32_t> cluster;  ///< width·height cluster ids < K (R32UI 2D, texelFetch)
+  std::span<const float> weights;     ///< 2D array ⌈C/4⌉ layers: weight j in layer j/4, channel j%4
+  /// 3D, (C+1)·R × K·R × R·R texels, x fastest then y then z: rgb = colour.
+  std::span<const float> volume;
+};
+
+/// PCA over groups of k neighbouring views (paper 004 §4.3.2, §6.3): per group b, A_b = L·R with
+/// L = [m | UΣ] (one scalar per texel and component c = 0 … C, c = 0 the mean) and
+/// R = [1; Vᵀ] (one value per component, light, view and colour: red = Σ_c L_c R_{c,3i}).
+struct PcaViewsMaterialData {
+  uint32_t components = 0;  ///< C per group (zero-padded to the largest group)
+  uint32_t views_per_group = 0;
+  uint32_t light_count = 0;
+  uint32_t view_count = 0;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  /// 2D array of groups·⌈(C+1)/4⌉ layers: L_{t,c} of group b in layer b·⌈(C+1)/4⌉ + c/4,
+  /// channel c%4; nearest (paper 004 §6.3: i = ⌊u·N⌋).
+  std::span<const float> l;
+  /// 2D, C × lights·views texels: texel (c − 1, light + lights·view) rgb = R_{c, colour} of the
+  /// view's group (row 0 of R, all ones, is implicit).
+  std::span<const float> r;
+  AngularTablesData angular;  ///< 3 closest directions, barycentric weights (paper 004 §4.4)
+};
+
+namespace detail {
+inline bool is_pow2(uint32_t v) noexcept { return v != 0 && (v & (v - 1)) == 0; }
+inline VoidResult check_angular(const AngularTablesData& a, uint32_t lights, uint32_t views, uint32_t resolution) {
+  if (a.resolution != resolution)
+    return make_error(Status::invalid_argument, "material: angular tables %u², shaders expect %u²", a.resolution,
+                      resolution);
+  const size_t n = static_cast<size_t>(a.resolution) * a.resolution * 3;
+  if (a.light_index.size() != n || a.light_weight.size() != n || a.view_index.size() != n || a.view_weight.size() != n)
+    return make_error(Status::invalid_argument, "material: angular table spans %zu/%zu/%zu/%zu, expected %zu each",
+                      a.light_index.size(), a.light_weight.size(), a.view_index.size(), a.view_weight.size(), n);
+  for (size_t i = 0; i < n; ++i) {
+    if (a.light_index[i] >= lights || a.view_index[i] >= views)
+      return make_error(Status::invalid_argument, "material: angular index %zu names direction %u/%u, have %u/%u", i,
+                        a.light_index[i], a.view_index[i], lights, views);
+    if (!std::isfinite(a.light_weight[i]) || !std::isfinite(a.view_weight[i]))
+      return make_error(Status::invalid_argument, "material: angular weight %zu is not finite", i);
+  }
+  return {};
+}
+inline size_t laplacian_weight_floats(const LaplacianMaterialData& m) noexcept {
+  size_t s = 0;
+  for (uint32_t k = 0; k <= m.max_level; ++k)
+    s += static_cast<size_t>(std::max(1u, m.width >> k)) * std::max(1u, m.height >> k) * 4 * ((m.components + 3) / 4);
+  return s;
+}
+}  // namespace detail
+
+/// Checks a Laplacian material (counts, power-of-two sizes, λmax ≤ 15, span sizes, angular
+/// tables against `config.angular.resolution`). Returns invalid_argument naming the field.
+/// Safe for untrusted data.
+inline VoidResult validate_material(const LaplacianMaterialData& m, const ShaderConfig& config) {
+  if (m.components == 0 || m.components > 64 || m.max_level > 15 || m.light_count == 0 || m.view_count == 0 ||
+      m.light_count > 16384 || m.view_count > 16384 || !detail::is_pow2(m.width) || !detail::is_pow2(m.height) ||
+      m.width > 16384 || m.height > 16384 || (1u << m.max_level) > std::max(m.width, m.height))
+    return make_error(Status::invalid_argument,
+                      "laplacian material: C = %u, λmax = %u, %u lights × %u views, %u×%u weights (expected C 1..64, "
+                      "λmax ≤ 15 and ≤ log2 of the power-of-two size)",
+                      m.components, m.max_level, m.light_count, m.view_count, m.width, m.height);
+  const size_t dirs = static_cast<size_t>(m.light_count) * m.view_count;
+  if (m.eigen.size() != dirs * (m.max_level + 1) * m.components * 4 || m.mean.size() != dirs * 4 ||
+      m.weights.size() != detail::laplacian_weight_floats(m))
+    return make_error(Status::invalid_argument, "laplacian material: eigen/weights/mean have %zu/%zu/%zu floats, expected %zu/%zu/%zu",
+                      m.eigen.size(), m.weights.size(), m.mean.size(), dirs * (m.max_level + 1) * m.components * 4,
+                      detail::laplacian_weight_floats(m), dirs * 4);
+  return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
+}
+
+/// Checks an LPCA material (counts, span sizes, every cluster id < K). Returns
+/// invalid_argument naming the field. Safe for untrusted data.
+inline VoidResult validate_material(const LpcaMaterialData& m, const ShaderConfig&) {
+  if (m.components == 0 || m.components > 64 || m.clusters == 0 || m.clusters > 4096 || m.grid_resolution < 2 || m.grid_resolution > 64 ||
+      m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
+    return make_error(Status::invalid_argument, "lpca material: C = %u, K = %u, R = %u, %u×%u (expected C 1..64, K 1..4096, R 2..64)",
+                      m.components, m.clusters, m.grid_resolution, m.width, m.height);
+  const size_t texels = static_cast<size_t>(m.width) * m.height, r = m.grid_resolution;
+  const size_t volume = (m.components + 1) * r * m.clusters * r * r * r * 4;
+  if (m.cluster.size() != texels || m.weights.size() != texels * 4 * ((m.components + 3) / 4) || m.volume.size() != volume)
+    return make_error(Status::invalid_argument, "lpca material: cluster/weights/volume have %zu/%zu/%zu values, expected %zu/%zu/%zu",
+                      m.cluster.size(), m.weights.size(), m.volume.size(), texels, texels * 4 * ((m.components + 3) / 4),
+                      volume);
+  for (size_t t = 0; t < texels; ++t)
+    if (m.cluster[t] >= m.clusters)
+      return make_error(Status::invalid_argument, "lpca material: texel %zu has cluster %u, K = %u", t, m.cluster[t],
+                        m.clusters);
+  return {};
+}
+
+/// Checks a PCA-k material (counts, span sizes, angular tables). Returns invalid_argument
+/// naming the field. Safe for untrusted data.
+inline VoidResult validate_material(const PcaViewsMaterialData& m, const ShaderConfig& config) {
+  if (m.components == 0 || m.components > 64 || m.views_per_group == 0 || m.view_count == 0 || m.light_count == 0 ||
+      m.views_per_group > m.view_count || m.light_count > 16384 || m.view_count > 16384 || m.width == 0 ||
+      m.height == 0 || m.width > 16384 || m.height > 16384)
+    return make_error(Status::invalid_argument, "pca_views material: C = %u, k = %u, %u lights × %u views, %u×%u",
+                      m.components, m.views_per_group, m.light_count, m.view_count, m.width, m.height);
+  const size_t groups = (m.view_count + m.views_per_group - 1) / m.views_per_group;
+  const size_t l = groups * ((m.components + 4) / 4) * m.width * m.height * 4;
+  const size_t r = static_cast<size_t>(m.components) * m.light_count * m.view_count * 4;
+  if (m.l.size() != l || m.r.size() != r)
+    return make_error(Status::invalid_argument, "pca_views material: L/R have %zu/%zu floats, expected %zu/%zu", m.l.size(),
+                      m.r.size(), l, r);
+  return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
+}
+
+/// The config a backend generates a representation's program from: `base` (angular tables,
+/// targets) with the material's own component count and representation parameters.
+inline ShaderConfig representation_config(const ShaderConfig& base, const LaplacianMaterialData& m) {
+  ShaderConfig c = base;
+  c.components = m.components;
+  c.laplacian.max_level = m.max_level;
+  c.laplacian.ycbcr_output = m.ycbcr;
+  return c;
+}
+/// See representation_config(const ShaderConfig&, const LaplacianMaterialData&).
+inline ShaderConfig representation_config(const ShaderConfig& base, const LpcaMaterialData& m) {
+  ShaderConfig c = base;
+  c.components = m.components;
+  c.lpca.clusters = m.clusters;
+  c.lpca.grid_resolution = m.grid_resolution;
+  c.angular.parameterisation = m.parameterisation;
+  return c;
+}
+/// See representation_config(const ShaderConfig&, const LaplacianMaterialData&).
+inline ShaderConfig representation_config(const ShaderConfig& base, const PcaViewsMaterialData& m) {
+  ShaderConfig c = base;
+  c.components = m.components;
+  c.pca.views_per_group = m.views_per_group;
+  c.pca.light_count = m.light_count;
+  return c;
+}
+
 /// Checks page-table writes against the page-table shape (layers, finest level); shared by
 /// the backends so they reject the same inputs. Returns invalid_argument or success. noexcept.
 inline Status check_page_table_writes(std::span<const PageTableWrite> writes, uint32_t layers,
@@ -231,6 +415,22 @@ class Backend {
   virtual Result<MeshHandle> create_mesh(const MeshData& mesh) = 0;
   /// Uploads an FMF material (U', angular tables, optional V'). Returns its handle.
   virtual Result<MaterialHandle> create_material(const FmfMaterialData& material) = 0;
+  /// Uploads a Laplacian-pyramid PCA material and builds its `laplacian` program (paper 001
+  /// eq. 7) from the init() config and representation_config(). Returns its handle (draw it with
+  /// ShaderProgram::laplacian; ShaderParams::lod.z scales the eye distance: λ = log2(d·lod.z)),
+  /// invalid_argument when validate_material() fails, unsupported when the backend has no
+  /// such path (the default).
+  virtual Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData&) {
+    return make_error(Status::unsupported, "%s: no laplacian program", name());
+  }
+  /// Uploads a local-PCA material (paper 002 §6.2; draw with ShaderProgram::lpca). As above.
+  virtual Result<MaterialHandle> create_lpca_material(const LpcaMaterialData&) {
+    return make_error(Status::unsupported, "%s: no lpca program", name());
+  }
+  /// Uploads a PCA-k material (paper 004 §6.3; draw with ShaderProgram::pca_views). As above.
+  virtual Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData&) {
+    return make_error(Status::unsupported, "%s: no pca_views program", name());
+  }
 
   // --- streaming (per frame; no allocation, no GPU wait) ----------------------------------
   /// Copies tiles into cache slots. Returns invalid_argument (and uploads nothing) when a slot
@@ -244,7 +444,9 @@ class Backend {
   /// Starts a frame: clears the colour target and the feedback target (to the config's
   /// FeedbackWordLayout::empty_word). Targets are (re)created when the size changes.
   virtual Status begin_frame(const FrameDesc& frame) noexcept = 0;
-  /// Draws a mesh with `program` (fmf or bsvtf) and the given shader parameters.
+  /// Draws a mesh with `program` and the given shader parameters: fmf or bsvtf for an FMF
+  /// material, laplacian / lpca / pca_views for a material of that representation. Returns
+  /// invalid_argument when the program does not fit the material.
   virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
                       const ShaderParams& params) noexcept = 0;
   /// Draws a mesh into the feedback target (paper 000 eq. 1–2).

@@ -1,0 +1,169 @@
+// btflod sample — OpenGL textures and programs of the laplacian, lpca and pca_views materials.
+// See gl_representations.hpp; layouts in backend.hpp and docs/shaders.md.
+#include "gl_representations.hpp"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+namespace btflod::samples {
+namespace {
+
+Result<GLuint> compile(const GlslProgramSource& src, const char* what) {
+  GLuint stages[2] = {glCreateShader(GL_VERTEX_SHADER), glCreateShader(GL_FRAGMENT_SHADER)};
+  const char* texts[2] = {src.vertex.c_str(), src.fragment.c_str()};
+  std::string log(4096, '\0');
+  for (int i = 0; i < 2; ++i) {
+    glShaderSource(stages[i], 1, &texts[i], nullptr);
+    glCompileShader(stages[i]);
+    GLint ok = 0;
+    glGetShaderiv(stages[i], GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      glGetShaderInfoLog(stages[i], static_cast<GLsizei>(log.size()), nullptr, log.data());
+      glDeleteShader(stages[0]);
+      glDeleteShader(stages[1]);
+      return make_error(Status::unsupported, "GL: %s %s shader does not compile: %s", what, i ? "fragment" : "vertex",
+                        log.c_str());
+    }
+  }
+  const GLuint prog = glCreateProgram();
+  glAttachShader(prog, stages[0]);
+  glAttachShader(prog, stages[1]);
+  glLinkProgram(prog);
+  glDeleteShader(stages[0]);
+  glDeleteShader(stages[1]);
+  GLint ok = 0;
+  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    glGetProgramInfoLog(prog, static_cast<GLsizei>(log.size()), nullptr, log.data());
+    glDeleteProgram(prog);
+    return make_error(Status::unsupported, "GL: %s program does not link: %s", what, log.c_str());
+  }
+  return prog;
+}
+
+void sampling(GLuint tex, GLenum min_filter, GLenum mag_filter, GLenum wrap) {
+  glTextureParameteri(tex, GL_TEXTURE_MIN_FILTER, static_cast<GLint>(min_filter));
+  glTextureParameteri(tex, GL_TEXTURE_MAG_FILTER, static_cast<GLint>(mag_filter));
+  glTextureParameteri(tex, GL_TEXTURE_WRAP_S, static_cast<GLint>(wrap));
+  glTextureParameteri(tex, GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
+  glTextureParameteri(tex, GL_TEXTURE_WRAP_R, static_cast<GLint>(wrap));
+}
+
+GLsizei sz(uint32_t v) { return static_cast<GLsizei>(v); }
+
+/// RGBA32F 2D array (or 2D when layers == 0) with `mips` levels; data: all mips, finest first,
+/// each layer-major. Nearest filtering.
+GLuint float_array(uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, const float* data) {
+  GLuint t = 0;
+  if (layers == 0) {
+    glCreateTextures(GL_TEXTURE_2D, 1, &t);
+    glTextureStorage2D(t, 1, GL_RGBA32F, sz(w), sz(h));
+    glTextureSubImage2D(t, 0, 0, 0, sz(w), sz(h), GL_RGBA, GL_FLOAT, data);
+  } else {
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &t);
+    glTextureStorage3D(t, sz(mips), GL_RGBA32F, sz(w), sz(h), sz(layers));
+    for (uint32_t k = 0; k < mips; ++k) {
+      const uint32_t wk = std::max(1u, w >> k), hk = std::max(1u, h >> k);
+      glTextureSubImage3D(t, sz(k), 0, 0, 0, sz(wk), sz(hk), sz(layers), GL_RGBA, GL_FLOAT, data);
+      data += static_cast<size_t>(wk) * hk * layers * 4;
+    }
+  }
+  sampling(t, mips > 1 ? GL_NEAREST_MIPMAP_NEAREST : GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+void add_angular(GlRepresentation& r, const AngularTablesData& a) {
+  std::vector<uint32_t> index;
+  std::vector<float> weight;
+  pack_angular_tables_rgba(a, index, weight);
+  const GLsizei res = sz(a.resolution);
+  GLuint ti = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &ti);
+  glTextureStorage3D(ti, 1, GL_RGBA32UI, res, res, 2);
+  glTextureSubImage3D(ti, 0, 0, 0, 0, res, res, 2, GL_RGBA_INTEGER, GL_UNSIGNED_INT, index.data());
+  sampling(ti, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  r.units[r.unit_count++] = {ShaderBinding::angular_index, ti};
+  r.units[r.unit_count++] = {ShaderBinding::angular_weight, float_array(a.resolution, a.resolution, 2, 1, weight.data())};
+}
+
+Result<GlRepresentation> finish(GlRepresentation r, ShaderProgram program, const ShaderConfig& config) {
+  r.program = program;
+  Result<GlslProgramSource> src = generate_program(program, GlslTarget::gl450_core, config);
+  if (!src) {
+    destroy_gl_representation(r);
+    return src.error();
+  }
+  Result<GLuint> prog = compile(*src, shader_program_name(program));
+  if (!prog) {
+    destroy_gl_representation(r);
+    return prog.error();
+  }
+  r.gl_program = *prog;
+  if (GLenum e = glGetError(); e != GL_NO_ERROR) {
+    destroy_gl_representation(r);
+    return make_error(Status::unsupported, "GL: error 0x%04x while creating a %s material", e, shader_program_name(program));
+  }
+  return r;
+}
+
+}  // namespace
+
+Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const LaplacianMaterialData& m) {
+  GlRepresentation r;
+  const uint32_t groups = (m.components + 3) / 4;
+  // Eigen Laplacian BRDFs: texel (light, view), layer k·C + j (paper 001 §3.3).
+  r.units[r.unit_count++] = {ShaderBinding::laplacian_eigen,
+                             float_array(m.light_count, m.view_count, (m.max_level + 1) * m.components, 1, m.eigen.data())};
+  // PCA weight maps: mip k = pyramid level k, read with texelFetch at the level-k texel.
+  r.units[r.unit_count++] = {ShaderBinding::laplacian_weights,
+                             float_array(m.width, m.height, groups, m.max_level + 1, m.weights.data())};
+  r.units[r.unit_count++] = {ShaderBinding::laplacian_mean, float_array(m.light_count, m.view_count, 0, 1, m.mean.data())};
+  add_angular(r, m.angular);
+  return finish(r, ShaderProgram::laplacian, representation_config(base, m));
+}
+
+Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const LpcaMaterialData& m) {
+  GlRepresentation r;
+  GLuint cluster = 0;
+  glCreateTextures(GL_TEXTURE_2D, 1, &cluster);
+  glTextureStorage2D(cluster, 1, GL_R32UI, sz(m.width), sz(m.height));
+  glTextureSubImage2D(cluster, 0, 0, 0, sz(m.width), sz(m.height), GL_RED_INTEGER, GL_UNSIGNED_INT, m.cluster.data());
+  sampling(cluster, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  r.units[r.unit_count++] = {ShaderBinding::lpca_cluster, cluster};
+  r.units[r.unit_count++] = {ShaderBinding::lpca_weights,
+                             float_array(m.width, m.height, (m.components + 3) / 4, 1, m.weights.data())};
+  // Eigen-BRDF volume (paper 002 §6.2): linear filtering does s_v, t_v and s_l.
+  const uint32_t R = m.grid_resolution;
+  GLuint volume = 0;
+  glCreateTextures(GL_TEXTURE_3D, 1, &volume);
+  glTextureStorage3D(volume, 1, GL_RGBA32F, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R));
+  glTextureSubImage3D(volume, 0, 0, 0, 0, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R), GL_RGBA, GL_FLOAT,
+                      m.volume.data());
+  sampling(volume, GL_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE);
+  r.units[r.unit_count++] = {ShaderBinding::lpca_volume, volume};
+  return finish(r, ShaderProgram::lpca, representation_config(base, m));
+}
+
+Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const PcaViewsMaterialData& m) {
+  GlRepresentation r;
+  const uint32_t groups = (m.view_count + m.views_per_group - 1) / m.views_per_group;
+  r.units[r.unit_count++] = {ShaderBinding::pca_l,
+                             float_array(m.width, m.height, groups * ((m.components + 4) / 4), 1, m.l.data())};
+  r.units[r.unit_count++] = {ShaderBinding::pca_r, float_array(m.components, m.light_count * m.view_count, 0, 1, m.r.data())};
+  add_angular(r, m.angular);
+  return finish(r, ShaderProgram::pca_views, representation_config(base, m));
+}
+
+void bind_gl_representation(const GlRepresentation& r) noexcept {
+  glUseProgram(r.gl_program);
+  for (int i = 0; i < r.unit_count; ++i) glBindTextureUnit(static_cast<GLuint>(r.units[i].binding), r.units[i].texture);
+}
+
+void destroy_gl_representation(GlRepresentation& r) noexcept {
+  if (r.gl_program) glDeleteProgram(r.gl_program);
+  for (int i = 0; i < r.unit_count; ++i) glDeleteTextures(1, &r.units[i].texture);
+  r = GlRepresentation{};
+}
+
+}  // namespace btflod::samples

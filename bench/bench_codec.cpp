@@ -10,7 +10,9 @@
 // periodically to 512² and cut into a 4-level pyramid of 64+2·4 tiles (2×2 box filter per level).
 // Before the timings it prints compression ratio vs raw halves and PSNR at several qualities.
 // The tile decoder is measured with both entropy backends (zlib default, libdeflate option).
+#ifndef BTFLOD_TILE_CODEC_LIBDEFLATE  // the btflod target defines it when built BTFLOD_WITH_LIBDEFLATE
 #define BTFLOD_TILE_CODEC_LIBDEFLATE 1
+#endif
 #include <benchmark/benchmark.h>
 #include <libdeflate.h>
 #include <turbojpeg.h>

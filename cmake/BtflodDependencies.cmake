@@ -8,3 +8,14 @@ find_package(ZLIB REQUIRED)
 find_package(PkgConfig REQUIRED)
 # Debian's libstb-dev ships the stb implementations as a library (libstb), found via stb.pc.
 pkg_check_modules(BTFLOD_STB REQUIRED IMPORTED_TARGET GLOBAL stb)
+# libdeflate: the tile codec's faster inflate backend (codec/tile_codec.hpp; docs/bsvtf_format.md
+# has the decode times). ON puts BTFLOD_TILE_CODEC_LIBDEFLATE=1 and the library on the btflod
+# INTERFACE target, so every program built with btflod (samples, demo, CLI, pipeline, consumers
+# of the installed package) decodes with it. OFF keeps zlib's inflate (the tested fallback).
+pkg_check_modules(BTFLOD_LIBDEFLATE QUIET IMPORTED_TARGET GLOBAL libdeflate)
+option(BTFLOD_WITH_LIBDEFLATE "Decode tiles with libdeflate (default ON when pkg-config finds it)" ${BTFLOD_LIBDEFLATE_FOUND})
+if(BTFLOD_WITH_LIBDEFLATE AND NOT TARGET PkgConfig::BTFLOD_LIBDEFLATE)
+  message(FATAL_ERROR "BTFLOD_WITH_LIBDEFLATE is ON but pkg-config does not find libdeflate (Debian: libdeflate-dev); "
+                      "install it or configure with -DBTFLOD_WITH_LIBDEFLATE=OFF")
+endif()
+message(STATUS "btflod: tile inflate backend: ${BTFLOD_WITH_LIBDEFLATE} = libdeflate (OFF = zlib)")

@@ -13,7 +13,7 @@ find_package(CURL QUIET)
 find_package(OpenGL QUIET COMPONENTS EGL OpenGL)
 find_package(Vulkan QUIET)
 pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
-pkg_check_modules(BTFLOD_LIBDEFLATE QUIET IMPORTED_TARGET GLOBAL libdeflate)
+# PkgConfig::BTFLOD_LIBDEFLATE comes from BtflodDependencies.cmake (BTFLOD_WITH_LIBDEFLATE).
 pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
 
 # btflod_read_directives(<source> <out_links> <out_labels> <out_ok>)

@@ -1,7 +1,8 @@
 // libFuzzer target for codec/tile_codec.hpp.
 // Byte 0 selects the mode:
 //   even: the rest is a tile payload, decoded with a 24×24 or 72×72 decoder (chosen from the
-//         header), with a parent tile when the header asks for one; the output span ends exactly
+//         header; bit 3 picks the zlib or the libdeflate backend), with a parent tile when the
+//         header asks for one; the output span ends exactly
 //         at the end of its allocation so ASan catches any over-write.
 //   odd:  round trip: the rest seeds a 24×24×4 tile and a tolerance; encode → decode must succeed
 //         and reproduce the encoder's reconstruction bit for bit.
@@ -22,9 +23,12 @@ void decode_mode(const uint8_t* data, size_t size, uint8_t selector) {
   TileHeaderInfo info;
   const uint32_t stored = (tile_peek_header({data, size}, info) == Status::success) ? info.stored_size : 24;
   const TileLayout layout{stored == 72 ? 64u : 16u, 4, info.channels >= 1 && info.channels <= 4 ? info.channels : 4};
-  static std::unique_ptr<TileDecoder> decoders[2][5];
-  auto& dec = decoders[stored == 72][layout.channels];
-  if (!dec) dec = std::make_unique<TileDecoder>(layout);
+  // Bit 3 of the selector picks the inflate backend: zlib, or libdeflate when the build has it
+  // (BTFLOD_WITH_LIBDEFLATE, the default), so both entropy stages see the fuzzer's streams.
+  const uint32_t backend = selector >> 3 & 1u;
+  static std::unique_ptr<TileDecoder> decoders[2][2][5];
+  auto& dec = decoders[backend][stored == 72][layout.channels];
+  if (!dec) dec = std::make_unique<TileDecoder>(layout, backend ? InflateBackend::libdeflate : InflateBackend::zlib);
   std::vector<float> parent(layout.sample_count());
   for (size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<float>(i % 17) * 0.125f;
   std::vector<float> out(layout.sample_count());

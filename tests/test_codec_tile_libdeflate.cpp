@@ -2,7 +2,9 @@
 // Tests for the optional libdeflate entropy backend of codec/tile_codec.hpp: bit-identical
 // tiles from both backends along a residual chain, and the same failure classes (truncated,
 // trailing bytes, decompression bomb, random corruption) rejected without crashing.
+#ifndef BTFLOD_TILE_CODEC_LIBDEFLATE  // the btflod target defines it when built BTFLOD_WITH_LIBDEFLATE
 #define BTFLOD_TILE_CODEC_LIBDEFLATE 1
+#endif
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -7,5 +7,14 @@ int main() {
   const btflod::DirectionSet set = btflod::DirectionSet::ubo2003();
   const btflod::Half h(0.5f);
   std::printf("btflod consumer: %zu directions, half(0.5) = %g\n", set.size(), static_cast<double>(h.to_float()));
-  return set.size() == 81 && h.to_float() == 0.5f ? 0 : 1;
+  // The installed package carries the inflate backend it was built with (BTFLOD_WITH_LIBDEFLATE):
+  // the define and libdeflate's link come through find_package, nothing set here.
+  const btflod::TileDecoder decoder(btflod::TileLayout{16, 4, 4});
+#if defined(BTFLOD_EXPECT_LIBDEFLATE)
+  const bool backend_ok = decoder.backend() == btflod::InflateBackend::libdeflate;
+#else
+  const bool backend_ok = decoder.backend() == btflod::InflateBackend::zlib;
+#endif
+  std::printf("btflod consumer: tile inflate backend %s\n", decoder.backend() == btflod::InflateBackend::libdeflate ? "libdeflate" : "zlib");
+  return set.size() == 81 && h.to_float() == 0.5f && backend_ok ? 0 : 1;
 }

@@ -132,8 +132,15 @@ int info_bsvtf(const std::string& path, bool values) {
   if (!values) return convert::kExitOk;
   const std::span<const uint8_t> file(*bytes);
   size_t bad_crc = 0, bad_decode = 0, decoded = 0;
-  for (const auto& p : dir->packets)
-    if (verify_bsvtf_payload(p.size, p.crc, file.subspan(p.offset, p.size)) != Status::success) ++bad_crc;
+  for (size_t i = 0; i < dir->packets.size(); ++i) {
+    const auto& p = dir->packets[i];
+    const auto payload = file.subspan(p.offset, p.size);
+    if (verify_bsvtf_payload(p.size, p.crc, payload) != Status::success) {
+      std::fprintf(stderr, "  U packet %zu: %u bytes at %llu: bad CRC-32 %08x, index says %08x\n", i, p.size,
+                   static_cast<unsigned long long>(p.offset), static_cast<unsigned>(crc32_of(payload)), p.crc);
+      ++bad_crc;
+    }
+  }
   TileDecoder decoder(m.layout());
   std::vector<std::vector<float>> out(dir->tiles.size());
   for (uint32_t l = 0; l < m.level_count; ++l)  // parents first: the index is sorted by key, level in the key
@@ -142,6 +149,9 @@ int info_bsvtf(const std::string& path, bool values) {
       if (t.id.level != l) continue;
       const auto payload = file.subspan(t.offset, t.size);
       if (verify_bsvtf_payload(t.size, t.crc, payload) != Status::success) {
+        std::fprintf(stderr, "  tile %u/%u/%u/%u: %u bytes at %llu: bad CRC-32 %08x, index says %08x\n", t.id.texture,
+                     t.id.level, t.id.x, t.id.y, t.size, static_cast<unsigned long long>(t.offset),
+                     static_cast<unsigned>(crc32_of(payload)), t.crc);
         ++bad_crc;
         continue;
       }

@@ -65,6 +65,7 @@
 #include "btflod/codec/tile_codec.hpp"
 
 // stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
+#include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/pipeline.hpp"
 #include "btflod/stream/tile_source.hpp"
 

@@ -18,9 +18,10 @@
 //   calling the sink, and the render thread never waits for a worker, so nothing can deadlock.
 //
 // Threading: request(), deliver(), progress() and drain_events() may be called from any one
-// thread at a time (the render thread). request() and deliver() do not allocate (buffers are
-// sized in open() from the config); workers allocate only when inserting into the compressed
-// cache and for U packets.
+// thread at a time (the render thread). Every buffer is sized in open() from the config and the
+// directory: request() and deliver() do not allocate, nor do the workers while fetching,
+// verifying, caching (stream/payload_cache.hpp: fixed arena, index and intrusive LRU list) and
+// decoding tiles and U packets. Only faults allocate (their event messages).
 #pragma once
 
 #include <algorithm>
@@ -28,13 +29,11 @@
 #include <condition_variable>
 #include <cstdint>
 #include <cstring>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <span>
 #include <string>
 #include <thread>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -42,6 +41,7 @@
 #include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/tile_id.hpp"
 
@@ -65,7 +65,9 @@ struct StreamItem {
 struct PipelineConfig {
   unsigned worker_threads = 2;                ///< concurrent fetch+decode jobs (= requests in flight)
   size_t max_wanted = 4096;                   ///< longest wanted list; longer lists are truncated (counted)
-  size_t compressed_cache_bytes = 32u << 20;  ///< byte budget of the compressed-payload LRU
+  size_t compressed_cache_bytes = 32u << 20;  ///< byte budget of the compressed-payload LRU (allocated in open())
+  size_t compressed_cache_entries = 0;        ///< payloads it holds at most; 0: one per tile and U packet
+  size_t compressed_cache_chunk = 512;        ///< its arena granule (stream/payload_cache.hpp)
   size_t decoded_cache_tiles = 32;            ///< decoded tiles kept as parents for their children
   size_t ready_capacity = 32;                 ///< decoded items waiting for deliver()
   unsigned max_retries = 2;                   ///< re-requests after a checksum or source failure
@@ -290,19 +292,27 @@ class StreamingPipeline {
     uint64_t stamp = 0;
     std::vector<float> samples;
   };
-  struct CompressedEntry {
-    std::vector<uint8_t> bytes;
-    std::list<uint64_t>::iterator lru;
-  };
 
   StreamingPipeline(TileSource& source, PipelineConfig config, BsvtfDirectory directory)
       : source_(source), config_(std::move(config)), directory_(std::move(directory)), layout_(directory_.metadata.layout()) {
+    const size_t items = directory_.tiles.size() + directory_.packets.size();
+    compressed_ = PayloadCache(PayloadCacheConfig{
+        config_.compressed_cache_bytes, config_.compressed_cache_entries ? config_.compressed_cache_entries : items,
+        config_.compressed_cache_chunk});
+    // The largest payload and U packet fix the workers' buffers, so no fetch ever grows them.
+    max_payload_ = tile_encode_bound(layout_);
+    for (const auto& t : directory_.tiles) max_payload_ = std::max<size_t>(max_payload_, t.size);
+    for (const auto& p : directory_.packets) {
+      max_payload_ = std::max<size_t>(max_payload_, p.size);
+      max_packet_floats_ = std::max<size_t>(max_packet_floats_, p.size / 2);
+    }
     pending_.reserve(config_.max_wanted);
     scratch_old_.reserve(config_.max_wanted);
     scratch_new_.reserve(config_.max_wanted);
     ready_.resize(config_.ready_capacity);
     for (size_t i = 0; i < ready_.size(); ++i) {
       ready_[i].samples.resize(layout_.sample_count());
+      ready_[i].packet.reserve(max_packet_floats_);
       free_ready_.push_back(config_.ready_capacity - 1 - i);
     }
     ready_order_.reserve(config_.ready_capacity);
@@ -354,30 +364,21 @@ class StreamingPipeline {
   }
 
   void record(const StreamItem& item, Status s, bool skipped, std::string message) {  // mutex_ held
-    if (events_.size() < 1024) events_.push_back(PipelineEvent{item, s, skipped, std::move(message)});
+    if (events_.size() < kMaxEvents) events_.push_back(PipelineEvent{item, s, skipped, std::move(message)});
   }
 
-  // --- compressed LRU (mutex_ held) ---
+  // --- compressed LRU (mutex_ held): fixed storage, no allocation ---
   bool cache_get(uint64_t key, std::vector<uint8_t>& out) {
-    auto it = compressed_.find(key);
-    if (it == compressed_.end()) return false;
-    lru_.splice(lru_.begin(), lru_, it->second.lru);
-    out.assign(it->second.bytes.begin(), it->second.bytes.end());
-    return true;
+    const size_t n = compressed_.size_of(key);
+    if (n == 0 || n > out.capacity()) return false;
+    out.resize(n);  // within the capacity reserved in worker(): no allocation
+    return compressed_.get(key, out) == n;
   }
   void cache_put(uint64_t key, std::span<const uint8_t> bytes) {
-    if (bytes.size() > config_.compressed_cache_bytes || compressed_.count(key)) return;
-    lru_.push_front(key);
-    compressed_.emplace(key, CompressedEntry{std::vector<uint8_t>(bytes.begin(), bytes.end()), lru_.begin()});
-    progress_.compressed_cache_bytes += bytes.size();
-    while (progress_.compressed_cache_bytes > config_.compressed_cache_bytes) {
-      const uint64_t victim = lru_.back();
-      lru_.pop_back();
-      auto v = compressed_.find(victim);
-      progress_.compressed_cache_bytes -= v->second.bytes.size();
-      compressed_.erase(v);
-      ++progress_.evictions;
-    }
+    const uint64_t before = compressed_.evictions();
+    compressed_.put(key, bytes);
+    progress_.evictions += compressed_.evictions() - before;
+    progress_.compressed_cache_bytes = compressed_.bytes();
   }
 
   // --- decoded LRU (mutex_ held) ---
@@ -499,9 +500,10 @@ class StreamingPipeline {
   void worker(Job& job) {
     TileDecoder decoder(layout_);
     std::vector<uint8_t> bytes;
-    bytes.reserve(tile_encode_bound(layout_));
+    bytes.reserve(max_payload_);
     std::vector<float> parent(layout_.sample_count()), out(layout_.sample_count());
     std::vector<float> packet;
+    packet.reserve(max_packet_floats_);
     std::unique_lock lock(mutex_);
     for (;;) {
       work_.wait(lock, [&] { return stopping_ || next_ < pending_.size(); });
@@ -593,8 +595,9 @@ class StreamingPipeline {
   std::vector<size_t> free_ready_, ready_order_, delivering_;
   std::vector<DecodedSlot> decoded_;
   uint64_t clock_ = 0;
-  std::unordered_map<uint64_t, CompressedEntry> compressed_;
-  std::list<uint64_t> lru_;
+  PayloadCache compressed_;
+  size_t max_payload_ = 0, max_packet_floats_ = 0;
+  static constexpr size_t kMaxEvents = 1024;
   std::vector<uint8_t> delivered_, packet_delivered_;
   double total_weight_ = 0, delivered_weight_ = 0;
   PipelineProgress progress_;

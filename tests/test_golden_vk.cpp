@@ -1,12 +1,15 @@
 // Golden images: the Vulkan backend (samples/vulkan, headless on lavapipe) vs the CPU reference
 // of backend/cpu_reference.hpp on the same scene:
-// PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache.
+// PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache, and for
+// the laplacian (eq. 7 level blending), lpca (3 clusters) and pca_views (k = 3 of 9 views) programs
+// against the representations' CPU evaluators (test_golden_representations.hpp).
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_vk_backend
 // btflod-label: gpu
 #include <gtest/gtest.h>
 
 #include "vk_backend.hpp"
+#include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
 
 namespace {
@@ -24,3 +27,6 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 
 TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
+TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
+TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
+TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }

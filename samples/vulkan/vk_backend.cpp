@@ -39,6 +39,7 @@ struct Texture {
   VkImageView view = VK_NULL_HANDLE;
   VkFormat format = VK_FORMAT_UNDEFINED;
   uint32_t width = 0, height = 0, layers = 0, mips = 0;
+  uint32_t depth = 1;  ///< > 1: a 3D image (the lpca volume)
 };
 
 struct VkMesh {
@@ -49,6 +50,22 @@ struct VkMesh {
 struct VkMaterial {
   Texture eigen_abrdfs, angular_index, angular_weight, eigen_textures;
   VkDescriptorSet set = VK_NULL_HANDLE;
+  /// laplacian / lpca / pca_views materials: their program (fmf = an FMF material), textures
+  /// and pipeline (generated with representation_config()).
+  ShaderProgram program = ShaderProgram::fmf;
+  Texture rep[6];
+  VkPipeline pipeline = VK_NULL_HANDLE;
+};
+
+/// One texture of a representation material: where it binds, its shape and data (per mip).
+struct RepTexture {
+  ShaderBinding binding;
+  VkFormat format;
+  uint32_t width, height, layers, mips, depth;
+  bool array_view;
+  std::vector<const void*> data;
+  uint32_t texel_bytes;
+  bool linear;  ///< linear filtering (the lpca volume); else nearest
 };
 
 struct FrameContext {
@@ -140,12 +157,9 @@ class VkBackend final : public Backend {
         destroy(m.vertices);
         destroy(m.indices);
       }
-      for (VkMaterial& m : materials_) {
-        destroy(m.eigen_abrdfs);
-        destroy(m.angular_index);
-        destroy(m.angular_weight);
-        destroy(m.eigen_textures);
-      }
+      for (VkMaterial& m : materials_) destroy_material(m);
+      for (VkPipelineLayout l : rep_pipeline_layout_) vkDestroyPipelineLayout(device_, l, nullptr);
+      for (VkDescriptorSetLayout l : rep_set_layout_) vkDestroyDescriptorSetLayout(device_, l, nullptr);
       for (FrameContext& c : contexts_) {
         destroy(c.staging);
         vkDestroyFence(device_, c.fence, nullptr);
@@ -374,6 +388,62 @@ class VkBackend final : public Backend {
     return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
+  Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& d) override {
+    if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_laplacian_material before init");
+    if (VoidResult v = validate_material(d, config_); !v) return v.error();
+    const uint32_t groups = (d.components + 3) / 4;
+    std::vector<const void*> weight_mips;  // mip k = pyramid level k (paper 001 §3.3)
+    const float* w = d.weights.data();
+    for (uint32_t k = 0; k <= d.max_level; ++k) {
+      weight_mips.push_back(w);
+      w += static_cast<size_t>(std::max(1u, d.width >> k)) * std::max(1u, d.height >> k) * groups * 4;
+    }
+    std::vector<uint32_t> index;
+    std::vector<float> weight;
+    pack_angular_tables_rgba(d.angular, index, weight);
+    const uint32_t res = d.angular.resolution;
+    const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
+    return add_representation(
+        ShaderProgram::laplacian, representation_config(config_, d),
+        {{ShaderBinding::laplacian_eigen, f4, d.light_count, d.view_count, (d.max_level + 1) * d.components, 1, 1, true,
+          {d.eigen.data()}, 16, false},
+         {ShaderBinding::laplacian_weights, f4, d.width, d.height, groups, d.max_level + 1, 1, true, weight_mips, 16, false},
+         {ShaderBinding::laplacian_mean, f4, d.light_count, d.view_count, 1, 1, 1, false, {d.mean.data()}, 16, false},
+         {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
+         {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+  }
+
+  Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& d) override {
+    if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_lpca_material before init");
+    if (VoidResult v = validate_material(d, config_); !v) return v.error();
+    const uint32_t R = d.grid_resolution;
+    const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
+    return add_representation(
+        ShaderProgram::lpca, representation_config(config_, d),
+        {{ShaderBinding::lpca_cluster, VK_FORMAT_R32_UINT, d.width, d.height, 1, 1, 1, false, {d.cluster.data()}, 4, false},
+         {ShaderBinding::lpca_weights, f4, d.width, d.height, (d.components + 3) / 4, 1, 1, true, {d.weights.data()}, 16,
+          false},
+         // paper 002 §6.2: the eigen-BRDF volume, linear filtering in s_v, t_v, s_l
+         {ShaderBinding::lpca_volume, f4, (d.components + 1) * R, d.clusters * R, 1, 1, R * R, false, {d.volume.data()}, 16,
+          true}});
+  }
+
+  Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override {
+    if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_pca_views_material before init");
+    if (VoidResult v = validate_material(d, config_); !v) return v.error();
+    std::vector<uint32_t> index;
+    std::vector<float> weight;
+    pack_angular_tables_rgba(d.angular, index, weight);
+    const uint32_t res = d.angular.resolution, groups = (d.view_count + d.views_per_group - 1) / d.views_per_group;
+    const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
+    return add_representation(
+        ShaderProgram::pca_views, representation_config(config_, d),
+        {{ShaderBinding::pca_l, f4, d.width, d.height, groups * ((d.components + 4) / 4), 1, 1, true, {d.l.data()}, 16, false},
+         {ShaderBinding::pca_r, f4, d.components, d.light_count * d.view_count, 1, 1, 1, false, {d.r.data()}, 16, false},
+         {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
+         {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+  }
+
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     if (!initialised_) return Status::invalid_argument;
     const VirtualTextureConfig& vt = config_.vt;
@@ -458,6 +528,11 @@ class VkBackend final : public Backend {
     if (!in_frame_ || mesh.id == 0 || mesh.id > meshes_.size() || material.id == 0 || material.id > materials_.size())
       return Status::invalid_argument;
     const VkMaterial& m = materials_[material.id - 1];
+    if (m.program != ShaderProgram::fmf) {  // laplacian / lpca / pca_views: the material's own pipeline
+      if (m.program != program) return Status::invalid_argument;
+      return record_draw(m.pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
+                         frame_.height, rep_pipeline_layout_[rep_kind(program)]);
+    }
     VkPipeline pipeline = VK_NULL_HANDLE;
     if (program == ShaderProgram::fmf && m.eigen_textures.image)
       pipeline = fmf_;
@@ -569,6 +644,90 @@ class VkBackend final : public Backend {
   }
 
  private:
+  // --- laplacian / lpca / pca_views materials -----------------------------------------------
+  static int rep_kind(ShaderProgram p) noexcept {
+    return p == ShaderProgram::laplacian ? 0 : p == ShaderProgram::lpca ? 1 : 2;
+  }
+
+  /// Creates and uploads `textures`, the program's set layout (first use), its pipeline and
+  /// descriptor set. Set-up only; nothing leaks on failure.
+  Result<MaterialHandle> add_representation(ShaderProgram program, const ShaderConfig& config,
+                                            const std::vector<RepTexture>& textures) {
+    const int kind = rep_kind(program);
+    if (!rep_set_layout_[kind]) {
+      VkDescriptorSetLayoutBinding b[7];
+      b[0] = VkDescriptorSetLayoutBinding{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, 1,
+                                          VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+      for (size_t i = 0; i < textures.size(); ++i)
+        b[i + 1] = VkDescriptorSetLayoutBinding{static_cast<uint32_t>(textures[i].binding),
+                                                VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+                                                VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+      VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+      lci.bindingCount = static_cast<uint32_t>(textures.size() + 1);
+      lci.pBindings = b;
+      BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(device_, &lci, nullptr, &rep_set_layout_[kind]),
+                      "vkCreateDescriptorSetLayout");
+      VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+      plci.setLayoutCount = 1;
+      plci.pSetLayouts = &rep_set_layout_[kind];
+      BTFLOD_VK_CHECK(vkCreatePipelineLayout(device_, &plci, nullptr, &rep_pipeline_layout_[kind]),
+                      "vkCreatePipelineLayout");
+    }
+    VkMaterial m;
+    m.program = program;
+    VoidResult r;
+    for (size_t i = 0; i < textures.size() && r; ++i) {
+      const RepTexture& t = textures[i];
+      r = create_texture(m.rep[i], t.format, t.width, t.height, t.layers, t.mips, 0, t.array_view, t.depth);
+      if (r) r = upload_texture(m.rep[i], t.data, t.texel_bytes);
+    }
+    if (r) {
+      Result<GlslProgramSource> src = generate_program(program, GlslTarget::vulkan450, config);
+      if (!src) r = src.error();
+      Result<VkPipeline> p = r ? create_pipeline(*src, shader_program_name(program), VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                 rep_pipeline_layout_[kind])
+                               : Result<VkPipeline>(r.error());
+      if (p)
+        m.pipeline = *p;
+      else
+        r = p.error();
+    }
+    if (r) {
+      VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+      ai.descriptorPool = descriptor_pool_;
+      ai.descriptorSetCount = 1;
+      ai.pSetLayouts = &rep_set_layout_[kind];
+      if (vkAllocateDescriptorSets(device_, &ai, &m.set) != VK_SUCCESS)
+        r = make_error(Status::unsupported, "Vulkan: vkAllocateDescriptorSets (too many materials?)");
+    }
+    if (!r) {
+      destroy_material(m);
+      return r.error();
+    }
+    VkDescriptorBufferInfo ubo{shared_ubo().buffer, 0, sizeof(ShaderParams)};
+    VkDescriptorImageInfo images[6];
+    VkWriteDescriptorSet w[7];
+    for (size_t i = 0; i <= textures.size(); ++i) {
+      w[i] = VkWriteDescriptorSet{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+      w[i].dstSet = m.set;
+      w[i].descriptorCount = 1;
+      if (i == 0) {
+        w[i].dstBinding = 0;
+        w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC;
+        w[i].pBufferInfo = &ubo;
+      } else {
+        const RepTexture& t = textures[i - 1];
+        images[i - 1] = VkDescriptorImageInfo{t.linear ? linear_clamp_ : nearest_, m.rep[i - 1].view, VK_IMAGE_LAYOUT_GENERAL};
+        w[i].dstBinding = static_cast<uint32_t>(t.binding);
+        w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+        w[i].pImageInfo = &images[i - 1];
+      }
+    }
+    vkUpdateDescriptorSets(device_, static_cast<uint32_t>(textures.size() + 1), w, 0, nullptr);
+    materials_.push_back(m);
+    return MaterialHandle{static_cast<uint32_t>(materials_.size())};
+  }
+
   // --- resources ---------------------------------------------------------------------------
   uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags want) const {
     for (uint32_t i = 0; i < memory_props_.memoryTypeCount; ++i)
@@ -603,17 +762,18 @@ class VkBackend final : public Backend {
   }
 
   VoidResult create_texture(Texture& t, VkFormat format, uint32_t w, uint32_t h, uint32_t layers, uint32_t mips,
-                            VkImageUsageFlags extra = 0, bool array_view = true) {
+                            VkImageUsageFlags extra = 0, bool array_view = true, uint32_t depth3d = 1) {
     const bool depth = format == VK_FORMAT_D32_SFLOAT;
     t.format = format;
     t.width = w;
     t.height = h;
     t.layers = layers;
     t.mips = mips;
+    t.depth = depth3d;
     VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ici.imageType = VK_IMAGE_TYPE_2D;
+    ici.imageType = depth3d > 1 ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
     ici.format = format;
-    ici.extent = {w, h, 1};
+    ici.extent = {w, h, depth3d};
     ici.mipLevels = mips;
     ici.arrayLayers = layers;
     ici.samples = VK_SAMPLE_COUNT_1_BIT;
@@ -631,7 +791,7 @@ class VkBackend final : public Backend {
     BTFLOD_VK_CHECK(vkBindImageMemory(device_, t.image, t.memory, 0), "vkBindImageMemory");
     VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
     vci.image = t.image;
-    vci.viewType = array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
+    vci.viewType = depth3d > 1 ? VK_IMAGE_VIEW_TYPE_3D : array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
     vci.format = format;
     vci.subresourceRange = {static_cast<VkImageAspectFlags>(depth ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT),
                             0, mips, 0, layers};
@@ -664,6 +824,9 @@ class VkBackend final : public Backend {
     destroy(m.angular_index);
     destroy(m.angular_weight);
     destroy(m.eigen_textures);
+    for (Texture& t : m.rep) destroy(t);
+    if (m.pipeline) vkDestroyPipeline(device_, m.pipeline, nullptr);
+    m.pipeline = VK_NULL_HANDLE;
   }
 
   /// Uploads every mip (data[m]: all layers, layer-major, tightly packed) through a staging buffer.
@@ -675,9 +838,9 @@ class VkBackend final : public Backend {
       VkBufferImageCopy r{};
       r.bufferOffset = total;
       r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, m, 0, t.layers};
-      r.imageExtent = {w, h, 1};
+      r.imageExtent = {w, h, t.depth};
       regions.push_back(r);
-      total += VkDeviceSize{w} * h * t.layers * texel_bytes;
+      total += VkDeviceSize{w} * h * t.layers * t.depth * texel_bytes;
     }
     Buffer staging;
     if (VoidResult r = create_buffer(staging, total, VK_BUFFER_USAGE_TRANSFER_SRC_BIT); !r) return r;
@@ -794,7 +957,8 @@ class VkBackend final : public Backend {
 
   Buffer& shared_ubo() { return ubo_all_; }
 
-  Result<VkPipeline> create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format) {
+  Result<VkPipeline> create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
+                                     VkPipelineLayout layout = VK_NULL_HANDLE) {
     Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name);
     if (!vs) return vs.error();
     Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name);
@@ -871,7 +1035,7 @@ class VkBackend final : public Backend {
     gci.pDepthStencilState = &ds;
     gci.pColorBlendState = &cb;
     gci.pDynamicState = &dy;
-    gci.layout = pipeline_layout_;
+    gci.layout = layout ? layout : pipeline_layout_;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult r = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &gci, nullptr, &pipeline);
     vkDestroyShaderModule(device_, modules[0], nullptr);
@@ -892,7 +1056,8 @@ class VkBackend final : public Backend {
   }
 
   Status record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
-                     const Texture& color, const Texture& depth, uint32_t w, uint32_t h) {
+                     const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
+                     VkPipelineLayout layout = VK_NULL_HANDLE) {
     FrameContext& c = open_context();
     if (c.ubo_offset + ubo_stride_ > ubo_stride_ * options_.max_draws_per_frame) return Status::insufficient_space;
     const VkDeviceSize offset = context_ubo_base() + c.ubo_offset;
@@ -919,7 +1084,8 @@ class VkBackend final : public Backend {
     vkCmdSetScissor(c.cmd, 0, 1, &scissor);
     vkCmdBindPipeline(c.cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
     const uint32_t dynamic_offset = static_cast<uint32_t>(offset);
-    vkCmdBindDescriptorSets(c.cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &set, 1, &dynamic_offset);
+    vkCmdBindDescriptorSets(c.cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout ? layout : pipeline_layout_, 0, 1, &set, 1,
+                            &dynamic_offset);
     const VkDeviceSize zero = 0;
     vkCmdBindVertexBuffers(c.cmd, 0, 1, &mesh.vertices.buffer, &zero);
     vkCmdBindIndexBuffer(c.cmd, mesh.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
@@ -1045,6 +1211,9 @@ class VkBackend final : public Backend {
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkPipeline fmf_ = VK_NULL_HANDLE, bsvtf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
   VkDescriptorSet feedback_set_ = VK_NULL_HANDLE;
+  // Set and pipeline layouts of the laplacian, lpca and pca_views programs (created on first use).
+  VkDescriptorSetLayout rep_set_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+  VkPipelineLayout rep_pipeline_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;

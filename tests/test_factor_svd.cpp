@@ -1,6 +1,7 @@
 // Tests of factor/truncated_svd.hpp on matrices with a KNOWN spectrum (A = U·diag(s)·Vᵀ with
 // random orthonormal U, V), so the Eckart–Young optimum sqrt(Σ_{i≥C} s_i²) is exact: the
-// randomised path (sparse-sign or Gaussian sketch, fused last pass) against it, orthonormality,
+// randomised path (sparse-sign or Gaussian sketch, fused last pass, adaptive power iterations
+// with a flat-tailed spectrum that the old fixed q = 2 misses) against it, orthonormality,
 // rank-deficient and zero inputs, determinism, cancellation.
 //
 // CMake also builds this file as test_factor_svd_offline_arch with the offline tools' flags
@@ -11,6 +12,7 @@
 #include <Eigen/Dense>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "btflod/factor/truncated_svd.hpp"
@@ -54,14 +56,38 @@ double error_of(const Eigen::MatrixXf& a, const TruncatedSvd& f) {
   return (a.cast<double>() - rec).norm();
 }
 
+// Fixed q power iterations (max_power_iterations = q: the rule of earlier versions), p = 20.
 SvdOptions randomized(int zeta, int q) {
   SvdOptions o;
   o.method = SvdMethod::randomized;
   o.sketch_nonzeros = zeta;
   o.power_iterations = q;
+  o.max_power_iterations = q;
   o.block_columns = 37;  // ragged blocks
   o.oversampling = 20;
   return o;
+}
+
+// The default options (adaptive power iterations, p = 50), forced onto the randomised path.
+SvdOptions adaptive(int zeta = 8) {
+  SvdOptions o;
+  o.method = SvdMethod::randomized;
+  o.sketch_nonzeros = zeta;
+  o.block_columns = 37;
+  return o;
+}
+
+// m × n with a fast head and a flat tail: s_i = 10·0.99^min(i, c)·0.999^max(0, i − c). Like the
+// car paint, the tail beyond the rank is nearly flat, so subspace iteration converges slowly.
+Known flat_tail_matrix(Eigen::Index m, Eigen::Index n, Eigen::Index c, uint64_t seed) {
+  const Eigen::Index r = std::min(m, n);
+  Known k;
+  Eigen::VectorXd s(r);
+  for (Eigen::Index i = 0; i < r; ++i)
+    s[i] = 10.0 * std::pow(0.99, static_cast<double>(std::min(i, c))) * std::pow(0.999, static_cast<double>(std::max<Eigen::Index>(0, i - c)));
+  k.s.assign(s.data(), s.data() + r);
+  k.a = (random_orthonormal(m, r, seed) * s.asDiagonal() * random_orthonormal(n, r, seed + 1).transpose()).cast<float>();
+  return k;
 }
 
 #if defined(BTFLOD_TEST_OFFLINE_ARCH)
@@ -80,7 +106,7 @@ TEST(FactorSvd, RandomizedWithinHalfPercentOfEckartYoungBothSketches) {
     const Known k = known_matrix(m, n, 0.93, 1000, 11);
     for (int zeta : {0, 8})
       for (int c : {5, 20}) {
-        auto f = truncated_svd(k.a, c, randomized(zeta, 2));
+        auto f = truncated_svd(k.a, c, adaptive(zeta));
         ASSERT_TRUE(f.ok()) << f.message();
         ASSERT_EQ(f->u.cols(), c);
         ASSERT_EQ(f->v.cols(), c);
@@ -92,6 +118,68 @@ TEST(FactorSvd, RandomizedWithinHalfPercentOfEckartYoungBothSketches) {
         for (int i = 1; i < c; ++i) EXPECT_GE(f->s[i - 1], f->s[i]);
       }
   }
+}
+
+TEST(FactorSvd, AdaptiveIterationsMeetTheBoundOnAFlatTailWhereFixedTwoDoNot) {
+  const Known k = flat_tail_matrix(300, 500, 20, 23);
+  const double opt = optimum(k, 20);
+  auto fixed = truncated_svd(k.a, 20, randomized(8, 2));
+  SvdOptions fixed50 = adaptive();
+  fixed50.max_power_iterations = 2;  // the old default: q = 2, p = 50
+  auto old_default = truncated_svd(k.a, 20, fixed50);
+  auto f = truncated_svd(k.a, 20, adaptive());
+  ASSERT_TRUE(fixed.ok() && old_default.ok() && f.ok());
+  EXPECT_EQ(old_default->report.power_iterations, 2);
+  EXPECT_GT(error_of(k.a, *old_default), 1.005 * opt) << "the old fixed q = 2 rule must miss the bound here";
+  EXPECT_GT(error_of(k.a, *fixed), 1.005 * opt);
+  const double err = error_of(k.a, *f);
+  EXPECT_LE(err, 1.005 * opt);
+  EXPECT_GT(f->report.power_iterations, 2);
+  EXPECT_LE(f->report.power_iterations, 6);
+  // The estimate is the true error (Pythagoras, U and V orthonormal) and the prediction is sane.
+  EXPECT_NEAR(f->report.error_estimate, err, 1e-4 * err);
+  EXPECT_NEAR(f->report.frobenius_norm, k.a.cast<double>().norm(), 1e-5 * k.a.cast<double>().norm());
+  EXPECT_GE(f->report.predicted_ratio, 1.0);
+  EXPECT_LE(f->report.predicted_ratio, 1.0 + SvdOptions{}.power_tolerance);
+  EXPECT_FALSE(f->report.exact);
+}
+
+TEST(FactorSvd, AdaptiveIterationsCostNothingExtraOnAFastDecay) {
+  // 0.8^i: two iterations are already at the optimum, the rule must not add a third.
+  const Known k = known_matrix(300, 500, 0.8, 1000, 29);
+  auto f = truncated_svd(k.a, 15, adaptive());
+  ASSERT_TRUE(f.ok());
+  EXPECT_EQ(f->report.power_iterations, 2);
+  EXPECT_LE(error_of(k.a, *f), 1.005 * optimum(k, 15));
+}
+
+TEST(FactorSvd, PowerIterationLimitsAreHonouredAndProgressShowsTheEstimate) {
+  const Known k = flat_tail_matrix(200, 300, 10, 31);
+  SvdOptions o = adaptive();
+  o.power_iterations = 1;
+  o.max_power_iterations = 1;
+  std::vector<std::string> stages;
+  auto one = truncated_svd(k.a, 10, o, [&](std::string_view s, double) {
+    stages.emplace_back(s);
+    return true;
+  });
+  ASSERT_TRUE(one.ok());
+  EXPECT_EQ(one->report.power_iterations, 1);
+  bool saw_estimate = false;
+  for (const auto& s : stages) saw_estimate = saw_estimate || s.find("error estimate") != std::string::npos;
+  EXPECT_TRUE(saw_estimate);
+  o.power_iterations = 4;
+  o.max_power_iterations = 3;  // cap below the minimum: the minimum wins
+  auto four = truncated_svd(k.a, 10, o);
+  ASSERT_TRUE(four.ok());
+  EXPECT_EQ(four->report.power_iterations, 4);
+  EXPECT_LT(error_of(k.a, *four), error_of(k.a, *one));
+  SvdOptions e;
+  e.method = SvdMethod::exact;
+  auto ex = truncated_svd(k.a, 10, e);
+  ASSERT_TRUE(ex.ok());
+  EXPECT_TRUE(ex->report.exact);
+  EXPECT_NEAR(ex->report.error_estimate, optimum(k, 10), 1e-4 * optimum(k, 10));
 }
 
 TEST(FactorSvd, FactorsAreOrthonormal) {
@@ -146,8 +234,8 @@ TEST(FactorSvd, ZeroMatrixGivesZeroSingularValues) {
 }
 
 TEST(FactorSvd, DeterministicAcrossThreadCountsAndSeedDependent) {
-  const Known k = known_matrix(160, 400, 0.9, 1000, 13);
-  SvdOptions o = randomized(8, 2);
+  const Known k = flat_tail_matrix(160, 400, 8, 13);  // adaptive rule runs > 2 iterations
+  SvdOptions o = adaptive();
   ThreadPool one(1), three(3);
   o.pool = &one;
   const auto a = truncated_svd(k.a, 8, o);
@@ -155,6 +243,9 @@ TEST(FactorSvd, DeterministicAcrossThreadCountsAndSeedDependent) {
   const auto b = truncated_svd(k.a, 8, o);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_TRUE(a->u == b->u && a->s == b->s && a->v == b->v) << "bit-identical for any thread count";
+  EXPECT_GT(a->report.power_iterations, 2);
+  EXPECT_EQ(a->report.power_iterations, b->report.power_iterations);
+  EXPECT_EQ(a->report.error_estimate, b->report.error_estimate);
   o.seed ^= 0x5555;
   const auto c = truncated_svd(k.a, 8, o);
   ASSERT_TRUE(c.ok());

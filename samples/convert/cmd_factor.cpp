@@ -21,7 +21,8 @@ int run_factor(int argc, char** argv) {
         "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca [--components C]\n"
         "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
         "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
-        "                             [--power-iterations Q] [--oversampling P] [--sketch-nonzeros Z]\n"
+        "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
+        "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
         "                             [--float] [--quiet]\n"
         "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
         "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
@@ -29,7 +30,9 @@ int run_factor(int argc, char** argv) {
         "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
         "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
         "             8-bit eigen-BRDFs unless --float\n"
-        "  randomised SVD: Q power iterations (default 2; 3 for flat spectra), P oversampling\n"
+        "  randomised SVD: at least Q power iterations (default 2), more while the estimated error\n"
+        "             is still improving (up to QMAX, default 6; QMAX <= Q: exactly Q), stopping when the\n"
+        "             predicted excess over the optimum of the squared error is <= T (default 0.005), P oversampling\n"
         "             (default 50), Z nonzeros per row of the sparse sketch (default 8, 0 = Gaussian)\n"
         "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.");
     return convert::kExitOk;
@@ -44,6 +47,9 @@ int run_factor(int argc, char** argv) {
   const std::string svd = opt.string("svd", "auto");
   const SvdOptions svd_defaults{};
   const int power = static_cast<int>(opt.integer("power-iterations", svd_defaults.power_iterations, 0, 20));
+  const int max_power =
+      static_cast<int>(opt.integer("max-power-iterations", svd_defaults.max_power_iterations, 0, 20));
+  const auto tolerance_text = opt.value("power-tolerance");
   const int oversampling = static_cast<int>(opt.integer("oversampling", svd_defaults.oversampling, 0, 1000));
   const int sketch_nonzeros = static_cast<int>(opt.integer("sketch-nonzeros", svd_defaults.sketch_nonzeros, 0, 1000));
   const bool use_float = opt.flag("float");
@@ -60,6 +66,13 @@ int run_factor(int argc, char** argv) {
     else
       components = static_cast<int>(c);
   }
+  double tolerance = svd_defaults.power_tolerance;
+  if (tolerance_text) {
+    char* end = nullptr;
+    tolerance = std::strtod(tolerance_text->c_str(), &end);
+    if (end == tolerance_text->c_str() || *end != '\0' || !(tolerance >= 0.0 && tolerance <= 1.0))
+      opt.error("--power-tolerance " + *tolerance_text + ": expected a number in [0, 1]");
+  }
   if (!opt.finish()) return convert::kExitUsage;
   if (opt.positional().size() != 2) {
     std::fprintf(stderr, "btflod-convert factor: expected IN and OUT (got %zu arguments)\n", opt.positional().size());
@@ -75,6 +88,8 @@ int run_factor(int argc, char** argv) {
   SvdOptions so;
   so.method = svd == "exact" ? SvdMethod::exact : svd == "randomized" ? SvdMethod::randomized : SvdMethod::automatic;
   so.power_iterations = power;
+  so.max_power_iterations = max_power;
+  so.power_tolerance = tolerance;
   so.oversampling = oversampling;
   so.sketch_nonzeros = sketch_nonzeros;
   samples::ProgressBar bar("factor", stderr, !quiet);
@@ -124,6 +139,14 @@ int run_factor(int argc, char** argv) {
               in.c_str(), btf->width(), btf->height(), btf->view_count(), btf->light_count(),
               factorization_name(*result), out.c_str(), factorization_size_bytes(*result),
               factorization_compression_ratio(*result), seconds);
+  if (const auto* f = std::get_if<Fmf>(&*result)) {
+    const SvdReport& r = f->svd_report;
+    if (r.exact)
+      std::printf("  SVD: exact (BDCSVD), error %.6g (Eckart-Young optimum), |A| %.6g\n", r.error_estimate, r.frobenius_norm);
+    else
+      std::printf("  SVD: randomised, %d power iterations, error estimate %.6g, predicted %.5fx the optimum, |A| %.6g\n",
+                  r.power_iterations, r.error_estimate, r.predicted_ratio, r.frobenius_norm);
+  }
   if (const auto* lp = std::get_if<LaplacianPca>(&*result))
     std::printf("  paper 001 3.3 packing: eigen Laplacian BRDF map %zu bytes, PCA weight map %zu bytes\n",
                 lp->packed_eigen_map_bytes(), lp->packed_weight_map_bytes());

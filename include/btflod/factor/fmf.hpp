@@ -42,6 +42,9 @@ struct Fmf {
   std::vector<float> u_ambient;
   /// Singular values of the kept components (diagnostic; not needed for evaluation).
   std::vector<float> singular_values;
+  /// How the SVD went (iterations, error estimate; truncated_svd.hpp). Diagnostic: not
+  /// serialised (a deserialised Fmf has the default report).
+  SvdReport svd_report;
 
   /// ρ' at texel (x, y), measured view index `view` and light index `light`, RGB.
   /// Precondition: indices in range (asserted in debug). Thread-safe, allocation-free.
@@ -203,6 +206,7 @@ inline Result<Fmf> factorize_fmf(const BtfFloat& btf, const FmfOptions& options 
   Eigen::Map<RowMat>(f.u.data(), static_cast<Eigen::Index>(m), c) = svd->u;
   Eigen::Map<RowMat>(f.v.data(), static_cast<Eigen::Index>(n), c) = svd->v * svd->s.asDiagonal();  // V := VΣ
   f.singular_values.assign(svd->s.data(), svd->s.data() + c);
+  f.svd_report = svd->report;
   // Ambient basis (paper 000 §7).
   const auto w = ambient_light_weights(btf.lights());
   const size_t nl = btf.light_count(), cc = static_cast<size_t>(c);

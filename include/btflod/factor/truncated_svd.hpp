@@ -3,7 +3,10 @@
 // algorithms 4.3/4.4 + 5.1: sketch with oversampling, power iterations with
 // re-orthonormalisation; sparse sign test matrix as in Martinsson & Tropp 2020 §9.2) that never
 // holds more than a few column blocks of the input, and whose last power iteration also yields
-// the projection (no separate projection pass, see truncated_svd()).
+// the projection (no separate projection pass, see truncated_svd()). The number of power
+// iterations is adaptive: every iteration also yields an estimate of the result's error from
+// quantities the algorithm forms anyway, and iterations are added while the extrapolated
+// remaining gap to the Eckart–Young optimum is not small (rule and math in truncated_svd()).
 //
 // The matrix is never materialised by the randomised path: a caller-supplied `gather`
 // functor copies columns [col0, col0 + count) into an m × count Eigen matrix. Peak memory is
@@ -24,6 +27,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <vector>
 
 #include "btflod/core/progress.hpp"
@@ -39,16 +43,27 @@ enum class SvdMethod : uint8_t {
   randomized,     ///< blocked randomised SVD (Halko et al.)
 };
 
-/// Options of truncated_svd(). Defaults: sparse sign sketch (ζ = 8), oversampling 50, 2 power
-/// iterations with the fused last pass (4 GEMM-sized products over A, 3 gathers of A). Measured
-/// with bench_factor / docs/factor.md on the 64×64 UBO2003 cloth at rank 100 (error / Eckart–Young
-/// optimum, x86-64-v3 build): 1.0021 (the previous default, Gaussian p = 30 with a separate
-/// projection pass, 6 products and 4 gathers: 1.0022). Flat-tailed spectra need more: the 32×32
-/// car paint at rank 64 gives 1.0063 with these defaults, 1.0037 with power_iterations = 3, p = 30.
+/// Options of truncated_svd(). Defaults: sparse sign sketch (ζ = 8), oversampling 50, and an
+/// ADAPTIVE number of power iterations: at least 2, more while the error estimate of the
+/// result is still improving (rule and math in the comment of truncated_svd() below), at most 6.
+/// Every iteration's last pass also yields the projection (2 GEMM-sized products and 1 gather of
+/// A per iteration, plus one sketch gather). Measured (bench_factor, docs/factor.md): the 64×64
+/// UBO2003 cloth at rank 100 stops after 2 iterations (the old fixed default, 1.0020× the
+/// Eckart–Young optimum); the flat-tailed 32×32 car paint at rank 64, which gave 1.0063× with
+/// the old fixed q = 2, continues until its estimate settles.
 struct SvdOptions {
   SvdMethod method = SvdMethod::automatic;
-  int oversampling = 50;      ///< extra sketch columns p (k = rank + p)
-  int power_iterations = 2;   ///< q: products with AᵀA (the last one fused with the projection)
+  int oversampling = 50;  ///< extra sketch columns p (k = rank + p)
+  /// q_min: power iterations always run (products with A·Aᵀ, the last one fused with the
+  /// projection). 0 with max_power_iterations = 0 gives the plain range finder (q = 0).
+  int power_iterations = 2;
+  /// q_max: cap of the adaptive rule; ≤ power_iterations gives exactly power_iterations
+  /// iterations (the fixed-q behaviour of earlier versions).
+  int max_power_iterations = 6;
+  /// τ: stop once the predicted excess of the squared error over its limit (the Eckart–Young
+  /// optimum) is ≤ τ times the squared error, i.e. error / optimum ≤ 1/sqrt(1 − τ) ≈ 1 + τ/2
+  /// (1.0025 for the default τ = 0.005, half the 1.005 bound of issue #4).
+  double power_tolerance = 0.005;
   /// ζ: nonzeros (±1) per row of the sparse sign test matrix; 0 = dense Gaussian test matrix.
   int sketch_nonzeros = 8;
   size_t block_columns = 256; ///< columns gathered per block
@@ -58,12 +73,25 @@ struct SvdOptions {
   ThreadPool* pool = nullptr;            ///< nullptr: default_thread_pool()
 };
 
+/// What a truncated_svd() run did and how good its result is (diagnostics; cheap to compute).
+struct SvdReport {
+  bool exact = false;        ///< BDCSVD path (then the numbers below are exact)
+  int power_iterations = 0;  ///< power iterations run (randomised path)
+  double frobenius_norm = 0.0;  ///< ‖A‖_F (from the first pass over A)
+  /// ‖A − U·diag(s)·Vᵀ‖_F = sqrt(‖A‖²_F − Σ s_i²) (exact up to rounding: U, V orthonormal).
+  double error_estimate = 0.0;
+  /// Predicted ratio error / Eckart–Young optimum of the randomised result (1 for exact), from
+  /// the geometric extrapolation of the adaptive rule; ≥ 1. A prediction, not a bound.
+  double predicted_ratio = 1.0;
+};
+
 /// A rank-C truncated SVD A ≈ U·diag(s)·Vᵀ: u is m × C, v is n × C (orthonormal columns),
 /// s descending.
 struct TruncatedSvd {
   Eigen::MatrixXf u;
   Eigen::VectorXf s;
   Eigen::MatrixXf v;
+  SvdReport report;
 };
 
 namespace detail {
@@ -160,6 +188,10 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     out.u = svd.matrixU().leftCols(c);
     out.s = svd.singularValues().head(c);
     out.v = svd.matrixV().leftCols(c);
+    const Eigen::VectorXd all = svd.singularValues().template cast<double>();
+    out.report.exact = true;
+    out.report.frobenius_norm = all.norm();
+    out.report.error_estimate = all.tail(all.size() - c).norm();
     report_progress(progress, "svd", 1.0);
     return out;
   }
@@ -200,7 +232,9 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     }
   }
   std::vector<MatrixXf> partial(stripes);
-  // One pass over the matrix: for every block, body(a_block, col0, cnt, stripe_accumulator).
+  std::vector<double> norm2_partial(stripes, 0.0);
+  // One pass over the matrix: for every block, body(a_block, col0, cnt, stripe); the body adds
+  // into partial[stripe] (and may write rows col0… of an n × k matrix: disjoint, no reduction).
   auto pass = [&](auto&& body) {
     for (auto& p : partial) p.setZero(mi, k);
     pool.parallel_for(0, stripes, 1, [&](size_t s0, size_t s1) {
@@ -211,7 +245,7 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
           const size_t col0 = b * bc, cnt = std::min(bc, n - col0);
           buf.resize(mi, static_cast<Index>(cnt));
           gather(col0, cnt, buf);
-          body(buf, static_cast<Index>(col0), static_cast<Index>(cnt), partial[s]);
+          body(buf, static_cast<Index>(col0), static_cast<Index>(cnt), s);
         }
       }
     });
@@ -220,20 +254,54 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     return sum;
   };
   // Passes over A (each gathers every column block once):
-  //   q = 0: Y = A·Ω, Q = orth(Y); Bᵀ = Aᵀ·Q                      2 passes, 2 GEMMs
-  //   q ≥ 1: Y = A·Ω, Q = orth(Y); q − 1 times Y = A·(Aᵀ·Q), Q = orth(Y);
-  //          last pass fused: Z = Aᵀ·Q (kept) and Y = A·Z           q + 1 passes, 2q + 1 GEMMs
-  // The last pass yields the row-space basis Z ∝ (AᵀA)^q·Ω (Halko et al. §4.5 applied to Aᵀ) AND
-  // A·Z, so no separate projection pass is needed: with Z = P·R = (P·Ur)·Sr·Vrᵀ (QR, then the small
-  // SVD of R), A·(P·Ur) = Y·Vr·Sr⁻¹, and A ≈ (A·P')·P'ᵀ is the optimal approximation with rows in
-  // span(Z). Versus the textbook loop (q + 2 passes, 2q + 2 GEMMs, column basis ∝ A(AᵀA)^q·Ω) this
-  // saves one GEMM and one gather per factorisation for one power of the spectrum less;
-  // measured in docs/factor.md (64×64 cloth, rank 100: ratio to the Eckart–Young optimum).
-  const int q_iters = std::max(0, options.power_iterations);
-  const int total_passes = q_iters == 0 ? 2 : q_iters + 1;
+  //   q = 0: Y = A·Ω, Q = orth(Y); Bᵀ = Aᵀ·Q                          2 passes, 2 GEMMs
+  //   q ≥ 1: Y = A·Ω, Q = orth(Y); then q times
+  //          { Z = Aᵀ·Q (kept), Y = A·Z; candidate result from (Z, Y); Q = orth(Y) }
+  //                                                                   q + 1 passes, 2q GEMMs
+  // Each iteration's pass yields the row-space basis Z ∝ (AᵀA)^j·Ω (Halko et al. §4.5 applied to
+  // Aᵀ) AND A·Z, so no separate projection pass is needed: with Z = P·R = (P·Ur)·Sr·Vrᵀ (QR, then
+  // the small SVD of R), A·(P·Ur) = Y·Vr·Sr⁻¹, and A ≈ (A·P')·P'ᵀ is the optimal approximation
+  // with rows in span(Z). Versus the textbook loop (q + 2 passes, 2q + 2 GEMMs, column basis
+  // ∝ A(AᵀA)^q·Ω) this saves one GEMM and one gather for one power of the spectrum less.
+  //
+  // Adaptive number of power iterations (q_min ≤ q ≤ q_max). Error estimates: with ‖A‖²_F from
+  // the sketch pass and any orthonormal Q (m × k), P (n × k),
+  //   ‖A − [QQᵀA]_C‖²_F = ‖A‖²_F − Σ_{i≤C} σ_i(QᵀA)²,   ‖A − [AP]_C Pᵀ‖²_F = ‖A‖²_F − Σ_{i≤C} σ_i(AP)²
+  // ([X]_C: rank-C truncation; Pythagoras, the residual of the projection is orthogonal to it).
+  // Iteration j forms Z = AᵀQ_{j−1}, i.e. (QᵀA)ᵀ, whose singular values are those of R in Z = PR,
+  // and A·P' = Y·Vr·Sr⁻¹ whose singular values the final SVD needs anyway. That gives, for free
+  // (O((m + n)k²) next to the O(mnk) pass), two estimates per iteration:
+  //   g_j = residual of [Q_{j−1}Q_{j−1}ᵀA]_C  (subspace ∝ A(AᵀA)^{j−1}Ω, one power of A less),
+  //   e_j = residual of the candidate result [AP_j]_C P_jᵀ (∝ (AᵀA)^j Ω),
+  // and g_1 ≥ e_1 ≥ g_2 ≥ e_2 ≥ … (each step's subspace contains the previous step's best rank-C
+  // approximation, so the best rank-C error within it cannot grow), converging to the
+  // Eckart–Young optimum e* = Σ_{i>C} σ_i² (subspace iteration converges to the dominant
+  // k-subspace ⊇ the top-C one; Halko, Martinsson & Tropp 2011 §4.5 and Thm. 9.1/10.7: the
+  // excess decays like (σ_{k+1}/σ_C)^{2·power}, geometrically). For a geometric sequence of
+  // half-step improvements d_i = h_{i−1} − h_i (h = g_1, e_1, g_2, e_2, …) with ratio ρ < 1,
+  //   e_j − e* = Σ_{i>last} d_i = d_last · ρ/(1 − ρ),
+  // so the remaining gap is bounded by a multiple of the last improvement. The sequence is a sum
+  // of geometric modes, and its ratios grow as the fast modes die out (measured ratios d_i/d_{i−1}
+  // 0.21, 0.36, 0.43, 0.47, … on the 32 × 32 car paint), so a constant ρ taken from the last
+  // ratios underestimates the gap (by up to 2.3× on the synthesised materials). We therefore
+  // extrapolate the ratio linearly, ρ = max(r_last, 2·r_last − r_prev) with r = d_i/d_{i−1},
+  // clamp it to [0, 0.9], and stop once
+  //   d_last · ρ/(1 − ρ) ≤ τ · e_j          (τ = power_tolerance),
+  // or at q_max, or when d_last is at the float rounding level of the estimates (≤ 1e-6 ‖A‖²_F:
+  // nothing left to measure). Measured on the synthesised 32 × 32 / 64 × 64 UBO2003 materials
+  // (docs/factor.md) at the decisive iteration this predicts the true excess within 0.78–1.37×,
+  // so τ = 0.005 keeps error / optimum ≤ ~1.0035 against the 1.005 bound. Fast-decaying spectra converge in q_min = 2 iterations (no extra work); flat tails
+  // (car paint) take more. The decision uses only deterministic quantities, so the iteration
+  // count and the result are still independent of the thread count.
+  const int q_request = std::max(0, options.power_iterations);
+  const int q_max = std::max(q_request, options.max_power_iterations);
+  const int q_min = q_max == 0 ? 0 : std::max(1, q_request);
+  const double passes_bound = static_cast<double>(q_max == 0 ? 2 : q_max + 1);
   int done = 0;
   if (!report_progress(progress, "sketch", 0.0)) return make_error(Status::cancelled, "truncated_svd cancelled");
-  MatrixXf q = detail::orthonormal_basis(pass([&](const MatrixXf& a, Index col0, Index cnt, MatrixXf& acc) {
+  MatrixXf q = detail::orthonormal_basis(pass([&](const MatrixXf& a, Index col0, Index cnt, size_t s) {
+    MatrixXf& acc = partial[s];
+    norm2_partial[s] += a.colwise().squaredNorm().template cast<double>().sum();
     if (zeta == 0) {
       acc.noalias() += a * omega.middleRows(col0, cnt);
       return;
@@ -258,19 +326,12 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
   omega.resize(0, 0);
   sparse_omega = {};
   ++done;
-  for (int it = 0; it + 1 < q_iters; ++it) {
-    if (!report_progress(progress, "power iteration", static_cast<double>(done) / total_passes))
+  double norm2 = 0.0;
+  for (double p : norm2_partial) norm2 += p;  // stripe order: deterministic
+  out.report.frobenius_norm = std::sqrt(norm2);
+  if (q_max == 0) {
+    if (!report_progress(progress, "project", done / passes_bound))
       return make_error(Status::cancelled, "truncated_svd cancelled");
-    // Y = A·(Aᵀ·Q), block by block: Z_b = A_bᵀ·Q, Y += A_b·Z_b; then Q = orth(Y).
-    q = detail::orthonormal_basis(pass([&](const MatrixXf& a, Index, Index, MatrixXf& acc) {
-      const MatrixXf z = a.transpose() * q;
-      acc.noalias() += a * z;
-    }));
-    ++done;
-  }
-  if (!report_progress(progress, "project", static_cast<double>(done) / total_passes))
-    return make_error(Status::cancelled, "truncated_svd cancelled");
-  if (q_iters == 0) {
     // B = Qᵀ·A (k × n), written column block by column block (disjoint, no reduction needed).
     MatrixXf bt(static_cast<Index>(n), k);  // Bᵀ
     pool.parallel_for(0, blocks, 1, [&](size_t b0, size_t b1) {
@@ -295,45 +356,93 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     out.u = q * small.matrixU().leftCols(cc).template cast<float>();
     out.s = small.singularValues().head(cc).template cast<float>();
     out.v = q2 * small.matrixV().leftCols(cc).template cast<float>();
+    out.report.error_estimate =
+        std::sqrt(std::max(0.0, norm2 - small.singularValues().head(cc).squaredNorm()));
+    out.report.predicted_ratio = 0.0;  // no iterations, nothing to extrapolate
     report_progress(progress, "project", 1.0);
     return out;
   }
-  // Fused last pass: Z_b = A_bᵀ·Q into the rows of Z (disjoint), Y += A_b·Z_b (striped sums).
   MatrixXf z(static_cast<Index>(n), k);
-  MatrixXf y = pass([&](const MatrixXf& a, Index col0, Index cnt, MatrixXf& acc) {
-    auto zb = z.middleRows(col0, cnt);
-    zb.noalias() = a.transpose() * q;
-    acc.noalias() += a * zb;
-  });
-  q.resize(0, 0);
-  // Z = P·R (Householder QR, n × k), R = Ur·Sr·Vrᵀ (k × k, double Jacobi).
-  Eigen::HouseholderQR<MatrixXf> zqr(z);
-  const Eigen::MatrixXd rz =
-      zqr.matrixQR().topRows(k).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
-  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd(rz, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::VectorXd& sr = rsvd.singularValues();
-  // Directions of Z below this relative size carry only rounding noise (A has no component
-  // there, e.g. rank(A) < k); dividing by them would amplify it, so they are dropped.
-  const double tol = sr.size() > 0 ? sr[0] * 1e-6 : 0.0;
-  Index kk = 0;
-  while (kk < sr.size() && sr[kk] > tol) ++kk;
-  if (kk == 0) {  // A = 0 (or numerically so): zero factors with orthonormal bases
-    out.u = MatrixXf::Identity(mi, c);
-    out.s = Eigen::VectorXf::Zero(c);
-    out.v = MatrixXf::Identity(static_cast<Index>(n), c);
-    report_progress(progress, "project", 1.0);
-    return out;
+  MatrixXf y;
+  // The candidate result of the latest iteration: Z = P·R (zqr), R = Ur·Sr·Vrᵀ (rsvd, double
+  // Jacobi), M = A·P' = Y·Vr·Sr⁻¹ = Qm·Rm (mqr), Rm = Um·S·Wmᵀ (msvd).
+  Eigen::HouseholderQR<MatrixXf> zqr, mqr;
+  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd, msvd;
+  Index kk = 0, km = 0;
+  std::vector<double> h;  // g_1, e_1, g_2, e_2, … (squared errors)
+  double predicted_excess = 0.0;
+  int iterations = 0;
+  for (;;) {
+    if (!report_progress(progress, iterations + 1 == q_min ? "project" : "power iteration", done / passes_bound))
+      return make_error(Status::cancelled, "truncated_svd cancelled");
+    // Z_b = A_bᵀ·Q into the rows of Z (disjoint), Y += A_b·Z_b (striped sums).
+    y = pass([&](const MatrixXf& a, Index col0, Index cnt, size_t s) {
+      auto zb = z.middleRows(col0, cnt);
+      zb.noalias() = a.transpose() * q;
+      partial[s].noalias() += a * zb;
+    });
+    ++done;
+    ++iterations;
+    zqr.compute(z);
+    const Eigen::MatrixXd rz =
+        zqr.matrixQR().topRows(k).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
+    rsvd.compute(rz, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::VectorXd& sr = rsvd.singularValues();
+    // Directions of Z below this relative size carry only rounding noise (A has no component
+    // there, e.g. rank(A) < k); dividing by them would amplify it, so they are dropped.
+    const double tol = sr.size() > 0 ? sr[0] * 1e-6 : 0.0;
+    kk = 0;
+    while (kk < sr.size() && sr[kk] > tol) ++kk;
+    if (kk == 0) {  // A = 0 (or numerically so): zero factors with orthonormal bases
+      out.u = MatrixXf::Identity(mi, c);
+      out.s = Eigen::VectorXf::Zero(c);
+      out.v = MatrixXf::Identity(static_cast<Index>(n), c);
+      out.report.power_iterations = iterations;
+      out.report.error_estimate = out.report.frobenius_norm;
+      report_progress(progress, "project", 1.0);
+      return out;
+    }
+    // M = A·P' = Y·Vr·Sr⁻¹ (m × kk), P' = P·Ur (n × kk, orthonormal). A ≈ M·P'ᵀ.
+    const Eigen::MatrixXd w = rsvd.matrixV().leftCols(kk) * sr.head(kk).cwiseInverse().asDiagonal();
+    mqr.compute(y * w.template cast<float>());
+    km = std::min<Index>(kk, mi);
+    const Eigen::MatrixXd rm =
+        mqr.matrixQR().topRows(km).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
+    msvd.compute(rm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    h.push_back(std::max(0.0, norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
+    h.push_back(std::max(0.0, norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
+    // Extrapolation of the half-step improvements (see above).
+    const size_t hl = h.size();
+    const double d_last = std::max(0.0, h[hl - 2] - h[hl - 1]);
+    constexpr double kRhoMax = 0.9;
+    double rho = kRhoMax;
+    if (hl >= 4 && h[hl - 3] - h[hl - 2] > 0.0 && h[hl - 4] - h[hl - 3] > 0.0) {
+      const double r_last = d_last / (h[hl - 3] - h[hl - 2]);
+      const double r_prev = (h[hl - 3] - h[hl - 2]) / (h[hl - 4] - h[hl - 3]);
+      rho = std::max(r_last, 2.0 * r_last - r_prev);
+    }
+    rho = std::clamp(rho, 0.0, kRhoMax);
+    predicted_excess = d_last * rho / (1.0 - rho);
+    const double e = h[hl - 1];
+    const bool settled = predicted_excess <= options.power_tolerance * e || d_last <= 1e-6 * norm2;
+    if (progress) {
+      char stage[160];
+      std::snprintf(stage, sizeof stage, "power iteration %d: error estimate %.6g, predicted %.5fx optimum", iterations,
+                    std::sqrt(e), predicted_excess < e ? std::sqrt(e / (e - predicted_excess)) : HUGE_VAL);
+      if (!report_progress(progress, stage, done / passes_bound))
+        return make_error(Status::cancelled, "truncated_svd cancelled");
+    }
+    if (iterations >= q_max || (iterations >= q_min && settled)) break;
+    q = detail::orthonormal_basis(y);
   }
-  // M = A·P' = Y·Vr·Sr⁻¹ (m × kk), P' = P·Ur (n × kk, orthonormal). A ≈ M·P'ᵀ.
-  const Eigen::MatrixXd w = rsvd.matrixV().leftCols(kk) * sr.head(kk).cwiseInverse().asDiagonal();
-  const MatrixXf mmat = y * w.template cast<float>();
+  q.resize(0, 0);
   y.resize(0, 0);
-  // M = Qm·Rm (float QR), Rm = Um·S·Wmᵀ (double) ⇒ U = Qm·Um, V = P'·Wm = P·(Ur·Wm).
-  Eigen::HouseholderQR<MatrixXf> mqr(mmat);
-  const Index km = std::min<Index>(kk, mi);
-  const Eigen::MatrixXd rm =
-      mqr.matrixQR().topRows(km).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
-  Eigen::JacobiSVD<Eigen::MatrixXd> msvd(rm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  out.report.power_iterations = iterations;
+  out.report.error_estimate = std::sqrt(h.back());
+  out.report.predicted_ratio = predicted_excess <= 0.0 ? 1.0
+                              : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
+                                                            : HUGE_VAL;
+  // U = Qm·Um, V = P'·Wm = P·(Ur·Wm).
   // cc = min(c, kk) components carry the approximation; if rank(A) < c the remaining c − cc get
   // singular value 0 and orthonormal completions (unused columns of the two Householder bases).
   const Index cc = std::min<Index>(c, km), pad = c - cc;

@@ -171,3 +171,125 @@ TEST(Votes, LevelDropCoarsensRequests) {
   EXPECT_EQ(counter.votes(0, 1, 1, 1), 5u);
   EXPECT_EQ(counter.direct_votes_at(0, 1 + 3), 5u);  // level 1 starts at flat index 1; (1,1) → +3
 }
+
+namespace {
+// A fixed "view": a full-resolution feedback image of size × size words with a hashed tile per
+// pixel (many distinct tiles, so 1/d² subsamples of it differ from frame to frame), some
+// background. decimate() takes one pixel per d×d block at feedback_sample_offset(frame, d).
+std::vector<uint32_t> fixed_view(uint32_t size, const VoteLayout& m) {
+  std::vector<uint32_t> img(static_cast<size_t>(size) * size);
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x) {
+      uint32_t h = (x * 73856093u) ^ (y * 19349663u);
+      h ^= h >> 13;
+      h *= 0x5bd1e995u;
+      h ^= h >> 15;
+      const uint32_t l = h % 4 == 0 ? m.finest_level - 1 : m.finest_level;
+      const uint32_t s = m.finest_level - l;
+      img[y * size + x] = h % 11 == 0 ? kFeedbackNone
+                                      : pack_feedback({0, l, ((x * m.tiles_x) / size) >> s, (h >> 8) % (m.tiles_y >> s)});
+    }
+  return img;
+}
+std::vector<uint32_t> decimate(const std::vector<uint32_t>& img, uint32_t size, uint32_t d, uint64_t frame) {
+  uint32_t dx = 0, dy = 0;
+  feedback_sample_offset(frame, d, dx, dy);
+  std::vector<uint32_t> out;
+  for (uint32_t y = dy; y < size; y += d)
+    for (uint32_t x = dx; x < size; x += d) out.push_back(img[y * size + x]);
+  return out;
+}
+std::vector<uint32_t> all_votes(const VoteCounter& c, const VoteLayout& m) {
+  std::vector<uint32_t> v;
+  for (uint32_t l = 0; l <= m.finest_level; ++l) {
+    const uint32_t s = m.finest_level - l;
+    for (uint32_t y = 0; y < ((m.tiles_y + (1u << s) - 1) >> s); ++y)
+      for (uint32_t x = 0; x < ((m.tiles_x + (1u << s) - 1) >> s); ++x) v.push_back(c.votes(0, l, x, y));
+  }
+  return v;
+}
+}  // namespace
+
+TEST(VoteWindow, RotationCycleSumEqualsFullResolutionCountAndStaysConstant) {
+  const VoteLayout m{3, 8, 8};
+  const uint32_t size = 64, d = 4;
+  const std::vector<uint32_t> img = fixed_view(size, m);
+  VoteCounter full({&m, 1});
+  full.count(img);
+  const std::vector<uint32_t> want = all_votes(full, m);
+  VoteCounter single({&m, 1});
+  VoteCounter window({&m, 1}, VoteWindowConfig{d * d, 0});
+  EXPECT_EQ(window.window_frames(), d * d);
+  std::vector<uint32_t> prev_single;
+  uint32_t single_changes = 0;
+  for (uint64_t f = 0; f < 5 * d * d; ++f) {
+    const std::vector<uint32_t> words = decimate(img, size, d, f);
+    window.accumulate(words);
+    single.count(words, d * d);
+    const std::vector<uint32_t> s = all_votes(single, m);
+    if (!prev_single.empty() && s != prev_single) ++single_changes;
+    prev_single = s;
+    if (f + 1 < d * d) {
+      EXPECT_NE(all_votes(window, m), want) << "frame " << f << ": window not full yet";
+    } else {
+      // Every pixel counted exactly once per cycle: the full-resolution votes, every frame.
+      ASSERT_EQ(all_votes(window, m), want) << "frame " << f;
+      size_t nonzero = 0;
+      for (uint32_t v : want) nonzero += v > 0;
+      EXPECT_EQ(window.touched().size(), nonzero);
+    }
+  }
+  // One frame's votes (weight d²) change from frame to frame: that is what needed the window.
+  EXPECT_GE(single_changes, 5 * d * d - 2);
+  EXPECT_EQ(window.window_overflow(), 0u);
+}
+
+TEST(VoteWindow, OldFramesLeaveAfterExactlyNFramesAndResetForgets) {
+  const VoteLayout m{2, 4, 4};
+  VoteCounter c({&m, 1}, VoteWindowConfig{3, 0});
+  const std::vector<uint32_t> a(7, pack_feedback({0, 2, 1, 2}));
+  const std::vector<uint32_t> b(5, pack_feedback({0, 2, 3, 0}));
+  c.accumulate(a);
+  EXPECT_EQ(c.votes(0, 2, 1, 2), 7u);
+  c.accumulate(b);
+  c.accumulate(b);
+  EXPECT_EQ(c.votes(0, 2, 1, 2), 7u);  // frame 0 still in the 3-frame window
+  EXPECT_EQ(c.votes(0, 2, 3, 0), 10u);
+  EXPECT_EQ(c.votes(0, 0, 0, 0), 17u);  // eq. 9 over the window
+  c.accumulate(b);
+  EXPECT_EQ(c.votes(0, 2, 1, 2), 0u);  // frame 0 dropped out
+  EXPECT_EQ(c.votes(0, 1, 0, 1), 0u);
+  EXPECT_EQ(c.votes(0, 2, 3, 0), 15u);
+  EXPECT_EQ(c.direct_votes_at(0, 5 + 3), 15u);  // level 2 starts at flat 5; (3,0) → +3
+  EXPECT_EQ(c.touched().size(), 3u);            // the tile, its parent, the root
+  c.count(a);  // count() is one frame and leaves the window alone
+  EXPECT_EQ(c.votes(0, 2, 3, 0), 0u);
+  c.accumulate({});
+  EXPECT_EQ(c.votes(0, 2, 3, 0), 10u);
+  c.reset_window();
+  EXPECT_EQ(c.votes(0, 0, 0, 0), 0u);
+  c.accumulate(a);
+  EXPECT_EQ(c.votes(0, 0, 0, 0), 7u);
+}
+
+TEST(VoteWindow, OneFrameWindowIsCountAndOverflowIsCountedNotCorrupting) {
+  const VoteLayout m{3, 8, 8};
+  const std::vector<uint32_t> img = fixed_view(32, m);
+  VoteCounter a({&m, 1}), b({&m, 1}, VoteWindowConfig{1, 0});
+  a.count(img, 3, 1);
+  b.accumulate(img, 3, 1);
+  EXPECT_EQ(all_votes(a, m), all_votes(b, m));
+  // At most 2 directly voted tiles remembered per frame: the rest is counted, and the sums
+  // stay consistent (after the window passes, nothing is left).
+  VoteCounter small({&m, 1}, VoteWindowConfig{2, 2});
+  std::vector<uint32_t> hostile = img;
+  hostile.push_back(0xfffffff0u);  // a material that does not exist
+  small.accumulate(hostile);
+  EXPECT_GT(small.window_overflow(), 0u);
+  EXPECT_GT(small.rejected(), 0u);
+  EXPECT_LE(small.touched().size(), 2u + 2u * 3u);  // 2 tiles and their ancestors
+  small.accumulate({});
+  small.accumulate({});
+  EXPECT_TRUE(small.touched().empty());
+  for (uint32_t v : all_votes(small, m)) ASSERT_EQ(v, 0u);
+}

@@ -3,6 +3,7 @@
 // feedback sequences that keep the cache invariants and replay identically.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
 #include <string>
 #include <vector>
@@ -299,4 +300,109 @@ TEST(Scheduler, RandomFeedbackKeepsInvariantsAndReplaysIdentically) {
   run(a);
   run(b);
   EXPECT_EQ(a, b);
+}
+
+namespace {
+// A fixed view over one material of the Rig (L = 2, 4×4 finest tiles): a 64×64 full-resolution
+// feedback image, read decimated 4×4 with the rotating sample position of feedback_sample_offset
+// (one pixel per block per frame). 15/16 of the pixels show the four finest tiles of one
+// quadrant (near the camera), 1/16 are scattered over the twelve others (far away, about 21
+// pixels each: about 1.3 samples per decimated frame, often none) — as in a perspective view.
+std::vector<uint32_t> fixed_view_words(uint64_t frame, uint32_t view) {
+  constexpr uint32_t kSize = 64, kD = 4;
+  uint32_t dx = 0, dy = 0;
+  feedback_sample_offset(frame, kD, dx, dy);
+  std::vector<uint32_t> out;
+  for (uint32_t y = dy; y < kSize; y += kD)
+    for (uint32_t x = dx; x < kSize; x += kD) {
+      uint32_t h = (x * 73856093u) ^ (y * 19349663u) ^ (view * 83492791u);
+      h ^= h >> 13;
+      h *= 0x5bd1e995u;
+      h ^= h >> 15;
+      const uint32_t qx = view & 1, qy = (view >> 1) & 1;  // the near quadrant
+      uint32_t tx, ty;
+      if (h % 16 != 0) {
+        tx = 2 * qx + ((h >> 4) & 1), ty = 2 * qy + ((h >> 5) & 1);
+      } else {
+        uint32_t k = (h >> 8) % 12;  // the k-th finest tile outside the near quadrant
+        for (tx = 0, ty = 0;; ++tx) {
+          if (tx == 4) tx = 0, ++ty;
+          if ((tx >> 1) == qx && (ty >> 1) == qy) continue;
+          if (k-- == 0) break;
+        }
+      }
+      out.push_back(pack_feedback({0, 2, tx, ty}));
+    }
+  return out;
+}
+
+struct SettleRun {
+  std::vector<uint32_t> swaps;  // per frame
+  std::vector<uint64_t> log;    // requests and resident sets, for the replay check
+  uint32_t used = 0, slots = 0;
+};
+
+// Full cache (16 slots for 21 wanted tiles: root, 4 at level 1, the 4 near tiles and 7 of the 12
+// far ones, which compete at nearly equal priority), data delivered the frame it is requested. The
+// camera shows view 1 for the first `cut` frames, then holds view 2 (so the cache must change).
+SettleRun run_fixed_view(bool accumulate, uint64_t frames, uint64_t cut) {
+  SchedulerConfig cfg;
+  cfg.budgets.requests_in_flight = 8;
+  cfg.budgets.uploads_per_frame = 8;
+  Rig rig(4, 4, cfg);
+  for (uint32_t y = 0; y < 4; ++y)  // distinct weights, as a real pyramid has
+    for (uint32_t x = 0; x < 4; ++x) rig.set_weight(0, 2, x, y, 0.2f + 0.05f * static_cast<float>(x + 4 * y));
+  for (uint32_t y = 0; y < 2; ++y)
+    for (uint32_t x = 0; x < 2; ++x) rig.set_weight(0, 1, x, y, 0.6f + 0.1f * static_cast<float>(x + 2 * y));
+  VoteCounter window(vote_layouts(rig.set), VoteWindowConfig{16, 0});  // 16 = one 4×4 rotation cycle
+  SettleRun r;
+  for (uint64_t f = 0; f < frames; ++f) {
+    const std::vector<uint32_t> words = fixed_view_words(f, f < cut ? 0 : 3);
+    if (accumulate)
+      window.accumulate(words, 1);
+    else
+      rig.votes->count(words, 16);  // one frame, each word standing for its 4×4 block
+    const auto req = rig.sched->plan(accumulate ? window : *rig.votes, f);
+    r.swaps.push_back(rig.sched->frame().swaps);
+    for (const TileRequest& q : req) r.log.push_back(q.tile.key());
+    for (uint32_t id = 0; id < cfg.budgets.requests_in_flight; ++id)
+      if (rig.sched->begin_decode(id)) rig.sched->finish_decode(id);
+    rig.sched->apply_uploads();
+    for (uint32_t s = 0; s < rig.cache->slot_count(); ++s) r.log.push_back(rig.cache->slot(s).tile.key());
+    std::string why;
+    EXPECT_TRUE(rig.cache->check_invariants(&why)) << why;
+  }
+  r.used = rig.cache->used_count();
+  r.slots = rig.cache->slot_count();
+  return r;
+}
+}  // namespace
+
+// Rotating decimated feedback at a fixed view with a full cache: one frame's votes differ from
+// frame to frame and keep the scheduler swapping; the votes accumulated over the rotation cycle
+// (VoteCounter::accumulate, 16 frames) are constant once the window is full, so the swaps stop
+// within a bounded number of frames. Both replay bit-identically.
+TEST(Scheduler, RotatingFeedbackSettlesWithVoteAccumulationOnly) {
+  // View 2 from frame 32: its window is full from frame 47; a few more plans to finish the swaps.
+  constexpr uint64_t kFrames = 160, kCut = 32, kSettledFrom = 80;
+  const SettleRun acc = run_fixed_view(true, kFrames, kCut);
+  const SettleRun raw = run_fixed_view(false, kFrames, kCut);
+  uint32_t acc_late = 0, raw_late = 0, acc_after_cut = 0;
+  int last_acc_swap = -1;
+  for (uint64_t f = 0; f < kFrames; ++f) {
+    if (f >= kCut) acc_after_cut += acc.swaps[f];
+    if (acc.swaps[f]) last_acc_swap = static_cast<int>(f);
+    if (f >= kSettledFrom) acc_late += acc.swaps[f], raw_late += raw.swaps[f];
+  }
+  std::printf("swaps after the view change: accumulated %u (last at frame %d); from frame %llu on: accumulated %u, "
+              "single-frame %u\n",
+              acc_after_cut, last_acc_swap, static_cast<unsigned long long>(kSettledFrom), acc_late, raw_late);
+  EXPECT_EQ(acc.used, acc.slots);  // the cache is full: the swaps decide
+  EXPECT_GT(acc_after_cut, 0u);    // the new view did make it swap
+  EXPECT_EQ(acc_late, 0u) << "accumulated votes: swaps after frame " << kSettledFrom;
+  EXPECT_LT(last_acc_swap, static_cast<int>(kCut + 16 + 8));  // within the window + a few plans
+  EXPECT_GE(raw_late, 20u) << "single-frame votes should keep swapping at a fixed view";
+  // Replays: the same inputs give the same requests and resident sets.
+  EXPECT_EQ(run_fixed_view(true, kFrames, kCut).log, acc.log);
+  EXPECT_EQ(run_fixed_view(false, kFrames, kCut).log, raw.log);
 }

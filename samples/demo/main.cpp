@@ -164,9 +164,14 @@ int main(int argc, char** argv) {
   run.seconds_flight = flight_clock.seconds();
   // Settle: the camera stays at the last view while the remaining tiles stream in, until nothing
   // was requested, pending or uploaded for 5 frames (or --settle frames): SSIM vs bytes for a fixed view.
+  // It lasts at least one vote window (the rotation cycle of the feedback sample position) so
+  // that the scheduler has planned from votes of the last view alone.
   const size_t settle_first = run.frames.size();
+  const uint32_t vote_window = (*streamer)->vote_window_frames();
   uint32_t quiet_frames = 0;
-  for (uint32_t k = 0; frames > 0 && k < static_cast<uint32_t>(cfg->settle) && quiet_frames < 5 && !window_closed(); ++k) {
+  for (uint32_t k = 0; frames > 0 && k < static_cast<uint32_t>(cfg->settle) && (quiet_frames < 5 || k < vote_window) &&
+                       !window_closed();
+       ++k) {
     auto rec = (*streamer)->frame(frames + k, frames - 1, frames, bsvtf_img, fmf_img);
     if (!rec) return fail("settle frame", rec.message());
     rec->settle = true;
@@ -215,15 +220,23 @@ int main(int argc, char** argv) {
   // 5. Sanity checks (the ctests rely on them): for the fixed last view, SSIM does not fall while
   // the remaining bytes arrive during the settle phase, and ends high. The CPU reference's converged image is
   // unfiltered (finest level, no mips), so it aliases on the far ground and its bound is lower.
+  // "While the remaining bytes arrive" starts with the first image rendered after a plan made from
+  // votes of the last view alone (settle frame `window` - 1: the vote window then holds no frame of
+  // the moving camera). Before it, the scheduler re-plans the cache it filled for the last frames of
+  // the flight (their votes leave the window), and SSIM can dip: its w·v priorities are not SSIM
+  // (docs/demo.md: the old fixed-position feedback had the same dip, at the start of the settle).
   if (run.frames.size() > settle_first) {
-    const double first = run.frames[settle_first].ssim, last = run.frames.back().ssim;
+    const size_t from = settle_first + std::min<size_t>(vote_window - 1, run.frames.size() - settle_first - 1);
+    const double first = run.frames[from].ssim, last = run.frames.back().ssim;
     // Non-decreasing (with a small tolerance): when the cache already held the last view's
     // tiles when the flight ended, SSIM is flat at its converged value.
     const bool rises = last >= first - 0.002;
     const bool high = last >= (is_gpu ? 0.85 : 0.6);
     const bool table = run.page_table_check == "equal";
-    std::printf("  checks      settle SSIM %.4f -> %.4f (bound %.2f), page table equals rebuild: %s\n", first, last,
-                is_gpu ? 0.85 : 0.6, rises && high && table ? "checks passed" : "FAILED");
+    std::printf("  checks      settle SSIM %.4f (settle frame %zu, votes of the last view only) -> %.4f (bound %.2f), "
+                "%s, page table equals rebuild: %s\n",
+                first, from - settle_first, last, is_gpu ? 0.85 : 0.6, quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled",
+                rises && high && table ? "checks passed" : "FAILED");
     if (!rises || !high || !table) return 1;
   }
   if (run.page_table_check != "equal") {

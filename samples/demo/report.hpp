@@ -191,9 +191,10 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
     std::snprintf(b, sizeof b,
                   "    {\"frame\": %u, \"bytes_received\": %llu, \"tiles_delivered\": %u, \"occupancy\": %.4f, \"ssim\": %.5f, "
                   "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u, "
-                  "\"page_table_writes\": %u, \"settle\": %s}%s\n",
+                  "\"page_table_writes\": %u, \"swaps\": %u, \"lod_bias\": %u, \"settle\": %s}%s\n",
                   f.frame, static_cast<unsigned long long>(f.bytes_received), f.tiles_delivered, f.occupancy, f.ssim, f.rmse,
-                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, f.page_table_writes, f.settle ? "true" : "false",
+                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, f.page_table_writes, f.swaps, f.lod_bias,
+                  f.settle ? "true" : "false",
                   i + 1 < r.frames.size() ? "," : "");
     o << b;
   }

@@ -41,7 +41,9 @@ namespace btflod::demo {
 /// Streaming and rendering settings.
 struct StreamSettings {
   uint32_t width = 480, height = 270;
-  uint32_t feedback_shift = 3;             ///< feedback target = screen / 2^shift
+  /// Feedback target = screen / 2^shift per axis (2: 1/16 of the pixels, one rotation cycle
+  /// and vote window of 16 frames; 3 would make the window 64 frames, longer than the settle).
+  uint32_t feedback_shift = 2;
   uint32_t slots_x = 12, slots_y = 12;     ///< tile cache (one layer): 144 slots of 40² texels
   double bytes_per_second = 256.0 * 1024;  ///< throttled link shared by all materials
   uint32_t latency_ms = 20;
@@ -60,6 +62,8 @@ struct FrameRecord {
   double ms_fmf = 0;            ///< FMF colour pass, submit to read-back
   uint32_t requests = 0, uploads = 0;
   uint32_t page_table_writes = 0;  ///< GPU page-table texels written after this frame (deltas)
+  uint32_t swaps = 0;              ///< scheduler swap operations this frame
+  uint32_t lod_bias = 0;           ///< scheduler's global LOD bias after this frame's plan
   bool settle = false;          ///< camera held at the last view (convergence phase)
 };
 
@@ -161,18 +165,28 @@ class GpuFrameRenderer final : public FrameRenderer {
  private:
   // The feedback pass (1/2^shift of the screen, paper 000 §5 / issue #5) for every mesh first,
   // then the BSVTF colour pass: one render-target switch per frame instead of two per mesh
-  // (on llvmpipe each switch flushes the binned scene). The feedback texels sample fixed
-  // positions (the texel centres): a rotating position (lod/feedback.hpp's
-  // feedback_sample_offset) made the single-frame votes differ from frame to frame and, with a
-  // full cache, kept the scheduler swapping tiles at a fixed view (SSIM oscillating 0.91-0.96
-  // over the settle phase instead of converging); it needs votes accumulated over frames first.
-  VoidResult render_bsvtf(const FrameDesc& desc, uint64_t, uint32_t shift,
+  // (on llvmpipe each switch flushes the binned scene). Each feedback texel samples one screen
+  // pixel of its 2^shift × 2^shift block, a different one every frame (lod/feedback.hpp's
+  // feedback_sample_offset): the projection is shifted by the offset from the texel centre.
+  // The streaming loop sums the votes over the 4^shift frames of one rotation cycle
+  // (VoteCounter::accumulate): single-frame votes of a rotating position differ from frame to
+  // frame and kept a full cache swapping at a fixed view (SSIM oscillating 0.91-0.96 over the
+  // settle phase), which is why the demo had gone back to fixed positions before.
+  VoidResult render_bsvtf(const FrameDesc& desc, uint64_t frame, uint32_t shift,
                           const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf,
                           std::vector<uint32_t>& feedback, double& ms) {
+    const uint32_t d = 1u << shift;
+    uint32_t dx = 0, dy = 0;
+    feedback_sample_offset(frame, d, dx, dy);
+    const float fd = static_cast<float>(d);
+    const glm::vec2 jitter{(0.5f - (static_cast<float>(dx) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_width),
+                           (0.5f - (static_cast<float>(dy) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_height)};
+    const glm::mat4 shift_ndc = glm::translate(glm::mat4(1.0f), glm::vec3(jitter, 0.0f));
     const auto t0 = std::chrono::steady_clock::now();
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
     for (size_t i = 0; i < meshes_.size(); ++i) {
       ShaderParams p = params(material_of_[i]);
+      p.model_view_proj = shift_ndc * p.model_view_proj;
       p.lod.y = static_cast<float>(shift);
       if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
     }
@@ -360,10 +374,14 @@ class StreamingRenderer {
         !e)
       return e.error();
 
-    // Streaming: votes → plan → requests → pipeline → uploads → page table.
-    if (!feedback_.empty()) votes_->count(feedback_, 1u << (2 * s_.feedback_shift), sched_->lod_bias());
+    // Streaming: votes → plan → requests → pipeline → uploads → page table. The votes are the
+    // sum over the last 4^shift frames (one rotation of the feedback sample position), so every
+    // screen pixel counts once, with weight 1 (lod/feedback.hpp, VoteCounter::accumulate).
+    if (!feedback_.empty()) votes_->accumulate(feedback_, 1, sched_->lod_bias());
     const auto requests = sched_->plan(*votes_, f);
     rec.requests = static_cast<uint32_t>(requests.size());
+    rec.swaps = static_cast<uint32_t>(sched_->frame().swaps);
+    rec.lod_bias = sched_->lod_bias();
     for (const TileRequest& q : requests) {
       if (q.u_packet) {  // U is loaded up front (stream_u_columns = false): nothing to fetch
         if (sched_->begin_decode(q.id)) sched_->finish_decode(q.id);
@@ -420,6 +438,8 @@ class StreamingRenderer {
     return n;
   }
   const MemoryFigures& memory() const noexcept { return memory_; }
+  /// Frames over which the votes are summed (one rotation cycle of the feedback sample position).
+  uint32_t vote_window_frames() const noexcept { return votes_->window_frames(); }
   /// Tiles requested by the scheduler and not yet delivered.
   size_t pending_tiles() const noexcept {
     size_t n = 0;
@@ -615,7 +635,7 @@ class StreamingRenderer {
     auto sched = Scheduler::create(*cache_, sc);
     if (!sched) return sched.error();
     sched_ = std::make_unique<Scheduler>(std::move(*sched));
-    votes_ = std::make_unique<VoteCounter>(vote_layouts(set_));
+    votes_ = std::make_unique<VoteCounter>(vote_layouts(set_), VoteWindowConfig{1u << (2 * s_.feedback_shift), 0});
     staging_.resize(sc.budgets.requests_in_flight);
     outstanding_.resize(materials_.size());
     request_of_.resize(materials_.size());

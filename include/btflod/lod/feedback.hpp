@@ -15,6 +15,24 @@
 // ancestor) with flat arrays: one run of equal words at a time is added to the tile's direct
 // count, then each distinct voted tile pushes its count up its ancestor chain once. Cost:
 // O(pixels) sequential reads + O(distinct tiles · L); no hash maps, no allocation per frame.
+//
+// Decimated feedback with a rotating sample position (feedback_sample_offset: one pixel of each
+// d×d block per frame, every pixel once per d² frames) needs its votes accumulated over the
+// rotation cycle: one frame's votes are a 1/d² subsample that differs from frame to frame, so
+// at a fixed view with a full cache the scheduler sees different priorities every frame and
+// keeps swapping. VoteCounter::accumulate() sums the direct votes of the last N frames (a
+// sliding window; N = d² makes every pixel of the screen count exactly once), then applies
+// eq. 9 to the sum. Why a sliding window and not exponentially decayed votes:
+//  - exact: with N = d² the window's sum at a fixed view no longer depends on the rotation
+//    phase, so from frame N on the votes are constant (equal to a full-resolution count with
+//    weight 1) and the scheduler's input stops changing; decayed votes keep a phase-dependent
+//    ripple (the newest sample position weighs most) that can flip near-equal priorities;
+//  - integer sums and differences: bit-identical replays, no rounding drift, no threshold to
+//    drop small decayed votes;
+//  - bounded memory of the past: a tile that left the view loses its last vote exactly N frames
+//    later (the latency cost of accumulation: choose d, and so N, with it in mind).
+// Cost per frame: the frame's count, plus O(distinct tiles of the window · L); memory: a ring
+// of N frames × (at most) the distinct tiles voted directly per frame, allocated up front.
 #pragma once
 
 #include <algorithm>
@@ -89,14 +107,27 @@ struct VoteLayout {
   uint32_t tiles_y = 1;  ///< tiles per column at the finest level
 };
 
-/// Counts votes v(i, l) of paper 000 eq. 9 per material and tile. Set-up allocates; count()
-/// does not. Not thread-safe (one counter per thread); deterministic. Hostile words are safe:
-/// they are counted in rejected() and ignored.
+/// Accumulation window of VoteCounter::accumulate().
+struct VoteWindowConfig {
+  /// N: frames summed. d² for feedback decimated d×d with feedback_sample_offset's rotation
+  /// (every pixel once per window); 1 = no accumulation (accumulate() ≡ count()).
+  uint32_t frames = 1;
+  /// Distinct directly voted tiles remembered per frame (0: every tile of the hierarchy, which
+  /// can never overflow). A frame with more keeps the first ones in feedback order and counts
+  /// the rest in window_overflow(). Bounds the ring's memory to frames × this × 8 bytes.
+  uint32_t max_tiles_per_frame = 0;
+};
+
+/// Counts votes v(i, l) of paper 000 eq. 9 per material and tile, for one frame (count()) or
+/// summed over a sliding window of frames (accumulate()). Set-up allocates; count() and
+/// accumulate() do not. Not thread-safe (one counter per thread); deterministic. Hostile words
+/// are safe: they are counted in rejected() and ignored.
 class VoteCounter {
  public:
   VoteCounter() = default;
   /// One entry per material, in material order. Precondition: finest_level ≤ 15.
-  explicit VoteCounter(std::span<const VoteLayout> materials) {
+  /// `window` sets accumulate()'s window (frames = 0 is taken as 1).
+  explicit VoteCounter(std::span<const VoteLayout> materials, VoteWindowConfig window = {}) {
     uint32_t total = 0;
     for (const VoteLayout& m : materials) {
       Material mm;
@@ -118,6 +149,16 @@ class VoteCounter {
     direct_.assign(total, 0);
     touched_.reserve(total);
     touched_words_.reserve(total);
+    window_frames_ = std::max<uint32_t>(window.frames, 1);
+    if (window_frames_ > 1) {
+      ring_cap_ = window.max_tiles_per_frame == 0 ? total : std::min(window.max_tiles_per_frame, total);
+      ring_.assign(static_cast<size_t>(window_frames_) * ring_cap_, WindowEntry{});
+      ring_size_.assign(window_frames_, 0);
+      window_.assign(total, 0);
+      in_live_.assign(total, 0);
+      live_.reserve(total);
+      live_words_.reserve(total);
+    }
   }
 
   /// Clears the previous frame and counts `words`. Each word adds `weight` votes (use the
@@ -144,15 +185,105 @@ class VoteCounter {
       while (j < n && w[j] == word) ++j;
       const uint32_t run = static_cast<uint32_t>(j - i);
       if (word != kFeedbackNone) {
-        if (add_direct(word, run * weight, level_drop)) valid += run;
-        else rejected_ += run;
+        if (add_direct(word, run * weight, level_drop))
+          valid += run;
+        else
+          rejected_ += run;
       }
       i = j;
     }
-    // Eq. 9: every pixel also votes for all ancestors. Push each directly voted tile's count
-    // up the chain once (the touched list grows with newly reached ancestors, which are not
-    // pushed again because their direct count is 0).
-    const size_t direct_tiles = touched_.size();
+    direct_tiles_ = touched_.size();
+    push_to_ancestors();
+    return valid;
+  }
+
+  /// Adds this frame's words to the sliding window of the last `window.frames` frames (the
+  /// oldest frame drops out once the window is full) and sets v(i, l) to eq. 9 applied to the
+  /// window's summed direct votes; touched(), votes_at() and direct_votes_at() then describe
+  /// the window. With feedback decimated d×d at feedback_sample_offset(frame, d) and a window
+  /// of d² frames, use weight 1: the window then counts every screen pixel once, and at a fixed
+  /// view its votes are constant from the d²-th frame on (see the file comment for why a
+  /// window and not decay). level_drop applies to this frame's words (entries keep the tile
+  /// they were counted for, so a changing bias never corrupts the sums). Returns this frame's
+  /// valid words. Window of 1 frame: same as count(). noexcept; no allocation; deterministic.
+  size_t accumulate(std::span<const uint32_t> words, uint32_t weight = 1, uint32_t level_drop = 0) noexcept {
+    const size_t valid = count(words, weight, level_drop);
+    if (window_frames_ <= 1) return valid;
+    // Retire the oldest frame of the ring (its slot is reused for this frame).
+    WindowEntry* slot = ring_.data() + static_cast<size_t>(head_) * ring_cap_;
+    if (filled_ == window_frames_) {
+      for (uint32_t k = 0; k < ring_size_[head_]; ++k) window_[slot[k].index] -= slot[k].count;
+    } else {
+      ++filled_;
+    }
+    uint32_t n = 0;
+    for (size_t k = 0; k < direct_tiles_; ++k) {
+      const uint32_t idx = touched_[k];
+      if (n == ring_cap_) {
+        window_overflow_ += direct_[idx];
+        continue;
+      }
+      slot[n++] = WindowEntry{idx, direct_[idx]};
+      if (!in_live_[idx]) {
+        in_live_[idx] = 1;
+        live_.push_back(idx);
+        live_words_.push_back(touched_words_[k]);
+      }
+      window_[idx] += direct_[idx];
+    }
+    ring_size_[head_] = n;
+    head_ = head_ + 1 == window_frames_ ? 0 : head_ + 1;
+    // Tiles whose window sum fell to 0 leave the live list (stable order: deterministic).
+    size_t o = 0;
+    for (size_t i = 0; i < live_.size(); ++i) {
+      if (window_[live_[i]] == 0) {
+        in_live_[live_[i]] = 0;
+        continue;
+      }
+      live_[o] = live_[i];
+      live_words_[o] = live_words_[i];
+      ++o;
+    }
+    live_.resize(o);  // shrinking: no allocation
+    live_words_.resize(o);
+    // v(i, l) of the window: the live tiles' sums as direct votes, then eq. 9's ancestors.
+    clear();
+    for (size_t i = 0; i < live_.size(); ++i) {
+      const uint32_t idx = live_[i];
+      votes_[idx] = direct_[idx] = window_[idx];
+      touched_.push_back(idx);
+      touched_words_.push_back(live_words_[i]);
+    }
+    direct_tiles_ = touched_.size();
+    push_to_ancestors();
+    return valid;
+  }
+
+  /// Forgets the window (e.g. after a camera cut) and this frame's votes. noexcept.
+  void reset_window() noexcept {
+    clear();
+    for (uint32_t idx : live_) {
+      window_[idx] = 0;
+      in_live_[idx] = 0;
+    }
+    live_.clear();
+    live_words_.clear();
+    std::fill(ring_size_.begin(), ring_size_.end(), 0u);
+    head_ = filled_ = 0;
+  }
+
+  /// Frames summed by accumulate() (VoteWindowConfig::frames, at least 1).
+  uint32_t window_frames() const noexcept { return window_frames_; }
+  /// Votes accumulate() could not remember because a frame voted directly for more than
+  /// max_tiles_per_frame tiles (0 unless that bound was set below the tile count).
+  uint64_t window_overflow() const noexcept { return window_overflow_; }
+
+ private:
+  // Eq. 9: every pixel also votes for all ancestors. Push each directly voted tile's count up
+  // the chain once (the touched list grows with newly reached ancestors, which are not pushed
+  // again because their direct count is 0).
+  void push_to_ancestors() noexcept {
+    const size_t direct_tiles = direct_tiles_;
     for (size_t k = 0; k < direct_tiles; ++k) {
       const uint32_t idx = touched_[k];
       const uint32_t count = direct_[idx];
@@ -170,9 +301,9 @@ class VoteCounter {
         votes_[a] += count;
       }
     }
-    return valid;
   }
 
+ public:
   /// v(i, l): votes of a tile of a material (its own pixels and its descendants').
   /// Returns 0 for tiles outside the hierarchy. noexcept.
   uint32_t votes(uint32_t material, uint32_t level, uint32_t x, uint32_t y) const noexcept {
@@ -244,7 +375,24 @@ class VoteCounter {
   std::vector<uint32_t> direct_;
   std::vector<uint32_t> touched_;        // flat indices with v > 0 (for clearing)
   std::vector<uint32_t> touched_words_;  // the same tiles as feedback words
+  size_t direct_tiles_ = 0;              // leading entries of touched_ voted directly
   uint64_t rejected_ = 0;
+  // accumulate()'s sliding window: ring of the last N frames' direct (tile, count) entries.
+  struct WindowEntry {
+    uint32_t index = 0;  // flat tile index (after level_drop)
+    uint32_t count = 0;  // direct votes of that frame
+  };
+  uint32_t window_frames_ = 1;
+  uint32_t ring_cap_ = 0;             // entries per frame
+  uint32_t head_ = 0;                 // ring slot of the next frame
+  uint32_t filled_ = 0;               // frames in the window so far (≤ N)
+  std::vector<WindowEntry> ring_;     // N × ring_cap_
+  std::vector<uint32_t> ring_size_;   // entries used per ring slot
+  std::vector<uint32_t> window_;      // Σ direct votes over the window, per flat tile
+  std::vector<uint8_t> in_live_;      // tile is in live_
+  std::vector<uint32_t> live_;        // tiles with window_ > 0, first-seen order
+  std::vector<uint32_t> live_words_;  // the same tiles as feedback words
+  uint64_t window_overflow_ = 0;
 };
 
 }  // namespace btflod

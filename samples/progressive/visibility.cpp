@@ -29,7 +29,9 @@
 //
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
-//            [--default-quality] [--max-p99-de X] [--check] [--doc docs/bsvtf_format.md]
+//            [--default-quality] [--per-component-tolerance] [--max-p99-de X] [--check]
+//            [--doc docs/bsvtf_format.md]
+//   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
@@ -57,6 +59,7 @@ namespace {
 struct Options : SceneOptions {
   std::vector<float> qualities{5, 10, 15, 25, 35, 50, 75};
   double max_p99_de = 2.3;
+  ToleranceReference tolerance = ToleranceReference::shared_max;
   bool check = false;
   std::string doc;
   Options() {
@@ -109,6 +112,8 @@ bool parse(int argc, char** argv, Options& o) {
       ok = u32(o.height, 16, 1080);
     else if (a == "--views")
       ok = u32(o.views, 1, 8);
+    else if (a == "--per-component-tolerance")
+      o.tolerance = ToleranceReference::per_component;
     else if (a == "--max-p99-de" && v) {
       char* end = nullptr;
       o.max_p99_de = std::strtod(argv[++i], &end);
@@ -258,7 +263,9 @@ std::string fmt(const char* f, double v) {
   return b;
 }
 
-bool write_doc(const std::string& path, const std::string& body) {
+// Replaces the block between <!-- NAME:begin --> and <!-- NAME:end --> in `path` (appends it
+// when absent).
+bool write_doc(const std::string& path, const std::string& name, const std::string& body) {
   std::string text;
   {
     std::ifstream in(path, std::ios::binary);
@@ -266,7 +273,7 @@ bool write_doc(const std::string& path, const std::string& body) {
     if (in) ss << in.rdbuf();
     text = ss.str();
   }
-  const std::string begin = "<!-- visibility:begin -->", end = "<!-- visibility:end -->";
+  const std::string begin = "<!-- " + name + ":begin -->", end = "<!-- " + name + ":end -->";
   const std::string block = begin + "\n" + body + end;
   const size_t b = text.find(begin), e = text.find(end);
   if (b != std::string::npos && e != std::string::npos && e > b)
@@ -351,6 +358,7 @@ int main(int argc, char** argv) {
       const Reference& ref = refs[mi];
       BsvtfBuildOptions bo;
       bo.quality = q;
+      bo.tolerance_reference = o.tolerance;
       auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());
@@ -440,7 +448,9 @@ int main(int argc, char** argv) {
   std::printf("%s  (%.1f s)\n", summary.str().c_str(), seconds());
   if (!o.doc.empty()) {
     std::ostringstream doc;
-    doc << "Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
+    doc << "Tolerances: "
+        << (o.tolerance == ToleranceReference::shared_max ? "`shared_max` (the default)" : "`per_component`")
+        << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
         << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
         << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size
         << ", B = " << m0.dir.metadata.border << ", " << m0.dir.metadata.level_count << " levels; " << o.views
@@ -448,7 +458,8 @@ int main(int argc, char** argv) {
         << peaks.str() << "\n\n"
         << table.str() << "\n"
         << summary.str();
-    if (!write_doc(o.doc, doc.str())) {
+    const bool shared = o.tolerance == ToleranceReference::shared_max;
+    if (!write_doc(o.doc, shared ? "visibility" : "visibility-per-component", doc.str())) {
       std::fprintf(stderr, "btflod-visibility: cannot write %s\n", o.doc.c_str());
       return 1;
     }

@@ -16,8 +16,8 @@ namespace {
 constexpr uint32_t kRes = 16;  // angular table resolution
 
 BtfFloat small_btf() {
-  return make_low_rank_btf(8, 8, small_direction_set(3, 4, "views"), small_direction_set(3, 5, "lights"), 3, 0.7f, 0.01f,
-                           5, 0.5f);
+  return make_low_rank_btf(8, 8, small_direction_set(3, 4, "views"), small_direction_set(3, 5, "lights"), 3, 0.7f,
+                           0.01f, 5, 0.5f);
 }
 
 /// Nearest-direction tables (each texel: the closest direction, weight 1, then the next two with
@@ -169,7 +169,8 @@ TEST(BackendRepresentations, LpcaVolumeReproducesQuadrilinearEvaluate) {
     const size_t texel = static_cast<size_t>(tx.y) * m.width + static_cast<size_t>(tx.x);
     const float k = static_cast<float>(m.cluster[texel]);
     const float tl = std::clamp(sl.y, 0.0f, 1.0f) * (R - 1);
-    const float i0 = std::min(std::floor(tl), static_cast<float>(R - 1)), i1 = std::min(i0 + 1.0f, static_cast<float>(R - 1));
+    const float i0 = std::min(std::floor(tl), static_cast<float>(R - 1)),
+                i1 = std::min(i0 + 1.0f, static_cast<float>(R - 1));
     auto cell = [&](float v) { return 0.5f + std::clamp(v, 0.0f, 1.0f) * (R - 1); };
     glm::vec3 acc(0.0f);
     for (size_t j = 0; j <= C; ++j) {
@@ -210,7 +211,8 @@ TEST(BackendRepresentations, PcaViewsPackedTexturesReproduceEvaluate) {
         for (size_t q = 0; q < 3; ++q) {
           const float w = ls.weight[q] * vs.weight[j];
           if (w <= 0.0f) continue;
-          const size_t view = vs.index[j], base = (view / m.views_per_group) * layers, row = ls.index[q] + m.light_count * view;
+          const size_t view = vs.index[j], base = (view / m.views_per_group) * layers,
+                       row = ls.index[q] + m.light_count * view;
           auto lc = [&](size_t c) { return m.l[((base + c / 4) * n + texel) * 4 + c % 4]; };
           glm::vec3 val(lc(0));
           for (size_t c = 1; c <= C; ++c) {

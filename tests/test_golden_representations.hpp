@@ -26,8 +26,8 @@ inline constexpr int kRepTexels = 16;
 
 /// A small BTF of known low rank plus noise: 16×16 texels, 9 views, 11 lights.
 inline BtfFloat representation_btf() {
-  return make_low_rank_btf(kRepTexels, kRepTexels, small_direction_set(3, 4, "views"), small_direction_set(3, 5, "lights"),
-                           4, 0.7f, 0.01f, 11, 0.5f);
+  return make_low_rank_btf(kRepTexels, kRepTexels, small_direction_set(3, 4, "views"),
+                           small_direction_set(3, 5, "lights"), 4, 0.7f, 0.01f, 11, 0.5f);
 }
 
 /// Angular tables over the BTF's own directions (test_scene::build_table), kept alive here.
@@ -68,7 +68,8 @@ Image<float> cpu_render_with(const ShaderParams& p, Shade&& shade) {
 }
 
 /// Draws the golden plane with `program` and `material` on a fresh frame; returns the image.
-inline Image<float> draw_plane(Backend& be, ShaderProgram program, MaterialHandle material, const ShaderParams& params) {
+inline Image<float> draw_plane(Backend& be, ShaderProgram program, MaterialHandle material,
+                               const ShaderParams& params) {
   Image<float> img(kSize, kSize, 4);
   std::vector<MeshVertex> verts;
   std::vector<uint32_t> idx;
@@ -77,6 +78,8 @@ inline Image<float> draw_plane(Backend& be, ShaderProgram program, MaterialHandl
   EXPECT_TRUE(mesh.ok()) << mesh.message();
   if (!mesh) return img;
   EXPECT_EQ(be.begin_frame(backend_frame()), Status::success);
+  // A representation material draws only with its own program.
+  EXPECT_EQ(be.draw(ShaderProgram::bsvtf, *mesh, material, params), Status::invalid_argument);
   EXPECT_EQ(be.draw(program, *mesh, material, params), Status::success);
   EXPECT_EQ(be.end_frame(), Status::success);
   EXPECT_EQ(be.read_color(img.view()), Status::success);
@@ -131,8 +134,9 @@ void golden_laplacian(Factory make) {
   expect_content(ref);
   expect_content(img);
   const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
-  std::printf("[ %s ] golden laplacian (lambda 0.60..%.2f) vs CPU reference: PSNR %.2f dB (vs no level blending %.2f dB)\n",
-              be->name(), static_cast<double>(lambda_far), psnr, psnr_wrong);
+  std::printf(
+      "[ %s ] golden laplacian (lambda 0.60..%.2f) vs CPU reference: PSNR %.2f dB (vs no level blending %.2f dB)\n",
+      be->name(), static_cast<double>(lambda_far), psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
 }
@@ -181,8 +185,9 @@ void golden_lpca(Factory make) {
   expect_content(ref);
   expect_content(img);
   const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
-  std::printf("[ %s ] golden lpca (%zu clusters visible, R = %u) vs CPU reference: PSNR %.2f dB (vs one cluster %.2f dB)\n",
-              be->name(), seen.size(), kGrid, psnr, psnr_wrong);
+  std::printf(
+      "[ %s ] golden lpca (%zu clusters visible, R = %u) vs CPU reference: PSNR %.2f dB (vs one cluster %.2f dB)\n",
+      be->name(), seen.size(), kGrid, psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
 }
@@ -229,8 +234,10 @@ void golden_pca_views(Factory make) {
   expect_content(ref);
   expect_content(img);
   const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
-  std::printf("[ %s ] golden pca_views (k = 3 of 9 views, %zu groups used) vs CPU reference: PSNR %.2f dB (vs group 0 only %.2f dB)\n",
-              be->name(), groups_seen.size(), psnr, psnr_wrong);
+  std::printf(
+      "[ %s ] golden pca_views (k = 3 of 9 views, %zu groups used) vs CPU reference: PSNR %.2f dB (vs group 0 only "
+      "%.2f dB)\n",
+      be->name(), groups_seen.size(), psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
 }

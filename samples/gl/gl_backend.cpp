@@ -487,7 +487,7 @@ class GlBackend final : public Backend {
   template <class Data>
   Result<MaterialHandle> add_representation(const Data& data) {
     make_current();
-    if (!initialised_) return make_error(Status::invalid_argument, "GL: create a material before init");
+    if (!initialised_) return make_error(Status::invalid_argument, "GL: create_*_material before init");
     if (VoidResult v = validate_material(data, config_); !v) return v.error();
     Result<GlRepresentation> r = create_gl_representation(config_, data);
     if (!r) return r.error();

@@ -84,7 +84,8 @@ void add_angular(GlRepresentation& r, const AngularTablesData& a) {
   glTextureSubImage3D(ti, 0, 0, 0, 0, res, res, 2, GL_RGBA_INTEGER, GL_UNSIGNED_INT, index.data());
   sampling(ti, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
   r.units[r.unit_count++] = {ShaderBinding::angular_index, ti};
-  r.units[r.unit_count++] = {ShaderBinding::angular_weight, float_array(a.resolution, a.resolution, 2, 1, weight.data())};
+  r.units[r.unit_count++] = {ShaderBinding::angular_weight,
+                             float_array(a.resolution, a.resolution, 2, 1, weight.data())};
 }
 
 Result<GlRepresentation> finish(GlRepresentation r, ShaderProgram program, const ShaderConfig& config) {
@@ -102,7 +103,8 @@ Result<GlRepresentation> finish(GlRepresentation r, ShaderProgram program, const
   r.gl_program = *prog;
   if (GLenum e = glGetError(); e != GL_NO_ERROR) {
     destroy_gl_representation(r);
-    return make_error(Status::unsupported, "GL: error 0x%04x while creating a %s material", e, shader_program_name(program));
+    return make_error(Status::unsupported, "GL: error 0x%04x while creating a %s material", e,
+                      shader_program_name(program));
   }
   return r;
 }
@@ -113,12 +115,14 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   GlRepresentation r;
   const uint32_t groups = (m.components + 3) / 4;
   // Eigen Laplacian BRDFs: texel (light, view), layer k·C + j (paper 001 §3.3).
-  r.units[r.unit_count++] = {ShaderBinding::laplacian_eigen,
-                             float_array(m.light_count, m.view_count, (m.max_level + 1) * m.components, 1, m.eigen.data())};
+  r.units[r.unit_count++] = {
+      ShaderBinding::laplacian_eigen,
+      float_array(m.light_count, m.view_count, (m.max_level + 1) * m.components, 1, m.eigen.data())};
   // PCA weight maps: mip k = pyramid level k, read with texelFetch at the level-k texel.
   r.units[r.unit_count++] = {ShaderBinding::laplacian_weights,
                              float_array(m.width, m.height, groups, m.max_level + 1, m.weights.data())};
-  r.units[r.unit_count++] = {ShaderBinding::laplacian_mean, float_array(m.light_count, m.view_count, 0, 1, m.mean.data())};
+  r.units[r.unit_count++] = {ShaderBinding::laplacian_mean,
+                             float_array(m.light_count, m.view_count, 0, 1, m.mean.data())};
   add_angular(r, m.angular);
   return finish(r, ShaderProgram::laplacian, representation_config(base, m));
 }
@@ -150,7 +154,8 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   const uint32_t groups = (m.view_count + m.views_per_group - 1) / m.views_per_group;
   r.units[r.unit_count++] = {ShaderBinding::pca_l,
                              float_array(m.width, m.height, groups * ((m.components + 4) / 4), 1, m.l.data())};
-  r.units[r.unit_count++] = {ShaderBinding::pca_r, float_array(m.components, m.light_count * m.view_count, 0, 1, m.r.data())};
+  r.units[r.unit_count++] = {ShaderBinding::pca_r,
+                             float_array(m.components, m.light_count * m.view_count, 0, 1, m.r.data())};
   add_angular(r, m.angular);
   return finish(r, ShaderProgram::pca_views, representation_config(base, m));
 }

@@ -83,10 +83,10 @@ struct FeedbackSlot {
   bool pending = false;
 };
 
-#define BTFLOD_VK_CHECK(expr, what)                                                                          \
-  do {                                                                                                       \
-    const VkResult vk_result_ = (expr);                                                                      \
-    if (vk_result_ != VK_SUCCESS)                                                                            \
+#define BTFLOD_VK_CHECK(expr, what)                                                                                  \
+  do {                                                                                                               \
+    const VkResult vk_result_ = (expr);                                                                              \
+    if (vk_result_ != VK_SUCCESS)                                                                                    \
       return make_error(Status::unsupported, "Vulkan: %s failed (VkResult %d)", what, static_cast<int>(vk_result_)); \
   } while (0)
 
@@ -117,14 +117,16 @@ Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const cha
                 static_cast<unsigned long long>(fnv1a(source, fnv1a(glslc + "|" + stage + "|vulkan1.1"))));
   const std::string cached = (dir / ("btflod_spv_" + std::string(hash) + "." + stage + ".spv")).string();
   if (std::vector<uint32_t> words = read_words(cached); !words.empty() && words[0] == 0x07230203u) return words;
-  const std::string base = (dir / ("btflod_vk_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + "_" + tag)).string();
+  const std::string base =
+      (dir / ("btflod_vk_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + "_" + tag)).string();
   const std::string src = base + "." + stage, spv = base + "." + stage + ".spv", log = base + ".log";
   {
     std::ofstream f(src, std::ios::binary);
     f << source;
     if (!f) return make_error(Status::io_error, "Vulkan: cannot write %s", src.c_str());
   }
-  const std::string cmd = "\"" + glslc + "\" --target-env=vulkan1.1 -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
+  const std::string cmd =
+      "\"" + glslc + "\" --target-env=vulkan1.1 -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
   const int rc = std::system(cmd.c_str());
   std::vector<uint32_t> words = read_words(spv);
   std::ifstream lg(log);
@@ -211,7 +213,8 @@ class VkBackend final : public Backend {
         }
       if (physical_) break;
     }
-    if (!physical_) return make_error(Status::unsupported, "Vulkan: no 1.3 device with a graphics queue among %u", count);
+    if (!physical_)
+      return make_error(Status::unsupported, "Vulkan: no 1.3 device with a graphics queue among %u", count);
     vkGetPhysicalDeviceMemoryProperties(physical_, &memory_props_);
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -255,9 +258,9 @@ class VkBackend final : public Backend {
     for (int i = 0; i < 3; ++i) {
       Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::vulkan450, config);
       if (!src) return src.error();
-      Result<VkPipeline> p = create_pipeline(*src, shader_program_name(programs[i]),
-                                             programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT
-                                                                                    : VK_FORMAT_R32G32B32A32_SFLOAT);
+      Result<VkPipeline> p =
+          create_pipeline(*src, shader_program_name(programs[i]),
+                          programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT);
       if (!p) return p.error();
       *out[i] = *p;
     }
@@ -292,7 +295,8 @@ class VkBackend final : public Backend {
       BTFLOD_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &c.cmd), "vkAllocateCommandBuffers");
       VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
       BTFLOD_VK_CHECK(vkCreateFence(device_, &fci, nullptr, &c.fence), "vkCreateFence");
-      if (VoidResult r = create_buffer(c.staging, options_.staging_bytes_per_frame, VK_BUFFER_USAGE_TRANSFER_SRC_BIT); !r)
+      if (VoidResult r = create_buffer(c.staging, options_.staging_bytes_per_frame, VK_BUFFER_USAGE_TRANSFER_SRC_BIT);
+          !r)
         return r;
     }
     ring_.resize(options_.feedback_ring_size);
@@ -345,7 +349,8 @@ class VkBackend final : public Backend {
       // Mip chain on the CPU (2×2 box, clamped at odd edges), like a GPU mipmap generator.
       std::vector<std::vector<float>> levels{pack_eigen_textures_rgba(data.eigen_textures)};
       const uint32_t groups = config_.component_groups();
-      uint32_t w = static_cast<uint32_t>(data.eigen_textures.width()), h = static_cast<uint32_t>(data.eigen_textures.height());
+      uint32_t w = static_cast<uint32_t>(data.eigen_textures.width()),
+               h = static_cast<uint32_t>(data.eigen_textures.height());
       std::vector<std::pair<uint32_t, uint32_t>> sizes{{w, h}};
       while (data.mipmaps && (w > 1 || h > 1)) {
         const uint32_t nw = std::max(w / 2, 1u), nh = std::max(h / 2, 1u);
@@ -405,11 +410,31 @@ class VkBackend final : public Backend {
     const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
     return add_representation(
         ShaderProgram::laplacian, representation_config(config_, d),
-        {{ShaderBinding::laplacian_eigen, f4, d.light_count, d.view_count, (d.max_level + 1) * d.components, 1, 1, true,
-          {d.eigen.data()}, 16, false},
-         {ShaderBinding::laplacian_weights, f4, d.width, d.height, groups, d.max_level + 1, 1, true, weight_mips, 16, false},
+        {{ShaderBinding::laplacian_eigen,
+          f4,
+          d.light_count,
+          d.view_count,
+          (d.max_level + 1) * d.components,
+          1,
+          1,
+          true,
+          {d.eigen.data()},
+          16,
+          false},
+         {ShaderBinding::laplacian_weights, f4, d.width, d.height, groups, d.max_level + 1, 1, true, weight_mips, 16,
+          false},
          {ShaderBinding::laplacian_mean, f4, d.light_count, d.view_count, 1, 1, 1, false, {d.mean.data()}, 16, false},
-         {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
+         {ShaderBinding::angular_index,
+          VK_FORMAT_R32G32B32A32_UINT,
+          res,
+          res,
+          2,
+          1,
+          1,
+          true,
+          {index.data()},
+          16,
+          false},
          {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
   }
 
@@ -418,14 +443,41 @@ class VkBackend final : public Backend {
     if (VoidResult v = validate_material(d, config_); !v) return v.error();
     const uint32_t R = d.grid_resolution;
     const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
-    return add_representation(
-        ShaderProgram::lpca, representation_config(config_, d),
-        {{ShaderBinding::lpca_cluster, VK_FORMAT_R32_UINT, d.width, d.height, 1, 1, 1, false, {d.cluster.data()}, 4, false},
-         {ShaderBinding::lpca_weights, f4, d.width, d.height, (d.components + 3) / 4, 1, 1, true, {d.weights.data()}, 16,
-          false},
-         // paper 002 §6.2: the eigen-BRDF volume, linear filtering in s_v, t_v, s_l
-         {ShaderBinding::lpca_volume, f4, (d.components + 1) * R, d.clusters * R, 1, 1, R * R, false, {d.volume.data()}, 16,
-          true}});
+    return add_representation(ShaderProgram::lpca, representation_config(config_, d),
+                              {{ShaderBinding::lpca_cluster,
+                                VK_FORMAT_R32_UINT,
+                                d.width,
+                                d.height,
+                                1,
+                                1,
+                                1,
+                                false,
+                                {d.cluster.data()},
+                                4,
+                                false},
+                               {ShaderBinding::lpca_weights,
+                                f4,
+                                d.width,
+                                d.height,
+                                (d.components + 3) / 4,
+                                1,
+                                1,
+                                true,
+                                {d.weights.data()},
+                                16,
+                                false},
+                               // paper 002 §6.2: the eigen-BRDF volume, linear filtering in s_v, t_v, s_l
+                               {ShaderBinding::lpca_volume,
+                                f4,
+                                (d.components + 1) * R,
+                                d.clusters * R,
+                                1,
+                                1,
+                                R * R,
+                                false,
+                                {d.volume.data()},
+                                16,
+                                true}});
   }
 
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override {
@@ -438,9 +490,39 @@ class VkBackend final : public Backend {
     const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
     return add_representation(
         ShaderProgram::pca_views, representation_config(config_, d),
-        {{ShaderBinding::pca_l, f4, d.width, d.height, groups * ((d.components + 4) / 4), 1, 1, true, {d.l.data()}, 16, false},
-         {ShaderBinding::pca_r, f4, d.components, d.light_count * d.view_count, 1, 1, 1, false, {d.r.data()}, 16, false},
-         {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
+        {{ShaderBinding::pca_l,
+          f4,
+          d.width,
+          d.height,
+          groups * ((d.components + 4) / 4),
+          1,
+          1,
+          true,
+          {d.l.data()},
+          16,
+          false},
+         {ShaderBinding::pca_r,
+          f4,
+          d.components,
+          d.light_count * d.view_count,
+          1,
+          1,
+          1,
+          false,
+          {d.r.data()},
+          16,
+          false},
+         {ShaderBinding::angular_index,
+          VK_FORMAT_R32G32B32A32_UINT,
+          res,
+          res,
+          2,
+          1,
+          1,
+          true,
+          {index.data()},
+          16,
+          false},
          {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
   }
 
@@ -540,7 +622,8 @@ class VkBackend final : public Backend {
       pipeline = bsvtf_;
     else
       return Status::invalid_argument;
-    return record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width, frame_.height);
+    return record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
+                       frame_.height);
   }
 
   Status draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept override {
@@ -598,7 +681,7 @@ class VkBackend final : public Backend {
       if (s.pending && (!oldest || s.frame < oldest->frame)) oldest = &s;
     if (!oldest || oldest->serial > completed_serial_) return false;
     const size_t n = static_cast<size_t>(oldest->width) * oldest->height;
-    if (readback_.size() < n) readback_.resize(n);  // grows to the largest feedback size once
+    if (readback_.size() < n) readback_.resize(n);                // grows to the largest feedback size once
     std::memcpy(readback_.data(), oldest->buffer.mapped, n * 4);  // row 0 = top (flipped viewport)
     out.frame = oldest->frame;
     out.width = oldest->width;
@@ -633,7 +716,8 @@ class VkBackend final : public Backend {
     for (uint32_t y = 0; y < frame_.height; ++y)
       for (uint32_t x = 0; x < frame_.width; ++x)
         for (int k = 0; k < 4; ++k)
-          out.at(static_cast<int>(x), static_cast<int>(y), k) = src[(static_cast<size_t>(y) * frame_.width + x) * 4 + static_cast<size_t>(k)];
+          out.at(static_cast<int>(x), static_cast<int>(y), k) =
+              src[(static_cast<size_t>(y) * frame_.width + x) * 4 + static_cast<size_t>(k)];
     return Status::success;
   }
 
@@ -717,7 +801,8 @@ class VkBackend final : public Backend {
         w[i].pBufferInfo = &ubo;
       } else {
         const RepTexture& t = textures[i - 1];
-        images[i - 1] = VkDescriptorImageInfo{t.linear ? linear_clamp_ : nearest_, m.rep[i - 1].view, VK_IMAGE_LAYOUT_GENERAL};
+        images[i - 1] =
+            VkDescriptorImageInfo{t.linear ? linear_clamp_ : nearest_, m.rep[i - 1].view, VK_IMAGE_LAYOUT_GENERAL};
         w[i].dstBinding = static_cast<uint32_t>(t.binding);
         w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
         w[i].pImageInfo = &images[i - 1];
@@ -791,10 +876,13 @@ class VkBackend final : public Backend {
     BTFLOD_VK_CHECK(vkBindImageMemory(device_, t.image, t.memory, 0), "vkBindImageMemory");
     VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
     vci.image = t.image;
-    vci.viewType = depth3d > 1 ? VK_IMAGE_VIEW_TYPE_3D : array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
+    vci.viewType = depth3d > 1  ? VK_IMAGE_VIEW_TYPE_3D
+                   : array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY
+                                : VK_IMAGE_VIEW_TYPE_2D;
     vci.format = format;
-    vci.subresourceRange = {static_cast<VkImageAspectFlags>(depth ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT),
-                            0, mips, 0, layers};
+    vci.subresourceRange = {
+        static_cast<VkImageAspectFlags>(depth ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT), 0, mips, 0,
+        layers};
     BTFLOD_VK_CHECK(vkCreateImageView(device_, &vci, nullptr, &t.view), "vkCreateImageView");
     // Every image lives in GENERAL from here on.
     VkCommandBuffer cmd = VK_NULL_HANDLE;
@@ -851,8 +939,8 @@ class VkBackend final : public Backend {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     VoidResult r = begin_one_shot(cmd);
     if (r) {
-      vkCmdCopyBufferToImage(cmd, staging.buffer, t.image, VK_IMAGE_LAYOUT_GENERAL, static_cast<uint32_t>(regions.size()),
-                             regions.data());
+      vkCmdCopyBufferToImage(cmd, staging.buffer, t.image, VK_IMAGE_LAYOUT_GENERAL,
+                             static_cast<uint32_t>(regions.size()), regions.data());
       full_barrier(cmd);
       r = end_one_shot(cmd);
     }
@@ -865,8 +953,8 @@ class VkBackend final : public Backend {
     const VkImageUsageFlags depth = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT;
     return create_texture(color_, VK_FORMAT_R32G32B32A32_SFLOAT, frame_.width, frame_.height, 1, 1, color, false) &&
            create_texture(color_depth_, VK_FORMAT_D32_SFLOAT, frame_.width, frame_.height, 1, 1, depth, false) &&
-           create_texture(feedback_color_, VK_FORMAT_R32_UINT, frame_.feedback_width, frame_.feedback_height, 1, 1, color,
-                          false) &&
+           create_texture(feedback_color_, VK_FORMAT_R32_UINT, frame_.feedback_width, frame_.feedback_height, 1, 1,
+                          color, false) &&
            create_texture(feedback_depth_, VK_FORMAT_D32_SFLOAT, frame_.feedback_width, frame_.feedback_height, 1, 1,
                           depth, false);
   }
@@ -896,7 +984,8 @@ class VkBackend final : public Backend {
       b[i].binding = i;
       b[i].descriptorCount = 1;
       b[i].stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
-      b[i].descriptorType = i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+      b[i].descriptorType =
+          i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     }
     VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     lci.bindingCount = kBindingCount;
@@ -945,7 +1034,8 @@ class VkBackend final : public Backend {
       w[i].dstSet = set;
       w[i].dstBinding = i;
       w[i].descriptorCount = 1;
-      w[i].descriptorType = i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+      w[i].descriptorType =
+          i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
       if (i == 0)
         w[i].pBufferInfo = &ubo;
       else
@@ -984,9 +1074,11 @@ class VkBackend final : public Backend {
     stages[1].pName = "main";
     VkVertexInputBindingDescription binding{0, sizeof(MeshVertex), VK_VERTEX_INPUT_RATE_VERTEX};
     const VkVertexInputAttributeDescription attrs[4] = {
-        {static_cast<uint32_t>(VertexAttribute::position), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, position)},
+        {static_cast<uint32_t>(VertexAttribute::position), 0, VK_FORMAT_R32G32B32_SFLOAT,
+         offsetof(MeshVertex, position)},
         {static_cast<uint32_t>(VertexAttribute::normal), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, normal)},
-        {static_cast<uint32_t>(VertexAttribute::tangent), 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(MeshVertex, tangent)},
+        {static_cast<uint32_t>(VertexAttribute::tangent), 0, VK_FORMAT_R32G32B32A32_SFLOAT,
+         offsetof(MeshVertex, tangent)},
         {static_cast<uint32_t>(VertexAttribute::uv), 0, VK_FORMAT_R32G32_SFLOAT, offsetof(MeshVertex, uv)}};
     VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
     vi.vertexBindingDescriptionCount = 1;
@@ -1010,8 +1102,8 @@ class VkBackend final : public Backend {
     ds.depthWriteEnable = VK_TRUE;
     ds.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
     VkPipelineColorBlendAttachmentState blend{};
-    blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT |
-                           VK_COLOR_COMPONENT_A_BIT;
+    blend.colorWriteMask =
+        VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
     VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
     cb.attachmentCount = 1;
     cb.pAttachments = &blend;
@@ -1154,7 +1246,8 @@ class VkBackend final : public Backend {
 
   void update_completed() {
     for (FrameContext& c : contexts_)
-      if (c.serial > completed_serial_ && vkGetFenceStatus(device_, c.fence) == VK_SUCCESS) completed_serial_ = c.serial;
+      if (c.serial > completed_serial_ && vkGetFenceStatus(device_, c.fence) == VK_SUCCESS)
+        completed_serial_ = c.serial;
   }
 
   VoidResult begin_one_shot(VkCommandBuffer& cmd) {
@@ -1181,7 +1274,8 @@ class VkBackend final : public Backend {
       if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue_);
     }
     vkFreeCommandBuffers(device_, one_shot_pool_, 1, &cmd);
-    if (r != VK_SUCCESS) return make_error(Status::io_error, "Vulkan: one-shot submit failed (%d)", static_cast<int>(r));
+    if (r != VK_SUCCESS)
+      return make_error(Status::io_error, "Vulkan: one-shot submit failed (%d)", static_cast<int>(r));
     return {};
   }
 

@@ -71,8 +71,8 @@ struct FmfMaterialData {
 /// One tile to copy into a cache slot: (T + 2B)² RGBA half texels (4 components), row-major,
 /// border included — the layout of vt/tile_pyramid.hpp's tiles.
 struct TileUpload {
-  uint32_t slot = 0;                ///< < VirtualTextureConfig::slot_count()
-  std::span<const uint16_t> texels; ///< (T + 2B)² · 4 half bits
+  uint32_t slot = 0;                 ///< < VirtualTextureConfig::slot_count()
+  std::span<const uint16_t> texels;  ///< (T + 2B)² · 4 half bits
 };
 
 /// One texel of the GPU page table to overwrite. The GPU page table has one level per mip (so
@@ -169,7 +169,8 @@ inline std::vector<float> pack_eigen_textures_rgba(ImageView<const float> v) {
     for (int y = 0; y < v.height(); ++y)
       for (int x = 0; x < v.width(); ++x)
         for (int k = 0; k < 4 && 4 * g + k < v.channels(); ++k)
-          out[plane * static_cast<size_t>(g) + (static_cast<size_t>(y) * v.width() + x) * 4 + k] = v.at(x, y, 4 * g + k);
+          out[plane * static_cast<size_t>(g) + (static_cast<size_t>(y) * v.width() + x) * 4 + k] =
+              v.at(x, y, 4 * g + k);
   return out;
 }
 
@@ -214,8 +215,8 @@ struct LaplacianMaterialData {
 /// y = k·R + b (t_v = b/(R−1)), z = i·R + c (t_l = i/(R−1), s_l = c/(R−1)); linear filtering
 /// does s_v, t_v, s_l and the shader lerps t_l by hand.
 struct LpcaMaterialData {
-  uint32_t components = 0;  ///< C eigen-BRDFs per cluster
-  uint32_t clusters = 0;    ///< K
+  uint32_t components = 0;       ///< C eigen-BRDFs per cluster
+  uint32_t clusters = 0;         ///< K
   uint32_t grid_resolution = 0;  ///< R ≥ 2
   uint32_t width = 0;
   uint32_t height = 0;
@@ -286,7 +287,8 @@ inline VoidResult validate_material(const LaplacianMaterialData& m, const Shader
   const size_t dirs = static_cast<size_t>(m.light_count) * m.view_count;
   if (m.eigen.size() != dirs * (m.max_level + 1) * m.components * 4 || m.mean.size() != dirs * 4 ||
       m.weights.size() != detail::laplacian_weight_floats(m))
-    return make_error(Status::invalid_argument, "laplacian material: eigen/weights/mean have %zu/%zu/%zu floats, expected %zu/%zu/%zu",
+    return make_error(Status::invalid_argument,
+                      "laplacian material: eigen/weights/mean have %zu/%zu/%zu floats, expected %zu/%zu/%zu",
                       m.eigen.size(), m.weights.size(), m.mean.size(), dirs * (m.max_level + 1) * m.components * 4,
                       detail::laplacian_weight_floats(m), dirs * 4);
   return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
@@ -295,16 +297,18 @@ inline VoidResult validate_material(const LaplacianMaterialData& m, const Shader
 /// Checks an LPCA material (counts, span sizes, every cluster id < K). Returns
 /// invalid_argument naming the field. Safe for untrusted data.
 inline VoidResult validate_material(const LpcaMaterialData& m, const ShaderConfig&) {
-  if (m.components == 0 || m.components > 64 || m.clusters == 0 || m.clusters > 4096 || m.grid_resolution < 2 || m.grid_resolution > 64 ||
-      m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
-    return make_error(Status::invalid_argument, "lpca material: C = %u, K = %u, R = %u, %u×%u (expected C 1..64, K 1..4096, R 2..64)",
+  if (m.components == 0 || m.components > 64 || m.clusters == 0 || m.clusters > 4096 || m.grid_resolution < 2 ||
+      m.grid_resolution > 64 || m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
+    return make_error(Status::invalid_argument,
+                      "lpca material: C = %u, K = %u, R = %u, %u×%u (expected C 1..64, K 1..4096, R 2..64)",
                       m.components, m.clusters, m.grid_resolution, m.width, m.height);
   const size_t texels = static_cast<size_t>(m.width) * m.height, r = m.grid_resolution;
   const size_t volume = (m.components + 1) * r * m.clusters * r * r * r * 4;
-  if (m.cluster.size() != texels || m.weights.size() != texels * 4 * ((m.components + 3) / 4) || m.volume.size() != volume)
-    return make_error(Status::invalid_argument, "lpca material: cluster/weights/volume have %zu/%zu/%zu values, expected %zu/%zu/%zu",
-                      m.cluster.size(), m.weights.size(), m.volume.size(), texels, texels * 4 * ((m.components + 3) / 4),
-                      volume);
+  if (m.cluster.size() != texels || m.weights.size() != texels * 4 * ((m.components + 3) / 4) ||
+      m.volume.size() != volume)
+    return make_error(
+        Status::invalid_argument, "lpca material: cluster/weights/volume have %zu/%zu/%zu values, expected %zu/%zu/%zu",
+        m.cluster.size(), m.weights.size(), m.volume.size(), texels, texels * 4 * ((m.components + 3) / 4), volume);
   for (size_t t = 0; t < texels; ++t)
     if (m.cluster[t] >= m.clusters)
       return make_error(Status::invalid_argument, "lpca material: texel %zu has cluster %u, K = %u", t, m.cluster[t],
@@ -324,8 +328,8 @@ inline VoidResult validate_material(const PcaViewsMaterialData& m, const ShaderC
   const size_t l = groups * ((m.components + 4) / 4) * m.width * m.height * 4;
   const size_t r = static_cast<size_t>(m.components) * m.light_count * m.view_count * 4;
   if (m.l.size() != l || m.r.size() != r)
-    return make_error(Status::invalid_argument, "pca_views material: L/R have %zu/%zu floats, expected %zu/%zu", m.l.size(),
-                      m.r.size(), l, r);
+    return make_error(Status::invalid_argument, "pca_views material: L/R have %zu/%zu floats, expected %zu/%zu",
+                      m.l.size(), m.r.size(), l, r);
   return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
 }
 

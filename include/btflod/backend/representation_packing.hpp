@@ -81,8 +81,8 @@ struct PackedLaplacian {
 inline Result<PackedLaplacian> pack_laplacian_material(const LaplacianPca& p) {
   const uint32_t w = static_cast<uint32_t>(p.shape.width), h = static_cast<uint32_t>(p.shape.height);
   if (p.mips.empty() || !detail::is_pow2(w) || !detail::is_pow2(h))
-    return make_error(Status::invalid_argument, "pack_laplacian_material: %ux%u with %zu levels (need powers of two)", w,
-                      h, p.mips.size());
+    return make_error(Status::invalid_argument, "pack_laplacian_material: %ux%u with %zu levels (need powers of two)",
+                      w, h, p.mips.size());
   PackedLaplacian out;
   LaplacianMaterialData& m = out.info;
   m.max_level = static_cast<uint32_t>(p.lambda_max());
@@ -92,7 +92,8 @@ inline Result<PackedLaplacian> pack_laplacian_material(const LaplacianPca& p) {
   m.height = h;
   m.ycbcr = true;
   for (const LaplacianMip& mip : p.mips)
-    m.components = std::max<uint32_t>(m.components, static_cast<uint32_t>(mip.components[0] + mip.components[1] + mip.components[2]));
+    m.components = std::max<uint32_t>(m.components,
+                                      static_cast<uint32_t>(mip.components[0] + mip.components[1] + mip.components[2]));
   m.components = std::max(m.components, 1u);
   const size_t C = m.components, groups = (C + 3) / 4, lights = m.light_count, views = m.view_count;
   out.eigen.assign((m.max_level + 1) * C * lights * views * 4, 0.0f);
@@ -124,7 +125,7 @@ inline Result<PackedLaplacian> pack_laplacian_material(const LaplacianPca& p) {
     for (size_t l = 0; l < lights; ++l) {
       float* o = out.mean.data() + (v * lights + l) * 4;
       o[0] = p.phong.evaluate(p.shape.lights[l].vector, p.shape.views[v].vector);  // paper 001 eq. 5
-      o[1] = p.cb_mean;  // eq. 6
+      o[1] = p.cb_mean;                                                            // eq. 6
       o[2] = p.cr_mean;
     }
   return out;
@@ -134,11 +135,13 @@ inline Result<PackedLaplacian> pack_laplacian_material(const LaplacianPca& p) {
 /// scaled eye distance d·lod.z, through LaplacianPca::evaluate_measured (eq. 7): the nearest
 /// table directions, λ = clamp(log2(d·lod.z), 0, λmax), texel ⌊fract(uv)·(W, H)⌋. RGB (not
 /// multiplied by the light colour). noexcept.
-inline glm::vec3 reference_laplacian(const LaplacianPca& p, const AngularTablesData& tables, DirectionParameterisation param,
-                                     glm::vec2 uv, glm::vec3 wl, glm::vec3 wv, float scaled_distance) noexcept {
+inline glm::vec3 reference_laplacian(const LaplacianPca& p, const AngularTablesData& tables,
+                                     DirectionParameterisation param, glm::vec2 uv, glm::vec3 wl, glm::vec3 wv,
+                                     float scaled_distance) noexcept {
   const AngularSample ls = angular_table_sample(tables, 0, param, true, wl);
   const AngularSample vs = angular_table_sample(tables, 1, param, true, wv);
-  const float lambda = std::clamp(std::log2(std::max(scaled_distance, 1e-20f)), 0.0f, static_cast<float>(p.lambda_max()));
+  const float lambda =
+      std::clamp(std::log2(std::max(scaled_distance, 1e-20f)), 0.0f, static_cast<float>(p.lambda_max()));
   const glm::ivec2 t = representation_texel(uv, p.shape.width, p.shape.height);
   return p.evaluate_measured(t.x, t.y, vs.index[0], ls.index[0], lambda);
 }
@@ -147,7 +150,8 @@ inline glm::vec3 reference_laplacian(const LaplacianPca& p, const AngularTablesD
 
 namespace detail {
 inline glm::vec3 unit_square_to_direction(DirectionParameterisation p, glm::vec2 st) noexcept {
-  return p == DirectionParameterisation::parabolic ? ParabolicMap::from_square(st) : ElevatedConcentricMap::from_square(st);
+  return p == DirectionParameterisation::parabolic ? ParabolicMap::from_square(st)
+                                                   : ElevatedConcentricMap::from_square(st);
 }
 }  // namespace detail
 
@@ -171,12 +175,15 @@ struct PackedLpca {
 /// eigen-BRDFs (q/127 when quantised) are combined over the 3 × 3 taps like LocalPca::evaluate.
 /// Returns invalid_argument for R outside 2..64 or tables that do not name p's directions.
 /// Allocates K·(C+1)·R⁴·4 floats.
-inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_resolution, DirectionParameterisation param,
-                                             const AngularTablesData& tables, bool nearest = false) {
+inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_resolution,
+                                             DirectionParameterisation param, const AngularTablesData& tables,
+                                             bool nearest = false) {
   const uint32_t R = grid_resolution;
-  const uint32_t lights = static_cast<uint32_t>(p.shape.light_count()), views = static_cast<uint32_t>(p.shape.view_count());
+  const uint32_t lights = static_cast<uint32_t>(p.shape.light_count()),
+                 views = static_cast<uint32_t>(p.shape.view_count());
   if (R < 2 || R > 64 || p.clusters < 1 || p.components < 1)
-    return make_error(Status::invalid_argument, "pack_lpca_material: R = %u, K = %d, C = %d", R, p.clusters, p.components);
+    return make_error(Status::invalid_argument, "pack_lpca_material: R = %u, K = %d, C = %d", R, p.clusters,
+                      p.components);
   if (VoidResult v = detail::check_angular(tables, lights, views, tables.resolution); !v) return v.error();
   PackedLpca out;
   LpcaMaterialData& m = out.info;
@@ -196,7 +203,8 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
   const float step = 1.0f / static_cast<float>(R - 1);
   for (uint32_t b = 0; b < R; ++b)
     for (uint32_t a = 0; a < R; ++a) {
-      const glm::vec3 dir = detail::unit_square_to_direction(param, glm::vec2(static_cast<float>(a) * step, static_cast<float>(b) * step));
+      const glm::vec3 dir = detail::unit_square_to_direction(
+          param, glm::vec2(static_cast<float>(a) * step, static_cast<float>(b) * step));
       grid_view[b * R + a] = angular_table_sample(tables, 1, param, nearest, dir);
       grid_light[b * R + a] = angular_table_sample(tables, 0, param, nearest, dir);
     }
@@ -211,9 +219,9 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
         const size_t e = (k * d + row) * C + (j - 1);
         return p.quantized ? static_cast<float>(p.eigen_q[e]) * (1.0f / 127.0f) : p.eigen[e];
       };
-      for (uint32_t i = 0; i < R; ++i)      // t_l slab
-        for (uint32_t c = 0; c < R; ++c)    // s_l
-          for (uint32_t b = 0; b < R; ++b)  // t_v
+      for (uint32_t i = 0; i < R; ++i)          // t_l slab
+        for (uint32_t c = 0; c < R; ++c)        // s_l
+          for (uint32_t b = 0; b < R; ++b)      // t_v
             for (uint32_t a = 0; a < R; ++a) {  // s_v
               const AngularSample& vs = grid_view[b * R + a];
               const AngularSample& ls = grid_light[i * R + c];
@@ -290,7 +298,8 @@ inline Result<PackedPcaViews> pack_pca_views_material(const PcaViews& p) {
                       p.views_per_group);
   PackedPcaViews out;
   PcaViewsMaterialData& m = out.info;
-  for (const PcaViewGroup& g : p.groups) m.components = std::max<uint32_t>(m.components, static_cast<uint32_t>(g.components));
+  for (const PcaViewGroup& g : p.groups)
+    m.components = std::max<uint32_t>(m.components, static_cast<uint32_t>(g.components));
   m.components = std::max(m.components, 1u);
   m.views_per_group = static_cast<uint32_t>(p.views_per_group);
   m.light_count = static_cast<uint32_t>(p.shape.light_count());
@@ -317,8 +326,9 @@ inline Result<PackedPcaViews> pack_pca_views_material(const PcaViews& p) {
 /// What the pca_views program computes at uv for local directions wl, wv: PcaViews::evaluate
 /// at the texel ⌊fract(uv)·(W, H)⌋ with the table's 3 × 3 taps (barycentric unless `nearest`).
 /// RGB, not multiplied by the light colour. noexcept.
-inline glm::vec3 reference_pca_views(const PcaViews& p, const AngularTablesData& tables, DirectionParameterisation param,
-                                     bool nearest, glm::vec2 uv, glm::vec3 wl, glm::vec3 wv) noexcept {
+inline glm::vec3 reference_pca_views(const PcaViews& p, const AngularTablesData& tables,
+                                     DirectionParameterisation param, bool nearest, glm::vec2 uv, glm::vec3 wl,
+                                     glm::vec3 wv) noexcept {
   const glm::ivec2 t = representation_texel(uv, p.shape.width, p.shape.height);
   return p.evaluate(t.x, t.y, angular_table_sample(tables, 0, param, nearest, wl),
                     angular_table_sample(tables, 1, param, nearest, wv));

@@ -47,6 +47,10 @@ struct LocalPca {
   int components = 0;
   bool quantized = false;
   int iterations = 0;  ///< reclustering passes actually run (diagnostic)
+  /// Total squared reconstruction error (float eigen-BRDFs, before quantisation) of the clusters
+  /// and fits at the start of each reclustering pass; non-increasing. Diagnostic: not
+  /// serialised.
+  std::vector<double> error_history;
   /// Cluster per texel (texel = y·W + x).
   std::vector<uint16_t> cluster_of;
   /// Cluster means, K × d row-major.
@@ -213,29 +217,41 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
 
   Eigen::MatrixXf means(static_cast<Index>(d), K);
   std::vector<Eigen::MatrixXf> bases(static_cast<size_t>(K));  // d × C each (zero-padded)
-  std::vector<double> err(n, 0.0);
+  // Per-cluster PCA. Small clusters (≤ kGramMembers, the usual case for the smaller ones): the
+  // left singular vectors follow exactly from the members × members Gram matrix (Eigen's
+  // SelfAdjointEigenSolver), U_k = M·v_k / sqrt(λ_k): d·members² flops plus O(members³) for the
+  // eigen-solver. That cost is quadratic/cubic in the cluster size, and specular materials put
+  // most texels into one cluster (the 64 × 64 car paint: ~75 % of the 4,096 texels in one of
+  // K = 8), where it dominated everything (483 s for K = 8). Large clusters therefore use the
+  // randomised truncated SVD of the centred members (truncated_svd.hpp, adaptive power
+  // iterations, read through a gather functor: no copy), whose cost is linear in the members,
+  // O(d·members·(C + p)) per pass. Its basis is an approximation, so the previous basis of the
+  // cluster is kept when it captures more energy of the new members: with the new mean (the
+  // centroid, optimal for any fixed basis) the error then cannot grow, and reclustering stays
+  // monotone (Lloyd argument: reassignment and refit each never increase the total error).
+  constexpr Index kGramMembers = 256;
   auto fit_clusters = [&]() -> VoidResult {
     for (Index j = 0; j < K; ++j) {
       std::vector<Index> members;
       for (size_t t = 0; t < n; ++t)
         if (assign[t] == j) members.push_back(static_cast<Index>(t));
       Eigen::MatrixXf& e = bases[static_cast<size_t>(j)];
+      Eigen::MatrixXf previous = std::move(e);
       e.setZero(static_cast<Index>(d), C);
       if (members.empty()) {
         means.col(j).setZero();
         continue;
       }
-      Eigen::MatrixXf m(static_cast<Index>(d), static_cast<Index>(members.size()));
-      for (size_t i = 0; i < members.size(); ++i) m.col(static_cast<Index>(i)) = x.col(members[i]);
-      means.col(j) = m.rowwise().mean();
-      m.colwise() -= means.col(j);
-      const Index cols = m.cols();
-      if (C > 0 && cols > 1 && cols < static_cast<Index>(d)) {
-        // Fewer members than dimensions (the usual case): the left singular vectors follow
-        // from the members × members Gram matrix (Eigen's SelfAdjointEigenSolver),
-        // U_k = M·v_k / sqrt(λ_k) — d·members² flops instead of an SVD of the d × members
-        // matrix. Components with λ_k below 1e-6 of the largest (noise of the float Gram
-        // matrix) are left at zero.
+      const Index cols = static_cast<Index>(members.size());
+      Eigen::VectorXd sum = Eigen::VectorXd::Zero(static_cast<Index>(d));
+      for (Index t : members) sum += x.col(t).template cast<double>();
+      means.col(j) = (sum / static_cast<double>(cols)).template cast<float>();
+      if (C == 0 || cols < 2) continue;
+      if (cols <= kGramMembers && cols < static_cast<Index>(d)) {
+        Eigen::MatrixXf m(static_cast<Index>(d), cols);
+        for (Index i = 0; i < cols; ++i) m.col(i) = x.col(members[static_cast<size_t>(i)]) - means.col(j);
+        // Components with λ_k below 1e-6 of the largest (noise of the float Gram matrix) are
+        // left at zero.
         const Eigen::MatrixXd g = (m.transpose() * m).template cast<double>();
         Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(g);
         const double top = es.eigenvalues()[cols - 1];
@@ -245,37 +261,69 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
           if (!(lambda > 1e-6 * top)) break;
           e.col(k) = (m * es.eigenvectors().col(idx).template cast<float>()) / static_cast<float>(std::sqrt(lambda));
         }
-      } else if (C > 0 && cols > 1) {
-        auto svd = truncated_svd(m, static_cast<int>(C), options.svd);
-        if (!svd) return svd.error();
-        e.leftCols(svd->u.cols()) = svd->u;
+        continue;
+      }
+      const Eigen::VectorXf mj = means.col(j);
+      auto gather = [&](size_t col0, size_t count, Eigen::MatrixXf& out) {
+        for (size_t i = 0; i < count; ++i) out.col(static_cast<Index>(i)) = x.col(members[col0 + i]) - mj;
+      };
+      auto svd = truncated_svd(d, members.size(), static_cast<int>(C), gather, options.svd);
+      if (!svd) return svd.error();
+      e.leftCols(svd->u.cols()) = svd->u;
+      if (previous.rows() == static_cast<Index>(d) && previous.cols() == C) {
+        // Captured energy Σ_t ‖Bᵀ(x_t − m_j)‖² of the new and the previous basis, in blocks.
+        Eigen::MatrixXf both(static_cast<Index>(d), 2 * C);
+        both << e, previous;
+        Eigen::VectorXd captured = Eigen::VectorXd::Zero(2 * C);
+        Eigen::MatrixXf block;
+        for (size_t c0 = 0; c0 < members.size(); c0 += 256) {
+          const size_t cnt = std::min<size_t>(256, members.size() - c0);
+          block.resize(static_cast<Index>(d), static_cast<Index>(cnt));
+          gather(c0, cnt, block);
+          captured += (both.transpose() * block).rowwise().squaredNorm().template cast<double>();
+        }
+        if (captured.tail(C).sum() > captured.head(C).sum()) e = std::move(previous);
       }
     }
     return {};
   };
-  // err[t] for cluster j: ‖x − m‖² − ‖Eᵀ(x − m)‖², via GEMMs over all texels.
-  auto cluster_errors = [&](Index j, Eigen::VectorXd& out) {
-    const Eigen::VectorXf mj = means.col(j);
-    const Eigen::RowVectorXf mx = mj.transpose() * x;
-    Eigen::MatrixXf p = bases[static_cast<size_t>(j)].transpose() * x;  // C × n
-    p.colwise() -= bases[static_cast<size_t>(j)].transpose() * mj;
-    const double mm = mj.squaredNorm();
-    out.resize(static_cast<Index>(n));
-    for (Index t = 0; t < static_cast<Index>(n); ++t)
-      out[t] = std::max(0.0, norms2[t] - 2.0 * mx[t] + mm - static_cast<double>(p.col(t).squaredNorm()));
+  // errors(j, t) = ‖x_t − m_j‖² − ‖E_jᵀ(x_t − m_j)‖² for every cluster j and texel t, from ONE
+  // product of all bases and means with the data, [E_1 … E_K | m_1 … m_K]ᵀ·X (K·(C + 1) × n):
+  // a single pass over X instead of 2K thin (memory-bound) ones.
+  Eigen::MatrixXf stacked(static_cast<Index>(d), K * (C + 1));
+  Eigen::MatrixXf proj;
+  Eigen::MatrixXd errors(K, static_cast<Index>(n));
+  auto all_errors = [&]() {
+    for (Index j = 0; j < K; ++j) {
+      stacked.middleCols(j * C, C) = bases[static_cast<size_t>(j)];
+      stacked.col(K * C + j) = means.col(j);
+    }
+    proj.noalias() = stacked.transpose() * x;
+    for (Index j = 0; j < K; ++j) {
+      const Eigen::VectorXf em = bases[static_cast<size_t>(j)].transpose() * means.col(j);
+      const double mm = means.col(j).squaredNorm();
+      for (Index t = 0; t < static_cast<Index>(n); ++t) {
+        const double captured = (proj.col(t).segment(j * C, C) - em).squaredNorm();
+        errors(j, t) = std::max(0.0, norms2[t] - 2.0 * proj(K * C + j, t) + mm - captured);
+      }
+    }
   };
 
   int iterations = 0;
+  std::vector<double> history;
   if (auto s = fit_clusters(); !s) return s.error();
   for (int it = 0; it < options.max_iterations; ++it) {
     std::vector<double> best(n, std::numeric_limits<double>::infinity());
     std::vector<uint16_t> next(n, 0);
-    Eigen::VectorXd e;
-    for (Index j = 0; j < K; ++j) {
-      cluster_errors(j, e);
-      for (size_t t = 0; t < n; ++t)
-        if (e[static_cast<Index>(t)] < best[t]) best[t] = e[static_cast<Index>(t)], next[t] = static_cast<uint16_t>(j);
+    double current = 0.0;  // total error of the current clusters and fits
+    all_errors();
+    for (size_t t = 0; t < n; ++t) {
+      const Index ti = static_cast<Index>(t);
+      current += errors(assign[t], ti);
+      for (Index j = 0; j < K; ++j)
+        if (errors(j, ti) < best[t]) best[t] = errors(j, ti), next[t] = static_cast<uint16_t>(j);
     }
+    history.push_back(current);
     // An emptied cluster is re-seeded with the worst-represented texel (deterministic).
     std::vector<size_t> count(static_cast<size_t>(K), 0);
     for (auto a : next) ++count[a];
@@ -303,6 +351,7 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
   p.clusters = static_cast<int>(K);
   p.components = static_cast<int>(C);
   p.iterations = iterations;
+  p.error_history = std::move(history);
   p.quantized = options.quantize_8bit;
   p.cluster_of = assign;
   p.means.resize(static_cast<size_t>(K) * d);

@@ -1,7 +1,10 @@
 // FMF factorisation time (paper 000 §4) for UBO2003-sized materials (81 × 81 directions,
 // 19,683 matrix rows) at rank 100: the blocked randomised SVD (SvdOptions defaults: sparse sign
-// sketch, oversampling 50, 2 power iterations, fused last pass) next to the exact Eigen BDCSVD baseline at 64×64, with truncation errors and
-// peak memory (VmHWM, reset before each run via /proc/self/clear_refs).
+// sketch, oversampling 50, adaptive power iterations (2…6), fused last pass) next to the exact
+// Eigen BDCSVD baseline at 64×64, with truncation errors, the SVD's own error estimate and
+// iteration count, and peak memory (VmHWM, reset before each run via /proc/self/clear_refs).
+// BM_Fmf32CarPaint: the flat-spectrum case (measured car paint on the leather mesostructure,
+// 32×32, rank 64), randomised defaults vs BDCSVD; skipped without the shared measured data.
 //
 // The 64×64 material is the synthesised cloth (btf/synthesizer.hpp). The 256×256 material
 // (19,683 × 65,536 floats = 5.2 GB) is that cloth tiled 4 × 4 with a small deterministic
@@ -13,7 +16,8 @@
 // This executable is built with the offline tools' flags (BTFLOD_OFFLINE_ARCH, default AUTO:
 // -march=x86-64-v3 when the build machine runs it); the counter avx2_fma says which build ran.
 // GFLOP/s counts the dense products only: 2·(2q)·m·n·k (sparse sketch: q ≥ 1) or, for the
-// Gaussian sketch (BTFLOD_BENCH_ZETA=0), 2·(2q + 1)·m·n·k; k = rank + p.
+// Gaussian sketch (BTFLOD_BENCH_ZETA=0), 2·(2q + 1)·m·n·k; k = rank + p, q = the iterations the
+// adaptive rule ran (counter q_used; BTFLOD_BENCH_Q sets the minimum, BTFLOD_BENCH_QMAX the cap).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -24,6 +28,7 @@
 #include <fstream>
 #include <string>
 
+#include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 #include "btflod/factor/fmf.hpp"
 
@@ -72,19 +77,20 @@ double fmf_error(const BtfFloat& btf, const Fmf& f) {
 struct Run {
   double seconds = 0.0, error = 0.0, peak_gb = 0.0;
 };
-Run g_randomized64, g_exact64;
+Run g_randomized64, g_exact64, g_carpaint_randomized;
 
-Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool measure_error) {
+Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool measure_error, int rank = 100) {
   Run r;
   FmfOptions o;
-  o.components = 100;
+  o.components = rank;
   o.svd.method = method;
   // BTFLOD_BENCH_Q / BTFLOD_BENCH_P override the power iterations / oversampling (defaults of
   // SvdOptions otherwise), to chart the time/accuracy trade-off without rebuilding.
   if (const char* q = std::getenv("BTFLOD_BENCH_Q")) o.svd.power_iterations = std::atoi(q);
+  if (const char* q = std::getenv("BTFLOD_BENCH_QMAX")) o.svd.max_power_iterations = std::atoi(q);
   if (const char* p = std::getenv("BTFLOD_BENCH_P")) o.svd.oversampling = std::atoi(p);
   if (const char* z = std::getenv("BTFLOD_BENCH_ZETA")) o.svd.sketch_nonzeros = std::atoi(z);
-  state.counters["q"] = o.svd.power_iterations;
+  state.counters["q_min"] = o.svd.power_iterations;
   state.counters["p"] = o.svd.oversampling;
   state.counters["zeta"] = o.svd.sketch_nonzeros;
 #if defined(__AVX2__) && defined(__FMA__)
@@ -92,6 +98,7 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
 #else
   state.counters["avx2_fma"] = 0;
 #endif
+  SvdReport report;
   for (auto _ : state) {
     reset_hwm();
     const auto t0 = std::chrono::steady_clock::now();
@@ -102,6 +109,7 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
       state.SkipWithError(f.message().c_str());
       return r;
     }
+    report = f->svd_report;
     if (measure_error) r.error = fmf_error(btf, *f);
   }
   const double input_gb = static_cast<double>(btf.size_bytes()) / (1024.0 * 1024.0 * 1024.0);
@@ -109,7 +117,10 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
   if (method == SvdMethod::randomized) {
     const double m = static_cast<double>(btf.view_count() * btf.light_count() * 3), n = static_cast<double>(btf.texel_count());
     const double k = std::min({static_cast<double>(o.components + o.svd.oversampling), m, n});
-    const int q = std::max(0, o.svd.power_iterations);
+    const int q = report.power_iterations;
+    state.counters["q_used"] = q;
+    state.counters["error_estimate"] = report.error_estimate;
+    state.counters["predicted_ratio"] = report.predicted_ratio;
     const int products = q == 0 ? (o.svd.sketch_nonzeros > 0 ? 1 : 2) : 2 * q + (o.svd.sketch_nonzeros > 0 ? 0 : 1);
     state.counters["GFLOP"] = 2.0 * products * m * n * k / 1e9;
     state.counters["GFLOP/s"] = 2.0 * products * m * n * k / 1e9 / r.seconds;
@@ -130,6 +141,40 @@ void BM_Fmf64ExactBdcsvd(benchmark::State& state) {
   if (g_randomized64.seconds > 0.0) {
     state.counters["speedup_of_randomized"] = g_exact64.seconds / g_randomized64.seconds;
     state.counters["error_ratio_randomized"] = g_randomized64.error / g_exact64.error;
+  }
+}
+
+const BtfFloat* carpaint32() {
+  static const BtfFloat btf = []() -> BtfFloat {
+    auto brdf = read_mbsdf(std::string(BTFLOD_SHARED_DIR) + "/data/measured/carpaint_red.mbsdf");
+    if (!brdf) return {};
+    SynthesisOptions so;
+    so.measured_brdf = &*brdf;
+    auto b = synthesize_material(SynthMaterial::leather, 32, 32, 1, so);
+    return b ? std::move(*b) : BtfFloat{};
+  }();
+  return btf.empty() ? nullptr : &btf;
+}
+void BM_Fmf32CarPaintRandomized(benchmark::State& state) {
+  if (!carpaint32()) {
+    for (auto _ : state) {
+    }
+    state.SkipWithError("no measured car paint (BTFLOD_SHARED_DIR/data/measured)");
+    return;
+  }
+  g_carpaint_randomized = run_fmf(state, *carpaint32(), SvdMethod::randomized, true, 64);
+}
+void BM_Fmf32CarPaintExactBdcsvd(benchmark::State& state) {
+  if (!carpaint32()) {
+    for (auto _ : state) {
+    }
+    state.SkipWithError("no measured car paint (BTFLOD_SHARED_DIR/data/measured)");
+    return;
+  }
+  const Run e = run_fmf(state, *carpaint32(), SvdMethod::exact, true, 64);
+  if (g_carpaint_randomized.seconds > 0.0) {
+    state.counters["speedup_of_randomized"] = e.seconds / g_carpaint_randomized.seconds;
+    state.counters["error_ratio_randomized"] = g_carpaint_randomized.error / e.error;
   }
 }
 
@@ -160,6 +205,8 @@ void BM_Fmf256Randomized(benchmark::State& state) {
 
 BENCHMARK(BM_Fmf64Randomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_Fmf64ExactBdcsvd)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_Fmf32CarPaintRandomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_Fmf32CarPaintExactBdcsvd)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_Fmf256Randomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 }  // namespace

@@ -131,10 +131,11 @@ int run_factor_table(int argc, char** argv) {
   if (opt.wants_help()) {
     std::puts(
         "usage: btflod-convert factor-table [--size N] [--dirs ubo2003|small] [--materials LIST]\n"
-        "                                   [--brdf FILE.mbsdf]\n"
+        "                                   [--brdf FILE.mbsdf] [--rows SUBSTRING]\n"
         "  Synthesises materials (btf/synthesizer.hpp; 'carpaint' = leather mesostructure with the\n"
         "  measured car-paint BRDF as base reflectance), factorises each with every representation\n"
         "  at three sizes and prints a markdown table of error vs compression ratio (docs/factor.md).\n"
+        "  --rows runs only the representations whose label contains SUBSTRING (e.g. 'lpca').\n"
         "  defaults: --size 32 --dirs ubo2003 --materials cloth,stone,carpaint\n"
         "            --brdf <shared>/data/measured/carpaint_red.mbsdf");
     return convert::kExitOk;
@@ -143,9 +144,10 @@ int run_factor_table(int argc, char** argv) {
   const std::string dirs = opt.string("dirs", "ubo2003");
   const std::string materials = opt.string("materials", "cloth,stone,carpaint");
   const std::string brdf_path = opt.string("brdf", default_shared_dir() + "/data/measured/carpaint_red.mbsdf");
+  const std::string rows = opt.string("rows", "");
   if (!opt.finish()) return convert::kExitUsage;
-  std::printf("Command: btflod-convert factor_table --size %d --dirs %s --materials %s\n\n", size, dirs.c_str(),
-              materials.c_str());
+  std::printf("Command: btflod-convert factor_table --size %d --dirs %s --materials %s%s%s\n\n", size, dirs.c_str(),
+              materials.c_str(), rows.empty() ? "" : " --rows ", rows.c_str());
   std::puts(kHeader);
   size_t start = 0;
   while (start <= materials.size()) {
@@ -181,6 +183,7 @@ int run_factor_table(int argc, char** argv) {
     }
     const double peak = btf_peak(*btf);
     for (const auto& cfg : table_configs(btf->view_count())) {
+      if (!rows.empty() && cfg.label.find(rows) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
       auto f = cfg.run(*btf);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -249,8 +249,9 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
         }
       }
     });
-    MatrixXf sum = partial[0];
+    MatrixXf sum = std::move(partial[0]);
     for (size_t s = 1; s < stripes; ++s) sum += partial[s];
+    for (auto& p : partial) p.resize(0, 0);  // not held during the small SVDs between passes
     return sum;
   };
   // Passes over A (each gathers every column block once):
@@ -383,6 +384,7 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     });
     ++done;
     ++iterations;
+    q.resize(0, 0);  // the next basis, if any, is orth(Y)
     zqr.compute(z);
     const Eigen::MatrixXd rz =
         zqr.matrixQR().topRows(k).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
@@ -435,7 +437,6 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     if (iterations >= q_max || (iterations >= q_min && settled)) break;
     q = detail::orthonormal_basis(y);
   }
-  q.resize(0, 0);
   y.resize(0, 0);
   out.report.power_iterations = iterations;
   out.report.error_estimate = std::sqrt(h.back());

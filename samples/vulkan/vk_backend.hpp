@@ -2,7 +2,7 @@
 //
 // Implements btflod::Backend (include/btflod/backend/backend.hpp) with the generated Vulkan
 // GLSL, compiled to SPIR-V by glslc (subprocess) when init() runs. Needs Vulkan 1.3 (dynamic
-// rendering). No Vulkan header leaks out of this file.
+// rendering). No Vulkan header leaks out of this file (internals: vk_internal.hpp).
 #pragma once
 
 #include <memory>

@@ -1,0 +1,230 @@
+// btflod sample — internals of the headless Vulkan 1.3 backend (see vk_backend.hpp), shared by
+// its translation units; included by nothing outside samples/vulkan.
+//
+//   vk_backend.cpp          device, init, FMF/BSVTF materials, uploads, frames, feedback, readback
+//   vk_representations.cpp  laplacian / lpca / pca_views materials (their textures and pipelines)
+//   vk_resources.cpp        buffers, images, staging uploads, render targets, glslc → SPIR-V
+//   vk_pipelines.cpp        samplers, descriptor layouts and sets, pipelines, command recording
+//
+// Kept deliberately plain: one VkDeviceMemory per resource, every image in GENERAL layout,
+// full memory barriers between phases, dynamic rendering (one begin/end per draw, load op
+// LOAD; targets are cleared with vkCmdClear*Image in begin_frame). Per-frame data (uniform
+// slices, upload staging) lives in a ring of frame contexts; feedback is copied into a ring of
+// host-visible buffers whose completion is tracked by submission serials, polled via fences.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vk_backend.hpp"
+
+namespace btflod::samples::vk_detail {
+
+constexpr uint32_t kBindingCount = 7;  // ShaderBinding::params … page_table
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  void* mapped = nullptr;
+  VkDeviceSize size = 0;
+};
+
+struct Texture {
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+  VkFormat format = VK_FORMAT_UNDEFINED;
+  uint32_t width = 0, height = 0, layers = 0, mips = 0;
+  uint32_t depth = 1;  ///< > 1: a 3D image (the lpca volume)
+};
+
+struct VkMesh {
+  Buffer vertices, indices;
+  uint32_t index_count = 0;
+};
+
+struct VkMaterial {
+  Texture eigen_abrdfs, angular_index, angular_weight, eigen_textures;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  /// laplacian / lpca / pca_views materials: their program (fmf = an FMF material), textures
+  /// and pipeline (generated with representation_config()).
+  ShaderProgram program = ShaderProgram::fmf;
+  Texture rep[6];
+  VkPipeline pipeline = VK_NULL_HANDLE;
+};
+
+/// One texture of a representation material: where it binds, its shape and data (per mip).
+struct RepTexture {
+  ShaderBinding binding;
+  VkFormat format;
+  uint32_t width, height, layers, mips, depth;
+  bool array_view;
+  std::vector<const void*> data;
+  uint32_t texel_bytes;
+  bool linear;  ///< linear filtering (the lpca volume); else nearest
+};
+
+struct FrameContext {
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  uint64_t serial = 0;  ///< submission serial; 0 = never submitted
+  Buffer staging;
+  VkDeviceSize ubo_offset = 0, staging_offset = 0;
+};
+
+struct FeedbackSlot {
+  Buffer buffer;
+  uint64_t serial = 0, frame = 0;
+  uint32_t width = 0, height = 0;
+  bool pending = false;
+};
+
+#define BTFLOD_VK_CHECK(expr, what)                                                                                  \
+  do {                                                                                                               \
+    const VkResult vk_result_ = (expr);                                                                              \
+    if (vk_result_ != VK_SUCCESS)                                                                                    \
+      return make_error(Status::unsupported, "Vulkan: %s failed (VkResult %d)", what, static_cast<int>(vk_result_)); \
+  } while (0)
+/// GLSL → SPIR-V with glslc (subprocess), cached in the temp directory under a hash of
+/// (glslc path, stage, source). Returns `unsupported` with the compiler log when glslc is
+/// missing or fails. Thread-safe (unique temporary names, atomic rename on publish).
+Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const char* stage, const std::string& tag);
+
+/// The btflod::Backend implementation. Single-threaded like every Backend: all calls from one
+/// thread. Created by create_vk_backend() (create_device, then create_shared_ubo).
+class VkBackend final : public Backend {
+ public:
+  explicit VkBackend(const VkBackendOptions& o) : options_(o) {
+    options_.feedback_ring_size = std::max<uint32_t>(o.feedback_ring_size, 1);
+    options_.frames_in_flight = std::max<uint32_t>(o.frames_in_flight, 1);
+    options_.max_draws_per_frame = std::max<uint32_t>(o.max_draws_per_frame, 1);
+  }
+
+  ~VkBackend() override;
+  VoidResult create_device();
+  const char* name() const noexcept override { return name_.c_str(); }
+
+  VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) override;
+  Result<MeshHandle> create_mesh(const MeshData& mesh) override;
+  Result<MaterialHandle> create_material(const FmfMaterialData& data) override;
+  Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& d) override;
+  Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& d) override;
+  Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override;
+  Status upload_tiles(std::span<const TileUpload> tiles) noexcept override;
+  Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override;
+  Status begin_frame(const FrameDesc& frame) noexcept override;
+  Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
+              const ShaderParams& params) noexcept override;
+  Status draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept override;
+  Status end_frame() noexcept override;
+  bool poll_feedback(FeedbackFrame& out) noexcept override;
+  uint32_t feedback_ring_size() const noexcept override { return static_cast<uint32_t>(ring_.size()); }
+  uint64_t dropped_feedback() const noexcept override { return dropped_; }
+
+  Status read_color(ImageView<float> out) noexcept override;
+  Status wait_idle() noexcept override;
+
+ private:
+  // --- laplacian / lpca / pca_views materials -----------------------------------------------
+  static int rep_kind(ShaderProgram p) noexcept {
+    return p == ShaderProgram::laplacian ? 0 : p == ShaderProgram::lpca ? 1 : 2;
+  }
+
+  /// Creates and uploads `textures`, the program's set layout (first use), its pipeline and
+  /// descriptor set. Set-up only; nothing leaks on failure.
+  Result<MaterialHandle> add_representation(ShaderProgram program, const ShaderConfig& config,
+                                            const std::vector<RepTexture>& textures);
+
+  // --- resources ---------------------------------------------------------------------------
+  uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags want) const;
+  VoidResult create_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage);
+  void destroy(Buffer& b);
+  VoidResult create_texture(Texture& t, VkFormat format, uint32_t w, uint32_t h, uint32_t layers, uint32_t mips,
+                            VkImageUsageFlags extra = 0, bool array_view = true, uint32_t depth3d = 1);
+  void destroy(Texture& t);
+  void destroy_material(VkMaterial& m);
+
+  /// Uploads every mip (data[m]: all layers, layer-major, tightly packed) through a staging buffer.
+  VoidResult upload_texture(Texture& t, const std::vector<const void*>& data, uint32_t texel_bytes);
+  bool create_targets();
+  void destroy_targets();
+
+  // --- pipelines and descriptors ----------------------------------------------------------
+  VoidResult create_layout();
+
+  /// A descriptor set with the per-frame UBO (dynamic offset), the cache and page table, and the
+  /// material's textures (dummies when m is null or has no V').
+  Result<VkDescriptorSet> allocate_set(const VkMaterial* m);
+  Buffer& shared_ubo() { return ubo_all_; }
+
+  Result<VkPipeline> create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
+                                     VkPipelineLayout layout = VK_NULL_HANDLE);
+
+  // --- recording ---------------------------------------------------------------------------
+  static void full_barrier(VkCommandBuffer cmd);
+  Status record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
+                     const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
+                     VkPipelineLayout layout = VK_NULL_HANDLE);
+  static void clear_pass(VkCommandBuffer cmd, const Texture& color, const Texture& depth, VkClearValue value,
+                         uint32_t w, uint32_t h);
+  VkDeviceSize context_ubo_base() const { return VkDeviceSize{current_} * ubo_stride_ * options_.max_draws_per_frame; }
+
+  /// The context being recorded; opens the next one (waiting only if the GPU is
+  /// frames_in_flight submissions behind) when none is open.
+  FrameContext& open_context();
+  bool submit_context();
+  void update_completed();
+  VoidResult begin_one_shot(VkCommandBuffer& cmd);
+
+  /// Submits and waits (set-up and blocking readback only; queue order keeps it after the
+  /// frames submitted before).
+  VoidResult end_one_shot(VkCommandBuffer cmd);
+
+ public:
+  VoidResult create_shared_ubo();
+
+ private:
+  VkBackendOptions options_;
+  std::string name_ = "Vulkan";
+  VkInstance instance_ = VK_NULL_HANDLE;
+  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
+  VkPhysicalDeviceLimits limits_{};
+  VkPhysicalDeviceMemoryProperties memory_props_{};
+  uint32_t queue_family_ = 0;
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  VkCommandPool pool_ = VK_NULL_HANDLE, one_shot_pool_ = VK_NULL_HANDLE;
+  VkSampler nearest_ = VK_NULL_HANDLE, linear_clamp_ = VK_NULL_HANDLE, linear_repeat_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
+  VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+  VkPipeline fmf_ = VK_NULL_HANDLE, bsvtf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
+  VkDescriptorSet feedback_set_ = VK_NULL_HANDLE;
+  // Set and pipeline layouts of the laplacian, lpca and pca_views programs (created on first use).
+  VkDescriptorSetLayout rep_set_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+  VkPipelineLayout rep_pipeline_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+  ShaderConfig config_;
+  uint32_t vt_layers_ = 0;
+  bool initialised_ = false;
+  Texture cache_, page_table_, dummy_float_, dummy_uint_;
+  Texture color_, color_depth_, feedback_color_, feedback_depth_;
+  Buffer ubo_all_, color_readback_;
+  VkDeviceSize ubo_stride_ = 256;
+  std::vector<FrameContext> contexts_;
+  uint32_t current_ = 0;
+  bool recording_ = false;
+  uint64_t next_serial_ = 1, completed_serial_ = 0;
+  std::vector<FeedbackSlot> ring_;
+  std::vector<uint32_t> readback_;
+  std::vector<VkMesh> meshes_;
+  std::vector<VkMaterial> materials_;
+  FrameDesc frame_{0, 0, 0, 0, {0, 0, 0, 0}};
+  bool in_frame_ = false, feedback_drawn_ = false;
+  uint64_t frame_counter_ = 0, dropped_ = 0;
+};
+
+}  // namespace btflod::samples::vk_detail

@@ -136,7 +136,8 @@ TEST(FactorFmf, CarPaintAtRank64MeetsTheHalfPercentBoundWithDefaultOptions) {
   opt.svd.max_power_iterations = 2;  // the old fixed rule
   auto old_rule = factorize_fmf(*btf, opt);
   ASSERT_TRUE(old_rule.ok());
-  EXPECT_GT(frobenius_error(*btf, old_rule->reconstruct()), 1.005 * optimum) << "case no longer needs the adaptive rule";
+  EXPECT_GT(frobenius_error(*btf, old_rule->reconstruct()), 1.005 * optimum)
+      << "case no longer needs the adaptive rule";
 }
 
 TEST(FactorFmf, RandomizedIsDeterministicAcrossThreadCounts) {

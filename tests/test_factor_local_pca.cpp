@@ -24,7 +24,8 @@ BtfFloat three_subspace_btf(int w = 12, int h = 8) {
     const size_t j = (t % static_cast<size_t>(w)) * 3 / static_cast<size_t>(w);
     const float a = static_cast<float>(gen.next()), b = static_cast<float>(gen.next());
     for (size_t i = 0; i < d; ++i)
-      btf.samples()[((i / 3) * n + t) * 3 + i % 3] = mean[j * d + i] + a * basis[(j * 2) * d + i] + b * basis[(j * 2 + 1) * d + i];
+      btf.samples()[((i / 3) * n + t) * 3 + i % 3] =
+          mean[j * d + i] + a * basis[(j * 2) * d + i] + b * basis[(j * 2 + 1) * d + i];
   }
   return btf;
 }
@@ -152,7 +153,8 @@ TEST(FactorLocalPca, RoundTripAndRejectsBadClusterIds) {
   auto r = LocalPca::deserialize(bad.serialize());
   EXPECT_FALSE(r.ok());
   EXPECT_NE(r.message().find("texel 7"), std::string::npos);
-  for (size_t cut = 0; cut < bytes.size(); cut += 89) EXPECT_FALSE(LocalPca::deserialize(std::span(bytes).first(cut)).ok());
+  for (size_t cut = 0; cut < bytes.size(); cut += 89)
+    EXPECT_FALSE(LocalPca::deserialize(std::span(bytes).first(cut)).ok());
   LocalPcaOptions too_many;
   too_many.clusters = 1000;
   EXPECT_EQ(factorize_local_pca(btf, too_many).status(), Status::invalid_argument);

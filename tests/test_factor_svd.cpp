@@ -41,7 +41,8 @@ Known known_matrix(Eigen::Index m, Eigen::Index n, double decay, Eigen::Index ra
   Eigen::VectorXd s = Eigen::VectorXd::Zero(r);
   for (Eigen::Index i = 0; i < std::min(r, rank); ++i) s[i] = 10.0 * std::pow(decay, static_cast<double>(i));
   k.s.assign(s.data(), s.data() + r);
-  k.a = (random_orthonormal(m, r, seed) * s.asDiagonal() * random_orthonormal(n, r, seed + 1).transpose()).cast<float>();
+  k.a =
+      (random_orthonormal(m, r, seed) * s.asDiagonal() * random_orthonormal(n, r, seed + 1).transpose()).cast<float>();
   return k;
 }
 
@@ -84,9 +85,11 @@ Known flat_tail_matrix(Eigen::Index m, Eigen::Index n, Eigen::Index c, uint64_t 
   Known k;
   Eigen::VectorXd s(r);
   for (Eigen::Index i = 0; i < r; ++i)
-    s[i] = 10.0 * std::pow(0.99, static_cast<double>(std::min(i, c))) * std::pow(0.999, static_cast<double>(std::max<Eigen::Index>(0, i - c)));
+    s[i] = 10.0 * std::pow(0.99, static_cast<double>(std::min(i, c))) *
+           std::pow(0.999, static_cast<double>(std::max<Eigen::Index>(0, i - c)));
   k.s.assign(s.data(), s.data() + r);
-  k.a = (random_orthonormal(m, r, seed) * s.asDiagonal() * random_orthonormal(n, r, seed + 1).transpose()).cast<float>();
+  k.a =
+      (random_orthonormal(m, r, seed) * s.asDiagonal() * random_orthonormal(n, r, seed + 1).transpose()).cast<float>();
   return k;
 }
 

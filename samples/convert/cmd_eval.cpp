@@ -102,13 +102,14 @@ std::vector<Config> table_configs(size_t n_view) {
                    return wrap(factorize_fmf(b, o));
                  }});
   for (auto [k, comps] : {std::pair{1, 4}, std::pair{3, 8}, std::pair{0, 32}})
-    c.push_back({"pca-k k=" + (k == 0 ? std::to_string(n_view) + " (all)" : std::to_string(k)) + " C=" + std::to_string(comps),
-                 [k, comps](const BtfFloat& b) {
-                   PcaViewsOptions o;
-                   o.views_per_group = k;
-                   o.components = comps;
-                   return wrap(factorize_pca_views(b, o));
-                 }});
+    c.push_back(
+        {"pca-k k=" + (k == 0 ? std::to_string(n_view) + " (all)" : std::to_string(k)) + " C=" + std::to_string(comps),
+         [k, comps](const BtfFloat& b) {
+           PcaViewsOptions o;
+           o.views_per_group = k;
+           o.components = comps;
+           return wrap(factorize_pca_views(b, o));
+         }});
   for (auto [y, cc] : {std::pair{4, 1}, std::pair{8, 2}, std::pair{16, 4}})
     c.push_back({"laplacian " + std::to_string(y) + "/" + std::to_string(cc) + "/" + std::to_string(cc),
                  [y, cc](const BtfFloat& b) {
@@ -117,12 +118,13 @@ std::vector<Config> table_configs(size_t n_view) {
                    return wrap(factorize_laplacian_pca(b, o));
                  }});
   for (auto [k, comps] : {std::pair{8, 4}, std::pair{16, 8}, std::pair{32, 8}})
-    c.push_back({"lpca K=" + std::to_string(k) + " C=" + std::to_string(comps) + " 8-bit", [k, comps](const BtfFloat& b) {
-                   LocalPcaOptions o;
-                   o.clusters = k;
-                   o.components = comps;
-                   return wrap(factorize_local_pca(b, o));
-                 }});
+    c.push_back(
+        {"lpca K=" + std::to_string(k) + " C=" + std::to_string(comps) + " 8-bit", [k, comps](const BtfFloat& b) {
+           LocalPcaOptions o;
+           o.clusters = k;
+           o.components = comps;
+           return wrap(factorize_local_pca(b, o));
+         }});
   return c;
 }
 
@@ -192,8 +194,8 @@ int run_factor_table(int argc, char** argv) {
         continue;
       }
       const auto report = compare_btfs(*btf, reconstruct_factorization(*f), peak);
-      print_report_row(name.c_str(), cfg.label.c_str(), factorization_size_bytes(*f), factorization_compression_ratio(*f),
-                       report, seconds);
+      print_report_row(name.c_str(), cfg.label.c_str(), factorization_size_bytes(*f),
+                       factorization_compression_ratio(*f), report, seconds);
       std::fflush(stdout);
     }
   }
@@ -202,6 +204,7 @@ int run_factor_table(int argc, char** argv) {
 
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(eval, "error table (RMSE, PSNR, SSIM, CIELAB MAE, YCbCr MSE) of a factor file vs its BTF", run_eval);
+BTFLOD_CONVERT_COMMAND(eval, "error table (RMSE, PSNR, SSIM, CIELAB MAE, YCbCr MSE) of a factor file vs its BTF",
+                       run_eval);
 BTFLOD_CONVERT_COMMAND(factor_table, "docs/factor.md comparison table: every representation on synthesised materials",
                        run_factor_table);

@@ -47,8 +47,7 @@ int run_factor(int argc, char** argv) {
   const std::string svd = opt.string("svd", "auto");
   const SvdOptions svd_defaults{};
   const int power = static_cast<int>(opt.integer("power-iterations", svd_defaults.power_iterations, 0, 20));
-  const int max_power =
-      static_cast<int>(opt.integer("max-power-iterations", svd_defaults.max_power_iterations, 0, 20));
+  const int max_power = static_cast<int>(opt.integer("max-power-iterations", svd_defaults.max_power_iterations, 0, 20));
   const auto tolerance_text = opt.value("power-tolerance");
   const int oversampling = static_cast<int>(opt.integer("oversampling", svd_defaults.oversampling, 0, 1000));
   const int sketch_nonzeros = static_cast<int>(opt.integer("sketch-nonzeros", svd_defaults.sketch_nonzeros, 0, 1000));
@@ -56,7 +55,8 @@ int run_factor(int argc, char** argv) {
   const bool quiet = opt.flag("quiet", 'q');
   if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca")
     opt.error("--method " + method + ": expected fmf, pca-k, laplacian or lpca");
-  if (svd != "auto" && svd != "exact" && svd != "randomized") opt.error("--svd " + svd + ": expected auto, exact or randomized");
+  if (svd != "auto" && svd != "exact" && svd != "randomized")
+    opt.error("--svd " + svd + ": expected auto, exact or randomized");
   int components = method == "fmf" ? 16 : method == "lpca" ? 4 : 8;
   if (components_text) {
     char* end = nullptr;
@@ -135,17 +135,18 @@ int run_factor(int argc, char** argv) {
     std::fprintf(stderr, "btflod-convert factor: %s\n", s.message().c_str());
     return convert::kExitFailure;
   }
-  std::printf("%s: %dx%d, %zu views x %zu lights -> %s %s: %zu bytes, ratio %.1f:1 (vs float32), %.2f s\n",
-              in.c_str(), btf->width(), btf->height(), btf->view_count(), btf->light_count(),
-              factorization_name(*result), out.c_str(), factorization_size_bytes(*result),
-              factorization_compression_ratio(*result), seconds);
+  std::printf("%s: %dx%d, %zu views x %zu lights -> %s %s: %zu bytes, ratio %.1f:1 (vs float32), %.2f s\n", in.c_str(),
+              btf->width(), btf->height(), btf->view_count(), btf->light_count(), factorization_name(*result),
+              out.c_str(), factorization_size_bytes(*result), factorization_compression_ratio(*result), seconds);
   if (const auto* f = std::get_if<Fmf>(&*result)) {
     const SvdReport& r = f->svd_report;
     if (r.exact)
-      std::printf("  SVD: exact (BDCSVD), error %.6g (Eckart-Young optimum), |A| %.6g\n", r.error_estimate, r.frobenius_norm);
+      std::printf("  SVD: exact (BDCSVD), error %.6g (Eckart-Young optimum), |A| %.6g\n", r.error_estimate,
+                  r.frobenius_norm);
     else
-      std::printf("  SVD: randomised, %d power iterations, error estimate %.6g, predicted %.5fx the optimum, |A| %.6g\n",
-                  r.power_iterations, r.error_estimate, r.predicted_ratio, r.frobenius_norm);
+      std::printf(
+          "  SVD: randomised, %d power iterations, error estimate %.6g, predicted %.5fx the optimum, |A| %.6g\n",
+          r.power_iterations, r.error_estimate, r.predicted_ratio, r.frobenius_norm);
   }
   if (const auto* lp = std::get_if<LaplacianPca>(&*result))
     std::printf("  paper 001 3.3 packing: eigen Laplacian BRDF map %zu bytes, PCA weight map %zu bytes\n",

@@ -52,7 +52,8 @@ struct Fmf {
     assert(x >= 0 && x < shape.width && y >= 0 && y < shape.height && view < shape.view_count() &&
            light < shape.light_count());
     const size_t cc = static_cast<size_t>(components);
-    const float* vt = v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
+    const float* vt =
+        v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
     const float* ur = u.data() + (static_cast<size_t>(view) * shape.light_count() + light) * 3 * cc;
     glm::vec3 out(0.0f);
     for (size_t k = 0; k < cc; ++k) {
@@ -65,13 +66,13 @@ struct Fmf {
   /// ρ' at texel (x, y) for interpolated light and view directions: the 3 × 3 taps of the two
   /// AngularSamples with multiplied weights. Thread-safe, allocation-free.
   glm::vec3 evaluate(int x, int y, const AngularSample& light, const AngularSample& view) const noexcept {
-    return combine_angular_taps(light, view,
-                                [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
+    return combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
   }
   /// The view-dependent ambient term at texel (x, y) (paper 000 §7). Thread-safe.
   glm::vec3 evaluate_ambient(int x, int y, const AngularSample& view) const noexcept {
     const size_t cc = static_cast<size_t>(components);
-    const float* vt = v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
+    const float* vt =
+        v.data() + (static_cast<size_t>(y) * static_cast<size_t>(shape.width) + static_cast<size_t>(x)) * cc;
     glm::vec3 out(0.0f);
     for (int i = 0; i < 3; ++i) {
       const float w = view.weight[static_cast<size_t>(i)];
@@ -129,14 +130,16 @@ struct Fmf {
   static Result<Fmf> deserialize(std::span<const uint8_t> bytes) {
     auto file = FactorFile::parse(bytes);
     if (!file) return file.error();
-    if (file->kind != FactorKind::fmf) return make_error(Status::bad_data, "factor file: kind %u is not FMF (1)", static_cast<unsigned>(file->kind));
+    if (file->kind != FactorKind::fmf)
+      return make_error(Status::bad_data, "factor file: kind %u is not FMF (1)", static_cast<unsigned>(file->kind));
     auto shape = file->shape();
     if (!shape) return shape.error();
     auto meta = file->section(factor_tag("META"));
     if (!meta) return meta.error();
     ByteReader r(*meta);
     const uint32_t comps = r.u32();
-    if (!r.ok() || r.remaining() != 0) return make_error(Status::bad_data, "FMF: META has %zu bytes, expected 4", meta->size());
+    if (!r.ok() || r.remaining() != 0)
+      return make_error(Status::bad_data, "FMF: META has %zu bytes, expected 4", meta->size());
     const size_t m = shape->view_count() * shape->light_count() * 3;
     const size_t n = shape->texel_count();
     if (comps == 0 || comps > std::min(m, n))
@@ -144,7 +147,8 @@ struct Fmf {
     const size_t remaining = bytes.size();
     // Division instead of a product: comps·(m + n)·4 may overflow for hostile shapes.
     if (comps > remaining / ((m + n + shape->view_count() * 3) * 4))
-      return make_error(Status::short_output, "FMF: %u components need more than the %zu bytes of the file", comps, remaining);
+      return make_error(Status::short_output, "FMF: %u components need more than the %zu bytes of the file", comps,
+                        remaining);
     Fmf f;
     f.shape = std::move(*shape);
     f.components = static_cast<int>(comps);

@@ -88,8 +88,7 @@ struct LocalPca {
   }
   /// Interpolated evaluation: 3 × 3 taps of the light and view samples, weights multiplied.
   glm::vec3 evaluate(int x, int y, const AngularSample& light, const AngularSample& view) const noexcept {
-    return combine_angular_taps(light, view,
-                                [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
+    return combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
   }
   /// Stored bytes: float means, int8 or float eigen-BRDFs, float weights, u16 cluster ids.
   size_t size_bytes() const noexcept {
@@ -137,7 +136,8 @@ struct LocalPca {
     auto file = FactorFile::parse(bytes);
     if (!file) return file.error();
     if (file->kind != FactorKind::local_pca)
-      return make_error(Status::bad_data, "factor file: kind %u is not Local PCA (4)", static_cast<unsigned>(file->kind));
+      return make_error(Status::bad_data, "factor file: kind %u is not Local PCA (4)",
+                        static_cast<unsigned>(file->kind));
     auto shape = file->shape();
     if (!shape) return shape.error();
     LocalPca p;
@@ -205,7 +205,8 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
     for (Index j = 0; j < K; ++j) {
       for (Index t = 0; t < static_cast<Index>(n); ++t) {
         const double dd = (x.col(t) - x.col(seed)).squaredNorm();
-        if (dd < dist[static_cast<size_t>(t)]) dist[static_cast<size_t>(t)] = dd, assign[static_cast<size_t>(t)] = static_cast<uint16_t>(j);
+        if (dd < dist[static_cast<size_t>(t)])
+          dist[static_cast<size_t>(t)] = dd, assign[static_cast<size_t>(t)] = static_cast<uint16_t>(j);
       }
       Index far = 0;
       double fd = -1.0;
@@ -383,7 +384,8 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
   for (size_t t = 0; t < n; ++t) {
     const Index j = assign[t];
     const Eigen::VectorXf w = bases[static_cast<size_t>(j)].transpose() * (x.col(static_cast<Index>(t)) - means.col(j));
-    for (Index k = 0; k < C; ++k) p.weights[t * static_cast<size_t>(C) + static_cast<size_t>(k)] = w[k] * scale[static_cast<size_t>(j * C + k)];
+    for (Index k = 0; k < C; ++k)
+      p.weights[t * static_cast<size_t>(C) + static_cast<size_t>(k)] = w[k] * scale[static_cast<size_t>(j * C + k)];
   }
   return p;
 }

@@ -46,11 +46,11 @@ enum class SvdMethod : uint8_t {
 /// Options of truncated_svd(). Defaults: sparse sign sketch (ζ = 8), oversampling 50, and an
 /// ADAPTIVE number of power iterations: at least 2, more while the error estimate of the
 /// result is still improving (rule and math in the comment of truncated_svd() below), at most 6.
-/// Every iteration's last pass also yields the projection (2 GEMM-sized products and 1 gather of
-/// A per iteration, plus one sketch gather). Measured (bench_factor, docs/factor.md): the 64×64
-/// UBO2003 cloth at rank 100 stops after 2 iterations (the old fixed default, 1.0020× the
-/// Eckart–Young optimum); the flat-tailed 32×32 car paint at rank 64, which gave 1.0063× with
-/// the old fixed q = 2, continues until its estimate settles.
+/// Every iteration's pass also yields the projection (2 GEMM-sized products and 1 gather of A
+/// per iteration, plus one sketch gather). Measured (bench_factor, docs/factor.md; error /
+/// Eckart–Young optimum): the 64×64 UBO2003 cloth at rank 100 stops after 2 iterations
+/// (1.0016, as the old fixed default); the flat-tailed 32×32 car paint at rank 64, which gave
+/// 1.0063 with the old fixed q = 2, takes 3 (1.0018).
 struct SvdOptions {
   SvdMethod method = SvdMethod::automatic;
   int oversampling = 50;  ///< extra sketch columns p (k = rank + p)
@@ -66,8 +66,8 @@ struct SvdOptions {
   double power_tolerance = 0.005;
   /// ζ: nonzeros (±1) per row of the sparse sign test matrix; 0 = dense Gaussian test matrix.
   int sketch_nonzeros = 8;
-  size_t block_columns = 256; ///< columns gathered per block
-  int stripes = 4;            ///< fixed partition of the blocks for parallel, deterministic sums
+  size_t block_columns = 256;  ///< columns gathered per block
+  int stripes = 4;             ///< fixed partition of the blocks for parallel, deterministic sums
   uint64_t seed = 0x6274666c6f64ull;
   size_t exact_limit = size_t{1} << 22;  ///< automatic: exact up to this many matrix elements
   ThreadPool* pool = nullptr;            ///< nullptr: default_thread_pool()
@@ -75,8 +75,8 @@ struct SvdOptions {
 
 /// What a truncated_svd() run did and how good its result is (diagnostics; cheap to compute).
 struct SvdReport {
-  bool exact = false;        ///< BDCSVD path (then the numbers below are exact)
-  int power_iterations = 0;  ///< power iterations run (randomised path)
+  bool exact = false;           ///< BDCSVD path (then the numbers below are exact)
+  int power_iterations = 0;     ///< power iterations run (randomised path)
   double frobenius_norm = 0.0;  ///< ‖A‖_F (from the first pass over A)
   /// ‖A − U·diag(s)·Vᵀ‖_F = sqrt(‖A‖²_F − Σ s_i²) (exact up to rounding: U, V orthonormal).
   double error_estimate = 0.0;
@@ -166,8 +166,8 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
                       n, rank);
   const Index c = std::min<Index>({static_cast<Index>(rank), static_cast<Index>(m), static_cast<Index>(n)});
   ThreadPool& pool = options.pool ? *options.pool : default_thread_pool();
-  const bool exact = options.method == SvdMethod::exact ||
-                     (options.method == SvdMethod::automatic && m * n <= options.exact_limit);
+  const bool exact =
+      options.method == SvdMethod::exact || (options.method == SvdMethod::automatic && m * n <= options.exact_limit);
   TruncatedSvd out;
   if (exact) {
     if (!report_progress(progress, "gather", 0.0)) return make_error(Status::cancelled, "truncated_svd cancelled");
@@ -200,7 +200,8 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
   const Index k = std::min<Index>({c + options.oversampling, static_cast<Index>(m), static_cast<Index>(n)});
   const size_t bc = std::max<size_t>(1, options.block_columns);
   const size_t blocks = (n + bc - 1) / bc;
-  const size_t stripes = std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(std::max(1, options.stripes)), blocks));
+  const size_t stripes =
+      std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(std::max(1, options.stripes)), blocks));
   const Index mi = static_cast<Index>(m);
 
   // Test matrix Ω (n × k): dense Gaussian, or a sparse sign matrix with ζ = sketch_nonzeros
@@ -277,23 +278,25 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
   // and g_1 ≥ e_1 ≥ g_2 ≥ e_2 ≥ … (each step's subspace contains the previous step's best rank-C
   // approximation, so the best rank-C error within it cannot grow), converging to the
   // Eckart–Young optimum e* = Σ_{i>C} σ_i² (subspace iteration converges to the dominant
-  // k-subspace ⊇ the top-C one; Halko, Martinsson & Tropp 2011 §4.5 and Thm. 9.1/10.7: the
-  // excess decays like (σ_{k+1}/σ_C)^{2·power}, geometrically). For a geometric sequence of
+  // k-subspace ⊇ the top-C one; Halko, Martinsson & Tropp 2011 §4.5 and §10.4: the power
+  // scheme's error bounds contract geometrically, by a singular-value gap ratio per power of A).
+  // For a geometric sequence of
   // half-step improvements d_i = h_{i−1} − h_i (h = g_1, e_1, g_2, e_2, …) with ratio ρ < 1,
   //   e_j − e* = Σ_{i>last} d_i = d_last · ρ/(1 − ρ),
   // so the remaining gap is bounded by a multiple of the last improvement. The sequence is a sum
   // of geometric modes, and its ratios grow as the fast modes die out (measured ratios d_i/d_{i−1}
   // 0.21, 0.36, 0.43, 0.47, … on the 32 × 32 car paint), so a constant ρ taken from the last
-  // ratios underestimates the gap (by up to 2.3× on the synthesised materials). We therefore
+  // ratios underestimates the gap (by 1.1–1.7× on the synthesised materials). We therefore
   // extrapolate the ratio linearly, ρ = max(r_last, 2·r_last − r_prev) with r = d_i/d_{i−1},
   // clamp it to [0, 0.9], and stop once
   //   d_last · ρ/(1 − ρ) ≤ τ · e_j          (τ = power_tolerance),
   // or at q_max, or when d_last is at the float rounding level of the estimates (≤ 1e-6 ‖A‖²_F:
   // nothing left to measure). Measured on the synthesised 32 × 32 / 64 × 64 UBO2003 materials
-  // (docs/factor.md) at the decisive iteration this predicts the true excess within 0.78–1.37×,
-  // so τ = 0.005 keeps error / optimum ≤ ~1.0035 against the 1.005 bound. Fast-decaying spectra converge in q_min = 2 iterations (no extra work); flat tails
-  // (car paint) take more. The decision uses only deterministic quantities, so the iteration
-  // count and the result are still independent of the thread count.
+  // (docs/factor.md) at the deciding iterations this predicts the true excess within 0.85–1.13×,
+  // so τ = 0.005 keeps error / optimum below ~1.003 against the 1.005 bound. Fast-decaying
+  // spectra converge in q_min = 2 iterations (no extra work); flat tails (car paint) take more.
+  // The decision uses only deterministic quantities, so the iteration count and the result are
+  // still independent of the thread count.
   const int q_request = std::max(0, options.power_iterations);
   const int q_max = std::max(q_request, options.max_power_iterations);
   const int q_min = q_max == 0 ? 0 : std::max(1, q_request);
@@ -357,8 +360,7 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
     out.u = q * small.matrixU().leftCols(cc).template cast<float>();
     out.s = small.singularValues().head(cc).template cast<float>();
     out.v = q2 * small.matrixV().leftCols(cc).template cast<float>();
-    out.report.error_estimate =
-        std::sqrt(std::max(0.0, norm2 - small.singularValues().head(cc).squaredNorm()));
+    out.report.error_estimate = std::sqrt(std::max(0.0, norm2 - small.singularValues().head(cc).squaredNorm()));
     out.report.predicted_ratio = 0.0;  // no iterations, nothing to extrapolate
     report_progress(progress, "project", 1.0);
     return out;
@@ -440,9 +442,9 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
   y.resize(0, 0);
   out.report.power_iterations = iterations;
   out.report.error_estimate = std::sqrt(h.back());
-  out.report.predicted_ratio = predicted_excess <= 0.0 ? 1.0
-                              : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
-                                                            : HUGE_VAL;
+  out.report.predicted_ratio = predicted_excess <= 0.0       ? 1.0
+                               : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
+                                                             : HUGE_VAL;
   // U = Qm·Um, V = P'·Wm = P·(Ur·Wm).
   // cc = min(c, kk) components carry the approximation; if rank(A) < c the remaining c − cc get
   // singular value 0 and orthonormal completions (unused columns of the two Householder bases).

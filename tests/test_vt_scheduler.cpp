@@ -394,9 +394,10 @@ TEST(Scheduler, RotatingFeedbackSettlesWithVoteAccumulationOnly) {
     if (acc.swaps[f]) last_acc_swap = static_cast<int>(f);
     if (f >= kSettledFrom) acc_late += acc.swaps[f], raw_late += raw.swaps[f];
   }
-  std::printf("swaps after the view change: accumulated %u (last at frame %d); from frame %llu on: accumulated %u, "
-              "single-frame %u\n",
-              acc_after_cut, last_acc_swap, static_cast<unsigned long long>(kSettledFrom), acc_late, raw_late);
+  std::printf(
+      "swaps after the view change: accumulated %u (last at frame %d); from frame %llu on: accumulated %u, "
+      "single-frame %u\n",
+      acc_after_cut, last_acc_swap, static_cast<unsigned long long>(kSettledFrom), acc_late, raw_late);
   EXPECT_EQ(acc.used, acc.slots);  // the cache is full: the swaps decide
   EXPECT_GT(acc_after_cut, 0u);    // the new view did make it swap
   EXPECT_EQ(acc_late, 0u) << "accumulated votes: swaps after frame " << kSettledFrom;

@@ -136,33 +136,48 @@ TEST(BackendRepresentations, LpcaVolumeReproducesQuadrilinearEvaluate) {
   ASSERT_TRUE(packed.ok()) << packed.message();
   const LpcaMaterialData m = packed->data();
   ASSERT_TRUE(validate_material(m, config()).ok());
-  const size_t C = m.components, W = (C + 1) * R, H = m.clusters * R;
-  // Trilinear read of the volume at continuous texel coordinates (texel centres at i + 0.5, clamped).
+  const size_t C = m.components, W = (C + 1) * R, H = m.clusters * R, n = m.width * m.height;
+  // paper 002 §6.3: every (cluster, slot) block is quantised on its own, so each non-zero block
+  // uses the full snorm8 range, and α'_0 of a texel is its cluster's mean scale.
+  for (size_t k = 0; k < m.clusters; ++k)
+    for (size_t j = 0; j <= C; ++j) {
+      int peak = 0;
+      for (size_t z = 0; z < static_cast<size_t>(R) * R; ++z)
+        for (size_t y = k * R; y < (k + 1) * R; ++y)
+          for (size_t x = j * R; x < (j + 1) * R; ++x)
+            for (size_t c = 0; c < 3; ++c)
+              peak = std::max(peak, std::abs(int{m.volume[((z * H + y) * W + x) * 4 + c]}));
+      EXPECT_EQ(peak, packed->scales[k * (C + 1) + j] > 0.0f ? 127 : 0) << "cluster " << k << " slot " << j;
+    }
+  for (size_t tx = 0; tx < n; ++tx) EXPECT_EQ(m.weights[tx * 4], packed->scales[m.cluster[tx] * (C + 1)]);
+  // Trilinear read of the snorm8 volume (q/127) at continuous texel coordinates (centres at
+  // i + 0.5, clamped), as the hardware filter does.
   auto volume = [&](float x, float y, float z) {
     const float c[3] = {x - 0.5f, y - 0.5f, z - 0.5f};
-    const size_t n[3] = {W, H, static_cast<size_t>(R) * R};
+    const size_t nn[3] = {W, H, static_cast<size_t>(R) * R};
     size_t i0[3], i1[3];
     float f[3];
     for (int a = 0; a < 3; ++a) {
       const float fl = std::floor(c[a]);
       f[a] = c[a] - fl;
-      i0[a] = static_cast<size_t>(std::clamp(fl, 0.0f, static_cast<float>(n[a] - 1)));
-      i1[a] = static_cast<size_t>(std::clamp(fl + 1.0f, 0.0f, static_cast<float>(n[a] - 1)));
+      i0[a] = static_cast<size_t>(std::clamp(fl, 0.0f, static_cast<float>(nn[a] - 1)));
+      i1[a] = static_cast<size_t>(std::clamp(fl + 1.0f, 0.0f, static_cast<float>(nn[a] - 1)));
     }
     glm::vec3 acc(0.0f);
     for (int k = 0; k < 8; ++k) {
       const size_t xi = k & 1 ? i1[0] : i0[0], yi = k & 2 ? i1[1] : i0[1], zi = k & 4 ? i1[2] : i0[2];
       const float w = (k & 1 ? f[0] : 1 - f[0]) * (k & 2 ? f[1] : 1 - f[1]) * (k & 4 ? f[2] : 1 - f[2]);
-      const float* p = &m.volume[((zi * H + yi) * W + xi) * 4];
-      acc += w * glm::vec3(p[0], p[1], p[2]);
+      const int8_t* p = &m.volume[((zi * H + yi) * W + xi) * 4];
+      acc += w * glm::vec3(p[0], p[1], p[2]) / 127.0f;
     }
     return acc;
   };
   uint32_t s = 9;
+  double max_err = 0.0;
   for (int i = 0; i < 200; ++i) {
     const glm::vec2 uv = random_uv(s);
     const glm::vec3 wl = random_dir(s), wv = random_dir(s);
-    const glm::vec3 want = reference_lpca(*lpca, R, kParam, t.data, false, uv, wl, wv);
+    const glm::vec3 want = reference_lpca_packed(m, uv, wl, wv);
     // The generated program (paper 002 §6.2): cell(s) = 0.5 + s(R−1) texels inside a cell.
     const glm::vec2 sv = shader_direction_to_unit_square(kParam, wv), sl = shader_direction_to_unit_square(kParam, wl);
     const glm::ivec2 tx = representation_texel(uv, static_cast<int>(m.width), static_cast<int>(m.height));
@@ -173,14 +188,24 @@ TEST(BackendRepresentations, LpcaVolumeReproducesQuadrilinearEvaluate) {
                 i1 = std::min(i0 + 1.0f, static_cast<float>(R - 1));
     auto cell = [&](float v) { return 0.5f + std::clamp(v, 0.0f, 1.0f) * (R - 1); };
     glm::vec3 acc(0.0f);
+    float alpha_sum = 0.0f;
     for (size_t j = 0; j <= C; ++j) {
-      const float alpha = j == 0 ? 1.0f : m.weights[(((j - 1) / 4) * m.width * m.height + texel) * 4 + (j - 1) % 4];
+      const float alpha = m.weights[((j / 4) * n + texel) * 4 + j % 4];  // α'_j, scale folded in
+      alpha_sum += std::abs(alpha);
       const float x = static_cast<float>(j * R) + cell(sv.x), y = k * R + cell(sv.y);
       const glm::vec3 e0 = volume(x, y, i0 * R + cell(sl.x)), e1 = volume(x, y, i1 * R + cell(sl.x));
       acc += alpha * (e0 + (e1 - e0) * (tl - i0));
     }
     expect_near3(acc, want, "lpca");
+    // Against the float oracle on LocalPca::evaluate: off by the rounding of each texel only,
+    // |Δ| ≤ Σ_j |α'_j|·0.5/127 (a wrong scale or unfolded weight is off by far more).
+    const glm::vec3 oracle = reference_lpca(*lpca, R, kParam, t.data, false, uv, wl, wv);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_LE(std::abs(want[c] - oracle[c]), alpha_sum * 0.5f / 127.0f + 1e-5f) << "channel " << c;
+      max_err = std::max(max_err, static_cast<double>(std::abs(want[c] - oracle[c])));
+    }
   }
+  EXPECT_GT(max_err, 0.0) << "the volume must be quantised";
 }
 
 TEST(BackendRepresentations, PcaViewsPackedTexturesReproduceEvaluate) {

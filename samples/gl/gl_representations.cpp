@@ -135,14 +135,17 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   glTextureSubImage2D(cluster, 0, 0, 0, sz(m.width), sz(m.height), GL_RED_INTEGER, GL_UNSIGNED_INT, m.cluster.data());
   sampling(cluster, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
   r.units[r.unit_count++] = {ShaderBinding::lpca_cluster, cluster};
+  // Weights α'_j of the mean (j = 0) and the C eigen-BRDFs, 8-bit scales folded in (§6.3).
   r.units[r.unit_count++] = {ShaderBinding::lpca_weights,
-                             float_array(m.width, m.height, (m.components + 3) / 4, 1, m.weights.data())};
-  // Eigen-BRDF volume (paper 002 §6.2): linear filtering does s_v, t_v and s_l.
+                             float_array(m.width, m.height, (m.components + 4) / 4, 1, m.weights.data())};
+  // Eigen-BRDF volume (paper 002 §6.2), 8-bit as in §6.3: RGBA8_SNORM returns q/127 (a
+  // texture-filterable format in GL 4.5 core); linear filtering does s_v, t_v and s_l.
   const uint32_t R = m.grid_resolution;
   GLuint volume = 0;
   glCreateTextures(GL_TEXTURE_3D, 1, &volume);
-  glTextureStorage3D(volume, 1, GL_RGBA32F, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R));
-  glTextureSubImage3D(volume, 0, 0, 0, 0, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R), GL_RGBA, GL_FLOAT,
+  glTextureStorage3D(volume, 1, GL_RGBA8_SNORM, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);  // 4-byte texels: rows are always 4-aligned
+  glTextureSubImage3D(volume, 0, 0, 0, 0, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R), GL_RGBA, GL_BYTE,
                       m.volume.data());
   sampling(volume, GL_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE);
   r.units[r.unit_count++] = {ShaderBinding::lpca_volume, volume};

@@ -48,6 +48,20 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
   if (VoidResult v = validate_material(d, config_); !v) return v.error();
   const uint32_t R = d.grid_resolution;
   const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
+  // paper 002 §6.3: the eigen-BRDF volume is 8-bit; snorm8 returns q/127 and must filter
+  // linearly as a 3D image (lavapipe does; checked so another driver fails here, not in a draw).
+  const VkFormat volume_format = VK_FORMAT_R8G8B8A8_SNORM;
+  VkFormatProperties fp{};
+  vkGetPhysicalDeviceFormatProperties(physical_, volume_format, &fp);
+  VkImageFormatProperties ifp{};
+  if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) ||
+      vkGetPhysicalDeviceImageFormatProperties(physical_, volume_format, VK_IMAGE_TYPE_3D, VK_IMAGE_TILING_OPTIMAL,
+                                               VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, 0,
+                                               &ifp) != VK_SUCCESS ||
+      ifp.maxExtent.width < (d.components + 1) * R || ifp.maxExtent.height < d.clusters * R ||
+      ifp.maxExtent.depth < R * R)
+    return make_error(Status::unsupported, "Vulkan: no linearly filtered 3D R8G8B8A8_SNORM image of %u×%u×%u",
+                      (d.components + 1) * R, d.clusters * R, R * R);
   return add_representation(ShaderProgram::lpca, representation_config(config_, d),
                             {{ShaderBinding::lpca_cluster,
                               VK_FORMAT_R32_UINT,
@@ -60,11 +74,12 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
                               {d.cluster.data()},
                               4,
                               false},
+                             // α'_j of the mean (j = 0) and the C eigen-BRDFs, 8-bit scales folded in
                              {ShaderBinding::lpca_weights,
                               f4,
                               d.width,
                               d.height,
-                              (d.components + 3) / 4,
+                              (d.components + 4) / 4,
                               1,
                               1,
                               true,
@@ -73,7 +88,7 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
                               false},
                              // paper 002 §6.2: the eigen-BRDF volume, linear filtering in s_v, t_v, s_l
                              {ShaderBinding::lpca_volume,
-                              f4,
+                              volume_format,
                               (d.components + 1) * R,
                               d.clusters * R,
                               1,
@@ -81,7 +96,7 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
                               R * R,
                               false,
                               {d.volume.data()},
-                              16,
+                              4,
                               true}});
 }
 

@@ -208,12 +208,16 @@ struct LaplacianMaterialData {
   AngularTablesData angular;  ///< the shader uses the nearest (largest-weight) index (§3.4 step 1)
 };
 
-/// Local PCA with the 3D-texture layout of paper 002 §6.2: per texel a cluster k and C weights
-/// (8-bit scales folded in, §6.3); per cluster the mean (j = 0) and C eigen-BRDFs resampled on
-/// a regular R⁴ grid over (s_v, t_v, s_l, t_l) of the parameterised view and light directions,
-/// grid sample i at s = i/(R−1). Volume texel (x, y, z) with x = j·R + a (s_v = a/(R−1)),
-/// y = k·R + b (t_v = b/(R−1)), z = i·R + c (t_l = i/(R−1), s_l = c/(R−1)); linear filtering
-/// does s_v, t_v, s_l and the shader lerps t_l by hand.
+/// Local PCA with the 3D-texture layout of paper 002 §6.2: per texel a cluster k; per cluster
+/// the mean (j = 0) and C eigen-BRDFs (j = 1 … C) resampled on a regular R⁴ grid over
+/// (s_v, t_v, s_l, t_l) of the parameterised view and light directions, grid sample i at
+/// s = i/(R−1). Volume texel (x, y, z) with x = j·R + a (s_v = a/(R−1)), y = k·R + b
+/// (t_v = b/(R−1)), z = i·R + c (t_l = i/(R−1), s_l = c/(R−1)); linear filtering does s_v, t_v,
+/// s_l and the shader lerps t_l by hand. The volume is 8-bit (paper 002 §6.3): every (k, j)
+/// block is quantised separately to snorm8, q = round(127·v/s_{k,j}) with s_{k,j} = max |v| over
+/// the block, and the scale is folded into the texel's weight of slot j: the shader computes
+/// Σ_{j=0..C} α'_j · (q_j/127), α'_0 = s_{k,0}, α'_j = α_j·s_{k,j} (q/127 is what an snorm8
+/// texture returns, before filtering).
 struct LpcaMaterialData {
   uint32_t components = 0;       ///< C eigen-BRDFs per cluster
   uint32_t clusters = 0;         ///< K
@@ -222,9 +226,12 @@ struct LpcaMaterialData {
   uint32_t height = 0;
   DirectionParameterisation parameterisation = DirectionParameterisation::elevated_concentric;
   std::span<const uint32_t> cluster;  ///< width·height cluster ids < K (R32UI 2D, texelFetch)
-  std::span<const float> weights;     ///< 2D array ⌈C/4⌉ layers: weight j in layer j/4, channel j%4
-  /// 3D, (C+1)·R × K·R × R·R texels, x fastest then y then z: rgb = colour.
-  std::span<const float> volume;
+  /// 2D array ⌈(C+1)/4⌉ layers: α'_j (j = 0 the mean's scale, scales folded in) in layer j/4,
+  /// channel j%4.
+  std::span<const float> weights;
+  /// 3D snorm8 RGBA, (C+1)·R × K·R × R·R texels, x fastest then y then z: rgb = colour / s_{k,j}
+  /// (×127, rounded), a = 0. 4 bytes per texel.
+  std::span<const int8_t> volume;
 };
 
 /// PCA over groups of k neighbouring views (paper 004 §4.3.2, §6.3): per group b, A_b = L·R with
@@ -304,11 +311,11 @@ inline VoidResult validate_material(const LpcaMaterialData& m, const ShaderConfi
                       m.components, m.clusters, m.grid_resolution, m.width, m.height);
   const size_t texels = static_cast<size_t>(m.width) * m.height, r = m.grid_resolution;
   const size_t volume = (m.components + 1) * r * m.clusters * r * r * r * 4;
-  if (m.cluster.size() != texels || m.weights.size() != texels * 4 * ((m.components + 3) / 4) ||
-      m.volume.size() != volume)
-    return make_error(
-        Status::invalid_argument, "lpca material: cluster/weights/volume have %zu/%zu/%zu values, expected %zu/%zu/%zu",
-        m.cluster.size(), m.weights.size(), m.volume.size(), texels, texels * 4 * ((m.components + 3) / 4), volume);
+  const size_t weights = texels * 4 * ((m.components + 4) / 4);
+  if (m.cluster.size() != texels || m.weights.size() != weights || m.volume.size() != volume)
+    return make_error(Status::invalid_argument,
+                      "lpca material: cluster/weights/volume have %zu/%zu/%zu values, expected %zu/%zu/%zu",
+                      m.cluster.size(), m.weights.size(), m.volume.size(), texels, weights, volume);
   for (size_t t = 0; t < texels; ++t)
     if (m.cluster[t] >= m.clusters)
       return make_error(Status::invalid_argument, "lpca material: texel %zu has cluster %u, K = %u", t, m.cluster[t],

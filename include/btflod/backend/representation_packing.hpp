@@ -159,7 +159,10 @@ inline glm::vec3 unit_square_to_direction(DirectionParameterisation p, glm::vec2
 struct PackedLpca {
   LpcaMaterialData info;
   std::vector<uint32_t> cluster;
-  std::vector<float> weights, volume;
+  std::vector<float> weights;
+  std::vector<int8_t> volume;
+  /// s_{k,j}: the 8-bit scale of slot j of cluster k (index k·(C+1) + j), folded into weights.
+  std::vector<float> scales;
   LpcaMaterialData data() const {
     LpcaMaterialData d = info;
     d.cluster = cluster;
@@ -173,8 +176,10 @@ struct PackedLpca {
 /// of `param`, see LpcaMaterialData) is resampled from the measured directions through
 /// `tables` (rastered over the same `param`; barycentric unless `nearest`): the cluster means and
 /// eigen-BRDFs (q/127 when quantised) are combined over the 3 × 3 taps like LocalPca::evaluate.
-/// Returns invalid_argument for R outside 2..64 or tables that do not name p's directions.
-/// Allocates K·(C+1)·R⁴·4 floats.
+/// The resampled volume is then quantised to snorm8 per (cluster, slot) block and the scales
+/// are folded into the per-texel weights (paper 002 §6.3, see LpcaMaterialData). Returns
+/// invalid_argument for R outside 2..64 or tables that do not name p's directions. Allocates
+/// K·(C+1)·R⁴·4 floats of scratch and as many bytes for the volume.
 inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_resolution,
                                              DirectionParameterisation param, const AngularTablesData& tables,
                                              bool nearest = false) {
@@ -195,9 +200,6 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
   m.parameterisation = param;
   const size_t n = p.shape.texel_count(), C = m.components, K = m.clusters, d = p.angular_size();
   out.cluster.assign(p.cluster_of.begin(), p.cluster_of.end());
-  out.weights.assign(n * 4 * ((C + 3) / 4), 0.0f);
-  for (size_t t = 0; t < n; ++t)
-    for (size_t j = 0; j < C; ++j) out.weights[((j / 4) * n + t) * 4 + j % 4] = p.weights[t * C + j];
   // Angular samples of the R² grid directions (view: (s_v, t_v) = (a, b)/(R−1); light likewise).
   std::vector<AngularSample> grid_view(static_cast<size_t>(R) * R), grid_light(static_cast<size_t>(R) * R);
   const float step = 1.0f / static_cast<float>(R - 1);
@@ -209,7 +211,10 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
       grid_light[b * R + a] = angular_table_sample(tables, 0, param, nearest, dir);
     }
   const size_t W = (C + 1) * R, H = K * R;
-  out.volume.assign(W * H * R * R * 4, 0.0f);
+  std::vector<float> volume(W * H * R * R * 4, 0.0f);
+  auto at = [&](size_t k, size_t j, uint32_t a, uint32_t b, uint32_t c, uint32_t i) {
+    return (((static_cast<size_t>(i) * R + c) * H + k * R + b) * W + j * R + a) * 4;
+  };
   for (size_t k = 0; k < K; ++k)
     for (size_t j = 0; j <= C; ++j) {
       // E_kj at measured (view, light, colour): j = 0 the mean, else eigen-BRDF j − 1.
@@ -225,7 +230,7 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
             for (uint32_t a = 0; a < R; ++a) {  // s_v
               const AngularSample& vs = grid_view[b * R + a];
               const AngularSample& ls = grid_light[i * R + c];
-              float* o = out.volume.data() + (((static_cast<size_t>(i) * R + c) * H + k * R + b) * W + j * R + a) * 4;
+              float* o = volume.data() + at(k, j, a, b, c, i);
               for (size_t vi = 0; vi < 3; ++vi)
                 for (size_t li = 0; li < 3; ++li) {
                   const float w = vs.weight[vi] * ls.weight[li];
@@ -234,14 +239,90 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
                 }
             }
     }
+  // paper 002 §6.3: every eigen-BRDF (here: every resampled (k, j) block, rgb together) is
+  // quantised separately to 8 bits with its scale s_{k,j} = max |v|; q/127 is the snorm8 value.
+  out.scales.assign(K * (C + 1), 0.0f);
+  out.volume.assign(volume.size(), 0);
+  for (size_t k = 0; k < K; ++k)
+    for (size_t j = 0; j <= C; ++j) {
+      float s = 0.0f;
+      for (uint32_t i = 0; i < R; ++i)
+        for (uint32_t c = 0; c < R; ++c)
+          for (uint32_t b = 0; b < R; ++b)
+            for (uint32_t a = 0; a < R; ++a)
+              for (size_t col = 0; col < 3; ++col) s = std::max(s, std::abs(volume[at(k, j, a, b, c, i) + col]));
+      out.scales[k * (C + 1) + j] = s;
+      const float inv = s > 0.0f ? 127.0f / s : 0.0f;
+      for (uint32_t i = 0; i < R; ++i)
+        for (uint32_t c = 0; c < R; ++c)
+          for (uint32_t b = 0; b < R; ++b)
+            for (uint32_t a = 0; a < R; ++a)
+              for (size_t col = 0; col < 3; ++col) {
+                const size_t e = at(k, j, a, b, c, i) + col;
+                out.volume[e] = static_cast<int8_t>(std::clamp(std::lround(volume[e] * inv), -127L, 127L));
+              }
+    }
+  // Weights α'_j = α_j·s_{k,j}, α'_0 = s_{k,0} (the mean's weight is 1), slot j in layer j/4.
+  out.weights.assign(n * 4 * ((C + 4) / 4), 0.0f);
+  for (size_t t = 0; t < n; ++t) {
+    const size_t k = p.cluster_of[t];
+    for (size_t j = 0; j <= C; ++j) {
+      const float alpha = j == 0 ? 1.0f : p.weights[t * C + j - 1];
+      out.weights[((j / 4) * n + t) * 4 + j % 4] = alpha * out.scales[k * (C + 1) + j];
+    }
+  }
   return out;
 }
 
-/// What the lpca program computes at uv for local directions wl, wv: the quadrilinear blend
+/// What the lpca program computes on the packed (8-bit) material `m` at uv for local
+/// directions wl, wv: Σ_j α'_j times the quadrilinear blend over the 16 grid corners of
+/// (s_v, t_v, s_l, t_l) (hardware trilinear + the manual t_l lerp of paper 002 §6.2) of the
+/// snorm8 texels q/127. RGB, not multiplied by the light colour. Precondition:
+/// validate_material(m) passed. noexcept, allocation-free.
+inline glm::vec3 reference_lpca_packed(const LpcaMaterialData& m, glm::vec2 uv, glm::vec3 wl, glm::vec3 wv) noexcept {
+  const uint32_t R = m.grid_resolution;
+  const float r1 = static_cast<float>(R - 1);
+  const glm::vec2 sv = glm::clamp(shader_direction_to_unit_square(m.parameterisation, wv), 0.0f, 1.0f) * r1;
+  const glm::vec2 sl = glm::clamp(shader_direction_to_unit_square(m.parameterisation, wl), 0.0f, 1.0f) * r1;
+  const float g[4] = {sv.x, sv.y, sl.x, sl.y};
+  uint32_t lo[4];
+  float fr[4];
+  for (int a = 0; a < 4; ++a) {
+    lo[a] = std::min(static_cast<uint32_t>(std::floor(g[a])), R - 1);
+    fr[a] = g[a] - static_cast<float>(lo[a]);
+  }
+  const glm::ivec2 t = representation_texel(uv, static_cast<int>(m.width), static_cast<int>(m.height));
+  const size_t n = static_cast<size_t>(m.width) * m.height;
+  const size_t texel = static_cast<size_t>(t.y) * m.width + static_cast<size_t>(t.x), k = m.cluster[texel];
+  const size_t C = m.components, W = (C + 1) * R, H = static_cast<size_t>(m.clusters) * R;
+  glm::vec3 acc(0.0f);
+  for (size_t j = 0; j <= C; ++j) {
+    glm::vec3 e(0.0f);
+    for (int corner = 0; corner < 16; ++corner) {
+      float w = 1.0f;
+      uint32_t q[4];
+      for (int a = 0; a < 4; ++a) {
+        const uint32_t up = (corner >> a) & 1;
+        w *= up ? fr[a] : 1.0f - fr[a];
+        q[a] = std::min(lo[a] + up, R - 1);
+      }
+      if (w == 0.0f) continue;
+      const int8_t* v = &m.volume[(((static_cast<size_t>(q[3]) * R + q[2]) * H + k * R + q[1]) * W + j * R + q[0]) * 4];
+      e += w * glm::vec3(v[0], v[1], v[2]) * (1.0f / 127.0f);
+    }
+    acc += m.weights[((j / 4) * n + texel) * 4 + j % 4] * e;
+  }
+  return acc;
+}
+
+/// The float oracle of the lpca program (what it would compute on an unquantised volume) at uv
+/// for local directions wl, wv: the quadrilinear blend
 /// over the 16 grid corners of (s_v, t_v, s_l, t_l) (hardware trilinear + the manual t_l lerp
 /// of paper 002 §6.2) of LocalPca::evaluate at the texel ⌊fract(uv)·(W, H)⌋ with each corner's
-/// resampled direction taps — equal to the packed volume's value since evaluate is linear in
-/// the eigen-BRDFs. RGB, not multiplied by the light colour. noexcept.
+/// resampled direction taps — equal to the packed volume before its 8-bit quantisation, since
+/// evaluate is linear in the eigen-BRDFs; reference_lpca_packed() on the packed material differs
+/// from it by at most Σ_j |α'_j|·0.5/127 per channel (rounding of each texel). RGB, not
+/// multiplied by the light colour. noexcept.
 inline glm::vec3 reference_lpca(const LocalPca& p, uint32_t grid_resolution, DirectionParameterisation param,
                                 const AngularTablesData& tables, bool nearest, glm::vec2 uv, glm::vec3 wl,
                                 glm::vec3 wv) noexcept {

@@ -55,7 +55,8 @@ struct SvdOptions {
   SvdMethod method = SvdMethod::automatic;
   int oversampling = 50;  ///< extra sketch columns p (k = rank + p)
   /// q_min: power iterations always run (products with A·Aᵀ, the last one fused with the
-  /// projection). 0 with max_power_iterations = 0 gives the plain range finder (q = 0).
+  /// projection). 0 with max_power_iterations = 0 gives the plain range finder (q = 0); 0 with
+  /// a positive max_power_iterations runs at least 1 (the adaptive rule needs one iteration).
   int power_iterations = 2;
   /// q_max: cap of the adaptive rule; ≤ power_iterations gives exactly power_iterations
   /// iterations (the fixed-q behaviour of earlier versions).

@@ -13,9 +13,9 @@
 namespace btflod::samples {
 
 struct VkBackendOptions {
-  uint32_t feedback_ring_size = 3;        ///< host-visible readback buffers polled by poll_feedback()
-  uint32_t frames_in_flight = 2;          ///< command buffers recorded while the GPU works
-  uint32_t max_draws_per_frame = 256;     ///< uniform-buffer slices per frame
+  uint32_t feedback_ring_size = 3;              ///< host-visible readback buffers polled by poll_feedback()
+  uint32_t frames_in_flight = 2;                ///< command buffers recorded while the GPU works
+  uint32_t max_draws_per_frame = 256;           ///< uniform-buffer slices per frame
   uint64_t staging_bytes_per_frame = 8u << 20;  ///< tile and page-table uploads per frame
 };
 

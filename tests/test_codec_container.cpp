@@ -375,3 +375,60 @@ TEST(CodecContainer, WritesFuzzSeedsWhenAsked) {
 }
 
 }  // namespace
+
+// Per-tile tolerance scale (BsvtfTileInput::tolerance_scale, set by the luminance-adaptive
+// producer, samples/common/bsvtf_input.hpp): the header stores the scaled tolerance and the
+// decoded error follows it; the default 1 leaves the bytes unchanged.
+TEST(CodecContainer, PerTileToleranceScaleIsStoredAndBoundsTheError) {
+  Material m = make_material(2);
+  const auto plain = build(m);
+  for (auto& t : m.tiles) t.tolerance_scale = 1.0f;
+  EXPECT_EQ(build(m), plain);  // explicit 1 == default bytes
+  const TileId dark{0, 1, 0, 0}, bright{0, 1, 1, 1};
+  for (auto& t : m.tiles)
+    if (t.id == dark) t.tolerance_scale = 0.25f;
+  const auto scaled = build(m);
+  EXPECT_GT(scaled.size(), plain.size());
+  const auto dp = read_bsvtf(plain).value(), ds = read_bsvtf(scaled).value();
+  const auto header = [](const std::vector<uint8_t>& f, const BsvtfDirectory& d, TileId id) {
+    const auto* e = d.find(id);
+    TileHeaderInfo info;
+    EXPECT_EQ(tile_peek_header(std::span<const uint8_t>(f).subspan(e->offset, e->size), info), Status::success);
+    return info;
+  };
+  const TileHeaderInfo hd = header(scaled, ds, dark), hb = header(scaled, ds, bright), hp = header(plain, dp, dark);
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_FLOAT_EQ(hd.tolerance[c], 0.25f * hp.tolerance[c]);
+    EXPECT_FLOAT_EQ(hb.tolerance[c], hp.tolerance[c]);
+  }
+  // Decoded RMS error of the dark tile: within the scaled tolerance and below the plain build's.
+  const TileLayout layout = m.metadata.layout();
+  const auto rms = [&](const std::vector<uint8_t>& f, const BsvtfDirectory& d) {
+    TileDecoder dec(layout);
+    std::vector<float> root(layout.sample_count()), out(layout.sample_count());
+    const auto* r = d.find({0, 0, 0, 0});
+    EXPECT_EQ(dec.decode(std::span<const uint8_t>(f).subspan(r->offset, r->size), {}, 0, 0, root), Status::success);
+    const auto* e = d.find(dark);
+    EXPECT_EQ(dec.decode(std::span<const uint8_t>(f).subspan(e->offset, e->size), root, 0, 0, out), Status::success);
+    size_t index = 0;
+    while (!(m.tiles[index].id == dark)) ++index;
+    double e2 = 0;
+    for (size_t s = 0; s < out.size(); s += 4) e2 += (out[s] - m.samples[index][s]) * (out[s] - m.samples[index][s]);
+    return std::sqrt(e2 / layout.texel_count());
+  };
+  const double e_plain = rms(plain, dp), e_scaled = rms(scaled, ds);
+  EXPECT_LE(e_scaled, hd.tolerance[0] * 1.001);
+  EXPECT_LT(e_scaled, 0.6 * e_plain);
+  // A scale that is not finite and positive is refused.
+  for (auto& t : m.tiles) t.tolerance_scale = 0.0f;
+  EXPECT_EQ(build_bsvtf(m.metadata, m.u, m.tiles).status(), Status::invalid_argument);
+}
+
+TEST(CodecQuantize, LuminanceToleranceScaleFollowsLightness) {
+  EXPECT_NEAR(luminance_tolerance_scale(8.0f, 1.0f, 0.0f), 4.0f, 1e-5f);    // (8)^(2/3)
+  EXPECT_NEAR(luminance_tolerance_scale(0.125f, 1.0f, 0.0f), 0.25f, 1e-6f);  // darker: finer
+  EXPECT_NEAR(luminance_tolerance_scale(0.0f, 1.0f, 0.125f), 0.25f, 1e-6f);  // black → the floor
+  EXPECT_FLOAT_EQ(luminance_tolerance_scale(1.0f, 0.0f, 0.1f), 1.0f);        // no reference
+  EXPECT_FLOAT_EQ(luminance_tolerance_scale(std::nanf(""), 1.0f, 0.1f), 1.0f);
+  EXPECT_FLOAT_EQ(luminance_tolerance_scale(1e12f, 1.0f, 0.0f), 64.0f);  // clamped
+}

@@ -29,9 +29,16 @@
 //
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
-//            [--default-quality] [--per-component-tolerance] [--max-p99-de X] [--check]
+//            [--default-quality] [--per-component-tolerance] [--luminance-tolerance]
+//            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
+//   --luminance-tolerance  also scale each tile's tolerance by (max(y_tile, F·y_peak)/y_peak)^(2/3)
+//                      (samples/common/bsvtf_input.hpp apply_luminance_tolerance; y_tile = the
+//                      P-quantile of |v_0| over the tile, defaults P = 0.1, F = 0.05)
+//   --luminance-white W  display-referred variant (implies --luminance-tolerance): the absolute
+//                      tolerance follows (Y/W)^(2/3) relative to the display white W, the same for
+//                      every material (the images are clamped to [0, 1]: W = 1)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
@@ -60,6 +67,10 @@ struct Options : SceneOptions {
   std::vector<float> qualities{5, 10, 15, 25, 35, 50, 75};
   double max_p99_de = 2.3;
   ToleranceReference tolerance = ToleranceReference::shared_max;
+  bool luminance = false;
+  float luminance_percentile = 0.1f;
+  float luminance_floor = 0.05f;
+  float luminance_white = 0.0f;  // > 0: display-referred variant
   bool check = false;
   std::string doc;
   Options() {
@@ -114,7 +125,19 @@ bool parse(int argc, char** argv, Options& o) {
       ok = u32(o.views, 1, 8);
     else if (a == "--per-component-tolerance")
       o.tolerance = ToleranceReference::per_component;
-    else if (a == "--max-p99-de" && v) {
+    else if (a == "--luminance-tolerance")
+      o.luminance = true;
+    else if (a == "--luminance-white" && v) {
+      char* end = nullptr;
+      o.luminance_white = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && o.luminance_white > 0 && o.luminance_white < 1e6f;
+      o.luminance = true;
+    } else if ((a == "--luminance-percentile" || a == "--luminance-floor") && v) {
+      char* end = nullptr;
+      const double x = std::strtod(argv[++i], &end);
+      ok = *end == '\0' && x >= 0 && x <= 1 && (a == "--luminance-percentile" || x > 0);
+      (a == "--luminance-floor" ? o.luminance_floor : o.luminance_percentile) = static_cast<float>(x);
+    } else if (a == "--max-p99-de" && v) {
       char* end = nullptr;
       o.max_p99_de = std::strtod(argv[++i], &end);
       ok = *end == '\0' && o.max_p99_de > 0;
@@ -302,11 +325,24 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::vector<Reference> refs;
+  std::ostringstream luminance_scales;
   for (const Material& m : w.materials) {
     auto r = make_reference(m, o.size);
     if (!r) {
       std::fprintf(stderr, "btflod-visibility: %s\n", r.message().c_str());
       return 1;
+    }
+    if (o.luminance) {
+      samples::apply_luminance_tolerance(r->inputs, m.dir.metadata.tile_size, m.dir.metadata.border,
+                                         o.luminance_percentile, o.luminance_floor, m.demo.u, m.demo.components,
+                                         o.luminance_white);
+      float lo = 1e30f, hi = 0.0f;
+      for (const BsvtfTileInput& t : r->inputs.tiles)
+        lo = std::min(lo, t.tolerance_scale), hi = std::max(hi, t.tolerance_scale);
+      std::printf("%s: luminance tolerance scales %.3f .. %.3f\n", m.demo.name.c_str(), static_cast<double>(lo),
+                  static_cast<double>(hi));
+      luminance_scales << " " << m.demo.name << " " << fmt("%.3f", lo) << (lo == hi ? "" : "–" + fmt("%.3f", hi))
+                       << ";";
     }
     refs.push_back(std::move(*r));
   }
@@ -450,6 +486,12 @@ int main(int argc, char** argv) {
     std::ostringstream doc;
     doc << "Tolerances: "
         << (o.tolerance == ToleranceReference::shared_max ? "`shared_max` (the default)" : "`per_component`")
+        << (o.luminance ? " × per-tile luminance scale (P = " + fmt("%.2f", o.luminance_percentile) +
+                              ", F = " + fmt("%.2f", o.luminance_floor) +
+                              (o.luminance_white > 0 ? ", display-referred, white = " + fmt("%g", o.luminance_white)
+                                                     : std::string()) +
+                              "; scales per material:" + luminance_scales.str() + ")"
+                        : std::string())
         << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
         << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
         << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size
@@ -459,7 +501,9 @@ int main(int argc, char** argv) {
         << table.str() << "\n"
         << summary.str();
     const bool shared = o.tolerance == ToleranceReference::shared_max;
-    if (!write_doc(o.doc, shared ? "visibility" : "visibility-per-component", doc.str())) {
+    const std::string marker =
+        std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
+    if (!write_doc(o.doc, marker, doc.str())) {
       std::fprintf(stderr, "btflod-visibility: cannot write %s\n", o.doc.c_str());
       return 1;
     }

@@ -555,6 +555,11 @@ struct BsvtfTileInput {
   TileId id;
   std::span<const float> samples;
   float weight = 0.0f;
+  /// Multiplies this tile's tolerances (every channel). 1 (the default) keeps the bytes of the
+  /// plain reference; a producer may lower it where errors are more visible, e.g. dark tiles
+  /// (luminance_tolerance_scale, codec/quantize.hpp). The tile header stores the product, so
+  /// readers need nothing. Must be finite and > 0.
+  float tolerance_scale = 1.0f;
 };
 
 /// Which value range scales a component's codec tolerance (tolerance_for_quality).
@@ -578,7 +583,8 @@ struct BsvtfBuildOptions {
 };
 
 /// Encodes tiles coarse to fine with the closed-loop residual codec and writes the container.
-/// Tolerances come from options.quality and options.tolerance_reference.
+/// Tolerances come from options.quality and options.tolerance_reference, times each tile's
+/// tolerance_scale (invalid_argument unless finite and in (0, 1e6)).
 /// metadata.component_ranges is filled from the tiles when empty, component_scales with 1 when
 /// empty, and metadata.quality from the options. Tiles of one level are encoded in parallel on
 /// the pool; each tile is coded against its parent's reconstruction. Returns the file bytes,
@@ -589,6 +595,10 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
   metadata.quality = options.quality;
   const TileLayout layout = metadata.layout();
   if (!layout.valid()) return make_error(Status::invalid_argument, "build_bsvtf: invalid tile layout");
+  for (const auto& t : tiles)
+    if (!(t.tolerance_scale > 0.0f) || !(t.tolerance_scale < 1e6f))
+      return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) tolerance scale %g not in (0, 1e6)",
+                        t.id.texture, t.id.level, t.id.x, t.id.y, static_cast<double>(t.tolerance_scale));
   for (const auto& t : tiles)
     if (t.samples.size() != layout.sample_count())
       return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) has %zu samples, expected %zu",
@@ -656,6 +666,7 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
                               : options.tolerance_reference == ToleranceReference::shared_max ? max_range
                                                                                               : metadata.component_ranges[c];
           tolerance[k] = tolerance_for_quality(options.quality, range);
+          if (t.tolerance_scale != 1.0f) tolerance[k] *= t.tolerance_scale;
         }
         std::vector<float>& recon = current.find(t.id.key())->second;
         recon.resize(layout.sample_count());

@@ -89,4 +89,23 @@ inline float tolerance_for_quality(float quality, float component_range) noexcep
   return range * kToleranceAtQuality50 * quality_scale(quality);
 }
 
+/// Perceptual (lightness-uniform) scale of a tile's tolerance from the radiance it shows.
+/// CIELAB lightness is L* = 116 (Y/Yn)^(1/3) − 16 (above the linear toe), so dL*/dY ∝ Y^(−2/3):
+/// an error δY changes L* by the same amount — is equally visible — when δY ∝ Y^(2/3). A
+/// tolerance that is absolute over the material (shared_max) therefore puts the most visible
+/// errors into its darkest texels (the sRGB curve, ≈ Y^(1/2.4), agrees). Scaling each tile's
+/// tolerance by
+///     s = (max(y_tile, y_floor) / y_ref)^(2/3)
+/// equalises the expected ΔL* over tiles: tiles brighter than y_ref get coarser steps, darker
+/// ones finer. y_floor (a small fraction of the material's peak) keeps black tiles from getting
+/// vanishing steps (below it the eye's toe, the 8-bit output and the tone map hide errors
+/// anyway). y_tile, y_ref and y_floor share one unit (any: only ratios count). Returns a
+/// positive finite scale, clamped to [1/64, 64]; non-finite or non-positive inputs give 1.
+inline float luminance_tolerance_scale(float y_tile, float y_ref, float y_floor) noexcept {
+  if (!(y_ref > 0.0f) || !std::isfinite(y_ref) || !std::isfinite(y_tile) || !std::isfinite(y_floor)) return 1.0f;
+  const float y = std::max(y_tile, std::max(y_floor, 1e-30f));
+  const float s = std::cbrt((y / y_ref) * (y / y_ref));  // (y / y_ref)^(2/3)
+  return std::clamp(s, 1.0f / 64.0f, 64.0f);
+}
+
 }  // namespace btflod

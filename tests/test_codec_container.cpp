@@ -432,3 +432,23 @@ TEST(CodecQuantize, LuminanceToleranceScaleFollowsLightness) {
   EXPECT_FLOAT_EQ(luminance_tolerance_scale(std::nanf(""), 1.0f, 0.1f), 1.0f);
   EXPECT_FLOAT_EQ(luminance_tolerance_scale(1e12f, 1.0f, 0.0f), 64.0f);  // clamped
 }
+
+// tolerance_min_scale: a floor (from the largest range) under per_component's small tolerances.
+TEST(CodecContainer, ToleranceMinScaleFloorsSmallComponentTolerances) {
+  Material m = make_material();
+  BsvtfBuildOptions per;
+  per.tolerance_reference = ToleranceReference::per_component;
+  for (auto& t : m.tiles) t.tolerance_min_scale = 0.5f;
+  const auto f = build_bsvtf(m.metadata, m.u, m.tiles, per).value();
+  const auto d = read_bsvtf(f).value();
+  const auto* e = d.find({0, 0, 0, 0});
+  TileHeaderInfo info;
+  ASSERT_EQ(tile_peek_header(std::span<const uint8_t>(f).subspan(e->offset, e->size), info), Status::success);
+  const float built_max = *std::max_element(d.metadata.component_ranges.begin(), d.metadata.component_ranges.end());
+  const float floor = tolerance_for_quality(50, built_max) * 0.5f;
+  for (int c = 0; c < 4; ++c) {
+    EXPECT_GE(info.tolerance[c], floor * 0.9999f);
+    EXPECT_FLOAT_EQ(info.tolerance[c], std::max(floor, tolerance_for_quality(50, d.metadata.component_ranges[c])));
+  }
+  EXPECT_FLOAT_EQ(info.tolerance[0], floor);  // the smallest component is lifted to the floor
+}

@@ -39,6 +39,9 @@
 //   --luminance-white W  display-referred variant (implies --luminance-tolerance): the absolute
 //                      tolerance follows (Y/W)^(2/3) relative to the display white W, the same for
 //                      every material (the images are clamped to [0, 1]: W = 1)
+//   --luminance-as-floor  use the luminance tolerance as a floor under the reference's own
+//                      (BsvtfTileInput::tolerance_min_scale; with --per-component-tolerance:
+//                      max(per-component tolerance, display-referred tolerance))
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
@@ -70,7 +73,8 @@ struct Options : SceneOptions {
   bool luminance = false;
   float luminance_percentile = 0.1f;
   float luminance_floor = 0.05f;
-  float luminance_white = 0.0f;  // > 0: display-referred variant
+  float luminance_white = 0.0f;     // > 0: display-referred variant
+  bool luminance_as_floor = false;  // --luminance-as-floor
   bool check = false;
   std::string doc;
   Options() {
@@ -125,6 +129,8 @@ bool parse(int argc, char** argv, Options& o) {
       ok = u32(o.views, 1, 8);
     else if (a == "--per-component-tolerance")
       o.tolerance = ToleranceReference::per_component;
+    else if (a == "--luminance-as-floor")
+      o.luminance_as_floor = o.luminance = true;
     else if (a == "--luminance-tolerance")
       o.luminance = true;
     else if (a == "--luminance-white" && v) {
@@ -336,9 +342,13 @@ int main(int argc, char** argv) {
       samples::apply_luminance_tolerance(r->inputs, m.dir.metadata.tile_size, m.dir.metadata.border,
                                          o.luminance_percentile, o.luminance_floor, m.demo.u, m.demo.components,
                                          o.luminance_white);
+      if (o.luminance_as_floor)  // the luminance tolerance as a floor under the reference's
+        for (BsvtfTileInput& t : r->inputs.tiles) t.tolerance_min_scale = t.tolerance_scale, t.tolerance_scale = 1.0f;
       float lo = 1e30f, hi = 0.0f;
-      for (const BsvtfTileInput& t : r->inputs.tiles)
-        lo = std::min(lo, t.tolerance_scale), hi = std::max(hi, t.tolerance_scale);
+      for (const BsvtfTileInput& t : r->inputs.tiles) {
+        const float x = o.luminance_as_floor ? t.tolerance_min_scale : t.tolerance_scale;
+        lo = std::min(lo, x), hi = std::max(hi, x);
+      }
       std::printf("%s: luminance tolerance scales %.3f .. %.3f\n", m.demo.name.c_str(), static_cast<double>(lo),
                   static_cast<double>(hi));
       luminance_scales << " " << m.demo.name << " " << fmt("%.3f", lo) << (lo == hi ? "" : "–" + fmt("%.3f", hi))

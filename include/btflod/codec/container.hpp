@@ -560,6 +560,10 @@ struct BsvtfTileInput {
   /// (luminance_tolerance_scale, codec/quantize.hpp). The tile header stores the product, so
   /// readers need nothing. Must be finite and > 0.
   float tolerance_scale = 1.0f;
+  /// If > 0, every channel's tolerance is at least tolerance_for_quality(quality, largest
+  /// component range) · tolerance_min_scale (a floor shared by all channels, e.g. the
+  /// display-referred tolerance under ToleranceReference::per_component). 0: no floor.
+  float tolerance_min_scale = 0.0f;
 };
 
 /// Which value range scales a component's codec tolerance (tolerance_for_quality).
@@ -596,7 +600,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
   const TileLayout layout = metadata.layout();
   if (!layout.valid()) return make_error(Status::invalid_argument, "build_bsvtf: invalid tile layout");
   for (const auto& t : tiles)
-    if (!(t.tolerance_scale > 0.0f) || !(t.tolerance_scale < 1e6f))
+    if (!(t.tolerance_scale > 0.0f) || !(t.tolerance_scale < 1e6f) || !(t.tolerance_min_scale >= 0.0f) ||
+        !(t.tolerance_min_scale < 1e6f))
       return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) tolerance scale %g not in (0, 1e6)",
                         t.id.texture, t.id.level, t.id.x, t.id.y, static_cast<double>(t.tolerance_scale));
   for (const auto& t : tiles)
@@ -667,6 +672,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
                                                                                               : metadata.component_ranges[c];
           tolerance[k] = tolerance_for_quality(options.quality, range);
           if (t.tolerance_scale != 1.0f) tolerance[k] *= t.tolerance_scale;
+          if (t.tolerance_min_scale > 0.0f)
+            tolerance[k] = std::max(tolerance[k], tolerance_for_quality(options.quality, max_range) * t.tolerance_min_scale);
         }
         std::vector<float>& recon = current.find(t.id.key())->second;
         recon.resize(layout.sample_count());

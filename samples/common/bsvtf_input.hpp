@@ -99,16 +99,8 @@ inline void apply_luminance_tolerance(BsvtfTileInputs& in, uint32_t tile_size, u
     const size_t rows = u.size() / components;
     for (size_t r = 0; r < rows; ++r) u0 += std::fabs(u[r * components]);
     u0 /= static_cast<double>(rows);
-    std::vector<float> lo(components, INFINITY), hi(components, -INFINITY);
-    for (const BsvtfTileInput& t : in.tiles)
-      for (uint32_t k = 0; k < 4; ++k) {
-        const uint64_t c = uint64_t{t.id.texture} * 4 + k;
-        if (c >= components) continue;
-        for (size_t i = k; i < t.samples.size(); i += 4)
-          lo[c] = std::min(lo[c], t.samples[i]), hi[c] = std::max(hi[c], t.samples[i]);
-      }
     float range = 0.0f;
-    for (uint32_t c = 0; c < components; ++c) range = std::max(range, hi[c] - lo[c]);
+    for (float r : bsvtf_component_ranges(in.tiles, components)) range = std::max(range, r);
     if (u0 > 0 && range > 0.0f) {
       y_ref = static_cast<float>(white / u0);
       factor = y_ref / range;

@@ -14,6 +14,7 @@
 
 #include "btflod/core/half.hpp"
 #include "gl_representations.hpp"
+#include "gl_util.hpp"
 
 namespace btflod::samples {
 namespace {
@@ -35,52 +36,6 @@ struct FeedbackSlot {
   uint32_t width = 0, height = 0;
   bool pending = false;  ///< holds a readback not yet returned by poll_feedback
 };
-
-std::string shader_log(GLuint obj, bool program) {
-  GLint len = 0;
-  if (program)
-    glGetProgramiv(obj, GL_INFO_LOG_LENGTH, &len);
-  else
-    glGetShaderiv(obj, GL_INFO_LOG_LENGTH, &len);
-  std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
-  if (program)
-    glGetProgramInfoLog(obj, len, nullptr, log.data());
-  else
-    glGetShaderInfoLog(obj, len, nullptr, log.data());
-  return log;
-}
-
-Result<GLuint> compile_program(const GlslProgramSource& src, const char* what) {
-  GLuint stages[2] = {glCreateShader(GL_VERTEX_SHADER), glCreateShader(GL_FRAGMENT_SHADER)};
-  const char* texts[2] = {src.vertex.c_str(), src.fragment.c_str()};
-  for (int i = 0; i < 2; ++i) {
-    glShaderSource(stages[i], 1, &texts[i], nullptr);
-    glCompileShader(stages[i]);
-    GLint ok = 0;
-    glGetShaderiv(stages[i], GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      std::string log = shader_log(stages[i], false);
-      glDeleteShader(stages[0]);
-      glDeleteShader(stages[1]);
-      return make_error(Status::unsupported, "GL: %s %s shader does not compile: %s", what, i ? "fragment" : "vertex",
-                        log.c_str());
-    }
-  }
-  GLuint prog = glCreateProgram();
-  glAttachShader(prog, stages[0]);
-  glAttachShader(prog, stages[1]);
-  glLinkProgram(prog);
-  glDeleteShader(stages[0]);
-  glDeleteShader(stages[1]);
-  GLint ok = 0;
-  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    std::string log = shader_log(prog, true);
-    glDeleteProgram(prog);
-    return make_error(Status::unsupported, "GL: %s program does not link: %s", what, log.c_str());
-  }
-  return prog;
-}
 
 class GlBackend final : public Backend {
  public:
@@ -145,7 +100,7 @@ class GlBackend final : public Backend {
     for (int i = 0; i < 3; ++i) {
       Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::gl450_core, config);
       if (!src) return src.error();
-      Result<GLuint> prog = compile_program(*src, shader_program_name(programs[i]));
+      Result<GLuint> prog = compile_gl_program(*src, shader_program_name(programs[i]));
       if (!prog) return prog.error();
       *out[i] = *prog;
     }
@@ -231,19 +186,10 @@ class GlBackend final : public Backend {
     glTextureSubImage3D(m.eigen_abrdfs, 0, 0, 0, 0, static_cast<GLsizei>(data.light_count),
                         static_cast<GLsizei>(data.view_count), static_cast<GLsizei>(data.components), GL_RGBA, GL_FLOAT,
                         u.data());
-    set_nearest(m.eigen_abrdfs);
-    std::vector<uint32_t> index;
-    std::vector<float> weight;
-    pack_angular_tables_rgba(data.angular, index, weight);
-    const GLsizei res = static_cast<GLsizei>(data.angular.resolution);
-    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.angular_index);
-    glTextureStorage3D(m.angular_index, 1, GL_RGBA32UI, res, res, 2);
-    glTextureSubImage3D(m.angular_index, 0, 0, 0, 0, res, res, 2, GL_RGBA_INTEGER, GL_UNSIGNED_INT, index.data());
-    set_nearest(m.angular_index);
-    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.angular_weight);
-    glTextureStorage3D(m.angular_weight, 1, GL_RGBA32F, res, res, 2);
-    glTextureSubImage3D(m.angular_weight, 0, 0, 0, 0, res, res, 2, GL_RGBA, GL_FLOAT, weight.data());
-    set_nearest(m.angular_weight);
+    set_gl_sampling(m.eigen_abrdfs, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+    const GlAngularTables tables = create_gl_angular_tables(data.angular);
+    m.angular_index = tables.index;
+    m.angular_weight = tables.weight;
     if (!data.eigen_textures.empty()) {
       const std::vector<float> v = pack_eigen_textures_rgba(data.eigen_textures);
       const GLsizei w = data.eigen_textures.width(), h = data.eigen_textures.height();
@@ -498,12 +444,6 @@ class GlBackend final : public Backend {
     return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
-  static void set_nearest(GLuint tex) {
-    glTextureParameteri(tex, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(tex, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    glTextureParameteri(tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  }
   static void bind(ShaderBinding b, GLuint tex) { glBindTextureUnit(static_cast<GLuint>(b), tex); }
 
   void submit_draw(const GlMesh& mesh, const ShaderParams& params) {

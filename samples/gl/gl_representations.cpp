@@ -6,49 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "gl_util.hpp"
+
 namespace btflod::samples {
 namespace {
-
-Result<GLuint> compile(const GlslProgramSource& src, const char* what) {
-  GLuint stages[2] = {glCreateShader(GL_VERTEX_SHADER), glCreateShader(GL_FRAGMENT_SHADER)};
-  const char* texts[2] = {src.vertex.c_str(), src.fragment.c_str()};
-  std::string log(4096, '\0');
-  for (int i = 0; i < 2; ++i) {
-    glShaderSource(stages[i], 1, &texts[i], nullptr);
-    glCompileShader(stages[i]);
-    GLint ok = 0;
-    glGetShaderiv(stages[i], GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      glGetShaderInfoLog(stages[i], static_cast<GLsizei>(log.size()), nullptr, log.data());
-      glDeleteShader(stages[0]);
-      glDeleteShader(stages[1]);
-      return make_error(Status::unsupported, "GL: %s %s shader does not compile: %s", what, i ? "fragment" : "vertex",
-                        log.c_str());
-    }
-  }
-  const GLuint prog = glCreateProgram();
-  glAttachShader(prog, stages[0]);
-  glAttachShader(prog, stages[1]);
-  glLinkProgram(prog);
-  glDeleteShader(stages[0]);
-  glDeleteShader(stages[1]);
-  GLint ok = 0;
-  glGetProgramiv(prog, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    glGetProgramInfoLog(prog, static_cast<GLsizei>(log.size()), nullptr, log.data());
-    glDeleteProgram(prog);
-    return make_error(Status::unsupported, "GL: %s program does not link: %s", what, log.c_str());
-  }
-  return prog;
-}
-
-void sampling(GLuint tex, GLenum min_filter, GLenum mag_filter, GLenum wrap) {
-  glTextureParameteri(tex, GL_TEXTURE_MIN_FILTER, static_cast<GLint>(min_filter));
-  glTextureParameteri(tex, GL_TEXTURE_MAG_FILTER, static_cast<GLint>(mag_filter));
-  glTextureParameteri(tex, GL_TEXTURE_WRAP_S, static_cast<GLint>(wrap));
-  glTextureParameteri(tex, GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
-  glTextureParameteri(tex, GL_TEXTURE_WRAP_R, static_cast<GLint>(wrap));
-}
 
 GLsizei sz(uint32_t v) { return static_cast<GLsizei>(v); }
 
@@ -69,23 +30,14 @@ GLuint float_array(uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, const
       data += static_cast<size_t>(wk) * hk * layers * 4;
     }
   }
-  sampling(t, mips > 1 ? GL_NEAREST_MIPMAP_NEAREST : GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  set_gl_sampling(t, mips > 1 ? GL_NEAREST_MIPMAP_NEAREST : GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
   return t;
 }
 
 void add_angular(GlRepresentation& r, const AngularTablesData& a) {
-  std::vector<uint32_t> index;
-  std::vector<float> weight;
-  pack_angular_tables_rgba(a, index, weight);
-  const GLsizei res = sz(a.resolution);
-  GLuint ti = 0;
-  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &ti);
-  glTextureStorage3D(ti, 1, GL_RGBA32UI, res, res, 2);
-  glTextureSubImage3D(ti, 0, 0, 0, 0, res, res, 2, GL_RGBA_INTEGER, GL_UNSIGNED_INT, index.data());
-  sampling(ti, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
-  r.units[r.unit_count++] = {ShaderBinding::angular_index, ti};
-  r.units[r.unit_count++] = {ShaderBinding::angular_weight,
-                             float_array(a.resolution, a.resolution, 2, 1, weight.data())};
+  const GlAngularTables t = create_gl_angular_tables(a);
+  r.units[r.unit_count++] = {ShaderBinding::angular_index, t.index};
+  r.units[r.unit_count++] = {ShaderBinding::angular_weight, t.weight};
 }
 
 Result<GlRepresentation> finish(GlRepresentation r, ShaderProgram program, const ShaderConfig& config) {
@@ -95,7 +47,7 @@ Result<GlRepresentation> finish(GlRepresentation r, ShaderProgram program, const
     destroy_gl_representation(r);
     return src.error();
   }
-  Result<GLuint> prog = compile(*src, shader_program_name(program));
+  Result<GLuint> prog = compile_gl_program(*src, shader_program_name(program));
   if (!prog) {
     destroy_gl_representation(r);
     return prog.error();
@@ -133,7 +85,7 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   glCreateTextures(GL_TEXTURE_2D, 1, &cluster);
   glTextureStorage2D(cluster, 1, GL_R32UI, sz(m.width), sz(m.height));
   glTextureSubImage2D(cluster, 0, 0, 0, sz(m.width), sz(m.height), GL_RED_INTEGER, GL_UNSIGNED_INT, m.cluster.data());
-  sampling(cluster, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  set_gl_sampling(cluster, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
   r.units[r.unit_count++] = {ShaderBinding::lpca_cluster, cluster};
   // Weights α'_j of the mean (j = 0) and the C eigen-BRDFs, 8-bit scales folded in (§6.3).
   r.units[r.unit_count++] = {ShaderBinding::lpca_weights,
@@ -147,7 +99,7 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);  // 4-byte texels: rows are always 4-aligned
   glTextureSubImage3D(volume, 0, 0, 0, 0, sz((m.components + 1) * R), sz(m.clusters * R), sz(R * R), GL_RGBA, GL_BYTE,
                       m.volume.data());
-  sampling(volume, GL_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE);
+  set_gl_sampling(volume, GL_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE);
   r.units[r.unit_count++] = {ShaderBinding::lpca_volume, volume};
   return finish(r, ShaderProgram::lpca, representation_config(base, m));
 }

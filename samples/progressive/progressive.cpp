@@ -60,6 +60,7 @@
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
+#include "common/doc_block.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
 #include "scene_render.hpp"
@@ -443,24 +444,6 @@ bool write_text(const std::string& path, const std::string& text) {
   return static_cast<bool>(out);
 }
 
-bool write_doc(const std::string& path, const std::string& body) {
-  std::string text;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (in) {
-      std::ostringstream ss;
-      ss << in.rdbuf();
-      text = ss.str();
-    }
-  }
-  const std::string begin = "<!-- progressive:begin -->", end = "<!-- progressive:end -->";
-  const std::string block = begin + "\n" + body + end;
-  const size_t b = text.find(begin), e = text.find(end);
-  if (b != std::string::npos && e != std::string::npos && e > b) text.replace(b, e + end.size() - b, block);
-  else text += "\n" + block + "\n";
-  return write_text(path, text);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -610,7 +593,7 @@ int main(int argc, char** argv) {
     }
   }
   doc << "\n";
-  if (!o.doc.empty() && !write_doc(o.doc, doc.str())) {
+  if (!o.doc.empty() && !samples::replace_doc_block(o.doc, "progressive", doc.str())) {
     std::fprintf(stderr, "btflod-progressive: cannot write %s\n", o.doc.c_str());
     return 1;
   }

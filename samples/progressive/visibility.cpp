@@ -59,6 +59,7 @@
 #include "btflod/core/image_io.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 #include "common/bsvtf_input.hpp"
+#include "common/doc_block.hpp"
 #include "scene_render.hpp"
 
 using namespace btflod;
@@ -292,28 +293,6 @@ std::string fmt(const char* f, double v) {
   return b;
 }
 
-// Replaces the block between <!-- NAME:begin --> and <!-- NAME:end --> in `path` (appends it
-// when absent).
-bool write_doc(const std::string& path, const std::string& name, const std::string& body) {
-  std::string text;
-  {
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream ss;
-    if (in) ss << in.rdbuf();
-    text = ss.str();
-  }
-  const std::string begin = "<!-- " + name + ":begin -->", end = "<!-- " + name + ":end -->";
-  const std::string block = begin + "\n" + body + end;
-  const size_t b = text.find(begin), e = text.find(end);
-  if (b != std::string::npos && e != std::string::npos && e > b)
-    text.replace(b, e + end.size() - b, block);
-  else
-    text += "\n" + block + "\n";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  return static_cast<bool>(out);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -513,7 +492,7 @@ int main(int argc, char** argv) {
     const bool shared = o.tolerance == ToleranceReference::shared_max;
     const std::string marker =
         std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
-    if (!write_doc(o.doc, marker, doc.str())) {
+    if (!samples::replace_doc_block(o.doc, marker, doc.str())) {
       std::fprintf(stderr, "btflod-visibility: cannot write %s\n", o.doc.c_str());
       return 1;
     }

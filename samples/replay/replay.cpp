@@ -31,6 +31,7 @@
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
+#include "common/doc_block.hpp"
 
 using namespace btflod;
 
@@ -402,26 +403,6 @@ std::string report(const Options& o, const World& w, const Result& a, const Resu
   return s.str();
 }
 
-bool write_doc(const std::string& path, const std::string& body) {
-  std::string text;
-  {
-    std::ifstream in(path, std::ios::binary);
-    if (in) {
-      std::ostringstream ss;
-      ss << in.rdbuf();
-      text = ss.str();
-    }
-  }
-  const std::string begin = "<!-- replay:begin -->", end = "<!-- replay:end -->";
-  const std::string block = begin + "\n" + body + end;
-  const size_t b = text.find(begin), e = text.find(end);
-  if (b != std::string::npos && e != std::string::npos && e > b) text.replace(b, e + end.size() - b, block);
-  else text += "\n" + block + "\n";
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out << text;
-  return static_cast<bool>(out);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -452,7 +433,7 @@ int main(int argc, char** argv) {
     std::printf("deterministic: %s (%zu requests replayed)\n", same ? "yes" : "NO", weighted.result().schedule.size());
     if (!same) return 1;
   }
-  if (!o.doc.empty() && !write_doc(o.doc, text)) {
+  if (!o.doc.empty() && !samples::replace_doc_block(o.doc, "replay", text)) {
     std::fprintf(stderr, "btflod-replay: cannot write %s\n", o.doc.c_str());
     return 1;
   }

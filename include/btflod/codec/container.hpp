@@ -586,6 +586,25 @@ struct BsvtfBuildOptions {
   ProgressCallback progress;  ///< stage "encode tiles", fraction of tiles done; false cancels
 };
 
+/// max − min of each of the `component_count` eigen-texture components over `tiles` (4
+/// channels per tile: component 4·texture + channel; components no tile holds get 0): what
+/// build_bsvtf() fills metadata.component_ranges with when it is empty. Allocates the result.
+inline std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput> tiles, uint32_t component_count) {
+  std::vector<float> lo(component_count, INFINITY), hi(component_count, -INFINITY);
+  for (const auto& t : tiles)
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint64_t c = uint64_t{t.id.texture} * 4 + k;
+      if (c >= component_count) continue;
+      for (size_t i = k; i < t.samples.size(); i += 4) {
+        lo[c] = std::min(lo[c], t.samples[i]);
+        hi[c] = std::max(hi[c], t.samples[i]);
+      }
+    }
+  std::vector<float> ranges(component_count);
+  for (uint32_t c = 0; c < component_count; ++c) ranges[c] = hi[c] >= lo[c] ? hi[c] - lo[c] : 0.0f;
+  return ranges;
+}
+
 /// Encodes tiles coarse to fine with the closed-loop residual codec and writes the container.
 /// Tolerances come from options.quality and options.tolerance_reference, times each tile's
 /// tolerance_scale (invalid_argument unless finite and in (0, 1e6)).
@@ -608,20 +627,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
     if (t.samples.size() != layout.sample_count())
       return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) has %zu samples, expected %zu",
                         t.id.texture, t.id.level, t.id.x, t.id.y, t.samples.size(), layout.sample_count());
-  if (metadata.component_ranges.empty()) {
-    std::vector<float> lo(metadata.component_count, INFINITY), hi(metadata.component_count, -INFINITY);
-    for (const auto& t : tiles)
-      for (uint32_t k = 0; k < 4; ++k) {
-        const uint64_t c = uint64_t{t.id.texture} * 4 + k;
-        if (c >= metadata.component_count) continue;
-        for (size_t i = k; i < t.samples.size(); i += 4) {
-          lo[c] = std::min(lo[c], t.samples[i]);
-          hi[c] = std::max(hi[c], t.samples[i]);
-        }
-      }
-    metadata.component_ranges.resize(metadata.component_count);
-    for (uint32_t c = 0; c < metadata.component_count; ++c) metadata.component_ranges[c] = hi[c] >= lo[c] ? hi[c] - lo[c] : 0.0f;
-  }
+  if (metadata.component_ranges.empty())
+    metadata.component_ranges = bsvtf_component_ranges(tiles, metadata.component_count);
   if (metadata.component_scales.empty()) metadata.component_scales.assign(metadata.component_count, 1.0f);
   float max_range = 0.0f;
   for (float r : metadata.component_ranges) max_range = std::max(max_range, std::isfinite(r) ? r : 0.0f);
@@ -671,7 +678,7 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
                               : options.tolerance_reference == ToleranceReference::shared_max ? max_range
                                                                                               : metadata.component_ranges[c];
           tolerance[k] = tolerance_for_quality(options.quality, range);
-          if (t.tolerance_scale != 1.0f) tolerance[k] *= t.tolerance_scale;
+          tolerance[k] *= t.tolerance_scale;  // × 1 is exact: default inputs keep their bytes
           if (t.tolerance_min_scale > 0.0f)
             tolerance[k] = std::max(tolerance[k], tolerance_for_quality(options.quality, max_range) * t.tolerance_min_scale);
         }

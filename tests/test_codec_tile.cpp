@@ -141,6 +141,50 @@ TEST(CodecTile, RoundTripWithoutParentStaysWithinTolerance) {
   }
 }
 
+// Every frequency-weighting exponent keeps the block-RMS bound (the tables are normalised to
+// the same RMS), is recorded in the header and decoded with its own table; the default writes
+// JPEG's table with the weighting bits 0 (the bytes of earlier versions).
+TEST(CodecTile, FrequencyWeightingExponentsRoundTripWithinTolerance) {
+  const TileLayout layout;
+  TileDecoder dec(layout);
+  const auto tile = make_tile(layout, 2, 1, 2);
+  const auto tol = tolerances(50);
+  std::vector<size_t> sizes;
+  for (uint32_t quarters = 0; quarters <= 4; ++quarters) {
+    const auto& f = btflod::quant_step_factors<8>(quarters);
+    double sum_sq = 0;
+    for (float x : f) sum_sq += double{x} * x;
+    EXPECT_NEAR(std::sqrt(sum_sq / 64), 2.0, 1e-5) << "quarters " << quarters;
+    if (quarters == 0) {
+      for (float x : f) EXPECT_NEAR(x, 2.0f, 1e-6f);
+    }
+    TileEncoder enc(layout);
+    enc.set_weight_quarters(quarters);
+    const auto e = encode(enc, tile, nullptr, 0, 0, tol);
+    btflod::TileHeaderInfo info;
+    ASSERT_EQ(btflod::tile_peek_header(e.bytes, info), Status::success);
+    EXPECT_EQ(info.weight_quarters, quarters);
+    EXPECT_EQ(e.bytes[3] >> 1, 4 - quarters) << "flag bits 1-3";
+    std::vector<float> out(layout.sample_count());
+    ASSERT_EQ(dec.decode(e.bytes, {}, 0, 0, out), Status::success) << dec.message();
+    EXPECT_EQ(0, std::memcmp(out.data(), e.reconstruction.data(), out.size() * 4)) << "quarters " << quarters;
+    for (uint32_t c = 0; c < 4; ++c) EXPECT_LE(max_block_rms(layout, tile, out, c), tol[c] * 1.001) << quarters;
+    sizes.push_back(e.bytes.size());
+  }
+  TileEncoder plain(layout);
+  EXPECT_EQ(encode(plain, tile, nullptr, 0, 0, tol).bytes.size(), sizes[4]) << "default = JPEG's table";
+  EXPECT_NE(sizes[0], sizes[4]) << "the flat table codes differently";
+  // Decoding with the wrong table must show: rewrite the code of a JPEG-table tile to flat.
+  TileEncoder jpeg(layout);
+  auto e = encode(jpeg, tile, nullptr, 0, 0, tol);
+  e.bytes[3] = static_cast<uint8_t>(e.bytes[3] | 4u << 1);
+  std::vector<float> wrong(layout.sample_count());
+  ASSERT_EQ(dec.decode(e.bytes, {}, 0, 0, wrong), Status::success);
+  double worst = 0;
+  for (uint32_t c = 0; c < 4; ++c) worst = std::max(worst, max_block_rms(layout, tile, wrong, c) / tol[c]);
+  EXPECT_GT(worst, 1.5) << "the header's table is the one used";
+}
+
 TEST(CodecTile, HigherQualityCostsMoreBytesAndLessError) {
   const TileLayout layout;
   TileEncoder enc(layout);
@@ -282,6 +326,8 @@ TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
   EXPECT_EQ(mutate(1, 16), Status::bad_data);    // block size
   EXPECT_EQ(mutate(2, 5), Status::bad_data);     // channels
   EXPECT_EQ(mutate(3, 0x81), Status::bad_data);  // unknown flag
+  for (uint8_t code = 5; code <= 7; ++code)       // frequency weighting code beyond 0..4
+    EXPECT_EQ(mutate(3, static_cast<uint8_t>(code << 1 | 1)), Status::bad_data) << int{code};
   EXPECT_EQ(mutate(4, 80), Status::bad_data);    // width ≠ height
   EXPECT_EQ(mutate(11, 0xFF), Status::bad_data);  // tolerance → NaN
   auto b = encoded_.bytes;

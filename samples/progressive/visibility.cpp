@@ -29,7 +29,8 @@
 //
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
-//            [--default-quality] [--per-component-tolerance] [--luminance-tolerance]
+//            [--default-quality] [--per-component-tolerance] [--luminance-tolerance] [--perceptual]
+//            [--weight-quarters Q] [--scene-directions N]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
@@ -42,6 +43,14 @@
 //   --luminance-as-floor  use the luminance tolerance as a floor under the reference's own
 //                      (BsvtfTileInput::tolerance_min_scale; with --per-component-tolerance:
 //                      max(per-component tolerance, display-referred tolerance))
+//   --perceptual       perceptual tolerances (codec/perceptual_tolerance.hpp
+//                      perceptual_tolerance_scales, exposure = the scene's sun colour): each
+//                      component of each tile gets an equal share of a ΔE*ab budget;
+//                      --dark-floor F, --reference-de E, --gain-power P, --direction-samples N,
+//                      --light-cos-power / --view-cos-power X tune it (library defaults otherwise)
+//   --scene-directions N  (with --perceptual) direction weights from the pixels of N training
+//                      views of the camera path (t = (2j+1)/2N, never the evaluation views)
+//   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4, default 4; BsvtfBuildOptions)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
@@ -56,6 +65,7 @@
 #include <string>
 #include <vector>
 
+#include "btflod/codec/perceptual_tolerance.hpp"
 #include "btflod/core/image_io.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 #include "common/bsvtf_input.hpp"
@@ -76,6 +86,10 @@ struct Options : SceneOptions {
   float luminance_floor = 0.05f;
   float luminance_white = 0.0f;     // > 0: display-referred variant
   bool luminance_as_floor = false;  // --luminance-as-floor
+  bool perceptual = false;          // --perceptual: perceptual_tolerance_scales
+  PerceptualToleranceOptions perceptual_options;
+  uint32_t weight_quarters = kJpegWeightQuarters;  // --weight-quarters: JPEG table exponent × 4
+  uint32_t scene_direction_views = 0;  // > 0: direction weights from that many training views
   bool check = false;
   std::string doc;
   Options() {
@@ -85,6 +99,10 @@ struct Options : SceneOptions {
     repeat = 4;
     tile_size = 64;
     quality = 50;
+    // 768×432: every level of the 3-level pyramid covers a good share of the pixels (at 256×144
+    // the finest level is hardly shown, so its loss would barely count).
+    width = 768;
+    height = 432;
   }
 };
 
@@ -134,6 +152,31 @@ bool parse(int argc, char** argv, Options& o) {
       o.luminance_as_floor = o.luminance = true;
     else if (a == "--luminance-tolerance")
       o.luminance = true;
+    else if (a == "--perceptual")
+      o.perceptual = true;
+    else if ((a == "--reference-de" || a == "--dark-floor") && v) {
+      char* end = nullptr;
+      const float x = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && x >= 0 && x < 1e6f;
+      (a == "--reference-de" ? o.perceptual_options.reference_delta_e : o.perceptual_options.dark_floor) = x;
+      o.perceptual = true;
+    } else if ((a == "--light-cos-power" || a == "--view-cos-power") && v) {
+      char* end = nullptr;
+      const float x = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && x >= 0 && x <= 64;
+      (a == "--light-cos-power" ? o.perceptual_options.light_cosine_power : o.perceptual_options.view_cosine_power) = x;
+      o.perceptual = true;
+    } else if (a == "--gain-power" && v) {
+      char* end = nullptr;
+      o.perceptual_options.gain_power = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && o.perceptual_options.gain_power >= 0.125 && o.perceptual_options.gain_power <= 64;
+      o.perceptual = true;
+    } else if (a == "--weight-quarters")
+      ok = u32(o.weight_quarters, 0, 4);
+    else if (a == "--scene-directions")
+      ok = u32(o.scene_direction_views, 1, 64), o.perceptual = true;
+    else if (a == "--direction-samples")
+      ok = u32(o.perceptual_options.direction_samples, 1, 1u << 20), o.perceptual = true;
     else if (a == "--luminance-white" && v) {
       char* end = nullptr;
       o.luminance_white = std::strtof(argv[++i], &end);
@@ -333,6 +376,41 @@ int main(int argc, char** argv) {
       luminance_scales << " " << m.demo.name << " " << fmt("%.3f", lo) << (lo == hi ? "" : "–" + fmt("%.3f", hi))
                        << ";";
     }
+    if (o.perceptual) {
+      PerceptualToleranceOptions po = o.perceptual_options;
+      po.exposure = {w.light_color.r, w.light_color.g, w.light_color.b};  // the scene's sun, clamped at 1
+      std::vector<float> hist;
+      if (o.scene_direction_views > 0) {
+        // Training views t = (2j + 1) / 2N on the camera path: never the evaluation views
+        // (t = 0, 1/2, 1 for 3 views; N even keeps 1/2 out).
+        const uint32_t n = o.scene_direction_views;
+        hist.assign(size_t{m.demo.light_count} * m.demo.view_count, 0.0f);
+        const uint32_t mi = static_cast<uint32_t>(&m - w.materials.data());
+        for (uint32_t j = 0; j < n; ++j) {
+          const scene::View sv = scene::camera_path(2 * j + 1, 2 * n + 1, o.width, o.height);
+          Camera cam;
+          cam.position = sv.eye, cam.target = sv.target, cam.fov_y_degrees = sv.fov_y_degrees;
+          cam.width = sv.width, cam.height = sv.height;
+          for (const Pixel& p : prepare_view(w, cam))
+            if (p.hit && p.material == mi) accumulate_direction_weights(p.light, p.view, m.demo.view_count, hist);
+        }
+        po.direction_weights = hist;
+      }
+      BsvtfMetadata md = m.dir.metadata;
+      md.component_ranges.clear();  // the ranges build_bsvtf will use (from the tiles)
+      auto rep = perceptual_tolerance_scales(md, m.demo.u, r->inputs.tiles, po);
+      if (!rep) {
+        std::fprintf(stderr, "btflod-visibility: %s\n", rep.message().c_str());
+        return 1;
+      }
+      std::printf("%s: perceptual channel scales %.4f .. %.4f (R = %.3g); gains", m.demo.name.c_str(),
+                  static_cast<double>(rep->min_channel_scale), static_cast<double>(rep->max_channel_scale),
+                  static_cast<double>(rep->largest_range));
+      for (float gc : rep->component_gain) std::printf(" %.3g", static_cast<double>(gc));
+      std::printf("\n");
+      luminance_scales << " " << m.demo.name << " " << fmt("%.4f", rep->min_channel_scale) << "–"
+                       << fmt("%.4f", rep->max_channel_scale) << ";";
+    }
     refs.push_back(std::move(*r));
   }
   std::vector<Camera> cams;
@@ -384,6 +462,7 @@ int main(int argc, char** argv) {
       BsvtfBuildOptions bo;
       bo.quality = q;
       bo.tolerance_reference = o.tolerance;
+      bo.weight_quarters = o.weight_quarters;
       auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());

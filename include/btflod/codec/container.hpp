@@ -13,6 +13,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -564,6 +565,10 @@ struct BsvtfTileInput {
   /// component range) · tolerance_min_scale (a floor shared by all channels, e.g. the
   /// display-referred tolerance under ToleranceReference::per_component). 0: no floor.
   float tolerance_min_scale = 0.0f;
+  /// Multiplies channel k's tolerance (component 4·texture + k) on top of tolerance_scale, e.g.
+  /// the perceptual weights of perceptual_tolerance_scales() (codec/perceptual_tolerance.hpp).
+  /// 1 (the default) keeps the bytes. Each must be finite and in (0, 1e6).
+  std::array<float, 4> channel_scale{1.0f, 1.0f, 1.0f, 1.0f};
 };
 
 /// Which value range scales a component's codec tolerance (tolerance_for_quality).
@@ -582,6 +587,9 @@ struct BsvtfBuildOptions {
   float quality = 50.0f;      ///< 1..100, see tolerance_for_quality
   ToleranceReference tolerance_reference = ToleranceReference::shared_max;
   int deflate_level = 6;      ///< zlib level 0..9
+  /// Frequency weighting: JPEG's table to the power weight_quarters / 4 (0..4; 4 = JPEG's table,
+  /// the bytes of earlier versions; codec/quantize.hpp quant_step_factors). Stored per tile.
+  uint32_t weight_quarters = kJpegWeightQuarters;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
   ProgressCallback progress;  ///< stage "encode tiles", fraction of tiles done; false cancels
 };
@@ -607,7 +615,7 @@ inline std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput>
 
 /// Encodes tiles coarse to fine with the closed-loop residual codec and writes the container.
 /// Tolerances come from options.quality and options.tolerance_reference, times each tile's
-/// tolerance_scale (invalid_argument unless finite and in (0, 1e6)).
+/// tolerance_scale and channel_scale (invalid_argument unless finite and in (0, 1e6)).
 /// metadata.component_ranges is filled from the tiles when empty, component_scales with 1 when
 /// empty, and metadata.quality from the options. Tiles of one level are encoded in parallel on
 /// the pool; each tile is coded against its parent's reconstruction. Returns the file bytes,
@@ -616,11 +624,14 @@ inline std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput>
 inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const float> u,
                                                 std::span<const BsvtfTileInput> tiles, const BsvtfBuildOptions& options = {}) {
   metadata.quality = options.quality;
+  if (options.weight_quarters > kJpegWeightQuarters)
+    return make_error(Status::invalid_argument, "build_bsvtf: weight_quarters %u not in 0..4", options.weight_quarters);
   const TileLayout layout = metadata.layout();
   if (!layout.valid()) return make_error(Status::invalid_argument, "build_bsvtf: invalid tile layout");
   for (const auto& t : tiles)
     if (!(t.tolerance_scale > 0.0f) || !(t.tolerance_scale < 1e6f) || !(t.tolerance_min_scale >= 0.0f) ||
-        !(t.tolerance_min_scale < 1e6f))
+        !(t.tolerance_min_scale < 1e6f) ||
+        std::any_of(t.channel_scale.begin(), t.channel_scale.end(), [](float x) { return !(x > 0.0f) || !(x < 1e6f); }))
       return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) tolerance scale %g not in (0, 1e6)",
                         t.id.texture, t.id.level, t.id.x, t.id.y, static_cast<double>(t.tolerance_scale));
   for (const auto& t : tiles)
@@ -657,6 +668,7 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
     for (size_t i : list) current[tiles[i].id.key()];  // pre-create slots: workers only write values
     pool.parallel_for(0, list.size(), 4, [&](size_t begin, size_t end) {
       TileEncoder encoder(layout, options.deflate_level);
+      encoder.set_weight_quarters(options.weight_quarters);
       std::vector<uint8_t> buffer(encoder.bound());
       for (size_t j = begin; j < end; ++j) {
         const BsvtfTileInput& t = tiles[list[j]];
@@ -678,7 +690,7 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
                               : options.tolerance_reference == ToleranceReference::shared_max ? max_range
                                                                                               : metadata.component_ranges[c];
           tolerance[k] = tolerance_for_quality(options.quality, range);
-          tolerance[k] *= t.tolerance_scale;  // × 1 is exact: default inputs keep their bytes
+          tolerance[k] *= t.tolerance_scale * t.channel_scale[k];  // × 1 is exact: default inputs keep their bytes
           if (t.tolerance_min_scale > 0.0f)
             tolerance[k] = std::max(tolerance[k], tolerance_for_quality(options.quality, max_range) * t.tolerance_min_scale);
         }

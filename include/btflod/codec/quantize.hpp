@@ -5,7 +5,8 @@
 // user quality into an absolute error tolerance t per component (tolerance_for_quality), and
 // the step of coefficient k is
 //   step_k = t · 2 w_k / rms(w),
-// where w is JPEG's luminance table (ITU T.81 Annex K.1), resampled for other block sizes. With
+// where w is JPEG's luminance table (ITU T.81 Annex K.1), resampled for other block sizes, or
+// that table raised to a power γ ∈ {0, 1/4, 1/2, 3/4, 1} (quant_step_factors). With
 // round-to-nearest, |e_k| ≤ step_k / 2 = t w_k / rms(w), so Σ e_k² ≤ t² N²; the DCT being
 // orthonormal (codec/dct.hpp), the RMS error of every N×N block is at most t. This is the
 // guarantee the tests check.
@@ -25,11 +26,21 @@ inline constexpr std::array<uint8_t, 64> kJpegLumaTable = {
     18, 22, 37, 56, 68,  109, 103, 77,  24, 35, 55, 64, 81,  104, 113, 92,   //
     49, 64, 78, 87, 103, 121, 120, 101, 72, 92, 95, 98, 112, 100, 103, 99};
 
-/// Normalised step factors 2 w_k / rms(w) for an N×N block, row-major (v, u). For N ≠ 8 the
-/// JPEG table is sampled bilinearly at the same relative frequency. Built once; thread-safe.
+/// Frequency weighting: the step of coefficient k follows w_k^γ with γ = quarters / 4 of JPEG's
+/// table w. 4 (the default) is JPEG's table itself; smaller exponents flatten it towards one
+/// step for every frequency (0). JPEG's table encodes the eye's lower contrast sensitivity at
+/// high spatial frequencies for 8×8 pixel blocks viewed directly; eigen-textures are seen
+/// through a BTF reconstruction, a mip chain and the display, and a per-pixel colour-difference
+/// criterion (p99 ΔE*ab, docs/bsvtf_format.md) is met with fewer bytes by a flatter table
+/// (measured: γ = 1/4). Every exponent keeps the block-RMS bound below.
+inline constexpr uint32_t kJpegWeightQuarters = 4;
+
+/// Normalised step factors 2 w_k^γ / rms(w^γ) for an N×N block, row-major (v, u), γ =
+/// quarters / 4 (quarters ≤ 4; larger values are treated as 4). For N ≠ 8 the JPEG table is
+/// sampled bilinearly at the same relative frequency. Built once per (N, quarters); thread-safe.
 template <int N>
-inline const std::array<float, N * N>& quant_step_factors() noexcept {
-  static const std::array<float, N * N> factors = [] {
+inline const std::array<float, N * N>& quant_step_factors(uint32_t quarters = kJpegWeightQuarters) noexcept {
+  static const std::array<std::array<float, N * N>, kJpegWeightQuarters + 1> tables = [] {
     std::array<double, N * N> w{};
     for (int v = 0; v < N; ++v)
       for (int u = 0; u < N; ++u) {
@@ -40,14 +51,18 @@ inline const std::array<float, N * N>& quant_step_factors() noexcept {
         w[v * N + u] = (1 - tv) * ((1 - tu) * at(v0, u0) + tu * at(v0, u0 + 1)) +
                        tv * ((1 - tu) * at(v0 + 1, u0) + tu * at(v0 + 1, u0 + 1));
       }
-    double sum_sq = 0;
-    for (double x : w) sum_sq += x * x;
-    const double rms = std::sqrt(sum_sq / (N * N));
-    std::array<float, N * N> f{};
-    for (int i = 0; i < N * N; ++i) f[i] = static_cast<float>(2.0 * w[i] / rms);
-    return f;
+    std::array<std::array<float, N * N>, kJpegWeightQuarters + 1> out{};
+    for (uint32_t q = 0; q <= kJpegWeightQuarters; ++q) {
+      std::array<double, N * N> wq{};
+      for (int i = 0; i < N * N; ++i) wq[i] = q == kJpegWeightQuarters ? w[i] : std::pow(w[i], q / 4.0);
+      double sum_sq = 0;
+      for (double x : wq) sum_sq += x * x;
+      const double rms = std::sqrt(sum_sq / (N * N));
+      for (int i = 0; i < N * N; ++i) out[q][i] = static_cast<float>(2.0 * wq[i] / rms);
+    }
+    return out;
   }();
-  return factors;
+  return tables[std::min(quarters, kJpegWeightQuarters)];
 }
 
 /// Zig-zag scan order of an N×N block (JPEG order generalised): entry i is the row-major index

@@ -11,7 +11,9 @@
 //
 // Payload layout (little-endian), tile format version 2:
 //   u8  format version (2)        u8  block size (8)       u8 channels C (1..4)
-//   u8  flags (bit 0: residual to the parent)              u16 stored width S, u16 stored height S
+//   u8  flags (bit 0: residual to the parent; bits 1–3: 4 − the frequency-weighting exponent in
+//       quarters, 0..4 — 0 is JPEG's table, codec/quantize.hpp quant_step_factors; 5..7 and
+//       bits 4–7 are invalid)                              u16 stored width S, u16 stored height S
 //   f32 tolerance[C]              (absolute block-RMS error bound per channel, codec/quantize.hpp)
 //   u32 symbol bytes              (size of the inflated symbol stream)
 //   raw deflate stream            (RFC 1951, no zlib header) of the symbol stream
@@ -263,6 +265,7 @@ struct TileHeaderInfo {
   uint32_t channels = 0;
   uint32_t stored_size = 0;
   bool residual = false;  ///< true: decoding needs the parent's decoded tile
+  uint32_t weight_quarters = kJpegWeightQuarters;  ///< frequency-weighting exponent γ · 4 (quant_step_factors)
   float tolerance[kTileMaxChannels] = {};
   uint32_t symbol_bytes = 0;
 };
@@ -281,7 +284,9 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
   if (payload[1] != kTileBlock) return fail(Status::bad_data, "tile block size is not 8");
   const uint32_t channels = payload[2];
   if (channels < 1 || channels > kTileMaxChannels) return fail(Status::bad_data, "tile channel count not in 1..4");
-  if ((payload[3] & ~1u) != 0) return fail(Status::bad_data, "tile flags have unknown bits set");
+  if ((payload[3] & ~0x0Fu) != 0) return fail(Status::bad_data, "tile flags have unknown bits set");
+  const uint32_t softening = (payload[3] >> 1) & 7u;
+  if (softening > kJpegWeightQuarters) return fail(Status::bad_data, "tile frequency weighting code not in 0..4");
   if (payload.size() < tile_header_size(channels)) return fail(Status::short_output, "tile payload shorter than its header");
   uint16_t w = 0, h = 0;
   std::memcpy(&w, payload.data() + 4, 2);
@@ -290,6 +295,7 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
   info.channels = channels;
   info.stored_size = w;
   info.residual = (payload[3] & 1u) != 0;
+  info.weight_quarters = kJpegWeightQuarters - softening;
   for (uint32_t c = 0; c < channels; ++c) {
     float t = 0;
     std::memcpy(&t, payload.data() + 8 + 4 * c, 4);
@@ -592,7 +598,7 @@ class TileDecoder {
     const uint32_t s = layout_.stored_size();
     const uint32_t ch = layout_.channels;
     const uint32_t blocks_per_side = s / kTileBlock;
-    const auto& factors = quant_step_factors<kTileBlock>();
+    const auto& factors = quant_step_factors<kTileBlock>(info.weight_quarters);
     alignas(32) float steps[kTileMaxChannels][64];
     for (uint32_t c = 0; c < ch; ++c)
       for (int k = 0; k < 64; ++k) steps[c][k] = info.tolerance[c] * factors[k];
@@ -675,6 +681,12 @@ class TileEncoder {
   }
 
   const TileLayout& layout() const noexcept { return layout_; }
+  /// Frequency weighting of the following encodes: JPEG's table to the power quarters / 4
+  /// (codec/quantize.hpp quant_step_factors; stored in the tile header, so decoders need
+  /// nothing). Values above 4 are treated as 4 (JPEG's table, the default and the bytes of
+  /// earlier versions).
+  void set_weight_quarters(uint32_t quarters) noexcept { weight_quarters_ = std::min(quarters, kJpegWeightQuarters); }
+  uint32_t weight_quarters() const noexcept { return weight_quarters_; }
   /// tile_encode_bound(layout()).
   size_t bound() const noexcept { return tile_encode_bound(layout_); }
 
@@ -714,7 +726,7 @@ class TileEncoder {
     const uint32_t blocks_per_side = s / kTileBlock;
     const size_t blocks = size_t{blocks_per_side} * blocks_per_side;
     constexpr int kBlockArea = kTileBlock * kTileBlock;
-    const auto& factors = quant_step_factors<kTileBlock>();
+    const auto& factors = quant_step_factors<kTileBlock>(weight_quarters_);
     alignas(32) float residual[kBlockArea];
     alignas(32) float coef[kBlockArea];
     for (uint32_t c = 0; c < ch; ++c) {
@@ -779,7 +791,7 @@ class TileEncoder {
     o[0] = kTileFormatVersion;
     o[1] = kTileBlock;
     o[2] = static_cast<uint8_t>(ch);
-    o[3] = parent.empty() ? 0 : 1;
+    o[3] = static_cast<uint8_t>((parent.empty() ? 0u : 1u) | (kJpegWeightQuarters - weight_quarters_) << 1);
     const uint16_t size16 = static_cast<uint16_t>(s);
     std::memcpy(o + 4, &size16, 2);
     std::memcpy(o + 6, &size16, 2);
@@ -820,6 +832,7 @@ class TileEncoder {
   std::vector<uint8_t> symbols_;
   z_stream stream_;
   bool ready_ = false;
+  uint32_t weight_quarters_ = kJpegWeightQuarters;
   const char* message_ = "";
 };
 

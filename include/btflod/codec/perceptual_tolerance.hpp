@@ -1,0 +1,332 @@
+// btflod codec — perceptual codec tolerances (offline, before build_bsvtf).
+//
+// The tile codec quantises each eigen-texture component to an absolute tolerance t_c. What a
+// viewer sees is the rendered radiance, not the eigen-texture: at texel x lit from l and seen
+// from v the BTF is Σ_c v_c(x) U[(l, v), c] (paper 000 eq. 4–5), so an error δv_c changes the
+// displayed colour by δv_c · U[(l, v), :, c], and how visible that is depends on the colour it
+// lands on: CIELAB (ΔE*ab ≈ one just-noticeable difference at 2.3) is ∝ Y^(1/3) above its toe,
+// so the same radiance error is ~10× more visible on a texel at 1 % of white than at white, and
+// invisible where the display clips. To first order the ΔE*ab of component c's error is
+//     δE = |J(x, l, v) · U[(l, v), :, c]| · |δv_c|,   J = ∂Lab/∂RGB at the rendered colour
+// (the gain g_c(x, l, v) = |J · U_c|). With independent quantisation errors the squared ΔE adds
+// over components, and the rate-distortion optimum of "Σ bits subject to Σ_c G_c² t_c² = D"
+// (reverse water-filling at high rate: −log t_c per component, one Lagrange multiplier) is
+//     t_c · G_c = const,   G_c = the RMS of g_c over the tile's texels and the directions,
+// i.e. every component spends the same share of the perceptual error budget. For FMF with an
+// orthonormal U and a uniform sensitivity this reduces to ToleranceReference::shared_max (one
+// absolute tolerance); the perceptual weights add what it misses: dark texels, colour
+// components (a*, b* are 500× / 200× differences of f(X), f(Y), f(Z)) and clipped highlights.
+//
+// perceptual_tolerance_scales() estimates G_c per tile position (level, x, y) from a sample
+// of the tile's interior texels and of the (light, view) pairs, and stores
+//     channel_scale = tolerance_for_quality(q, reference_delta_e) / G_c / tolerance_for_quality(q, R)
+//                   = reference_delta_e / (G_c · R)          (R = the largest component range)
+// in BsvtfTileInput::channel_scale, so that build_bsvtf with ToleranceReference::shared_max
+// codes component c to t_c = tolerance_for_quality(q, reference_delta_e) / G_c: at quality 50
+// each component's block-RMS error is ≈ reference_delta_e / 128 ΔE*ab (the quality keeps its
+// meaning; the tile header stores the absolute tolerances, readers need nothing).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <unordered_map>
+#include <vector>
+
+#include "btflod/angular/angular_sample.hpp"
+#include "btflod/codec/container.hpp"
+#include "btflod/codec/quantize.hpp"
+#include "btflod/core/result.hpp"
+#include "btflod/core/thread_pool.hpp"
+
+namespace btflod {
+
+/// Options for perceptual_tolerance_scales().
+struct PerceptualToleranceOptions {
+  /// Display-linear RGB = exposure ⊙ BTF value; the display clips at 1 (white). E.g. the light's
+  /// colour times the exposure of the renderer. Each must be finite and > 0.
+  std::array<float, 3> exposure{1.0f, 1.0f, 1.0f};
+  /// ΔE*ab that plays the role of the component range in tolerance_for_quality (> 0). 100 (the
+  /// L* scale) gives ≈ 0.78 ΔE*ab block-RMS per component at quality 50.
+  float reference_delta_e = 100.0f;
+  /// Relative luminance below which the sensitivity stops growing (0: CIELAB's own linear toe
+  /// at 0.008856). In [0, 1).
+  float dark_floor = 0.0f;
+  /// Interior texels are sampled every `texel_stride` texels in x and y (≥ 1).
+  uint32_t texel_stride = 4;
+  /// (light, view) pairs sampled, stratified over U's angular rows (≥ 1; capped at the rows).
+  uint32_t direction_samples = 1024;
+  /// How often a rendered pixel shows the pair (l, v), up to a constant: cos θ_l^light_cosine_power
+  /// · cos θ_v^view_cosine_power (z of the metadata's unit direction vectors). view power 1 is
+  /// projected area: a surface seen at θ_v covers ∝ cos θ_v of the screen. Both 0: every
+  /// measured pair alike. Needs light_directions / view_directions with u_rows = colours ·
+  /// lights · views (row = (light · views + view) · colours + colour) unless both are 0.
+  float light_cosine_power = 0.0f;
+  float view_cosine_power = 1.0f;
+  /// If not empty: the frequency of each (light, view) pair in rendering instead of the cosine
+  /// model, lights × views entries (index light · views + view), ≥ 0 and finite, not all 0 —
+  /// e.g. accumulated from a renderer's feedback pass with accumulate_direction_weights().
+  std::span<const float> direction_weights;
+  /// G_c is the power mean (mean of g_c^gain_power)^(1/gain_power) over the samples: 2 (RMS,
+  /// the squared-error optimum) or larger to weight the most sensitive pixels more (a
+  /// high-percentile criterion). In [0.125, 64].
+  float gain_power = 1.0f;
+  /// channel_scale is clamped to [min_scale, max_scale] (0 < min ≤ max < 1e6): a component
+  /// that is never visible (all clipped, or U_c = 0) gets max_scale.
+  float min_scale = 1.0f / 4096.0f;
+  float max_scale = 16.0f;
+  ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
+};
+
+/// What perceptual_tolerance_scales() found (for reports).
+struct PerceptualToleranceReport {
+  float largest_range = 0.0f;                   ///< R: the shared_max reference
+  float min_channel_scale = 0.0f, max_channel_scale = 0.0f;
+  std::vector<float> component_gain;            ///< C values: G_c (ΔE*ab per unit of v_c), RMS over all positions
+};
+
+/// Adds one rendered pixel's angular interpolation weights to a (light, view) histogram for
+/// PerceptualToleranceOptions::direction_weights: weights[l · view_count + v] += w_l · w_v for
+/// the ≤ 3 × 3 taps. Out-of-range indices and non-finite or negative weights are skipped.
+/// noexcept, no allocation.
+inline void accumulate_direction_weights(const AngularSample& light, const AngularSample& view, uint32_t view_count,
+                                         std::span<float> weights) noexcept {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const float w = light.weight[i] * view.weight[j];
+      const size_t k = size_t{light.index[i]} * view_count + view.index[j];
+      if (view.index[j] < view_count && k < weights.size() && w > 0.0f && std::isfinite(w)) weights[k] += w;
+    }
+}
+
+namespace detail {
+
+// ∂(L*, a*, b*)/∂(linear sRGB) · d, the ΔE*ab per unit step along d at `rgb` (display-linear);
+// clipped channels (≥ 1) do not move. CIELAB after CIE 15 with the D65 white of image_metrics.
+inline float perceptual_gain(const float rgb[3], const float d[3], float dark_floor) noexcept {
+  constexpr float kM[3][3] = {{0.4124564f, 0.3575761f, 0.1804375f},
+                              {0.2126729f, 0.7151522f, 0.0721750f},
+                              {0.0193339f, 0.1191920f, 0.9503041f}};
+  constexpr float kWhite[3] = {0.95047f, 1.0f, 1.08883f};
+  constexpr float kDelta3 = (6.0f / 29.0f) * (6.0f / 29.0f) * (6.0f / 29.0f);
+  constexpr float kToeSlope = 1.0f / (3.0f * (6.0f / 29.0f) * (6.0f / 29.0f));
+  float xyz[3] = {0, 0, 0}, dxyz[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) {
+      xyz[i] += kM[i][k] * rgb[k];
+      if (rgb[k] < 1.0f) dxyz[i] += kM[i][k] * d[k];
+    }
+  float df[3];
+  for (int i = 0; i < 3; ++i) {
+    const float t = std::max(xyz[i] / kWhite[i], dark_floor);
+    // f(t) = t^(1/3) above δ³, linear below: f'(t) = t^(−2/3) / 3 or the toe slope.
+    df[i] = (t > kDelta3 ? 1.0f / (3.0f * std::cbrt(t * t)) : kToeSlope) * dxyz[i] / kWhite[i];
+  }
+  const float dl = 116.0f * df[1], da = 500.0f * (df[0] - df[1]), db = 200.0f * (df[1] - df[2]);
+  return std::sqrt(dl * dl + da * da + db * db);
+}
+
+}  // namespace detail
+
+/// Sets BsvtfTileInput::channel_scale of every tile so that build_bsvtf with
+/// ToleranceReference::shared_max (the default) codes each component of each tile to an equal
+/// share of a perceptual (ΔE*ab) error budget (see the file comment; this is the rate-
+/// distortion allocation t_c·G_c = const). `u` is U as passed to build_bsvtf: u_rows ×
+/// component_count floats, row = angular sample · color_channels + colour (color_channels 3 =
+/// linear RGB, or 1 = luminance: grey). Tiles of one position (level, x, y) are evaluated
+/// together (every component adds to the same texels); a component whose texture has no tile
+/// at a position counts as 0 there. metadata.component_ranges (or, when empty, the ranges of
+/// the tiles) give R; metadata.component_scales (when present) multiply v_c.
+/// Returns the report, or invalid_argument (options out of range, U size ≠ u_rows × C, tile
+/// sizes ≠ the layout, non-finite samples) / unsupported (ColorMode::ycbcr). The tiles are only
+/// modified on success. Deterministic for any thread count. Allocates (set-up code).
+inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const BsvtfMetadata& metadata, std::span<const float> u,
+                                                                     std::span<BsvtfTileInput> tiles,
+                                                                     const PerceptualToleranceOptions& options = {}) {
+  const PerceptualToleranceOptions& o = options;
+  const bool options_ok = std::isfinite(o.light_cosine_power) && std::isfinite(o.view_cosine_power) &&
+                          o.light_cosine_power >= 0.0f && o.view_cosine_power >= 0.0f && o.light_cosine_power <= 64.0f &&
+                          o.view_cosine_power <= 64.0f && std::all_of(o.exposure.begin(), o.exposure.end(), [](float e) { return e > 0.0f && e < 1e30f; }) &&
+                          o.reference_delta_e > 0.0f && o.reference_delta_e < 1e30f && o.dark_floor >= 0.0f &&
+                          o.dark_floor < 1.0f && o.texel_stride >= 1 && o.direction_samples >= 1 && o.gain_power >= 0.125f && o.gain_power <= 64.0f && o.min_scale > 0.0f &&
+                          o.max_scale >= o.min_scale && o.max_scale < 1e6f;
+  if (!options_ok) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: options out of range");
+  if (metadata.color_mode == ColorMode::ycbcr)
+    return make_error(Status::unsupported, "perceptual_tolerance_scales: colour mode ycbcr");
+  const uint32_t channels = metadata.color_channels;
+  const uint32_t C = metadata.component_count;
+  if ((channels != 1 && channels != 3) || C == 0 || metadata.u_rows % channels != 0 ||
+      u.size() != size_t{metadata.u_rows} * C || metadata.u_rows == 0)
+    return make_error(Status::invalid_argument,
+                      "perceptual_tolerance_scales: U has %zu values, expected u_rows %u × %u components with 1 or 3 colours",
+                      u.size(), metadata.u_rows, C);
+  const TileLayout layout = metadata.layout();
+  if (!layout.valid()) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: invalid tile layout");
+  for (const BsvtfTileInput& t : tiles) {
+    if (t.samples.size() != layout.sample_count() || !t.id.valid() || t.id.texture >= metadata.texture_count())
+      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) has a bad id or size",
+                        t.id.texture, t.id.level, t.id.x, t.id.y);
+    if (!std::all_of(t.samples.begin(), t.samples.end(), [](float v) { return std::isfinite(v); }))
+      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) is not finite",
+                        t.id.texture, t.id.level, t.id.x, t.id.y);
+  }
+  if (!std::all_of(u.begin(), u.end(), [](float v) { return std::isfinite(v); }))
+    return make_error(Status::invalid_argument, "perceptual_tolerance_scales: U is not finite");
+
+  PerceptualToleranceReport report;
+  {
+    const std::vector<float> ranges =
+        metadata.component_ranges.size() == C ? metadata.component_ranges : bsvtf_component_ranges(tiles, C);
+    for (float r : ranges) report.largest_range = std::max(report.largest_range, std::isfinite(r) ? r : 0.0f);
+  }
+  // tolerance_for_quality treats ranges ≤ 1e-6 as 1e-6: use the same reference.
+  const float R = std::max(report.largest_range, 1e-6f);
+
+  // The sampled angular rows, exposure applied, as RGB × C (grey for luminance U).
+  const uint32_t angular = metadata.u_rows / channels;
+  // Direction weights, then the sample: every angular row with its weight when
+  // direction_samples covers them, else a stratified inverse-CDF sample of equal weight
+  // (deterministic).
+  std::vector<double> weight(angular, 1.0);
+  {
+    const size_t L = metadata.light_directions.size() / 3, V = metadata.view_directions.size() / 3;
+    const bool histogram = !o.direction_weights.empty();
+    const bool cosine = !histogram && (o.light_cosine_power != 0.0f || o.view_cosine_power != 0.0f);
+    if (histogram && o.direction_weights.size() != angular)
+      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: %zu direction weights for %u angular rows",
+                        o.direction_weights.size(), angular);
+    if (cosine && (L * V != angular || metadata.light_directions.size() != L * 3 || metadata.view_directions.size() != V * 3))
+      return make_error(Status::invalid_argument,
+                        "perceptual_tolerance_scales: direction weights need %u angular rows = lights × views (have %zu × %zu)",
+                        angular, L, V);
+    double total = 0;
+    for (size_t a = 0; a < angular; ++a) {
+      if (histogram) {
+        const float x = o.direction_weights[a];
+        if (!(x >= 0.0f) || !(x < 1e30f))
+          return make_error(Status::invalid_argument, "perceptual_tolerance_scales: direction weight %zu not finite and >= 0", a);
+        weight[a] = x;
+      } else if (cosine) {
+        const double cl = std::max(0.0f, metadata.light_directions[(a / V) * 3 + 2]);
+        const double cv = std::max(0.0f, metadata.view_directions[(a % V) * 3 + 2]);
+        weight[a] = std::pow(cl, o.light_cosine_power) * std::pow(cv, o.view_cosine_power);
+        if (!std::isfinite(weight[a])) weight[a] = 0;
+      }
+      total += weight[a];
+    }
+    if (!(total > 0)) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: every direction has weight 0");
+  }
+  std::vector<uint32_t> rows;
+  std::vector<double> row_weight;
+  if (o.direction_samples >= angular) {
+    for (uint32_t a = 0; a < angular; ++a)
+      if (weight[a] > 0) rows.push_back(a), row_weight.push_back(weight[a]);
+  } else {
+    std::vector<double> cdf(angular);
+    double acc = 0;
+    for (uint32_t a = 0; a < angular; ++a) cdf[a] = acc += weight[a];
+    for (uint32_t j = 0; j < o.direction_samples; ++j) {
+      const double target = (j + 0.5) / o.direction_samples * acc;
+      rows.push_back(static_cast<uint32_t>(
+          std::min<size_t>(angular - 1, std::lower_bound(cdf.begin(), cdf.end(), target) - cdf.begin())));
+      row_weight.push_back(1.0);
+    }
+  }
+  const uint32_t nd = static_cast<uint32_t>(rows.size());
+  std::vector<float> ud(size_t{nd} * 3 * C);
+  for (uint32_t j = 0; j < nd; ++j) {
+    const size_t a = rows[j];
+    for (uint32_t k = 0; k < 3; ++k)
+      for (uint32_t c = 0; c < C; ++c)
+        ud[(size_t{j} * 3 + k) * C + c] = o.exposure[k] * u[(a * channels + (channels == 3 ? k : 0)) * C + c];
+  }
+  std::vector<float> shade_scale(C, 1.0f);
+  if (metadata.component_scales.size() == C)
+    for (uint32_t c = 0; c < C; ++c)
+      shade_scale[c] = std::isfinite(metadata.component_scales[c]) ? metadata.component_scales[c] : 1.0f;
+
+  // Tile positions and the tiles (per texture) at each.
+  std::unordered_map<uint64_t, size_t> position_of;
+  std::vector<std::vector<const BsvtfTileInput*>> positions;
+  std::vector<std::vector<size_t>> position_tiles;
+  for (size_t i = 0; i < tiles.size(); ++i) {
+    const TileId& id = tiles[i].id;
+    const uint64_t key = TileId{0, id.level, id.x, id.y}.key();
+    auto [it, inserted] = position_of.try_emplace(key, positions.size());
+    if (inserted) {
+      positions.emplace_back(metadata.texture_count(), nullptr);
+      position_tiles.emplace_back();
+    }
+    positions[it->second][id.texture] = &tiles[i];
+    position_tiles[it->second].push_back(i);
+  }
+
+  // Per position: Σ over samples of g_c², and the sample count.
+  std::vector<double> gain2(positions.size() * C, 0.0);
+  std::vector<double> samples_at(positions.size(), 0.0);
+  const uint32_t S = layout.stored_size(), B = layout.border, T = layout.tile_size;
+  ThreadPool& pool = o.pool ? *o.pool : default_thread_pool();
+  const double power = o.gain_power;
+  pool.parallel_for(0, positions.size(), 1, [&](size_t begin, size_t end) {
+    std::vector<float> v(C), g(C);
+    std::vector<double> sum(C);
+    for (size_t p = begin; p < end; ++p) {
+      std::fill(sum.begin(), sum.end(), 0.0);
+      double n = 0;
+      for (uint32_t y = B; y < B + T; y += o.texel_stride)
+        for (uint32_t x = B; x < B + T; x += o.texel_stride) {
+          for (uint32_t c = 0; c < C; ++c) {
+            const BsvtfTileInput* t = positions[p][c / 4];
+            v[c] = t ? t->samples[(size_t{y} * S + x) * 4 + c % 4] * shade_scale[c] : 0.0f;
+          }
+          for (uint32_t j = 0; j < nd; ++j) {
+            const float* row = &ud[size_t{j} * 3 * C];
+            float rgb[3] = {0, 0, 0};
+            for (uint32_t k = 0; k < 3; ++k)
+              for (uint32_t c = 0; c < C; ++c) rgb[k] += v[c] * row[k * C + c];
+            for (uint32_t c = 0; c < C; ++c) {
+              const float d[3] = {row[c] * shade_scale[c], row[C + c] * shade_scale[c], row[2 * C + c] * shade_scale[c]};
+              const float gc = detail::perceptual_gain(rgb, d, o.dark_floor);
+              sum[c] += row_weight[j] * (power == 1.0 ? double{gc} : std::pow(double{gc}, power));
+            }
+            n += row_weight[j];
+          }
+        }
+      for (uint32_t c = 0; c < C; ++c) gain2[p * C + c] = sum[c];
+      samples_at[p] = n;
+    }
+  });
+
+  report.component_gain.assign(C, 0.0f);
+  double total_samples = 0;
+  std::vector<double> total(C, 0.0);
+  for (size_t p = 0; p < positions.size(); ++p) {
+    total_samples += samples_at[p];
+    for (uint32_t c = 0; c < C; ++c) total[c] += gain2[p * C + c];
+  }
+  for (uint32_t c = 0; c < C; ++c)
+    report.component_gain[c] = total_samples > 0 ? static_cast<float>(std::pow(total[c] / total_samples, 1.0 / power)) : 0.0f;
+
+  report.min_channel_scale = o.max_scale;
+  report.max_channel_scale = o.min_scale;
+  for (size_t p = 0; p < positions.size(); ++p)
+    for (size_t i : position_tiles[p]) {
+      BsvtfTileInput& t = tiles[i];
+      for (uint32_t k = 0; k < 4; ++k) {
+        const uint64_t c = uint64_t{t.id.texture} * 4 + k;
+        float scale = o.max_scale;
+        if (c < C && samples_at[p] > 0) {
+          const double G = std::pow(gain2[p * C + c] / samples_at[p], 1.0 / power);
+          if (G > 0) scale = static_cast<float>(std::clamp(o.reference_delta_e / (G * R), double{o.min_scale}, double{o.max_scale}));
+        }
+        t.channel_scale[k] = scale;
+        report.min_channel_scale = std::min(report.min_channel_scale, scale);
+        report.max_channel_scale = std::max(report.max_channel_scale, scale);
+      }
+    }
+  return report;
+}
+
+}  // namespace btflod

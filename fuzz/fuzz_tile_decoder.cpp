@@ -4,7 +4,8 @@
 //         header; bit 3 picks the zlib or the libdeflate backend), with a parent tile when the
 //         header asks for one; the output span ends exactly
 //         at the end of its allocation so ASan catches any over-write.
-//   odd:  round trip: the rest seeds a 24×24×4 tile and a tolerance; encode → decode must succeed
+//   odd:  round trip: the rest seeds a 24×24×4 tile and a tolerance, bits 1–3 of byte 0 the
+//         frequency weighting (quarters 0..4, larger values = 4); encode → decode must succeed
 //         and reproduce the encoder's reconstruction bit for bit.
 #include <cmath>
 #include <cstddef>
@@ -38,7 +39,7 @@ void decode_mode(const uint8_t* data, size_t size, uint8_t selector) {
       if (!std::isfinite(v)) std::abort();  // bounded tolerances and symbols keep values finite
 }
 
-void round_trip_mode(const uint8_t* data, size_t size) {
+void round_trip_mode(const uint8_t* data, size_t size, uint8_t selector) {
   static const TileLayout layout{16, 4, 4};
   static TileEncoder encoder(layout, 1);  // fast deflate level: the fuzzer is after the decoder
   static TileDecoder decoder(layout);
@@ -49,6 +50,7 @@ void round_trip_mode(const uint8_t* data, size_t size) {
   }
   const float t = 0.01f + (size ? data[0] : 0) * 0.5f;
   const float tol[4] = {t, t * 2, t * 0.5f, t};
+  encoder.set_weight_quarters(selector >> 1 & 7u);
   std::vector<uint8_t> payload(encoder.bound());
   std::vector<float> recon(layout.sample_count()), out(layout.sample_count());
   size_t written = 0;
@@ -61,7 +63,7 @@ void round_trip_mode(const uint8_t* data, size_t size) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
   if (data[0] & 1) {
-    round_trip_mode(data + 1, size - 1);
+    round_trip_mode(data + 1, size - 1, data[0]);
   } else {
     decode_mode(data + 1, size - 1, data[0]);
   }

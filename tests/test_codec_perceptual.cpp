@@ -85,6 +85,8 @@ PerceptualToleranceOptions plain_options() {
   PerceptualToleranceOptions o;
   o.view_cosine_power = 0.0f;  // every direction alike: the fixture's directions are few
   o.texel_stride = 2;
+  o.dark_floor = 0.0f;          // CIELAB's own toe
+  o.reference_delta_e = 100.0f;
   return o;
 }
 
@@ -97,7 +99,7 @@ TEST(CodecPerceptual, DarkTilesGetFinerTolerancesByTheCielabSlope) {
   const double slope_dark = 1.0 / (3 * (6.0 / 29) * (6.0 / 29)), slope_bright = 1.0 / (3 * std::cbrt(0.05 * 0.05));
   const double expect_ratio = slope_dark / slope_bright;  // scale ∝ 1 / gain
   EXPECT_NEAR(f.level1(1, 0).channel_scale[0] / f.level1(0, 0).channel_scale[0], expect_ratio, 0.02 * expect_ratio);
-  // Absolute: scale = reference_delta_e / (G · R), R = the largest range (v0: 5 − 0.5 = 4.5).
+  // Absolute: scale = reference_delta_e (100) / (G · R), R = the largest range (v0: 5 − 0.5 = 4.5).
   const double gain_bright = 116 * slope_bright * 0.01;
   EXPECT_NEAR(rep->largest_range, 4.5, 1e-5);
   EXPECT_NEAR(f.level1(1, 0).channel_scale[0], 100.0 / (gain_bright * 4.5), 0.01 * 100.0 / (gain_bright * 4.5));
@@ -136,6 +138,17 @@ TEST(CodecPerceptual, ClippedTexelsAndUnseenDirectionsGetTheLargestScale) {
   cos.view_cosine_power = 8.0f;
   ASSERT_TRUE(perceptual_tolerance_scales(c.md, c.u, c.tiles, cos));
   EXPECT_GT(c.level1(0, 1).channel_scale[1] / c.level1(0, 1).channel_scale[0], 1.5f * r1);
+  // Row order: component 2 only at row 1 — (light 0, view 1: cos θ_v = 0.8) light-major, (view 0,
+  // light 1: cos θ_v = 1) view-major; with view power 8 only the former is rarely shown.
+  Fixture lm, vm;
+  for (Fixture* f : {&lm, &vm})
+    for (uint32_t k = 0; k < 3; ++k) f->u[(1 * 3 + k) * 4 + 2] = 0.01f;
+  PerceptualToleranceOptions ro = cos;
+  ASSERT_TRUE(perceptual_tolerance_scales(lm.md, lm.u, lm.tiles, ro));
+  ro.row_order = AngularRowOrder::view_major;
+  ASSERT_TRUE(perceptual_tolerance_scales(vm.md, vm.u, vm.tiles, ro));
+  EXPECT_NEAR(lm.level1(0, 1).channel_scale[2] / vm.level1(0, 1).channel_scale[2], 1.0 / std::pow(0.8, 8.0), 0.05 / std::pow(0.8, 8.0));
+  EXPECT_EQ(lm.level1(0, 1).channel_scale[0], vm.level1(0, 1).channel_scale[0]) << "component 0 is the same in every row";
 }
 
 TEST(CodecPerceptual, ThreadCountDoesNotChangeTheScales) {

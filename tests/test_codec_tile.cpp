@@ -574,6 +574,8 @@ TEST(CodecTile, WritesFuzzSeedsWhenAsked) {
     const std::string tag = std::to_string(stored);
     write("seed_root_" + tag, 0, root.bytes);
     write("seed_residual_" + tag, 2, child.bytes);
+    enc.set_weight_quarters(1);  // a flatter frequency weighting (flag bits 1-3)
+    write("seed_weight_quarters_1_" + tag, 0, encode(enc, make_tile(layout, 0, 0, 0), nullptr, 0, 0, tolerances(50)).bytes);
   }
   for (uint32_t ch = 1; ch <= 3; ++ch) {
     const TileLayout layout{16, 4, ch};
@@ -591,6 +593,7 @@ TEST(CodecTile, WritesFuzzSeedsWhenAsked) {
   write("seed_escapes_and_runs", 0,
         payload_with_symbols(small, symbols_with_escapes_and_runs()));
   write("seed_roundtrip", 1, std::vector<uint8_t>{7, 200, 13, 0, 255, 90, 33, 1});
+  write("seed_roundtrip_jpeg", 1 | 4 << 1, std::vector<uint8_t>{9, 100, 3, 250, 5, 80, 1});  // JPEG table
 }
 
 }  // namespace

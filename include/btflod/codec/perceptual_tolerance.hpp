@@ -8,14 +8,17 @@
 // so the same radiance error is ~10× more visible on a texel at 1 % of white than at white, and
 // invisible where the display clips. To first order the ΔE*ab of component c's error is
 //     δE = |J(x, l, v) · U[(l, v), :, c]| · |δv_c|,   J = ∂Lab/∂RGB at the rendered colour
-// (the gain g_c(x, l, v) = |J · U_c|). With independent quantisation errors the squared ΔE adds
-// over components, and the rate-distortion optimum of "Σ bits subject to Σ_c G_c² t_c² = D"
-// (reverse water-filling at high rate: −log t_c per component, one Lagrange multiplier) is
-//     t_c · G_c = const,   G_c = the RMS of g_c over the tile's texels and the directions,
-// i.e. every component spends the same share of the perceptual error budget. For FMF with an
-// orthonormal U and a uniform sensitivity this reduces to ToleranceReference::shared_max (one
-// absolute tolerance); the perceptual weights add what it misses: dark texels, colour
-// components (a*, b* are 500× / 200× differences of f(X), f(Y), f(Z)) and clipped highlights.
+// (the gain g_c(x, l, v) = |J · U_c|). With the expected ΔE as the distortion (linear in each
+// component's error t_c) and −log t_c bits per component at high rate, the Lagrangian optimum
+// of "Σ bits subject to Σ_c G_c t_c = D" is
+//     t_c · G_c = const,   G_c = the mean of g_c over the tile's texels and the directions,
+// i.e. every component spends the same share of the perceptual error budget (the same holds
+// for the squared error with the RMS of g_c; the mean is what the measurements favour, see
+// gain_power). For FMF with an orthonormal U and a uniform sensitivity this reduces to
+// ToleranceReference::shared_max (one absolute tolerance); the perceptual weights add what it
+// misses: dark texels, colour components (a*, b* are 500× / 200× differences of f(X), f(Y),
+// f(Z)), clipped highlights and directions a renderer rarely shows (grazing views: a surface
+// seen at θ_v covers ∝ cos θ_v of the screen).
 //
 // perceptual_tolerance_scales() estimates G_c per tile position (level, x, y) from a sample
 // of the tile's interior texels and of the (light, view) pairs, and stores
@@ -43,17 +46,33 @@
 
 namespace btflod {
 
+/// The frequency weighting (BsvtfBuildOptions::weight_quarters) to use with perceptual
+/// tolerances: JPEG's table to the power 1/4. Measured on the four demo materials at each one's
+/// invisibility threshold (docs/bsvtf_format.md): 11–24 % higher ratios than JPEG's table (4),
+/// at least those of 0 and 3 on all four and of 2 on three (stone: 2 is 1.5 % better).
+inline constexpr uint32_t kPerceptualWeightQuarters = 1;
+
+/// Order of U's angular rows (BsvtfMetadata::u_rows is "the producer's order").
+enum class AngularRowOrder : uint8_t {
+  light_major,  ///< row a = light · views + view (the backends' layout, shader/)
+  view_major,   ///< row a = view · lights + light (FMF factor files, factor/fmf.hpp)
+};
+
 /// Options for perceptual_tolerance_scales().
 struct PerceptualToleranceOptions {
   /// Display-linear RGB = exposure ⊙ BTF value; the display clips at 1 (white). E.g. the light's
   /// colour times the exposure of the renderer. Each must be finite and > 0.
   std::array<float, 3> exposure{1.0f, 1.0f, 1.0f};
-  /// ΔE*ab that plays the role of the component range in tolerance_for_quality (> 0). 100 (the
-  /// L* scale) gives ≈ 0.78 ΔE*ab block-RMS per component at quality 50.
-  float reference_delta_e = 100.0f;
+  /// ΔE*ab that plays the role of the component range in tolerance_for_quality (> 0): each
+  /// component's block-RMS error bound is ≈ reference_delta_e / 128 ΔE*ab at quality 50. 50
+  /// (half the L* scale) makes quality 50 invisible (p99 ΔE*ab < 2.3) on the four demo
+  /// materials in btflod-visibility's scene (docs/bsvtf_format.md).
+  float reference_delta_e = 50.0f;
   /// Relative luminance below which the sensitivity stops growing (0: CIELAB's own linear toe
-  /// at 0.008856). In [0, 1).
-  float dark_floor = 0.0f;
+  /// at 0.008856). In [0, 1). 0.02 (L* ≈ 15.5): the deepest shadows, where 8-bit output and
+  /// display flare mask differences, no longer dictate a component's tolerance (measured: 0–11 %
+  /// higher ratios than 0 at the invisibility threshold of the demo materials).
+  float dark_floor = 0.02f;
   /// Interior texels are sampled every `texel_stride` texels in x and y (≥ 1).
   uint32_t texel_stride = 4;
   /// (light, view) pairs sampled, stratified over U's angular rows (≥ 1; capped at the rows).
@@ -65,13 +84,16 @@ struct PerceptualToleranceOptions {
   /// lights · views (row = (light · views + view) · colours + colour) unless both are 0.
   float light_cosine_power = 0.0f;
   float view_cosine_power = 1.0f;
+  /// How angular rows map to (light, view) for the cosine weights (and direction_weights).
+  AngularRowOrder row_order = AngularRowOrder::light_major;
   /// If not empty: the frequency of each (light, view) pair in rendering instead of the cosine
-  /// model, lights × views entries (index light · views + view), ≥ 0 and finite, not all 0 —
+  /// model, one entry per angular row in row_order, ≥ 0 and finite, not all 0 —
   /// e.g. accumulated from a renderer's feedback pass with accumulate_direction_weights().
   std::span<const float> direction_weights;
-  /// G_c is the power mean (mean of g_c^gain_power)^(1/gain_power) over the samples: 2 (RMS,
-  /// the squared-error optimum) or larger to weight the most sensitive pixels more (a
-  /// high-percentile criterion). In [0.125, 64].
+  /// G_c is the power mean (mean of g_c^gain_power)^(1/gain_power) over the samples, in
+  /// [0.125, 64]: 1 (the default) is the expected ΔE*ab per unit error; 2 (RMS, the squared-
+  /// error optimum) lets rare extreme samples (grazing, shadowed: the top 1 % a p99 criterion
+  /// ignores) dictate the tolerance and measured 1.5–2.5× worse at equal visibility.
   float gain_power = 1.0f;
   /// channel_scale is clamped to [min_scale, max_scale] (0 < min ≤ max < 1e6): a component
   /// that is never visible (all clipped, or U_c = 0) gets max_scale.
@@ -88,7 +110,8 @@ struct PerceptualToleranceReport {
 };
 
 /// Adds one rendered pixel's angular interpolation weights to a (light, view) histogram for
-/// PerceptualToleranceOptions::direction_weights: weights[l · view_count + v] += w_l · w_v for
+/// PerceptualToleranceOptions::direction_weights (light-major rows): weights[l · view_count +
+/// v] += w_l · w_v for
 /// the ≤ 3 × 3 taps. Out-of-range indices and non-finite or negative weights are skipped.
 /// noexcept, no allocation.
 inline void accumulate_direction_weights(const AngularSample& light, const AngularSample& view, uint32_t view_count,
@@ -135,7 +158,7 @@ inline float perceptual_gain(const float rgb[3], const float d[3], float dark_fl
 /// share of a perceptual (ΔE*ab) error budget (see the file comment; this is the rate-
 /// distortion allocation t_c·G_c = const). `u` is U as passed to build_bsvtf: u_rows ×
 /// component_count floats, row = angular sample · color_channels + colour (color_channels 3 =
-/// linear RGB, or 1 = luminance: grey). Tiles of one position (level, x, y) are evaluated
+/// linear RGB, or 1 = luminance: grey), angular samples in options.row_order. Tiles of one position (level, x, y) are evaluated
 /// together (every component adds to the same texels); a component whose texture has no tile
 /// at a position counts as 0 there. metadata.component_ranges (or, when empty, the ranges of
 /// the tiles) give R; metadata.component_scales (when present) multiply v_c.
@@ -209,8 +232,10 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
           return make_error(Status::invalid_argument, "perceptual_tolerance_scales: direction weight %zu not finite and >= 0", a);
         weight[a] = x;
       } else if (cosine) {
-        const double cl = std::max(0.0f, metadata.light_directions[(a / V) * 3 + 2]);
-        const double cv = std::max(0.0f, metadata.view_directions[(a % V) * 3 + 2]);
+        const bool lm = o.row_order == AngularRowOrder::light_major;
+        const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
+        const double cl = std::max(0.0f, metadata.light_directions[li * 3 + 2]);
+        const double cv = std::max(0.0f, metadata.view_directions[vi * 3 + 2]);
         weight[a] = std::pow(cl, o.light_cosine_power) * std::pow(cv, o.view_cosine_power);
         if (!std::isfinite(weight[a])) weight[a] = 0;
       }

@@ -1,0 +1,49 @@
+# convert_build_bsvtf: synthesise a small leather, factor it (FMF), build .bsvtf containers with
+# the default (perceptual) and the shared tolerance and check that both decode completely
+# (`info --values`), that the default is the perceptual one with its frequency weighting, and
+# that it differs from the shared one; an unknown --tolerance is a usage error.
+# Run with -DCONVERT=<btflod-convert> -DOUT=<scratch dir>.
+set(btf ${OUT}/build_test.btf)
+set(fmf ${OUT}/build_test.fmf)
+foreach(f ${btf} ${fmf} ${OUT}/build_p.bsvtf ${OUT}/build_s.bsvtf)
+  file(REMOVE ${f})
+endforeach()
+execute_process(COMMAND ${CONVERT} synth --material leather --size 32 --seed 3 --quiet -o ${btf}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  if(err MATCHES "has no Bonn")
+    message(STATUS "Bonn writer not compiled in: ${err}")
+    return()
+  endif()
+  message(FATAL_ERROR "synth failed (${rc}): ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} factor ${btf} ${fmf} --method fmf --components 8 --quiet
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "factor failed (${rc}): ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} build ${fmf} ${OUT}/build_p.bsvtf --tile 16 --border 4 --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "tolerances perceptual" OR NOT out MATCHES "weighting JPEG\\^\\(1/4\\)")
+  message(FATAL_ERROR "default build failed or is not perceptual (${rc}): ${out} ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} build ${fmf} ${OUT}/build_s.bsvtf --tile 16 --border 4 --tolerance shared --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "tolerances shared, weighting JPEG\\^\\(4/4\\)")
+  message(FATAL_ERROR "shared build failed (${rc}): ${out} ${err}")
+endif()
+foreach(f build_p build_s)
+  execute_process(COMMAND ${CONVERT} info --values ${OUT}/${f}.bsvtf RESULT_VARIABLE rc OUTPUT_VARIABLE info ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0 OR NOT info MATCHES "10 tiles decoded, 0 failed")
+    message(FATAL_ERROR "info --values on ${f}.bsvtf (${rc}): ${info} ${err}")
+  endif()
+endforeach()
+file(READ ${OUT}/build_p.bsvtf a HEX)
+file(READ ${OUT}/build_s.bsvtf b HEX)
+if(a STREQUAL b)
+  message(FATAL_ERROR "perceptual and shared tolerances wrote the same file")
+endif()
+execute_process(COMMAND ${CONVERT} build ${fmf} ${OUT}/build_x.bsvtf --tolerance bogus RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "expected perceptual, shared or per-component")
+  message(FATAL_ERROR "an unknown --tolerance was accepted (${rc}): ${err}")
+endif()

@@ -50,7 +50,8 @@
 //                      --light-cos-power / --view-cos-power X tune it (library defaults otherwise)
 //   --scene-directions N  (with --perceptual) direction weights from the pixels of N training
 //                      views of the camera path (t = (2j+1)/2N, never the evaluation views)
-//   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4, default 4; BsvtfBuildOptions)
+//   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4; default 1 with --perceptual
+//                      as btflod-convert build, else 4; BsvtfBuildOptions::weight_quarters)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
@@ -88,7 +89,7 @@ struct Options : SceneOptions {
   bool luminance_as_floor = false;  // --luminance-as-floor
   bool perceptual = false;          // --perceptual: perceptual_tolerance_scales
   PerceptualToleranceOptions perceptual_options;
-  uint32_t weight_quarters = kJpegWeightQuarters;  // --weight-quarters: JPEG table exponent × 4
+  uint32_t weight_quarters = 99;  // --weight-quarters (JPEG table exponent × 4); 99: 1 with --perceptual, else 4
   uint32_t scene_direction_views = 0;  // > 0: direction weights from that many training views
   bool check = false;
   std::string doc;
@@ -462,7 +463,9 @@ int main(int argc, char** argv) {
       BsvtfBuildOptions bo;
       bo.quality = q;
       bo.tolerance_reference = o.tolerance;
-      bo.weight_quarters = o.weight_quarters;
+      bo.weight_quarters = o.weight_quarters <= kJpegWeightQuarters ? o.weight_quarters
+                           : o.perceptual                         ? kPerceptualWeightQuarters
+                                                                  : kJpegWeightQuarters;
       auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());

@@ -107,6 +107,12 @@ struct Options : SceneOptions {
   }
 };
 
+uint32_t bo_weight_quarters(const Options& o) {
+  return o.weight_quarters <= kJpegWeightQuarters ? o.weight_quarters
+         : o.perceptual                          ? kPerceptualWeightQuarters
+                                                 : kJpegWeightQuarters;
+}
+
 bool parse(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -463,9 +469,7 @@ int main(int argc, char** argv) {
       BsvtfBuildOptions bo;
       bo.quality = q;
       bo.tolerance_reference = o.tolerance;
-      bo.weight_quarters = o.weight_quarters <= kJpegWeightQuarters ? o.weight_quarters
-                           : o.perceptual                         ? kPerceptualWeightQuarters
-                                                                  : kJpegWeightQuarters;
+      bo.weight_quarters = bo_weight_quarters(o);
       auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());
@@ -534,12 +538,14 @@ int main(int argc, char** argv) {
   }
   // The highest ratio that meets the criterion on at least two materials: for each quality that
   // passes on ≥ 2 materials, the second-best passing ratio at it (both of those materials reach it).
-  double two = 0;
-  float two_q = 0;
+  double two = 0, every = 0;  // every: the lowest ratio at a quality that passes on every material
+  float two_q = 0, every_q = 0;
   for (size_t qi = 0; qi < per_q.size(); ++qi) {
     std::vector<double> passing;
     for (const auto& [ratio, pass] : per_q[qi])
       if (pass) passing.push_back(ratio);
+    if (passing.size() == per_q[qi].size() && *std::min_element(passing.begin(), passing.end()) > every)
+      every = *std::min_element(passing.begin(), passing.end()), every_q = o.qualities[qi];
     if (passing.size() < 2) continue;
     std::sort(passing.rbegin(), passing.rend());
     if (passing[1] > two) two = passing[1], two_q = o.qualities[qi];
@@ -551,7 +557,9 @@ int main(int argc, char** argv) {
             << (best[mi] > 0 ? fmt("%.2f:1", best[mi]) + " (q" + fmt("%.0f", best_q[mi]) + ")" : std::string("none"))
             << ";";
   summary << " on at least two materials: "
-          << (two > 0 ? fmt("%.2f:1", two) + " (q" + fmt("%.0f", two_q) + ")" : std::string("none")) << ".\n";
+          << (two > 0 ? fmt("%.2f:1", two) + " (q" + fmt("%.0f", two_q) + ")" : std::string("none"))
+          << "; on every material at one quality: "
+          << (every > 0 ? fmt("%.2f:1", every) + " (q" + fmt("%.0f", every_q) + ")" : std::string("none")) << ".\n";
   std::printf("%s  (%.1f s)\n", summary.str().c_str(), seconds());
   if (!o.doc.empty()) {
     std::ostringstream doc;
@@ -563,6 +571,14 @@ int main(int argc, char** argv) {
                                                      : std::string()) +
                               "; scales per material:" + luminance_scales.str() + ")"
                         : std::string())
+        << (o.perceptual ? " × perceptual channel scales (codec/perceptual_tolerance.hpp, library defaults" +
+                               std::string(o.scene_direction_views > 0 ? ", direction weights from " +
+                                                                            std::to_string(o.scene_direction_views) +
+                                                                            " training views"
+                                                                      : "") +
+                               ", exposure = the sun's colour; range per material:" + luminance_scales.str() + ")"
+                         : std::string())
+        << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)"
         << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
         << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
         << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size
@@ -573,7 +589,8 @@ int main(int argc, char** argv) {
         << summary.str();
     const bool shared = o.tolerance == ToleranceReference::shared_max;
     const std::string marker =
-        std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
+        o.perceptual ? std::string(o.scene_direction_views > 0 ? "visibility-perceptual-scene" : "visibility-perceptual")
+                     : std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
     if (!samples::replace_doc_block(o.doc, marker, doc.str())) {
       std::fprintf(stderr, "btflod-visibility: cannot write %s\n", o.doc.c_str());
       return 1;

@@ -27,6 +27,7 @@
 
 #include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
+#include "btflod/codec/perceptual_tolerance.hpp"
 #include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/factor/fmf.hpp"
@@ -160,10 +161,11 @@ double btf_psnr(const Content& c, double eigen_rmse) {
   return 20.0 * std::log10(c.btf_peak / rmse_btf);
 }
 
-Coded code_all(float quality, const Content& c = content()) {
+Coded code_all(float quality, const Content& c = content(), uint32_t weight_quarters = kJpegWeightQuarters) {
   Coded out;
   out.quality = quality;
   TileEncoder enc(kLayout);
+  enc.set_weight_quarters(weight_quarters);
   std::vector<uint8_t> buffer(enc.bound());
   double err = 0;
   size_t n = 0;
@@ -279,6 +281,13 @@ const Coded& coded_q() {
   static const Coded c = code_all(kBenchQuality);
   return c;
 }
+// The same tiles with the frequency weighting btflod-convert build's perceptual default writes
+// (JPEG^(1/4), kPerceptualWeightQuarters): a flatter table puts more non-zero coefficients at
+// high frequencies, which the decoder's zero-run skipping and partial inverse DCT see.
+const Coded& coded_q_perceptual_weighting() {
+  static const Coded c = code_all(kBenchQuality, content(), kPerceptualWeightQuarters);
+  return c;
+}
 const JpegCoded& jpeg_q() {
   static const JpegCoded j = jpeg_matched(coded_q().rmse);
   return j;
@@ -292,9 +301,8 @@ void set_rates(benchmark::State& state, size_t samples_per_iteration) {
 }
 
 // --- decode ---------------------------------------------------------------------------------
-void decode_tiles(benchmark::State& state, InflateBackend backend) {
+void decode_tiles(benchmark::State& state, InflateBackend backend, const Coded& coded = coded_q()) {
   const Content& c = content();
-  const Coded& coded = coded_q();
   TileDecoder dec(kLayout, backend);
   std::vector<float> out(kLayout.sample_count());
   size_t i = 0;
@@ -313,6 +321,10 @@ void BM_btflod_decode_tile_zlib(benchmark::State& state) { decode_tiles(state, I
 BENCHMARK(BM_btflod_decode_tile_zlib);
 void BM_btflod_decode_tile_libdeflate(benchmark::State& state) { decode_tiles(state, InflateBackend::libdeflate); }
 BENCHMARK(BM_btflod_decode_tile_libdeflate);
+void BM_btflod_decode_tile_libdeflate_weighting_1_4(benchmark::State& state) {
+  decode_tiles(state, InflateBackend::libdeflate, coded_q_perceptual_weighting());
+}
+BENCHMARK(BM_btflod_decode_tile_libdeflate_weighting_1_4);
 
 // Decode stages (profile): the same tiles, libdeflate backend. inflate = header checks + inflate
 // only; upsample = the parent prediction only; scalar = the whole decode with the AVX2 inverse
@@ -368,8 +380,7 @@ void BM_btflod_decode_tile_libdeflate_scalar(benchmark::State& state) {
 }
 BENCHMARK(BM_btflod_decode_tile_libdeflate_scalar);
 
-void BM_turbojpeg_decode_tile_4_planes(benchmark::State& state) {
-  const JpegCoded& j = jpeg_q();
+void turbojpeg_decode_tiles(benchmark::State& state, const JpegCoded& j) {
   const int n = static_cast<int>(kLayout.stored_size());
   tjhandle d = tjInitDecompress();
   std::vector<uint8_t> out(size_t(n) * n);
@@ -387,7 +398,15 @@ void BM_turbojpeg_decode_tile_4_planes(benchmark::State& state) {
   state.counters["bytes_per_tile"] = static_cast<double>(j.bytes) / (j.streams.size() / 4);
   state.counters["jpeg_quality"] = j.quality;
 }
+void BM_turbojpeg_decode_tile_4_planes(benchmark::State& state) { turbojpeg_decode_tiles(state, jpeg_q()); }
 BENCHMARK(BM_turbojpeg_decode_tile_4_planes);
+// libjpeg-turbo matched to the error of the JPEG^(1/4)-weighted tiles (the baseline of
+// BM_btflod_decode_tile_libdeflate_weighting_1_4).
+void BM_turbojpeg_decode_tile_4_planes_matched_1_4(benchmark::State& state) {
+  static const JpegCoded j = jpeg_matched(coded_q_perceptual_weighting().rmse);
+  turbojpeg_decode_tiles(state, j);
+}
+BENCHMARK(BM_turbojpeg_decode_tile_4_planes_matched_1_4);
 
 struct DeflatedHalves {
   std::vector<std::vector<uint8_t>> streams;
@@ -552,6 +571,16 @@ void print_ratio_tables() {
   std::printf("deflate(zlib 6) alone on the stone's raw halves: ratio %.2f:1 (lossless)\n",
               static_cast<double>(content().raw_half_bytes) / deflated_halves().bytes);
   print_ratio_table(content(), "procedural stone, analytic BRDF (noisy; the timed content)");
+  {
+    const Coded& a = coded_q();
+    const Coded& b = coded_q_perceptual_weighting();
+    std::printf("quality %.0f with JPEG^(1/4) frequency weighting (kPerceptualWeightQuarters): %.0f B/tile, %.2f:1, eigen RMSE %.4g,"
+                " BTF PSNR %.1f dB (JPEG's table: %.0f B/tile, %.2f:1, RMSE %.4g, %.1f dB)\n\n",
+                static_cast<double>(kBenchQuality), static_cast<double>(b.bytes) / content().tiles.size(),
+                static_cast<double>(content().raw_half_bytes) / b.bytes, b.rmse, btf_psnr(content(), b.rmse),
+                static_cast<double>(a.bytes) / content().tiles.size(), static_cast<double>(content().raw_half_bytes) / a.bytes,
+                a.rmse, btf_psnr(content(), a.rmse));
+  }
   if (const Content* smooth = smooth_content()) {
     print_ratio_table(*smooth, "procedural leather, measured car paint carpaint_red.mbsdf (smoother)");
   } else {

@@ -61,6 +61,7 @@
 // codec
 #include "btflod/codec/container.hpp"
 #include "btflod/codec/dct.hpp"
+#include "btflod/codec/perceptual_tolerance.hpp"
 #include "btflod/codec/quantize.hpp"
 #include "btflod/codec/tile_codec.hpp"
 

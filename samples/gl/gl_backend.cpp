@@ -141,12 +141,7 @@ class GlBackend final : public Backend {
 
   Result<MeshHandle> create_mesh(const MeshData& mesh) override {
     make_current();
-    if (mesh.vertices.empty() || mesh.indices.empty() || mesh.indices.size() % 3 != 0)
-      return make_error(Status::invalid_argument, "GL: mesh with %zu vertices, %zu indices (need a triangle list)",
-                        mesh.vertices.size(), mesh.indices.size());
-    for (uint32_t i : mesh.indices)
-      if (i >= mesh.vertices.size())
-        return make_error(Status::invalid_argument, "GL: mesh index %u ≥ %zu vertices", i, mesh.vertices.size());
+    if (VoidResult v = validate_mesh(mesh); !v) return v.error();
     GlMesh m;
     glCreateBuffers(1, &m.vbo);
     glNamedBufferStorage(m.vbo, static_cast<GLsizeiptr>(mesh.vertices.size_bytes()), mesh.vertices.data(), 0);

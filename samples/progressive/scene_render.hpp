@@ -175,8 +175,10 @@ struct World {
     return {};
   }
 
-  Camera camera(uint32_t view) const {
-    const scene::View v = scene::camera_path(view, opt.views, opt.width, opt.height);
+  Camera camera(uint32_t view) const { return to_camera(scene::camera_path(view, opt.views, opt.width, opt.height)); }
+
+  /// The CPU reference camera of a scene view.
+  static Camera to_camera(const scene::View& v) {
     Camera cam;
     cam.position = v.eye;
     cam.target = v.target;

@@ -163,12 +163,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
 }
 
 Result<MeshHandle> VkBackend::create_mesh(const MeshData& mesh) {
-  if (mesh.vertices.empty() || mesh.indices.empty() || mesh.indices.size() % 3 != 0)
-    return make_error(Status::invalid_argument, "Vulkan: mesh with %zu vertices, %zu indices (need a triangle list)",
-                      mesh.vertices.size(), mesh.indices.size());
-  for (uint32_t i : mesh.indices)
-    if (i >= mesh.vertices.size())
-      return make_error(Status::invalid_argument, "Vulkan: mesh index %u ≥ %zu vertices", i, mesh.vertices.size());
+  if (VoidResult v = validate_mesh(mesh); !v) return v.error();
   VkMesh m;
   if (VoidResult r = create_buffer(m.vertices, mesh.vertices.size_bytes(), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT); !r)
     return r.error();

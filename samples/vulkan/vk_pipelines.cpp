@@ -177,6 +177,28 @@ Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, cons
   return pipeline;
 }
 
+// Dynamic rendering into one colour and one depth target of w × h: both loaded, or (`clear`
+// not null) the colour cleared to *clear and the depth to 1.
+static void begin_rendering(VkCommandBuffer cmd, const Texture& color, const Texture& depth, uint32_t w,
+                            uint32_t h, const VkClearValue* clear) {
+  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  ca.imageView = color.view;
+  ca.imageLayout = VK_IMAGE_LAYOUT_GENERAL;
+  ca.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  if (clear) ca.clearValue = *clear;
+  VkRenderingAttachmentInfo da = ca;
+  da.imageView = depth.view;
+  if (clear) da.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {w, h}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = 1;
+  ri.pColorAttachments = &ca;
+  ri.pDepthAttachment = &da;
+  vkCmdBeginRendering(cmd, &ri);
+}
+
 void VkBackend::full_barrier(VkCommandBuffer cmd) {
   VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
   b.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
@@ -193,20 +215,7 @@ Status VkBackend::record_draw(VkPipeline pipeline, VkDescriptorSet set, const Vk
   const VkDeviceSize offset = context_ubo_base() + c.ubo_offset;
   std::memcpy(static_cast<char*>(ubo_all_.mapped) + offset, &params, sizeof(ShaderParams));
   c.ubo_offset += ubo_stride_;
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = color.view;
-  ca.imageLayout = VK_IMAGE_LAYOUT_GENERAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  VkRenderingAttachmentInfo da = ca;
-  da.imageView = depth.view;
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {w, h}};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
-  vkCmdBeginRendering(c.cmd, &ri);
+  begin_rendering(c.cmd, color, depth, w, h, nullptr);
   // Negative height: NDC y = +1 lands on row 0, as in OpenGL after its bottom-up readback.
   const VkViewport viewport{0.0f, static_cast<float>(h), static_cast<float>(w), -static_cast<float>(h), 0.0f, 1.0f};
   const VkRect2D scissor{{0, 0}, {w, h}};
@@ -227,22 +236,7 @@ Status VkBackend::record_draw(VkPipeline pipeline, VkDescriptorSet set, const Vk
 
 void VkBackend::clear_pass(VkCommandBuffer cmd, const Texture& color, const Texture& depth, VkClearValue value,
                            uint32_t w, uint32_t h) {
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = color.view;
-  ca.imageLayout = VK_IMAGE_LAYOUT_GENERAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  ca.clearValue = value;
-  VkRenderingAttachmentInfo da = ca;
-  da.imageView = depth.view;
-  da.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = {{0, 0}, {w, h}};
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
-  vkCmdBeginRendering(cmd, &ri);
+  begin_rendering(cmd, color, depth, w, h, &value);
   vkCmdEndRendering(cmd);
 }
 

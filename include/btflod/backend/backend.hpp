@@ -95,6 +95,18 @@ constexpr PageTableWrite make_page_table_write(TileId t, uint32_t material_fines
   return PageTableWrite{t, material_finest_level - t.level, pack_page_entry(slot, resident_level)};
 }
 
+/// Checks a mesh before upload: a non-empty triangle list whose indices name existing vertices.
+/// Returns invalid_argument saying which. Safe for untrusted data.
+inline VoidResult validate_mesh(const MeshData& mesh) {
+  if (mesh.vertices.empty() || mesh.indices.empty() || mesh.indices.size() % 3 != 0)
+    return make_error(Status::invalid_argument, "mesh with %zu vertices, %zu indices (need a triangle list)",
+                      mesh.vertices.size(), mesh.indices.size());
+  for (uint32_t i : mesh.indices)
+    if (i >= mesh.vertices.size())
+      return make_error(Status::invalid_argument, "mesh index %u ≥ %zu vertices", i, mesh.vertices.size());
+  return {};
+}
+
 /// Checks a material against the shader config before upload: C matches, spans have the sizes
 /// the counts imply, table indices name existing directions and weights are finite. Returns
 /// invalid_argument naming the field (expected vs found). Safe for untrusted data.

@@ -289,14 +289,14 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
     position_tiles[it->second].push_back(i);
   }
 
-  // Per position: Σ over samples of g_c², and the sample count.
-  std::vector<double> gain2(positions.size() * C, 0.0);
+  // Per position: the direction-weighted Σ over samples of g_c^gain_power, and the total weight.
+  std::vector<double> gain_sum(positions.size() * C, 0.0);
   std::vector<double> samples_at(positions.size(), 0.0);
   const uint32_t S = layout.stored_size(), B = layout.border, T = layout.tile_size;
   ThreadPool& pool = o.pool ? *o.pool : default_thread_pool();
   const double power = o.gain_power;
   pool.parallel_for(0, positions.size(), 1, [&](size_t begin, size_t end) {
-    std::vector<float> v(C), g(C);
+    std::vector<float> v(C);
     std::vector<double> sum(C);
     for (size_t p = begin; p < end; ++p) {
       std::fill(sum.begin(), sum.end(), 0.0);
@@ -320,7 +320,7 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
             n += row_weight[j];
           }
         }
-      for (uint32_t c = 0; c < C; ++c) gain2[p * C + c] = sum[c];
+      for (uint32_t c = 0; c < C; ++c) gain_sum[p * C + c] = sum[c];
       samples_at[p] = n;
     }
   });
@@ -330,7 +330,7 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
   std::vector<double> total(C, 0.0);
   for (size_t p = 0; p < positions.size(); ++p) {
     total_samples += samples_at[p];
-    for (uint32_t c = 0; c < C; ++c) total[c] += gain2[p * C + c];
+    for (uint32_t c = 0; c < C; ++c) total[c] += gain_sum[p * C + c];
   }
   for (uint32_t c = 0; c < C; ++c)
     report.component_gain[c] = total_samples > 0 ? static_cast<float>(std::pow(total[c] / total_samples, 1.0 / power)) : 0.0f;
@@ -344,7 +344,7 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
         const uint64_t c = uint64_t{t.id.texture} * 4 + k;
         float scale = o.max_scale;
         if (c < C && samples_at[p] > 0) {
-          const double G = std::pow(gain2[p * C + c] / samples_at[p], 1.0 / power);
+          const double G = std::pow(gain_sum[p * C + c] / samples_at[p], 1.0 / power);
           if (G > 0) scale = static_cast<float>(std::clamp(o.reference_delta_e / (G * R), double{o.min_scale}, double{o.max_scale}));
         }
         t.channel_scale[k] = scale;

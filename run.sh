@@ -5,6 +5,9 @@
 #                                 (release with -Werror, then ASan+UBSan, then fuzz smoke runs)
 #   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
 # Environment: BTFLOD_JOBS (parallel build jobs, default nproc), BTFLOD_BUILD_DIR (default build).
+# Every command passes each build option it depends on, so commands can run in any order on the
+# same build folder (a cached option from an earlier command never changes what a later one does),
+# and every ctest call fails when it finds no tests (--no-tests=error).
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -53,7 +56,8 @@ shift || true
 case "$cmd" in
   demo)
     install_packages
-    BTFLOD_TARGET=btflod-demo configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=OFF -DBTFLOD_BUILD_BENCH=OFF
+    BTFLOD_TARGET=btflod-demo configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     mkdir -p out
     "$BUILD"/samples/demo/btflod-demo --out out/demo "$@"
     ;;
@@ -61,23 +65,26 @@ case "$cmd" in
     install_packages
     start=$(date +%s)
     echo "== release build (-Werror) =="
-    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=OFF
-    (cd "$BUILD" && ctest --output-on-failure -j "$JOBS" --timeout 900)
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_BENCH=OFF \
+      -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF -DBTFLOD_WERROR=ON -DBTFLOD_TEST_FILTER=
+    (cd "$BUILD" && ctest --no-tests=error --output-on-failure -j "$JOBS" --timeout 900)
     echo "== ASan+UBSan build: unit tests =="
     # -O1 with asserts on and line tables only: the sanitizers need no more, and it halves compile time.
-    configure_and_build "$BUILD-asan" -DBTFLOD_SANITIZE=ON -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF \
+    configure_and_build "$BUILD-asan" -DBTFLOD_SANITIZE=ON -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_BENCH=OFF \
+      -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=ON \
       -DBTFLOD_BUILD_SAMPLES=OFF -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" \
       -DBTFLOD_TEST_FILTER="$ASAN_TESTS"
-    (cd "$BUILD-asan" && ASAN_OPTIONS=detect_leaks=1 ctest --output-on-failure -j "$JOBS" -L unit --timeout 900)
+    (cd "$BUILD-asan" && ASAN_OPTIONS=detect_leaks=1 ctest --no-tests=error --output-on-failure -j "$JOBS" -L unit --timeout 900)
     echo "== libFuzzer smoke runs (clang) =="
     CC=clang CXX=clang++ configure_and_build "$BUILD-fuzz" -DBTFLOD_BUILD_FUZZ=ON -DBTFLOD_BUILD_TESTS=OFF \
-      -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=OFF
-    (cd "$BUILD-fuzz" && ctest --output-on-failure -j "$JOBS" -L fuzz --timeout 900)
+      -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=OFF \
+      -DBTFLOD_SANITIZE=OFF
+    (cd "$BUILD-fuzz" && ctest --no-tests=error --output-on-failure -j "$JOBS" -L fuzz --timeout 900)
     echo "btflod: all test stages passed in $(( $(date +%s) - start )) s"
     ;;
   bench)
     install_packages
-    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     mkdir -p "$BUILD/bench-results"
     for b in "$BUILD"/bench/bench_*; do
       [ -x "$b" ] || continue

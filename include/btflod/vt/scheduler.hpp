@@ -64,7 +64,10 @@ struct SchedulerConfig {
   uint32_t max_lod_bias = 2;
   // Paper 000 §6.
   bool stream_u_columns = false;           ///< false: every U' packet is loaded from the start
-  uint64_t u_packet_bytes = 534ull << 10;  ///< four U' columns, 151² directions × RGB × 4 × half
+  /// Four U' columns as the container stores them (codec/container.hpp: u_rows × 4 halves): for
+  /// UBO2014, u_rows = 151² direction pairs × RGB, so 151² · 3 · 4 · 2 = 547,224 bytes (the
+  /// paper's "534 KB" rounded it).
+  uint64_t u_packet_bytes = uint64_t{151} * 151 * 3 * 4 * 2;
 };
 
 /// Counters of one frame (frame()) and since creation (total()).

@@ -300,6 +300,21 @@ TEST(FeedbackTraceFailure, CorruptPayloadFailsItsCrc) {
 }
 
 namespace {
+// The scheduler's calls take the cache as an argument in newer versions; both forms are accepted.
+template <class S>
+std::span<const TileRequest> plan_frame(S& s, TileCache& cache, const VoteCounter& votes, uint64_t frame) {
+  if constexpr (requires { s.plan(cache, votes, frame); })
+    return s.plan(cache, votes, frame);
+  else
+    return s.plan(votes, frame);
+}
+template <class S>
+void apply_frame_uploads(S& s, TileCache& cache) {
+  if constexpr (requires { s.apply_uploads(cache); })
+    s.apply_uploads(cache);
+  else
+    s.apply_uploads();
+}
 // Replays a trace through a fresh cache + scheduler and returns every request (frame, tile key,
 // slot) and the counters of every frame, as one sequence of integers.
 std::vector<uint64_t> replay(const FeedbackTrace& t) {
@@ -319,7 +334,7 @@ std::vector<uint64_t> replay(const FeedbackTrace& t) {
   std::vector<uint32_t> waiting;  // requests not yet decoded (an immediate source)
   for (size_t i = 0; i < t.frame_count(); ++i) {
     votes.accumulate(t.frame_words(i), 1, sched->lod_bias());
-    for (const TileRequest& r : sched->plan(votes, t.frames[i].frame_index)) {
+    for (const TileRequest& r : plan_frame(*sched, *cache, votes, t.frames[i].frame_index)) {
       out.push_back(t.frames[i].frame_index);
       out.push_back(r.tile.key());
       out.push_back(r.slot);
@@ -332,7 +347,7 @@ std::vector<uint64_t> replay(const FeedbackTrace& t) {
       else
         waiting[keep++] = id;
     waiting.resize(keep);
-    sched->apply_uploads();
+    apply_frame_uploads(*sched, *cache);
     const SchedulerCounters& c = sched->frame();
     out.insert(out.end(), {c.adds, c.swaps, c.uploads, c.bytes_requested, c.budget_hits(), sched->lod_bias()});
   }

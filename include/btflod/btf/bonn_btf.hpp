@@ -207,12 +207,14 @@ class BonnParser {
     return fail(Status::short_output, "truncated input: %s needs %llu bytes, only %zu remain", what,
                 static_cast<unsigned long long>(count * element_size), r_.remaining());
   }
-  /// A count read from the file: when its elements cannot fit in the rest of the file, the
-  /// count itself is the problem (reported before any allocation).
+  /// A count read from the file, already checked against its absolute limit (a count above the
+  /// limit is bad_data: no valid file holds it). When its elements cannot fit in the rest of the
+  /// file, the file is reported as truncated (short_output), before any allocation: a file cut
+  /// anywhere gives short_output, whichever field the cut falls in.
   bool count_fits(uint64_t count, uint64_t min_element_size, const char* what) {
     if (r_.can_hold(count, min_element_size)) return true;
-    return fail(Status::bad_data, "oversized count: %s = %llu needs at least %llu bytes each, only %zu remain", what,
-                static_cast<unsigned long long>(count), static_cast<unsigned long long>(min_element_size),
+    return fail(Status::short_output, "truncated input: %s = %llu needs at least %llu bytes each, only %zu remain",
+                what, static_cast<unsigned long long>(count), static_cast<unsigned long long>(min_element_size),
                 r_.remaining());
   }
   bool u8(uint8_t& out, const char* what) {
@@ -295,6 +297,10 @@ class BonnParser {
 inline constexpr uint32_t kBonnMaxChannels = 64;
 inline constexpr uint32_t kBonnMaxDimension = 1u << 20;
 inline constexpr uint64_t kBonnMaxXml = uint64_t{1} << 28;
+/// Largest view or light count (UBO2014 has 151; counts above this are bad_data).
+inline constexpr uint32_t kBonnMaxDirections = 1u << 16;
+/// Largest rotation (local frame) count: one per texel at most.
+inline constexpr uint64_t kBonnMaxRotations = uint64_t{1} << 24;
 
 /// Names a direction set after UBO2003 or UBO2014 when its angles match one of them exactly
 /// in order (the reader keeps the file's angles either way).
@@ -369,6 +375,8 @@ inline bool parse_bonn_sampling(BonnParser& p, BonnBtfFile& f) {
   uint32_t n_view = 0;
   if (!p.u32(n_view, "view count")) return false;
   if (n_view == 0) return p.fail(Status::bad_data, "view count is 0");
+  if (n_view > kBonnMaxDirections)
+    return p.fail(Status::bad_data, "oversized count: view count = %u exceeds the limit %u", n_view, kBonnMaxDirections);
   if (!p.count_fits(n_view, 12, "view count")) return false;  // θ, φ, nL per view at least
   std::vector<std::pair<float, float>> views(n_view);
   std::vector<std::pair<float, float>> lights;
@@ -381,6 +389,9 @@ inline bool parse_bonn_sampling(BonnParser& p, BonnBtfFile& f) {
     uint32_t n_light = 0;
     if (!p.u32(n_light, "light count")) return false;
     if (n_light == 0) return p.fail(Status::bad_data, "view %u: light count is 0", v);
+    if (n_light > kBonnMaxDirections)
+      return p.fail(Status::bad_data, "oversized count: view %u: light count = %u exceeds the limit %u", v, n_light,
+                    kBonnMaxDirections);
     if (!p.count_fits(n_light, 8, "light count")) return false;
     if (v == 0) {
       lights.resize(n_light);
@@ -451,7 +462,11 @@ inline bool parse_bonn_factors(BonnParser& p, BonnFactors& out, uint64_t rows_ex
 ///   bad_data for a wrong signature, a meta block whose size does not match its fields, NaN/Inf
 ///   in header floats or matrices, counts that cannot fit in the rest of the file, matrix sizes
 ///   that do not match nL·nV × w·h, and trailing bytes (unless allowed);
-///   short_output for truncated input; unsupported for other Bonn formats (PVF, BDI, older FMF).
+///   short_output for truncated input, wherever the cut falls (a count within its limit whose
+///   data does not fit in the rest of the file is truncation; counts above the fixed limits
+///   kBonnMaxDirections, kBonnMaxRotations, kBonnMaxXml, kBonnMaxChannels, kBonnMaxDimension or
+///   the header's component count are bad_data); unsupported for other Bonn formats (PVF, BDI,
+///   older FMF).
 /// Safe on untrusted input: every count is checked against the remaining bytes before any
 /// allocation, so memory use is bounded by a small multiple of the input size. Thread-safe.
 inline Result<BonnBtfFile> read_bonn_btf(std::span<const uint8_t> bytes, const BonnReadOptions& options = {}) {
@@ -485,7 +500,13 @@ inline Result<BonnBtfFile> read_bonn_btf(std::span<const uint8_t> bytes, const B
   f.height = static_cast<int>(h);
   // Both supported signatures end in 'R': a rotations block follows.
   uint32_t n_rot = 0;
-  if (!p.u32(n_rot, "rotation count") || !p.count_fits(n_rot, 36, "rotation count")) return p.error();
+  if (!p.u32(n_rot, "rotation count")) return p.error();
+  if (n_rot > detail::kBonnMaxRotations) {
+    p.fail(Status::bad_data, "oversized count: rotation count = %u exceeds the limit %llu", n_rot,
+           static_cast<unsigned long long>(detail::kBonnMaxRotations));
+    return p.error();
+  }
+  if (!p.count_fits(n_rot, 36, "rotation count")) return p.error();
   f.rotations.resize(n_rot);
   for (auto& m : f.rotations)
     for (float& e : m)

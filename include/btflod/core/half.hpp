@@ -7,12 +7,13 @@
 // as F16C does). Set BTFLOD_DISABLE_SIMD=1 in the environment to force the scalar twins.
 #pragma once
 
-#include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <span>
+
+#include "btflod/core/bit_cast.hpp"
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define BTFLOD_HAS_X86_DISPATCH 1
@@ -28,7 +29,7 @@ namespace btflod {
 
 /// Converts a float to binary16 bits, round to nearest even. Thread-safe, no allocation.
 constexpr uint16_t float_to_half_bits(float value) noexcept {
-  const uint32_t f = std::bit_cast<uint32_t>(value);
+  const uint32_t f = btflod::bit_cast<uint32_t>(value);
   const uint32_t sign = (f >> 16) & 0x8000u;
   const uint32_t abs = f & 0x7fffffffu;
   if (abs >= 0x7f800000u) {                       // Inf or NaN
@@ -59,7 +60,7 @@ constexpr float half_bits_to_float(uint16_t h) noexcept {
   const uint32_t exponent = (h >> 10) & 0x1fu;
   const uint32_t mantissa = h & 0x3ffu;
   if (exponent == 0) {
-    if (mantissa == 0) return std::bit_cast<float>(sign);
+    if (mantissa == 0) return btflod::bit_cast<float>(sign);
     // Subnormal: normalise into a float exponent.
     uint32_t m = mantissa;
     uint32_t e = 113;  // 127 - 14
@@ -67,13 +68,13 @@ constexpr float half_bits_to_float(uint16_t h) noexcept {
       m <<= 1;
       --e;
     }
-    return std::bit_cast<float>(sign | (e << 23) | ((m & 0x3ffu) << 13));
+    return btflod::bit_cast<float>(sign | (e << 23) | ((m & 0x3ffu) << 13));
   }
   if (exponent == 31) {
-    if (mantissa == 0) return std::bit_cast<float>(sign | 0x7f800000u);
-    return std::bit_cast<float>(sign | 0x7fc00000u | (mantissa << 13));
+    if (mantissa == 0) return btflod::bit_cast<float>(sign | 0x7f800000u);
+    return btflod::bit_cast<float>(sign | 0x7fc00000u | (mantissa << 13));
   }
-  return std::bit_cast<float>(sign | ((exponent + 112u) << 23) | (mantissa << 13));
+  return btflod::bit_cast<float>(sign | ((exponent + 112u) << 23) | (mantissa << 13));
 }
 
 /// A binary16 value. Trivially copyable, 2 bytes; arithmetic happens in float.

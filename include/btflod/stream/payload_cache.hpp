@@ -48,7 +48,7 @@ class PayloadCache {
       chunks_ = max_entries_ = 0;
       return;
     }
-    arena_ = std::make_unique_for_overwrite<uint8_t[]>(chunks_ * chunk_);
+    arena_.reset(new uint8_t[chunks_ * chunk_]);  // uninitialised on purpose (libc++ 13 has no make_unique_for_overwrite)
     next_chunk_ = std::make_unique<uint32_t[]>(chunks_);
     for (size_t i = 0; i < chunks_; ++i) next_chunk_[i] = i + 1 < chunks_ ? static_cast<uint32_t>(i + 1) : kNone;
     free_chunk_ = 0;

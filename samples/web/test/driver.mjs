@@ -1,0 +1,286 @@
+// Browser test driver for the btflod web client: Debian's chromium (headless) through
+// puppeteer-core, pages served by nginx (run_web.sh starts it). Runs, for each GL path:
+//   golden      priority streaming (feedback → scheduler → Range requests) of every material in a
+//               fixed view until converged; final frame vs the CPU reference (PSNR ≥ 40 dB);
+//               bytes over time and SSIM vs the converged frame; all .bsvtf requests are Range
+//               requests (nginx access log)
+//   components  the same data in paper 004's component-by-component order: bytes to SSIM 0.95
+//   needed      a view of material 0 only: the other materials get only directory and roots
+//   faults      every tile's first transfer dropped by the server (444) or served from a copy
+//               with corrupted payloads: the page re-requests, converges, and matches the reference
+//   bench       wasm tile decode µs (zlib in the page, DecompressionStream inflate, libdeflate
+//               under node) vs native in the same run; frame time at 512² (SwiftShader, llvmpipe)
+// Writes WORK/report.json and WORK/report.md; exits 1 when a check fails.
+import { spawnSync } from 'node:child_process';
+import { mkdirSync, readFileSync, writeFileSync, existsSync, readdirSync } from 'node:fs';
+import path from 'node:path';
+import puppeteer from 'puppeteer-core';
+
+const args = {};
+for (let i = 2; i < process.argv.length; ++i) {
+  const k = process.argv[i].replace(/^--/, '');
+  if (k === 'reduced') args.reduced = true;
+  else args[k] = process.argv[++i];
+}
+const reduced = !!args.reduced;
+const WORK = args.work;
+const SIZE = reduced ? 256 : 512;
+const report = { reduced, size: SIZE, checks: [], runs: {} };
+const check = (name, ok, detail) => {
+  report.checks.push({ name, ok, detail });
+  console.log(`${ok ? 'PASS' : 'FAIL'} ${name}: ${detail}`);
+};
+const tool = (...a) => {
+  const r = spawnSync(args.tool, a, { encoding: 'utf8' });
+  if (r.status !== 0) throw new Error(`btflod-web-tool ${a[0]}: ${r.stderr}`);
+  return r.stdout;
+};
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+const materials = JSON.parse(readFileSync(path.join(args.site, 'data/materials.json'), 'utf8')).materials;
+const files = materials.map((m) => path.join(args.site, 'data', m.file));
+
+// Corrupted copies (every payload byte range touched; header and directory intact) for the
+// fault test: the server sends them as they are, the client must refuse them by CRC.
+mkdirSync(path.join(args.site, 'data-corrupt'), { recursive: true });
+for (const f of files) {
+  const b = readFileSync(f);
+  const payloadOffset = Number(b.readBigUInt64LE(80));
+  for (let i = payloadOffset + 40; i < b.length; i += 61) b[i] ^= 0x5a;
+  writeFileSync(path.join(args.site, 'data-corrupt', path.basename(f)), b);
+}
+
+// The fixed view of the golden runs (LOD bias −1.5: every visible tile at the finest level, as
+// in the GPU golden tests, so the converged frame equals the all-resident CPU reference).
+const view = { eye: [0.35, -2.9, 3.3], target: [0, 0.1, 0], fov: 45, light: [-0.5, 0.4, 0.8], lightColor: [1.6, 1.4, 1.2], bias: -1.5 };
+const refPath = path.join(WORK, `reference_${SIZE}.f32`);
+tool('reference', '--out', refPath, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
+  '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`);
+const compare = (img) => {
+  const p = path.join(WORK, 'tmp_compare.f32');
+  writeFileSync(p, Buffer.from(img.buffer, img.byteOffset, img.byteLength));
+  return JSON.parse(tool('compare', '--ref', refPath, '--img', p, '--size', `${SIZE}x${SIZE}`));
+};
+
+function launchArgs(gl) {
+  const common = ['--headless=new', '--no-sandbox', '--disable-background-networking', '--disable-component-update',
+    '--disable-sync', '--no-first-run', '--disable-extensions', '--mute-audio'];
+  if (gl === 'swiftshader') return [...common, '--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
+  return [...common, '--use-gl=angle', '--use-angle=gl-egl', '--ignore-gpu-blocklist'];
+}
+
+async function openPage(browser, query) {
+  const page = await browser.newPage();
+  page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.log(`  [page] ${m.text()}`); });
+  page.on('pageerror', (e) => console.log(`  [page error] ${e}`));
+  await page.goto(`${args.url}?size=${SIZE}&materials=${materials.length}${query || ''}`);
+  await page.waitForFunction(() => window.btflod && (window.btflod.ready || window.btflod.error), { timeout: 60000 });
+  const err = await page.evaluate(() => window.btflod.error || null);
+  if (err) throw new Error(`page failed: ${err}`);
+  await page.evaluate((v) => {
+    window.btflod.running = false;  // the driver steps the frames
+    Object.assign(window.btflod.client.view, v);
+  }, view);
+  return page;
+}
+
+// Steps frames until converged (3 frames in a row) or maxFrames; snapshots every `every` frames.
+async function stream(page, { maxFrames, every, snapshots }) {
+  let stable = 0, frames = 0;
+  const shots = [];
+  for (; frames < maxFrames && stable < 3; ++frames) {
+    const s = await page.evaluate((snap) => {
+      const c = window.btflod.client;
+      c.frame();
+      const out = { bytes: c.stats.bytes, quality: c.quality(), converged: c.converged(), t: performance.now() };
+      if (snap) out.image = Array.from(new Uint8Array(c.readColor().buffer));
+      return out;
+    }, snapshots && frames % every === 0);
+    if (s.image) shots.push({ bytes: s.bytes, quality: s.quality, image: new Float32Array(new Uint8Array(s.image).buffer) });
+    stable = s.converged ? stable + 1 : 0;
+    await sleep(2);
+  }
+  const final = await page.evaluate(() => {
+    const c = window.btflod.client;
+    c.frame();
+    return { image: Array.from(new Uint8Array(c.readColor().buffer)), stats: c.stats, quality: c.quality() };
+  });
+  return { frames, converged: stable >= 3, shots, final: { ...final, image: new Float32Array(new Uint8Array(final.image).buffer) } };
+}
+
+function bytesToSsim(shots, finalBytes, target) {
+  const curve = shots.map((s) => ({ bytes: s.bytes, quality_estimate: s.quality, ssim: compare(s.image).ssim }));
+  const hit = curve.find((p) => p.ssim >= target);
+  return { curve, bytes_to_target: hit ? hit.bytes : finalBytes };
+}
+
+function accessLog() {
+  return readFileSync(args['access-log'], 'utf8').split('\n').filter(Boolean).map((l) => {
+    const m = /^(\S+) (\S+) (\d+) (\d+) "([^"]*)" (\S*)$/.exec(l);
+    return m ? { method: m[1], uri: m[2], status: Number(m[3]), bytes: Number(m[4]), range: m[5], args: m[6] } : { raw: l };
+  });
+}
+let logMark = 0;
+const newLogLines = () => { const all = accessLog(); const fresh = all.slice(logMark); logMark = all.length; return fresh; };
+
+async function runGl(gl) {
+  const browser = await puppeteer.launch({ executablePath: args.chromium, headless: 'new', args: launchArgs(gl),
+    userDataDir: path.join(WORK, `profile-${gl}-${Date.now()}`) });
+  const r = {};
+  try {
+    // --- golden: priority streaming -------------------------------------------------------
+    newLogLines();
+    let page = await openPage(browser, '');
+    const pri = await stream(page, { maxFrames: reduced ? 400 : 800, every: reduced ? 3 : 2, snapshots: true });
+    const g = compare(pri.final.image);
+    r.golden = { frames: pri.frames, converged: pri.converged, psnr_db: g.psnr_db, ssim: g.ssim, stats: pri.final.stats };
+    check(`${gl}: priority streaming converged`, pri.converged, `${pri.frames} frames, ${pri.final.stats.bytes} bytes`);
+    check(`${gl}: golden BSVTF vs CPU reference ≥ 40 dB`, g.psnr_db >= 40, `${g.psnr_db.toFixed(2)} dB, SSIM ${g.ssim.toFixed(4)}`);
+    const log = newLogLines().filter((l) => l.uri && l.uri.endsWith('.bsvtf'));
+    const nonRange = log.filter((l) => l.status !== 206 || !l.range.startsWith('bytes='));
+    check(`${gl}: only Range requests for .bsvtf data`, log.length > 0 && nonRange.length === 0,
+      `${log.length} requests, ${nonRange.length} without Range/206`);
+    const p95 = bytesToSsim(pri.shots, pri.final.stats.bytes, 0.95);
+    r.priority_curve = p95.curve;
+    await page.close();
+
+    // --- components: paper 004's order over the same data -------------------------------
+    page = await openPage(browser, '');
+    await page.evaluate(() => window.btflod.client.startComponentOrder());
+    const comp = await stream(page, { maxFrames: reduced ? 600 : 1200, every: reduced ? 3 : 2, snapshots: true });
+    const c95 = bytesToSsim(comp.shots, comp.final.stats.bytes, 0.95);
+    const gc = compare(comp.final.image);
+    r.components_curve = c95.curve;
+    r.bytes_to_ssim_095 = { priority: p95.bytes_to_target, components: c95.bytes_to_target };
+    check(`${gl}: component order converges to the same frame`, comp.converged && gc.psnr_db >= 40, `${gc.psnr_db.toFixed(2)} dB`);
+    console.log(`  bytes to SSIM 0.95: priority ${p95.bytes_to_target}, component by component ${c95.bytes_to_target}`);
+    await page.close();
+    newLogLines();
+
+    // --- needed: a view of material 0 only ------------------------------------------------
+    page = await openPage(browser, '');
+    await page.evaluate(() => {
+      const c = window.btflod.client;
+      c.view.eye = [-1.1 * (c.materials.length - 1), -0.4, 1.5];
+      c.view.target = [-1.1 * (c.materials.length - 1), 0.2, 0];
+      c.view.bias = 0;
+    });
+    const need = await stream(page, { maxFrames: 300, every: 1000, snapshots: false });
+    const nlog = newLogLines().filter((l) => l.uri && l.uri.endsWith('.bsvtf'));
+    const perFile = {};
+    for (const l of nlog) perFile[path.basename(l.uri)] = (perFile[path.basename(l.uri)] || 0) + 1;
+    const others = materials.slice(1).map((m) => perFile[m.file] || 0);
+    // directory: 2 requests; roots: one per virtual texture (2 for C = 8)
+    check(`${gl}: materials out of view get directory and roots only`, need.converged && others.every((n) => n <= 4),
+      `requests per file ${JSON.stringify(perFile)}`);
+    r.needed = { perFile, bytes: need.final.stats.bytes };
+    await page.close();
+
+    // --- faults: dropped connections and corrupted payloads --------------------------------
+    if (gl === 'swiftshader') {
+      newLogLines();
+      page = await openPage(browser, '');
+      await page.evaluate(() => {
+        const seen = new Map();
+        let k = 0;
+        window.btflod.client.faults = (info, attempt, url) => {
+          if (info.kind !== 0 || info.id >= 0x40000000) return null;
+          const key = `${info.material}:${info.key}`;
+          if (seen.has(key)) return null;  // only a tile's first transfer fails
+          seen.set(key, true);
+          k += 1;
+          if (k % 3 === 1) return url + '?drop=1';               // server closes the connection
+          if (k % 3 === 2) return url.replace('data/', 'data-corrupt/');  // corrupted payload bytes
+          return null;
+        };
+      });
+      const f = await stream(page, { maxFrames: reduced ? 500 : 900, every: 1000, snapshots: false });
+      const gf = compare(f.final.image);
+      const flog = newLogLines();
+      const dropped = flog.filter((l) => l.args && l.args.includes('drop=1')).length;
+      const corruptServed = flog.filter((l) => l.uri && l.uri.startsWith('/data-corrupt/')).length;
+      r.faults = { frames: f.frames, psnr_db: gf.psnr_db, stats: f.final.stats, dropped, corruptServed };
+      check(`${gl}: recovers from dropped connections and corrupt payloads`,
+        f.converged && gf.psnr_db >= 40 && f.final.stats.corrupt > 0 && f.final.stats.retries > 0 && dropped > 0,
+        `${dropped} connections closed by the server, ${corruptServed} corrupt transfers, refused ${f.final.stats.corrupt}, ` +
+        `retries ${f.final.stats.retries}, final ${gf.psnr_db.toFixed(2)} dB`);
+      await page.close();
+    }
+
+    // --- bench: frame time at 512², wasm decode -----------------------------------------------
+    page = await openPage(browser, '&size=512');
+    await stream(page, { maxFrames: 200, every: 1000, snapshots: false });
+    r.frame_ms_bsvtf = await page.evaluate((n) => window.btflod.client.benchmark(n), reduced ? 5 : 20);
+    if (gl === 'swiftshader') {
+      r.decode = await page.evaluate(async (file) => {
+        const c = window.btflod.client, M = c.M;
+        const head = await fetch(file, { headers: { Range: 'bytes=0-127' } });
+        const total = Number(/\/(\d+)/.exec(head.headers.get('Content-Range'))[1]);
+        const all = new Uint8Array(await (await fetch(file, { headers: { Range: `bytes=0-${total - 1}` } })).arrayBuffer());
+        const p = M._malloc(all.length);
+        M.HEAPU8.set(all, p);
+        const out = M._malloc(40);
+        const status = M._bw_decode_container(p, all.length, 0, 3, out);
+        const d = new Float64Array(M.HEAPU8.buffer, out, 5).slice();
+        // DecompressionStream('deflate-raw') on the same tiles' deflate streams.
+        const view = new DataView(all.buffer);
+        const tileCount = view.getUint32(72, true), indexOffset = Number(view.getBigUint64(64, true));
+        const info = M._malloc(8);
+        let us = 0, n = 0;
+        for (let i = 0; i < tileCount; ++i) {
+          const e = indexOffset + 32 * i;
+          const off = Number(view.getBigUint64(e + 8, true)), size = view.getUint32(e + 16, true);
+          const payload = all.subarray(off, off + size);
+          const pp = M._malloc(size);
+          M.HEAPU8.set(payload, pp);
+          M._bw_inflate_container(pp, size, info);
+          M._free(pp);
+          const [hdr, symbols] = new Uint32Array(M.HEAPU8.buffer, info, 2);
+          const t0 = performance.now();
+          const ds = new Blob([payload.subarray(hdr)]).stream().pipeThrough(new DecompressionStream('deflate-raw'));
+          const got = new Uint8Array(await new Response(ds).arrayBuffer());
+          us += (performance.now() - t0) * 1000;
+          if (got.length !== symbols) return { error: `DecompressionStream gave ${got.length}, expected ${symbols}` };
+          n += 1;
+        }
+        return { status, hash_lo: d[0], hash_hi: d[1], tiles: d[2] / 3, decode_us: d[3], inflate_us: d[4],
+          decompression_stream_us: us / n };
+      }, 'data/' + materials[0].file);
+    }
+    await page.close();
+  } finally {
+    await browser.close();
+  }
+  return r;
+}
+
+const gls = reduced ? ['swiftshader'] : ['swiftshader', 'llvmpipe'];
+for (const gl of gls) {
+  try {
+    report.runs[gl] = await runGl(gl);
+  } catch (e) {
+    check(`${gl}: browser run`, false, String(e && e.stack || e));
+  }
+}
+
+// Native twin of the decode benchmark, same run; wasm libdeflate under node.
+const native = JSON.parse(tool('decode', '--bsvtf', files[0], '--repeats', '3'));
+report.native_decode = native;
+const nodeLd = spawnSync('node', ['--no-experimental-fetch', path.join(path.dirname(new URL(import.meta.url).pathname), 'node_decode.mjs'),
+  path.join(args.wasm, 'btflod_web_libdeflate.js'), files[0], '3', '1'], { encoding: 'utf8' });
+if (nodeLd.status === 0) report.wasm_libdeflate_node = JSON.parse(nodeLd.stdout);
+const sw = report.runs.swiftshader;
+if (sw && sw.decode) {
+  check('wasm tile decoder bit-identical to native (scalar twin)',
+    sw.decode.status === 0 && sw.decode.hash_lo === native.hash_lo && sw.decode.hash_hi === native.hash_hi,
+    `wasm ${sw.decode.hash_hi}:${sw.decode.hash_lo}, native ${native.hash_hi}:${native.hash_lo}, ${native.tiles} tiles`);
+  console.log(`  tile decode µs: wasm ${sw.decode.decode_us.toFixed(1)} (inflate ${sw.decode.inflate_us.toFixed(1)}), ` +
+    `native scalar ${native.zlib_decode_us.toFixed(1)} (inflate ${native.zlib_inflate_us.toFixed(1)}), native SIMD ${native.simd_decode_us.toFixed(1)}; ` +
+    `DecompressionStream inflate ${sw.decode.decompression_stream_us.toFixed(1)}`);
+}
+for (const gl of gls) if (report.runs[gl]) console.log(`  frame time 512² BSVTF on ${gl}: ${report.runs[gl].frame_ms_bsvtf.toFixed(1)} ms`);
+
+writeFileSync(path.join(WORK, 'report.json'), JSON.stringify(report, null, 1));
+const failed = report.checks.filter((c) => !c.ok);
+console.log(failed.length ? `btflod web: ${failed.length} check(s) FAILED` : 'btflod web: all checks passed');
+process.exit(failed.length ? 1 : 0);

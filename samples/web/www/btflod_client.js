@@ -1,0 +1,570 @@
+// btflod web client: streaming .bsvtf materials from a static server with HTTP Range requests
+// and drawing them with WebGL 2 through the GLSL ES 3.00 programs btflod generates.
+//
+// The runtime (container reader, CRC checks, tile decoder, feedback votes, tile cache, scheduler,
+// shader generator) is the WebAssembly module built from samples/web/client/web_client.cpp;
+// this file owns only I/O (fetch with `Range:`) and the GPU (textures, buffers, draws). Per frame:
+//   1. uploads the tiles and U' packets the scheduler released (bw_apply_uploads) and the
+//      page-table texels they changed;
+//   2. draws every material with the bsvtf program into a float target, tone-maps to the canvas;
+//   3. draws the feedback pass (R32UI, 1/4 resolution), reads it back and hands the words to the
+//      scheduler (bw_frame), which returns new requests in priority order (P = w·v, paper 000
+//      §5; U' packets by §6 priority); each becomes one Range request. Bytes are handed to
+//      bw_deliver as they arrive: verified (size, CRC-32) and decoded there, refused otherwise,
+//      so a corrupt or truncated transfer is fetched again and never reaches the GPU.
+'use strict';
+
+const BW = { ok: 0, badArgument: 1, corrupt: 2, decodeFailed: 3, busy: 4, failed: 5 };
+const PROGRAM = { fmf: 0, bsvtf: 1, feedback: 2, laplacian: 3, lpca: 4, pca_views: 5 };
+const BINDING = {
+  btflod_eigen_abrdfs: 1, btflod_angular_index: 2, btflod_angular_weight: 3, btflod_eigen_textures: 4,
+  btflod_tile_cache: 5, btflod_page_table: 6, btflod_pca_l: 13, btflod_pca_r: 14,
+};
+const ROOT_BASE = 0x40000000;
+
+// ---- small matrix helpers (column-major, like GLM) ------------------------------------------
+const mat4 = {
+  perspective(fovy, aspect, near, far) {
+    const f = 1 / Math.tan(fovy / 2), nf = 1 / (near - far);
+    return new Float32Array([f / aspect, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) * nf, -1, 0, 0, 2 * far * near * nf, 0]);
+  },
+  lookAt(eye, target, up) {
+    const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    const norm = (a) => { const l = Math.hypot(a[0], a[1], a[2]); return [a[0] / l, a[1] / l, a[2] / l]; };
+    const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    const f = norm(sub(target, eye)), s = norm(cross(f, up)), u = cross(s, f);
+    return new Float32Array([s[0], u[0], -f[0], 0, s[1], u[1], -f[1], 0, s[2], u[2], -f[2], 0,
+      -dot(s, eye), -dot(u, eye), dot(f, eye), 1]);
+  },
+  mul(a, b) {
+    const o = new Float32Array(16);
+    for (let c = 0; c < 4; ++c)
+      for (let r = 0; r < 4; ++r) {
+        let s = 0;
+        for (let k = 0; k < 4; ++k) s += a[k * 4 + r] * b[c * 4 + k];
+        o[c * 4 + r] = s;
+      }
+    return o;
+  },
+};
+
+// The page's scene: material i on a 2 × 2 plane at x offset (i − (n − 1)/2) · 2.2, normal +z
+// (btflod-web-tool reference renders the same planes).
+function planeOrigin(i, n) { return [-1 + 2.2 * (i - 0.5 * (n - 1)), -1, 0]; }
+
+class RangeError2 extends Error {}
+
+/// Fetches bytes [offset, offset + size) with one Range request; resolves to
+/// { bytes, total } or throws. Anything but 206 with exactly the asked range is an error.
+async function fetchRange(url, offset, size, stats) {
+  const end = offset + size - 1;
+  const r = await fetch(url, { headers: { Range: `bytes=${offset}-${end}` }, cache: 'no-store' });
+  if (r.status !== 206) throw new RangeError2(`${url}: HTTP ${r.status} for bytes=${offset}-${end}`);
+  const cr = r.headers.get('Content-Range') || '';
+  const m = /bytes (\d+)-(\d+)\/(\d+)/.exec(cr);
+  if (!m || Number(m[1]) !== offset) throw new RangeError2(`${url}: Content-Range '${cr}' for bytes=${offset}-${end}`);
+  const bytes = new Uint8Array(await r.arrayBuffer());
+  stats.requests += 1;
+  stats.bytes += bytes.length;
+  return { bytes, total: Number(m[3]) };
+}
+
+export class BtflodClient {
+  /// canvas: a WebGL 2 canvas; module: the instantiated wasm module; options: see defaults.
+  constructor(canvas, module, options = {}) {
+    this.canvas = canvas;
+    this.M = module;
+    this.opt = Object.assign({
+      slotsX: 24, slotsY: 24, uploadsPerFrame: 16, requestsInFlight: 48, fetchConcurrency: 6,
+      angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4,
+    }, options);
+    this.gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
+    if (!this.gl) throw new Error('WebGL 2 is not available');
+    if (!this.gl.getExtension('EXT_color_buffer_float')) throw new Error('EXT_color_buffer_float is not available');
+    this.materials = [];
+    this.stats = { requests: 0, bytes: 0, payloadBytes: 0, corrupt: 0, retries: 0, failures: 0, uploads: 0, frames: 0,
+      directoryBytes: 0 };
+    this.timeline = [];     // { t, bytes, quality }
+    this.queue = [];        // requests waiting for a fetch slot
+    this.active = 0;
+    this.view = { yaw: -1.2, pitch: 0.75, distance: 4.2, target: [0, 0, 0], fov: 45, light: [-0.5, 0.4, 0.8],
+      lightColor: [1.6, 1.4, 1.2], bias: 0, eye: null };
+    this.frameMs = 0;
+    this.faults = null;     // test hook: function(info, attempt, url) → url to fetch instead, or null
+    this.startTime = performance.now();
+  }
+
+  heapCopy(bytes) {
+    const p = this.M._malloc(bytes.length);
+    this.M.HEAPU8.set(bytes, p);
+    return p;
+  }
+  error() { return this.M.UTF8ToString(this.M._bw_last_error()); }
+
+  /// Loads the container directories (header, then directory: two Range requests each) and
+  /// creates the runtime, the GPU resources and the programs. urls: one .bsvtf per material.
+  async open(urls) {
+    const M = this.M;
+    M._bw_set_angular_resolution(this.opt.angularResolution);
+    for (const url of urls) {
+      const head = await fetchRange(url, 0, 128, this.stats);
+      const hp = this.heapCopy(head.bytes);
+      const dirSize = M._bw_directory_size(hp, 128, head.total);
+      M._free(hp);
+      if (!dirSize) throw new Error(`${url}: ${this.error()}`);
+      const dir = await fetchRange(url, 0, dirSize, this.stats);
+      this.stats.directoryBytes += 128 + dir.bytes.length;
+      const dp = this.heapCopy(dir.bytes);
+      const index = M._bw_add_material(dp, dir.bytes.length, head.total);
+      M._free(dp);
+      if (index < 0 || index > 1000) throw new Error(`${url}: ${this.error()}`);
+      this.materials.push({ url, index, fileSize: head.total });
+    }
+    const o = this.opt;
+    if (M._bw_start(o.slotsX, o.slotsY, 0, o.uploadsPerFrame, o.requestsInFlight, o.streamU ? 1 : 0) !== 0)
+      throw new Error(this.error());
+    this.initGpu();
+    // Pinned roots first (one per virtual texture), before any feedback.
+    const n = M._bw_root_count();
+    const roots = new Uint32Array(M.HEAPU8.buffer, M._bw_roots(), n * 8).slice();
+    await Promise.all(Array.from({ length: n }, (_, i) => this.fetchAndDeliver(this.requestInfo(roots, i))));
+  }
+
+  requestInfo(arr, i) {
+    const b = i * 8;
+    return { id: arr[b], material: arr[b + 1], kind: arr[b + 2], key: arr[b + 3] + arr[b + 4] * 2 ** 32,
+      offset: arr[b + 5] + arr[b + 6] * 2 ** 32, size: arr[b + 7] };
+  }
+
+  // One fetch with retries; hands the bytes to the runtime. A corrupt payload is refused there
+  // (the scheduler re-plans the tile: a new request); a dropped connection is retried here.
+  async fetchAndDeliver(info) {
+    const mat = this.materials[info.material];
+    for (let attempt = 0; ; ++attempt) {
+      try {
+        // Test hook: another URL for this attempt (a copy with corrupted payloads, or a URL the
+        // server answers by closing the connection) — real transfers, no bytes altered here.
+        const url = this.faults ? this.faults(info, attempt, mat.url) || mat.url : mat.url;
+        const { bytes } = await fetchRange(url, info.offset, info.size, this.stats);
+        this.stats.payloadBytes += bytes.length;
+        const p = this.heapCopy(bytes);
+        const code = this.M._bw_deliver(info.id, p, bytes.length);
+        this.M._free(p);
+        if (code === BW.corrupt) {
+          this.stats.corrupt += 1;
+          if (info.id >= ROOT_BASE) continue;  // roots are not scheduled: fetch again here
+          return;
+        }
+        if (code !== BW.ok) {
+          this.stats.failures += 1;
+          console.warn(`deliver ${info.id}: ${this.error()}`);
+        }
+        return;
+      } catch (e) {
+        this.stats.retries += 1;
+        if (attempt + 1 >= this.opt.maxRetries) {
+          this.stats.failures += 1;
+          if (info.id < ROOT_BASE) this.M._bw_cancel(info.id);
+          return;
+        }
+      }
+    }
+  }
+
+  pump() {
+    while (this.active < this.opt.fetchConcurrency && this.queue.length) {
+      const info = this.queue.shift();
+      this.active += 1;
+      this.fetchAndDeliver(info).finally(() => { this.active -= 1; this.pump(); });
+    }
+  }
+
+  // ---- GPU ----------------------------------------------------------------------------------
+  compile(type, src) {
+    const gl = this.gl, s = gl.createShader(type);
+    gl.shaderSource(s, src);
+    gl.compileShader(s);
+    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(`shader: ${gl.getShaderInfoLog(s)}`);
+    return s;
+  }
+  link(vs, fs) {
+    const gl = this.gl, p = gl.createProgram();
+    gl.attachShader(p, this.compile(gl.VERTEX_SHADER, vs));
+    gl.attachShader(p, this.compile(gl.FRAGMENT_SHADER, fs));
+    gl.linkProgram(p);
+    if (!gl.getProgramParameter(p, gl.LINK_STATUS)) throw new Error(`link: ${gl.getProgramInfoLog(p)}`);
+    const block = gl.getUniformBlockIndex(p, 'BtflodParams');
+    if (block !== gl.INVALID_INDEX) gl.uniformBlockBinding(p, block, 0);
+    gl.useProgram(p);
+    for (const [name, unit] of Object.entries(BINDING)) {
+      const loc = gl.getUniformLocation(p, name);
+      if (loc) gl.uniform1i(loc, unit);
+    }
+    return p;
+  }
+  generated(program, material) {
+    const M = this.M;
+    const vs = M._bw_program_source(program, 0, material);
+    if (!vs) throw new Error(this.error());
+    const v = M.UTF8ToString(vs);
+    const f = M.UTF8ToString(M._bw_program_source(program, 1, material));
+    return this.link(v, f);
+  }
+
+  texArray(internal, w, h, layers, filter, levels = 1) {
+    const gl = this.gl, t = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, t);
+    gl.texStorage3D(gl.TEXTURE_2D_ARRAY, levels, internal, w, h, layers);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, filter);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MAG_FILTER, filter);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    return t;
+  }
+
+  initGpu() {
+    const gl = this.gl, M = this.M;
+    const info = new Uint32Array(16);
+    const ip = M._malloc(64);
+    this.info = [];
+    for (const m of this.materials) {
+      M._bw_material_info(m.index, ip);
+      info.set(new Uint32Array(M.HEAPU8.buffer, ip, 16));
+      const [width, height, levels, C, lights, views, firstLayer, tile, border, finest, packets, , pageSide, sx, sy, res] = info;
+      Object.assign(m, { width, height, levels, C, lights, views, firstLayer, tile, border, finest, packets, pageSide, res });
+      this.slots = [sx, sy];
+      this.stored = tile + 2 * border;
+      this.pageSide = pageSide;
+    }
+    M._free(ip);
+    const S = this.stored;
+    this.cacheTex = this.texArray(gl.RGBA16F, this.slots[0] * S, this.slots[1] * S, 1, gl.LINEAR);
+    const layers = M._bw_texture_count();
+    const pageLevels = Math.log2(this.pageSide) + 1;
+    this.pageTex = this.texArray(gl.R32UI, this.pageSide, this.pageSide, layers, gl.NEAREST, pageLevels);
+    gl.texParameteri(gl.TEXTURE_2D_ARRAY, gl.TEXTURE_MIN_FILTER, gl.NEAREST_MIPMAP_NEAREST);
+    for (let l = 0; l < pageLevels; ++l) {
+      const side = this.pageSide >> l;
+      gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, l, 0, 0, 0, side, side, layers, gl.RED_INTEGER, gl.UNSIGNED_INT,
+        new Uint32Array(side * side * layers));
+    }
+    const n = this.materials.length;
+    for (const m of this.materials) {
+      m.uTex = this.texArray(gl.RGBA32F, m.lights, m.views, m.C, gl.NEAREST);
+      m.angIndex = this.texArray(gl.RGBA32UI, m.res, m.res, 2, gl.NEAREST);
+      gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, m.res, m.res, 2, gl.RGBA_INTEGER, gl.UNSIGNED_INT,
+        new Uint32Array(M.HEAPU8.buffer, M._bw_angular_index(m.index), m.res * m.res * 8));
+      m.angWeight = this.texArray(gl.RGBA32F, m.res, m.res, 2, gl.NEAREST);
+      gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, m.res, m.res, 2, gl.RGBA, gl.FLOAT,
+        new Float32Array(M.HEAPU8.buffer, M._bw_angular_weight(m.index), m.res * m.res * 8));
+      m.program = this.generated(PROGRAM.bsvtf, m.index);
+      m.feedbackProgram = this.generated(PROGRAM.feedback, m.index);
+      m.vao = this.planeVao(planeOrigin(m.index, n));
+    }
+    this.ubo = gl.createBuffer();
+    gl.bindBuffer(gl.UNIFORM_BUFFER, this.ubo);
+    gl.bufferData(gl.UNIFORM_BUFFER, 224, gl.DYNAMIC_DRAW);
+    gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, this.ubo);
+    this.params = new ArrayBuffer(224);
+    this.paramsF = new Float32Array(this.params);
+    this.paramsU = new Uint32Array(this.params);
+    this.display = this.link(
+      '#version 300 es\nout vec2 uv;\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n' +
+      ' uv = p; gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }\n',
+      '#version 300 es\nprecision highp float;\nin vec2 uv;\nuniform sampler2D img;\nout vec4 color;\n' +
+      'void main() { vec3 c = max(texture(img, uv).rgb, 0.0);\n' +
+      ' c = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));\n' +
+      ' color = vec4(clamp(c, 0.0, 1.0), 1.0); }\n');
+    this.resize(this.canvas.width, this.canvas.height);
+  }
+
+  planeVao(o) {
+    const gl = this.gl;
+    const v = [];
+    for (const [a, b] of [[0, 0], [1, 0], [1, 1], [0, 1]])
+      v.push(o[0] + 2 * a, o[1] + 2 * b, o[2], 0, 0, 1, 1, 0, 0, 1, a, b);
+    const vao = gl.createVertexArray();
+    gl.bindVertexArray(vao);
+    const vb = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, vb);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array(v), gl.STATIC_DRAW);
+    const sizes = [3, 3, 4, 2];
+    let off = 0;
+    sizes.forEach((s, loc) => {
+      gl.enableVertexAttribArray(loc);
+      gl.vertexAttribPointer(loc, s, gl.FLOAT, false, 48, off);
+      off += s * 4;
+    });
+    const ib = gl.createBuffer();
+    gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, ib);
+    gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, new Uint16Array([0, 1, 2, 0, 2, 3]), gl.STATIC_DRAW);
+    gl.bindVertexArray(null);
+    return vao;
+  }
+
+  resize(w, h) {
+    const gl = this.gl;
+    this.width = w;
+    this.height = h;
+    const target = (internal, tw, th) => {
+      const t = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, internal, tw, th);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      return t;
+    };
+    const fbo = (tex, tw, th) => {
+      const f = gl.createFramebuffer();
+      gl.bindFramebuffer(gl.FRAMEBUFFER, f);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, tex, 0);
+      const d = gl.createRenderbuffer();
+      gl.bindRenderbuffer(gl.RENDERBUFFER, d);
+      gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT24, tw, th);
+      gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, d);
+      if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) throw new Error('framebuffer incomplete');
+      return f;
+    };
+    this.colorTex = target(gl.RGBA32F, w, h);
+    this.colorFbo = fbo(this.colorTex, w, h);
+    const s = this.opt.feedbackShift;
+    this.fbW = Math.max(1, w >> s);
+    this.fbH = Math.max(1, h >> s);
+    this.feedbackTex = target(gl.R32UI, this.fbW, this.fbH);
+    this.feedbackFbo = fbo(this.feedbackTex, this.fbW, this.fbH);
+    this.feedbackWords = new Uint32Array(this.fbW * this.fbH * 4);
+    this.feedbackHeap = this.M._malloc(this.fbW * this.fbH * 4);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  }
+
+  eye() {
+    const v = this.view;
+    if (v.eye) return v.eye;
+    const cp = Math.cos(v.pitch);
+    return [v.target[0] + v.distance * cp * Math.cos(v.yaw), v.target[1] + v.distance * cp * Math.sin(v.yaw),
+      v.target[2] + v.distance * Math.sin(v.pitch)];
+  }
+
+  writeParams(m, lodY) {
+    const v = this.view, F = this.paramsF, U = this.paramsU;
+    const eye = this.eye();
+    const proj = mat4.perspective(v.fov * Math.PI / 180, this.width / this.height, 0.05, 50);
+    F.set(mat4.mul(proj, mat4.lookAt(eye, v.target, [0, 0, 1])), 0);
+    F.set([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1], 16);
+    F.set([eye[0], eye[1], eye[2], 1], 32);
+    const l = v.light, ll = Math.hypot(l[0], l[1], l[2]);
+    F.set([l[0] / ll, l[1] / ll, l[2] / ll, 0], 36);
+    F.set([v.lightColor[0], v.lightColor[1], v.lightColor[2], 1], 40);
+    F.set([v.bias, lodY, 1, 0], 44);
+    F.set([m.width, m.height, m.finest, 0], 48);
+    U.set([m.firstLayer, m.index, 0, 0], 52);
+    const gl = this.gl;
+    gl.bindBuffer(gl.UNIFORM_BUFFER, this.ubo);
+    gl.bufferSubData(gl.UNIFORM_BUFFER, 0, this.params);
+  }
+
+  bindTextures(m) {
+    const gl = this.gl;
+    const bind = (unit, tex) => { gl.activeTexture(gl.TEXTURE0 + unit); gl.bindTexture(gl.TEXTURE_2D_ARRAY, tex); };
+    bind(1, m.uTex);
+    bind(2, m.angIndex);
+    bind(3, m.angWeight);
+    bind(5, this.cacheTex);
+    bind(6, this.pageTex);
+  }
+
+  // Uploads released tiles and packets and the page-table texels they changed.
+  applyUploads() {
+    const gl = this.gl, M = this.M;
+    const n = M._bw_apply_uploads();
+    if (n < 0) throw new Error(this.error());
+    const S = this.stored;
+    const ups = new Uint32Array(M.HEAPU8.buffer, M._bw_uploads(), n * 5).slice();
+    for (let i = 0; i < n; ++i) {
+      const [kind, slot, material] = [ups[i * 5], ups[i * 5 + 1], ups[i * 5 + 2]];
+      if (kind === 0) {
+        const texels = new Uint16Array(M.HEAPU8.buffer, ups[i * 5 + 4], S * S * 4);
+        const x = (slot % this.slots[0]) * S, y = Math.floor(slot / this.slots[0]) * S;
+        gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.cacheTex);
+        gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, x, y, 0, S, S, 1, gl.RGBA, gl.HALF_FLOAT, texels);
+      } else {
+        const m = this.materials[material];
+        gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.uTex);
+        gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, m.lights, m.views, m.C, gl.RGBA, gl.FLOAT,
+          new Float32Array(M.HEAPU8.buffer, M._bw_u_rgba(m.index), m.lights * m.views * m.C * 4));
+      }
+      this.stats.uploads += 1;
+    }
+    M._bw_uploads_done();
+    const w = M._bw_page_write_count();
+    if (w > 0) {
+      const pw = new Uint32Array(M.HEAPU8.buffer, M._bw_page_writes(), w * 5).slice();
+      gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.pageTex);
+      const one = new Uint32Array(1);
+      for (let i = 0; i < w; ++i) {
+        one[0] = pw[i * 5 + 4];
+        gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, pw[i * 5 + 1], pw[i * 5 + 2], pw[i * 5 + 3], pw[i * 5], 1, 1, 1,
+          gl.RED_INTEGER, gl.UNSIGNED_INT, one);
+      }
+    }
+    return n;
+  }
+
+  drawColor() {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.colorFbo);
+    gl.viewport(0, 0, this.width, this.height);
+    gl.enable(gl.DEPTH_TEST);
+    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
+    gl.clear(gl.DEPTH_BUFFER_BIT);
+    for (const m of this.materials) {
+      gl.useProgram(m.program);
+      this.writeParams(m, 0);
+      this.bindTextures(m);
+      gl.bindVertexArray(m.vao);
+      gl.drawElements(gl.TRIANGLES, 6, gl.UNSIGNED_SHORT, 0);
+    }
+    gl.bindVertexArray(null);
+  }
+
+  present() {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.viewport(0, 0, this.canvas.width, this.canvas.height);
+    gl.disable(gl.DEPTH_TEST);
+    gl.useProgram(this.display);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, this.colorTex);
+    gl.uniform1i(gl.getUniformLocation(this.display, 'img'), 0);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
+
+  // Feedback pass (paper 000 eq. 1–2) at 1/2^shift resolution, read back, voted and planned.
+  feedback() {
+    const gl = this.gl, M = this.M;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.feedbackFbo);
+    gl.viewport(0, 0, this.fbW, this.fbH);
+    gl.enable(gl.DEPTH_TEST);
+    gl.clearBufferuiv(gl.COLOR, 0, [0xffffffff, 0, 0, 0]);
+    gl.clear(gl.DEPTH_BUFFER_BIT);
+    for (const m of this.materials) {
+      gl.useProgram(m.feedbackProgram);
+      this.writeParams(m, this.opt.feedbackShift);
+      gl.activeTexture(gl.TEXTURE6);
+      gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.pageTex);
+      gl.bindVertexArray(m.vao);
+      gl.drawElements(gl.TRIANGLES, 6, gl.UNSIGNED_SHORT, 0);
+    }
+    gl.bindVertexArray(null);
+    gl.readPixels(0, 0, this.fbW, this.fbH, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.feedbackWords);
+    const n = this.fbW * this.fbH;
+    const words = new Uint32Array(M.HEAPU8.buffer, this.feedbackHeap, n);
+    for (let i = 0; i < n; ++i) words[i] = this.feedbackWords[i * 4];
+    const count = M._bw_frame(this.feedbackHeap, n);
+    if (count < 0) throw new Error(this.error());
+    const reqs = new Uint32Array(M.HEAPU8.buffer, M._bw_requests(), count * 8).slice();
+    for (let i = 0; i < count; ++i) this.queue.push(this.requestInfo(reqs, i));
+    this.pump();
+  }
+
+  /// Switches to paper 004's fixed order for comparison (§5: component by component — U'
+  /// packet g, then every tile of virtual texture g coarse to fine — no feedback, no scheduler).
+  startComponentOrder() {
+    const M = this.M;
+    const n = M._bw_component_order();
+    const list = new Uint32Array(M.HEAPU8.buffer, M._bw_order(), n * 8).slice();
+    this.fixedOrder = true;
+    this.orderLeft = n;
+    for (let i = 0; i < n; ++i) this.queue.push(this.requestInfo(list, i));
+    // Deliveries must reach the wasm side in order (a tile needs its parent): one fetch at a time
+    // ahead of delivery would be slow, so fetch concurrently and deliver in sequence.
+    this.orderBuffer = new Map();
+    this.orderNext = 0;
+    this.orderList = this.queue.splice(0);
+    this.pumpOrder();
+  }
+
+  pumpOrder() {
+    while (this.active < this.opt.fetchConcurrency && this.orderList.length) {
+      const info = this.orderList.shift();
+      const seq = info.id - 0x50000000;
+      this.active += 1;
+      fetchRange(this.materials[info.material].url, info.offset, info.size, this.stats).then(({ bytes }) => {
+        this.orderBuffer.set(seq, { info, bytes });
+        while (this.orderBuffer.has(this.orderNext)) {
+          const item = this.orderBuffer.get(this.orderNext);
+          this.orderBuffer.delete(this.orderNext);
+          const p = this.heapCopy(item.bytes);
+          const code = this.M._bw_deliver(item.info.id, p, item.bytes.length);
+          this.M._free(p);
+          if (code !== BW.ok) this.stats.failures += 1;
+          this.orderNext += 1;
+          this.orderLeft -= 1;
+          this.applyUploads();  // staged texels stay valid only until the next delivery's upload
+        }
+      }).finally(() => { this.active -= 1; this.pumpOrder(); });
+    }
+  }
+
+  /// One frame: uploads, colour pass, present, feedback + planning. Returns the frame's ms.
+  frame() {
+    const t0 = performance.now();
+    this.applyUploads();
+    this.drawColor();
+    this.present();
+    if (!this.fixedOrder) this.feedback();
+    this.stats.frames += 1;
+    const t = performance.now() - this.startTime;
+    this.timeline.push({ t, bytes: this.stats.bytes, quality: this.quality() });
+    this.frameMs = performance.now() - t0;
+    return this.frameMs;
+  }
+
+  /// Σ w of delivered tiles / Σ w of all tiles over the materials (paper 000 eq. 8: w is the
+  /// error a tile removes) — the "quality so far" estimate the page shows.
+  quality() {
+    let q = 0;
+    for (const m of this.materials) q += this.M._bw_converged_fraction(m.index);
+    return q / this.materials.length;
+  }
+
+  /// True when nothing is in flight or queued and the view misses no tile it voted for.
+  converged() {
+    if (this.fixedOrder) return this.orderLeft === 0;
+    let packets = true;
+    const ip = this.M._malloc(64);
+    for (const m of this.materials) {
+      this.M._bw_material_info(m.index, ip);
+      const info = new Uint32Array(this.M.HEAPU8.buffer, ip, 16);
+      if (info[11] < info[10]) packets = false;
+    }
+    this.M._free(ip);
+    return packets && this.queue.length === 0 && this.active === 0 && this.M._bw_in_flight() === 0 &&
+      this.M._bw_visible_missing() === 0;
+  }
+
+  /// The last colour frame as linear RGBA float32, row 0 = top (the CPU reference's order).
+  readColor() {
+    const gl = this.gl, w = this.width, h = this.height;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.colorFbo);
+    const px = new Float32Array(w * h * 4);
+    gl.readPixels(0, 0, w, h, gl.RGBA, gl.FLOAT, px);
+    const out = new Float32Array(w * h * 4);
+    for (let y = 0; y < h; ++y) out.set(px.subarray((h - 1 - y) * w * 4, (h - y) * w * 4), y * w * 4);
+    return out;
+  }
+
+  /// Mean ms of `frames` colour passes, each waited for (readPixels of one texel).
+  benchmark(frames) {
+    const gl = this.gl, one = new Float32Array(4);
+    this.drawColor();
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, one);
+    const t0 = performance.now();
+    for (let i = 0; i < frames; ++i) {
+      this.drawColor();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.FLOAT, one);
+    }
+    return (performance.now() - t0) / frames;
+  }
+}

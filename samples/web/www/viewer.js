@@ -1,0 +1,76 @@
+// btflod viewer page: orbit camera, light direction, material picker, streaming progress
+// (bytes received and the Σw "quality so far" estimate), frame time. window.btflod exposes the
+// client to the test driver (samples/web/test/driver.mjs).
+import { BtflodClient } from './btflod_client.js';
+
+const $ = (id) => document.getElementById(id);
+const params = new URLSearchParams(location.search);
+
+async function main() {
+  const list = await (await fetch('data/materials.json', { cache: 'no-store' })).json();
+  const count = Number(params.get('materials') || list.materials.length);
+  const urls = list.materials.slice(0, count).map((m) => 'data/' + m.file);
+  const module = await createBtflodModule({ locateFile: (f) => 'wasm/' + f });
+  const canvas = $('view');
+  const size = Number(params.get('size') || 512);
+  canvas.width = canvas.height = size;
+  const client = new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0' });
+  window.btflod = { client, running: true, lastFrameMs: 0 };
+  await client.open(urls);
+  const totalBytes = list.materials.slice(0, count).reduce((s, m) => s + m.bytes, 0);
+
+  list.materials.slice(0, count).forEach((m, i) => {
+    const o = document.createElement('option');
+    o.value = i;
+    o.textContent = m.name;
+    $('material').appendChild(o);
+  });
+  $('material').onchange = () => {
+    const i = Number($('material').value);
+    client.view.target = [-1 + 2.2 * (i - 0.5 * (count - 1)) + 1, 0, 0];
+    client.view.distance = 3.0;
+  };
+  const setLight = () => {
+    const az = Number($('lightAz').value) * Math.PI / 180, el = Number($('lightEl').value) * Math.PI / 180;
+    client.view.light = [Math.cos(el) * Math.cos(az), Math.cos(el) * Math.sin(az), Math.sin(el)];
+  };
+  $('lightAz').oninput = $('lightEl').oninput = setLight;
+  let drag = null;
+  canvas.onmousedown = (e) => { drag = [e.clientX, e.clientY]; };
+  window.onmouseup = () => { drag = null; };
+  window.onmousemove = (e) => {
+    if (!drag) return;
+    client.view.eye = null;
+    client.view.yaw -= (e.clientX - drag[0]) * 0.01;
+    client.view.pitch = Math.min(1.5, Math.max(0.1, client.view.pitch + (e.clientY - drag[1]) * 0.01));
+    drag = [e.clientX, e.clientY];
+  };
+  canvas.onwheel = (e) => {
+    e.preventDefault();
+    client.view.distance = Math.min(20, Math.max(1.2, client.view.distance * Math.exp(e.deltaY * 0.001)));
+  };
+
+  let last = performance.now();
+  const tick = () => {
+    if (window.btflod.running) {
+      const ms = client.frame();
+      window.btflod.lastFrameMs = ms;
+      const now = performance.now();
+      $('ftime').textContent = `${ms.toFixed(1)} ms (interval ${(now - last).toFixed(1)} ms)`;
+      last = now;
+      $('bytes').textContent = `${(client.stats.bytes / 1024).toFixed(1)} KiB of ${(totalBytes / 1024).toFixed(1)} KiB`;
+      const q = client.quality();
+      $('quality').textContent = `${(100 * q).toFixed(1)} % (Σw delivered / Σw)`;
+      $('fill').style.width = `${(100 * q).toFixed(1)}%`;
+      $('reqs').textContent = `${client.stats.requests} (corrupt ${client.stats.corrupt}, retries ${client.stats.retries})`;
+    }
+    requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
+  window.btflod.ready = true;
+}
+
+main().catch((e) => {
+  $('err').textContent = String(e && e.stack || e);
+  window.btflod = Object.assign(window.btflod || {}, { error: String(e) });
+});

@@ -14,18 +14,20 @@
 #include "btflod/factor/laplacian_pca.hpp"
 #include "btflod/factor/local_pca.hpp"
 #include "btflod/factor/pca_views.hpp"
+#include "btflod/factor/spmm.hpp"
 
 namespace btflod {
 
-using AnyFactorization = std::variant<Fmf, PcaViews, LaplacianPca, LocalPca>;
+using AnyFactorization = std::variant<Fmf, PcaViews, LaplacianPca, LocalPca, Spmm>;
 
-/// Short name of the representation ("fmf", "pca-k", "laplacian", "lpca").
+/// Short name of the representation ("fmf", "pca-k", "laplacian", "lpca", "spmm").
 inline const char* factorization_name(const AnyFactorization& f) noexcept {
   switch (f.index()) {
     case 0: return "fmf";
     case 1: return "pca-k";
     case 2: return "laplacian";
-    default: return "lpca";
+    case 3: return "lpca";
+    default: return "spmm";
   }
 }
 
@@ -42,6 +44,7 @@ inline Result<AnyFactorization> parse_factorization(std::span<const uint8_t> byt
     case FactorKind::pca_views: return wrap(PcaViews::deserialize(bytes));
     case FactorKind::laplacian_pca: return wrap(LaplacianPca::deserialize(bytes));
     case FactorKind::local_pca: return wrap(LocalPca::deserialize(bytes));
+    case FactorKind::spmm: return wrap(Spmm::deserialize(bytes));
   }
   return make_error(Status::bad_data, "factor file: unknown kind");
 }

@@ -32,7 +32,7 @@
 namespace btflod {
 
 /// Which representation a factor file holds.
-enum class FactorKind : uint32_t { fmf = 1, pca_views = 2, laplacian_pca = 3, local_pca = 4 };
+enum class FactorKind : uint32_t { fmf = 1, pca_views = 2, laplacian_pca = 3, local_pca = 4, spmm = 5 };
 
 inline constexpr uint32_t kFactorFormatVersion = 1;
 inline constexpr char kFactorMagic[8] = {'B', 'T', 'F', 'L', 'O', 'D', 'F', 'R'};
@@ -139,7 +139,7 @@ class FactorFile {
     if (!r.ok()) return make_error(Status::short_output, "factor file: header truncated (%zu bytes)", bytes.size());
     if (version != kFactorFormatVersion)
       return make_error(Status::unsupported, "factor file: version %u, expected %u", version, kFactorFormatVersion);
-    if (kind < 1 || kind > 4) return make_error(Status::bad_data, "factor file: unknown kind %u (expected 1..4)", kind);
+    if (kind < 1 || kind > 5) return make_error(Status::bad_data, "factor file: unknown kind %u (expected 1..5)", kind);
     if (count > kFactorMaxSections)
       return make_error(Status::bad_data, "factor file: %u sections, at most %u allowed", count, kFactorMaxSections);
     FactorFile f;

@@ -25,6 +25,7 @@
 #include "btflod/angular/angular_sample.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
 #include "btflod/factor/factor_file.hpp"
+#include "btflod/factor/levenberg_marquardt.hpp"
 #include "btflod/factor/truncated_svd.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 
@@ -47,9 +48,11 @@ struct PhongParams {
 };
 
 /// Fits PhongParams to samples target[v·n_light + l] at (lights[l], views[v]) by
-/// Levenberg–Marquardt (own 4-parameter LM with Eigen LDLT solves and an analytic Jacobian),
-/// started from the best linear least-squares fit over a ladder of exponents. α is kept in
-/// [0, 10⁴]. Returns the parameters (deterministic). Precondition: target has n_view·n_light values.
+/// Levenberg–Marquardt (factor/levenberg_marquardt.hpp: Eigen's MINPACK-style LM, analytic
+/// Jacobian; the same solver as the SPMM fit), started from the best linear least-squares fit
+/// over a ladder of exponents. α is kept in [0, 10⁴]. Returns the parameters
+/// (deterministic). `max_iterations` bounds the LM iterations (as residual evaluations
+/// 10·max_iterations). Precondition: target has n_view·n_light values.
 inline PhongParams fit_phong_lm(const DirectionSet& views, const DirectionSet& lights, std::span<const float> target,
                                 int max_iterations = 200) {
   const size_t nv = views.size(), nl = lights.size(), count = nv * nl;
@@ -89,39 +92,34 @@ inline PhongParams fit_phong_lm(const DirectionSet& views, const DirectionSet& l
     const double c = cost(p);
     if (c < best_cost) best_cost = c, best = p;
   }
-  // Levenberg–Marquardt with Marquardt's diagonal scaling.
-  Eigen::Vector4d p = best;
-  double c = best_cost, mu = 1e-3;
-  for (int it = 0; it < max_iterations; ++it) {
-    Eigen::Matrix4d a = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d g = Eigen::Vector4d::Zero();
+  // Levenberg–Marquardt on r_i = model_i − target_i; α is clamped inside the model, so the
+  // solver may step past the bounds without leaving the valid range.
+  const auto n = static_cast<Eigen::Index>(count);
+  auto residual = [&](const Eigen::VectorXd& q, Eigen::VectorXd& r) {
+    const double a = std::clamp(q[3], 0.0, 1e4);
+    for (size_t i = 0; i < count; ++i)
+      r[static_cast<Eigen::Index>(i)] = q[0] + q[1] * cl[i] + q[2] * powc(ch[i], a) - target[i];
+  };
+  auto jacobian = [&](const Eigen::VectorXd& q, Eigen::MatrixXd& jac) {
+    const double a = std::clamp(q[3], 0.0, 1e4);
+    const bool inside = q[3] > 0.0 && q[3] < 1e4;
     for (size_t i = 0; i < count; ++i) {
-      const double pw = powc(ch[i], p[3]);
-      const Eigen::Vector4d ji(1.0, cl[i], pw, ch[i] > 0.0 ? p[2] * pw * std::log(ch[i]) : 0.0);
-      const double r = target[i] - (p[0] + p[1] * cl[i] + p[2] * pw);
-      a += ji * ji.transpose();
-      g += ji * r;
+      const auto ii = static_cast<Eigen::Index>(i);
+      const double pw = powc(ch[i], a);
+      jac(ii, 0) = 1.0;
+      jac(ii, 1) = cl[i];
+      jac(ii, 2) = pw;
+      jac(ii, 3) = inside && ch[i] > 0.0 ? q[2] * pw * std::log(ch[i]) : 0.0;
     }
-    bool improved = false;
-    for (int tries = 0; tries < 20 && !improved; ++tries) {
-      Eigen::Matrix4d damped = a;
-      for (int d = 0; d < 4; ++d) damped(d, d) += mu * std::max(a(d, d), 1e-12);
-      Eigen::Vector4d np = p + damped.ldlt().solve(g);
-      np[3] = std::clamp(np[3], 0.0, 1e4);
-      const double nc = cost(np);
-      if (nc < c) {
-        const double gain = c - nc;
-        p = np;
-        c = nc;
-        mu = std::max(mu * 0.1, 1e-12);
-        improved = true;
-        if (gain <= 1e-14 * std::max(c, 1e-30)) it = max_iterations;  // converged
-      } else {
-        mu *= 10.0;
-      }
-    }
-    if (!improved) break;
-  }
+  };
+  Eigen::VectorXd q = best;
+  LeastSquaresOptions lo;
+  lo.max_evaluations = 10 * std::max(1, max_iterations);
+  lo.tolerance = 1e-12;
+  if (n >= 4) minimize_least_squares(q, n, residual, jacobian, lo);
+  q[3] = std::clamp(q[3], 0.0, 1e4);
+  Eigen::Vector4d p = best;
+  if (q.allFinite() && cost(Eigen::Vector4d(q)) <= best_cost) p = q;
   return PhongParams{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]),
                      static_cast<float>(p[3])};
 }

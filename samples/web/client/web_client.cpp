@@ -183,6 +183,13 @@ class Client {
     auto s = Scheduler::create(*cache, sc);
     if (!s) return fail(kFailed, s.message());
     scheduler = std::make_unique<Scheduler>(std::move(*s));
+    // Requests count their real payload sizes against bytes_in_flight.
+    for (auto& m : materials) {
+      const VtMaterial& vm = set.material(m->set_index);
+      for (const BsvtfTileEntry& e : m->dir.tiles)
+        if (e.id.texture < vm.texture_count)
+          scheduler->set_tile_bytes(vm.first_texture + e.id.texture, vm.levels.index(e.id), e.size);
+    }
     votes = std::make_unique<VoteCounter>(vote_layouts(set), VoteWindowConfig{1u << (2 * feedback_shift), 0});
     decoder = std::make_unique<TileDecoder>(layout);
     // Every tile of every material may become a parent: one decoded copy each (the sample keeps
@@ -309,8 +316,9 @@ class Client {
           const double v = out[(static_cast<size_t>(y) * S + x) * 4 + c];
           energy += v * v;
         }
-    set.energies(set.material(m.set_index).first_texture + local.texture)[flat] =
-        Half(static_cast<float>(energy / (static_cast<double>(layout.tile_size) * layout.tile_size)));
+    // The scheduler keeps its own copy of w and the energies (vt/scheduler.hpp set_energy).
+    scheduler->set_energy(set.material(m.set_index).first_texture + local.texture, flat,
+                          static_cast<float>(energy / (static_cast<double>(layout.tile_size) * layout.tile_size)));
     uint8_t& seen = m.delivered[static_cast<size_t>(flat) * K + local.texture];
     if (!seen) {
       seen = 1;
@@ -377,10 +385,14 @@ class Client {
       const TileId local = TileId::from_key(static_cast<uint64_t>(info.key_hi) << 32 | info.key_lo);
       uint16_t* halves = staging.data() + (scheduler->config().budgets.requests_in_flight + r) * layout.sample_count();
       if (int c = decode_tile(m, local, bytes, halves); c != kOk) return c;
-      const uint32_t slot = cache->reserve_slot();
-      if (slot == kNoSlot) return fail(kFailed, "cache too small for the root tiles");
+      // The cache pins every root at creation (vt/tile_cache.hpp); older caches leave it to us.
       const TileId global{set.material(m.set_index).first_texture + local.texture, 0, 0, 0};
-      if (cache->insert(global, slot, 0) != Status::success) return fail(kFailed, "root insert failed");
+      uint32_t slot = cache->slot_of(global);
+      if (slot == kNoSlot) {
+        slot = cache->reserve_slot();
+        if (slot == kNoSlot) return fail(kFailed, "cache too small for the root tiles");
+        if (cache->insert(global, slot, 0) != Status::success) return fail(kFailed, "root insert failed");
+      }
       root_decoded[r] = 1;
       uploads.push_back(UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
       return kOk;
@@ -574,6 +586,28 @@ EMSCRIPTEN_KEEPALIVE const void* bw_page_writes() { return client().page_writes.
 /// stage 0 vertex / 1 fragment, for material `m`'s component count. Null on error.
 EMSCRIPTEN_KEEPALIVE const char* bw_program_source(int program, int stage, uint32_t m) {
   return client().program_source(program, stage, m);
+}
+
+/// GLSL ES 3.00 source of the pca_views program (paper 004: PCA over groups of k views), stage 0
+/// vertex / 1 fragment, for C components per group, k views per group, `lights` light
+/// directions and angular tables of `resolution`². Null on error (bw_last_error).
+EMSCRIPTEN_KEEPALIVE const char* bw_pca_program_source(int stage, uint32_t components, uint32_t views_per_group,
+                                                       uint32_t lights, uint32_t resolution) {
+  auto& c = client();
+  btflod::ShaderConfig config;
+  config.components = components;
+  config.angular.resolution = resolution;
+  config.angular.parameterisation = btflod::DirectionParameterisation::parabolic;
+  config.angular.lookup = btflod::AngularLookup::barycentric;
+  config.pca.views_per_group = views_per_group;
+  config.pca.light_count = lights;
+  auto src = btflod::generate_program(btflod::ShaderProgram::pca_views, btflod::GlslTarget::es300, config);
+  if (!src) {
+    c.error = src.message();
+    return nullptr;
+  }
+  c.shader_text = stage == 0 ? src->vertex : src->fragment;
+  return c.shader_text.c_str();
 }
 
 /// Material facts as uint32[16]: width, height, levels, C, lights, views, first page-table layer,

@@ -35,6 +35,7 @@ const tool = (...a) => {
   if (r.status !== 0) throw new Error(`btflod-web-tool ${a[0]}: ${r.stderr}`);
   return r.stdout;
 };
+const fromBase64 = (s) => { const b = Buffer.from(s, 'base64'); return new Float32Array(b.buffer, b.byteOffset, b.length / 4); };
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 const materials = JSON.parse(readFileSync(path.join(args.site, 'data/materials.json'), 'utf8')).materials;
@@ -78,6 +79,12 @@ async function openPage(browser, query) {
   const err = await page.evaluate(() => window.btflod.error || null);
   if (err) throw new Error(`page failed: ${err}`);
   await page.evaluate((v) => {
+    window.btflodBase64 = (f32) => {  // float frames travel as base64 (a JSON number array is 10× slower)
+      const b = new Uint8Array(f32.buffer, f32.byteOffset, f32.byteLength);
+      let s = '';
+      for (let i = 0; i < b.length; i += 0x8000) s += String.fromCharCode.apply(null, b.subarray(i, i + 0x8000));
+      return btoa(s);
+    };
     window.btflod.running = false;  // the driver steps the frames
     Object.assign(window.btflod.client.view, v);
   }, view);
@@ -93,19 +100,19 @@ async function stream(page, { maxFrames, every, snapshots }) {
       const c = window.btflod.client;
       c.frame();
       const out = { bytes: c.stats.bytes, quality: c.quality(), converged: c.converged(), t: performance.now() };
-      if (snap) out.image = Array.from(new Uint8Array(c.readColor().buffer));
+      if (snap) out.image = window.btflodBase64(c.readColor());
       return out;
     }, snapshots && frames % every === 0);
-    if (s.image) shots.push({ bytes: s.bytes, quality: s.quality, image: new Float32Array(new Uint8Array(s.image).buffer) });
+    if (s.image) shots.push({ bytes: s.bytes, quality: s.quality, image: fromBase64(s.image) });
     stable = s.converged ? stable + 1 : 0;
     await sleep(2);
   }
   const final = await page.evaluate(() => {
     const c = window.btflod.client;
     c.frame();
-    return { image: Array.from(new Uint8Array(c.readColor().buffer)), stats: c.stats, quality: c.quality() };
+    return { image: window.btflodBase64(c.readColor()), stats: c.stats, quality: c.quality() };
   });
-  return { frames, converged: stable >= 3, shots, final: { ...final, image: new Float32Array(new Uint8Array(final.image).buffer) } };
+  return { frames, converged: stable >= 3, shots, final: { ...final, image: fromBase64(final.image) } };
 }
 
 function bytesToSsim(shots, finalBytes, target) {

@@ -10,6 +10,11 @@
 //       same angular tables as the client (web_material.hpp). Raw RGBA float32, row 0 = top.
 //   compare --ref A.f32 --img B.f32 --size WxH
 //       PSNR (rgb, peak = reference maximum, as the GPU golden tests) and mean SSIM.
+//   pcak --out FILE.pcak --ref FILE.f32 [--index I] [--k 3] [--components 4] + the view options
+//       synthesises material I (as `materials` does), factorises it with PCA over groups of k
+//       views (paper 004, factor/pca_views.hpp), writes the pca_views GPU layout
+//       (backend/representation_packing.hpp) and angular tables as one static file for the
+//       page, and the CPU reference frame of one 2×2 plane at the origin (reference_pca_views)
 //   decode --bsvtf FILE [--repeats N]
 //       decodes every tile with zlib and libdeflate: hash (bit identity with the wasm decoder),
 //       µs per tile. Prints JSON.
@@ -23,6 +28,8 @@
 #include <vector>
 
 #include "btflod/backend/cpu_reference.hpp"
+#include "btflod/backend/representation_packing.hpp"
+#include "btflod/factor/pca_views.hpp"
 #include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
@@ -177,7 +184,7 @@ int cmd_reference(const Args& a) {
         return fail(std::string("decode: ") + decoder.message());
       float_to_half(out, halves);
       const TileId g{first + e.id.texture, e.id.level, e.id.x, e.id.y};
-      uint32_t slot = cache.slot_of(g);
+      uint32_t slot = cache.slot_of(g);  // roots are pinned by the cache itself
       if (slot == kNoSlot) {
         slot = cache.reserve_slot();
         if (slot == kNoSlot) return fail("reference cache too small");
@@ -235,6 +242,87 @@ int cmd_reference(const Args& a) {
   if (auto w = write_file_bytes(out, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4)); !w)
     return fail(w.message());
   std::printf("reference %dx%d written to %s\n", W, H, out.c_str());
+  return 0;
+}
+
+// .pcak: the page's PCA-k file. Header of 16 uint32 (little-endian): magic 'PCAK', version 1,
+// C, k, lights, views, W, H, L layers, angular resolution, L floats, R floats, table texels
+// (res² · 2), CRC-32 of the body, 2 reserved; then L (RGBA32F, layers × H × W), R (RGBA32F,
+// lights·views rows × C), angular index (RGBA32UI) and weight (RGBA32F) tables.
+int cmd_pcak(const Args& a) {
+  int W, H;
+  if (!size_arg(a, W, H)) return fail("pcak: bad --size");
+  const uint32_t index = static_cast<uint32_t>(std::atoi(a.get("index", "0").c_str()));
+  const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather, SynthMaterial::tiles};
+  SynthesisOptions so;
+  so.views = demo::demo_directions();
+  so.lights = demo::demo_directions();
+  const int texels = std::atoi(a.get("texels", "32").c_str());
+  auto btf = synthesize_material(kinds[index % 4], texels, texels, 1 + index, so);
+  if (!btf) return fail(btf.message());
+  PcaViewsOptions opt;
+  opt.views_per_group = std::atoi(a.get("k", "3").c_str());
+  opt.components = std::atoi(a.get("components", "4").c_str());
+  auto pca = factorize_pca_views(*btf, opt);
+  if (!pca) return fail(pca.message());
+  auto packed = pack_pca_views_material(*pca);
+  if (!packed) return fail(packed.message());
+  const uint32_t res = static_cast<uint32_t>(std::atoi(a.get("angular-resolution", "32").c_str()));
+  auto lt = LookupTableInterpolator<ParabolicMap>::build(btf->lights(), static_cast<int>(res));
+  auto vt = LookupTableInterpolator<ParabolicMap>::build(btf->views(), static_cast<int>(res));
+  if (!lt || !vt) return fail("pcak: angular tables");
+  const auto li = lt->index_table().elements(), vi = vt->index_table().elements();
+  const auto lw = lt->weight_table().elements(), vw = vt->weight_table().elements();
+  const AngularTablesData tables{res, li, lw, vi, vw};
+  std::vector<uint32_t> index_rgba;
+  std::vector<float> weight_rgba;
+  pack_angular_tables_rgba(tables, index_rgba, weight_rgba);
+  const PcaViewsMaterialData& info = packed->info;
+  const uint32_t layers = static_cast<uint32_t>(packed->l.size() / (static_cast<size_t>(info.width) * info.height * 4));
+  std::vector<uint8_t> body;
+  const auto append = [&](const void* p, size_t n) {
+    const auto* b = static_cast<const uint8_t*>(p);
+    body.insert(body.end(), b, b + n);
+  };
+  append(packed->l.data(), packed->l.size() * 4);
+  append(packed->r.data(), packed->r.size() * 4);
+  append(index_rgba.data(), index_rgba.size() * 4);
+  append(weight_rgba.data(), weight_rgba.size() * 4);
+  const uint32_t header[16] = {0x4b414350u, 1, info.components, info.views_per_group, info.light_count, info.view_count,
+                               info.width, info.height, layers, res, static_cast<uint32_t>(packed->l.size()),
+                               static_cast<uint32_t>(packed->r.size()), res * res * 2, crc32_of(body), 0, 0};
+  std::vector<uint8_t> file(sizeof header);
+  std::memcpy(file.data(), header, sizeof header);
+  file.insert(file.end(), body.begin(), body.end());
+  if (auto w = write_file_bytes(a.get("out"), file); !w) return fail(w.message());
+  // Reference frame: one plane at the origin, the program's arithmetic on the CPU.
+  Scene scene;
+  scene.add(Shape::plane(0, plane_origin(0, 1), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), 2.0f, 2.0f));
+  Camera cam;
+  cam.position = vec3_arg(a, "eye", glm::vec3(0, -2, 3));
+  cam.target = vec3_arg(a, "target", glm::vec3(0));
+  cam.up = glm::vec3(0, 0, 1);
+  cam.fov_y_degrees = std::strtof(a.get("fov", "45").c_str(), nullptr);
+  cam.width = static_cast<uint32_t>(W);
+  cam.height = static_cast<uint32_t>(H);
+  const glm::vec3 light = glm::normalize(vec3_arg(a, "light", glm::vec3(-0.5f, 0.4f, 0.8f)));
+  const glm::vec3 light_color = vec3_arg(a, "light-color", glm::vec3(1.0f));
+  std::vector<float> img(static_cast<size_t>(W) * H * 4, 0.0f);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+      if (!h.hit) continue;
+      const glm::vec3 rgb = reference_pca_views(*pca, tables, DirectionParameterisation::parabolic, false, h.texcoord,
+                                                to_local(h, light), to_local(h, glm::normalize(cam.position - h.position))) *
+                            light_color;
+      float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
+      p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
+    }
+  if (auto w = write_file_bytes(a.get("ref"), std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
+      !w)
+    return fail(w.message());
+  std::printf("%s: C = %u, k = %u, %u groups, %zu bytes; reference %dx%d\n", a.get("out").c_str(), info.components,
+              info.views_per_group, static_cast<unsigned>(pca->groups.size()), file.size(), W, H);
   return 0;
 }
 
@@ -311,5 +399,6 @@ int main(int argc, char** argv) {
   if (a.command == "reference") return cmd_reference(a);
   if (a.command == "compare") return cmd_compare(a);
   if (a.command == "decode") return cmd_decode(a);
+  if (a.command == "pcak") return cmd_pcak(a);
   return fail("unknown command " + a.command);
 }

@@ -568,3 +568,80 @@ export class BtflodClient {
     return (performance.now() - t0) / frames;
   }
 }
+
+/// PCA-k (paper 004: PCA over groups of k neighbouring views, L = [m | UΣ], R = [1; Vᵀ]) drawn
+/// with btflod's generated pca_views program. The .pcak file (btflod-web-tool pcak) holds the
+/// program's GPU layout; it is fetched with two Range requests (header, body) from the same
+/// static server and drawn on one 2 × 2 plane at the origin.
+export class PcakClient extends BtflodClient {
+  async open(url) {
+    const head = await fetchRange(url, 0, 64, this.stats);
+    const h = new Uint32Array(head.bytes.buffer, head.bytes.byteOffset, 16);
+    if (h[0] !== 0x4b414350 || h[1] !== 1) throw new Error(`${url}: not a version 1 .pcak file`);
+    const [C, k, lights, views, W, H, layers, res, lFloats, rFloats, tableTexels] = Array.from(h.subarray(2, 13));
+    const bodySize = 4 * (lFloats + rFloats + 8 * tableTexels);
+    if (head.total !== 64 + bodySize) throw new Error(`${url}: ${head.total} bytes, header says ${64 + bodySize}`);
+    const body = (await fetchRange(url, 64, bodySize, this.stats)).bytes;
+    this.stats.payloadBytes += body.length;
+    const f32 = (off, n) => new Float32Array(body.buffer, body.byteOffset + off, n);
+    const gl = this.gl;
+    const m = { index: 0, C, k, lights, views, width: W, height: H, finest: 0, firstLayer: 0 };
+    this.materials = [m];
+    m.lTex = this.texArray(gl.RGBA32F, W, H, layers, gl.NEAREST);
+    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, W, H, layers, gl.RGBA, gl.FLOAT, f32(0, lFloats));
+    m.rTex = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, m.rTex);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, C, lights * views);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, C, lights * views, gl.RGBA, gl.FLOAT, f32(4 * lFloats, rFloats));
+    const tOff = 4 * (lFloats + rFloats);
+    m.angIndex = this.texArray(gl.RGBA32UI, res, res, 2, gl.NEAREST);
+    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, res, res, 2, gl.RGBA_INTEGER, gl.UNSIGNED_INT,
+      new Uint32Array(body.buffer, body.byteOffset + tOff, 4 * tableTexels));
+    m.angWeight = this.texArray(gl.RGBA32F, res, res, 2, gl.NEAREST);
+    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, res, res, 2, gl.RGBA, gl.FLOAT, f32(tOff + 16 * tableTexels, 4 * tableTexels));
+    const M = this.M;
+    const vs = M._bw_pca_program_source(0, C, k, lights, res);
+    if (!vs) throw new Error(this.error());
+    const vsrc = M.UTF8ToString(vs);
+    m.program = this.link(vsrc, M.UTF8ToString(M._bw_pca_program_source(1, C, k, lights, res)));
+    m.vao = this.planeVao(planeOrigin(0, 1));
+    this.ubo = gl.createBuffer();
+    gl.bindBuffer(gl.UNIFORM_BUFFER, this.ubo);
+    gl.bufferData(gl.UNIFORM_BUFFER, 224, gl.DYNAMIC_DRAW);
+    gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, this.ubo);
+    this.params = new ArrayBuffer(224);
+    this.paramsF = new Float32Array(this.params);
+    this.paramsU = new Uint32Array(this.params);
+    this.display = this.link(
+      '#version 300 es\nout vec2 uv;\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n' +
+      ' uv = p; gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }\n',
+      '#version 300 es\nprecision highp float;\nin vec2 uv;\nuniform sampler2D img;\nout vec4 color;\n' +
+      'void main() { vec3 c = max(texture(img, uv).rgb, 0.0);\n' +
+      ' c = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));\n' +
+      ' color = vec4(clamp(c, 0.0, 1.0), 1.0); }\n');
+    this.opt.feedbackShift = 0;
+    this.resize(this.canvas.width, this.canvas.height);
+    this.loaded = true;
+  }
+
+  bindTextures(m) {
+    const gl = this.gl;
+    gl.activeTexture(gl.TEXTURE2); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.angIndex);
+    gl.activeTexture(gl.TEXTURE3); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.angWeight);
+    gl.activeTexture(gl.TEXTURE13); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.lTex);
+    gl.activeTexture(gl.TEXTURE14); gl.bindTexture(gl.TEXTURE_2D, m.rTex);
+  }
+
+  frame() {
+    const t0 = performance.now();
+    this.drawColor();
+    this.present();
+    this.stats.frames += 1;
+    this.frameMs = performance.now() - t0;
+    return this.frameMs;
+  }
+  quality() { return this.loaded ? 1 : 0; }
+  converged() { return !!this.loaded; }
+}

@@ -1,7 +1,7 @@
 // btflod viewer page: orbit camera, light direction, material picker, streaming progress
 // (bytes received and the Σw "quality so far" estimate), frame time. window.btflod exposes the
 // client to the test driver (samples/web/test/driver.mjs).
-import { BtflodClient } from './btflod_client.js';
+import { BtflodClient, PcakClient } from './btflod_client.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
@@ -14,9 +14,10 @@ async function main() {
   const canvas = $('view');
   const size = Number(params.get('size') || 512);
   canvas.width = canvas.height = size;
-  const client = new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0' });
+  const pcak = params.get('pcak');
+  const client = pcak ? new PcakClient(canvas, module) : new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0' });
   window.btflod = { client, running: true, lastFrameMs: 0 };
-  await client.open(urls);
+  await client.open(pcak ? 'data/' + pcak : urls);
   const totalBytes = list.materials.slice(0, count).reduce((s, m) => s + m.bytes, 0);
 
   list.materials.slice(0, count).forEach((m, i) => {

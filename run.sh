@@ -4,6 +4,8 @@
 #   ./run.sh test                 install what is missing, build and run every test
 #                                 (release with -Werror, then ASan+UBSan, then fuzz smoke runs)
 #   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
+#   ./run.sh web [--port P]       build the WebAssembly client and the materials, serve them with
+#                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
 # Environment: BTFLOD_JOBS (parallel build jobs, default nproc), BTFLOD_BUILD_DIR (default build).
 # Every command passes each build option it depends on, so commands can run in any order on the
 # same build folder (a cached option from an earlier command never changes what a later one does),
@@ -15,7 +17,8 @@ cd "$(dirname "$0")"
 PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-dev libgtest-dev
   libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libegl-dev libopengl-dev
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
-  libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb)
+  libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb
+  emscripten chromium nodejs npm)
 
 install_packages() {
   local missing=()
@@ -92,8 +95,14 @@ case "$cmd" in
       "$b" --benchmark_filter="${1:-.}" --benchmark_out="$BUILD/bench-results/$name.json" --benchmark_out_format=json
     done
     ;;
+  web)
+    install_packages
+    BTFLOD_TARGET=btflod-web-tool configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    samples/web/run_web.sh serve --tool "$BUILD"/samples/web/btflod-web-tool --work "$BUILD"/web "$@"
+    ;;
   *)
-    echo "usage: ./run.sh demo|test|bench" >&2
+    echo "usage: ./run.sh demo|test|bench|web" >&2
     exit 2
     ;;
 esac

@@ -57,7 +57,7 @@ const BtfFloat& cloth64() {
 }
 
 // ‖A − U·(VΣ)ᵀ‖_F computed block by block (no m × n temporary), column sums in double (one
-// float squaredNorm per 19,683 × 512 block was off by ~4·10⁻⁴ relative before session 3).
+// float squaredNorm per 19,683 × 512 block was off by ~4·10⁻⁴ relative with the earlier float sum).
 double fmf_error(const BtfFloat& btf, const Fmf& f) {
   const size_t m = btf.view_count() * btf.light_count() * 3, n = btf.texel_count(), bc = 512;
   using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;

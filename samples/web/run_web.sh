@@ -44,7 +44,9 @@ if [ ! -f "$WEB_BUILD/CMakeCache.txt" ]; then
   emcmake cmake -S "$HERE/client" -B "$WEB_BUILD" -DCMAKE_BUILD_TYPE=Release -DBTFLOD_WEB_THIRD_PARTY="$WEB_BUILD/third_party" \
     -DCMAKE_CROSSCOMPILING_EMULATOR="/usr/bin/node;--no-experimental-fetch" >/dev/null
 fi
-cmake --build "$WEB_BUILD" -j "${BTFLOD_JOBS:-2}" >/dev/null
+# The reduced (CI) run builds the page's module only; the full run adds the libdeflate twin.
+if [ "$REDUCED" = 1 ]; then targets=(--target btflod_web); else targets=(); fi
+cmake --build "$WEB_BUILD" -j "${BTFLOD_JOBS:-2}" "${targets[@]}" >/dev/null
 
 # 2. The site: page, client, wasm, materials (+ corrupted copies for the fault test).
 SITE=$WORK/site
@@ -68,7 +70,6 @@ $( [ "$(id -u)" = 0 ] && echo "user root;" )
 events { worker_connections 256; }
 http {
   include /etc/nginx/mime.types;
-  types { application/wasm wasm; text/javascript js mjs; }
   default_type application/octet-stream;
   log_format ranges '\$request_method \$uri \$status \$body_bytes_sent "\$http_range" \$args';
   access_log $NGX/logs/access.log ranges;

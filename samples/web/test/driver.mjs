@@ -51,17 +51,25 @@ for (const f of files) {
   writeFileSync(path.join(args.site, 'data-corrupt', path.basename(f)), b);
 }
 
-// The fixed view of the golden runs (LOD bias −1.5: every visible tile at the finest level, as
+// The fixed view of the golden runs (LOD bias −3: every visible tile at the finest level, as
 // in the GPU golden tests, so the converged frame equals the all-resident CPU reference).
-const view = { eye: [0.35, -2.9, 3.3], target: [0, 0.1, 0], fov: 45, light: [-0.5, 0.4, 0.8], lightColor: [1.6, 1.4, 1.2], bias: -1.5 };
+const view = { eye: [0.35, -2.9, 3.3], target: [0, 0.1, 0], fov: 45, light: [-0.5, 0.4, 0.8], lightColor: [1.6, 1.4, 1.2], bias: -3 };
 const refPath = path.join(WORK, `reference_${SIZE}.f32`);
 tool('reference', '--out', refPath, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
   '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`);
-const compare = (img) => {
+const compare = (img, ref = refPath) => {
   const p = path.join(WORK, 'tmp_compare.f32');
   writeFileSync(p, Buffer.from(img.buffer, img.byteOffset, img.byteLength));
-  return JSON.parse(tool('compare', '--ref', refPath, '--img', p, '--size', `${SIZE}x${SIZE}`));
+  return JSON.parse(tool('compare', '--ref', ref, '--img', p, '--size', `${SIZE}x${SIZE}`));
 };
+// PCA-k (paper 004): k = 3 views per group, C = 4, one plane at the origin; the tool writes the
+// file the page fetches and the CPU reference (reference_pca_views) of the same view.
+const pcakView = { eye: [0.3, -2.3, 2.6], target: [0, 0, 0], fov: 45, light: view.light, lightColor: view.lightColor, bias: 0 };
+const pcakRef = path.join(WORK, `reference_pcak_${SIZE}.f32`);
+const pcakArgs = (size, ref) => ['pcak', '--out', path.join(args.site, 'data', 'pcak-0.pcak'), '--ref', ref, '--k', '3',
+  '--components', '4', '--eye', pcakView.eye.join(','), '--target', pcakView.target.join(','), '--fov', '45',
+  '--light', pcakView.light.join(','), '--light-color', pcakView.lightColor.join(','), '--size', size];
+console.log('  ' + tool(...pcakArgs(`${SIZE}x${SIZE}`, pcakRef)).trim());
 
 function launchArgs(gl) {
   const common = ['--headless=new', '--no-sandbox', '--disable-background-networking', '--disable-component-update',
@@ -70,11 +78,13 @@ function launchArgs(gl) {
   return [...common, '--use-gl=angle', '--use-angle=gl-egl', '--ignore-gpu-blocklist'];
 }
 
-async function openPage(browser, query) {
+async function openPage(browser, query, v = view) {
   const page = await browser.newPage();
   page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.log(`  [page] ${m.text()}`); });
   page.on('pageerror', (e) => console.log(`  [page error] ${e}`));
-  await page.goto(`${args.url}?size=${SIZE}&materials=${materials.length}${query || ''}`);
+  const q = new URLSearchParams({ size: String(SIZE), materials: String(materials.length) });
+  for (const [k, v] of new URLSearchParams(query || '')) q.set(k, v);
+  await page.goto(`${args.url}?${q}`);
   await page.waitForFunction(() => window.btflod && (window.btflod.ready || window.btflod.error), { timeout: 60000 });
   const err = await page.evaluate(() => window.btflod.error || null);
   if (err) throw new Error(`page failed: ${err}`);
@@ -87,7 +97,7 @@ async function openPage(browser, query) {
     };
     window.btflod.running = false;  // the driver steps the frames
     Object.assign(window.btflod.client.view, v);
-  }, view);
+  }, v);
   return page;
 }
 
@@ -214,9 +224,21 @@ async function runGl(gl) {
       await page.close();
     }
 
+    // --- PCA-k: paper 004's representation with the generated pca_views program --------------
+    page = await openPage(browser, '&pcak=pcak-0.pcak', pcakView);
+    const pk = await stream(page, { maxFrames: 10, every: 1000, snapshots: false });
+    const gp = compare(pk.final.image, pcakRef);
+    r.pcak = { psnr_db: gp.psnr_db, ssim: gp.ssim, bytes: pk.final.stats.bytes };
+    check(`${gl}: golden PCA-k vs CPU reference ≥ 40 dB`, gp.psnr_db >= 40, `${gp.psnr_db.toFixed(2)} dB, SSIM ${gp.ssim.toFixed(4)}`);
+    await page.close();
+    page = await openPage(browser, '&pcak=pcak-0.pcak&size=512', pcakView);
+    await stream(page, { maxFrames: 3, every: 1000, snapshots: false });
+    r.frame_ms_pcak = await page.evaluate((n) => window.btflod.client.benchmark(n), reduced ? 5 : 20);
+    await page.close();
+
     // --- bench: frame time at 512², wasm decode -----------------------------------------------
     page = await openPage(browser, '&size=512');
-    await stream(page, { maxFrames: 200, every: 1000, snapshots: false });
+    await stream(page, { maxFrames: reduced ? 15 : 60, every: 1000, snapshots: false });
     r.frame_ms_bsvtf = await page.evaluate((n) => window.btflod.client.benchmark(n), reduced ? 5 : 20);
     if (gl === 'swiftshader') {
       r.decode = await page.evaluate(async (file) => {
@@ -285,7 +307,9 @@ if (sw && sw.decode) {
     `native scalar ${native.zlib_decode_us.toFixed(1)} (inflate ${native.zlib_inflate_us.toFixed(1)}), native SIMD ${native.simd_decode_us.toFixed(1)}; ` +
     `DecompressionStream inflate ${sw.decode.decompression_stream_us.toFixed(1)}`);
 }
-for (const gl of gls) if (report.runs[gl]) console.log(`  frame time 512² BSVTF on ${gl}: ${report.runs[gl].frame_ms_bsvtf.toFixed(1)} ms`);
+for (const gl of gls)
+  if (report.runs[gl] && report.runs[gl].frame_ms_bsvtf !== undefined)
+    console.log(`  frame time 512²: BSVTF ${report.runs[gl].frame_ms_bsvtf.toFixed(1)} ms, PCA-k ${report.runs[gl].frame_ms_pcak.toFixed(1)} ms on ${gl}`);
 
 writeFileSync(path.join(WORK, 'report.json'), JSON.stringify(report, null, 1));
 const failed = report.checks.filter((c) => !c.ok);

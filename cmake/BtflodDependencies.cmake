@@ -18,6 +18,17 @@ if(BTFLOD_WITH_LIBDEFLATE AND NOT TARGET PkgConfig::BTFLOD_LIBDEFLATE)
   message(FATAL_ERROR "BTFLOD_WITH_LIBDEFLATE is ON but pkg-config does not find libdeflate (Debian: libdeflate-dev); "
                       "install it or configure with -DBTFLOD_WITH_LIBDEFLATE=OFF")
 endif()
+# OpenEXR (Debian libopenexr-dev 3.1, CMake configs): btf/openexr_image_set.hpp reads and writes
+# BTFs stored as OpenEXR image sets (Bonn btflib's format for measured images). ON puts
+# BTFLOD_WITH_OPENEXR=1 and OpenEXR::OpenEXR on the btflod INTERFACE target; no other header
+# includes OpenEXR. OFF (or the package missing): that header is unavailable, the rest unchanged.
+find_package(OpenEXR CONFIG QUIET)
+option(BTFLOD_WITH_OPENEXR "Read/write OpenEXR image sets (default ON when CMake finds OpenEXR)" ${OpenEXR_FOUND})
+if(BTFLOD_WITH_OPENEXR AND NOT TARGET OpenEXR::OpenEXR)
+  message(FATAL_ERROR "BTFLOD_WITH_OPENEXR is ON but find_package(OpenEXR CONFIG) fails (Debian: libopenexr-dev); "
+                      "install it or configure with -DBTFLOD_WITH_OPENEXR=OFF")
+endif()
+message(STATUS "btflod: OpenEXR image sets: ${BTFLOD_WITH_OPENEXR}")
 if(BTFLOD_WITH_LIBDEFLATE)
   message(STATUS "btflod: tile inflate backend: libdeflate (BTFLOD_WITH_LIBDEFLATE=ON)")
 else()

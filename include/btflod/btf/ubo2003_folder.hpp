@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <string>
@@ -251,6 +252,58 @@ inline std::string ubo_describe(const DirectionSet& set, size_t i) {
 
 }  // namespace detail
 
+/// How an angle-named image set stores its images: which files are images, how to read one's
+/// size, and how to decode one into linear RGB floats. read_ubo2003_folder() uses 8-bit sRGB
+/// JPEG/PNG; btf/openexr_image_set.hpp uses OpenEXR. Both share everything else (names,
+/// direction sets, limits, errors).
+struct AngleImageCodec {
+  /// Names the accepted files in warnings, e.g. "JPEG/PNG".
+  const char* kind = "JPEG/PNG";
+  /// True for files of this codec (by extension).
+  std::function<bool(const std::filesystem::path&)> accepts;
+  /// Size of the image at `path`; errors as probe_image (insufficient_space beyond limits).
+  std::function<Result<ImageInfo>(const std::string& path, const ImageLimits& limits)> probe;
+  /// Decodes `path` into width × height × 3 linear floats at dst; bad_data when its size is
+  /// not width × height. Called concurrently from the pool.
+  std::function<VoidResult(const std::string& path, const ImageLimits& limits, int width, int height, float* dst)>
+      decode;
+};
+
+namespace detail {
+
+inline AngleImageCodec srgb8_image_codec() {
+  AngleImageCodec c;
+  c.kind = "JPEG/PNG";
+  c.accepts = [](const std::filesystem::path& p) { return ubo_is_image_extension(p); };
+  c.probe = [](const std::string& path, const ImageLimits& limits) -> Result<ImageInfo> {
+    auto bytes = read_file_bytes(path, limits.max_file_bytes);
+    if (!bytes) return bytes.error();
+    auto info = probe_image(*bytes, limits);
+    if (!info) return Error{info.status(), path + ": " + info.message()};
+    return info;
+  };
+  c.decode = [](const std::string& path, const ImageLimits& limits, int width, int height, float* dst) -> VoidResult {
+    auto img = load_image(path, 3, limits);
+    if (!img) return img.error();
+    if (img->width() != width || img->height() != height)
+      return make_error(Status::bad_data, "%s: image is %dx%d, expected %dx%d; all images must have one size",
+                        path.c_str(), img->width(), img->height(), width, height);
+    const float* table = srgb8_to_linear_table();
+    const uint8_t* src = img->data();
+    for (size_t j = 0; j < img->size(); ++j) dst[j] = table[src[j]];
+    return {};
+  };
+  return c;
+}
+
+}  // namespace detail
+
+/// Reads a BTF stored as a set of angle-named images decoded by `codec` (see the header comment
+/// for the names). Errors and behaviour as read_ubo2003_folder(), with codec.kind naming the
+/// accepted files. Safe on untrusted folders. Thread-safe (no shared state besides the pool).
+inline Result<Ubo2003Folder> read_angle_image_set(const std::filesystem::path& root, const AngleImageCodec& codec,
+                                                  const Ubo2003ReadOptions& options = {});
+
 /// Reads a BTF stored as a folder of UBO-style images (see the header comment for the names).
 /// Returns, with a message naming the files involved:
 ///   io_error when the folder cannot be listed or an image cannot be read;
@@ -264,6 +317,11 @@ inline std::string ubo_describe(const DirectionSet& set, size_t i) {
 /// in parallel on the pool. Safe on untrusted folders (sizes are checked before allocating).
 inline Result<Ubo2003Folder> read_ubo2003_folder(const std::filesystem::path& root,
                                                  const Ubo2003ReadOptions& options = {}) {
+  return read_angle_image_set(root, detail::srgb8_image_codec(), options);
+}
+
+inline Result<Ubo2003Folder> read_angle_image_set(const std::filesystem::path& root, const AngleImageCodec& codec,
+                                                  const Ubo2003ReadOptions& options) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(root, ec))
@@ -294,8 +352,8 @@ inline Result<Ubo2003Folder> read_ubo2003_folder(const std::filesystem::path& ro
   }
   std::sort(all_paths.begin(), all_paths.end());
   for (const auto& rel : all_paths) {
-    if (!detail::ubo_is_image_extension(rel)) {
-      out.warnings.push_back("ignored (not a JPEG/PNG image): " + rel);
+    if (!codec.accepts(fs::path(rel))) {
+      out.warnings.push_back(std::string("ignored (not a ") + codec.kind + " image): " + rel);
       continue;
     }
     auto keys = parse_ubo_image_path(fs::path(rel));
@@ -393,10 +451,8 @@ inline Result<Ubo2003Folder> read_ubo2003_folder(const std::filesystem::path& ro
 
   // Size from the first image (in slot order), then decode everything in parallel.
   const std::string first = entries[static_cast<size_t>(slot[0])].relative;
-  auto first_bytes = read_file_bytes((root / first).string(), options.image_limits.max_file_bytes);
-  if (!first_bytes) return first_bytes.error();
-  auto info = probe_image(*first_bytes, options.image_limits);
-  if (!info) return Error{info.status(), (root / first).string() + ": " + info.message()};
+  auto info = codec.probe((root / first).string(), options.image_limits);
+  if (!info) return info.error();
   auto count = BtfFloat::checked_sample_count(static_cast<uint64_t>(info->width), static_cast<uint64_t>(info->height),
                                               n_view, n_light, options.max_samples);
   if (!count) return Error{count.status(), root.string() + ": " + count.message()};
@@ -413,21 +469,15 @@ inline Result<Ubo2003Folder> read_ubo2003_folder(const std::filesystem::path& ro
     for (size_t i = begin; i < end; ++i) {
       if (cancelled.load(std::memory_order_relaxed)) return;
       const std::string path = (root / out.image_paths[i]).string();
-      auto img = load_image(path, 3, options.image_limits);
-      if (!img) {
-        errors[i] = img.error();
-        continue;
-      }
-      if (img->width() != out.btf.width() || img->height() != out.btf.height()) {
-        errors[i] = make_error(Status::bad_data, "%s: image is %dx%d but '%s' is %dx%d; all images must have one size",
-                               path.c_str(), img->width(), img->height(), first.c_str(), out.btf.width(),
-                               out.btf.height());
-        continue;
-      }
-      const float* table = srgb8_to_linear_table();
       float* dst = out.btf.image(i / n_light, i % n_light).data();
-      const uint8_t* src = img->data();
-      for (size_t j = 0; j < img->size(); ++j) dst[j] = table[src[j]];
+      auto decoded = codec.decode(path, options.image_limits, out.btf.width(), out.btf.height(), dst);
+      if (!decoded) {
+        errors[i] = decoded.status() == Status::bad_data && decoded.message().find("all images must have one size") !=
+                                                                 std::string::npos
+                        ? Error{Status::bad_data, decoded.message() + " (the first image, '" + first + "', sets it)"}
+                        : decoded.error();
+        continue;
+      }
       const size_t n = done.fetch_add(1) + 1;
       if (options.progress) {
         std::lock_guard lock(progress_mutex);

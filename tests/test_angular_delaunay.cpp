@@ -247,3 +247,60 @@ TEST(AngularDelaunay, RejectsBadInput) {
 
 }  // namespace
 }  // namespace btflod
+
+namespace btflod {
+namespace {
+
+// No triangle of a built-in direction set's triangulation is degenerate, in any of the three
+// maps. The inputs are computed in double (triangulate_directions): from float parameter points
+// the concentric map's outermost ring drifts off the square's sides by float rounding and the
+// triangulation gains sliver triangles of area ~1e-9 (12 for UBO2003, 5 for UBO2014).
+template <class P>
+void expect_no_degenerate_triangle(const DirectionSet& set) {
+  auto tri = triangulate_directions<P>(set);
+  ASSERT_TRUE(tri.ok()) << tri.message();
+  // A regular triangulation of n points in the unit square has triangles of area ~1/(2n);
+  // 1e-6 is three orders below the smallest of them and three above the slivers.
+  size_t small = 0;
+  double smallest = 1.0;
+  for (const auto& t : tri->triangles) {
+    const glm::dvec2 a = tri->points[t[0]], b = tri->points[t[1]], c = tri->points[t[2]];
+    const double area = 0.5 * ((b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y));
+    EXPECT_GT(area, 0.0) << P::kName << " " << set.name();
+    smallest = std::min(smallest, area);
+    small += area < 1e-6;
+  }
+  EXPECT_EQ(small, 0u) << P::kName << " " << set.name() << ": " << small << " sliver triangles, smallest area "
+                       << smallest;
+}
+
+TEST(DelaunayDirectionSets, NoDegenerateTriangleInAnyBuiltInSetAndMap) {
+  for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
+    expect_no_degenerate_triangle<ElevatedConcentricMap>(set);
+    expect_no_degenerate_triangle<ParabolicMap>(set);
+    expect_no_degenerate_triangle<OrthographicMap>(set);
+  }
+}
+
+TEST(DelaunayDirectionSets, DoublePrecisionPathMatchesTheFloatMapToFloatPrecision) {
+  for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
+    for (const Direction& d : set) {
+      const glm::dvec2 p = to_square_precise<ElevatedConcentricMap>(direction_precise(d));
+      const glm::vec2 f = ElevatedConcentricMap::to_square(d.vector);
+      EXPECT_NEAR(p.x, f.x, 2e-6);
+      EXPECT_NEAR(p.y, f.y, 2e-6);
+      const glm::dvec2 q = to_square_precise<ParabolicMap>(direction_precise(d));
+      EXPECT_NEAR(q.x, ParabolicMap::to_square(d.vector).x, 2e-6);
+    }
+    // The span overload gives the same triangulation as the set overload.
+    std::vector<glm::dvec3> dirs;
+    for (const Direction& d : set) dirs.push_back(direction_precise(d));
+    auto a = triangulate_directions<ElevatedConcentricMap>(set);
+    auto b = triangulate_directions<ElevatedConcentricMap>(std::span<const glm::dvec3>(dirs));
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_EQ(a->triangles, b->triangles);
+  }
+}
+
+}  // namespace
+}  // namespace btflod

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 #include <set>
 
@@ -138,6 +139,51 @@ TEST(AngularInterpolators, OutsideHullMapsToNearestHullPoint) {
     ++checked;
   }
   EXPECT_GT(checked, 50);
+}
+
+// Outside the hull a sample interpolates along one hull edge (two directions) or returns one
+// hull vertex. Its slots must name each direction once: the weighted slots come first with
+// distinct indices, padding slots (weight 0) repeat slot 0's index, so code that sums — or
+// assigns — weights by index never counts a direction twice or overwrites a weight with 0.
+void expect_canonical(const AngularSample& s, const char* what) {
+  ASSERT_GT(s.weight[0], 0.0f) << what;
+  for (int k = 1; k < 3; ++k) {
+    if (s.weight[k] == 0.0f) {
+      EXPECT_EQ(s.index[k], s.index[0]) << what << ": padding slot " << k;
+      for (int j = k + 1; j < 3; ++j) EXPECT_EQ(s.weight[j], 0.0f) << what << ": weighted slot after padding";
+    } else {
+      for (int j = 0; j < k; ++j) EXPECT_NE(s.index[j], s.index[k]) << what << ": index repeated in a weighted slot";
+    }
+  }
+  std::map<uint32_t, float> by_index;
+  float total = 0.0f;
+  for (int k = 0; k < 3; ++k) by_index[s.index[k]] = s.weight[k] > 0.0f ? s.weight[k] : by_index[s.index[k]];
+  for (const auto& [i, w] : by_index) total += w;
+  EXPECT_NEAR(total, 1.0f, 1e-5f) << what << ": weights assigned by index do not sum to 1";
+}
+
+TEST(AngularInterpolators, OutsideHullSamplesNameEachDirectionOnce) {
+  for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
+    auto para = ExactGridInterpolator<ParabolicMap>::build(set);
+    auto conc = ExactGridInterpolator<ElevatedConcentricMap>::build(set);
+    auto table = LookupTableInterpolator<ParabolicMap>::build(set, 64);
+    ASSERT_TRUE(para.ok() && conc.ok() && table.ok());
+    int outside = 0;
+    for (const glm::vec3& d : random_directions(2000, 77, 90.0f)) {
+      if (d.z > std::cos(degrees_to_radians(76.0f))) continue;  // beyond the 75° ring only
+      ++outside;
+      expect_canonical(para->query(d), "parabolic exact");
+      expect_canonical(conc->query(d), "concentric exact");
+      expect_canonical(table->query(d), "parabolic table");
+    }
+    // Exactly at the square's corners and along the axes (nearest point = a hull vertex).
+    for (glm::vec2 st :
+         {glm::vec2(0, 0), glm::vec2(1, 1), glm::vec2(0, 1), glm::vec2(1, 0), glm::vec2(0.5f, 0), glm::vec2(1, 0.5f)}) {
+      expect_canonical(para->query_square(st), "parabolic corner");
+      expect_canonical(conc->query_square(st), "concentric corner");
+    }
+    EXPECT_GT(outside, 100);
+  }
 }
 
 TEST(AngularInterpolators, LookupTableMatchesExactAtTexelCentres) {

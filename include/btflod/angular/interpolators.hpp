@@ -8,7 +8,10 @@
 // (clamp_to_hemisphere); directions outside the triangulated hull map to the nearest hull point.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -24,14 +27,36 @@
 
 namespace btflod {
 
+/// The direction in double precision: from (θ, φ) in double when they describe d.vector (sets
+/// built from angles), else d.vector promoted. noexcept, thread-safe.
+inline glm::dvec3 direction_precise(const Direction& d) noexcept {
+  const double t = d.theta, p = d.phi, s = std::sin(t);
+  const glm::dvec3 v(s * std::cos(p), s * std::sin(p), std::cos(t));
+  const glm::dvec3 f(d.vector);
+  return glm::length(v - f) <= 1e-5 * std::max(1.0, glm::length(f)) ? v : f;
+}
+
 /// Delaunay triangulation of a direction set in the [0, 1]² square of parameterisation P.
+/// The parameter points are computed in double (direction_precise, to_square_precise): points
+/// that lie on one line of the square in exact arithmetic (a ring's points on one side of the
+/// concentric map's square) stay on it, so the triangulation has no sliver triangles.
 /// Triangle vertex ids are direction indices. Returns an error for fewer than three distinct,
 /// non-collinear directions or non-finite vectors. Allocates; thread-safe.
 template <HemisphereParameterization P>
 Result<Triangulation> triangulate_directions(const DirectionSet& set) {
   std::vector<glm::dvec2> pts;
   pts.reserve(set.size());
-  for (const Direction& d : set) pts.emplace_back(P::to_square(d.vector));
+  for (const Direction& d : set) pts.emplace_back(to_square_precise<P>(direction_precise(d)));
+  return delaunay_triangulate(std::span<const glm::dvec2>(pts));
+}
+
+/// Same, from direction vectors given in double precision (e.g. computed by the caller from
+/// exact angles). Errors as delaunay_triangulate. Allocates; thread-safe.
+template <HemisphereParameterization P>
+Result<Triangulation> triangulate_directions(std::span<const glm::dvec3> directions) {
+  std::vector<glm::dvec2> pts;
+  pts.reserve(directions.size());
+  for (const glm::dvec3& d : directions) pts.emplace_back(to_square_precise<P>(d));
   return delaunay_triangulate(std::span<const glm::dvec2>(pts));
 }
 

@@ -8,6 +8,7 @@
 // emit the same arithmetic in GLSL (see docs/angular.md, "GLSL mirror").
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <concepts>
 
@@ -51,6 +52,19 @@ inline glm::vec2 clamp_unit_square(glm::vec2 st) noexcept {
   if (!(st.x == st.x) || !(st.y == st.y)) return {0.5f, 0.5f};
   return {glm::clamp(st.x, 0.0f, 1.0f), glm::clamp(st.y, 0.0f, 1.0f)};
 }
+/// Double-precision clamp_to_hemisphere (same rules).
+inline glm::dvec3 clamp_to_hemisphere_precise(glm::dvec3 d) noexcept {
+  const double len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  if (!(len > 0.0) || !std::isfinite(len)) return {0.0, 0.0, 1.0};
+  d /= len;
+  if (d.z >= 0.0) return d;
+  const double lxy = std::sqrt(d.x * d.x + d.y * d.y);
+  if (!(lxy > 0.0)) return {0.0, 0.0, 1.0};
+  return {d.x / lxy, d.y / lxy, 0.0};
+}
+inline glm::dvec2 clamp_unit_square_precise(glm::dvec2 st) noexcept {
+  return {std::clamp(st.x, 0.0, 1.0), std::clamp(st.y, 0.0, 1.0)};
+}
 /// Pulls a disk point with |p| > 1 back onto the unit circle.
 inline glm::vec2 clamp_unit_disk(glm::vec2 p) noexcept {
   const float r2 = p.x * p.x + p.y * p.y;
@@ -70,6 +84,13 @@ struct ParabolicMap {
     d = clamp_to_hemisphere(d);
     const float inv = 1.0f / (1.0f + d.z);  // 1 + z ≥ 1 on the hemisphere
     return {0.5f * (d.x * inv + 1.0f), 0.5f * (d.y * inv + 1.0f)};
+  }
+
+  /// to_square() in double precision (the triangulation's inputs). noexcept, thread-safe.
+  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
+    d = detail::clamp_to_hemisphere_precise(d);
+    const double inv = 1.0 / (1.0 + d.z);
+    return {0.5 * (d.x * inv + 1.0), 0.5 * (d.y * inv + 1.0)};
   }
 
   /// [0, 1]² → unit direction with z ≥ 0 (corners outside the disk map onto the horizon).
@@ -104,6 +125,23 @@ struct ElevatedConcentricMap {
     return {(phi - 6.0f * kQuarter) * k, -r};                             // region 4: b = −ρ
   }
 
+  /// disk_to_centered_square() in double precision. Points of one ring (equal ρ) that lie on
+  /// one side of the square land on exactly the same line in double (in float, rounding of ρ
+  /// moves them apart by ~1e-7, enough to make sliver triangles of area ~1e-9).
+  static glm::dvec2 disk_to_centered_square_precise(glm::dvec2 p) noexcept {
+    const double r = std::sqrt(p.x * p.x + p.y * p.y);
+    if (!(r > 0.0)) return {0.0, 0.0};
+    constexpr double kPiD = 3.14159265358979323846;
+    constexpr double kQuarter = 0.25 * kPiD;
+    double phi = std::atan2(p.y, p.x);
+    if (phi < -kQuarter) phi += 2.0 * kPiD;
+    const double k = r / kQuarter;
+    if (phi < kQuarter) return {r, phi * k};
+    if (phi < 3.0 * kQuarter) return {(2.0 * kQuarter - phi) * k, r};
+    if (phi < 5.0 * kQuarter) return {-r, (4.0 * kQuarter - phi) * k};
+    return {(phi - 6.0 * kQuarter) * k, -r};
+  }
+
   /// [−1, 1]² → unit disk (Shirley–Chiu map, paper 002 §6.1 "first region" and its analogues).
   static glm::vec2 centered_square_to_disk(glm::vec2 ab) noexcept {
     const float a = ab.x;
@@ -130,6 +168,14 @@ struct ElevatedConcentricMap {
     return {glm::clamp(0.5f * (ab.x + 1.0f), 0.0f, 1.0f), glm::clamp(0.5f * (ab.y + 1.0f), 0.0f, 1.0f)};
   }
 
+  /// to_square() in double precision (the triangulation's inputs). noexcept, thread-safe.
+  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
+    d = detail::clamp_to_hemisphere_precise(d);
+    const double inv = 1.0 / std::sqrt(1.0 + d.z);
+    const glm::dvec2 ab = disk_to_centered_square_precise({d.x * inv, d.y * inv});
+    return detail::clamp_unit_square_precise({0.5 * (ab.x + 1.0), 0.5 * (ab.y + 1.0)});
+  }
+
   /// [0, 1]² → unit direction with z ≥ 0. The whole square maps onto the hemisphere.
   static glm::vec3 from_square(glm::vec2 st) noexcept {
     st = detail::clamp_unit_square(st);
@@ -152,6 +198,12 @@ struct OrthographicMap {
     return {0.5f * (d.x + 1.0f), 0.5f * (d.y + 1.0f)};
   }
 
+  /// to_square() in double precision (the triangulation's inputs). noexcept, thread-safe.
+  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
+    d = detail::clamp_to_hemisphere_precise(d);
+    return {0.5 * (d.x + 1.0), 0.5 * (d.y + 1.0)};
+  }
+
   /// [0, 1]² → unit direction with z ≥ 0 (corners outside the disk map onto the horizon).
   static glm::vec3 from_square(glm::vec2 st) noexcept {
     st = detail::clamp_unit_square(st);
@@ -161,8 +213,30 @@ struct OrthographicMap {
   }
 };
 
+/// A parameterisation that also offers to_square_precise(glm::dvec3) → glm::dvec2 (all of
+/// btflod's do); triangulate_directions() uses it when present.
+template <class P>
+concept PreciseHemisphereParameterization = HemisphereParameterization<P> && requires(glm::dvec3 d) {
+  { P::to_square_precise(d) }
+  noexcept->std::same_as<glm::dvec2>;
+};
+
+/// The square point of a direction in double precision: P::to_square_precise when P has it,
+/// else P::to_square promoted to double. noexcept, thread-safe.
+template <HemisphereParameterization P>
+glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
+  if constexpr (PreciseHemisphereParameterization<P>) {
+    return P::to_square_precise(d);
+  } else {
+    return glm::dvec2(P::to_square(glm::vec3(d)));
+  }
+}
+
 static_assert(HemisphereParameterization<ParabolicMap>);
 static_assert(HemisphereParameterization<ElevatedConcentricMap>);
 static_assert(HemisphereParameterization<OrthographicMap>);
+static_assert(PreciseHemisphereParameterization<ParabolicMap>);
+static_assert(PreciseHemisphereParameterization<ElevatedConcentricMap>);
+static_assert(PreciseHemisphereParameterization<OrthographicMap>);
 
 }  // namespace btflod

@@ -4,7 +4,8 @@
 //
 // Points outside the triangulated hull (directions beyond the last measured ring) are mapped
 // to the NEAREST POINT OF THE HULL in the parameter plane: the result interpolates linearly
-// along the closest hull edge (two non-zero weights) or returns a single hull vertex.
+// along the closest hull edge (two non-zero weights) or returns a single hull vertex; samples
+// are in the canonical form of angular_sample.hpp (each direction named once).
 #pragma once
 
 #include <algorithm>
@@ -136,7 +137,7 @@ class TriangleGridLocator {
       l /= s;
       out.index = best->index;
       out.weight = {l.x, l.y, l.z};
-      return out;
+      return canonical_angular_sample(out);
     }
     // Outside the hull: nearest point on the nearest hull edge.
     float best_d = std::numeric_limits<float>::max();
@@ -153,7 +154,8 @@ class TriangleGridLocator {
         out.weight = {1.0f - u, u, 0.0f};
       }
     }
-    return out;
+    // One hull vertex (u = 0 or 1) or two edge ends; never {a, b, a} with a weighted padding.
+    return canonical_angular_sample(out);
   }
 
   int grid_resolution() const noexcept { return grid_; }

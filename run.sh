@@ -6,6 +6,8 @@
 #   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
 #   ./run.sh web [--port P]       build the WebAssembly client and the materials, serve them with
 #                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
+#   ./run.sh raytrace [args...]   Embree ray tracer with BTF materials on built-in data, into
+#                                 out/raytrace/ (docs/raytrace.md)
 # Environment: BTFLOD_JOBS (parallel build jobs, default nproc), BTFLOD_BUILD_DIR (default build).
 # Every command passes each build option it depends on, so commands can run in any order on the
 # same build folder (a cached option from an earlier command never changes what a later one does),
@@ -17,7 +19,7 @@ cd "$(dirname "$0")"
 PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-dev libgtest-dev
   libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libegl-dev libopengl-dev
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
-  libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev emscripten
+  libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev libembree-dev emscripten
   chromium nodejs npm)
 
 install_packages() {
@@ -107,8 +109,15 @@ case "$cmd" in
       -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     samples/web/run_web.sh serve --tool "$BUILD"/samples/web/btflod-web-tool --work "$BUILD"/web "$@"
     ;;
+  raytrace)
+    install_packages
+    BTFLOD_TARGET=btflod-raytrace configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    mkdir -p out
+    "$BUILD"/samples/raytrace/btflod-raytrace --out out/raytrace "$@"
+    ;;
   *)
-    echo "usage: ./run.sh demo|test|bench|web" >&2
+    echo "usage: ./run.sh demo|test|bench|web|raytrace" >&2
     exit 2
     ;;
 esac

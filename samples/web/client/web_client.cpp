@@ -179,6 +179,9 @@ class Client {
     sc.budgets.bytes_in_flight = 64ull << 20;
     sc.tile_bytes = layout.sample_count() * 2;
     sc.stream_u_columns = stream_u;
+    // Over HTTP the request budget is hit on every frame of the initial load; the global LOD bias
+    // that overload raises should fall again within a few frames, not 30, once the link is idle.
+    sc.calm_frames = 5;
     sc.u_packet_bytes = materials[0]->dir.packets.empty() ? 1 : materials[0]->dir.packets[0].size;
     auto s = Scheduler::create(*cache, sc);
     if (!s) return fail(kFailed, s.message());
@@ -655,6 +658,29 @@ EMSCRIPTEN_KEEPALIVE int bw_in_flight() { return client().scheduler ? static_cas
 EMSCRIPTEN_KEEPALIVE double bw_visible_missing() {
   return client().scheduler ? static_cast<double>(client().scheduler->frame().visible_missing) : 0.0;
 }
+/// Scheduler state for diagnostics as double[10]: U' packets loaded of materials 0 and 1, cache
+/// slots used, and this frame's adds, requests, U' requests, swaps, rejected swaps, budget hits,
+/// LOD bias. Returns 0.
+EMSCRIPTEN_KEEPALIVE int bw_counters(double* out) {
+  auto& c = client();
+  if (!c.started) return btflod::web::kBadArgument;
+  const auto& f = c.scheduler->frame();
+  out[0] = c.scheduler->u_loaded(0);
+  out[1] = c.materials.size() > 1 ? c.scheduler->u_loaded(1) : 0;
+  out[2] = c.cache->used_count();
+  out[3] = static_cast<double>(f.adds);
+  out[4] = static_cast<double>(f.requests);
+  out[5] = static_cast<double>(f.u_requests);
+  out[6] = static_cast<double>(f.swaps);
+  out[7] = static_cast<double>(f.swaps_rejected);
+  out[8] = static_cast<double>(f.budget_hits());
+  out[9] = c.scheduler->lod_bias();
+  return 0;
+}
+
+/// The scheduler's global LOD bias (raised under overload; 0 when requests are at full detail).
+EMSCRIPTEN_KEEPALIVE int bw_lod_bias() { return client().scheduler ? static_cast<int>(client().scheduler->lod_bias()) : 0; }
+
 /// Mean tile decode time in µs over this page's decodes, and their count.
 EMSCRIPTEN_KEEPALIVE double bw_decode_us_mean() {
   return client().decodes ? client().decode_us_total / static_cast<double>(client().decodes) : 0.0;

@@ -82,7 +82,7 @@ async function openPage(browser, query, v = view) {
   const page = await browser.newPage();
   page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.log(`  [page] ${m.text()}`); });
   page.on('pageerror', (e) => console.log(`  [page error] ${e}`));
-  const q = new URLSearchParams({ size: String(SIZE), materials: String(materials.length) });
+  const q = new URLSearchParams({ size: String(SIZE), materials: String(materials.length), paused: '1' });
   for (const [k, v] of new URLSearchParams(query || '')) q.set(k, v);
   await page.goto(`${args.url}?${q}`);
   await page.waitForFunction(() => window.btflod && (window.btflod.ready || window.btflod.error), { timeout: 60000 });

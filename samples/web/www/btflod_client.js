@@ -529,7 +529,8 @@ export class BtflodClient {
     return q / this.materials.length;
   }
 
-  /// True when nothing is in flight or queued and the view misses no tile it voted for.
+  /// True when nothing is in flight or queued, the view misses no tile it voted for, and the
+  /// scheduler's overload LOD bias is back at 0 (votes at full detail).
   converged() {
     if (this.fixedOrder) return this.orderLeft === 0;
     let packets = true;
@@ -541,7 +542,7 @@ export class BtflodClient {
     }
     this.M._free(ip);
     return packets && this.queue.length === 0 && this.active === 0 && this.M._bw_in_flight() === 0 &&
-      this.M._bw_visible_missing() === 0;
+      this.M._bw_visible_missing() === 0 && this.M._bw_lod_bias() === 0;
   }
 
   /// The last colour frame as linear RGBA float32, row 0 = top (the CPU reference's order).

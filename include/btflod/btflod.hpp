@@ -79,3 +79,10 @@
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/page_table_writes.hpp"
 #include "btflod/backend/representation_packing.hpp"
+
+// render (ray-tracer shading, sampling and progressive accumulation; paper 003 §4)
+#include "btflod/render/integrator.hpp"
+#include "btflod/render/primitives.hpp"
+#include "btflod/render/sampling.hpp"
+#include "btflod/render/shading.hpp"
+#include "btflod/render/surface.hpp"

@@ -11,6 +11,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "btflod/backend/cpu_reference.hpp"
@@ -176,15 +177,19 @@ void golden_fmf(Factory make) {
   EXPECT_GE(psnr, 40.0);
 }
 
-/// BSVTF: a vt/ TileCache holding every tile of levels 0–1 and the left half of level 2,
-/// uploaded to the GPU and to a CpuCacheTexture; page table from the cache.
-template <class Factory>
-void golden_bsvtf_partial(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
-  const ShaderConfig config = golden_config();
-  const Material m = make_material(config, kTexture, kTexture);
+/// The BSVTF scene's virtual texture: a vt/ TileCache holding every tile of levels 0–1 and the
+/// left half of level 2, its tiles as GPU uploads and in a CpuCacheTexture, and the page-table
+/// writes of the whole cache. Filled in place (the cache refers to nothing outside it).
+struct PartialCacheScene {
+  std::optional<TilePyramid> pyr;
+  VtSet set;
+  std::optional<TileCache> cache;
+  std::optional<CpuCacheTexture> cpu;
+  std::vector<TileUpload> uploads;
+  std::vector<PageTableWrite> writes;
+};
+
+inline void build_partial_cache(const ShaderConfig& config, const Material& m, PartialCacheScene& out) {
   EigenTextures e;
   e.textures = m.v;
   e.angular = m.u;
@@ -192,14 +197,14 @@ void golden_bsvtf_partial(Factory make) {
   e.view_count = m.views;
   auto pyr = TilePyramid::build(e, 64, 4);
   ASSERT_TRUE(pyr.ok()) << pyr.message();
-  VtSet set;
-  set.add_material(pyr->geometry(), pyr->texture_count());
-  auto cache_r = TileCache::create(set, TileCacheConfig{config.vt.slots_x, config.vt.slots_y, 1024});
+  out.pyr.emplace(std::move(*pyr));
+  out.set.add_material(out.pyr->geometry(), out.pyr->texture_count());
+  auto cache_r = TileCache::create(out.set, TileCacheConfig{config.vt.slots_x, config.vt.slots_y, 1024});
   ASSERT_TRUE(cache_r.ok()) << cache_r.message();
-  TileCache& cache = *cache_r;
-  ASSERT_TRUE(be->init(config, set.texture_count()).ok());
-  const VtLevelTable& lv = set.levels_of(0);
-  for (uint32_t k = 0; k < set.texture_count(); ++k)
+  out.cache.emplace(std::move(*cache_r));
+  TileCache& cache = *out.cache;
+  const VtLevelTable& lv = out.set.levels_of(0);
+  for (uint32_t k = 0; k < out.set.texture_count(); ++k)
     for (uint32_t l = 1; l <= 2; ++l)
       for (uint32_t y = 0; y < lv.tiles_y[l]; ++y)
         for (uint32_t x = 0; x < lv.tiles_x[l]; ++x) {
@@ -208,20 +213,37 @@ void golden_bsvtf_partial(Factory make) {
           ASSERT_NE(s, kNoSlot);
           ASSERT_EQ(cache.insert(TileId{k, l, x, y}, s, 0), Status::success);
         }
-  CpuCacheTexture cpu_cache(cache);
-  std::vector<TileUpload> uploads;
+  out.cpu.emplace(cache);
   for (uint32_t s = 0; s < cache.slot_count(); ++s) {
     const SlotInfo& info = cache.slot(s);
     if (info.state != SlotInfo::State::used) continue;
-    const auto texels = pyr->tile_texels(info.tile.texture, info.flat_index);
-    ASSERT_TRUE(cpu_cache.upload(cache, s, texels));
-    uploads.push_back(TileUpload{s, texels});
+    const auto texels = out.pyr->tile_texels(info.tile.texture, info.flat_index);
+    ASSERT_TRUE(out.cpu->upload(cache, s, texels));
+    out.uploads.push_back(TileUpload{s, texels});
   }
-  ASSERT_EQ(uploads.size(), 2u * (1 + 4 + 8));
-  ASSERT_EQ(be->upload_tiles(uploads), Status::success);
-  std::vector<PageTableWrite> writes;
-  for (uint32_t t = 0; t < set.texture_count(); ++t) append_full_page_table_writes(cache, t, writes);
-  ASSERT_EQ(be->apply_page_table_writes(writes), Status::success);
+  ASSERT_EQ(out.uploads.size(), 2u * (1 + 4 + 8));
+  for (uint32_t t = 0; t < out.set.texture_count(); ++t) append_full_page_table_writes(cache, t, out.writes);
+}
+
+/// BSVTF: the partial cache above, uploaded to the GPU and to a CpuCacheTexture; page table from
+/// the cache.
+template <class Factory>
+void golden_bsvtf_partial(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+  const ShaderConfig config = golden_config();
+  const Material m = make_material(config, kTexture, kTexture);
+  PartialCacheScene vt;
+  build_partial_cache(config, m, vt);
+  if (::testing::Test::HasFatalFailure()) return;
+  const VtSet& set = vt.set;
+  TileCache& cache = *vt.cache;
+  CpuCacheTexture& cpu_cache = *vt.cpu;
+  const TilePyramid* pyr = &*vt.pyr;
+  ASSERT_TRUE(be->init(config, set.texture_count()).ok());
+  ASSERT_EQ(be->upload_tiles(vt.uploads), Status::success);
+  ASSERT_EQ(be->apply_page_table_writes(vt.writes), Status::success);
   std::vector<MeshVertex> verts;
   std::vector<uint32_t> idx;
   plane_mesh(PlaneSetup{}, verts, idx);
@@ -253,8 +275,8 @@ void golden_bsvtf_partial(Factory make) {
   EXPECT_GT(finest, 1000u);
   EXPECT_GT(coarser, 1000u) << "the view must show both resident and missing finest tiles";
   const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
-  std::printf("[ %s ] golden BSVTF (partial cache) vs CPU reference: PSNR %.2f dB (vs finest-only %.2f dB)\n", be->name(),
-              psnr, psnr_wrong);
+  std::printf("[ %s ] golden BSVTF (partial cache) vs CPU reference: PSNR %.2f dB (vs finest-only %.2f dB)\n",
+              be->name(), psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
 }

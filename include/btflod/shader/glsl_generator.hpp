@@ -889,8 +889,7 @@ inline VoidResult validate_function_options(GlslPieceSet pieces, const GlslFunct
                         s.what, s.expr->c_str());
   for (uint32_t i = 1; i < kShaderBindingCount; ++i) {
     const GlslResource& r = o.resources[i];
-    if (r.name.empty()) continue;
-    if (r.declare ? !glsl_identifier(r.name) : !glsl_expression(r.name))
+    if (!r.name.empty() && (r.declare ? !glsl_identifier(r.name) : !glsl_expression(r.name)))
       return make_error(Status::invalid_argument, "generate_functions: %s name \"%.80s\" is not a %s",
                         shader_binding_name(static_cast<ShaderBinding>(i)), r.name.c_str(),
                         r.declare ? "GLSL identifier" : "GLSL expression");

@@ -44,11 +44,11 @@ namespace btflod::web {
 /// Return codes of the C interface (JavaScript mirrors them in btflod_client.js).
 enum Code : int {
   kOk = 0,
-  kBadArgument = 1,  ///< unknown id, call out of order
-  kCorrupt = 2,      ///< payload failed its size/CRC check: fetch again
-  kDecodeFailed = 3, ///< verified payload that does not decode (or its parent is missing)
-  kBusy = 4,         ///< decoding budget full: deliver again later
-  kFailed = 5,       ///< set-up failure, see bw_last_error()
+  kBadArgument = 1,   ///< unknown id, call out of order
+  kCorrupt = 2,       ///< payload failed its size/CRC check: fetch again
+  kDecodeFailed = 3,  ///< verified payload that does not decode (or its parent is missing)
+  kBusy = 4,          ///< decoding budget full: deliver again later
+  kFailed = 5,        ///< set-up failure, see bw_last_error()
 };
 
 struct ClientMaterial {
@@ -57,7 +57,7 @@ struct ClientMaterial {
   std::vector<float> u_rgba;  ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
   std::vector<float> u;       ///< U row-major (row · C + c), for the CPU side
   uint32_t set_index = 0;
-  uint32_t packets_loaded = 0;  ///< U' packets delivered (in order)
+  uint32_t packets_loaded = 0;           ///< U' packets delivered (in order)
   std::vector<uint64_t> decoded_offset;  ///< per (local texture, flat tile): float offset into the arena, or ~0
   std::vector<uint8_t> delivered;        ///< per (local texture, flat tile): delivered at least once
   double weight_total = 0, weight_delivered = 0;
@@ -65,9 +65,9 @@ struct ClientMaterial {
 
 /// One entry of the request list JavaScript reads (all uint32 for a flat Uint32Array view).
 struct RequestInfo {
-  uint32_t id;         ///< scheduler request id, or kRootBase + root index
+  uint32_t id;  ///< scheduler request id, or kRootBase + root index
   uint32_t material;
-  uint32_t kind;       ///< 0 tile, 1 U' packet
+  uint32_t kind;            ///< 0 tile, 1 U' packet
   uint32_t key_lo, key_hi;  ///< local tile key (kind 0) or packet index (kind 1)
   uint32_t offset_lo, offset_hi;
   uint32_t size;
@@ -75,11 +75,11 @@ struct RequestInfo {
 
 /// One upload JavaScript performs after bw_apply_uploads().
 struct UploadInfo {
-  uint32_t kind;      ///< 0 tile into `slot`, 1 U' packet (re-upload layers of `material`)
+  uint32_t kind;  ///< 0 tile into `slot`, 1 U' packet (re-upload layers of `material`)
   uint32_t slot;
   uint32_t material;
   uint32_t packet;
-  uint32_t texels;    ///< heap pointer to (T+2B)² · 4 half bits (kind 0)
+  uint32_t texels;  ///< heap pointer to (T+2B)² · 4 half bits (kind 0)
 };
 
 /// One page-table texel JavaScript writes: layer, mip, x, y, entry.
@@ -103,11 +103,11 @@ class Client {
   uint32_t finest_level = 0;
   uint32_t angular_resolution = 32;
   ShaderConfig base_config;
-  std::vector<float> arena;              // decoded tiles (parents of later tiles)
-  std::vector<uint16_t> staging;         // half texels per request id (+ roots at the end)
-  std::vector<float> packet_scratch;     // one unpacked U' packet
-  std::vector<RequestInfo> requests;     // this frame's new requests
-  std::vector<RequestInfo> roots;        // pinned root tiles, fetched before streaming
+  std::vector<float> arena;           // decoded tiles (parents of later tiles)
+  std::vector<uint16_t> staging;      // half texels per request id (+ roots at the end)
+  std::vector<float> packet_scratch;  // one unpacked U' packet
+  std::vector<RequestInfo> requests;  // this frame's new requests
+  std::vector<RequestInfo> roots;     // pinned root tiles, fetched before streaming
   std::vector<UploadInfo> uploads;
   std::vector<uint32_t> pending_root_uploads;
   std::vector<PageTableWrite> writes;
@@ -116,8 +116,8 @@ class Client {
   std::vector<TileId> slot_tiles;
   std::vector<uint8_t> root_decoded;
   std::string shader_text;
-  std::vector<RequestInfo> order;        // fixed component-by-component order (comparison)
-  std::vector<uint16_t> order_staging;   // half texels of ordered deliveries until uploaded
+  std::vector<RequestInfo> order;       // fixed component-by-component order (comparison)
+  std::vector<uint16_t> order_staging;  // half texels of ordered deliveries until uploaded
   uint64_t frame = 0;
   bool started = false;
   bool full_rewrite = true;
@@ -155,7 +155,8 @@ class Client {
     if (started || materials.empty()) return fail(kBadArgument, "start: no materials or already started");
     for (auto& m : materials) {
       const BsvtfMetadata& md = m->dir.metadata;
-      m->set_index = set.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
+      m->set_index =
+          set.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
       const VtMaterial& vm = set.material(m->set_index);
       finest_level = std::max(finest_level, vm.levels.finest_level());
       // Paper 000 eq. 8 weights w from the tile index (the scheduler's priority P = w·v).
@@ -206,7 +207,8 @@ class Client {
     arena.assign(total_tiles * layout.sample_count(), 0.0f);
     size_t next = 0;
     for (auto& m : materials)
-      for (auto& o : m->decoded_offset) o = (next++) * layout.sample_count() | (uint64_t{1} << 63);  // bit 63: not decoded
+      for (auto& o : m->decoded_offset)
+        o = (next++) * layout.sample_count() | (uint64_t{1} << 63);  // bit 63: not decoded
     packet_scratch.assign(max_rows * 4, 0.0f);
     // Roots: pinned, fetched first (one per virtual texture).
     for (uint32_t mi = 0; mi < materials.size(); ++mi) {
@@ -214,7 +216,8 @@ class Client {
       for (uint32_t k = 0; k < set.material(m.set_index).texture_count; ++k) {
         const BsvtfTileEntry* e = m.dir.find(TileId{k, 0, 0, 0});
         if (!e) return fail(kFailed, "container without a root tile");
-        roots.push_back(make_info(kRootBase + static_cast<uint32_t>(roots.size()), mi, 0, e->id.key(), e->offset, e->size));
+        roots.push_back(
+            make_info(kRootBase + static_cast<uint32_t>(roots.size()), mi, 0, e->id.key(), e->offset, e->size));
       }
     }
     root_decoded.assign(roots.size(), 0);
@@ -237,7 +240,8 @@ class Client {
     return kOk;
   }
 
-  static RequestInfo make_info(uint32_t id, uint32_t material, uint32_t kind, uint64_t key, uint64_t offset, uint32_t size) {
+  static RequestInfo make_info(uint32_t id, uint32_t material, uint32_t kind, uint64_t key, uint64_t offset,
+                               uint32_t size) {
     return RequestInfo{id,
                        material,
                        kind,
@@ -291,8 +295,8 @@ class Client {
     const BsvtfTileEntry* e = m.dir.find(local);
     if (!e) return fail(kBadArgument, "unknown tile");
     if (verify_bsvtf_payload(e->size, e->crc, bytes) != Status::success)
-      return fail(kCorrupt, format_message("tile %u/%u/%u/%u: payload size or CRC-32 mismatch", local.texture, local.level,
-                                           local.x, local.y));
+      return fail(kCorrupt, format_message("tile %u/%u/%u/%u: payload size or CRC-32 mismatch", local.texture,
+                                           local.level, local.x, local.y));
     const VtLevelTable& lv = set.material(m.set_index).levels;
     std::span<const float> parent;
     if (local.level > 0) {
@@ -303,13 +307,15 @@ class Client {
     const uint32_t flat = lv.index(local);
     float* out = decoded(m, local.texture, flat, false);
     const auto t0 = std::chrono::steady_clock::now();
-    const Status s = decoder->decode(bytes, parent, local.x & 1, local.y & 1, std::span<float>(out, layout.sample_count()));
+    const Status s =
+        decoder->decode(bytes, parent, local.x & 1, local.y & 1, std::span<float>(out, layout.sample_count()));
     decode_us_total += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
     ++decodes;
     if (s != Status::success) return fail(kDecodeFailed, decoder->message());
     const uint32_t K = set.material(m.set_index).texture_count;
     m.decoded_offset[static_cast<size_t>(flat) * K + local.texture] &= ~(uint64_t{1} << 63);
-    float_to_half(std::span<const float>(out, layout.sample_count()), std::span<uint16_t>(halves, layout.sample_count()));
+    float_to_half(std::span<const float>(out, layout.sample_count()),
+                  std::span<uint16_t>(halves, layout.sample_count()));
     // Paper 000 §6: ‖T‖²_F / T² of the tile (interior texels) for the U' packet priority.
     double energy = 0;
     const uint32_t S = layout.stored_size(), B = layout.border;
@@ -341,7 +347,8 @@ class Client {
         order.push_back(make_info(kOrderBase + static_cast<uint32_t>(order.size()), mi, 1, g, p.offset, p.size));
         for (const BsvtfTileEntry& e : m.dir.tiles)
           if (e.id.texture == g && e.id.level > 0)
-            order.push_back(make_info(kOrderBase + static_cast<uint32_t>(order.size()), mi, 0, e.id.key(), e.offset, e.size));
+            order.push_back(
+                make_info(kOrderBase + static_cast<uint32_t>(order.size()), mi, 0, e.id.key(), e.offset, e.size));
       }
     }
     order_staging.clear();
@@ -373,7 +380,8 @@ class Client {
     if (slot == kNoSlot) return fail(kFailed, "cache too small for the whole material");
     const TileId global{set.material(m.set_index).first_texture + local.texture, local.level, local.x, local.y};
     if (cache->insert(global, slot, frame) != Status::success) return fail(kFailed, "insert failed");
-    uploads.push_back(UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
+    uploads.push_back(
+        UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
     return kOk;
   }
 
@@ -397,7 +405,8 @@ class Client {
         if (cache->insert(global, slot, 0) != Status::success) return fail(kFailed, "root insert failed");
       }
       root_decoded[r] = 1;
-      uploads.push_back(UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
+      uploads.push_back(
+          UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
       return kOk;
     }
     // A scheduler request: find it among those issued (ids are reused only after retirement).
@@ -473,7 +482,8 @@ class Client {
     }
     cache->clear_deltas();
     page_writes.clear();
-    for (const PageTableWrite& w : writes) page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
+    for (const PageTableWrite& w : writes)
+      page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
     return static_cast<int>(uploads.size());
   }
 
@@ -534,8 +544,8 @@ EMSCRIPTEN_KEEPALIVE double bw_directory_size(const uint8_t* header, uint32_t le
 }
 
 /// Creates the VT set, cache (slots_x × slots_y), scheduler and vote counter. Returns 0 or a code.
-EMSCRIPTEN_KEEPALIVE int bw_start(uint32_t slots_x, uint32_t slots_y, uint32_t feedback_shift, uint32_t uploads_per_frame,
-                                  uint32_t requests_in_flight, int stream_u) {
+EMSCRIPTEN_KEEPALIVE int bw_start(uint32_t slots_x, uint32_t slots_y, uint32_t feedback_shift,
+                                  uint32_t uploads_per_frame, uint32_t requests_in_flight, int stream_u) {
   return client().start(slots_x, slots_y, feedback_shift, uploads_per_frame, requests_in_flight, stream_u != 0);
 }
 
@@ -645,7 +655,9 @@ EMSCRIPTEN_KEEPALIVE int bw_material_info(uint32_t m, uint32_t* out) {
 EMSCRIPTEN_KEEPALIVE int bw_texture_count() { return static_cast<int>(client().set.texture_count()); }
 /// Pointers to a material's eigen_abrdfs (RGBA32F) and angular tables (index RGBA32UI, weight RGBA32F).
 EMSCRIPTEN_KEEPALIVE const float* bw_u_rgba(uint32_t m) { return client().materials[m]->u_rgba.data(); }
-EMSCRIPTEN_KEEPALIVE const uint32_t* bw_angular_index(uint32_t m) { return client().materials[m]->angular.index.data(); }
+EMSCRIPTEN_KEEPALIVE const uint32_t* bw_angular_index(uint32_t m) {
+  return client().materials[m]->angular.index.data();
+}
 EMSCRIPTEN_KEEPALIVE const float* bw_angular_weight(uint32_t m) { return client().materials[m]->angular.weight.data(); }
 /// Σ w of delivered tiles / Σ w of all tiles of material m (paper 000 eq. 8), in [0, 1].
 EMSCRIPTEN_KEEPALIVE double bw_converged_fraction(uint32_t m) {
@@ -653,7 +665,9 @@ EMSCRIPTEN_KEEPALIVE double bw_converged_fraction(uint32_t m) {
   return mat.weight_total > 0 ? mat.weight_delivered / mat.weight_total : 0.0;
 }
 /// Requests issued and not yet uploaded or cancelled.
-EMSCRIPTEN_KEEPALIVE int bw_in_flight() { return client().scheduler ? static_cast<int>(client().scheduler->requests_in_flight()) : 0; }
+EMSCRIPTEN_KEEPALIVE int bw_in_flight() {
+  return client().scheduler ? static_cast<int>(client().scheduler->requests_in_flight()) : 0;
+}
 /// Visible-but-missing tiles of the last plan (0 once the view has converged).
 EMSCRIPTEN_KEEPALIVE double bw_visible_missing() {
   return client().scheduler ? static_cast<double>(client().scheduler->frame().visible_missing) : 0.0;
@@ -679,7 +693,9 @@ EMSCRIPTEN_KEEPALIVE int bw_counters(double* out) {
 }
 
 /// The scheduler's global LOD bias (raised under overload; 0 when requests are at full detail).
-EMSCRIPTEN_KEEPALIVE int bw_lod_bias() { return client().scheduler ? static_cast<int>(client().scheduler->lod_bias()) : 0; }
+EMSCRIPTEN_KEEPALIVE int bw_lod_bias() {
+  return client().scheduler ? static_cast<int>(client().scheduler->lod_bias()) : 0;
+}
 
 /// Mean tile decode time in µs over this page's decodes, and their count.
 EMSCRIPTEN_KEEPALIVE double bw_decode_us_mean() {
@@ -690,11 +706,11 @@ EMSCRIPTEN_KEEPALIVE double bw_decode_count() { return static_cast<double>(clien
 /// Decodes every tile of an in-memory container `repeats` times (inflate backend 0 zlib,
 /// 1 libdeflate when built in) and writes double[5]: hash low 32 bits, hash high 32 bits, tiles,
 /// mean decode µs per tile, mean inflate µs per tile. Returns 0 or the decoder's status.
-EMSCRIPTEN_KEEPALIVE int bw_decode_container(const uint8_t* bytes, uint32_t len, int backend, int repeats, double* out) {
-  const auto r = btflod::web::decode_container_tiles(std::span<const uint8_t>(bytes, len),
-                                                     backend == 1 ? btflod::InflateBackend::libdeflate
-                                                                  : btflod::InflateBackend::zlib,
-                                                     repeats);
+EMSCRIPTEN_KEEPALIVE int bw_decode_container(const uint8_t* bytes, uint32_t len, int backend, int repeats,
+                                             double* out) {
+  const auto r = btflod::web::decode_container_tiles(
+      std::span<const uint8_t>(bytes, len),
+      backend == 1 ? btflod::InflateBackend::libdeflate : btflod::InflateBackend::zlib, repeats);
   out[0] = static_cast<double>(r.hash & 0xffffffffu);
   out[1] = static_cast<double>(r.hash >> 32);
   out[2] = r.tiles;

@@ -41,8 +41,8 @@ inline DirectionSet directions_from_xyz(const std::string& name, std::span<const
 /// RGBA32F weights, resolution² texels per layer, .w = 0).
 struct AngularTextures {
   uint32_t resolution = 0;
-  std::vector<uint32_t> index;  ///< resolution² · 2 · 4
-  std::vector<float> weight;    ///< resolution² · 2 · 4
+  std::vector<uint32_t> index;                    ///< resolution² · 2 · 4
+  std::vector<float> weight;                      ///< resolution² · 2 · 4
   std::vector<uint32_t> light_index, view_index;  ///< resolution² · 3 (CPU lookups)
   std::vector<float> light_weight, view_weight;
 };
@@ -129,7 +129,8 @@ struct DecodeCheck {
 /// key, so coarse to fine per texture) `repeats` times with `backend` and hashes the last pass's
 /// samples. The wasm client and the native reference run the same function: equal hashes mean
 /// bit-identical decoders (wasm has the scalar inverse DCT only; the native AVX2/FMA twin rounds
-/// differently, so the native side compares with allow_simd = false). Allocates (a test/benchmark helper, not a per-frame path).
+/// differently, so the native side compares with allow_simd = false). Allocates (a test/benchmark helper, not a
+/// per-frame path).
 inline DecodeCheck decode_container_tiles(std::span<const uint8_t> file, InflateBackend backend, int repeats,
                                           bool allow_simd = true) {
   DecodeCheck r;
@@ -150,8 +151,8 @@ inline DecodeCheck decode_container_tiles(std::span<const uint8_t> file, Inflate
       std::span<const float> parent;
       if (e.id.level > 0) {
         const BsvtfTileEntry* p = dir->find(e.id.parent());
-        parent = std::span<const float>(decoded.data() + static_cast<size_t>(p - dir->tiles.data()) * layout.sample_count(),
-                                        layout.sample_count());
+        parent = std::span<const float>(
+            decoded.data() + static_cast<size_t>(p - dir->tiles.data()) * layout.sample_count(), layout.sample_count());
       }
       std::span<float> out(decoded.data() + i * layout.sample_count(), layout.sample_count());
       const auto t0 = Clock::now();

@@ -29,10 +29,10 @@
 
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/representation_packing.hpp"
-#include "btflod/factor/pca_views.hpp"
 #include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/factor/pca_views.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "client/web_material.hpp"
@@ -69,7 +69,8 @@ glm::vec3 vec3_arg(const Args& a, const std::string& k, glm::vec3 fallback) {
 }
 
 bool size_arg(const Args& a, int& w, int& h) {
-  return std::sscanf(a.get("size", "512x512").c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 8192 && h <= 8192;
+  return std::sscanf(a.get("size", "512x512").c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 8192 &&
+         h <= 8192;
 }
 
 int fail(const std::string& msg) {
@@ -95,13 +96,15 @@ int cmd_materials(const Args& a) {
   for (int i = 0; i < count; ++i) {
     auto m = demo::prepare_material(static_cast<uint32_t>(i), s, out);
     if (!m) return fail(m.message());
-    json += (i ? ", " : "") + std::string("{\"name\": \"") + m->name + "\", \"file\": \"" + m->name + ".bsvtf\", \"bytes\": " +
-            std::to_string(m->bsvtf.size()) + "}";
+    json += (i ? ", " : "") + std::string("{\"name\": \"") + m->name + "\", \"file\": \"" + m->name +
+            ".bsvtf\", \"bytes\": " + std::to_string(m->bsvtf.size()) + "}";
     std::printf("%s: %zu bytes, %u levels\n", m->bsvtf_path.c_str(), m->bsvtf.size(), m->finest_level + 1);
   }
   json += "]}\n";
   const std::string path = (std::filesystem::path(out) / "materials.json").string();
-  if (auto w = write_file_bytes(path, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(json.data()), json.size())); !w)
+  if (auto w =
+          write_file_bytes(path, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(json.data()), json.size()));
+      !w)
     return fail(w.message());
   return 0;
 }
@@ -175,12 +178,12 @@ int cmd_reference(const Args& a) {
       std::span<const float> parent;
       if (e.id.level > 0) {
         const BsvtfTileEntry* p = dir.find(e.id.parent());
-        parent = std::span<const float>(decoded.data() + static_cast<size_t>(p - dir.tiles.data()) * layout.sample_count(),
-                                        layout.sample_count());
+        parent = std::span<const float>(
+            decoded.data() + static_cast<size_t>(p - dir.tiles.data()) * layout.sample_count(), layout.sample_count());
       }
       std::span<float> out(decoded.data() + t * layout.sample_count(), layout.sample_count());
-      if (decoder.decode(std::span<const uint8_t>(mats[i].file).subspan(e.offset, e.size), parent, e.id.x & 1, e.id.y & 1,
-                         out) != Status::success)
+      if (decoder.decode(std::span<const uint8_t>(mats[i].file).subspan(e.offset, e.size), parent, e.id.x & 1,
+                         e.id.y & 1, out) != Status::success)
         return fail(std::string("decode: ") + decoder.message());
       float_to_half(out, halves);
       const TileId g{first + e.id.texture, e.id.level, e.id.x, e.id.y};
@@ -221,7 +224,8 @@ int cmd_reference(const Args& a) {
         for (uint32_t c = 0; c < 4 && 4 * k + c < C; ++c) comps[4 * k + c] = v4[c];
       }
       const auto lookup = [&](const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 d) {
-        const glm::ivec2 t = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, d), res);
+        const glm::ivec2 t =
+            shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, d), res);
         const size_t o = (static_cast<size_t>(t.y) * res + static_cast<size_t>(t.x)) * 3;
         AngularSample s;
         for (int k = 0; k < 3; ++k) {
@@ -239,7 +243,9 @@ int cmd_reference(const Args& a) {
     }
   const std::string out = a.get("out");
   if (out.empty()) return fail("reference: --out required");
-  if (auto w = write_file_bytes(out, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4)); !w)
+  if (auto w =
+          write_file_bytes(out, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
+      !w)
     return fail(w.message());
   std::printf("reference %dx%d written to %s\n", W, H, out.c_str());
   return 0;
@@ -253,7 +259,8 @@ int cmd_pcak(const Args& a) {
   int W, H;
   if (!size_arg(a, W, H)) return fail("pcak: bad --size");
   const uint32_t index = static_cast<uint32_t>(std::atoi(a.get("index", "0").c_str()));
-  const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather, SynthMaterial::tiles};
+  const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather,
+                                 SynthMaterial::tiles};
   SynthesisOptions so;
   so.views = demo::demo_directions();
   so.lights = demo::demo_directions();
@@ -288,9 +295,22 @@ int cmd_pcak(const Args& a) {
   append(packed->r.data(), packed->r.size() * 4);
   append(index_rgba.data(), index_rgba.size() * 4);
   append(weight_rgba.data(), weight_rgba.size() * 4);
-  const uint32_t header[16] = {0x4b414350u, 1, info.components, info.views_per_group, info.light_count, info.view_count,
-                               info.width, info.height, layers, res, static_cast<uint32_t>(packed->l.size()),
-                               static_cast<uint32_t>(packed->r.size()), res * res * 2, crc32_of(body), 0, 0};
+  const uint32_t header[16] = {0x4b414350u,
+                               1,
+                               info.components,
+                               info.views_per_group,
+                               info.light_count,
+                               info.view_count,
+                               info.width,
+                               info.height,
+                               layers,
+                               res,
+                               static_cast<uint32_t>(packed->l.size()),
+                               static_cast<uint32_t>(packed->r.size()),
+                               res * res * 2,
+                               crc32_of(body),
+                               0,
+                               0};
   std::vector<uint8_t> file(sizeof header);
   std::memcpy(file.data(), header, sizeof header);
   file.insert(file.end(), body.begin(), body.end());
@@ -312,13 +332,15 @@ int cmd_pcak(const Args& a) {
     for (int x = 0; x < W; ++x) {
       const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
       if (!h.hit) continue;
-      const glm::vec3 rgb = reference_pca_views(*pca, tables, DirectionParameterisation::parabolic, false, h.texcoord,
-                                                to_local(h, light), to_local(h, glm::normalize(cam.position - h.position))) *
-                            light_color;
+      const glm::vec3 rgb =
+          reference_pca_views(*pca, tables, DirectionParameterisation::parabolic, false, h.texcoord, to_local(h, light),
+                              to_local(h, glm::normalize(cam.position - h.position))) *
+          light_color;
       float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
       p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
     }
-  if (auto w = write_file_bytes(a.get("ref"), std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
+  if (auto w = write_file_bytes(a.get("ref"),
+                                std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
       !w)
     return fail(w.message());
   std::printf("%s: C = %u, k = %u, %u groups, %zu bytes; reference %dx%d\n", a.get("out").c_str(), info.components,

@@ -91,6 +91,11 @@ export class BtflodClient {
     this.view = { yaw: -1.2, pitch: 0.75, distance: 4.2, target: [0, 0, 0], fov: 45, light: [-0.5, 0.4, 0.8],
       lightColor: [1.6, 1.4, 1.2], bias: 0, eye: null };
     this.frameMs = 0;
+    // Client-side LRU of verified payloads (paper 000 §6: keep received tiles in RAM), so a tile
+    // the scheduler evicts and wants back later is not fetched again. Bounded by bytes.
+    this.payloads = new Map();
+    this.payloadBytes = 0;
+    this.payloadBudget = 64 << 20;
     this.faults = null;     // test hook: function(info, attempt, url) → url to fetch instead, or null
     this.startTime = performance.now();
   }
@@ -141,6 +146,17 @@ export class BtflodClient {
   // (the scheduler re-plans the tile: a new request); a dropped connection is retried here.
   async fetchAndDeliver(info) {
     const mat = this.materials[info.material];
+    const cacheKey = `${info.material}:${info.offset}`;
+    const cached = this.payloads.get(cacheKey);
+    if (cached) {
+      this.payloads.delete(cacheKey);  // most recently used last
+      this.payloads.set(cacheKey, cached);
+      this.stats.cacheHits = (this.stats.cacheHits || 0) + 1;
+      const p = this.heapCopy(cached);
+      const code = this.M._bw_deliver(info.id, p, cached.length);
+      this.M._free(p);
+      if (code === BW.ok) return;
+    }
     for (let attempt = 0; ; ++attempt) {
       try {
         // Test hook: another URL for this attempt (a copy with corrupted payloads, or a URL the
@@ -159,6 +175,14 @@ export class BtflodClient {
         if (code !== BW.ok) {
           this.stats.failures += 1;
           console.warn(`deliver ${info.id}: ${this.error()}`);
+        } else if (!this.payloads.has(cacheKey)) {  // verified by CRC: keep it
+          this.payloads.set(cacheKey, bytes);
+          this.payloadBytes += bytes.length;
+          for (const [k, v] of this.payloads) {
+            if (this.payloadBytes <= this.payloadBudget) break;
+            this.payloads.delete(k);
+            this.payloadBytes -= v.length;
+          }
         }
         return;
       } catch (e) {
@@ -460,7 +484,12 @@ export class BtflodClient {
     gl.readPixels(0, 0, this.fbW, this.fbH, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.feedbackWords);
     const n = this.fbW * this.fbH;
     const words = new Uint32Array(M.HEAPU8.buffer, this.feedbackHeap, n);
-    for (let i = 0; i < n; ++i) words[i] = this.feedbackWords[i * 4];
+    this.visible = new Set();
+    for (let i = 0; i < n; ++i) {
+      const w = this.feedbackWords[i * 4];
+      words[i] = w;
+      if (w !== 0xffffffff) this.visible.add(w >>> 22);  // material field of the feedback word
+    }
     const count = M._bw_frame(this.feedbackHeap, n);
     if (count < 0) throw new Error(this.error());
     const reqs = new Uint32Array(M.HEAPU8.buffer, M._bw_requests(), count * 8).slice();
@@ -536,6 +565,7 @@ export class BtflodClient {
     let packets = true;
     const ip = this.M._malloc(64);
     for (const m of this.materials) {
+      if (this.visible && !this.visible.has(m.index)) continue;  // out of view: its U' is not needed
       this.M._bw_material_info(m.index, ip);
       const info = new Uint32Array(this.M.HEAPU8.buffer, ip, 16);
       if (info[11] < info[10]) packets = false;

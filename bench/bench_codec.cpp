@@ -10,6 +10,13 @@
 // periodically to 512² and cut into a 4-level pyramid of 64+2·4 tiles (2×2 box filter per level).
 // Before the timings it prints compression ratio vs raw halves and PSNR at several qualities.
 // The tile decoder is measured with both entropy backends (zlib default, libdeflate option).
+//
+// Real data: `bench_codec --bsvtf FILE [--bsvtf FILE ...] [--jpeg-quality Q]` decodes the tiles of
+// each container instead, one benchmark per codec and level (BM_bsvtf_decode/<file>/<codec>/
+// level:<l>, same codecs as `btflod-bench codec`: samples/bench_cli/codec_bench.hpp). With
+// --bsvtf the defaults become 5 repetitions, randomly interleaved, medians reported (any
+// --benchmark_* flag given overrides them) and only the container benchmarks run unless a
+// --benchmark_filter is given.
 #ifndef BTFLOD_TILE_CODEC_LIBDEFLATE  // the btflod target defines it when built BTFLOD_WITH_LIBDEFLATE
 #define BTFLOD_TILE_CODEC_LIBDEFLATE 1
 #endif
@@ -22,6 +29,7 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,6 +40,9 @@
 #include "btflod/core/half.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/vt/tile_id.hpp"
+#define BTFLOD_BENCH_HAS_TURBOJPEG 1
+#define BTFLOD_BENCH_HAS_LIBDEFLATE 1
+#include "../samples/bench_cli/codec_bench.hpp"
 
 namespace {
 
@@ -595,10 +606,95 @@ void print_ratio_tables() {
 
 }  // namespace
 
+namespace {
+// --- real containers (--bsvtf) ---------------------------------------------------------------
+struct LoadedContainer {
+  btflod::bench::ContainerTiles tiles;
+  btflod::bench::detail::Baselines base;
+  std::vector<btflod::bench::TileCodec> codecs;
+};
+
+// Registers BM_bsvtf_decode/<file>/<codec>/level:<l> (and /all) for every container. Returns false
+// after printing the reason when a file cannot be used.
+bool register_container_benchmarks(const std::vector<std::string>& files, int jpeg_quality) {
+  static std::vector<std::unique_ptr<LoadedContainer>> loaded;  // alive while benchmarks run
+  for (const std::string& path : files) {
+    auto c = btflod::bench::load_container_tiles(path);
+    if (!c) {
+      std::fprintf(stderr, "bench_codec: --bsvtf %s: %s\n", path.c_str(), c.message().c_str());
+      return false;
+    }
+    auto lc = std::make_unique<LoadedContainer>();
+    lc->tiles = std::move(*c);
+    lc->base = btflod::bench::detail::make_baselines(lc->tiles, jpeg_quality);
+    lc->codecs = btflod::bench::make_tile_decoders(lc->tiles, lc->base, jpeg_quality);
+    const std::string stem = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+    std::printf("%s: %zu tiles, %u levels\n", path.c_str(), lc->tiles.ids.size(), lc->tiles.metadata.level_count);
+    const LoadedContainer* p = lc.get();
+    for (size_t k = 0; k < p->codecs.size(); ++k)
+      for (uint32_t l = 0; l <= p->tiles.metadata.level_count; ++l) {
+        const bool all = l == p->tiles.metadata.level_count;
+        std::vector<size_t> list;
+        if (all) {
+          for (size_t i = 0; i < p->tiles.ids.size(); ++i) list.push_back(i);
+        } else {
+          list = p->tiles.by_level[l];
+        }
+        if (list.empty()) continue;
+        const std::string name = "BM_bsvtf_decode/" + stem + "/" + p->codecs[k].name + (all ? "/all" : "/level:" + std::to_string(l));
+        benchmark::RegisterBenchmark(name.c_str(), [p, k, list](benchmark::State& state) {
+          size_t i = 0;
+          for (auto _ : state) {
+            p->codecs[k].decode(list[i]);
+            i = i + 1 == list.size() ? 0 : i + 1;
+          }
+          state.SetItemsProcessed(state.iterations());  // tiles
+          state.SetBytesProcessed(state.iterations() * static_cast<int64_t>(p->tiles.layout.sample_count() * 2));
+          state.counters["coded_bytes_per_tile"] =
+              static_cast<double>(p->codecs[k].bytes) / static_cast<double>(p->tiles.ids.size());
+        })->Unit(benchmark::kMicrosecond);
+      }
+    loaded.push_back(std::move(lc));
+  }
+  return true;
+}
+}  // namespace
+
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  print_ratio_tables();
+  // --bsvtf / --jpeg-quality are ours: taken out before Google Benchmark parses the rest.
+  std::vector<std::string> containers;
+  int jpeg_quality = 90;
+  std::vector<char*> args{argv[0]};
+  bool user_filter = false, user_repetitions = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if ((a == "--bsvtf" || a == "--jpeg-quality") && i + 1 < argc) {
+      if (a == "--bsvtf") containers.push_back(argv[++i]);
+      else jpeg_quality = std::clamp(std::atoi(argv[++i]), 1, 100);
+      continue;
+    }
+    user_filter = user_filter || a.rfind("--benchmark_filter", 0) == 0;
+    user_repetitions = user_repetitions || a.rfind("--benchmark_repetitions", 0) == 0;
+    args.push_back(argv[i]);
+  }
+  static char filter[] = "--benchmark_filter=^BM_bsvtf_decode/";
+  static char reps[] = "--benchmark_repetitions=5";
+  static char interleave[] = "--benchmark_enable_random_interleaving=true";
+  static char aggregates[] = "--benchmark_report_aggregates_only=true";
+  if (!containers.empty()) {
+    if (!register_container_benchmarks(containers, jpeg_quality)) return 2;
+    if (!user_filter) args.push_back(filter);
+    if (!user_repetitions) {
+      args.push_back(reps);
+      args.push_back(interleave);
+      args.push_back(aggregates);
+    }
+  }
+  int n = static_cast<int>(args.size());
+  args.push_back(nullptr);
+  benchmark::Initialize(&n, args.data());
+  if (benchmark::ReportUnrecognizedArguments(n, args.data())) return 1;
+  if (containers.empty()) print_ratio_tables();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

@@ -165,75 +165,97 @@ inline Baselines make_baselines(const ContainerTiles& c, int jpeg_quality) {
 }
 }  // namespace detail
 
-/// Measures decoding (and with options.encode, encoding) of every tile of `c`, appending
-/// metrics to `report` under the prefix `prefix` (e.g. "stone."). Prints a table.
-inline void run_codec_bench(const ContainerTiles& c, const CodecOptions& options, Report& report,
-                            const std::string& prefix) {
-  const detail::Baselines base = detail::make_baselines(c, options.jpeg_quality);
-  const size_t raw_tile_bytes = c.layout.sample_count() * 2;
+/// One codec decoding tile i of a container (the tile's samples land in a scratch buffer).
+struct TileCodec {
+  std::string name;
+  std::function<void(size_t)> decode;
+  size_t bytes = 0;  ///< coded bytes of all tiles
+};
+
+/// Every decoder measured on a container: btflod (zlib, and libdeflate when built with it),
+/// deflated raw halves (zlib, libdeflate) and libjpeg-turbo when available. The functions keep
+/// `c` and `base` by reference (both must outlive them) and own their scratch buffers.
+inline std::vector<TileCodec> make_tile_decoders(const ContainerTiles& c, const detail::Baselines& base,
+                                                 int jpeg_quality) {
   size_t btflod_bytes = 0;
   for (const auto& p : c.payloads) btflod_bytes += p.size();
-
-  struct Codec {
-    std::string name;
-    std::function<void(size_t)> decode;  // decodes tile i
-    size_t bytes = 0;                    // coded bytes of all tiles
+  struct Scratch {
+    std::vector<float> out;
+    std::vector<uint16_t> halves;
+    std::vector<uint8_t> plane;
   };
-  std::vector<Codec> codecs;
-  std::vector<float> out(c.layout.sample_count());
-  std::vector<uint16_t> halves(c.layout.sample_count());
+  auto scratch = std::make_shared<Scratch>();
+  scratch->out.resize(c.layout.sample_count());
+  scratch->halves.resize(c.layout.sample_count());
+  scratch->plane.resize(c.layout.texel_count());
+  std::vector<TileCodec> codecs;
   auto btflod_decoder = [&](InflateBackend backend) {
     auto dec = std::make_shared<TileDecoder>(c.layout, backend);
-    return [&, dec](size_t i) {
+    return [&c, dec, scratch](size_t i) {
       std::span<const float> parent;
       if (c.parent[i] >= 0) parent = c.decoded[static_cast<size_t>(c.parent[i])];
-      if (dec->decode(c.payloads[i], parent, c.ids[i].x & 1, c.ids[i].y & 1, out) != Status::success) std::abort();
+      if (dec->decode(c.payloads[i], parent, c.ids[i].x & 1, c.ids[i].y & 1, scratch->out) != Status::success)
+        std::abort();
     };
   };
   codecs.push_back({"btflod_zlib", btflod_decoder(InflateBackend::zlib), btflod_bytes});
   if (TileDecoder(c.layout, InflateBackend::libdeflate).backend() == InflateBackend::libdeflate)
     codecs.push_back({"btflod_libdeflate", btflod_decoder(InflateBackend::libdeflate), btflod_bytes});
   codecs.push_back({"zlib_raw_halves",
-                    [&](size_t i) {
-                      uLongf size = static_cast<uLongf>(halves.size() * 2);
-                      uncompress(reinterpret_cast<Bytef*>(halves.data()), &size, base.zlib_raw[i].data(),
+                    [&base, scratch](size_t i) {
+                      uLongf size = static_cast<uLongf>(scratch->halves.size() * 2);
+                      uncompress(reinterpret_cast<Bytef*>(scratch->halves.data()), &size, base.zlib_raw[i].data(),
                                  base.zlib_raw[i].size());
-                      half_to_float(halves, out);
+                      half_to_float(scratch->halves, scratch->out);
                     },
                     base.zlib_raw_bytes});
 #if defined(BTFLOD_BENCH_HAS_LIBDEFLATE)
   std::shared_ptr<libdeflate_decompressor> ld(libdeflate_alloc_decompressor(), libdeflate_free_decompressor);
   codecs.push_back({"libdeflate_raw_halves",
-                    [&, ld](size_t i) {
+                    [&base, ld, scratch](size_t i) {
                       size_t got = 0;
                       libdeflate_zlib_decompress(ld.get(), base.zlib_raw[i].data(), base.zlib_raw[i].size(),
-                                                 halves.data(), halves.size() * 2, &got);
-                      half_to_float(halves, out);
+                                                 scratch->halves.data(), scratch->halves.size() * 2, &got);
+                      half_to_float(scratch->halves, scratch->out);
                     },
                     base.zlib_raw_bytes});
 #endif
 #if defined(BTFLOD_BENCH_HAS_TURBOJPEG)
   std::shared_ptr<void> tj(tjInitDecompress(), [](void* h) { tjDestroy(h); });
-  const int n = static_cast<int>(c.layout.stored_size());
-  std::vector<uint8_t> plane(size_t(n) * n);
-  codecs.push_back({"turbojpeg_q" + std::to_string(options.jpeg_quality),
-                    [&, tj](size_t i) {
-                      for (uint32_t k = 0; k < c.layout.channels; ++k) {
-                        const auto& s = base.jpeg[i * c.layout.channels + k];
-                        tjDecompress2(tj.get(), s.data(), s.size(), plane.data(), n, n, n, TJPF_GRAY, 0);
-                        const float lo = base.jpeg_lo[i * c.layout.channels + k],
-                                    sc = base.jpeg_scale[i * c.layout.channels + k];
-                        for (size_t t = 0; t < plane.size(); ++t) out[t * c.layout.channels + k] = lo + plane[t] * sc;
+  codecs.push_back({"turbojpeg_q" + std::to_string(jpeg_quality),
+                    [&c, &base, tj, scratch](size_t i) {
+                      const int n = static_cast<int>(c.layout.stored_size());
+                      const uint32_t ch = c.layout.channels;
+                      for (uint32_t k = 0; k < ch; ++k) {
+                        const auto& s = base.jpeg[i * ch + k];
+                        tjDecompress2(tj.get(), s.data(), s.size(), scratch->plane.data(), n, n, n, TJPF_GRAY, 0);
+                        const float lo = base.jpeg_lo[i * ch + k], sc = base.jpeg_scale[i * ch + k];
+                        for (size_t t = 0; t < scratch->plane.size(); ++t)
+                          scratch->out[t * ch + k] = lo + scratch->plane[t] * sc;
                       }
                     },
                     base.jpeg_bytes});
+#else
+  (void)jpeg_quality;
 #endif
+  return codecs;
+}
+
+/// Measures decoding (and with options.encode, encoding) of every tile of `c`, appending
+/// metrics to `report` under the prefix `prefix` (e.g. "stone."). Prints a table.
+inline void run_codec_bench(const ContainerTiles& c, const CodecOptions& options, Report& report,
+                            const std::string& prefix) {
+  const detail::Baselines base = detail::make_baselines(c, options.jpeg_quality);
+  const size_t raw_tile_bytes = c.layout.sample_count() * 2;
+
+  std::vector<TileCodec> codecs = make_tile_decoders(c, base, options.jpeg_quality);
+  std::vector<uint16_t> halves(c.layout.sample_count());
 
   const uint32_t levels = c.metadata.level_count;
   // Interleaved repetitions: every codec once per repetition, starting with a different one.
   for (int r = 0; r < options.repetitions; ++r)
     for (size_t j = 0; j < codecs.size(); ++j) {
-      Codec& k = codecs[(j + static_cast<size_t>(r)) % codecs.size()];
+      TileCodec& k = codecs[(j + static_cast<size_t>(r)) % codecs.size()];
       double all_ns = 0;
       for (uint32_t l = 0; l < levels; ++l) {
         const auto& list = c.by_level[l];
@@ -253,7 +275,7 @@ inline void run_codec_bench(const ContainerTiles& c, const CodecOptions& options
       report.add(prefix + "decode." + k.name + ".all.mb_per_s",
                  static_cast<double>(raw_tile_bytes) / (us_all * 1e-6) / 1e6, "MB/s", Better::higher);
     }
-  for (const Codec& k : codecs)
+  for (const TileCodec& k : codecs)
     for (int r = 0; r < options.repetitions; ++r)
       report.add(prefix + "decode." + k.name + ".bytes_per_tile",
                  static_cast<double>(k.bytes) / static_cast<double>(c.ids.size()), "B", Better::none);

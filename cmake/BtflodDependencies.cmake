@@ -11,7 +11,8 @@ pkg_check_modules(BTFLOD_STB REQUIRED IMPORTED_TARGET GLOBAL stb)
 # libdeflate: the tile codec's faster inflate backend (codec/tile_codec.hpp; docs/bsvtf_format.md
 # has the decode times). ON puts BTFLOD_TILE_CODEC_LIBDEFLATE=1 and the library on the btflod
 # INTERFACE target, so every program built with btflod (samples, demo, CLI, pipeline, consumers
-# of the installed package) decodes with it. OFF keeps zlib's inflate (the tested fallback).
+# of the installed package) decodes with it. OFF keeps zlib's inflate (the tested fallback). The
+# macro is read by the implementation TU only (btflod::implementation): it changes no type.
 pkg_check_modules(BTFLOD_LIBDEFLATE QUIET IMPORTED_TARGET GLOBAL libdeflate)
 option(BTFLOD_WITH_LIBDEFLATE "Decode tiles with libdeflate (default ON when pkg-config finds it)" ${BTFLOD_LIBDEFLATE_FOUND})
 if(BTFLOD_WITH_LIBDEFLATE AND NOT TARGET PkgConfig::BTFLOD_LIBDEFLATE)

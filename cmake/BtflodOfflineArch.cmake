@@ -96,9 +96,12 @@ if(BTFLOD_OFFLINE_ARCH_FLAGS)
 endif()
 
 # btflod_use_offline_arch(<target>): compile the WHOLE executable <target> with the offline flags.
+# It also links the implementation TU compiled with the same flags (btflod_project_options reads
+# the BTFLOD_OFFLINE_ARCH property), so the SVD in that TU is vectorised too.
 function(btflod_use_offline_arch target)
   if(BTFLOD_OFFLINE_ARCH_FLAGS)
     target_compile_options(${target} PRIVATE ${BTFLOD_OFFLINE_ARCH_FLAGS})
+    set_target_properties(${target} PROPERTIES BTFLOD_OFFLINE_ARCH ON)
   endif()
 endfunction()
 

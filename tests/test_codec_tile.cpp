@@ -19,6 +19,12 @@
 
 #include "btflod/codec/tile_codec.hpp"
 
+// The inflate backend of every decoder here; test_codec_tile_zlib.cpp runs this file again with
+// zlib (the backend is a run-time choice, codec/tile_codec.hpp).
+#ifndef BTFLOD_TEST_INFLATE_BACKEND
+#define BTFLOD_TEST_INFLATE_BACKEND btflod::default_inflate_backend()
+#endif
+
 namespace {
 
 using btflod::Status;
@@ -124,7 +130,7 @@ TEST(CodecTile, UpsamplingReproducesLinearFunctionsAtTheChildGeometry) {
 TEST(CodecTile, RoundTripWithoutParentStaysWithinTolerance) {
   const TileLayout layout;
   TileEncoder enc(layout);
-  TileDecoder dec(layout);
+  TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
   const auto tile = make_tile(layout, 0, 0, 0);
   for (float quality : {10.0f, 50.0f, 90.0f}) {
     const auto tol = tolerances(quality);
@@ -146,7 +152,7 @@ TEST(CodecTile, RoundTripWithoutParentStaysWithinTolerance) {
 // JPEG's table with the weighting bits 0 (the bytes of earlier versions).
 TEST(CodecTile, FrequencyWeightingExponentsRoundTripWithinTolerance) {
   const TileLayout layout;
-  TileDecoder dec(layout);
+  TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
   const auto tile = make_tile(layout, 2, 1, 2);
   const auto tol = tolerances(50);
   std::vector<size_t> sizes;
@@ -221,7 +227,7 @@ TEST(CodecTile, SixLevelChainDecodesWithoutDrift) {
     coded.push_back(encode(enc, originals.back(), level ? &coded.back().reconstruction : nullptr, quadrant.back()[0],
                            quadrant.back()[1], tol));
   }
-  TileDecoder dec(layout);
+  TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
   std::vector<float> parent, out(layout.sample_count());
   for (uint32_t level = 0; level < 6; ++level) {
     ASSERT_EQ(dec.decode(coded[level].bytes, parent, quadrant[level][0], quadrant[level][1], out), Status::success)
@@ -240,14 +246,14 @@ TEST(CodecTile, SixLevelChainDecodesWithoutDrift) {
 TEST(CodecTile, DecoderRejectsWrongArguments) {
   const TileLayout layout;
   TileEncoder enc(layout);
-  TileDecoder dec(layout);
+  TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
   const auto tile = make_tile(layout, 1, 1, 0);
   const auto parent_tile = make_tile(layout, 0, 0, 0);
   const auto e = encode(enc, tile, &parent_tile, 1, 0, tolerances(50));
   std::vector<float> out(layout.sample_count());
   EXPECT_EQ(dec.decode(e.bytes, {}, 1, 0, out), Status::invalid_argument) << "residual tile needs its parent";
   EXPECT_EQ(dec.decode(e.bytes, parent_tile, 1, 0, std::span<float>(out).first(out.size() - 1)), Status::insufficient_space);
-  TileDecoder other(TileLayout{32, 4, 4});
+  TileDecoder other(TileLayout{32, 4, 4}, BTFLOD_TEST_INFLATE_BACKEND);
   std::vector<float> small(TileLayout{32, 4, 4}.sample_count());
   EXPECT_EQ(other.decode(e.bytes, parent_tile, 1, 0, small), Status::bad_data) << "wrong layout";
   TileDecoder invalid(TileLayout{64, 3, 4});
@@ -289,7 +295,7 @@ class CodecTileFailures : public ::testing::Test {
   }
   TileLayout layout_;
   TileEncoder enc_{layout_};
-  TileDecoder dec_{layout_};
+  TileDecoder dec_{layout_, BTFLOD_TEST_INFLATE_BACKEND};
   std::vector<float> parent_;
   Encoded encoded_;
   std::vector<float> storage_;
@@ -432,7 +438,7 @@ class CodecTileSymbols : public ::testing::Test {
     return dec_.decode(payload_with_symbols(layout_, symbols), {}, 0, 0, out_);
   }
   TileLayout layout_{16, 4, 4};
-  TileDecoder dec_{layout_};
+  TileDecoder dec_{layout_, BTFLOD_TEST_INFLATE_BACKEND};
   std::vector<float> out_ = std::vector<float>(layout_.sample_count());
 };
 
@@ -507,7 +513,7 @@ TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
 TEST(CodecTile, SimdAndScalarDecodersAgree) {
   const TileLayout layout;
   TileEncoder enc(layout);
-  TileDecoder simd(layout), scalar(layout);
+  TileDecoder simd(layout, BTFLOD_TEST_INFLATE_BACKEND), scalar(layout, BTFLOD_TEST_INFLATE_BACKEND);
   scalar.set_simd(false);
   EXPECT_FALSE(scalar.uses_simd());
   const auto parent_tile = make_tile(layout, 2, 1, 1);
@@ -529,7 +535,7 @@ TEST(CodecTile, ChannelCountsOneToThreeRoundTrip) {
   for (uint32_t ch = 1; ch <= 3; ++ch) {
     const TileLayout layout{16, 4, ch};
     TileEncoder enc(layout);
-    TileDecoder dec(layout);
+    TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
     std::vector<float> tile(layout.sample_count());
     for (size_t i = 0; i < tile.size(); ++i) tile[i] = std::sin(0.05f * static_cast<float>(i)) + 0.1f * static_cast<float>(i % 5);
     std::vector<float> tol(ch, 0.01f), recon(layout.sample_count()), out(layout.sample_count());

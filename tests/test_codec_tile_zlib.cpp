@@ -1,15 +1,19 @@
-// The whole of tests/test_codec_tile.cpp once more, compiled WITHOUT BTFLOD_TILE_CODEC_LIBDEFLATE:
-// the zlib-only decoder that a build with -DBTFLOD_WITH_LIBDEFLATE=OFF ships (the btflod target
-// defines the macro when libdeflate is used; this executable is one translation unit, so the
-// #undef before any include gives it the zlib-only definitions throughout, no ODR mix).
-#undef BTFLOD_TILE_CODEC_LIBDEFLATE
+// The whole of tests/test_codec_tile.cpp once more with every decoder on zlib's inflate: the
+// decoder that a build with -DBTFLOD_WITH_LIBDEFLATE=OFF ships, and the fallback of a
+// libdeflate request when libdeflate is not compiled in. The backend is a run-time choice
+// behind RawInflater (codec/tile_codec.hpp), so no build option changes TileDecoder's layout.
+#define BTFLOD_TEST_INFLATE_BACKEND btflod::InflateBackend::zlib
 #include "test_codec_tile.cpp"
 
-static_assert(btflod::kDefaultInflateBackend == btflod::InflateBackend::zlib,
-              "this twin must build the zlib-only decoder");
-
 TEST(TileCodecZlibOnly, DecodersUseZlib) {
+  btflod::TileDecoder decoder(btflod::TileLayout{16, 4, 4}, btflod::InflateBackend::zlib);
+  EXPECT_EQ(decoder.backend(), btflod::InflateBackend::zlib);
+  EXPECT_TRUE(btflod::inflate_backend_available(btflod::InflateBackend::zlib));
+}
+
+TEST(TileCodecZlibOnly, LibdeflateRequestFallsBackToZlibWhenNotCompiledIn) {
   btflod::TileDecoder decoder(btflod::TileLayout{16, 4, 4}, btflod::InflateBackend::libdeflate);
-  EXPECT_EQ(decoder.backend(), btflod::InflateBackend::zlib)
-      << "without the macro a libdeflate request falls back to zlib";
+  const bool available = btflod::inflate_backend_available(btflod::InflateBackend::libdeflate);
+  EXPECT_EQ(decoder.backend(), available ? btflod::InflateBackend::libdeflate : btflod::InflateBackend::zlib);
+  EXPECT_EQ(btflod::default_inflate_backend(), decoder.backend());
 }

@@ -1,10 +1,29 @@
 // btflod — umbrella header: includes every public header of the library.
 // Engines may include the per-area headers instead to keep compile times down.
+//
+// The implementation TU. btflod is header-only, but its non-inline code — SIMD kernels and their
+// CPU dispatch (core/simd.hpp), CRC-32 and the inflate/deflate back ends (zlib; libdeflate when
+// BTFLOD_TILE_CODEC_LIBDEFLATE is defined there), and offline numerics too heavy to instantiate in
+// every TU (the truncated SVD's Eigen decompositions) — is compiled in exactly ONE translation
+// unit of each program, the one that defines BTFLOD_IMPLEMENTATION before including this header
+// (the VMA_IMPLEMENTATION / STB_IMAGE_IMPLEMENTATION pattern):
+//
+//   // btflod_implementation.cpp — one per program
+//   #define BTFLOD_IMPLEMENTATION
+//   #include <btflod/btflod.hpp>
+//
+// With CMake, linking btflod::implementation adds that file (cmake/btflod_implementation.cpp) to
+// the executable or shared library. Every other TU includes any header without the macro and
+// sees declarations only; a program without the implementation TU fails to link (undefined
+// btflod::… symbols), never misbehaves. The macro changes no type: only function definitions
+// are added.
 #pragma once
 
 // core
+#include "btflod/core/bit_cast.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/color.hpp"
+#include "btflod/core/eigen.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
@@ -12,6 +31,7 @@
 #include "btflod/core/math.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/core/simd.hpp"
 #include "btflod/core/thread_pool.hpp"
 
 // btf

@@ -8,7 +8,8 @@ int main() {
   const btflod::Half h(0.5f);
   std::printf("btflod consumer: %zu directions, half(0.5) = %g\n", set.size(), static_cast<double>(h.to_float()));
   // The installed package carries the inflate backend it was built with (BTFLOD_WITH_LIBDEFLATE):
-  // the define and libdeflate's link come through find_package, nothing set here.
+  // the define (read by the implementation TU only) and libdeflate's link come through
+  // find_package and btflod::implementation, nothing set here.
   const btflod::TileDecoder decoder(btflod::TileLayout{16, 4, 4});
 #if defined(BTFLOD_EXPECT_LIBDEFLATE)
   const bool backend_ok = decoder.backend() == btflod::InflateBackend::libdeflate;

@@ -8,8 +8,10 @@
 // the same energy (Parseval), which is what lets codec/quantize.hpp bound the block RMS error.
 //
 // Templated on block size N and scalar type S (scalar path). For N = 8 and float there is an
-// AVX2/FMA path selected at run time (__builtin_cpu_supports), and the scalar twin is always
-// available; set BTFLOD_DISABLE_SIMD=1 to force the scalar twin. Both produce the same result up
+// AVX2/FMA path selected at run time (cpu_has_avx2_fma, core/simd.hpp), defined in the
+// implementation TU (BTFLOD_IMPLEMENTATION) and compiled for AVX2 + FMA there; this header
+// includes no <immintrin.h>. The scalar twin is always available; set BTFLOD_DISABLE_SIMD=1 to
+// force it. Both produce the same result up
 // to float rounding (the tests bound the difference).
 //
 // Layout: blocks are row-major, element (row y, column x) at y * stride + x; coefficient
@@ -19,11 +21,10 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
-#include <cstdlib>
 #include <numbers>
 #include <type_traits>
 
-#include "btflod/core/half.hpp"  // BTFLOD_HAS_X86_DISPATCH and <immintrin.h>
+#include "btflod/core/simd.hpp"  // BTFLOD_HAS_X86_DISPATCH, cpu_has_avx2_fma
 
 namespace btflod {
 
@@ -90,27 +91,48 @@ inline void dct_inverse_scalar(const S* in, S* out, size_t out_stride) noexcept 
   }
 }
 
-/// True when the AVX2/FMA DCT path can run: x86 CPU with avx2 and fma, and BTFLOD_DISABLE_SIMD
-/// not set. Evaluated once; thread-safe.
-inline bool cpu_has_avx2_fma() noexcept {
 #if BTFLOD_HAS_X86_DISPATCH
-  static const bool has = [] {
-    const char* env = std::getenv("BTFLOD_DISABLE_SIMD");
-    if (env != nullptr && env[0] != '\0' && env[0] != '0') return false;
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  }();
-  return has;
-#else
-  return false;
+/// Forward 8×8 DCT, AVX2/FMA kernel (implementation TU). Precondition: cpu_has_avx2_fma();
+/// same contract as dct_forward_scalar<8, float>.
+void dct8_forward_avx2(const float* in, size_t in_stride, float* out) noexcept;
+
+/// Inverse 8×8 DCT, AVX2/FMA kernel (implementation TU). Precondition: cpu_has_avx2_fma();
+/// same contract as dct_inverse_scalar<8, float>.
+void dct8_inverse_avx2(const float* in, float* out, size_t out_stride) noexcept;
 #endif
+
+/// Forward 2-D DCT with run-time dispatch: the AVX2/FMA path for N = 8 floats when available,
+/// otherwise the scalar twin. Thread-safe, no allocation.
+template <int N, class S>
+inline void dct_forward(const S* in, size_t in_stride, S* out) noexcept {
+#if BTFLOD_HAS_X86_DISPATCH
+  if constexpr (N == 8 && std::is_same_v<S, float>) {
+    if (cpu_has_avx2_fma()) return dct8_forward_avx2(in, in_stride, out);
+  }
+#endif
+  dct_forward_scalar<N, S>(in, in_stride, out);
 }
 
+/// Inverse 2-D DCT with run-time dispatch (see dct_forward). Thread-safe, no allocation.
+template <int N, class S>
+inline void dct_inverse(const S* in, S* out, size_t out_stride) noexcept {
 #if BTFLOD_HAS_X86_DISPATCH
+  if constexpr (N == 8 && std::is_same_v<S, float>) {
+    if (cpu_has_avx2_fma()) return dct8_inverse_avx2(in, out, out_stride);
+  }
+#endif
+  dct_inverse_scalar<N, S>(in, out, out_stride);
+}
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION) && BTFLOD_HAS_X86_DISPATCH
+#include <immintrin.h>
+
+namespace btflod {
 namespace detail {
 // rows_out[k] = Σ_n a[k*8 + n] · rows[n]: an 8×8 scalar matrix times 8 row vectors.
-__attribute__((target("avx2,fma"))) inline void dct8_mul_avx2(const float* a, const __m256* rows,
-                                                               __m256* rows_out) noexcept {
+BTFLOD_TARGET_AVX2_FMA inline void dct8_mul_avx2(const float* a, const __m256* rows, __m256* rows_out) noexcept {
   for (int k = 0; k < 8; ++k) {
     __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(a + k * 8), rows[0]);
     for (int n = 1; n < 8; ++n) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(a + k * 8 + n), rows[n], acc);
@@ -138,10 +160,7 @@ inline const Dct8Tables& dct8_tables() noexcept {
 }
 }  // namespace detail
 
-/// Forward 8×8 DCT, AVX2/FMA path. Precondition: cpu_has_avx2_fma(); same contract as
-/// dct_forward_scalar<8, float>.
-__attribute__((target("avx2,fma"))) inline void dct8_forward_avx2(const float* in, size_t in_stride,
-                                                                   float* out) noexcept {
+BTFLOD_TARGET_AVX2_FMA void dct8_forward_avx2(const float* in, size_t in_stride, float* out) noexcept {
   const auto& t = detail::dct8_tables();
   __m256 rows[8], tmp[8], basis[8];
   for (int n = 0; n < 8; ++n) rows[n] = _mm256_loadu_ps(in + n * in_stride);
@@ -153,10 +172,7 @@ __attribute__((target("avx2,fma"))) inline void dct8_forward_avx2(const float* i
   for (int k = 0; k < 8; ++k) _mm256_storeu_ps(out + k * 8, rows[k]);
 }
 
-/// Inverse 8×8 DCT, AVX2/FMA path. Precondition: cpu_has_avx2_fma(); same contract as
-/// dct_inverse_scalar<8, float>.
-__attribute__((target("avx2,fma"))) inline void dct8_inverse_avx2(const float* in, float* out,
-                                                                   size_t out_stride) noexcept {
+BTFLOD_TARGET_AVX2_FMA void dct8_inverse_avx2(const float* in, float* out, size_t out_stride) noexcept {
   const auto& t = detail::dct8_tables();
   __m256 rows[8], tmp[8], basis[8];
   for (int n = 0; n < 8; ++n) rows[n] = _mm256_loadu_ps(in + n * 8);
@@ -167,29 +183,6 @@ __attribute__((target("avx2,fma"))) inline void dct8_inverse_avx2(const float* i
   detail::dct8_mul_avx2(tmp_s, basis, rows);  // out = tmp · C
   for (int k = 0; k < 8; ++k) _mm256_storeu_ps(out + k * out_stride, rows[k]);
 }
-#endif
-
-/// Forward 2-D DCT with run-time dispatch: the AVX2/FMA path for N = 8 floats when available,
-/// otherwise the scalar twin. Thread-safe, no allocation.
-template <int N, class S>
-inline void dct_forward(const S* in, size_t in_stride, S* out) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
-  if constexpr (N == 8 && std::is_same_v<S, float>) {
-    if (cpu_has_avx2_fma()) return dct8_forward_avx2(in, in_stride, out);
-  }
-#endif
-  dct_forward_scalar<N, S>(in, in_stride, out);
-}
-
-/// Inverse 2-D DCT with run-time dispatch (see dct_forward). Thread-safe, no allocation.
-template <int N, class S>
-inline void dct_inverse(const S* in, S* out, size_t out_stride) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
-  if constexpr (N == 8 && std::is_same_v<S, float>) {
-    if (cpu_has_avx2_fma()) return dct8_inverse_avx2(in, out, out_stride);
-  }
-#endif
-  dct_inverse_scalar<N, S>(in, out, out_stride);
-}
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -36,17 +36,20 @@
 // the inverse DCT only over the rows and columns that hold non-zero coefficients.
 // (Version 1 wrote one byte per coefficient grouped by frequency; it is no longer read.)
 //
-// Entropy backend: BTFLOD_TILE_CODEC_LIBDEFLATE (defined in every translation unit of the
-// program, with libdeflate linked) adds libdeflate's decompressor, faster on these streams
-// (bench/bench_codec.cpp: only with it does decoding beat libjpeg-turbo), and makes it the
-// decoders' default. The CMake target btflod::btflod defines and links it when configured with
-// BTFLOD_WITH_LIBDEFLATE (default ON when pkg-config finds libdeflate); without the macro zlib's
-// inflate is used, and InflateBackend::zlib selects it per decoder either way. The format is the
-// same raw deflate either way.
+// Entropy backend: RawInflater / RawDeflater below, an opaque handle of fixed size whose state
+// lives in the implementation TU (BTFLOD_IMPLEMENTATION, see btflod.hpp): this header includes
+// neither zlib nor libdeflate, and no build option changes the layout of any type here. zlib's
+// inflate is always compiled in; libdeflate's decompressor (faster on these streams,
+// bench/bench_codec.cpp: only with it does decoding beat libjpeg-turbo) is compiled in when the
+// implementation TU sees BTFLOD_TILE_CODEC_LIBDEFLATE (the CMake target btflod::btflod defines it
+// and links libdeflate when configured with BTFLOD_WITH_LIBDEFLATE, default ON when pkg-config
+// finds libdeflate) and is then the decoders' default. The choice is a run-time value
+// (InflateBackend, default_inflate_backend(), inflate_backend_available()); a libdeflate request
+// without libdeflate compiled in falls back to zlib. The format is the same raw deflate either way.
 //
 // SIMD: for C = 4 the inverse DCT of the four channels of a block position and the interleaved
-// add into the output have an AVX2/FMA path selected at run time (cpu_has_avx2_fma, as
-// codec/dct.hpp); the scalar twin is always available (TileDecoder::set_simd(false)). The two
+// add into the output have an AVX2/FMA kernel (implementation TU, core/simd.hpp) selected at run
+// time (cpu_has_avx2_fma); the scalar twin is always available (TileDecoder::set_simd(false)). The two
 // differ only by float rounding (FMA), which the tests bound; the encoder's closed loop uses the
 // same decoder, so a client on the same kind of CPU reproduces the encoder's reconstruction bit
 // for bit.
@@ -59,11 +62,6 @@
 #include <cstring>
 #include <span>
 #include <vector>
-
-#include <zlib.h>
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-#include <libdeflate.h>
-#endif
 
 #include "btflod/codec/dct.hpp"
 #include "btflod/codec/quantize.hpp"
@@ -117,7 +115,9 @@ constexpr size_t tile_symbol_bound(const TileLayout& layout) noexcept {
 /// Returns 0 for an invalid layout. Thread-safe.
 inline size_t tile_encode_bound(const TileLayout& layout) noexcept {
   if (!layout.valid()) return 0;
-  return tile_header_size(layout.channels) + static_cast<size_t>(compressBound(static_cast<uLong>(tile_symbol_bound(layout))));
+  // zlib's compressBound(n) (1.2.12+), an upper bound of any deflate level's raw stream of n bytes.
+  const size_t n = tile_symbol_bound(layout);
+  return tile_header_size(layout.channels) + n + (n >> 12) + (n >> 14) + (n >> 25) + 13;
 }
 
 namespace detail {
@@ -209,55 +209,12 @@ inline void tile_idct_add_scalar(const TileCoefBlock& b, float* dst, size_t row_
 }
 
 #if BTFLOD_HAS_X86_DISPATCH
-namespace detail {
-// X = Cᵀ · (Y · C) of one channel block as 8 row vectors.
-__attribute__((target("avx2,fma"))) inline void tile_idct8_avx2(const TileCoefBlock& b, __m256* rows) noexcept {
-  const auto& t = detail::dct8_tables();  // t.c: row k = basis vector k
-  if (b.rows == 0) {
-    for (int y = 0; y < 8; ++y) rows[y] = _mm256_setzero_ps();
-    return;
-  }
-  __m256 z[8];
-  for (uint32_t k = 0; k < b.rows; ++k) {
-    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(b.coef + k * 8), _mm256_load_ps(t.c));
-    for (uint32_t u = 1; u < b.cols; ++u)
-      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(b.coef + k * 8 + u), _mm256_load_ps(t.c + u * 8), acc);
-    z[k] = acc;
-  }
-  for (int y = 0; y < 8; ++y) {
-    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(t.ct + y * 8), z[0]);  // t.ct[y*8 + k] = C[k][y]
-    for (uint32_t k = 1; k < b.rows; ++k) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(t.ct + y * 8 + k), z[k], acc);
-    rows[y] = acc;
-  }
-}
-}  // namespace detail
-
 /// AVX2/FMA twin of four tile_idct_add_scalar calls for the four channels of one block position
 /// of a 4-channel tile: `dst` is the block's first texel, `row_stride` floats between texel
 /// rows; the four channel results are interleaved (transposed) and added to the texels.
-/// Precondition: cpu_has_avx2_fma(). Thread-safe, no allocation.
-__attribute__((target("avx2,fma"))) inline void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst,
-                                                                     size_t row_stride) noexcept {
-  __m256 r0[8], r1[8], r2[8], r3[8];
-  detail::tile_idct8_avx2(b[0], r0);
-  detail::tile_idct8_avx2(b[1], r1);
-  detail::tile_idct8_avx2(b[2], r2);
-  detail::tile_idct8_avx2(b[3], r3);
-  for (int y = 0; y < 8; ++y) {
-    // Transpose 4 channel rows of 8 texels into 8 texels of 4 channels.
-    const __m256 t0 = _mm256_unpacklo_ps(r0[y], r1[y]), t1 = _mm256_unpackhi_ps(r0[y], r1[y]);
-    const __m256 t2 = _mm256_unpacklo_ps(r2[y], r3[y]), t3 = _mm256_unpackhi_ps(r2[y], r3[y]);
-    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
-    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
-    float* row = dst + size_t(y) * row_stride;
-    const __m256 x01 = _mm256_permute2f128_ps(u0, u1, 0x20), x23 = _mm256_permute2f128_ps(u2, u3, 0x20);
-    const __m256 x45 = _mm256_permute2f128_ps(u0, u1, 0x31), x67 = _mm256_permute2f128_ps(u2, u3, 0x31);
-    _mm256_storeu_ps(row, _mm256_add_ps(_mm256_loadu_ps(row), x01));
-    _mm256_storeu_ps(row + 8, _mm256_add_ps(_mm256_loadu_ps(row + 8), x23));
-    _mm256_storeu_ps(row + 16, _mm256_add_ps(_mm256_loadu_ps(row + 16), x45));
-    _mm256_storeu_ps(row + 24, _mm256_add_ps(_mm256_loadu_ps(row + 24), x67));
-  }
-}
+/// Defined in the implementation TU. Precondition: cpu_has_avx2_fma(). Thread-safe, no
+/// allocation.
+void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst, size_t row_stride) noexcept;
 #endif
 
 /// What a payload header says, without decoding (tile_peek_header).
@@ -311,11 +268,68 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
 
 /// Which inflate implementation a TileDecoder uses (see the file comment).
 enum class InflateBackend : uint8_t { zlib, libdeflate };
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-inline constexpr InflateBackend kDefaultInflateBackend = InflateBackend::libdeflate;
-#else
-inline constexpr InflateBackend kDefaultInflateBackend = InflateBackend::zlib;
-#endif
+
+/// True when `backend` is compiled into the implementation TU (zlib always; libdeflate when that
+/// TU saw BTFLOD_TILE_CODEC_LIBDEFLATE). Thread-safe.
+bool inflate_backend_available(InflateBackend backend) noexcept;
+
+/// The decoders' default backend: libdeflate when available, else zlib. Thread-safe.
+InflateBackend default_inflate_backend() noexcept;
+
+/// Raw deflate (RFC 1951, no zlib header) decompressor behind an opaque handle: one pointer, the
+/// same layout whatever backends are compiled in; the state lives in the implementation TU.
+/// create() allocates everything inflate() needs (zlib's 32 KiB window included), so inflate()
+/// never allocates. One object per thread.
+class RawInflater {
+ public:
+  RawInflater() noexcept = default;
+  RawInflater(const RawInflater&) = delete;
+  RawInflater& operator=(const RawInflater&) = delete;
+  ~RawInflater();
+
+  /// Allocates the state for `backend` (libdeflate falls back to zlib when not compiled in; zlib
+  /// also classifies libdeflate's failures). Returns false when allocation or zlib's set-up
+  /// fails; the object is then unusable (inflate() returns invalid_argument). Set-up only.
+  bool create(InflateBackend backend) noexcept;
+  /// True after a successful create().
+  bool ready() const noexcept { return state_ != nullptr; }
+  /// The backend in use (zlib before create()).
+  InflateBackend backend() const noexcept;
+
+  /// Inflates the whole stream `in` into exactly `out.size()` bytes. Returns success; bad_data
+  /// (corrupt stream, shorter than out, trailing bytes after the stream, inflates beyond
+  /// out.size() — the decompression-bomb guard); short_output (truncated stream);
+  /// invalid_argument (not created). `*why` (when non-null) then names the failure (static
+  /// string). Safe on untrusted input; no allocation; not thread-safe on one object.
+  Status inflate(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept;
+
+ private:
+  struct State;
+  State* state_ = nullptr;
+};
+
+/// Raw deflate compressor (zlib's deflate, levels 0..9) behind an opaque handle; the state lives
+/// in the implementation TU. Offline code; deflate() does not allocate. One object per thread.
+class RawDeflater {
+ public:
+  RawDeflater() noexcept = default;
+  RawDeflater(const RawDeflater&) = delete;
+  RawDeflater& operator=(const RawDeflater&) = delete;
+  ~RawDeflater();
+
+  /// Allocates zlib's deflate state at `level` (clamped to 0..9). False on failure. Set-up only.
+  bool create(int level) noexcept;
+  bool ready() const noexcept { return state_ != nullptr; }
+
+  /// Compresses all of `in` into `out` as one raw deflate stream and sets `written`. Returns
+  /// success, insufficient_space (out too small) or invalid_argument (not created). No
+  /// allocation; not thread-safe on one object.
+  Status deflate(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept;
+
+ private:
+  struct State;
+  State* state_ = nullptr;
+};
 
 namespace detail {
 // LEB128 varint of at most 5 bytes with a value < 2^31. False when it runs past `end`, is longer
@@ -400,47 +414,17 @@ inline const TileTokenTable& tile_token_table() noexcept {
 /// garbage in `out`, but never read or write outside the given spans.
 class TileDecoder {
  public:
-  /// `backend` libdeflate needs BTFLOD_TILE_CODEC_LIBDEFLATE; without it zlib is used.
-  explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = kDefaultInflateBackend) : layout_(layout) {
+  /// `backend` libdeflate needs libdeflate compiled into the implementation TU
+  /// (inflate_backend_available); without it zlib is used. Allocates everything decode() needs.
+  explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = default_inflate_backend()) : layout_(layout) {
     if (layout_.valid()) symbols_.resize(tile_symbol_bound(layout_));
-    std::memset(&stream_, 0, sizeof stream_);
-    ready_ = layout_.valid() && inflateInit2(&stream_, -15) == Z_OK;
-    if (ready_) {
-      // zlib allocates its 32 KiB window lazily, inside the first inflate() that ends before the
-      // stream does (a truncated payload): prime it here so decode() never allocates. The input
-      // is a non-final stored block of one byte.
-      static constexpr uint8_t kPrime[] = {0x00, 0x01, 0x00, 0xFE, 0xFF, 0x2A};
-      stream_.next_in = const_cast<Bytef*>(kPrime);
-      stream_.avail_in = sizeof kPrime;
-      stream_.next_out = symbols_.data();
-      stream_.avail_out = 1;
-      ready_ = inflate(&stream_, Z_NO_FLUSH) == Z_OK;
-    }
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-    if (backend == InflateBackend::libdeflate) {
-      libdeflate_ = libdeflate_alloc_decompressor();
-      ready_ = ready_ && libdeflate_ != nullptr;
-    }
-#else
-    (void)backend;
-#endif
+    ready_ = layout_.valid() && inflater_.create(backend);
   }
   TileDecoder(const TileDecoder&) = delete;
   TileDecoder& operator=(const TileDecoder&) = delete;
-  ~TileDecoder() {
-    inflateEnd(&stream_);  // safe on a zeroed or failed stream (returns Z_STREAM_ERROR)
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-    if (libdeflate_) libdeflate_free_decompressor(libdeflate_);
-#endif
-  }
 
   /// The inflate implementation in use.
-  InflateBackend backend() const noexcept {
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-    if (libdeflate_) return InflateBackend::libdeflate;
-#endif
-    return InflateBackend::zlib;
-  }
+  InflateBackend backend() const noexcept { return inflater_.backend(); }
 
   const TileLayout& layout() const noexcept { return layout_; }
 
@@ -468,7 +452,7 @@ class TileDecoder {
   /// buffer), for profiling; same arguments and failures as decode() for those stages. After
   /// success, symbol_bytes() is the inflated size.
   Status inflate_symbols(std::span<const uint8_t> payload, std::span<const float> parent, std::span<float> out) noexcept {
-    if (!ready_) return fail(Status::invalid_argument, "decoder has an invalid layout or inflateInit failed");
+    if (!ready_) return fail(Status::invalid_argument, "decoder has an invalid layout or its inflate state could not be allocated");
     if (out.size() < layout_.sample_count()) return fail(Status::insufficient_space, "output span smaller than the tile");
     TileHeaderInfo& info = info_;
     const char* why = nullptr;
@@ -481,31 +465,10 @@ class TileDecoder {
     // Entropy stage. The output buffer is exactly the declared size: a stream that would inflate
     // to more is rejected when the buffer fills (this is the decompression-bomb guard).
     const size_t header = tile_header_size(info.channels);
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-    if (libdeflate_) {
-      size_t used = 0, produced = 0;
-      const libdeflate_result r = libdeflate_deflate_decompress_ex(libdeflate_, payload.data() + header, payload.size() - header,
-                                                                   symbols_.data(), info.symbol_bytes, &used, &produced);
-      if (r == LIBDEFLATE_SUCCESS && produced == info.symbol_bytes && used == payload.size() - header) return Status::success;
-      // Failures only: libdeflate does not tell a truncated stream from a corrupt one, so zlib
-      // below classifies it (same status and message with either backend).
-    }
-#endif
-    inflateReset(&stream_);
-    stream_.next_in = const_cast<Bytef*>(payload.data() + header);
-    stream_.avail_in = static_cast<uInt>(payload.size() - header);
-    stream_.next_out = symbols_.data();
-    stream_.avail_out = info.symbol_bytes;
-    const int z = inflate(&stream_, Z_FINISH);
-    if (z == Z_STREAM_END) {
-      if (stream_.avail_out != 0) return fail(Status::bad_data, "symbol stream shorter than declared");
-      if (stream_.avail_in != 0) return fail(Status::bad_data, "trailing bytes after the deflate stream");
-    } else if (z == Z_DATA_ERROR || z == Z_NEED_DICT || z == Z_STREAM_ERROR || z == Z_MEM_ERROR) {
-      return fail(Status::bad_data, "deflate stream is corrupt");
-    } else {  // Z_BUF_ERROR or Z_OK: ran out of input or of output space
-      if (stream_.avail_out == 0) return fail(Status::bad_data, "deflate stream inflates beyond the declared size");
-      return fail(Status::short_output, "deflate stream truncated");
-    }
+    const char* inflate_why = nullptr;
+    if (Status z = inflater_.inflate(payload.subspan(header), std::span<uint8_t>(symbols_.data(), info.symbol_bytes), &inflate_why);
+        z != Status::success)
+      return fail(z, inflate_why);
     return Status::success;
   }
 
@@ -650,13 +613,10 @@ class TileDecoder {
   std::vector<uint8_t> symbols_;
   TileCoefBlock blocks_[kTileMaxChannels] = {};
   TileHeaderInfo info_;
-  z_stream stream_;
+  RawInflater inflater_;
   bool ready_ = false;
   bool simd_allowed_ = true;
   const char* message_ = "";
-#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
-  libdeflate_decompressor* libdeflate_ = nullptr;
-#endif
 };
 
 /// Tile encoder: owns its deflate state, scratch buffers and a TileDecoder (for the closed-loop
@@ -670,15 +630,10 @@ class TileEncoder {
       quantised_.resize(layout_.sample_count());
       symbols_.resize(tile_symbol_bound(layout_));
     }
-    std::memset(&stream_, 0, sizeof stream_);
-    ready_ = layout_.valid() &&
-             deflateInit2(&stream_, std::clamp(deflate_level, 0, 9), Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) == Z_OK;
+    ready_ = layout_.valid() && deflater_.create(deflate_level);
   }
   TileEncoder(const TileEncoder&) = delete;
   TileEncoder& operator=(const TileEncoder&) = delete;
-  ~TileEncoder() {
-    if (ready_) deflateEnd(&stream_);
-  }
 
   const TileLayout& layout() const noexcept { return layout_; }
   /// Frequency weighting of the following encodes: JPEG's table to the power quarters / 4
@@ -703,7 +658,7 @@ class TileEncoder {
                 std::span<const float> tolerance, std::span<uint8_t> out, size_t& written,
                 std::span<float> reconstruction = {}) noexcept {
     written = 0;
-    if (!ready_) return fail(Status::invalid_argument, "encoder has an invalid layout or deflateInit failed");
+    if (!ready_) return fail(Status::invalid_argument, "encoder has an invalid layout or its deflate state could not be allocated");
     const uint32_t s = layout_.stored_size();
     const uint32_t ch = layout_.channels;
     const size_t n = layout_.sample_count();
@@ -799,14 +754,11 @@ class TileEncoder {
     std::memcpy(o + 8 + 4 * ch, &symbol_bytes, 4);
 
     // Entropy stage.
-    deflateReset(&stream_);
-    stream_.next_in = symbols_.data();
-    stream_.avail_in = symbol_bytes;
-    stream_.next_out = o + header;
-    stream_.avail_out = static_cast<uInt>(std::min<size_t>(out.size() - header, UINT32_MAX));
-    const int z = deflate(&stream_, Z_FINISH);
-    if (z != Z_STREAM_END) return fail(Status::insufficient_space, "output buffer smaller than the compressed tile");
-    written = header + stream_.total_out;
+    size_t deflated = 0;
+    if (deflater_.deflate(std::span<const uint8_t>(symbols_.data(), symbol_bytes), out.subspan(header), deflated) !=
+        Status::success)
+      return fail(Status::insufficient_space, "output buffer smaller than the compressed tile");
+    written = header + deflated;
 
     if (!reconstruction.empty()) {  // closed loop: exactly what a client decodes
       const Status d = decoder_.decode(out.first(written), parent, qx, qy, reconstruction);
@@ -830,10 +782,216 @@ class TileEncoder {
   std::vector<float> prediction_;
   std::vector<int32_t> quantised_;
   std::vector<uint8_t> symbols_;
-  z_stream stream_;
+  RawDeflater deflater_;
   bool ready_ = false;
   uint32_t weight_quarters_ = kJpegWeightQuarters;
   const char* message_ = "";
 };
 
 }  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+#include <new>
+
+#include <zlib.h>
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+#include <libdeflate.h>
+#endif
+#if BTFLOD_HAS_X86_DISPATCH
+#include <immintrin.h>
+#endif
+
+namespace btflod {
+
+bool inflate_backend_available(InflateBackend backend) noexcept {
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  return backend == InflateBackend::zlib || backend == InflateBackend::libdeflate;
+#else
+  return backend == InflateBackend::zlib;
+#endif
+}
+
+InflateBackend default_inflate_backend() noexcept {
+  return inflate_backend_available(InflateBackend::libdeflate) ? InflateBackend::libdeflate : InflateBackend::zlib;
+}
+
+struct RawInflater::State {
+  z_stream stream{};
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  libdeflate_decompressor* libdeflate = nullptr;
+#endif
+};
+
+RawInflater::~RawInflater() {
+  if (state_ == nullptr) return;
+  inflateEnd(&state_->stream);
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  if (state_->libdeflate) libdeflate_free_decompressor(state_->libdeflate);
+#endif
+  delete state_;
+}
+
+bool RawInflater::create(InflateBackend backend) noexcept {
+  if (state_ != nullptr) return true;
+  State* st = new (std::nothrow) State;
+  if (st == nullptr) return false;
+  if (inflateInit2(&st->stream, -15) != Z_OK) {
+    delete st;
+    return false;
+  }
+  // zlib allocates its 32 KiB window lazily, inside the first inflate() that ends before the
+  // stream does (a truncated payload): prime it here so inflate() never allocates. The input is
+  // a non-final stored block of one byte.
+  static constexpr uint8_t kPrime[] = {0x00, 0x01, 0x00, 0xFE, 0xFF, 0x2A};
+  uint8_t sink = 0;
+  st->stream.next_in = const_cast<Bytef*>(kPrime);
+  st->stream.avail_in = sizeof kPrime;
+  st->stream.next_out = &sink;
+  st->stream.avail_out = 1;
+  bool ok = ::inflate(&st->stream, Z_NO_FLUSH) == Z_OK;
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  if (ok && backend == InflateBackend::libdeflate) {
+    st->libdeflate = libdeflate_alloc_decompressor();
+    ok = st->libdeflate != nullptr;
+  }
+#else
+  (void)backend;
+#endif
+  if (!ok) {
+    inflateEnd(&st->stream);
+    delete st;
+    return false;
+  }
+  state_ = st;
+  return true;
+}
+
+InflateBackend RawInflater::backend() const noexcept {
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  if (state_ != nullptr && state_->libdeflate != nullptr) return InflateBackend::libdeflate;
+#endif
+  return InflateBackend::zlib;
+}
+
+Status RawInflater::inflate(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept {
+  auto fail = [&](Status s, const char* m) {
+    if (why) *why = m;
+    return s;
+  };
+  if (state_ == nullptr) return fail(Status::invalid_argument, "inflate state not created");
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+  if (state_->libdeflate) {
+    size_t used = 0, produced = 0;
+    const libdeflate_result r =
+        libdeflate_deflate_decompress_ex(state_->libdeflate, in.data(), in.size(), out.data(), out.size(), &used, &produced);
+    if (r == LIBDEFLATE_SUCCESS && produced == out.size() && used == in.size()) return Status::success;
+    // Failures only: libdeflate does not tell a truncated stream from a corrupt one, so zlib
+    // below classifies it (same status and message with either backend).
+  }
+#endif
+  // The output buffer is exactly the declared size: a stream that would inflate to more is
+  // rejected when the buffer fills (the decompression-bomb guard).
+  z_stream& zs = state_->stream;
+  inflateReset(&zs);
+  zs.next_in = const_cast<Bytef*>(in.data());
+  zs.avail_in = static_cast<uInt>(std::min<size_t>(in.size(), UINT32_MAX));
+  zs.next_out = out.data();
+  zs.avail_out = static_cast<uInt>(std::min<size_t>(out.size(), UINT32_MAX));
+  const int z = ::inflate(&zs, Z_FINISH);
+  if (z == Z_STREAM_END) {
+    if (zs.avail_out != 0) return fail(Status::bad_data, "symbol stream shorter than declared");
+    if (zs.avail_in != 0) return fail(Status::bad_data, "trailing bytes after the deflate stream");
+  } else if (z == Z_DATA_ERROR || z == Z_NEED_DICT || z == Z_STREAM_ERROR || z == Z_MEM_ERROR) {
+    return fail(Status::bad_data, "deflate stream is corrupt");
+  } else {  // Z_BUF_ERROR or Z_OK: ran out of input or of output space
+    if (zs.avail_out == 0) return fail(Status::bad_data, "deflate stream inflates beyond the declared size");
+    return fail(Status::short_output, "deflate stream truncated");
+  }
+  return Status::success;
+}
+
+struct RawDeflater::State {
+  z_stream stream{};
+};
+
+RawDeflater::~RawDeflater() {
+  if (state_ == nullptr) return;
+  deflateEnd(&state_->stream);
+  delete state_;
+}
+
+bool RawDeflater::create(int level) noexcept {
+  if (state_ != nullptr) return true;
+  State* st = new (std::nothrow) State;
+  if (st == nullptr) return false;
+  if (deflateInit2(&st->stream, std::clamp(level, 0, 9), Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    delete st;
+    return false;
+  }
+  state_ = st;
+  return true;
+}
+
+Status RawDeflater::deflate(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept {
+  written = 0;
+  if (state_ == nullptr) return Status::invalid_argument;
+  z_stream& zs = state_->stream;
+  deflateReset(&zs);
+  zs.next_in = const_cast<Bytef*>(in.data());
+  zs.avail_in = static_cast<uInt>(in.size());
+  zs.next_out = out.data();
+  zs.avail_out = static_cast<uInt>(std::min<size_t>(out.size(), UINT32_MAX));
+  if (::deflate(&zs, Z_FINISH) != Z_STREAM_END) return Status::insufficient_space;
+  written = zs.total_out;
+  return Status::success;
+}
+
+#if BTFLOD_HAS_X86_DISPATCH
+namespace detail {
+// X = Cᵀ · (Y · C) of one channel block as 8 row vectors.
+BTFLOD_TARGET_AVX2_FMA inline void tile_idct8_avx2(const TileCoefBlock& b, __m256* rows) noexcept {
+  const auto& t = detail::dct8_tables();  // t.c: row k = basis vector k
+  if (b.rows == 0) {
+    for (int y = 0; y < 8; ++y) rows[y] = _mm256_setzero_ps();
+    return;
+  }
+  __m256 z[8];
+  for (uint32_t k = 0; k < b.rows; ++k) {
+    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(b.coef + k * 8), _mm256_load_ps(t.c));
+    for (uint32_t u = 1; u < b.cols; ++u)
+      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(b.coef + k * 8 + u), _mm256_load_ps(t.c + u * 8), acc);
+    z[k] = acc;
+  }
+  for (int y = 0; y < 8; ++y) {
+    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(t.ct + y * 8), z[0]);  // t.ct[y*8 + k] = C[k][y]
+    for (uint32_t k = 1; k < b.rows; ++k) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(t.ct + y * 8 + k), z[k], acc);
+    rows[y] = acc;
+  }
+}
+}  // namespace detail
+
+BTFLOD_TARGET_AVX2_FMA void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst, size_t row_stride) noexcept {
+  __m256 r0[8], r1[8], r2[8], r3[8];
+  detail::tile_idct8_avx2(b[0], r0);
+  detail::tile_idct8_avx2(b[1], r1);
+  detail::tile_idct8_avx2(b[2], r2);
+  detail::tile_idct8_avx2(b[3], r3);
+  for (int y = 0; y < 8; ++y) {
+    // Transpose 4 channel rows of 8 texels into 8 texels of 4 channels.
+    const __m256 t0 = _mm256_unpacklo_ps(r0[y], r1[y]), t1 = _mm256_unpackhi_ps(r0[y], r1[y]);
+    const __m256 t2 = _mm256_unpacklo_ps(r2[y], r3[y]), t3 = _mm256_unpackhi_ps(r2[y], r3[y]);
+    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
+    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
+    float* row = dst + size_t(y) * row_stride;
+    const __m256 x01 = _mm256_permute2f128_ps(u0, u1, 0x20), x23 = _mm256_permute2f128_ps(u2, u3, 0x20);
+    const __m256 x45 = _mm256_permute2f128_ps(u0, u1, 0x31), x67 = _mm256_permute2f128_ps(u2, u3, 0x31);
+    _mm256_storeu_ps(row, _mm256_add_ps(_mm256_loadu_ps(row), x01));
+    _mm256_storeu_ps(row + 8, _mm256_add_ps(_mm256_loadu_ps(row + 8), x23));
+    _mm256_storeu_ps(row + 16, _mm256_add_ps(_mm256_loadu_ps(row + 16), x45));
+    _mm256_storeu_ps(row + 24, _mm256_add_ps(_mm256_loadu_ps(row + 24), x67));
+  }
+}
+#endif
+
+}  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

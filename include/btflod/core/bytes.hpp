@@ -16,25 +16,14 @@
 #include <type_traits>
 #include <vector>
 
-#include <zlib.h>
-
 namespace btflod {
 
 static_assert(std::endian::native == std::endian::little, "btflod file formats assume a little-endian host");
 
-/// CRC-32 (zlib polynomial) of a byte span; the checksum of every variable-length file part.
-inline uint32_t crc32_of(std::span<const uint8_t> bytes, uint32_t seed = 0) noexcept {
-  uLong crc = seed;
-  const uint8_t* p = bytes.data();
-  size_t left = bytes.size();
-  while (left > 0) {  // zlib takes uInt lengths
-    const uInt chunk = static_cast<uInt>(left > (1u << 30) ? (1u << 30) : left);
-    crc = ::crc32(crc, p, chunk);
-    p += chunk;
-    left -= chunk;
-  }
-  return static_cast<uint32_t>(crc);
-}
+/// CRC-32 (zlib polynomial) of a byte span, continuing from `seed` (0 for a new checksum); the
+/// checksum of every variable-length file part. Defined in the implementation TU (zlib's
+/// crc32). Thread-safe, no allocation.
+uint32_t crc32_of(std::span<const uint8_t> bytes, uint32_t seed = 0) noexcept;
 
 /// Sequential bounds-checked reader over untrusted bytes.
 class ByteReader {
@@ -162,3 +151,24 @@ class ByteWriter {
 };
 
 }  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+#include <zlib.h>
+
+namespace btflod {
+
+uint32_t crc32_of(std::span<const uint8_t> bytes, uint32_t seed) noexcept {
+  uLong crc = seed;
+  const uint8_t* p = bytes.data();
+  size_t left = bytes.size();
+  while (left > 0) {  // zlib takes uInt lengths
+    const uInt chunk = static_cast<uInt>(left > (1u << 30) ? (1u << 30) : left);
+    crc = ::crc32(crc, p, chunk);
+    p += chunk;
+    left -= chunk;
+  }
+  return static_cast<uint32_t>(crc);
+}
+
+}  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -4,26 +4,17 @@
 // (float → half), with correct zeros, subnormals, infinities and NaN. The bulk converters
 // dispatch at run time to an F16C path on x86 CPUs that have it; the scalar twin produces
 // bit-identical results (NaN included: a NaN keeps its sign and top payload bits and is quieted,
-// as F16C does). Set BTFLOD_DISABLE_SIMD=1 in the environment to force the scalar twins.
+// as F16C does). Set BTFLOD_DISABLE_SIMD=1 in the environment to force the scalar twins. The
+// F16C kernels and the dispatching bulk converters are defined in the implementation TU
+// (BTFLOD_IMPLEMENTATION, core/simd.hpp): this header includes no <immintrin.h>.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
-#include <cstdlib>
-#include <cstring>
 #include <span>
 
 #include "btflod/core/bit_cast.hpp"
-
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define BTFLOD_HAS_X86_DISPATCH 1
-#include <immintrin.h>
-#if defined(__clang__)
-#include <cpuid.h>
-#endif
-#else
-#define BTFLOD_HAS_X86_DISPATCH 0
-#endif
+#include "btflod/core/simd.hpp"
 
 namespace btflod {
 
@@ -104,37 +95,35 @@ inline void half_to_float_scalar(std::span<const uint16_t> in, std::span<float> 
   for (size_t i = 0; i < in.size(); ++i) out[i] = half_bits_to_float(in[i]);
 }
 
-/// True when the running CPU supports F16C (and AVX) and BTFLOD_DISABLE_SIMD is not set.
-/// Evaluated once; thread-safe.
-inline bool cpu_has_f16c() noexcept {
 #if BTFLOD_HAS_X86_DISPATCH
-  static const bool has = [] {
-    const char* env = std::getenv("BTFLOD_DISABLE_SIMD");
-    if (env != nullptr && env[0] != '\0' && env[0] != '0') return false;
-#if defined(__clang__)
-    // clang (14) rejects "f16c" in __builtin_cpu_supports: ask CPUID directly (leaf 1, ECX bits
-    // 29 F16C, 28 AVX, 27 OSXSAVE) and check with XGETBV that the OS saves the YMM state.
-    unsigned eax = 0, ebx = 0, ecx = 0, edx = 0;
-    if (!__get_cpuid(1, &eax, &ebx, &ecx, &edx)) return false;
-    if (!(ecx & (1u << 29)) || !(ecx & (1u << 28)) || !(ecx & (1u << 27))) return false;
-    unsigned xcr0_lo = 0, xcr0_hi = 0;
-    __asm__ volatile("xgetbv" : "=a"(xcr0_lo), "=d"(xcr0_hi) : "c"(0));
-    return (xcr0_lo & 6u) == 6u;
-#else
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("f16c") && __builtin_cpu_supports("avx");
+/// F16C bulk conversion (defined in the implementation TU, compiled for F16C).
+/// Precondition: cpu_has_f16c() (core/simd.hpp), out.size() >= in.size(). Thread-safe.
+void float_to_half_f16c(std::span<const float> in, std::span<uint16_t> out) noexcept;
+
+/// F16C bulk conversion (defined in the implementation TU, compiled for F16C).
+/// Precondition: cpu_has_f16c() (core/simd.hpp), out.size() >= in.size(). Thread-safe.
+void half_to_float_f16c(std::span<const uint16_t> in, std::span<float> out) noexcept;
 #endif
-  }();
-  return has;
-#else
-  return false;
+
+/// Converts floats to half bits: the F16C kernel when the CPU has it (resolved once), else the
+/// scalar twin; bit-identical results. Precondition: out.size() >= in.size(). Thread-safe.
+void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept;
+
+/// Converts half bits to floats: the F16C kernel when the CPU has it (resolved once), else the
+/// scalar twin; bit-identical results. Precondition: out.size() >= in.size(). Thread-safe.
+void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept;
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+#if BTFLOD_HAS_X86_DISPATCH
+#include <immintrin.h>
 #endif
-}
+
+namespace btflod {
 
 #if BTFLOD_HAS_X86_DISPATCH
-/// F16C bulk conversion. Precondition: cpu_has_f16c(), out.size() >= in.size().
-__attribute__((target("avx,f16c"))) inline void float_to_half_f16c(std::span<const float> in,
-                                                                    std::span<uint16_t> out) noexcept {
+BTFLOD_TARGET_F16C void float_to_half_f16c(std::span<const float> in, std::span<uint16_t> out) noexcept {
   size_t i = 0;
   for (; i + 8 <= in.size(); i += 8) {
     const __m256 v = _mm256_loadu_ps(in.data() + i);
@@ -144,9 +133,7 @@ __attribute__((target("avx,f16c"))) inline void float_to_half_f16c(std::span<con
   for (; i < in.size(); ++i) out[i] = float_to_half_bits(in[i]);
 }
 
-/// F16C bulk conversion. Precondition: cpu_has_f16c(), out.size() >= in.size().
-__attribute__((target("avx,f16c"))) inline void half_to_float_f16c(std::span<const uint16_t> in,
-                                                                    std::span<float> out) noexcept {
+BTFLOD_TARGET_F16C void half_to_float_f16c(std::span<const uint16_t> in, std::span<float> out) noexcept {
   size_t i = 0;
   for (; i + 8 <= in.size(); i += 8) {
     const __m128i h = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in.data() + i));
@@ -156,16 +143,14 @@ __attribute__((target("avx,f16c"))) inline void half_to_float_f16c(std::span<con
 }
 #endif
 
-/// Converts floats to half bits, F16C when available. Precondition: out.size() >= in.size().
-inline void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept {
+void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept {
 #if BTFLOD_HAS_X86_DISPATCH
   if (cpu_has_f16c()) return float_to_half_f16c(in, out);
 #endif
   float_to_half_scalar(in, out);
 }
 
-/// Converts half bits to floats, F16C when available. Precondition: out.size() >= in.size().
-inline void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept {
+void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept {
 #if BTFLOD_HAS_X86_DISPATCH
   if (cpu_has_f16c()) return half_to_float_f16c(in, out);
 #endif
@@ -173,3 +158,4 @@ inline void half_to_float(std::span<const uint16_t> in, std::span<float> out) no
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

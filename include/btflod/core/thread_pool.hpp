@@ -60,7 +60,8 @@ class ThreadPool {
 
   /// Calls body(begin_i, end_i) on disjoint chunks covering [begin, end), at most `grain`
   /// items per chunk, on the workers and the calling thread; returns when all are done.
-  /// The first exception thrown by a chunk is rethrown here after every chunk has finished.
+  /// The first exception thrown by a chunk is rethrown here after every chunk has finished
+  /// (builds with -fno-exceptions compile without that forwarding).
   /// Chunks are claimed in ascending order, so results written per index are deterministic.
   template <class F>
   void parallel_for(size_t begin, size_t end, size_t grain, F&& body) {
@@ -74,12 +75,16 @@ class ThreadPool {
       for (size_t c; (c = next.fetch_add(1)) < chunks;) {
         const size_t b = begin + c * grain;
         const size_t e = std::min(end, b + grain);
+#if defined(__cpp_exceptions) || defined(__EXCEPTIONS)
         try {
           body(b, e);
         } catch (...) {
           std::lock_guard lock(failure_mutex);
           if (!failure) failure = std::current_exception();
         }
+#else  // built with -fno-exceptions: nothing can be thrown, nothing to forward
+        body(b, e);
+#endif
       }
     };
     const size_t helpers = std::min<size_t>(workers_.size(), chunks > 0 ? chunks - 1 : 0);
@@ -88,7 +93,11 @@ class ThreadPool {
     for (size_t i = 0; i < helpers; ++i) pending.push_back(submit(run_chunks));
     run_chunks();
     for (auto& p : pending) p.wait();
+#if defined(__cpp_exceptions) || defined(__EXCEPTIONS)
     if (failure) std::rethrow_exception(failure);
+#else
+    (void)failure_mutex;
+#endif
   }
 
  private:

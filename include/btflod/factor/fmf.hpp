@@ -9,8 +9,6 @@
 // the cosine-weighted mean reflectance under a uniform white environment.
 #pragma once
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -18,6 +16,7 @@
 
 #include "btflod/angular/angular_sample.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/core/eigen.hpp"  // Eigen as a system header
 #include "btflod/core/file_io.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/truncated_svd.hpp"

@@ -14,9 +14,6 @@
 // what a GPU snorm8 texture returns).
 #pragma once
 
-#include <Eigen/Dense>
-#include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -25,6 +22,7 @@
 
 #include "btflod/angular/angular_sample.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/core/eigen.hpp"  // Eigen as a system header
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/truncated_svd.hpp"

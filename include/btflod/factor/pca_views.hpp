@@ -8,14 +8,13 @@
 // (paper 004 §4.3.2). k = 1 is PCA-RF, k = n_view is PCA-BTF.
 #pragma once
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cstdint>
 #include <vector>
 
 #include "btflod/angular/angular_sample.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/core/eigen.hpp"  // Eigen as a system header
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/truncated_svd.hpp"
 

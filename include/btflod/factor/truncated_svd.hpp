@@ -18,17 +18,22 @@
 // into a fixed number of stripes whose partial sums are added in stripe order, so results do
 // not depend on the thread count. They do depend (in the last digits) on the compiler flags:
 // an AVX2/FMA build (BTFLOD_OFFLINE_ARCH) rounds differently from an SSE2 build.
+//
+// Compile cost: the decompositions are instantiated once, in the implementation TU
+// (BTFLOD_IMPLEMENTATION, see btflod.hpp): truncated_svd_blocked() and the in-memory overload are
+// declared here and defined there; the templated truncated_svd(m, n, rank, gather) forwards to
+// truncated_svd_blocked through a type-erased gather (one indirect call per column block).
 #pragma once
-
-#include <Eigen/Dense>
-#include <Eigen/SVD>
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <vector>
+
+#include "btflod/core/eigen.hpp"
 
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
@@ -142,12 +147,20 @@ class NormalGenerator {
 };
 
 /// Thin orthonormal basis of the columns of y (m × k, m ≥ k) by Householder QR.
-inline Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y) {
-  Eigen::HouseholderQR<Eigen::MatrixXf> qr(y);
-  return qr.householderQ() * Eigen::MatrixXf::Identity(y.rows(), y.cols());
-}
+Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y);
 
 }  // namespace detail
+
+/// The column source of the blocked truncated_svd(): copies columns [col0, col0 + count) of A
+/// into `out` (already m × count).
+using SvdColumnGather = std::function<void(size_t col0, size_t count, Eigen::MatrixXf& out)>;
+
+/// The blocked truncated SVD behind truncated_svd(m, n, rank, gather, …): same contract, with the
+/// column source type-erased, so that the Eigen decompositions it runs (BDCSVD, JacobiSVD,
+/// Householder QR, large GEMMs) are compiled once, in the implementation TU (BTFLOD_IMPLEMENTATION),
+/// not in every translation unit that includes this header.
+Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const SvdColumnGather& gather,
+                                           const SvdOptions& options = {}, const ProgressCallback& progress = {});
 
 /// Truncated SVD of the m × n matrix whose columns `gather(col0, count, out)` provides
 /// (`out` is resized by the caller to m × count and must be fully written).
@@ -160,6 +173,30 @@ inline Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y) {
 template <class Gather>
 Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather, const SvdOptions& options = {},
                                    const ProgressCallback& progress = {}) {
+  return truncated_svd_blocked(
+      m, n, rank, [&gather](size_t col0, size_t count, Eigen::MatrixXf& out) { gather(col0, count, out); }, options,
+      progress);
+}
+
+/// Truncated SVD of an in-memory matrix (convenience over the blocked version; implementation
+/// TU).
+Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const SvdOptions& options = {},
+                                   const ProgressCallback& progress = {});
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+namespace btflod {
+
+namespace detail {
+Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y) {
+  Eigen::HouseholderQR<Eigen::MatrixXf> qr(y);
+  return qr.householderQ() * Eigen::MatrixXf::Identity(y.rows(), y.cols());
+}
+}  // namespace detail
+
+Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const SvdColumnGather& gather,
+                                           const SvdOptions& options, const ProgressCallback& progress) {
   using Eigen::Index;
   using Eigen::MatrixXf;
   if (m == 0 || n == 0 || rank < 1)
@@ -465,10 +502,9 @@ Result<TruncatedSvd> truncated_svd(size_t m, size_t n, int rank, Gather&& gather
   return out;
 }
 
-/// Truncated SVD of an in-memory matrix (convenience over the blocked version).
-inline Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const SvdOptions& options = {},
-                                          const ProgressCallback& progress = {}) {
-  return truncated_svd(
+Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const SvdOptions& options,
+                                   const ProgressCallback& progress) {
+  return truncated_svd_blocked(
       static_cast<size_t>(a.rows()), static_cast<size_t>(a.cols()), rank,
       [&a](size_t col0, size_t count, Eigen::MatrixXf& out) {
         out = a.middleCols(static_cast<Eigen::Index>(col0), static_cast<Eigen::Index>(count));
@@ -477,3 +513,5 @@ inline Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, co
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION
+

@@ -121,14 +121,14 @@ void BM_SchedulerFrame(benchmark::State& state) {
   // Warm up until the cache is full and the schedule is in its steady state.
   for (int i = 0; i < 200; ++i, ++frame) {
     s->votes->count(s->frames[frame % kFrames]);
-    s->scheduler->run_frame(*s->votes, frame);
+    s->scheduler->run_frame(*s->cache, *s->votes, frame);
   }
   const SchedulerCounters before = s->scheduler->total();
   uint64_t iterations = 0;
   const double t0 = cpu_ns();
   for (auto _ : state) {
     s->votes->count(s->frames[frame % kFrames]);
-    s->scheduler->run_frame(*s->votes, frame);
+    s->scheduler->run_frame(*s->cache, *s->votes, frame);
     ++frame;
     ++iterations;
   }

@@ -217,12 +217,12 @@ TEST(CpuReference, WholeLoopLowersEquation7ErrorAndReplaysExactly) {
       cam.position = {3.0f * std::cos(a), 2.0f, 3.0f * std::sin(a)};
       render_feedback(scene, cam, w.set, DerivativeLod{}, 4, f, fb);
       votes.count(fb, 16);
-      const auto req = sched.plan(votes, f);
+      const auto req = sched.plan(*w.cache, votes, f);
       for (const TileRequest& r : req) {
         schedule.push_back(r.tile.key());
         if (sched.begin_decode(r.id)) sched.finish_decode(r.id);
       }
-      sched.apply_uploads();
+      sched.apply_uploads(*w.cache);
       // Copy texels for every resident tile (cheap at this size) so the CPU texture matches
       // the cache exactly, whichever tiles the uploads and removals touched.
       for (uint32_t s = 0; s < w.cache->slot_count(); ++s)

@@ -7,6 +7,7 @@
 
 #include <vector>
 
+#include "btflod/backend/backend.hpp"
 #include "btflod/backend/page_table_writes.hpp"
 
 using namespace btflod;

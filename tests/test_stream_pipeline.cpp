@@ -17,6 +17,7 @@
 
 #include "btflod/core/file_io.hpp"
 #include "btflod/stream/pipeline.hpp"
+#include "btflod/stream/file_source.hpp"
 #include "btflod/stream/tile_source.hpp"
 
 namespace {

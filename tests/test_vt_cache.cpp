@@ -2,10 +2,14 @@
 // lookup table) with deltas, and invariants after every operation of long random sequences.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "btflod/backend/page_table_writes.hpp"
+#include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 
 using namespace btflod;
@@ -208,4 +212,120 @@ TEST(TileCache, DeltaOverflowIsReportedNotAllocated) {
   EXPECT_EQ(c.deltas().size(), 2u);
   c.clear_deltas();
   EXPECT_FALSE(c.deltas_overflowed());
+}
+
+namespace {
+// The entry the shader samples at tile t for finest tile f below it (btflod_vt_fetch's rule):
+// t's own entry when it names t's level, else the deeper of it and f's.
+template <class Table>
+uint32_t sampled_entry(const Table& table, const TileId& t, const TileId& f) {
+  const uint32_t e = table(t);
+  if (page_entry_level(e) == t.level) return e;
+  const uint32_t ef = table(f);
+  return page_entry_level(ef) > page_entry_level(e) ? ef : e;
+}
+
+// Applies this frame's writes (derived from the cache's operations only) to a GPU mirror and
+// checks it against a from-scratch rebuild as far as the shader can tell.
+void apply_and_check(const TileCache& c, std::vector<std::vector<uint32_t>>& gpu) {
+  for_each_frame_page_table_write(c, [&](const PageTableWrite& w) {
+    const VtLevelTable& lv = c.set().levels_of(w.tile.texture);
+    ASSERT_EQ(w.page_mip, lv.finest_level() - w.tile.level);
+    gpu[w.tile.texture][lv.index(w.tile)] = w.entry;
+  });
+  for (uint32_t t = 0; t < c.set().texture_count(); ++t) {
+    const VtLevelTable& lv = c.set().levels_of(t);
+    const uint32_t L = lv.finest_level();
+    const auto mirror = [&](const TileId& id) { return gpu[t][lv.index(id)]; };
+    const auto rebuild = [&](const TileId& id) { return gpu_page_entry(c, id); };
+    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+      const TileId id = lv.tile(t, i);
+      if (c.resident(id) || id.level == L) {
+        ASSERT_EQ(mirror(id), rebuild(id)) << "texture " << t << " level " << id.level << " tile " << id.x << "," << id.y;
+        continue;
+      }
+      const uint32_t side = 1u << (L - id.level);
+      for (uint32_t y = id.y * side; y < std::min((id.y + 1) * side, lv.tiles_y[L]); ++y)
+        for (uint32_t x = id.x * side; x < std::min((id.x + 1) * side, lv.tiles_x[L]); ++x) {
+          const TileId f{t, L, x, y};
+          ASSERT_EQ(sampled_entry(mirror, id, f), sampled_entry(rebuild, id, f));
+        }
+    }
+  }
+}
+}  // namespace
+
+// The GPU page table kept up to date from TileCache::deltas() and touched_tiles() alone (what
+// the runtime does, no slot diff) equals a rebuild after every frame of a scheduler run with
+// swaps and hidden-ancestor removals. Fails when an operation does not report a tile it touched.
+TEST(TileCache, FrameWritesFromReportedOperationsMatchARebuild) {
+  VtSet set = make_set();
+  auto r = TileCache::create(set, {4, 4});  // 16 slots for 3 textures: swaps every frame
+  ASSERT_TRUE(r.ok());
+  TileCache c = std::move(r.value());
+  auto s = Scheduler::create(c);
+  ASSERT_TRUE(s.ok());
+  Scheduler sched = std::move(s.value());
+  std::vector<std::vector<uint32_t>> gpu(3);
+  for (uint32_t t = 0; t < 3; ++t) gpu[t].assign(set.levels_of(t).tile_count(), 0xffffffffu);
+  for (uint32_t t = 0; t < 3; ++t)  // initial upload: every texel
+    for (uint32_t i = 0; i < set.levels_of(t).tile_count(); ++i) gpu[t][i] = gpu_page_entry(c, set.levels_of(t).tile(t, i));
+  c.clear_deltas();
+  VoteCounter votes(vote_layouts(set));
+  std::mt19937 rng(5);
+  uint64_t swaps = 0, removed = 0;
+  for (uint64_t f = 0; f < 300; ++f) {
+    std::vector<uint32_t> words;
+    for (int k = 0; k < 24; ++k) {
+      const uint32_t m = rng() % 2, level = rng() % 4, side = 1u << level;
+      words.push_back(pack_feedback(FeedbackTile{m, level, static_cast<uint32_t>(rng() % side),
+                                                 static_cast<uint32_t>(rng() % (m == 1 ? std::max(1u, side / 2) : side))}));
+    }
+    votes.count(words);
+    sched.run_frame(c, votes, f);
+    swaps += sched.frame().swaps;
+    removed += sched.frame().ancestors_removed;
+    EXPECT_INVARIANTS(c);
+    ASSERT_FALSE(c.deltas_overflowed());
+    apply_and_check(c, gpu);
+    c.clear_deltas();
+  }
+  EXPECT_GT(swaps, 20u);
+  EXPECT_GT(removed, 5u);
+}
+
+// The cache owns its VtSet and the scheduler keeps no pointer to the cache: both survive being
+// moved after create(), and the set they were built from may be gone.
+TEST(TileCache, CacheAndSchedulerAreSafeToMove) {
+  std::unique_ptr<TileCache> cache;
+  std::unique_ptr<Scheduler> sched;
+  {
+    VtSet set = make_set();
+    TileCache a = std::move(TileCache::create(set, {6, 6}).value());
+    Scheduler sa = std::move(Scheduler::create(a).value());
+    TileCache b = std::move(a);
+    Scheduler sb = std::move(sa);
+    cache = std::make_unique<TileCache>(std::move(b));
+    sched = std::make_unique<Scheduler>(std::move(sb));
+    set = VtSet{};  // the original set is gone
+  }
+  VoteCounter votes(vote_layouts(cache->set()));
+  for (uint64_t f = 0; f < 20; ++f) {
+    const uint32_t w[] = {pack_feedback(FeedbackTile{0, 3, static_cast<uint32_t>(f % 8), 1}),
+                          pack_feedback(FeedbackTile{1, 2, 1, 0})};
+    votes.count(w);
+    sched->run_frame(*cache, votes, f);
+    EXPECT_INVARIANTS(*cache);
+  }
+  EXPECT_GT(sched->total().uploads, 5u);
+  EXPECT_EQ(cache->config().tile_size, 64u);  // taken from the set
+}
+
+TEST(TileCache, MaterialsWithDifferentTileSizesAreRefused) {
+  VtSet set;
+  set.add_material(VtGeometry::make(256, 256, 64, 4), 1);
+  set.add_material(VtGeometry::make(256, 256, 32, 4), 1);
+  const auto r = TileCache::create(set, {4, 4});
+  EXPECT_EQ(r.status(), Status::invalid_argument);
+  EXPECT_NE(r.message().find("one cache holds one tile size"), std::string::npos);
 }

@@ -30,12 +30,11 @@ struct Rig {
     votes = std::make_unique<VoteCounter>(layouts);
   }
   void set_weight(uint32_t tex, uint32_t level, uint32_t x, uint32_t y, float w) {
-    set.weights(tex)[set.levels_of(tex).index(level, x, y)] = Half(w);
-    sched->refresh_weights();
+    sched->set_weight(tex, set.levels_of(tex).index(level, x, y), Half(w).to_float());
   }
   const SchedulerCounters& frame(const std::vector<uint32_t>& words, uint64_t f) {
     votes->count(words);
-    return sched->run_frame(*votes, f);
+    return sched->run_frame(*cache, *votes, f);
   }
   void check() const {
     std::string why;
@@ -178,27 +177,27 @@ TEST(Scheduler, BudgetsAreEnforcedAndCounted) {
     for (uint32_t x = 0; x < 2; ++x) push(w, 0, 1, x, y, 3);
   push(w, 0, 0, 0, 0, 1);
   rig.votes->count(w);
-  const auto req = rig.sched->plan(*rig.votes, 0);
+  const auto req = rig.sched->plan(*rig.cache, *rig.votes, 0);
   ASSERT_EQ(req.size(), 4u);
   EXPECT_EQ(rig.sched->frame().visible_missing, 4u);
   EXPECT_EQ(rig.sched->requests_in_flight(), 4u);
   EXPECT_EQ(rig.sched->bytes_in_flight(), 4u * cfg.tile_bytes);
   // Everything in flight: the next plan issues nothing new (those tiles are already requested).
-  EXPECT_EQ(rig.sched->plan(*rig.votes, 1).size(), 0u);
+  EXPECT_EQ(rig.sched->plan(*rig.cache, *rig.votes, 1).size(), 0u);
   EXPECT_TRUE(rig.sched->begin_decode(req[0].id));
   EXPECT_TRUE(rig.sched->begin_decode(req[1].id));
   EXPECT_FALSE(rig.sched->begin_decode(req[2].id));
   EXPECT_EQ(rig.sched->frame().decoding_budget_hits, 1u);
   rig.sched->finish_decode(req[0].id);
   rig.sched->finish_decode(req[1].id);
-  EXPECT_EQ(rig.sched->apply_uploads(), 1u);
+  EXPECT_EQ(rig.sched->apply_uploads(*rig.cache), 1u);
   EXPECT_EQ(rig.sched->frame().upload_budget_hits, 1u);
   EXPECT_TRUE(rig.cache->resident(req[0].tile));
   EXPECT_FALSE(rig.cache->resident(req[1].tile));
   rig.check();
-  EXPECT_EQ(rig.sched->apply_uploads(), 1u);
+  EXPECT_EQ(rig.sched->apply_uploads(*rig.cache), 1u);
   EXPECT_TRUE(rig.cache->resident(req[1].tile));
-  rig.sched->cancel(req[3].id);
+  rig.sched->cancel(*rig.cache, req[3].id);
   EXPECT_EQ(rig.sched->requests_in_flight(), 1u);
   EXPECT_EQ(rig.cache->free_count() + rig.cache->used_count(), rig.cache->slot_count() - 1);  // req[2] reserved
   // Bytes budget: one tile's worth only.
@@ -206,7 +205,7 @@ TEST(Scheduler, BudgetsAreEnforcedAndCounted) {
   small.budgets.bytes_in_flight = small.tile_bytes;
   Rig r2(8, 8, small);
   r2.votes->count(w);
-  EXPECT_EQ(r2.sched->plan(*r2.votes, 0).size(), 1u);
+  EXPECT_EQ(r2.sched->plan(*r2.cache, *r2.votes, 0).size(), 1u);
   EXPECT_EQ(r2.sched->frame().byte_budget_hits, 1u);
 }
 
@@ -215,8 +214,8 @@ TEST(Scheduler, UColumnPacketsArePrioritisedBySection6) {
   cfg.stream_u_columns = true;
   Rig rig(8, 8, cfg, 2);  // one material, two virtual textures (C = 8)
   // Root energies: texture 0 has 1, texture 1 has 0 (its eigen-textures are black).
-  rig.set.energies(0)[0] = Half(1.0f);
-  rig.set.energies(1)[0] = Half(0.0f);
+  rig.sched->set_energy(0, 0, 1.0f);
+  rig.sched->set_energy(1, 0, 0.0f);
   std::vector<uint32_t> w;
   push(w, 0, 1, 0, 0, 10);
   const SchedulerCounters& c0 = rig.frame(w, 0);
@@ -230,7 +229,7 @@ TEST(Scheduler, UColumnPacketsArePrioritisedBySection6) {
   EXPECT_TRUE(rig.cache->resident(TileId{0, 1, 0, 0}));
   EXPECT_FALSE(rig.cache->resident(TileId{1, 1, 0, 0}));
   // Texture 1 gains energy: its packet (10 · 1000) outranks the next tile add.
-  rig.set.energies(1)[0] = Half(1000.0f);
+  rig.sched->set_energy(1, 0, 1000.0f);
   std::vector<uint32_t> w2 = w;
   push(w2, 0, 2, 0, 0, 1);
   const SchedulerCounters& c2 = rig.frame(w2, 2);
@@ -280,12 +279,12 @@ TEST(Scheduler, RandomFeedbackKeepsInvariantsAndReplaysIdentically) {
         push(w, m, l, rng() % (1u << l), rng() % (1u << l), 1 + int(rng() % 40));
       }
       rig.votes->count(w, 1, rig.sched->lod_bias());
-      const auto req = rig.sched->plan(*rig.votes, f);
+      const auto req = rig.sched->plan(*rig.cache, *rig.votes, f);
       for (const TileRequest& r : req) log.push_back(r.tile.key());
       // Deliver with a random latency: some requests complete now, some later.
       for (uint32_t id = 0; id < cfg.budgets.requests_in_flight; ++id)
         if (rng() % 2 && rig.sched->begin_decode(id)) rig.sched->finish_decode(id);
-      rig.sched->apply_uploads();
+      rig.sched->apply_uploads(*rig.cache);
       std::string why;
       if (!rig.cache->check_invariants(&why)) {
         ADD_FAILURE() << "frame " << f << ": " << why;
@@ -362,12 +361,12 @@ SettleRun run_fixed_view(bool accumulate, uint64_t frames, uint64_t cut) {
       window.accumulate(words, 1);
     else
       rig.votes->count(words, 16);  // one frame, each word standing for its 4×4 block
-    const auto req = rig.sched->plan(accumulate ? window : *rig.votes, f);
+    const auto req = rig.sched->plan(*rig.cache, accumulate ? window : *rig.votes, f);
     r.swaps.push_back(rig.sched->frame().swaps);
     for (const TileRequest& q : req) r.log.push_back(q.tile.key());
     for (uint32_t id = 0; id < cfg.budgets.requests_in_flight; ++id)
       if (rig.sched->begin_decode(id)) rig.sched->finish_decode(id);
-    rig.sched->apply_uploads();
+    rig.sched->apply_uploads(*rig.cache);
     for (uint32_t s = 0; s < rig.cache->slot_count(); ++s) r.log.push_back(rig.cache->slot(s).tile.key());
     std::string why;
     EXPECT_TRUE(rig.cache->check_invariants(&why)) << why;

@@ -116,6 +116,7 @@ int run_build(int argc, char** argv) {
   md.color_channels = 3;
   md.color_mode = ColorMode::linear_rgb;
   md.u_rows = static_cast<uint32_t>(fmf->u.size() / comps);
+  md.u_row_order = AngularRowOrder::view_major;  // FMF rows: (view · n_light + light) · 3 + colour
   samples::set_bsvtf_directions(md, fmf->shape.lights, fmf->shape.views);
 
   // Tiles (half texels from the pyramid, as float) with their eq. 8 weights.

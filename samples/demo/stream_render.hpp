@@ -29,6 +29,7 @@
 #include "btflod/lod/feedback.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 #include "btflod/stream/pipeline.hpp"
+#include "btflod/stream/file_source.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
@@ -378,7 +379,7 @@ class StreamingRenderer {
     // sum over the last 4^shift frames (one rotation of the feedback sample position), so every
     // screen pixel counts once, with weight 1 (lod/feedback.hpp, VoteCounter::accumulate).
     if (!feedback_.empty()) votes_->accumulate(feedback_, 1, sched_->lod_bias());
-    const auto requests = sched_->plan(*votes_, f);
+    const auto requests = sched_->plan(*cache_, *votes_, f);
     rec.requests = static_cast<uint32_t>(requests.size());
     rec.swaps = static_cast<uint32_t>(sched_->frame().swaps);
     rec.lod_bias = sched_->lod_bias();
@@ -407,12 +408,12 @@ class StreamingRenderer {
         if (!e.skipped) return;
         const auto it = request_of_[m].find(e.item.key());
         if (it == request_of_[m].end()) return;
-        sched_->cancel(it->second);
+        sched_->cancel(*cache_, it->second);
         forget(m, it->first);
       });
     }
     Status upload_status = Status::success;
-    rec.uploads = sched_->apply_uploads([&](const TileRequest& q) {
+    rec.uploads = sched_->apply_uploads(*cache_, [&](const TileRequest& q) {
       if (q.u_packet) return;
       if (renderer_.upload_tile(q.slot, staging_[q.id]) != Status::success) upload_status = Status::io_error;
     });
@@ -440,6 +441,8 @@ class StreamingRenderer {
   const MemoryFigures& memory() const noexcept { return memory_; }
   /// Frames over which the votes are summed (one rotation cycle of the feedback sample position).
   uint32_t vote_window_frames() const noexcept { return votes_->window_frames(); }
+  /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
+  const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
   /// Tiles requested by the scheduler and not yet delivered.
   size_t pending_tiles() const noexcept {
     size_t n = 0;

@@ -331,7 +331,7 @@ Result<Run> run_priority(const World& w, const Camera& cam, const std::vector<Pi
         sched->finish_decode(i.request);
       }
     });
-    sched->apply_uploads([&](const TileRequest& q) {
+    sched->apply_uploads(*cache, [&](const TileRequest& q) {
       const uint32_t m = w.set.material_of(q.tile.texture);
       const uint32_t k = q.tile.texture - w.set.material(m).first_texture;
       if (q.u_packet) cs.packet[m][k] = 1;
@@ -343,7 +343,7 @@ Result<Run> run_priority(const World& w, const Camera& cam, const std::vector<Pi
     // Feedback of this frame → votes → plan → requests onto the link.
     render_feedback(w.scene, cam, w.set, DerivativeLod{}, d, f, feedback);
     votes.count(feedback, d * d, sched->lod_bias());
-    const auto requests = sched->plan(votes, f);
+    const auto requests = sched->plan(*cache, votes, f);
     for (const TileRequest& q : requests) {
       const uint32_t m = w.set.material_of(q.tile.texture);
       const uint32_t k = q.tile.texture - w.set.material(m).first_texture;

@@ -274,12 +274,12 @@ class CachedStrategy {
   void frame(const FrameData& fd, uint64_t f) {
     const uint32_t d = w_.opt.decimation;
     votes_->count(fd.feedback, d * d, sched_->lod_bias());
-    const auto requests = sched_->plan(*votes_, f);
+    const auto requests = sched_->plan(*cache_, *votes_, f);
     for (const TileRequest& r : requests) {
       result_.schedule.push_back(r.tile.key());
       if (sched_->begin_decode(r.id)) sched_->finish_decode(r.id);  // immediate source
     }
-    sched_->apply_uploads([&](const TileRequest& r) {
+    sched_->apply_uploads(*cache_, [&](const TileRequest& r) {
       if (!r.u_packet) upload(r.tile, r.slot);
     });
     const SchedulerCounters& c = sched_->frame();

@@ -23,6 +23,7 @@
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
 #include "btflod/vt/tile_id.hpp"
+#include "btflod/vt/tile_cache.hpp"
 
 namespace btflod {
 
@@ -82,11 +83,7 @@ struct TileUpload {
 /// finest level − tile.level is the mip it lives in (ShaderParams::vt_extent.z − level).
 /// entry = pack_page_entry(slot, resident level) (= vt/tile_cache.hpp make_page_entry(level,
 /// slot)) of the tile the cache uses for it: itself or its deepest resident ancestor.
-struct PageTableWrite {
-  TileId tile;
-  uint32_t page_mip = 0;
-  uint32_t entry = 0;
-};
+// struct PageTableWrite is defined in vt/tile_cache.hpp (GPU-free, shared with the runtime).
 
 /// Builds the write for tile `t` of a material whose finest level is `material_finest_level`.
 /// Precondition: t.level ≤ material_finest_level.

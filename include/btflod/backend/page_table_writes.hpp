@@ -11,8 +11,8 @@
 // at its own level is exact, mip 0 is exact, and in every region whose finest entries changed
 // all levels are exact. A tile that becomes resident or is removed while completely hidden by
 // resident descendants (TileCache::add drops such ancestors) changes no finest entry, so
-// TileCache reports no delta for it: call append_tile_chain_writes() for each tile you
-// insert/add/remove. Stale entries can then remain only on non-resident tiles whose region is
+// TileCache reports no delta for it; TileCache::touched_tiles() names every such tile, and
+// append_frame_page_table_writes() adds the own-level chain of each. Stale entries can then remain only on non-resident tiles whose region is
 // covered by deeper resident tiles, and the shader never samples those: when the level-l1
 // entry is not at level l1 it takes the mip-0 entry whenever that one is deeper.
 #pragma once
@@ -22,19 +22,19 @@
 #include <span>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/vt/tile_cache.hpp"
 
 namespace btflod {
 
-/// GPU page-table entry of tile t: pack_page_entry(slot, level) of t when resident, else of its
+/// GPU page-table entry of tile t: make_page_entry(level, slot) of t when resident, else of its
 /// deepest resident ancestor (the root is pinned, so one exists). Returns pack_page_entry(0, 0)
-/// for a tile outside the hierarchy. noexcept, no allocation, O(level).
+/// for a tile outside the hierarchy. (make_page_entry(level, slot) ≡ shader_config.hpp's
+/// pack_page_entry(slot, level).) noexcept, no allocation, O(level).
 inline uint32_t gpu_page_entry(const TileCache& cache, TileId t) noexcept {
   for (;;) {
     const uint32_t s = cache.slot_of(t);
-    if (s != kNoSlot) return pack_page_entry(s, t.level);
-    if (t.level == 0) return pack_page_entry(0, 0);
+    if (s != kNoSlot) return make_page_entry(t.level, s);
+    if (t.level == 0) return make_page_entry(0, 0);
     t = t.parent();
   }
 }
@@ -101,6 +101,73 @@ inline void append_full_page_table_writes(const TileCache& cache, uint32_t textu
   const VtLevelTable& lv = cache.set().levels_of(texture);
   const PageTableDelta all{texture, 0, 0, lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()], 0};
   append_page_table_writes(cache, {&all, 1}, out);
+}
+
+/// Calls sink(const PageTableWrite&) for every texel this frame's cache operations can have
+/// changed: the per-level writes of every delta (append_page_table_writes) and the own-level
+/// chain of every tile in cache.touched_tiles() (inserted, added, removed, swapped out, or an
+/// ancestor an add dropped). Derived from the operations alone — no slot diff. A texel may be
+/// named more than once (the last call holds the current value). When the cache's deltas
+/// overflowed, calls sink for every texel of every table instead. Call before
+/// TileCache::clear_deltas(). noexcept if sink is; no allocation.
+template <class Sink>
+void for_each_frame_page_table_write(const TileCache& cache, Sink&& sink) {
+  const VtSet& set = cache.set();
+  const auto rect = [&](const PageTableDelta& d) {
+    if (d.texture >= set.texture_count() || d.width == 0 || d.height == 0) return;
+    const VtLevelTable& lv = set.levels_of(d.texture);
+    const uint32_t L = lv.finest_level();
+    for (uint32_t l = 0; l <= L; ++l) {
+      const uint32_t s = L - l;
+      const uint32_t x1 = std::min((d.x + d.width - 1) >> s, lv.tiles_x[l] - 1);
+      const uint32_t y1 = std::min((d.y + d.height - 1) >> s, lv.tiles_y[l] - 1);
+      for (uint32_t y = d.y >> s; y <= y1; ++y)
+        for (uint32_t x = d.x >> s; x <= x1; ++x) {
+          const TileId t{d.texture, l, x, y};
+          sink(PageTableWrite{t, s, gpu_page_entry(cache, t)});
+        }
+    }
+  };
+  if (cache.deltas_overflowed()) {
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const VtLevelTable& lv = set.levels_of(t);
+      rect(PageTableDelta{t, 0, 0, lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()], 0});
+    }
+    return;
+  }
+  for (const PageTableDelta& d : cache.deltas()) rect(d);
+  for (TileId t : cache.touched_tiles()) {
+    if (t.texture >= set.texture_count()) continue;
+    const uint32_t L = set.levels_of(t.texture).finest_level();
+    if (t.level > L) continue;
+    for (;;) {
+      sink(PageTableWrite{t, L - t.level, gpu_page_entry(cache, t)});
+      if (t.level == 0) break;
+      t = t.parent();
+    }
+  }
+}
+
+/// Upper bound of the writes append_frame_page_table_writes() emits now (every table when the
+/// deltas overflowed). noexcept.
+inline size_t frame_page_table_writes_bound(const TileCache& cache) noexcept {
+  const VtSet& set = cache.set();
+  size_t n = 0;
+  if (cache.deltas_overflowed()) {
+    for (uint32_t t = 0; t < set.texture_count(); ++t) n += set.levels_of(t).tile_count();
+    return n;
+  }
+  n = page_table_writes_bound(cache, cache.deltas());
+  for (const TileId& t : cache.touched_tiles())
+    if (t.texture < set.texture_count()) n += set.levels_of(t.texture).finest_level() + 1;
+  return n;
+}
+
+/// Appends the writes of for_each_frame_page_table_write() to `out`: everything the GPU page
+/// table needs after this frame's cache operations. Allocation-free when `out` has
+/// frame_page_table_writes_bound() spare capacity.
+inline void append_frame_page_table_writes(const TileCache& cache, std::vector<PageTableWrite>& out) {
+  for_each_frame_page_table_write(cache, [&](const PageTableWrite& w) { out.push_back(w); });
 }
 
 }  // namespace btflod

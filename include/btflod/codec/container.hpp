@@ -34,12 +34,29 @@
 namespace btflod {
 
 inline constexpr uint8_t kBsvtfMagic[8] = {'B', 'S', 'V', 'T', 'F', '\r', '\n', 0x1a};
-inline constexpr uint32_t kBsvtfVersion = 2;  // 2: tile format 2 (run-length symbols)
+/// Version written. 3: the metadata stores the row order of U (u_row_order) and each tile
+/// entry its energy ‖T‖²_F/T² (paper 000 §6); 2: tile format 2 (run-length symbols).
+inline constexpr uint32_t kBsvtfVersion = 3;
+/// Oldest version read: version 2 files are read with u_row_order = unspecified and energies
+/// 0 (a runtime then needs the order from its caller, see runtime/streamer.hpp).
+inline constexpr uint32_t kBsvtfOldestReadableVersion = 2;
 inline constexpr size_t kBsvtfHeaderSize = 128;
 inline constexpr size_t kBsvtfPacketEntrySize = 24;
 inline constexpr size_t kBsvtfTileEntrySize = 32;
 inline constexpr uint32_t kBsvtfMaxComponents = 65536;
 inline constexpr uint32_t kBsvtfMaxStringBytes = 4096;
+
+/// Order of U's angular rows; rows are (a · n_b + b) · colour_channels + colour.
+enum class AngularRowOrder : uint8_t {
+  light_major,  ///< a = light, b = view: row = (light · views + view) · channels + colour (shader/, backends)
+  view_major,   ///< a = view, b = light: row = (view · lights + light) · channels + colour (factor/fmf.hpp files)
+  unspecified,  ///< a version-2 container, which did not store it
+};
+
+/// Stable name of a row order ("light_major", "view_major", "unspecified").
+constexpr const char* angular_row_order_name(AngularRowOrder o) noexcept {
+  return o == AngularRowOrder::light_major ? "light_major" : o == AngularRowOrder::view_major ? "view_major" : "unspecified";
+}
 
 /// How the colour channels of U are to be interpreted.
 enum class ColorMode : uint32_t { linear_rgb = 0, ycbcr = 1, luminance = 2 };
@@ -55,7 +72,9 @@ struct BsvtfMetadata {
   uint32_t component_count = 0;  ///< C eigen-textures; virtual texture g holds components 4g … 4g+3
   uint32_t color_channels = 3;
   ColorMode color_mode = ColorMode::linear_rgb;
-  uint32_t u_rows = 0;           ///< rows of U (angular samples × colour channels, producer's order)
+  uint32_t u_rows = 0;           ///< rows of U: lights × views × colour channels, in u_row_order
+  /// Order of U's rows (stored since version 3). Writers must say which order U is in.
+  AngularRowOrder u_row_order = AngularRowOrder::light_major;
   std::string light_set;         ///< name of the light direction set (e.g. "UBO2014-151")
   std::string view_set;
   std::vector<float> light_directions;  ///< xyz triples, local frame
@@ -76,6 +95,7 @@ struct BsvtfTileEntry {
   uint32_t size = 0;
   uint32_t crc = 0;
   float weight = 0.0f;  ///< w(i, l, l−1), paper 000 eq. 8
+  float energy = 0.0f;  ///< ‖T‖²_F / T², paper 000 §6 (0 in version-2 files)
 };
 
 /// Where one U packet (4 components, u_rows × 4 halves) lives.
@@ -130,6 +150,7 @@ struct BsvtfEncodedTile {
   TileId id;
   std::vector<uint8_t> payload;
   float weight = 0.0f;
+  float energy = 0.0f;  ///< ‖T‖²_F / T² (paper 000 §6)
 };
 
 namespace detail {
@@ -155,6 +176,8 @@ inline VoidResult bsvtf_check_metadata(const BsvtfMetadata& m) {
   if (static_cast<uint32_t>(m.color_mode) > 2)
     return make_error(Status::invalid_argument, "bsvtf metadata: colour mode %u unknown", static_cast<uint32_t>(m.color_mode));
   if (m.u_rows > (1u << 28)) return make_error(Status::invalid_argument, "bsvtf metadata: %u rows of U exceed 2^28", m.u_rows);
+  if (static_cast<uint32_t>(m.u_row_order) > 2)
+    return make_error(Status::invalid_argument, "bsvtf metadata: row order %u unknown", static_cast<uint32_t>(m.u_row_order));
   if (m.light_directions.size() % 3 || m.view_directions.size() % 3)
     return make_error(Status::invalid_argument, "bsvtf metadata: direction arrays must hold xyz triples");
   if (m.component_ranges.size() != m.component_count || m.component_scales.size() != m.component_count)
@@ -166,13 +189,14 @@ inline VoidResult bsvtf_check_metadata(const BsvtfMetadata& m) {
   return {};
 }
 
-inline std::vector<uint8_t> bsvtf_serialise_metadata(const BsvtfMetadata& m) {
+inline std::vector<uint8_t> bsvtf_serialise_metadata(const BsvtfMetadata& m, uint32_t version) {
   ByteWriter w;
   for (uint32_t v : {m.width, m.height, m.tile_size, m.border, m.level_count, m.component_count, m.color_channels,
                      static_cast<uint32_t>(m.color_mode), m.u_rows, static_cast<uint32_t>(m.light_directions.size() / 3),
                      static_cast<uint32_t>(m.view_directions.size() / 3)})
     w.u32(v);
   w.f32(m.quality);
+  if (version >= 3) w.u32(static_cast<uint32_t>(m.u_row_order));
   bsvtf_write_string(w, m.material_name);
   bsvtf_write_string(w, m.light_set);
   bsvtf_write_string(w, m.view_set);
@@ -196,9 +220,13 @@ inline bool bsvtf_read_string(ByteReader& r, std::string& out) {
 /// zero-padded). Every tile id must be valid, unique, of a texture < texture_count() and a level
 /// < level_count, and every tile of level > 0 must have its parent in the list.
 /// Returns the file bytes or invalid_argument with a message. Thread-safe (no shared state).
+/// `version` is kBsvtfVersion; kBsvtfOldestReadableVersion writes the older layout (no row
+/// order, no energies) for compatibility tests of readers.
 inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::span<const float> u,
-                                                std::span<const BsvtfEncodedTile> tiles) {
+                                                std::span<const BsvtfEncodedTile> tiles, uint32_t version = kBsvtfVersion) {
   if (auto ok = detail::bsvtf_check_metadata(metadata); !ok) return ok.error();
+  if (version < kBsvtfOldestReadableVersion || version > kBsvtfVersion)
+    return make_error(Status::invalid_argument, "write_bsvtf: cannot write version %u", version);
   const uint32_t textures = metadata.texture_count();
   if (u.size() != size_t{metadata.u_rows} * metadata.component_count)
     return make_error(Status::invalid_argument, "write_bsvtf: U has %zu floats, expected %u rows x %u components", u.size(),
@@ -213,8 +241,10 @@ inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, s
     if (t.payload.empty() || t.payload.size() > UINT32_MAX)
       return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has a payload of %zu bytes",
                         t.id.texture, t.id.level, t.id.x, t.id.y, t.payload.size());
-    if (!std::isfinite(t.weight) || t.weight < 0)
-      return make_error(Status::invalid_argument, "write_bsvtf: tile weight must be finite and >= 0");
+    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
+      return make_error(Status::invalid_argument, "write_bsvtf: tile weight and energy must be finite and >= 0");
+    if (metadata.u_row_order == AngularRowOrder::unspecified && version >= 3)
+      return make_error(Status::invalid_argument, "write_bsvtf: metadata.u_row_order must say how U's rows are ordered");
     by_key.push_back(&t);
   }
   std::sort(by_key.begin(), by_key.end(), [](auto* a, auto* b) { return a->id.key() < b->id.key(); });
@@ -231,8 +261,9 @@ inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, s
       return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has no parent", t->id.texture,
                         t->id.level, t->id.x, t->id.y);
 
-  const std::vector<uint8_t> meta = detail::bsvtf_serialise_metadata(metadata);
+  const std::vector<uint8_t> meta = detail::bsvtf_serialise_metadata(metadata, version);
   BsvtfHeader h;
+  h.version = version;
   h.metadata_offset = kBsvtfHeaderSize;
   h.metadata_size = static_cast<uint32_t>(meta.size());
   h.metadata_crc = crc32_of(meta);
@@ -264,7 +295,8 @@ inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, s
   uint64_t cursor = h.payload_offset;
   auto place_tile = [&](size_t i) {
     const auto* t = by_key[i];
-    tile_entries[i] = BsvtfTileEntry{t->id, cursor, static_cast<uint32_t>(t->payload.size()), crc32_of(t->payload), t->weight};
+    tile_entries[i] = BsvtfTileEntry{t->id, cursor, static_cast<uint32_t>(t->payload.size()), crc32_of(t->payload), t->weight,
+                                     t->energy};
     order_data.push_back(t->payload.data());
     order_size.push_back(t->payload.size());
     cursor += t->payload.size();
@@ -299,7 +331,8 @@ inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, s
     index.u32(t.size);
     index.u32(t.crc);
     index.f32(t.weight);
-    index.u32(0);
+    if (version >= 3) index.f32(t.energy);
+    else index.u32(0);  // reserved in version 2
   }
   const std::vector<uint8_t> tile_index = index.take();
   h.packet_table_crc = crc32_of(packet_table);
@@ -350,8 +383,10 @@ inline Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, ui
   const uint32_t crc = crc32_of(bytes.first(kBsvtfHeaderSize - 4));
   BsvtfHeader h;
   h.version = r.u32();
-  if (h.version != kBsvtfVersion)
-    return make_error(Status::unsupported, "bsvtf header: version %u, this reader handles version %u", h.version, kBsvtfVersion);
+  if (h.version < kBsvtfOldestReadableVersion || h.version > kBsvtfVersion)
+    return make_error(Status::unsupported, "bsvtf header: version %u, this reader handles versions %u to %u%s", h.version,
+                      kBsvtfOldestReadableVersion, kBsvtfVersion,
+                      h.version > kBsvtfVersion ? " (a newer writer made this file: update btflod)" : " (rebuild the file)");
   if (crc != stored_crc) return make_error(Status::bad_data, "bsvtf header: checksum %08x, stored %08x", crc, stored_crc);
   const uint32_t header_size = r.u32();
   if (header_size != kBsvtfHeaderSize)
@@ -429,6 +464,13 @@ inline Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> pre
   const uint32_t light_count = r.u32();
   const uint32_t view_count = r.u32();
   m.quality = r.f32();
+  m.u_row_order = AngularRowOrder::unspecified;
+  if (h.version >= 3) {
+    const uint32_t order = r.u32();
+    if (r.ok() && order > 1)
+      return make_error(Status::bad_data, "bsvtf metadata: row order %u is neither light-major (0) nor view-major (1)", order);
+    m.u_row_order = static_cast<AngularRowOrder>(order);
+  }
   if (!r.ok()) return make_error(Status::bad_data, "bsvtf metadata: %u bytes, too short for the fixed fields", h.metadata_size);
   if (!detail::bsvtf_read_string(r, m.material_name) || !detail::bsvtf_read_string(r, m.light_set) ||
       !detail::bsvtf_read_string(r, m.view_set))
@@ -497,7 +539,7 @@ inline Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> pre
     t.size = ir.u32();
     t.crc = ir.u32();
     t.weight = ir.f32();
-    ir.u32();
+    t.energy = h.version >= 3 ? ir.f32() : (ir.u32(), 0.0f);
     if (t.id.key() != key || !t.id.valid() || t.id.texture >= m.texture_count() || t.id.level >= m.level_count)
       return make_error(Status::bad_data, "bsvtf tile entry %u: key %016llx is not a tile of this material", i,
                         static_cast<unsigned long long>(key));
@@ -508,7 +550,8 @@ inline Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> pre
                         t.size, static_cast<unsigned long long>(t.offset), static_cast<unsigned long long>(min_tile),
                         static_cast<unsigned long long>(max_tile), static_cast<unsigned long long>(payload_begin),
                         static_cast<unsigned long long>(payload_end));
-    if (!std::isfinite(t.weight) || t.weight < 0) return make_error(Status::bad_data, "bsvtf tile entry %u: weight not finite and >= 0", i);
+    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
+      return make_error(Status::bad_data, "bsvtf tile entry %u: weight or energy not finite and >= 0", i);
   }
   for (uint32_t i = 0; i < h.tile_count; ++i)
     if (d.tiles[i].id.level > 0 && d.find(d.tiles[i].id.parent()) == nullptr)
@@ -556,6 +599,8 @@ struct BsvtfTileInput {
   TileId id;
   std::span<const float> samples;
   float weight = 0.0f;
+  /// ‖T‖²_F / T² (paper 000 §6), stored in the tile index for the U'-packet priority.
+  float energy = 0.0f;
   /// Multiplies this tile's tolerances (every channel). 1 (the default) keeps the bytes of the
   /// plain reference; a producer may lower it where errors are more visible, e.g. dark tiles
   /// (luminance_tolerance_scale, codec/quantize.hpp). The tile header stores the product, so
@@ -705,7 +750,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
                                    encoder.message());
           return;
         }
-        encoded[list[j]] = BsvtfEncodedTile{t.id, std::vector<uint8_t>(buffer.begin(), buffer.begin() + written), t.weight};
+        encoded[list[j]] =
+            BsvtfEncodedTile{t.id, std::vector<uint8_t>(buffer.begin(), buffer.begin() + written), t.weight, t.energy};
         ++done;
         if (!cancelled && !report_progress(options.progress, "encode tiles", static_cast<double>(done) / tiles.size()))
           cancelled = true;

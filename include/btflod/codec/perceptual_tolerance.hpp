@@ -52,11 +52,8 @@ namespace btflod {
 /// at least those of 0 and 3 on all four and of 2 on three (stone: 2 is 1.5 % better).
 inline constexpr uint32_t kPerceptualWeightQuarters = 1;
 
-/// Order of U's angular rows (BsvtfMetadata::u_rows is "the producer's order").
-enum class AngularRowOrder : uint8_t {
-  light_major,  ///< row a = light · views + view (the backends' layout, shader/)
-  view_major,   ///< row a = view · lights + light (FMF factor files, factor/fmf.hpp)
-};
+// AngularRowOrder (the order of U's angular rows) is defined in codec/container.hpp, which
+// stores it in the container (BsvtfMetadata::u_row_order).
 
 /// Options for perceptual_tolerance_scales().
 struct PerceptualToleranceOptions {

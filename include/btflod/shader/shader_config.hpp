@@ -15,6 +15,7 @@
 #include <glm/glm.hpp>
 
 #include "btflod/core/result.hpp"
+#include "btflod/vt/cache_config.hpp"
 
 namespace btflod {
 
@@ -120,20 +121,12 @@ constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return ent
 /// cache uses for it (itself or its nearest resident ancestor), see pack_page_entry.
 /// Addressing: level-l texel coordinate s = uv · (M, N) · 2^(l − L_m) with uv wrapped to [0,1)
 /// (vt/vt_layout.hpp geometry: tiles on a grid aligned to the origin, M×N need not be square).
-struct VirtualTextureConfig {
-  uint32_t tile_size = 64;     ///< T, texels per tile side without border
-  uint32_t border = 4;         ///< texels of border on each side (≥ 1 for bilinear)
-  uint32_t slots_x = 16;       ///< slots per cache row
-  uint32_t slots_y = 16;       ///< slot rows per cache layer
-  uint32_t cache_layers = 1;   ///< layers of the cache array texture
+/// The cache shape (tile size, border, slots, layers) is vt/cache_config.hpp's CacheConfig, the
+/// same type the tile cache, the scheduler and the runtime are configured with.
+struct VirtualTextureConfig : CacheConfig {
   uint32_t finest_level = 4;   ///< largest L of any material: the page table has L + 1 mips
   bool trilinear = true;       ///< blend levels ⌊λ⌋ and ⌊λ⌋+1 when both are resident
   FeedbackWordLayout feedback;
-
-  constexpr uint32_t padded_tile_size() const noexcept { return tile_size + 2 * border; }
-  constexpr uint32_t slot_count() const noexcept { return slots_x * slots_y * cache_layers; }
-  constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
-  constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
 };
 
 /// Texel origin (top-left of the padded slot, border included) and layer of a cache slot.

@@ -42,6 +42,7 @@
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/stream/payload_cache.hpp"
+#include "btflod/stream/file_source.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/tile_id.hpp"
 

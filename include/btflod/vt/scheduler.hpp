@@ -25,6 +25,13 @@
 // are applied by apply_uploads() within the per-frame upload budget. Every budget refusal and
 // every visible-but-missing tile is counted. Everything after create() is allocation-free,
 // noexcept and deterministic (ties broken by texture and tile index). Not thread-safe.
+//
+// The scheduler keeps no pointer to the cache: every call that reads or changes it takes the
+// cache as an argument, so both objects can be moved (e.g. as members of a runtime object).
+// Every cache operation it performs (swap removals, inserts, the ancestors an insert hides) is
+// reported by the cache itself (TileCache::touched_tiles() and deltas()). Byte budgets count
+// real payload bytes: the runtime sets each tile's and each U' packet's size from the container
+// index (set_tile_bytes, set_u_packet_bytes); tile_bytes / u_packet_bytes are the defaults.
 #pragma once
 
 #include <algorithm>
@@ -52,11 +59,19 @@ enum class PriorityMode : uint8_t {
   votes_only,  ///< w ≡ 1: P = v, cost = v · revealed levels (LibVT/Unreal-style)
 };
 
+/// Bytes of one U' packet of four components: rows (lights · views · colour channels) × 4
+/// halves, as the container stores it (codec/container.hpp).
+constexpr uint64_t u_packet_bytes_for(uint32_t lights, uint32_t views, uint32_t colour_channels = 3) noexcept {
+  return static_cast<uint64_t>(lights) * views * colour_channels * 4 * 2;
+}
+
 struct SchedulerConfig {
   SchedulerBudgets budgets;
   PriorityMode mode = PriorityMode::weighted;
   uint32_t hysteresis_frames = 1;  ///< a tile inserted at frame f is not swapped out before f + this
-  uint64_t tile_bytes = 41472;     ///< bytes requested per tile (72×72 RGBA16F uncompressed)
+  /// Bytes counted per tile request unless set_tile_bytes() gave the tile's real payload size
+  /// (72×72 RGBA16F uncompressed; the runtime uses the container's payload sizes instead).
+  uint64_t tile_bytes = 41472;
   // Global LOD bias under overload.
   uint32_t overload_missing_tiles = 512;  ///< visible-but-missing tiles above which a frame is overloaded
   uint32_t overload_frames = 4;           ///< consecutive overloaded frames before the bias rises one level
@@ -66,8 +81,8 @@ struct SchedulerConfig {
   bool stream_u_columns = false;           ///< false: every U' packet is loaded from the start
   /// Four U' columns as the container stores them (codec/container.hpp: u_rows × 4 halves): for
   /// UBO2014, u_rows = 151² direction pairs × RGB, so 151² · 3 · 4 · 2 = 547,224 bytes (the
-  /// paper's "534 KB" rounded it).
-  uint64_t u_packet_bytes = uint64_t{151} * 151 * 3 * 4 * 2;
+  /// paper's "534 KB" rounded it). set_u_packet_bytes() replaces it per material.
+  uint64_t u_packet_bytes = u_packet_bytes_for(151, 151, 3);
 };
 
 /// Counters of one frame (frame()) and since creation (total()).
@@ -109,14 +124,14 @@ struct TileRequest {
 
 class Scheduler {
  public:
-  /// Allocates every per-frame array. The cache (and its VtSet) must outlive the scheduler.
-  /// invalid_argument when a budget is zero.
-  static Result<Scheduler> create(TileCache& cache, const SchedulerConfig& config = {}) {
+  /// Allocates every per-frame array for the cache's VtSet and slot count and reads the tile
+  /// weights w and energies from the set. Keeps no reference to `cache`: pass the same cache
+  /// to every later call. invalid_argument when a budget is zero.
+  static Result<Scheduler> create(const TileCache& cache, const SchedulerConfig& config = {}) {
     const SchedulerBudgets& b = config.budgets;
     if (b.uploads_per_frame == 0 || b.tiles_decoding == 0 || b.requests_in_flight == 0 || b.bytes_in_flight == 0)
       return make_error(Status::invalid_argument, "scheduler: every budget must be > 0");
     Scheduler s;
-    s.cache_ = &cache;
     s.config_ = config;
     const VtSet& set = cache.set();
     s.pending_.assign(b.requests_in_flight, Pending{});
@@ -127,9 +142,26 @@ class Scheduler {
     s.material_base_.assign(set.material_count() + 1, 0);
     for (uint32_t m = 0; m < set.material_count(); ++m)
       s.material_base_[m + 1] = s.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+    s.texture_base_.assign(set.texture_count(), 0);
+    s.texture_stride_.assign(set.texture_count(), 1);
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const uint32_t m = set.material_of(t);
+      s.texture_base_[t] = s.material_base_[m] + (t - set.material(m).first_texture);
+      s.texture_stride_[t] = set.material(m).texture_count;
+    }
     s.requested_.assign(s.material_base_.back(), 0);
+    s.set_weights_.assign(s.material_base_.back(), 1.0f);
     s.weights_.assign(s.material_base_.back(), 1.0f);
-    s.refresh_weights();
+    s.energies_.assign(s.material_base_.back(), 0.0f);
+    s.tile_bytes_.assign(s.material_base_.back(), static_cast<uint32_t>(std::min<uint64_t>(config.tile_bytes, UINT32_MAX)));
+    s.u_packet_bytes_.assign(set.material_count(), config.u_packet_bytes);
+    for (uint32_t t = 0; t < set.texture_count(); ++t) {
+      const std::span<const Half> w = set.weights(t);
+      const std::span<const Half> e = set.energies(t);
+      for (uint32_t i = 0; i < w.size(); ++i) s.set_weights_[s.index(t, i)] = w[i].to_float();
+      for (uint32_t i = 0; i < e.size(); ++i) s.energies_[s.index(t, i)] = e[i].to_float();
+    }
+    s.apply_mode();
     s.u_loaded_.assign(set.material_count(), 0);
     s.u_requested_.assign(set.material_count(), 0);
     for (uint32_t m = 0; m < set.material_count(); ++m)
@@ -145,16 +177,36 @@ class Scheduler {
     return s;
   }
 
-  /// Re-reads w from the VtSet (call after changing weights there; create() reads them once).
-  /// In votes_only mode every weight is 1. noexcept, no allocation.
-  void refresh_weights() noexcept {
-    const VtSet& set = cache_->set();
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const std::span<const Half> w = set.weights(t);
-      for (uint32_t i = 0; i < w.size(); ++i)
-        weights_[index(t, i)] = config_.mode == PriorityMode::votes_only ? 1.0f : w[i].to_float();
-    }
+  /// Sets w(i, l, l−1) of tile `flat` of virtual texture `texture` (paper 000 eq. 8; e.g. from
+  /// a container's tile index). In votes_only mode the priority keeps using 1. Out-of-range ids
+  /// are ignored. noexcept, no allocation.
+  void set_weight(uint32_t texture, uint32_t flat, float w) noexcept {
+    if (texture >= texture_base_.size()) return;
+    const size_t i = index(texture, flat);
+    if (i >= set_weights_.size()) return;
+    set_weights_[i] = w;
+    weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : w;
   }
+  /// Sets ‖T‖²_F / T² of a tile (paper 000 §6's U'-packet priority). Out-of-range ids ignored.
+  void set_energy(uint32_t texture, uint32_t flat, float e) noexcept {
+    if (texture >= texture_base_.size()) return;
+    const size_t i = index(texture, flat);
+    if (i < energies_.size()) energies_[i] = e;
+  }
+  /// Sets the bytes a request for this tile counts against bytes_in_flight (its real payload
+  /// size). Out-of-range ids are ignored. noexcept.
+  void set_tile_bytes(uint32_t texture, uint32_t flat, uint32_t bytes) noexcept {
+    if (texture >= texture_base_.size()) return;
+    const size_t i = index(texture, flat);
+    if (i < tile_bytes_.size()) tile_bytes_[i] = bytes;
+  }
+  /// Sets the bytes a U' packet request of material m counts (its real packet size).
+  void set_u_packet_bytes(uint32_t material, uint64_t bytes) noexcept {
+    if (material < u_packet_bytes_.size()) u_packet_bytes_[material] = bytes;
+  }
+  /// Bytes a request for the tile counts (set_tile_bytes or config().tile_bytes).
+  /// Precondition: texture and flat index in range.
+  uint32_t tile_bytes(uint32_t texture, uint32_t flat) const noexcept { return tile_bytes_[index(texture, flat)]; }
 
   /// The configuration given to create().
   const SchedulerConfig& config() const noexcept { return config_; }
@@ -178,13 +230,13 @@ class Scheduler {
   /// their two tiles at once; inserts wait for data) and returns the new requests (valid until
   /// the next plan()). Also updates the LOD bias. noexcept, no allocation, deterministic.
   /// Precondition: votes were built for the same materials as the cache's VtSet.
-  std::span<const TileRequest> plan(const VoteCounter& votes, uint64_t frame) noexcept {
+  std::span<const TileRequest> plan(TileCache& cache, const VoteCounter& votes, uint64_t frame) noexcept {
     frame_ = frame;
     frame_counters_ = SchedulerCounters{};
     requests_out_.clear();
-    collect_adds(votes);
-    collect_leaves(votes);
-    decide(votes);
+    collect_adds(cache, votes);
+    collect_leaves(cache, votes);
+    decide(cache, votes);
     update_bias();
     total_counters_.accumulate(frame_counters_);
     return requests_out_;
@@ -209,24 +261,25 @@ class Scheduler {
     pending_[id].state = State::ready;
     --decoding_;
   }
-  /// Drops a request (e.g. the source failed); its reserved slot is freed.
-  void cancel(uint32_t id) noexcept {
+  /// Drops a request (e.g. the source failed); its reserved slot is freed in `cache`.
+  void cancel(TileCache& cache, uint32_t id) noexcept {
     if (id >= pending_.size() || pending_[id].state == State::idle) return;
     Pending& p = pending_[id];
     if (p.state == State::decoding) --decoding_;
-    if (p.u_packet) u_requested_[cache_->set().material_of(p.tile.texture)] = 0;
+    if (p.u_packet) u_requested_[cache.set().material_of(p.tile.texture)] = 0;
     else {
-      cache_->release_slot(p.slot);
-      requested_[index(p.tile.texture, cache_->set().levels_of(p.tile.texture).index(p.tile))] = 0;
+      cache.release_slot(p.slot);
+      requested_[index(p.tile.texture, cache.set().levels_of(p.tile.texture).index(p.tile))] = 0;
     }
     retire(id);
   }
 
   /// Writes ready requests into the cache in request order, at most uploads_per_frame (counts
   /// a budget hit when more were ready). Calls upload(request) for each tile before it becomes
-  /// visible, so the backend can copy its texels into the slot. Returns tiles uploaded.
+  /// visible, so the backend can copy its texels into the slot. The inserts and the ancestors
+  /// they hide (removed) show in cache.touched_tiles(). Returns tiles uploaded.
   template <class UploadFn>
-  uint32_t apply_uploads(UploadFn&& upload) noexcept {
+  uint32_t apply_uploads(TileCache& cache, UploadFn&& upload) noexcept {
     uint32_t done = 0;
     for (;;) {
       const uint32_t next = oldest_ready();  // oldest request first
@@ -239,19 +292,19 @@ class Scheduler {
       Pending& p = pending_[next];
       TileRequest r{next, p.tile, p.bytes, p.u_packet, p.slot};
       if (p.u_packet) {
-        const uint32_t m = cache_->set().material_of(p.tile.texture);
-        u_loaded_[m] = std::max(u_loaded_[m], p.tile.texture - cache_->set().material(m).first_texture + 1);
+        const uint32_t m = cache.set().material_of(p.tile.texture);
+        u_loaded_[m] = std::max(u_loaded_[m], p.tile.texture - cache.set().material(m).first_texture + 1);
         u_requested_[m] = 0;
         upload(r);
       } else {
         upload(r);
-        requested_[index(p.tile.texture, cache_->set().levels_of(p.tile.texture).index(p.tile))] = 0;
-        if (cache_->insert(p.tile, p.slot, frame_) == Status::success) {
-          const uint32_t removed = cache_->remove_hidden_ancestors(p.tile);  // add post-condition
+        requested_[index(p.tile.texture, cache.set().levels_of(p.tile.texture).index(p.tile))] = 0;
+        if (cache.insert(p.tile, p.slot, frame_) == Status::success) {
+          const uint32_t removed = cache.remove_hidden_ancestors(p.tile);  // add post-condition
           frame_counters_.ancestors_removed += removed;
           total_counters_.ancestors_removed += removed;
         } else {
-          cache_->release_slot(p.slot);
+          cache.release_slot(p.slot);
         }
       }
       ++frame_counters_.uploads;
@@ -262,17 +315,17 @@ class Scheduler {
     return done;
   }
   /// apply_uploads() without a backend callback (bookkeeping only, e.g. tests).
-  uint32_t apply_uploads() noexcept {
-    return apply_uploads([](const TileRequest&) {});
+  uint32_t apply_uploads(TileCache& cache) noexcept {
+    return apply_uploads(cache, [](const TileRequest&) {});
   }
 
   /// Convenience for an immediate tile source (memory, tests, replay): plan, decode every
   /// request within the decoding budget, apply uploads. Returns the frame's counters.
-  const SchedulerCounters& run_frame(const VoteCounter& votes, uint64_t frame) noexcept {
-    plan(votes, frame);
+  const SchedulerCounters& run_frame(TileCache& cache, const VoteCounter& votes, uint64_t frame) noexcept {
+    plan(cache, votes, frame);
     for (uint32_t id = 0; id < pending_.size(); ++id)
       if (pending_[id].state == State::requested && begin_decode(id)) finish_decode(id);
-    apply_uploads();
+    apply_uploads(cache);
     return frame_counters_;
   }
 
@@ -305,10 +358,11 @@ class Scheduler {
   };
 
   size_t index(uint32_t texture, uint32_t flat) const noexcept {
-    const VtSet& set = cache_->set();
-    const uint32_t m = set.material_of(texture);
-    const VtMaterial& mat = set.material(m);
-    return material_base_[m] + static_cast<size_t>(flat) * mat.texture_count + (texture - mat.first_texture);
+    return texture_base_[texture] + static_cast<size_t>(flat) * texture_stride_[texture];
+  }
+  void apply_mode() noexcept {
+    for (size_t i = 0; i < weights_.size(); ++i)
+      weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : set_weights_[i];
   }
   float weight(uint32_t texture, uint32_t flat) const noexcept { return weights_[index(texture, flat)]; }
 
@@ -318,9 +372,9 @@ class Scheduler {
     return a.flat < b.flat;
   }
 
-  void collect_adds(const VoteCounter& votes) noexcept {
+  void collect_adds(const TileCache& cache, const VoteCounter& votes) noexcept {
     adds_.clear();
-    const VtSet& set = cache_->set();
+    const VtSet& set = cache.set();
     // One more than can be requested, so a refusal by the request budget is seen and counted.
     const size_t keep = config_.budgets.requests_in_flight + 1;
     for (const uint32_t word : votes.touched()) {
@@ -333,8 +387,8 @@ class Scheduler {
       const uint32_t direct = votes.direct_votes_at(ft.material, flat);
       const uint32_t parent_flat = ft.level > 0 ? m.levels.index(ft.level - 1, ft.x >> 1, ft.y >> 1) : 0;
       const uint32_t usable = std::min(u_loaded_[ft.material], m.texture_count);
-      const uint32_t* slots = cache_->material_slots(ft.material, flat);
-      const uint32_t* parent_slots = cache_->material_slots(ft.material, parent_flat);
+      const uint32_t* slots = cache.material_slots(ft.material, flat);
+      const uint32_t* parent_slots = cache.material_slots(ft.material, parent_flat);
       const size_t base = material_base_[ft.material] + static_cast<size_t>(flat) * m.texture_count;
       const uint8_t* requested = requested_.data() + base;
       const float* weights = weights_.data() + base;
@@ -354,15 +408,15 @@ class Scheduler {
   }
 
   // One pass over the slots: per-texture cheapest leaves and §6 U' packet priorities.
-  void collect_leaves(const VoteCounter& votes) noexcept {
-    const VtSet& set = cache_->set();
+  void collect_leaves(const TileCache& cache, const VoteCounter& votes) noexcept {
+    const VtSet& set = cache.set();
     for (uint32_t t : leaf_textures_) leaf_count_[t] = 0;
     leaf_textures_.clear();
     pairs_.clear();
     pairs_sorted_ = 0;
     std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
-    for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
-      const SlotInfo& si = cache_->slot(s);
+    for (uint32_t s = 0; s < cache.slot_count(); ++s) {
+      const SlotInfo& si = cache.slot(s);
       if (si.state != SlotInfo::State::used) continue;
       const uint32_t tex = si.tile.texture;
       const uint32_t mat = set.material_of(tex);
@@ -370,9 +424,9 @@ class Scheduler {
       if (config_.stream_u_columns) {
         const uint32_t k = tex - set.material(mat).first_texture;
         if (k == u_loaded_[mat])  // paper 000 §6: Σ v·‖T‖²_F over tiles of the next packet
-          u_priority_[mat] += static_cast<double>(v) * set.energies(tex)[si.flat_index].to_float();
+          u_priority_[mat] += static_cast<double>(v) * energies_[index(tex, si.flat_index)];
       }
-      if (si.tile.level == 0 || cache_->resident_below_at(tex, si.flat_index) != 0) continue;
+      if (si.tile.level == 0 || cache.resident_below_at(tex, si.flat_index) != 0) continue;
       if (si.added_frame + config_.hysteresis_frames > frame_) continue;  // hysteresis
       const VtLevelTable& lv = set.levels_of(tex);
       // Cost of revealing the deepest resident ancestor (eq. 10 with l' = that ancestor).
@@ -380,7 +434,7 @@ class Scheduler {
       for (TileId a = si.tile; a.level > 0;) {
         wsum += weight(tex, lv.index(a));
         a = a.parent();
-        if (cache_->slot_at(tex, lv.index(a)) != kNoSlot) break;
+        if (cache.slot_at(tex, lv.index(a)) != kNoSlot) break;
       }
       const Leaf leaf{wsum * v, si.flat_index, s};
       uint32_t& n = leaf_count_[tex];
@@ -399,19 +453,19 @@ class Scheduler {
   }
 
   // Eq. 10 for one removed tile when A (level la) is the inserted/resident ancestor.
-  double removal_cost(uint32_t tex, const TileId& t, uint32_t la, uint32_t v) const noexcept {
-    const VtLevelTable& lv = cache_->set().levels_of(tex);
+  double removal_cost(const TileCache& cache, uint32_t tex, const TileId& t, uint32_t la, uint32_t v) const noexcept {
+    const VtLevelTable& lv = cache.set().levels_of(tex);
     double wsum = 0;
     for (TileId a = t; a.level > la;) {
       wsum += weight(tex, lv.index(a));
       a = a.parent();
-      if (cache_->slot_at(tex, lv.index(a)) != kNoSlot) break;
+      if (cache.slot_at(tex, lv.index(a)) != kNoSlot) break;
     }
     return wsum * v;
   }
 
-  void build_pairs(const VoteCounter& votes) noexcept {
-    const VtSet& set = cache_->set();
+  void build_pairs(const TileCache& cache, const VoteCounter& votes) noexcept {
+    const VtSet& set = cache.set();
     for (uint32_t tex : leaf_textures_) {
       const uint32_t n = leaf_count_[tex];
       const Leaf* list = &leaves_[static_cast<size_t>(tex) * kLeavesPerTexture];
@@ -420,8 +474,8 @@ class Scheduler {
       for (uint32_t i = 0; i + 1 < n; i += 2) {
         const TileId a = lv.tile(tex, list[i].flat), b = lv.tile(tex, list[i + 1].flat);
         const TileId anc = TileCache::common_ancestor(a, b);
-        const double cost = removal_cost(tex, a, anc.level, votes.votes_at(mat, list[i].flat)) +
-                            removal_cost(tex, b, anc.level, votes.votes_at(mat, list[i + 1].flat));
+        const double cost = removal_cost(cache, tex, a, anc.level, votes.votes_at(mat, list[i].flat)) +
+                            removal_cost(cache, tex, b, anc.level, votes.votes_at(mat, list[i + 1].flat));
         pairs_.push_back(Pair{cost, tex, i, i + 1});
       }
     }
@@ -437,14 +491,14 @@ class Scheduler {
     next_pair_ = 0;
   }
 
-  bool pair_valid(const Pair& p) const noexcept {
+  bool pair_valid(const TileCache& cache, const Pair& p) const noexcept {
     const Leaf* list = &leaves_[static_cast<size_t>(p.texture) * kLeavesPerTexture];
     for (const uint32_t i : {p.a, p.b}) {
       const uint32_t s = list[i].slot;
-      const SlotInfo& si = cache_->slot(s);
+      const SlotInfo& si = cache.slot(s);
       if (si.state != SlotInfo::State::used || si.tile.texture != p.texture || si.flat_index != list[i].flat) return false;
       if (protected_stamp_[s] == frame_ + 1) return false;  // parent of an add issued this frame
-      if (cache_->resident_below_at(p.texture, list[i].flat) != 0) return false;
+      if (cache.resident_below_at(p.texture, list[i].flat) != 0) return false;
     }
     return true;
   }
@@ -461,7 +515,7 @@ class Scheduler {
     return true;
   }
 
-  void issue(const TileId& tile, uint32_t slot, uint64_t bytes, bool u_packet) noexcept {
+  void issue(const TileCache& cache, const TileId& tile, uint32_t slot, uint64_t bytes, bool u_packet) noexcept {
     const uint32_t id = free_requests_.back();
     free_requests_.pop_back();
     pending_[id] = Pending{tile, slot, bytes, sequence_++, State::requested, u_packet};
@@ -473,7 +527,7 @@ class Scheduler {
     if (u_packet) {
       ++frame_counters_.u_requests;
     } else {
-      requested_[index(tile.texture, cache_->set().levels_of(tile.texture).index(tile))] = 1;
+      requested_[index(tile.texture, cache.set().levels_of(tile.texture).index(tile))] = 1;
     }
   }
 
@@ -493,9 +547,9 @@ class Scheduler {
   }
 
   // §6: request the next U' packet of the material with the highest priority above `p`.
-  bool maybe_request_u(double p) noexcept {
+  bool maybe_request_u(const TileCache& cache, double p) noexcept {
     if (!config_.stream_u_columns) return true;
-    const VtSet& set = cache_->set();
+    const VtSet& set = cache.set();
     for (;;) {
       uint32_t best = kNoRequest;
       for (uint32_t m = 0; m < set.material_count(); ++m) {
@@ -503,32 +557,32 @@ class Scheduler {
         if (best == kNoRequest || u_priority_[m] > u_priority_[best]) best = m;
       }
       if (best == kNoRequest) return true;
-      if (!can_request(config_.u_packet_bytes, 1)) return false;
+      if (!can_request(u_packet_bytes_[best], 1)) return false;
       const TileId packet{set.material(best).first_texture + u_loaded_[best], 0, 0, 0};
-      issue(packet, kNoSlot, config_.u_packet_bytes, true);
+      issue(cache, packet, kNoSlot, u_packet_bytes_[best], true);
       u_requested_[best] = 1;
     }
   }
 
-  void decide(const VoteCounter& votes) noexcept {
+  void decide(TileCache& cache, const VoteCounter& votes) noexcept {
     // U' packets need no cache slot: once the adds are decided, any packet with priority > 0
     // that fits the budgets is requested too.
-    if (decide_adds(votes)) maybe_request_u(0.0);
+    if (decide_adds(cache, votes)) maybe_request_u(cache, 0.0);
   }
 
   // Returns false when a request budget stopped the frame.
-  bool decide_adds(const VoteCounter& votes) noexcept {
-    const VtSet& set = cache_->set();
+  bool decide_adds(TileCache& cache, const VoteCounter& votes) noexcept {
+    const VtSet& set = cache.set();
     for (const AddCandidate& c : adds_) {
-      if (!maybe_request_u(c.priority)) return false;
+      if (!maybe_request_u(cache, c.priority)) return false;
       const TileId tile = set.levels_of(c.texture).tile(c.texture, c.flat);
       // A swap earlier this frame may have removed the parent or requested this very tile.
-      if (requested_[index(c.texture, c.flat)] || !cache_->resident(tile.parent())) continue;
-      if (!can_request(config_.tile_bytes, 1)) return false;
-      if (cache_->free_count() == 0) {
+      if (requested_[index(c.texture, c.flat)] || !cache.resident(tile.parent())) continue;
+      if (!can_request(tile_bytes_[index(c.texture, c.flat)], 1)) return false;
+      if (cache.free_count() == 0) {
         // §5.2: among the three lowest-cost swaps, the cheapest still valid; only if c* < P*.
-        if (!pairs_sorted_) build_pairs(votes);
-        while (next_pair_ < pairs_.size() && !pair_valid(pairs_[next_pair_])) ++next_pair_;
+        if (!pairs_sorted_) build_pairs(cache, votes);
+        while (next_pair_ < pairs_.size() && !pair_valid(cache, pairs_[next_pair_])) ++next_pair_;
         if (next_pair_ == pairs_.size() || !(pairs_[next_pair_].cost < c.priority)) {
           ++frame_counters_.swaps_rejected;
           return true;  // candidates are sorted: no later add is worth a swap either
@@ -538,19 +592,20 @@ class Scheduler {
         const VtLevelTable& lv = set.levels_of(p.texture);
         const TileId a = lv.tile(p.texture, list[p.a].flat), b = lv.tile(p.texture, list[p.b].flat);
         const TileId anc = TileCache::common_ancestor(a, b);
-        const bool insert_anc = !cache_->resident(anc) && !requested_[index(p.texture, lv.index(anc))];
-        if (insert_anc && !can_request(2 * config_.tile_bytes, 2)) return false;
+        const bool insert_anc = !cache.resident(anc) && !requested_[index(p.texture, lv.index(anc))];
+        if (insert_anc && !can_request(uint64_t{tile_bytes_[index(c.texture, c.flat)]} + tile_bytes_[index(p.texture, lv.index(anc))], 2))
+          return false;
         TileId ancestor;
-        if (cache_->swap_remove(a, b, ancestor) != Status::success) continue;
+        if (cache.swap_remove(a, b, ancestor) != Status::success) continue;
         ++frame_counters_.swaps;
-        if (insert_anc) issue(anc, cache_->reserve_slot(), config_.tile_bytes, false);
+        if (insert_anc) issue(cache, anc, cache.reserve_slot(), tile_bytes_[index(p.texture, lv.index(anc))], false);
       }
-      const uint32_t slot = cache_->reserve_slot();
+      const uint32_t slot = cache.reserve_slot();
       if (slot == kNoSlot) return true;
       // The parent must survive this frame's swaps (add needs it, §5.2).
-      const uint32_t parent_slot = cache_->slot_of(tile.parent());
+      const uint32_t parent_slot = cache.slot_of(tile.parent());
       if (parent_slot != kNoSlot) protected_stamp_[parent_slot] = frame_ + 1;
-      issue(tile, slot, config_.tile_bytes, false);
+      issue(cache, tile, slot, tile_bytes_[index(c.texture, c.flat)], false);
       ++frame_counters_.adds;
     }
     return true;
@@ -574,7 +629,6 @@ class Scheduler {
     }
   }
 
-  TileCache* cache_ = nullptr;
   SchedulerConfig config_;
   uint64_t frame_ = 0;
   uint64_t sequence_ = 0;
@@ -584,7 +638,13 @@ class Scheduler {
   std::vector<uint32_t> free_requests_;
   std::vector<uint32_t> material_base_;  // per material (+ total), tile-major arrays below
   std::vector<uint8_t> requested_;       // a request for (texture, tile) is pending
-  std::vector<float> weights_;           // w(i, l, l−1) as float (1 in votes_only mode)
+  std::vector<uint32_t> texture_base_;    // per texture: index of its flat tile 0
+  std::vector<uint32_t> texture_stride_;  // per texture: virtual textures of its material
+  std::vector<float> set_weights_;        // w(i, l, l−1) as given
+  std::vector<float> weights_;            // w as used (1 in votes_only mode)
+  std::vector<float> energies_;           // ‖T‖²_F / T² (§6)
+  std::vector<uint32_t> tile_bytes_;      // bytes a request counts
+  std::vector<uint64_t> u_packet_bytes_;  // per material
   std::vector<uint32_t> u_loaded_;
   std::vector<uint8_t> u_requested_;
   std::vector<double> u_priority_;

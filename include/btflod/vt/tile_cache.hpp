@@ -1,11 +1,17 @@
 // btflod — the physical tile cache and the page tables (paper 000 §3, §5.1).
 //
-// The cache is a grid of S slots of (T + 2B)² texels (default: a 4032×4032 RGBA16F texture =
-// 56×56 slots of 72×72). It knows nothing about the GPU: it does the bookkeeping (which tile
-// lives in which slot, a free list) and keeps one page table per virtual texture with one entry
-// per finest-level tile naming the level and slot of the best (deepest) resident tile covering
-// it — the lookup table L of eq. 3. Every change to a page table is also reported as a small
-// delta (a rectangle of entries set to one value) for the backend to upload.
+// The cache is a grid of S slots of (T + 2B)² texels, shaped by vt/cache_config.hpp's
+// CacheConfig (the type the shaders and the runtime use too; default 16×16 slots of 72×72 in
+// one layer). It knows nothing about the GPU: it does the bookkeeping (which tile lives in which
+// slot, a free list) and keeps one page table per virtual texture with one entry per
+// finest-level tile naming the level and slot of the best (deepest) resident tile covering it —
+// the lookup table L of eq. 3. Every change to a page table is also reported as a small delta (a
+// rectangle of entries set to one value), and every tile that entered or left a slot is reported
+// in touched_tiles(), so the GPU page table can be brought up to date from this frame's
+// operations alone (backend/page_table_writes.hpp) — no slot diff.
+//
+// The cache owns a copy of its VtSet and holds no pointer into another object: it can be moved
+// freely (the scheduler takes the cache as an argument of each call).
 //
 // Invariants (check_invariants() verifies them; tests call it after every operation):
 //  * the root tile of every virtual texture is resident and pinned, hence every texel of every
@@ -23,6 +29,7 @@
 #include <vector>
 
 #include "btflod/core/result.hpp"
+#include "btflod/vt/cache_config.hpp"
 #include "btflod/vt/tile_id.hpp"
 #include "btflod/vt/vt_layout.hpp"
 
@@ -46,13 +53,20 @@ struct PageTableDelta {
   uint32_t entry = 0;
 };
 
-struct TileCacheConfig {
-  uint32_t slots_x = 56;  ///< slots per row of the cache texture (4032 / 72)
-  uint32_t slots_y = 56;
-  /// Deltas kept between clear_deltas() calls; beyond it deltas_overflowed() turns true and the
-  /// backend must upload whole page tables.
-  uint32_t delta_capacity = 1u << 16;
+/// One texel of the GPU page table to overwrite (backend/backend.hpp describes the GPU side).
+/// The GPU page table has one level per mip so the shader can blend two resident levels.
+/// `tile` names the texel: layer tile.texture (virtual texture), tile (x, y) at paper level
+/// tile.level; page_mip = material finest level − tile.level is the mip it lives in. entry =
+/// make_page_entry(resident level, slot) (= shader_config.hpp pack_page_entry(slot, level)) of
+/// the tile the cache uses for it: itself or its deepest resident ancestor.
+struct PageTableWrite {
+  TileId tile;
+  uint32_t page_mip = 0;
+  uint32_t entry = 0;
 };
+
+/// The tile cache's configuration is the shared cache shape (vt/cache_config.hpp).
+using TileCacheConfig = CacheConfig;
 
 /// What one slot holds.
 struct SlotInfo {
@@ -65,11 +79,13 @@ struct SlotInfo {
 class TileCache {
  public:
   /// Builds the bookkeeping for every virtual texture of `set` and makes every root tile
-  /// resident (pinned) in slots 0 … (textures − 1). Returns insufficient_space when the cache
-  /// has fewer slots than virtual textures, invalid_argument for an empty set or > 2^24 slots.
-  /// Allocates; keeps a pointer to `set`, which must outlive the cache.
+  /// resident (pinned) in slots 0 … (textures − 1). The slot grid is config.slots_x × slots_y ×
+  /// cache_layers; the tile size and border are the set's (config() reports them), so every
+  /// material must share one tile size and border. Returns insufficient_space when the cache
+  /// has fewer slots than virtual textures, invalid_argument for an empty set, ≥ 2^24 slots or
+  /// materials with different tile sizes or borders. Allocates; copies `set` (no pointer kept).
   static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {}) {
-    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y;
+    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
     if (set.texture_count() == 0 || slots == 0 || slots >= (1u << 24))
       return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
                         set.texture_count(), static_cast<unsigned long long>(slots));
@@ -77,9 +93,20 @@ class TileCache {
       return make_error(Status::insufficient_space,
                         "tile cache: %llu slots cannot pin the root tiles of %u virtual textures",
                         static_cast<unsigned long long>(slots), set.texture_count());
+    const VtGeometry& g0 = set.material(0).levels.geometry;
+    for (uint32_t m = 1; m < set.material_count(); ++m) {
+      const VtGeometry& g = set.material(m).levels.geometry;
+      if (g.tile_size != g0.tile_size || g.border != g0.border)
+        return make_error(Status::invalid_argument,
+                          "tile cache: material %u has tiles of %u texels with border %u, material 0 of %u with %u "
+                          "(one cache holds one tile size)",
+                          m, g.tile_size, g.border, g0.tile_size, g0.border);
+    }
     TileCache c;
-    c.set_ = &set;
+    c.set_ = set;
     c.config_ = config;
+    c.config_.tile_size = g0.tile_size;
+    c.config_.border = g0.border;
     c.slots_.assign(slots, SlotInfo{});
     c.visible_.assign(slots, 0);
     c.free_.reserve(slots);
@@ -100,6 +127,7 @@ class TileCache {
       tx.page_table.assign(static_cast<size_t>(lv.tiles_x[L]) * lv.tiles_y[L], make_page_entry(0, kNoSlot & 0xffffffu));
     }
     c.deltas_.reserve(config.delta_capacity);
+    c.touched_.reserve(config.delta_capacity);
     for (uint32_t t = 0; t < set.texture_count(); ++t) {
       const uint32_t slot = c.reserve_slot();
       const uint32_t L = set.levels_of(t).finest_level();
@@ -122,25 +150,28 @@ class TileCache {
   uint32_t free_count() const noexcept { return static_cast<uint32_t>(free_.size()); }
   /// Slots holding a tile.
   uint32_t used_count() const noexcept { return used_; }
-  /// The configuration given to create().
+  /// The configuration given to create(), with tile_size and border set to the set's.
   const TileCacheConfig& config() const noexcept { return config_; }
-  /// The virtual textures this cache serves.
-  const VtSet& set() const noexcept { return *set_; }
+  /// The virtual textures this cache serves (the cache's own copy).
+  const VtSet& set() const noexcept { return set_; }
   /// What slot s holds. Precondition: s < slot_count().
   const SlotInfo& slot(uint32_t s) const noexcept { return slots_[s]; }
   /// Finest-level page-table entries naming slot s (0 = the tile is hidden by its descendants).
   uint32_t visible_entries(uint32_t s) const noexcept { return visible_[s]; }
-  /// Top-left texel of slot s in the cache texture (the i' of eq. 3, without the border).
+  /// Top-left texel of slot s inside its cache layer (the i' of eq. 3, border included; the
+  /// layer is slot_placement(s).layer). Precondition: s < slot_count().
   void slot_origin(uint32_t s, uint32_t& x, uint32_t& y) const noexcept {
-    const uint32_t stored = set_->levels_of(0).geometry.stored_size();
-    x = (s % config_.slots_x) * stored;
-    y = (s / config_.slots_x) * stored;
+    const CacheSlotPlacement p = cache_slot_placement(config_, s);
+    x = p.x;
+    y = p.y;
   }
+  /// Texel origin and layer of slot s (vt/cache_config.hpp). Precondition: s < slot_count().
+  CacheSlotPlacement slot_placement(uint32_t s) const noexcept { return cache_slot_placement(config_, s); }
 
   /// Slot holding the tile, or kNoSlot. Returns kNoSlot for ids outside the hierarchy. noexcept.
   uint32_t slot_of(const TileId& t) const noexcept {
     if (t.texture >= textures_.size()) return kNoSlot;
-    const VtLevelTable& lv = set_->levels_of(t.texture);
+    const VtLevelTable& lv = set_.levels_of(t.texture);
     if (!lv.geometry.contains(t)) return kNoSlot;
     return slot_at(t.texture, lv.index(t));
   }
@@ -152,7 +183,7 @@ class TileCache {
   /// (kNoSlot where not resident), contiguous, so the scheduler reads them in one cache line.
   /// Precondition: material and index in range.
   const uint32_t* material_slots(uint32_t material, uint32_t flat_index) const noexcept {
-    return slot_of_.data() + material_base_[material] + static_cast<size_t>(flat_index) * set_->material(material).texture_count;
+    return slot_of_.data() + material_base_[material] + static_cast<size_t>(flat_index) * set_.material(material).texture_count;
   }
   /// True when t is in the cache (false for ids outside the hierarchy).
   bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
@@ -182,10 +213,10 @@ class TileCache {
   /// Makes tile t resident in reserved slot s and updates the page table (no removals).
   /// invalid_argument when t is outside the hierarchy, already resident, or s not reserved.
   Status insert(const TileId& t, uint32_t s, uint64_t frame) noexcept {
-    if (t.texture >= textures_.size() || !set_->levels_of(t.texture).geometry.contains(t) || resident(t) ||
+    if (t.texture >= textures_.size() || !set_.levels_of(t.texture).geometry.contains(t) || resident(t) ||
         s >= slots_.size() || slots_[s].state != SlotInfo::State::reserved)
       return Status::invalid_argument;
-    const VtLevelTable& lv = set_->levels_of(t.texture);
+    const VtLevelTable& lv = set_.levels_of(t.texture);
     const uint32_t idx = lv.index(t);
     Texture& tx = textures_[t.texture];
     c_slot(tx, idx) = s;
@@ -196,6 +227,7 @@ class TileCache {
       ++tx.resident_below[lv.index(a)];
     }
     refresh(t, make_page_entry(t.level, s));
+    push_touched(t);
     return Status::success;
   }
 
@@ -229,7 +261,7 @@ class TileCache {
   Status remove(const TileId& t) noexcept {
     const uint32_t s = slot_of(t);
     if (s == kNoSlot || t.level == 0) return Status::invalid_argument;
-    const VtLevelTable& lv = set_->levels_of(t.texture);
+    const VtLevelTable& lv = set_.levels_of(t.texture);
     Texture& tx = textures_[t.texture];
     c_slot(tx, lv.index(t)) = kNoSlot;
     uint32_t best = kNoSlot;
@@ -245,6 +277,7 @@ class TileCache {
     }
     --used_;
     refresh(t, make_page_entry(best_level, best));
+    push_touched(t);
     free_slot(s);
     return Status::success;
   }
@@ -275,9 +308,16 @@ class TileCache {
   std::span<const PageTableDelta> deltas() const noexcept { return deltas_; }
   /// True when more deltas happened than delta_capacity: upload whole tables instead.
   bool deltas_overflowed() const noexcept { return deltas_overflowed_; }
-  /// Forgets the reported deltas (after the backend uploaded them) and the overflow flag.
+  /// Tiles that entered (insert, add) or left (remove, swap_remove, the ancestors add drops) a
+  /// slot since the last clear_deltas(), in order; a tile may appear more than once. Together
+  /// with deltas() they name every page-table texel that can have changed, at every level
+  /// (backend/page_table_writes.hpp append_frame_page_table_writes). Overflow as deltas().
+  std::span<const TileId> touched_tiles() const noexcept { return touched_; }
+  /// Forgets the reported deltas and touched tiles (after the backend uploaded the page-table
+  /// changes) and the overflow flag.
   void clear_deltas() noexcept {
     deltas_.clear();
+    touched_.clear();
     deltas_overflowed_ = false;
   }
 
@@ -306,7 +346,7 @@ class TileCache {
     for (uint32_t s = 0; s < slots_.size(); ++s)
       if (slots_[s].state == SlotInfo::State::free && !in_free[s]) return fail(format_message("slot %u lost", s));
     for (uint32_t t = 0; t < textures_.size(); ++t) {
-      const VtLevelTable& lv = set_->levels_of(t);
+      const VtLevelTable& lv = set_.levels_of(t);
       const Texture& tx = textures_[t];
       if (c_slot(tx, 0) == kNoSlot) return fail(format_message("texture %u: root not resident", t));
       const uint32_t L = lv.finest_level();
@@ -365,11 +405,15 @@ class TileCache {
     if (deltas_.size() < config_.delta_capacity) deltas_.push_back(d);
     else deltas_overflowed_ = true;
   }
+  void push_touched(const TileId& t) noexcept {
+    if (touched_.size() < config_.delta_capacity) touched_.push_back(t);
+    else deltas_overflowed_ = true;
+  }
 
   // Rewrites the page-table entries under tile t: below t, `best` applies unless a deeper
   // resident tile takes over. Descends only into subtrees that hold resident tiles.
   void refresh(const TileId& t, uint32_t best) noexcept {
-    const VtLevelTable& lv = set_->levels_of(t.texture);
+    const VtLevelTable& lv = set_.levels_of(t.texture);
     Texture& tx = textures_[t.texture];
     const uint32_t idx = lv.index(t);
     if (c_slot(tx, idx) != kNoSlot) best = make_page_entry(t.level, c_slot(tx, idx));
@@ -404,7 +448,7 @@ class TileCache {
   uint32_t& c_slot(const Texture& tx, uint32_t flat) noexcept { return slot_of_[tx.base + flat * tx.stride]; }
   uint32_t c_slot(const Texture& tx, uint32_t flat) const noexcept { return slot_of_[tx.base + flat * tx.stride]; }
 
-  const VtSet* set_ = nullptr;
+  VtSet set_;
   std::vector<uint32_t> slot_of_;        // tile-major per material: [material base + flat · K + k]
   std::vector<uint32_t> material_base_;  // per material, + total
   TileCacheConfig config_;
@@ -413,6 +457,7 @@ class TileCache {
   std::vector<uint32_t> free_;  // sorted descending; back() is the lowest free slot
   std::vector<Texture> textures_;
   std::vector<PageTableDelta> deltas_;
+  std::vector<TileId> touched_;
   bool deltas_overflowed_ = false;
   uint32_t used_ = 0;
 };

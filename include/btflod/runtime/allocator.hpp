@@ -1,0 +1,98 @@
+// btflod — allocator callbacks for the runtime (what libdeflate's
+// libdeflate_set_memory_allocator and VMA's VkAllocationCallbacks give an engine): every buffer
+// a runtime object allocates at creation goes through them, nothing allocates afterwards.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <new>
+#include <span>
+#include <type_traits>
+#include <utility>
+
+namespace btflod {
+
+/// Allocation callbacks given at creation. Both null: global operator new / delete (aligned).
+/// allocate returns memory of at least `bytes` bytes aligned to `alignment` (a power of two ≤
+/// 64), or null on failure; deallocate receives the same size and alignment. Called only from
+/// the thread that creates or destroys the runtime object.
+struct RuntimeAllocator {
+  void* (*allocate)(void* user, size_t bytes, size_t alignment) = nullptr;
+  void (*deallocate)(void* user, void* pointer, size_t bytes, size_t alignment) = nullptr;
+  void* user = nullptr;
+
+  /// Allocates through the callbacks (or operator new). Returns null on failure. noexcept.
+  void* allocate_bytes(size_t bytes, size_t alignment) const noexcept {
+    if (bytes == 0) bytes = 1;
+    if (allocate != nullptr) return allocate(user, bytes, alignment);
+    return ::operator new(bytes, std::align_val_t(alignment), std::nothrow);
+  }
+  /// Releases memory from allocate_bytes() with the same size and alignment. noexcept.
+  void deallocate_bytes(void* p, size_t bytes, size_t alignment) const noexcept {
+    if (p == nullptr) return;
+    if (bytes == 0) bytes = 1;
+    if (deallocate != nullptr) return deallocate(user, p, bytes, alignment);
+    ::operator delete(p, std::align_val_t(alignment), std::nothrow);
+  }
+};
+
+/// A fixed-size array allocated once through a RuntimeAllocator (no growth, no copies): the
+/// storage of the runtime's per-frame buffers. Elements are value-initialised; movable only.
+template <class T>
+class RuntimeArray {
+ public:
+  RuntimeArray() = default;
+  RuntimeArray(const RuntimeArray&) = delete;
+  RuntimeArray& operator=(const RuntimeArray&) = delete;
+  RuntimeArray(RuntimeArray&& o) noexcept { swap(o); }
+  RuntimeArray& operator=(RuntimeArray&& o) noexcept {
+    if (this != &o) {
+      reset();
+      swap(o);
+    }
+    return *this;
+  }
+  ~RuntimeArray() { reset(); }
+
+  /// Allocates n value-initialised elements (releasing any previous ones). Returns false when
+  /// the allocator fails (the array is then empty). Set-up only.
+  bool allocate(const RuntimeAllocator& allocator, size_t n) noexcept {
+    reset();
+    if (n == 0) return true;
+    if (n > SIZE_MAX / sizeof(T)) return false;
+    void* p = allocator.allocate_bytes(n * sizeof(T), alignof(T) < 16 ? 16 : alignof(T));
+    if (p == nullptr) return false;
+    allocator_ = allocator;
+    data_ = static_cast<T*>(p);
+    for (size_t i = 0; i < n; ++i) ::new (static_cast<void*>(data_ + i)) T();
+    size_ = n;
+    return true;
+  }
+  /// Destroys the elements and returns the memory. noexcept.
+  void reset() noexcept {
+    if (data_ == nullptr) return;
+    for (size_t i = size_; i-- > 0;) data_[i].~T();
+    allocator_.deallocate_bytes(data_, size_ * sizeof(T), alignof(T) < 16 ? 16 : alignof(T));
+    data_ = nullptr;
+    size_ = 0;
+  }
+  T* data() noexcept { return data_; }
+  const T* data() const noexcept { return data_; }
+  size_t size() const noexcept { return size_; }
+  T& operator[](size_t i) noexcept { return data_[i]; }
+  const T& operator[](size_t i) const noexcept { return data_[i]; }
+  std::span<T> span() noexcept { return {data_, size_}; }
+  std::span<const T> span() const noexcept { return {data_, size_}; }
+
+ private:
+  void swap(RuntimeArray& o) noexcept {
+    std::swap(data_, o.data_);
+    std::swap(size_, o.size_);
+    std::swap(allocator_, o.allocator_);
+  }
+  T* data_ = nullptr;
+  size_t size_ = 0;
+  RuntimeAllocator allocator_;
+};
+
+}  // namespace btflod

@@ -1,0 +1,65 @@
+// btflod — the one description of the physical tile cache, shared by the tile cache
+// (vt/tile_cache.hpp), the scheduler, the runtime (runtime/streamer.hpp) and the shader
+// generator (shader/shader_config.hpp's VirtualTextureConfig derives from it), so the slot
+// grid the bookkeeping hands out is the grid the shaders address.
+//
+// The cache is a 2D-array texture of `cache_layers` layers, each slots_x × slots_y slots of
+// (tile_size + 2·border)² texels (paper 000 §7: T = 64, B = 4). Slot s lives in layer
+// s / (slots_x·slots_y), column (s mod slots_x·slots_y) mod slots_x, row
+// (s mod slots_x·slots_y) / slots_x.
+#pragma once
+
+#include <cstdint>
+
+namespace btflod {
+
+/// Shape of the physical tile cache. Plain value type, constexpr queries, no allocation.
+/// The first three members keep the order of the former TileCacheConfig, so `{slots_x,
+/// slots_y}` and `{slots_x, slots_y, delta_capacity}` initialisers keep their meaning.
+struct CacheConfig {
+  uint32_t slots_x = 16;  ///< slots per cache row
+  uint32_t slots_y = 16;  ///< slot rows per cache layer
+  /// Page-table deltas the tile cache keeps between clear_deltas() calls (vt/tile_cache.hpp);
+  /// beyond it the backend must upload whole page tables. Not used by the shaders.
+  uint32_t delta_capacity = 1u << 16;
+  uint32_t tile_size = 64;    ///< T, texels per tile side without border
+  uint32_t border = 4;        ///< B, texels of border on each side (≥ 1 for bilinear)
+  uint32_t cache_layers = 1;  ///< layers of the cache array texture
+
+  /// T + 2B: side of one slot in texels.
+  constexpr uint32_t padded_tile_size() const noexcept { return tile_size + 2 * border; }
+  /// Slots over all layers.
+  constexpr uint32_t slot_count() const noexcept { return slots_x * slots_y * cache_layers; }
+  /// Width of one cache layer in texels.
+  constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
+  /// Height of one cache layer in texels.
+  constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
+  /// Bytes of the cache texture as RGBA16F (what a GPU backend allocates).
+  constexpr uint64_t cache_bytes() const noexcept {
+    return static_cast<uint64_t>(cache_width()) * cache_height() * cache_layers * 8;
+  }
+  /// True when every size is positive, the border is smaller than the tile and the slot count
+  /// fits the 24-bit slot field of a page-table entry.
+  constexpr bool valid() const noexcept {
+    const uint64_t slots = static_cast<uint64_t>(slots_x) * slots_y * cache_layers;
+    return slots_x > 0 && slots_y > 0 && cache_layers > 0 && tile_size > 0 && border < tile_size && slots > 0 &&
+           slots < (1u << 24);
+  }
+};
+
+/// Texel origin (top-left of the padded slot, border included) and layer of a cache slot.
+struct CacheSlotPlacement {
+  uint32_t x = 0;
+  uint32_t y = 0;
+  uint32_t layer = 0;
+};
+
+/// Where slot `slot` lives in the cache texture. Precondition: slot < config.slot_count().
+constexpr CacheSlotPlacement cache_slot_placement(const CacheConfig& c, uint32_t slot) noexcept {
+  const uint32_t per_layer = c.slots_x * c.slots_y;
+  const uint32_t r = slot % per_layer;
+  return CacheSlotPlacement{(r % c.slots_x) * c.padded_tile_size(), (r / c.slots_x) * c.padded_tile_size(),
+                            slot / per_layer};
+}
+
+}  // namespace btflod

@@ -1,0 +1,487 @@
+// Tests for runtime/streamer.hpp: the engine's per-frame object. Convergence and exact texels
+// against a direct decode of the container, page tables rebuilt from the outputs alone, no
+// allocation after creation (global operator new counted) and every buffer through the
+// allocator callbacks, moves, asynchronous sources, several materials with different C, and
+// containers written with the other U row order shading identically.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <deque>
+#include <new>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/thread_executor.hpp"
+#include "btflod/stream/tile_source.hpp"
+#include "btflod/vt/bsvtf_build.hpp"
+
+// Counts global allocations (the runtime must not allocate after create()).
+namespace {
+std::atomic<uint64_t> g_news{0};
+void* counted_alloc(std::size_t n) {
+  g_news.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+}  // namespace
+
+// Replaceable global allocation functions ([new.delete.single], [new.delete.array]).
+void* operator new(std::size_t n) { return counted_alloc(n); }
+void* operator new[](std::size_t n) { return counted_alloc(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace btflod;
+
+namespace {
+
+constexpr uint32_t kLights = 4, kViews = 5;
+
+// A smooth synthetic material: C components over W×H texels, U′ with kLights × kViews × 3 rows
+// light-major (rows (l · V + v) · 3 + c).
+EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
+  EigenTextures e;
+  e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x)
+      for (uint32_t c = 0; c < components; ++c)
+        e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
+            0.5f + 0.4f * std::sin(0.05f * (x + 1.0f) * (c + 1) + 0.03f * y * (seed + 1)) / (1.0f + c);
+  e.light_count = kLights;
+  e.view_count = kViews;
+  e.angular.resize(size_t{kLights} * kViews * 3 * components);
+  for (size_t i = 0; i < e.angular.size(); ++i) e.angular[i] = 0.1f + 0.01f * static_cast<float>((i * 7 + seed) % 50);
+  return e;
+}
+
+std::vector<float> directions(uint32_t n) {
+  std::vector<float> d;
+  for (uint32_t i = 0; i < n; ++i) {
+    const float a = 0.7f * i;
+    d.insert(d.end(), {0.3f * std::cos(a), 0.3f * std::sin(a), std::sqrt(1.0f - 0.09f)});
+  }
+  return d;
+}
+
+// U′ of e in view-major order.
+std::vector<float> to_view_major(const EigenTextures& e) {
+  const uint32_t C = e.components();
+  std::vector<float> out(e.angular.size());
+  for (uint32_t l = 0; l < e.light_count; ++l)
+    for (uint32_t v = 0; v < e.view_count; ++v)
+      for (uint32_t c = 0; c < 3; ++c)
+        for (uint32_t k = 0; k < C; ++k)
+          out[((size_t{v} * e.light_count + l) * 3 + c) * C + k] =
+              e.angular[((size_t{l} * e.view_count + v) * 3 + c) * C + k];
+  return out;
+}
+
+std::vector<uint8_t> build(const EigenTextures& e, AngularRowOrder order = AngularRowOrder::light_major) {
+  BsvtfFromEigenOptions o;
+  o.tile_size = 32;
+  o.border = 4;
+  o.row_order = order;
+  o.light_directions = directions(kLights);
+  o.view_directions = directions(kViews);
+  if (order == AngularRowOrder::view_major) {
+    EigenTextures vm = e;
+    vm.angular = to_view_major(e);
+    return build_bsvtf_from_eigen_textures(vm, o).value();
+  }
+  return build_bsvtf_from_eigen_textures(e, o).value();
+}
+
+struct World {
+  std::vector<std::vector<uint8_t>> files;
+  std::vector<BsvtfDirectory> dirs;
+  std::vector<std::unique_ptr<MemorySource>> sources;
+  std::vector<StreamerMaterial> materials;
+  void add(std::vector<uint8_t> file) { files.push_back(std::move(file)); }
+  void finish(AsyncTileSource* async = nullptr) {
+    for (auto& f : files) {
+      dirs.push_back(read_bsvtf(f).value());
+      sources.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(f)));
+    }
+    for (size_t i = 0; i < files.size(); ++i)
+      materials.push_back(StreamerMaterial{&dirs[i], async ? nullptr : sources[i].get(), async});
+  }
+};
+
+StreamerConfig small_config() {
+  StreamerConfig c;
+  c.cache = CacheConfig{8, 8, 1u << 12, 32, 4, 1};
+  c.scheduler.budgets.uploads_per_frame = 8;
+  c.scheduler.budgets.requests_in_flight = 16;
+  c.vote_window_frames = 1;
+  return c;
+}
+
+// Every finest tile of every material voted once per frame.
+std::vector<uint32_t> full_feedback(const Streamer& s) {
+  std::vector<uint32_t> words;
+  for (uint32_t m = 0; m < s.material_count(); ++m) {
+    const VtLevelTable& lv = s.cache().set().material(m).levels;
+    const uint32_t L = lv.finest_level();
+    for (uint32_t y = 0; y < lv.tiles_y[L]; ++y)
+      for (uint32_t x = 0; x < lv.tiles_x[L]; ++x) words.push_back(pack_feedback(FeedbackTile{m, L, x, y}));
+  }
+  return words;
+}
+
+// What an engine keeps: the cache texture (per slot texels), the GPU page table, U′ packets.
+struct Engine {
+  std::vector<StreamerTileUpload> tile_out;
+  std::vector<StreamerPacketUpload> packet_out;
+  std::vector<PageTableWrite> writes_out;
+  std::vector<ResidencyEvent> events_out;
+  std::vector<std::vector<uint16_t>> slots;
+  std::vector<std::vector<uint32_t>> page_table;  // per texture, flat tile index
+  std::vector<std::vector<uint16_t>> packets;     // per global texture
+  std::vector<uint32_t> ready;
+  uint64_t tile_uploads = 0;
+  explicit Engine(const Streamer& s, size_t writes = 4096) {
+    tile_out.resize(s.tile_uploads_bound());
+    packet_out.resize(s.packet_uploads_bound());
+    writes_out.resize(writes);
+    events_out.resize(64);
+    slots.resize(s.cache().slot_count());
+    for (uint32_t t = 0; t < s.cache().set().texture_count(); ++t)
+      page_table.emplace_back(s.cache().set().levels_of(t).tile_count(), 0xffffffffu);
+    packets.resize(s.cache().set().texture_count());
+  }
+  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
+  void apply(const Streamer& s, const StreamerOutputs& o) {
+    for (size_t i = 0; i < o.tile_upload_count; ++i) {
+      slots[o.tile_uploads[i].slot].assign(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end());
+      ++tile_uploads;
+    }
+    for (size_t i = 0; i < o.packet_upload_count; ++i)
+      packets[o.packet_uploads[i].texture].assign(o.packet_uploads[i].halves.begin(), o.packet_uploads[i].halves.end());
+    for (size_t i = 0; i < o.page_table_write_count; ++i) {
+      const PageTableWrite& w = o.page_table_writes[i];
+      page_table[w.tile.texture][s.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
+    }
+    for (size_t i = 0; i < o.event_count; ++i)
+      if (o.events[i].kind == ResidencyEventKind::material_ready) ready.push_back(o.events[i].material);
+  }
+};
+
+// Decodes tile t (container-local ids) of a container directly: the reference texels.
+std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, const BsvtfDirectory& d, TileId t) {
+  const TileLayout layout = d.metadata.layout();
+  TileDecoder dec(layout);
+  std::vector<float> parent(layout.sample_count()), out(layout.sample_count());
+  for (uint32_t l = 0; l <= t.level; ++l) {
+    const TileId a = t.ancestor(l);
+    const BsvtfTileEntry* e = d.find(a);
+    EXPECT_EQ(dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
+                         l > 0 ? std::span<const float>(parent) : std::span<const float>(), a.x & 1u, a.y & 1u, out),
+              Status::success);
+    std::swap(parent, out);
+  }
+  std::vector<uint16_t> h(layout.sample_count());
+  float_to_half(parent, h);
+  return h;
+}
+
+// Checks the engine's copies against the streamer's cache: every resident slot holds the
+// tile's exact texels, every GPU page-table texel the shader can reach is right.
+void check_engine(const World& w, const Streamer& s, const Engine& e) {
+  const TileCache& c = s.cache();
+  for (uint32_t slot = 0; slot < c.slot_count(); ++slot) {
+    const SlotInfo& si = c.slot(slot);
+    if (si.state != SlotInfo::State::used) continue;
+    const uint32_t m = c.set().material_of(si.tile.texture);
+    if (si.tile.level == 0 && !s.material_ready(m)) continue;  // pinned root still loading
+    const TileId local{si.tile.texture - s.first_texture(m), si.tile.level, si.tile.x, si.tile.y};
+    ASSERT_EQ(e.slots[slot], decode_direct(w.files[m], w.dirs[m], local)) << "slot " << slot;
+  }
+  for (uint32_t t = 0; t < c.set().texture_count(); ++t) {
+    const VtLevelTable& lv = c.set().levels_of(t);
+    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+      const TileId id = lv.tile(t, i);
+      if (c.resident(id) || id.level == lv.finest_level()) {
+        ASSERT_EQ(e.page_table[t][i], gpu_page_entry(c, id));
+      }
+    }
+  }
+}
+
+uint32_t run(Streamer& s, Engine& e, const std::vector<uint32_t>& fb, uint32_t frames) {
+  uint32_t uploads = 0;
+  for (uint32_t f = 0; f < frames; ++f) {
+    StreamerOutputs o = e.outputs();
+    EXPECT_EQ(s.update(fb, o), Status::success);
+    uploads += static_cast<uint32_t>(o.tile_upload_count);
+    e.apply(s, o);
+    s.pump();
+  }
+  return uploads;
+}
+
+}  // namespace
+
+TEST(RuntimeStreamer, LoadsRootsAndPacketsThenConvergesToTheExactTiles) {
+  World w;
+  w.add(build(make_eigen(128, 6, 1)));  // C = 6: 2 virtual textures, L = 2
+  w.add(build(make_eigen(64, 3, 2)));   // C = 3: 1 virtual texture, L = 1
+  w.finish();
+  auto r = Streamer::create(w.materials, small_config());
+  ASSERT_TRUE(r.ok()) << r.message();
+  Streamer s = std::move(r.value());
+  EXPECT_EQ(s.texture_count(0), 2u);
+  EXPECT_EQ(s.texture_count(1), 1u);
+  EXPECT_EQ(s.component_count(1), 3u);
+  Engine e(s);
+  const auto fb = full_feedback(s);
+  run(s, e, fb, 40);
+  EXPECT_TRUE(s.material_ready(0));
+  EXPECT_TRUE(s.material_ready(1));
+  EXPECT_EQ(e.ready.size(), 2u);
+  // Every finest tile resident (21 + 21 + 5 tiles ≤ 64 slots).
+  for (uint32_t t = 0; t < 3; ++t) {
+    const VtLevelTable& lv = s.cache().set().levels_of(t);
+    for (uint32_t i = lv.offset[lv.finest_level()]; i < lv.tile_count(); ++i)
+      EXPECT_TRUE(s.cache().resident(lv.tile(t, i))) << t << " " << i;
+  }
+  check_engine(w, s, e);
+  // U′ packets as stored: material 0 packet 1 = components 4, 5 (and two zero columns).
+  ASSERT_EQ(e.packets[1].size(), size_t{kLights} * kViews * 3 * 4);
+  const EigenTextures ref = make_eigen(128, 6, 1);
+  for (size_t row = 0; row < size_t{kLights} * kViews * 3; ++row) {
+    EXPECT_EQ(e.packets[1][row * 4 + 0], float_to_half_bits(ref.angular[row * 6 + 4]));
+    EXPECT_EQ(e.packets[1][row * 4 + 2], 0u);
+  }
+  EXPECT_EQ(s.pending_page_table_writes(), 0u);
+}
+
+TEST(RuntimeStreamer, SwapsUnderPressureKeepTexelsAndPageTablesExact) {
+  World w;
+  w.add(build(make_eigen(128, 8, 3)));  // 2 textures × 21 tiles, 16 slots
+  w.finish();
+  StreamerConfig cfg = small_config();
+  cfg.cache.slots_x = 4;
+  cfg.cache.slots_y = 4;
+  auto s = std::move(Streamer::create(w.materials, cfg).value());
+  Engine e(s);
+  std::mt19937 rng(3);
+  uint64_t swaps = 0;
+  for (uint32_t f = 0; f < 120; ++f) {
+    std::vector<uint32_t> fb;
+    for (int k = 0; k < 6; ++k)
+      fb.push_back(
+          pack_feedback(FeedbackTile{0, 2, static_cast<uint32_t>(rng() % 4), static_cast<uint32_t>(rng() % 4)}));
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    swaps += s.scheduler().frame().swaps;
+    s.pump();
+    check_engine(w, s, e);
+  }
+  EXPECT_GT(swaps, 10u);
+}
+
+TEST(RuntimeStreamer, NoAllocationAfterCreateAndEveryBufferThroughTheCallbacks) {
+  World w;
+  w.add(build(make_eigen(128, 6, 4)));
+  w.finish();
+  struct Counter {
+    int64_t live = 0;
+    uint64_t calls = 0;
+  } counter;
+  StreamerConfig cfg = small_config();
+  cfg.allocator.user = &counter;
+  cfg.allocator.allocate = [](void* u, size_t n, size_t a) -> void* {
+    auto* c = static_cast<Counter*>(u);
+    c->live += static_cast<int64_t>(n);
+    ++c->calls;
+    return ::operator new(n, std::align_val_t(a), std::nothrow);
+  };
+  cfg.allocator.deallocate = [](void* u, void* p, size_t n, size_t a) {
+    static_cast<Counter*>(u)->live -= static_cast<int64_t>(n);
+    ::operator delete(p, std::align_val_t(a), std::nothrow);
+  };
+  {
+    auto s = std::move(Streamer::create(w.materials, cfg).value());
+    EXPECT_GT(counter.calls, 10u);
+    EXPECT_GT(counter.live, 100000);  // job buffers and decoders live in callback memory
+    Engine e(s);
+    const auto fb = full_feedback(s);
+    std::vector<uint32_t> moving = fb;
+    const uint64_t before = g_news.load();
+    for (uint32_t f = 0; f < 60; ++f) {
+      moving[f % moving.size()] = pack_feedback(FeedbackTile{0, f % 3, 0, 0});
+      StreamerOutputs o = e.outputs();
+      ASSERT_EQ(s.update(moving, o), Status::success);
+      s.pump();
+    }
+    EXPECT_EQ(g_news.load(), before) << "update() or a job allocated";
+    EXPECT_GT(s.scheduler().total().uploads, 10u);
+  }
+  EXPECT_EQ(counter.live, 0);
+}
+
+TEST(RuntimeStreamer, MovedStreamerKeepsStreamingAndReplaysDeterministically) {
+  World w;
+  w.add(build(make_eigen(128, 5, 5)));
+  w.finish();
+  const auto run_moves = [&](bool move) {
+    auto s = std::move(Streamer::create(w.materials, small_config()).value());
+    Engine e(s);
+    const auto fb = full_feedback(s);
+    std::vector<uint64_t> log;
+    for (uint32_t f = 0; f < 30; ++f) {
+      if (move && f == 7) {
+        Streamer moved = std::move(s);
+        s = std::move(moved);
+      }
+      StreamerOutputs o = e.outputs();
+      EXPECT_EQ(s.update(fb, o), Status::success);
+      for (size_t i = 0; i < o.tile_upload_count; ++i)
+        log.push_back(o.tile_uploads[i].tile.key() ^ o.tile_uploads[i].slot);
+      for (size_t i = 0; i < o.page_table_write_count; ++i) log.push_back(o.page_table_writes[i].entry);
+      e.apply(s, o);
+      s.pump();
+    }
+    check_engine(w, s, e);
+    return log;
+  };
+  const auto a = run_moves(false), b = run_moves(true);
+  EXPECT_GT(a.size(), 50u);
+  EXPECT_EQ(a, b);
+}
+
+namespace {
+// An engine-owned I/O queue: reads are served one update later, from memory.
+struct QueueSource final : AsyncTileSource {
+  struct Read {
+    uint64_t offset;
+    std::span<uint8_t> out;
+    uint64_t ticket;
+    size_t file;
+  };
+  std::vector<std::vector<uint8_t>>* files = nullptr;
+  std::deque<Read> reads;
+  size_t file = 0;
+  bool refuse_next = true;
+  bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
+    if (refuse_next) {  // the first read is refused: the runtime must retry it
+      refuse_next = false;
+      return false;
+    }
+    reads.push_back(Read{offset, out, ticket, file});
+    return true;
+  }
+  void complete_all(Streamer& s) {
+    while (!reads.empty()) {
+      const Read r = reads.front();
+      reads.pop_front();
+      std::memcpy(r.out.data(), (*files)[r.file].data() + r.offset, r.out.size());
+      s.complete_read(r.ticket, Status::success);
+    }
+  }
+};
+}  // namespace
+
+TEST(RuntimeStreamer, AsyncSourceAndThreadExecutorConvergeToTheSameTiles) {
+  World w;
+  w.add(build(make_eigen(128, 6, 6)));
+  QueueSource q;
+  q.files = &w.files;
+  w.finish(&q);
+  auto s = std::move(Streamer::create(w.materials, small_config()).value());
+  Engine e(s);
+  const auto fb = full_feedback(s);
+  {
+    ThreadExecutor executor(s.jobs(), 2);
+    for (uint32_t f = 0; f < 80 && (!s.material_ready(0) || s.jobs_in_flight() > 0 || f < 40); ++f) {
+      StreamerOutputs o = e.outputs();
+      ASSERT_EQ(s.update(fb, o), Status::success);
+      e.apply(s, o);
+      q.complete_all(s);
+      executor.notify();
+      for (int spin = 0; spin < 2000 && s.jobs_in_flight() > 0; ++spin) std::this_thread::yield();
+    }
+  }
+  EXPECT_TRUE(s.material_ready(0));
+  EXPECT_GT(s.bytes_read(), 0u);
+  check_engine(w, s, e);
+}
+
+// A container whose U is stored view-major is delivered in the engine's (light-major) order:
+// the packets, hence the shading Σ_k U′(l, v, c, k) V′_k, equal those of the light-major file.
+TEST(RuntimeStreamer, OppositeRowOrderContainerShadesIdentically) {
+  const EigenTextures ref = make_eigen(64, 5, 7);
+  World w;
+  w.add(build(ref, AngularRowOrder::light_major));
+  w.add(build(ref, AngularRowOrder::view_major));
+  w.finish();
+  EXPECT_EQ(w.dirs[1].metadata.u_row_order, AngularRowOrder::view_major);
+  auto s = std::move(Streamer::create(w.materials, small_config()).value());
+  Engine e(s);
+  run(s, e, full_feedback(s), 20);
+  ASSERT_TRUE(s.material_ready(0) && s.material_ready(1));
+  for (uint32_t g = 0; g < 2; ++g) EXPECT_EQ(e.packets[s.first_texture(0) + g], e.packets[s.first_texture(1) + g]);
+  // Shade one texel at every (light, view) from the delivered packets of the view-major file.
+  const float comps[5] = {0.3f, -0.2f, 0.5f, 0.1f, 0.7f};
+  for (uint32_t l = 0; l < kLights; ++l)
+    for (uint32_t v = 0; v < kViews; ++v)
+      for (uint32_t c = 0; c < 3; ++c) {
+        double want = 0, got = 0;
+        for (uint32_t k = 0; k < 5; ++k) {
+          want += double(ref.u(l, v, c, k)) * comps[k];
+          const size_t row = (size_t{l} * kViews + v) * 3 + c;
+          got += double(half_bits_to_float(e.packets[s.first_texture(1) + k / 4][row * 4 + k % 4])) * comps[k];
+        }
+        EXPECT_NEAR(got, want, 2e-3) << l << " " << v << " " << c;
+      }
+}
+
+TEST(RuntimeStreamer, VersionTwoContainerNeedsAnAssumedRowOrder) {
+  const EigenTextures ref = make_eigen(64, 4, 8);
+  auto pyr = TilePyramid::build(ref, 32, 4).value();
+  const auto ld = directions(kLights), vd = directions(kViews);
+  BsvtfMetadata md = bsvtf_metadata_for(ref, pyr, AngularRowOrder::light_major, ld, vd, "v2");
+  auto inputs = bsvtf_tiles_from_pyramid(pyr, md.level_count);
+  const auto v3 = read_bsvtf(build_bsvtf(md, ref.angular, inputs.tiles).value()).value();
+  // Re-encode the same tiles as a version-2 file.
+  std::vector<BsvtfEncodedTile> tiles;
+  const auto v3file = build_bsvtf(md, ref.angular, inputs.tiles).value();
+  for (const auto& t : v3.tiles)
+    tiles.push_back(BsvtfEncodedTile{
+        t.id, std::vector<uint8_t>(v3file.begin() + t.offset, v3file.begin() + t.offset + t.size), t.weight});
+  md.component_ranges = v3.metadata.component_ranges;
+  md.component_scales = v3.metadata.component_scales;
+  World w;
+  w.add(write_bsvtf(md, ref.angular, tiles, 2).value());
+  w.finish();
+  EXPECT_EQ(w.dirs[0].header.version, 2u);
+  EXPECT_EQ(w.dirs[0].metadata.u_row_order, AngularRowOrder::unspecified);
+  auto refused = Streamer::create(w.materials, small_config());
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("assumed_row_order"), std::string::npos) << refused.message();
+  w.materials[0].assumed_row_order = AngularRowOrder::light_major;
+  auto s = Streamer::create(w.materials, small_config());
+  ASSERT_TRUE(s.ok()) << s.message();
+}
+
+TEST(RuntimeStreamer, BadConfigurationsAreRefusedWithAMessage) {
+  World w;
+  w.add(build(make_eigen(64, 4, 9)));
+  w.finish();
+  StreamerConfig cfg = small_config();
+  cfg.cache.tile_size = 64;
+  auto r = Streamer::create(w.materials, cfg);
+  EXPECT_EQ(r.status(), Status::invalid_argument);
+  EXPECT_NE(r.message().find("border"), std::string::npos);
+  EXPECT_EQ(Streamer::create({}, small_config()).status(), Status::invalid_argument);
+  auto s = std::move(Streamer::create(w.materials, small_config()).value());
+  StreamerOutputs too_small;
+  EXPECT_EQ(s.update({}, too_small), Status::invalid_argument);
+}

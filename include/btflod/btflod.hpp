@@ -72,6 +72,8 @@
 #include "btflod/lod/lod_selector.hpp"
 
 // vt
+#include "btflod/vt/bsvtf_build.hpp"
+#include "btflod/vt/cache_config.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_id.hpp"
@@ -88,7 +90,12 @@
 // stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
 #include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/pipeline.hpp"
+#include "btflod/stream/file_source.hpp"
+#include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
+// runtime
+#include "btflod/runtime/allocator.hpp"
+#include "btflod/runtime/streamer.hpp"
 
 // shader
 #include "btflod/shader/glsl_generator.hpp"

@@ -1,7 +1,7 @@
 // btflod — the abstract rendering backend: what a GPU API (or the CPU reference) must offer so
 // that btflod can stream and shade BTFs with the generated shaders (shader/glsl_generator.hpp).
 //
-// No GL or Vulkan header here. samples/gl (OpenGL 4.5 + EGL) and samples/vulkan (Vulkan 1.1+,
+// No GL or Vulkan header here. samples/gl (OpenGL 4.5 + EGL) and samples/vulkan (Vulkan 1.3,
 // headless) implement it; a CPU reference backend can implement it with the same arithmetic.
 // The data formats are those of shader/shader_config.hpp: page-table entries
 // (pack_page_entry), slot placement (slot_placement), the feedback word (FeedbackWordLayout),

@@ -12,6 +12,7 @@
 #include "common/btf_files.hpp"
 #include "common/progress_bar.hpp"
 
+#include "btflod/angular/interpolators.hpp"
 #include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 #include "btflod/factor/any_factorization.hpp"
@@ -42,14 +43,18 @@ int run_eval(int argc, char** argv) {
   convert::Options opt(argc, argv);
   if (opt.wants_help()) {
     std::puts(
-        "usage: btflod-convert eval FACTOR_FILE SOURCE_BTF [--lambda L] [--range R]\n"
+        "usage: btflod-convert eval FACTOR_FILE SOURCE_BTF [--lambda L] [--range R] [--pca N] [--no-residual]\n"
         "  Reconstructs the factorised BTF (at LOD lambda for laplacian files, default 0 = finest)\n"
         "  and prints RMSE, PSNR, mean SSIM (Wang 2004), CIELAB MAE and YCbCr MSE against the source.\n"
-        "  R is the data range for PSNR/SSIM (default: the source's largest value).");
+        "  R is the data range for PSNR/SSIM (default: the source's largest value).\n"
+        "  spmm files: --pca N evaluates N residual components (default all), --no-residual only the\n"
+        "  analytic part (paper 003 Table 4).");
     return convert::kExitOk;
   }
   const double lambda = opt.number("lambda", 0.0, 0.0, 64.0);
   const double range = opt.number("range", 0.0, 0.0, 1e30);
+  const int pca = static_cast<int>(opt.integer("pca", -1, -1, 1 << 20));
+  const bool no_residual = opt.flag("no-residual");
   if (!opt.finish()) return convert::kExitUsage;
   if (opt.positional().size() != 2) {
     std::fprintf(stderr, "btflod-convert eval: expected FACTOR_FILE and SOURCE_BTF\n");
@@ -74,7 +79,10 @@ int run_eval(int argc, char** argv) {
     return convert::kExitFailure;
   }
   const auto* lp = std::get_if<LaplacianPca>(&*f);
-  const BtfFloat rec = lp ? lp->reconstruct(static_cast<float>(lambda)) : reconstruct_factorization(*f);
+  const auto* sp = std::get_if<Spmm>(&*f);
+  const BtfFloat rec = lp   ? lp->reconstruct(static_cast<float>(lambda))
+                       : sp ? sp->reconstruct({.residual = !no_residual, .pca_components = pca})
+                            : reconstruct_factorization(*f);
   const auto report = compare_btfs(*src, rec, range > 0.0 ? range : btf_peak(*src));
   std::puts(kHeader);
   print_report_row(opt.positional()[1].c_str(), factorization_name(*f), factorization_size_bytes(*f),
@@ -124,6 +132,16 @@ std::vector<Config> table_configs(size_t n_view) {
            o.clusters = k;
            o.components = comps;
            return wrap(factorize_local_pca(b, o));
+         }});
+  // SPMM (paper 003): #BF cap B, residual N_PCA; K = 8 clusters, 4 representatives, 2 lobes.
+  for (auto [bf, npca] : {std::pair{2, 0}, std::pair{4, 0}, std::pair{4, 4}, std::pair{4, 8}})
+    c.push_back(
+        {"spmm K=8 #BF<=" + std::to_string(bf) + " N_PCA=" + std::to_string(npca), [bf, npca](const BtfFloat& b) {
+           SpmmOptions o;
+           o.clusters = 8;
+           o.max_basis_per_texel = bf;
+           o.residual_components = npca;
+           return wrap(factorize_spmm(b, o));
          }});
   return c;
 }
@@ -202,8 +220,98 @@ int run_factor_table(int argc, char** argv) {
   return convert::kExitOk;
 }
 
+// Paper 003 Table 4: one SPMM fit, then "no residual" and N_PCA = 0 … max, each against the
+// full-residual evaluation: time per sample of evaluate() (analytic part at the exact
+// directions plus the residual through the exact-grid interpolators), RMSE and mean SSIM.
+int run_spmm_table(int argc, char** argv) {
+  convert::Options opt(argc, argv);
+  if (opt.wants_help()) {
+    std::puts(
+        "usage: btflod-convert spmm_table [--size N] [--material NAME] [--clusters K] [--bf B] [--pca N]\n"
+        "                                 [--samples S]\n"
+        "  Fits one SPMM (paper 003) to a synthesised material (default cloth, 32x32, UBO2003 directions)\n"
+        "  and prints the analogue of paper 003 Table 4: eval ns per sample, RMSE and mean SSIM of the\n"
+        "  no-residual and N_PCA = 0..N evaluations against the full residual (N = --pca, default 4).");
+    return convert::kExitOk;
+  }
+  const int size = static_cast<int>(opt.integer("size", 32, 4, 1024));
+  const std::string material = opt.string("material", "cloth");
+  const int clusters = static_cast<int>(opt.integer("clusters", 8, 1, 65535));
+  const int bf = static_cast<int>(opt.integer("bf", 4, 1, 64));
+  const int npca = static_cast<int>(opt.integer("pca", 4, 0, 256));
+  const int samples = static_cast<int>(opt.integer("samples", 200000, 1000, 100000000));
+  if (!opt.finish()) return convert::kExitUsage;
+  auto mat = material_from_name(material);
+  if (!mat) {
+    std::fprintf(stderr, "spmm_table: unknown material %s\n", material.c_str());
+    return convert::kExitUsage;
+  }
+  auto btf = synthesize_material(*mat, size, size, 1, SynthesisOptions{});
+  if (!btf) {
+    std::fprintf(stderr, "spmm_table: %s\n", btf.message().c_str());
+    return convert::kExitFailure;
+  }
+  SpmmOptions o;
+  o.clusters = clusters;
+  o.max_basis_per_texel = bf;
+  o.residual_components = npca;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto p = factorize_spmm(*btf, o);
+  const double fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!p) {
+    std::fprintf(stderr, "spmm_table: %s\n", p.message().c_str());
+    return convert::kExitFailure;
+  }
+  auto li = ExactGridInterpolator<ParabolicMap>::build(p->shape.lights);
+  auto vi = ExactGridInterpolator<ParabolicMap>::build(p->shape.views);
+  if (!li || !vi) {
+    std::fprintf(stderr, "spmm_table: interpolator: %s\n", (li ? vi.message() : li.message()).c_str());
+    return convert::kExitFailure;
+  }
+  // Random texels and upper-hemisphere directions (fixed seed), shared by every row.
+  std::vector<int> xs(static_cast<size_t>(samples)), ys(xs.size());
+  std::vector<glm::vec3> ls(xs.size()), vs(xs.size());
+  uint64_t state = 0x9e3779b97f4a7c15ull;
+  auto next = [&state] {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<float>((state >> 40) & 0xffffff) / 16777216.0f;
+  };
+  auto hemi = [&] {
+    const float mu = 0.05f + 0.95f * next(), ph = 6.2831853f * next(), st = std::sqrt(1.0f - mu * mu);
+    return glm::vec3(st * std::cos(ph), st * std::sin(ph), mu);
+  };
+  for (size_t i = 0; i < xs.size(); ++i) {
+    xs[i] = static_cast<int>(next() * static_cast<float>(size)) % size;
+    ys[i] = static_cast<int>(next() * static_cast<float>(size)) % size;
+    ls[i] = hemi();
+    vs[i] = hemi();
+  }
+  const BtfFloat full = p->reconstruct();
+  const double peak = btf_peak(full);
+  std::printf(
+      "Command: btflod-convert spmm_table --size %d --material %s --clusters %d --bf %d --pca %d --samples %d\n", size,
+      material.c_str(), clusters, bf, npca, samples);
+  std::printf("fit %.2f s, #BF %.2f per texel, %.1f:1; RMSE of the full evaluation vs the source %.5f\n\n", fit_s,
+              p->mean_basis_per_texel(), p->compression_ratio(), compare_btfs(*btf, full, btf_peak(*btf)).rmse);
+  std::puts("| N_PCA | eval ns/sample | MSSIM vs full | RMSE vs full |\n|---|---:|---:|---:|");
+  for (int row = -1; row <= npca; ++row) {
+    const SpmmEvalOptions eo{.residual = row >= 0, .pca_components = row < 0 ? 0 : row};
+    float sink = 0.0f;
+    const auto e0 = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < xs.size(); ++i) sink += p->evaluate(xs[i], ys[i], ls[i], vs[i], *li, *vi, eo).g;
+    const double ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - e0).count() /
+                      static_cast<double>(xs.size());
+    const auto rep = compare_btfs(full, p->reconstruct(eo), peak);
+    std::printf("| %s | %.1f | %.4f | %.5f |%s\n", row < 0 ? "no-RES" : std::to_string(row).c_str(), ns, rep.mean_ssim,
+                rep.rmse, sink == -1.0f ? " " : "");
+  }
+  return convert::kExitOk;
+}
+
 }  // namespace
 
+BTFLOD_CONVERT_COMMAND(spmm_table, "paper 003 Table 4 analogue: SPMM residual N_PCA vs eval time, MSSIM, RMSE",
+                       run_spmm_table);
 BTFLOD_CONVERT_COMMAND(eval, "error table (RMSE, PSNR, SSIM, CIELAB MAE, YCbCr MSE) of a factor file vs its BTF",
                        run_eval);
 BTFLOD_CONVERT_COMMAND(factor_table, "docs/factor.md comparison table: every representation on synthesised materials",

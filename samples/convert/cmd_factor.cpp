@@ -18,18 +18,22 @@ int run_factor(int argc, char** argv) {
   convert::Options opt(argc, argv);
   if (opt.wants_help()) {
     std::puts(
-        "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca [--components C]\n"
+        "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca|spmm [--components C]\n"
         "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
         "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
         "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
         "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
-        "                             [--float] [--quiet]\n"
+        "                             [--float] [--basis-per-texel B] [--representatives R]\n"
+        "                             [--lobes L] [--quiet]\n"
         "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
         "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
         "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
         "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
         "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
         "             8-bit eigen-BRDFs unless --float\n"
+        "  spmm       paper 003 sparse parametric mixture: --clusters K (default 4), at most B analytic\n"
+        "             basis functions per texel (default 4), R representatives per cluster (default 4),\n"
+        "             L lobes fitted per representative (default 2), C residual PCA components (default 4)\n"
         "  randomised SVD: at least Q power iterations (default 2), more while the estimated error\n"
         "             is still improving (up to QMAX, default 6; QMAX <= Q: exactly Q), stopping when the\n"
         "             predicted excess over the optimum of the squared error is <= T (default 0.005), P oversampling\n"
@@ -40,7 +44,7 @@ int run_factor(int argc, char** argv) {
   const std::string method = opt.string("method", "fmf");
   const auto components_text = opt.value("components");
   const int k = static_cast<int>(opt.integer("k", 3, 0, 1 << 16));
-  const int clusters = static_cast<int>(opt.integer("clusters", 8, 1, 65535));
+  const int clusters = static_cast<int>(opt.integer("clusters", method == "spmm" ? 4 : 8, 1, 65535));
   const int iterations = static_cast<int>(opt.integer("iterations", 20, 0, 1000));
   const int mips = static_cast<int>(opt.integer("mips", 0, 0, 16));
   const int cbcr = static_cast<int>(opt.integer("components-cbcr", 2, 0, 4096));
@@ -52,12 +56,15 @@ int run_factor(int argc, char** argv) {
   const int oversampling = static_cast<int>(opt.integer("oversampling", svd_defaults.oversampling, 0, 1000));
   const int sketch_nonzeros = static_cast<int>(opt.integer("sketch-nonzeros", svd_defaults.sketch_nonzeros, 0, 1000));
   const bool use_float = opt.flag("float");
+  const int basis_per_texel = static_cast<int>(opt.integer("basis-per-texel", 4, 1, 64));
+  const int representatives = static_cast<int>(opt.integer("representatives", 4, 1, 1024));
+  const int lobes = static_cast<int>(opt.integer("lobes", 2, 0, 64));
   const bool quiet = opt.flag("quiet", 'q');
-  if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca")
-    opt.error("--method " + method + ": expected fmf, pca-k, laplacian or lpca");
+  if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca" && method != "spmm")
+    opt.error("--method " + method + ": expected fmf, pca-k, laplacian, lpca or spmm");
   if (svd != "auto" && svd != "exact" && svd != "randomized")
     opt.error("--svd " + svd + ": expected auto, exact or randomized");
-  int components = method == "fmf" ? 16 : method == "lpca" ? 4 : 8;
+  int components = method == "fmf" ? 16 : (method == "lpca" || method == "spmm") ? 4 : 8;
   if (components_text) {
     char* end = nullptr;
     const long c = std::strtol(components_text->c_str(), &end, 10);
@@ -116,6 +123,15 @@ int run_factor(int argc, char** argv) {
     o.components = {components, cbcr, cbcr};
     o.svd = so;
     result = wrap(factorize_laplacian_pca(*btf, o, bar.callback()));
+  } else if (method == "spmm") {
+    SpmmOptions o;
+    o.clusters = clusters;
+    o.max_basis_per_texel = basis_per_texel;
+    o.representatives = representatives;
+    o.lobes_per_representative = lobes;
+    o.residual_components = components;
+    o.svd = so;
+    result = wrap(factorize_spmm(*btf, o, bar.callback()));
   } else {
     LocalPcaOptions o;
     o.clusters = clusters;
@@ -148,6 +164,12 @@ int run_factor(int argc, char** argv) {
           "  SVD: randomised, %d power iterations, error estimate %.6g, predicted %.5fx the optimum, |A| %.6g\n",
           r.power_iterations, r.error_estimate, r.predicted_ratio, r.frobenius_norm);
   }
+  if (const auto* sp = std::get_if<Spmm>(&*result)) {
+    size_t bases = 0;
+    for (const auto& d : sp->dictionaries) bases += d.size();
+    std::printf("  SPMM: %d clusters, %zu basis functions, #BF %.2f per texel (cap %d), N_PCA %d\n", sp->clusters(),
+                bases, sp->mean_basis_per_texel(), sp->slots, sp->residual_components);
+  }
   if (const auto* lp = std::get_if<LaplacianPca>(&*result))
     std::printf("  paper 001 3.3 packing: eigen Laplacian BRDF map %zu bytes, PCA weight map %zu bytes\n",
                 lp->packed_eigen_map_bytes(), lp->packed_weight_map_bytes());
@@ -156,4 +178,4 @@ int run_factor(int argc, char** argv) {
 
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(factor, "factorise a BTF (fmf, pca-k, laplacian, lpca) into a factor file", run_factor);
+BTFLOD_CONVERT_COMMAND(factor, "factorise a BTF (fmf, pca-k, laplacian, lpca, spmm) into a factor file", run_factor);

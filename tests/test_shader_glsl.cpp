@@ -4,12 +4,13 @@
 // btflod-link: btflod_shader_tools
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
-#include <sys/wait.h>
 
 // angular/ and lod/ are written in parallel by other engineers: cross-check when present.
 #if __has_include("btflod/angular/parameterization.hpp")
@@ -147,13 +148,13 @@ TEST(ShaderGlsl, OutputIsDeterministicAndConfigDriven) {
   auto b = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->fragment, b->fragment);
-  EXPECT_NE(a->fragment.find("const int kComponents = 8;"), std::string::npos);
-  EXPECT_NE(a->fragment.find("const float kPaddedTile = 72.0;"), std::string::npos);
+  EXPECT_NE(a->fragment.find("const int btflod_kFmfComponents = 8;"), std::string::npos);
+  EXPECT_NE(a->fragment.find("const float btflod_kPaddedTile = 72.0;"), std::string::npos);
   EXPECT_NE(a->fragment.find("layout(binding = 5) uniform sampler2DArray btflod_tile_cache;"), std::string::npos);
   c.components = 5;
   auto d = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
   ASSERT_TRUE(d.ok());
-  EXPECT_NE(d->fragment.find("const int kGroups = 2;"), std::string::npos);
+  EXPECT_NE(d->fragment.find("const int btflod_kFmfGroups = 2;"), std::string::npos);
   auto es = generate_program(ShaderProgram::fmf, GlslTarget::es300, c);
   ASSERT_TRUE(es.ok());
   EXPECT_EQ(es->fragment.find("binding"), std::string::npos) << "GLSL ES 3.00 has no binding qualifier";
@@ -272,4 +273,263 @@ TEST(ShaderConfig, ParameterisationsMapKnownDirections) {
   EXPECT_NEAR(m.x, 0.5f + 0.5f * std::sqrt(0.5f), 1e-6f);
   EXPECT_NEAR(m.y, 0.5f, 1e-6f);
   EXPECT_EQ(shader_table_texel({1.0f, -0.2f}, 64), glm::ivec2(63, 0));
+}
+
+// ---- Functions for an engine's own shader -----------------------------------------------------
+
+namespace {
+
+constexpr GlslPiece kAllPieces[] = {GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,
+                                    GlslPiece::fmf_brdf,      GlslPiece::fmf,         GlslPiece::page_table,
+                                    GlslPiece::bsvtf,         GlslPiece::feedback,    GlslPiece::laplacian,
+                                    GlslPiece::lpca,          GlslPiece::pca_views};
+
+// Options an engine might choose: its own prefix, bindings from 20 up, Vulkan sets 1 and 2, one
+// sampler declared by the engine itself, uniform sources in its own block.
+GlslFunctionOptions engine_options() {
+  GlslFunctionOptions o;
+  o.prefix = "eng_btf_";
+  for (uint32_t i = 1; i < kShaderBindingCount; ++i) {
+    o.resources[i].binding = 20 + i;
+    o.resources[i].set = 1 + i % 2;
+  }
+  o.resource(ShaderBinding::angular_weight) = GlslResource{"engine_angular_weights", 40, 3, false};
+  o.uniforms.vt_extent = "material.extent";
+  o.uniforms.lod_bias = "material.lod.x + frame_bias";
+  o.uniforms.feedback_lod_offset = "material.lod.y";
+  o.uniforms.range_lod_scale = "material.lod.z";
+  o.uniforms.first_layer = "material.ids.x";
+  o.uniforms.texture_id = "material.ids[1]";
+  return o;
+}
+
+// An engine fragment shader around `functions`: its own block, varyings and main(). `calls`
+// says which pieces' entry points main() calls.
+std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t pieces) {
+  std::string s;
+  const bool es = t == GlslTarget::es300;
+  s += es ? "#version 300 es\nprecision highp float;\nprecision highp int;\n"
+          : (t == GlslTarget::vulkan450 ? "#version 450\n" : "#version 450 core\n");
+  const char* block_layout = t == GlslTarget::vulkan450    ? "layout(std140, set = 0, binding = 7)"
+                             : t == GlslTarget::gl450_core ? "layout(std140, binding = 7)"
+                                                           : "layout(std140)";
+  s += std::string(block_layout) + " uniform EngineMaterial { vec4 extent; vec4 lod; uvec4 ids; } material;\n";
+  s += std::string(t == GlslTarget::vulkan450    ? "layout(set = 3, binding = 40) "
+                   : t == GlslTarget::gl450_core ? "layout(binding = 40) "
+                                                 : "") +
+       "uniform " + (es ? "highp " : "") + "sampler2DArray engine_angular_weights;\n";
+  const char* loc[5] = {"", "", "", "", ""};
+  if (!es) {
+    loc[0] = "layout(location = 0) ";
+    loc[1] = "layout(location = 1) ";
+    loc[2] = "layout(location = 2) ";
+    loc[3] = "layout(location = 3) ";
+    loc[4] = "layout(location = 0) ";
+  }
+  s += std::string(loc[0]) + "in vec3 f_position;\n" + loc[1] + "in vec3 f_normal;\n" + loc[2] +
+       "in vec4 f_tangent;\n" + loc[3] + "in vec2 f_uv;\n" + loc[4] + "out vec4 f_color;\n";
+  s += "float frame_bias = 0.25;\n";
+  s += functions;
+  auto has = [&](GlslPiece p) { return (pieces & glsl_pieces({p})) != 0; };
+  s += "void main() {\n  vec3 wl; vec3 wv;\n  vec3 rho = vec3(0.0);\n  uint word = 0u;\n";
+  if (has(GlslPiece::local_frame))
+    s += "  eng_btf_local_dirs(f_normal, f_tangent, vec3(0.0, 0.0, 1.0), normalize(-f_position), wl, wv);\n";
+  else
+    s += "  wl = vec3(0.0, 0.0, 1.0); wv = normalize(vec3(0.2, 0.1, 1.0));\n";
+  if (has(GlslPiece::direction_map)) s += "  rho.xy += eng_btf_direction_map(wl);\n";
+  if (has(GlslPiece::angular)) {
+    s += "  ivec3 idx; vec3 w;\n  eng_btf_angular(0, wl, idx, w);\n";
+    s += "  rho += w * float(idx.x + eng_btf_angular_nearest(1, wv));\n";
+  }
+  if (has(GlslPiece::fmf_brdf))
+    s += "  vec4 v[eng_btf_kFmfGroups];\n  for (int g = 0; g < eng_btf_kFmfGroups; ++g) v[g] = vec4(0.5);\n"
+         "  rho += eng_btf_fmf_brdf(v, wl, wv);\n";
+  if (has(GlslPiece::fmf)) s += "  rho += eng_btf_fmf(f_uv, wl, wv) + eng_btf_fmf_raw(f_uv).rgb;\n";
+  if (has(GlslPiece::page_table))
+    s += "  ivec2 tile = eng_btf_tile_of(fract(f_uv), 1);\n"
+         "  word += eng_btf_page_entry(0, tile, 1) + uint(eng_btf_vt_lambda(f_uv));\n";
+  if (has(GlslPiece::bsvtf)) {
+    s += "  vec4 bv[eng_btf_kFmfGroups];\n  eng_btf_bsvtf_components(f_uv, bv);\n"
+         "  rho += eng_btf_bsvtf(f_uv, wl, wv) + bv[0].rgb + eng_btf_bsvtf_raw(f_uv).rgb;\n";
+  }
+  if (has(GlslPiece::feedback)) s += "  word += eng_btf_feedback_word(f_uv);\n";
+  if (has(GlslPiece::laplacian))
+    s += "  rho += eng_btf_laplacian(f_uv, wl, wv, eng_btf_laplacian_lambda(length(f_position)));\n";
+  if (has(GlslPiece::lpca)) s += "  rho += eng_btf_lpca(f_uv, wl, wv);\n";
+  if (has(GlslPiece::pca_views)) s += "  rho += eng_btf_pca_views(f_uv, wl, wv);\n";
+  s += "  f_color = vec4(rho, float(word & 255u));\n}\n";
+  return s;
+}
+
+}  // namespace
+
+TEST(ShaderGlsl, FunctionsInAnEngineShaderCompileForEveryTarget) {
+  // Each piece on its own (with what it calls; one config) and all pieces together (every
+  // config), for every target, embedded in an engine shader with its own block, varyings, bindings and main().
+  if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
+  const GlslFunctionOptions options = engine_options();
+  int generated = 0;
+  for (GlslTarget t : kAllGlslTargets) {
+    std::vector<std::string> paths;
+    std::vector<std::pair<std::string, std::string>> sources;
+    for (const auto& [name, config] : configs()) {
+      std::vector<std::pair<std::string, uint32_t>> sets;
+      if (name == "variant")  // each piece alone once (keeps the number of glslang runs small)
+        for (GlslPiece p : kAllPieces) sets.emplace_back(glsl_piece_name(p), glsl_pieces({p}));
+      uint32_t all = 0;
+      for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
+      sets.emplace_back("all", all);
+      for (const auto& [piece, set] : sets) {
+        Result<GlslFunctionSource> fn = generate_functions(set, t, config, options);
+        ASSERT_TRUE(fn.ok()) << fn.message();
+        EXPECT_EQ(fn->code.find("#version"), std::string::npos);
+        EXPECT_EQ(fn->code.find("main("), std::string::npos);
+        EXPECT_EQ(fn->code.find("btflod"), std::string::npos) << "default names leak: " << piece;
+        if (t == GlslTarget::es300) {
+          EXPECT_EQ(fn->code.find("binding"), std::string::npos);
+        }
+        const std::string text = engine_shader(t, fn->code, set);
+        const std::string path =
+            std::string(BTFLOD_TEST_TMP_DIR) + "/engine_" + name + "_" + piece + "_" + glsl_target_name(t) + ".frag";
+        std::ofstream(path, std::ios::binary) << text;
+        paths.push_back(path);
+        sources.emplace_back(path, text);
+        ++generated;
+      }
+    }
+    std::string log;
+    if (t == GlslTarget::vulkan450) {
+      for (const std::string& path : paths) log += validate_batch({path}, t, "vk_engine");
+    } else {
+      log = validate_batch(paths, t, std::string("engine_") + glsl_target_name(t));
+    }
+    if (!log.empty()) {
+      ADD_FAILURE() << glsl_target_name(t) << ": glslangValidator failed:\n" << log;
+      for (const auto& [path, text] : sources)
+        if (!validate_batch({path}, t, "single").empty()) ADD_FAILURE() << path << ":\n" << text;
+    }
+  }
+  EXPECT_EQ(generated, 3 * (3 + 11));
+}
+
+TEST(ShaderGlsl, FunctionsFollowTheCallersNamesBindingsSetsAndSources) {
+  const GlslFunctionOptions o = engine_options();
+  const ShaderConfig c;
+  const uint32_t set = glsl_pieces({GlslPiece::bsvtf, GlslPiece::feedback});
+  auto vk = generate_functions(set, GlslTarget::vulkan450, c, o);
+  ASSERT_TRUE(vk.ok()) << vk.message();
+  const std::string& s = vk->code;
+  // bindings and sets as chosen (tile_cache = 5 → binding 25, set 2; page_table = 6 → 26, set 1)
+  EXPECT_NE(s.find("layout(set = 2, binding = 25) uniform sampler2DArray eng_btf_tile_cache;"), std::string::npos);
+  EXPECT_NE(s.find("layout(set = 1, binding = 26) uniform usampler2DArray eng_btf_page_table;"), std::string::npos);
+  // the engine declares the weights table itself: read under its name, not declared here
+  EXPECT_NE(s.find("texelFetch(engine_angular_weights"), std::string::npos);
+  EXPECT_EQ(s.find("uniform sampler2DArray engine_angular_weights"), std::string::npos);
+  // uniform sources: the engine's expressions, parenthesised
+  EXPECT_NE(s.find("(material.extent).xy"), std::string::npos);
+  EXPECT_NE(s.find("- (material.lod.x + frame_bias)"), std::string::npos);
+  EXPECT_NE(s.find("int((material.ids.x))"), std::string::npos);
+  EXPECT_NE(s.find("uint((material.ids[1]))"), std::string::npos);
+  // every function carries the prefix; the shared pieces appear once
+  EXPECT_NE(s.find("vec3 eng_btf_bsvtf(vec2 uv, vec3 wl, vec3 wv)"), std::string::npos);
+  EXPECT_NE(s.find("uint eng_btf_feedback_word(vec2 uv)"), std::string::npos);
+  for (const char* def : {"float eng_btf_vt_lambda(", "vec3 eng_btf_fmf_brdf(", "void eng_btf_angular(",
+                          "vec2 eng_btf_direction_map(", "struct eng_btf_VtSite"}) {
+    EXPECT_NE(s.find(def), std::string::npos) << def;
+    EXPECT_EQ(s.find(def), s.rfind(def)) << def << " emitted twice";
+  }
+  // the sampler list tells the host where each sampler is
+  ASSERT_EQ(vk->samplers.size(), 5u);  // page table, angular index + weight, eigen abrdfs, tile cache
+  for (const GlslSamplerUse& u : vk->samplers) {
+    EXPECT_EQ(u.binding, o.resource(u.role).binding);
+    EXPECT_EQ(u.set, o.resource(u.role).set);
+    EXPECT_EQ(u.declared, u.role != ShaderBinding::angular_weight);
+  }
+  // ES: no binding qualifiers; the host sets units by the listed names
+  auto es = generate_functions(set, GlslTarget::es300, c, o);
+  ASSERT_TRUE(es.ok());
+  EXPECT_EQ(es->code.find("binding"), std::string::npos);
+  EXPECT_NE(es->code.find("uniform highp sampler2DArray eng_btf_tile_cache;"), std::string::npos);
+  // without pieces that need them, other uniform sources are not checked nor used
+  GlslFunctionOptions lp = o;
+  lp.uniforms.vt_extent = "";
+  EXPECT_TRUE(generate_functions(glsl_pieces({GlslPiece::lpca}), GlslTarget::gl450_core, c, lp).ok());
+}
+
+TEST(ShaderGlsl, WholeProgramsAreAssembledFromTheFunctions) {
+  // The fragment shader of each program contains the functions of its piece verbatim (one copy
+  // of each piece) and a main() of a few lines.
+  const ShaderConfig c;
+  const struct {
+    ShaderProgram program;
+    uint32_t pieces;
+  } cases[] = {
+      {ShaderProgram::fmf, glsl_pieces({GlslPiece::fmf, GlslPiece::local_frame})},
+      {ShaderProgram::bsvtf, glsl_pieces({GlslPiece::bsvtf, GlslPiece::local_frame})},
+      {ShaderProgram::feedback, glsl_pieces({GlslPiece::feedback})},
+      {ShaderProgram::laplacian, glsl_pieces({GlslPiece::laplacian, GlslPiece::local_frame})},
+      {ShaderProgram::lpca, glsl_pieces({GlslPiece::lpca, GlslPiece::local_frame})},
+      {ShaderProgram::pca_views, glsl_pieces({GlslPiece::pca_views, GlslPiece::local_frame})},
+  };
+  for (GlslTarget t : kAllGlslTargets)
+    for (const auto& k : cases) {
+      auto prog = generate_program(k.program, t, c);
+      auto fn = generate_functions(k.pieces, t, c);
+      ASSERT_TRUE(prog.ok() && fn.ok());
+      const size_t at = prog->fragment.find(fn->code);
+      EXPECT_NE(at, std::string::npos) << shader_program_name(k.program);
+      const std::string tail = prog->fragment.substr(at + fn->code.size());
+      EXPECT_EQ(tail.rfind("void main()", 0), 0u) << shader_program_name(k.program);
+      EXPECT_LE(std::count(tail.begin(), tail.end(), '\n'), 9) << "main() is a few lines around one call";
+    }
+}
+
+TEST(ShaderGlsl, BadFunctionOptionsAreRejectedWithAMessage) {
+  const ShaderConfig c;
+  const uint32_t bsvtf = glsl_pieces({GlslPiece::bsvtf, GlslPiece::feedback});
+  auto rejects = [&](const GlslFunctionOptions& o, const char* word, uint32_t pieces) {
+    auto r = generate_functions(pieces, GlslTarget::vulkan450, c, o);
+    ASSERT_FALSE(r.ok()) << word;
+    EXPECT_EQ(r.status(), Status::invalid_argument);
+    EXPECT_NE(r.message().find(word), std::string::npos) << r.message();
+  };
+  GlslFunctionOptions o;
+  for (const char* bad : {"", "1abc", "gl_x", "a__b", "a-b", "a b", "x;", "$", "@"}) {
+    o.prefix = bad;
+    rejects(o, "prefix", bsvtf);
+  }
+  o = {};
+  o.prefix = std::string(65, 'a');
+  rejects(o, "prefix", bsvtf);
+  // statements, blocks, preprocessor and unbalanced brackets cannot enter through a source
+  for (const char* bad : {"", "x; discard", "x }", "{", "#define a", "f(x", "a)", "a\nb", "a[1", "\"s\"", "a@b"}) {
+    o = {};
+    o.uniforms.lod_bias = bad;
+    rejects(o, "lod_bias", bsvtf);
+  }
+  o = {};
+  o.uniforms.texture_id = "ids.y; x = 1";
+  rejects(o, "texture_id", bsvtf);
+  o = {};
+  o.resource(ShaderBinding::tile_cache).name = "cache[2]";  // an expression needs declare = false
+  rejects(o, "tile_cache", bsvtf);
+  o.resource(ShaderBinding::tile_cache).declare = false;
+  EXPECT_TRUE(generate_functions(bsvtf, GlslTarget::vulkan450, c, o).ok());
+  o = {};
+  o.resource(ShaderBinding::tile_cache).binding = 6;  // = page_table's
+  rejects(o, "binding 6", bsvtf);
+  o.resource(ShaderBinding::tile_cache).set = 1;  // another set: fine for Vulkan
+  EXPECT_TRUE(generate_functions(bsvtf, GlslTarget::vulkan450, c, o).ok());
+  EXPECT_FALSE(generate_functions(bsvtf, GlslTarget::gl450_core, c, o).ok()) << "GL has no sets";
+  o = {};
+  o.resource(ShaderBinding::tile_cache).name = "btflod_page_table";  // same name as another sampler
+  rejects(o, "share the name", bsvtf);
+  o = {};
+  o.resource(ShaderBinding::pca_r).set = 32;
+  rejects(o, "pca_r", glsl_pieces({GlslPiece::pca_views}));
+  rejects(GlslFunctionOptions{}, "piece set", 0);
+  rejects(GlslFunctionOptions{}, "piece set", 1u << kGlslPieceCount);
+  ShaderConfig bad;
+  bad.components = 0;
+  EXPECT_FALSE(generate_functions(bsvtf, GlslTarget::gl450_core, bad).ok());
 }

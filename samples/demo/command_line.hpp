@@ -26,6 +26,7 @@ struct DemoConfig {
   bool interreflection = false;                   ///< --interreflection
   bool quiet = false;                             ///< --quiet: no progress bars
   bool window = false;                            ///< --window: show the frames in an X11 window
+  std::string record_feedback;                    ///< --record-feedback FILE: feedback trace for btflod-bench
 };
 
 inline constexpr const char* kDemoUsage =
@@ -41,6 +42,8 @@ inline constexpr const char* kDemoUsage =
     "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
     "  --window shows each BSVTF frame in an X11 window (GL backend, needs DISPLAY; headless\n"
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
+    "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
+    "  for btflod-bench scheduler --trace FILE.\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
@@ -84,6 +87,8 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     long long n = 0;
     if (a == "--out") {
       cfg.out_dir = value;
+    } else if (a == "--record-feedback") {
+      cfg.record_feedback = value;
     } else if (a == "--size") {
       if (!parse_int(value, 1, 1024, &n)) return fail("--size " + std::string(value) + ": expected 1..1024");
       cfg.size = static_cast<int>(n);

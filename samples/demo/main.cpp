@@ -7,10 +7,12 @@
 // report.hpp and samples/scene/demo_scene.hpp; this file only calls them in order.
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <chrono>
 #include <string>
 #include <thread>
 
+#include "btflod/lod/feedback_trace.hpp"
 #include "command_line.hpp"
 #include "demo_steps.hpp"
 #if BTFLOD_DEMO_HAS_GL
@@ -141,11 +143,36 @@ int main(int argc, char** argv) {
   Image<float> fmf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   std::vector<Image<float>> sheet;
   const uint32_t frames = static_cast<uint32_t>(cfg->frames);
+  // --record-feedback: each frame's feedback words with its size, decimation, sample position
+  // and camera, as a trace (lod/feedback_trace.hpp) that btflod-bench replays.
+  std::optional<FeedbackTraceRecorder> feedback_trace;
+  const uint32_t fb_d = 1u << ss.feedback_shift;
+  const uint32_t fb_w = (ss.width + fb_d - 1) / fb_d, fb_h = (ss.height + fb_d - 1) / fb_d;
+  if (!cfg->record_feedback.empty()) {
+    auto r = FeedbackTraceRecorder::open(cfg->record_feedback, {fb_w * fb_h, 1});
+    if (!r) return fail("--record-feedback", r.message());
+    feedback_trace = std::move(*r);
+  }
+  auto record_feedback = [&](uint32_t f, uint32_t view_frame) {
+    const std::vector<uint32_t>& words = (*streamer)->last_feedback();
+    if (!feedback_trace || words.size() != size_t{fb_w} * fb_h) return Status::success;
+    FeedbackFrameInfo info;
+    info.frame_index = f;
+    info.width = fb_w, info.height = fb_h, info.decimation = fb_d;
+    feedback_sample_offset(f, fb_d, info.sample_dx, info.sample_dy);
+    const scene::View v = scene::camera_path(view_frame, frames, ss.width, ss.height);
+    const glm::vec3 fwd = glm::normalize(v.target - v.eye);
+    info.has_camera = true;
+    info.camera = FeedbackCamera{{v.eye.x, v.eye.y, v.eye.z}, {fwd.x, fwd.y, fwd.z}, {0, 1, 0},
+                                 v.fov_y_degrees * 3.14159265f / 180.0f, 0.05f, 100.0f};
+    return feedback_trace->record(info, words);
+  };
   const uint32_t sheet_every = std::max(1u, (frames + 11) / 12);
   const demo::Stopwatch flight_clock;
   for (uint32_t f = 0; f < frames; ++f) {
     auto rec = (*streamer)->frame(f, f, frames, bsvtf_img, fmf_img);
     if (!rec) return fail("frame", rec.message());
+    if (const Status s = record_feedback(f, f); s != Status::success) return fail("--record-feedback", status_name(s));
     run.frames.push_back(*rec);
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04u.png", f);
@@ -174,6 +201,8 @@ int main(int argc, char** argv) {
        ++k) {
     auto rec = (*streamer)->frame(frames + k, frames - 1, frames, bsvtf_img, fmf_img);
     if (!rec) return fail("settle frame", rec.message());
+    if (const Status s = record_feedback(frames + k, frames - 1); s != Status::success)
+      return fail("--record-feedback", status_name(s));
     rec->settle = true;
     quiet_frames = rec->requests == 0 && rec->uploads == 0 && (*streamer)->pending_tiles() == 0 ? quiet_frames + 1 : 0;
     run.frames.push_back(*rec);
@@ -187,6 +216,13 @@ int main(int argc, char** argv) {
     std::printf("  settle      %zu frames at the last view: SSIM %.4f -> %.4f, %.1f KiB received\n",
                 run.frames.size() - settle_first, run.frames[settle_first].ssim, run.frames.back().ssim,
                 static_cast<double>(run.frames.back().bytes_received) / 1024.0);
+  }
+
+  if (feedback_trace) {
+    const uint64_t n = feedback_trace->frame_count();
+    if (auto c = feedback_trace->close(); !c) return fail("--record-feedback", c.message());
+    std::printf("  feedback    %llu frames of %ux%u words recorded to %s\n", static_cast<unsigned long long>(n), fb_w, fb_h,
+                cfg->record_feedback.c_str());
   }
 
   // The page table was kept up to date from the cache's deltas only: compare it with a

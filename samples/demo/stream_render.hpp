@@ -443,6 +443,8 @@ class StreamingRenderer {
   uint32_t vote_window_frames() const noexcept { return votes_->window_frames(); }
   /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
   const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
+  /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
+  const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
   /// Tiles requested by the scheduler and not yet delivered.
   size_t pending_tiles() const noexcept {
     size_t n = 0;

@@ -8,7 +8,12 @@
 // "3D linear + one manual lerp"). Prints a Markdown table; with --doc FILE it replaces the
 // block between "<!-- angular-eval:begin -->" and "<!-- angular-eval:end -->" in FILE.
 //
-// Usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--doc FILE]
+// --merl: the materials are MERL .binary BRDFs instead (btf/merl_brdf.hpp) — analytic BRDFs
+// written in MERL's layout by this tool (real MERL files are not needed), read back by the MERL
+// reader and resampled to MeasuredBrdf's grid; the table goes into the
+// "<!-- angular-eval-merl:begin -->" … "<!-- angular-eval-merl:end -->" block.
+//
+// Usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--merl] [--doc FILE]
 // Exit code 0 on success or when the data folder is absent (prints "skipped"), 1 on errors.
 #include <cmath>
 #include <cstdint>
@@ -28,6 +33,7 @@
 #include "btflod/angular/ring_search.hpp"
 #include "btflod/btf/directions.hpp"
 #include "btflod/btf/measured_brdf.hpp"
+#include "btflod/btf/merl_brdf.hpp"
 #include "btflod/core/file_io.hpp"
 
 namespace {
@@ -137,6 +143,29 @@ void add_plane_methods(std::vector<Method>& out, const DirectionSet& set, const 
       table, n));
 }
 
+// Analytic BRDFs written in MERL's layout: Lambert + normalised Blinn–Phong lobe of exponent
+// n, per-channel albedo kd and specular ks; samples with θ_d index ≥ 85 marked not measured
+// (as MERL's grazing holes).
+struct MerlAnalytic {
+  const char* name;
+  glm::dvec3 kd, ks;
+  double n;
+};
+
+Result<MerlBrdf> make_merl_material(const MerlAnalytic& m) {
+  std::vector<double> table = merl_table_from_function([&](const glm::dvec3& l, const glm::dvec3& v) {
+    const glm::dvec3 h = glm::normalize(l + v);
+    const double lobe = (m.n + 2.0) / (2.0 * 3.14159265358979323846) * std::pow(std::max(h.z, 0.0), m.n);
+    return m.kd / 3.14159265358979323846 + m.ks * lobe;
+  });
+  for (int c = 0; c < 3; ++c)
+    for (size_t i = 0; i < kMerlPlaneSize; ++i)
+      if ((i / kMerlPhiDiffCount) % kMerlThetaDiffCount >= 85) table[c * kMerlPlaneSize + i] = -1.0;
+  auto bytes = encode_merl_binary(table);
+  if (!bytes) return bytes.error();
+  return parse_merl_binary(*bytes, m.name);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -145,6 +174,7 @@ int main(int argc, char** argv) {
   int samples = 20000;
   int grid = 32;
   uint64_t seed = 20260101;
+  bool merl = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -164,9 +194,12 @@ int main(int argc, char** argv) {
       grid = std::atoi(value().c_str());
     else if (a == "--seed")
       seed = std::strtoull(value().c_str(), nullptr, 10);
+    else if (a == "--merl")
+      merl = true;
     else {
       std::fprintf(stderr,
-                   "usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--doc FILE]\n");
+                   "usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--merl] "
+                   "[--doc FILE]\n");
       return a == "--help" ? 0 : 1;
     }
   }
@@ -176,7 +209,26 @@ int main(int argc, char** argv) {
   }
   const char* names[] = {"carpaint_red", "carpaint_green", "carpaint_blue"};
   std::vector<MeasuredBrdf> brdfs;
+  const MerlAnalytic merl_materials[] = {
+      {"merl-layout Lambert + Blinn-Phong n=20", {0.5, 0.3, 0.1}, {0.04, 0.05, 0.06}, 20.0},
+      {"merl-layout Lambert + Blinn-Phong n=200", {0.1, 0.2, 0.4}, {0.2, 0.2, 0.2}, 200.0}};
+  std::string merl_note;
+  if (merl) {
+    for (const MerlAnalytic& m : merl_materials) {
+      auto b = make_merl_material(m);
+      if (!b) {
+        std::fprintf(stderr, "btflod-angular-eval: %s\n", b.message().c_str());
+        return 1;
+      }
+      char line[256];
+      std::snprintf(line, sizeof line, "%s%s: %zu of %zu samples not measured", merl_note.empty() ? "" : "; ", m.name,
+                    b->report.not_measured, 3 * b->report.plane_samples);
+      merl_note += line;
+      brdfs.push_back(std::move(b->brdf));
+    }
+  }
   for (const char* nm : names) {
+    if (merl) break;
     const std::string path = shared + "/data/measured/" + nm + ".mbsdf";
     auto b = read_mbsdf(path);
     if (!b) {
@@ -192,8 +244,16 @@ int main(int argc, char** argv) {
   const float max_theta = degrees_to_radians(75.0f);  // held-out pairs inside the last ring
 
   std::ostringstream md;
+  if (merl) {
+    md << "Materials: two analytic BRDFs written in MERL's .binary layout by the tool (90 × 90 × 180 half/"
+       << "difference samples, colour scales 1/1500, 1.15/1500, 1.66/1500; θ_d samples ≥ 85 of 90 marked not"
+       << " measured), read back by read_merl_binary's parser and resampled to 90 × 90 × 180 (θ_in, θ_out, φ_d)"
+       << " cells (" << merl_note << "). Command: `btflod-angular-eval --merl --samples " << samples << " --grid "
+       << grid << " --seed " << seed << "`.\n\n";
+  }
   md << "Held-out pairs: " << samples << " random (light, view) pairs per BRDF, uniform on the cap θ ≤ 75°"
-     << " (inside the last measured ring), seed " << seed << "; errors pooled over the three car paints and"
+     << " (inside the last measured ring), seed " << seed << "; errors pooled over the "
+     << (merl ? "two MERL-layout materials" : "three car paints") << " and"
      << " the RGB channels; ρ in 1/sr. MAE = mean |e|; relative RMSE = √(Σe²/Σρ²). Regular grid: " << grid
      << "⁴ nodes.\n\n";
   md << "| set | interpolator / parameterisation | RMSE | MAE | max error | relative RMSE |\n";
@@ -264,7 +324,8 @@ int main(int argc, char** argv) {
     std::stringstream ss;
     ss << in.rdbuf();
     std::string text = ss.str();
-    const std::string begin = "<!-- angular-eval:begin -->", end = "<!-- angular-eval:end -->";
+    const std::string begin = merl ? "<!-- angular-eval-merl:begin -->" : "<!-- angular-eval:begin -->";
+    const std::string end = merl ? "<!-- angular-eval-merl:end -->" : "<!-- angular-eval:end -->";
     const size_t b = text.find(begin), e = text.find(end);
     if (b == std::string::npos || e == std::string::npos || e < b) {
       std::fprintf(stderr, "btflod-angular-eval: %s has no %s … %s block\n", doc.c_str(), begin.c_str(), end.c_str());

@@ -77,8 +77,8 @@ inline Result<AngularTextures> build_angular_textures(const BsvtfMetadata& md, u
   return a;
 }
 
-/// Checks that U's rows are the layout the shaders assume: (light · views + view) · 3 + colour,
-/// three colour channels (the producer's order of samples/demo and btflod-convert build).
+/// Checks that U has three linear RGB colour channels per (light, view) pair; its rows are
+/// light-major or view-major (BsvtfMetadata::u_row_order), both handled by scatter_u_packet.
 inline VoidResult check_u_layout(const BsvtfMetadata& md) {
   const uint64_t lights = md.light_directions.size() / 3, views = md.view_directions.size() / 3;
   if (md.color_channels != 3 || md.color_mode != ColorMode::linear_rgb)
@@ -91,10 +91,12 @@ inline VoidResult check_u_layout(const BsvtfMetadata& md) {
   return {};
 }
 
-/// Writes U packet g (unpack_bsvtf_packet's floats: row r, component 4g + k at r·4 + k) into the
+/// Writes U packet g (unpack_bsvtf_packet's floats: row r, component 4g + k at r·4 + k; rows in
+/// the container's u_row_order) into the
 /// eigen_abrdfs texture array `rgba` (texel (light, view), layer c, rgb = colour; layout of
 /// backend/backend.hpp pack_eigen_abrdfs_rgba: ((c · views + view) · lights + light) · 4), and
-/// into E's row-major U `u` (row · C + c), both sized for every component. Components past C
+/// into E's light-major U `u` (((light · views + view) · 3 + colour) · C + c), both sized for
+/// every component. Components past C
 /// in the last packet are dropped. No allocation.
 inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<const float> packet, std::span<float> rgba,
                              std::span<float> u) noexcept {
@@ -108,10 +110,14 @@ inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<cons
     for (uint32_t l = 0; l < lights; ++l)
       for (uint32_t v = 0; v < views; ++v)
         for (uint32_t col = 0; col < 3; ++col) {
-          const size_t row = (static_cast<size_t>(l) * views + v) * 3 + col;
+          // The container says how U's rows are ordered (version 3); version 2 files were
+          // written light-major by every producer.
+          const size_t row = md.u_row_order == AngularRowOrder::view_major
+                                 ? (static_cast<size_t>(v) * lights + l) * 3 + col
+                                 : (static_cast<size_t>(l) * views + v) * 3 + col;
           const float value = packet[row * 4 + k] * scale;
           rgba[((static_cast<size_t>(c) * views + v) * lights + l) * 4 + col] = value;
-          u[row * C + c] = value;
+          u[((static_cast<size_t>(l) * views + v) * 3 + col) * C + c] = value;
         }
   }
 }

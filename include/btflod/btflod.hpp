@@ -69,6 +69,7 @@
 
 // lod
 #include "btflod/lod/feedback.hpp"
+#include "btflod/lod/feedback_trace.hpp"
 #include "btflod/lod/lod_selector.hpp"
 
 // vt

@@ -3,7 +3,7 @@
 #   run_web.sh serve --tool BTFLOD_WEB_TOOL --work DIR [--port P]
 #       builds the wasm client (emscripten, Debian's zlib/libdeflate sources), synthesises the
 #       materials, stages the site and serves it with nginx on 127.0.0.1 until Ctrl-C.
-#   run_web.sh test --tool BTFLOD_WEB_TOOL --work DIR [--reduced]
+#   run_web.sh test --tool BTFLOD_WEB_TOOL --work DIR [--reduced | --bench-only]
 #       the same site, then the browser driver (test/driver.mjs: chromium headless through
 #       puppeteer-core) and the checks; exit 77 (skipped) when emcc, chromium, nginx or node are
 #       missing. nginx runs with a private prefix and config; it is stopped on exit.
@@ -12,13 +12,14 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 ROOT=$(cd "$HERE/../.." && pwd)
 mode=${1:-}
 shift || true
-TOOL="" WORK="" PORT=${BTFLOD_WEB_PORT:-0} REDUCED=0
+TOOL="" WORK="" PORT=${BTFLOD_WEB_PORT:-0} REDUCED=0 BENCH_ONLY=
 while [ $# -gt 0 ]; do
   case "$1" in
     --tool) TOOL=$2; shift 2 ;;
     --work) WORK=$2; shift 2 ;;
     --port) PORT=$2; shift 2 ;;
     --reduced) REDUCED=1; shift ;;
+    --bench-only) BENCH_ONLY=--bench-only; shift ;;
     *) echo "run_web.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -115,4 +116,4 @@ if [ ! -d "$TEST/node_modules/puppeteer-core" ]; then
   }
 fi
 node --no-experimental-fetch "$TEST/driver.mjs" --url "$URL" --site "$SITE" --tool "$TOOL" --work "$WORK" \
-  --access-log "$NGX/logs/access.log" --chromium "$CHROMIUM" --wasm "$WEB_BUILD" $( [ "$REDUCED" = 1 ] && echo --reduced )
+  --access-log "$NGX/logs/access.log" --chromium "$CHROMIUM" --wasm "$WEB_BUILD" $( [ "$REDUCED" = 1 ] && echo --reduced ) $BENCH_ONLY

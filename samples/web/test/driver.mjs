@@ -19,10 +19,12 @@ import puppeteer from 'puppeteer-core';
 const args = {};
 for (let i = 2; i < process.argv.length; ++i) {
   const k = process.argv[i].replace(/^--/, '');
-  if (k === 'reduced') args.reduced = true;
+  if (k === 'reduced' || k === 'bench-only') args[k] = true;
   else args[k] = process.argv[++i];
 }
 const reduced = !!args.reduced;
+// --bench-only: only the 512² frame-time pages and the decode benchmark, on SwiftShader and llvmpipe.
+const benchOnly = !!args['bench-only'];
 const WORK = args.work;
 const SIZE = reduced ? 256 : 512;
 const report = { reduced, size: SIZE, checks: [], runs: {} };
@@ -145,6 +147,16 @@ async function runGl(gl) {
     userDataDir: path.join(WORK, `profile-${gl}-${Date.now()}`) });
   const r = {};
   try {
+    if (!benchOnly) await correctness(browser, gl, r);
+    await bench(browser, gl, r);
+  } finally {
+    await browser.close();
+  }
+  return r;
+}
+
+async function correctness(browser, gl, r) {
+  {
     // --- golden: priority streaming -------------------------------------------------------
     newLogLines();
     let page = await openPage(browser, '');
@@ -231,14 +243,19 @@ async function runGl(gl) {
     r.pcak = { psnr_db: gp.psnr_db, ssim: gp.ssim, bytes: pk.final.stats.bytes };
     check(`${gl}: golden PCA-k vs CPU reference ≥ 40 dB`, gp.psnr_db >= 40, `${gp.psnr_db.toFixed(2)} dB, SSIM ${gp.ssim.toFixed(4)}`);
     await page.close();
+  }
+}
+
+async function bench(browser, gl, r) {
+  {
+    let page;
+    // --- bench: frame time at 512², wasm decode -----------------------------------------------
     if (!reduced) {  // frame-time benchmarks at 512² belong to the full run
       page = await openPage(browser, '&pcak=pcak-0.pcak&size=512', pcakView);
       await stream(page, { maxFrames: 3, every: 1000, snapshots: false });
       r.frame_ms_pcak = await page.evaluate((n) => window.btflod.client.benchmark(n), 20);
       await page.close();
     }
-
-    // --- bench: frame time at 512², wasm decode -----------------------------------------------
     page = await openPage(browser, reduced ? '' : '&size=512');
     if (!reduced) {
       await stream(page, { maxFrames: 60, every: 1000, snapshots: false });
@@ -281,13 +298,11 @@ async function runGl(gl) {
       }, 'data/' + materials[0].file);
     }
     await page.close();
-  } finally {
-    await browser.close();
   }
-  return r;
 }
 
 const gls = reduced ? ['swiftshader'] : ['swiftshader', 'llvmpipe'];
+if (benchOnly) report.bench_only = true;
 for (const gl of gls) {
   try {
     report.runs[gl] = await runGl(gl);

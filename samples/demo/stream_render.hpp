@@ -443,8 +443,6 @@ class StreamingRenderer {
   uint32_t vote_window_frames() const noexcept { return votes_->window_frames(); }
   /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
   const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
-  /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
-  const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
   /// Tiles requested by the scheduler and not yet delivered.
   size_t pending_tiles() const noexcept {
     size_t n = 0;
@@ -478,30 +476,16 @@ class StreamingRenderer {
   }
 
   // Brings the GPU page table in line with the cache. `full` (start-up) or a delta overflow:
-  // every texel of every level. Otherwise the cache's deltas (backend/page_table_writes.hpp)
-  // plus, for every tile that entered or left a slot since the last call, its own-level chain
-  // (append_tile_chain_writes): a tile inserted or removed while hidden by resident descendants
-  // changes no finest-level entry, so no delta names it. Slots are compared with a snapshot of
-  // the previous call (O(slots), no allocation once writes_ has grown).
+  // every texel of every level. Otherwise the writes the frame's cache operations imply: the
+  // cache's deltas and the chain of every tile it reports as touched (inserted, removed, swapped
+  // out, or hidden by an add), backend/page_table_writes.hpp — no slot diff.
   VoidResult write_page_tables(bool full) {
     writes_.clear();
     if (full || cache_->deltas_overflowed()) {
       for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
       ++full_rewrites_;
     } else {
-      append_page_table_writes(*cache_, cache_->deltas(), writes_);
-      for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
-        const SlotInfo& si = cache_->slot(s);
-        const bool used = si.state == SlotInfo::State::used;
-        if (used == (slot_used_[s] != 0) && (!used || si.tile == slot_tiles_[s])) continue;
-        if (slot_used_[s]) append_tile_chain_writes(*cache_, slot_tiles_[s], writes_);
-        if (used) append_tile_chain_writes(*cache_, si.tile, writes_);
-      }
-    }
-    for (uint32_t s = 0; s < cache_->slot_count(); ++s) {
-      const SlotInfo& si = cache_->slot(s);
-      slot_used_[s] = si.state == SlotInfo::State::used ? 1 : 0;
-      slot_tiles_[s] = si.tile;
+      append_frame_page_table_writes(*cache_, writes_);
     }
     cache_->clear_deltas();
     for (const PageTableWrite& w : writes_) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
@@ -613,15 +597,15 @@ class StreamingRenderer {
       auto dir = read_bsvtf(m.bsvtf);
       if (!dir) return make_error(dir.status(), "%s: %s", m.bsvtf_path.c_str(), dir.message().c_str());
       const BsvtfMetadata& md = dir->metadata;
-      set_.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
+      const uint32_t mi = set_.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
       tile_size_ = md.tile_size;
       border_ = md.border;
-    }
-    // Weights w for the scheduler (paper 000 eq. 8), from the material's tile pyramid.
-    for (uint32_t mi = 0; mi < materials_.size(); ++mi) {
-      auto pyr = TilePyramid::build(materials_[mi].eigen, tile_size_, border_, TileEdge::wrap);
-      if (!pyr) return pyr.error();
-      pyr->copy_weights_to(set_, mi);
+      // Weights w for the scheduler (paper 000 eq. 8) and energies (§6), from the container's index.
+      for (const BsvtfTileEntry& e : dir->tiles) {
+        const uint32_t t = set_.material(mi).first_texture + e.id.texture;
+        set_.weights(t)[set_.levels_of(t).index(e.id)] = Half(e.weight);
+        set_.energies(t)[set_.levels_of(t).index(e.id)] = Half(e.energy);
+      }
     }
     config.vt.tile_size = tile_size_;
     config.vt.border = border_;
@@ -697,8 +681,6 @@ class StreamingRenderer {
       if (got < vm.texture_count) return make_error(Status::io_error, "%s: root tiles did not arrive", materials_[m].name.c_str());
       pipelines_[m]->request({});
     }
-    slot_tiles_.assign(cache_->slot_count(), TileId{});
-    slot_used_.assign(cache_->slot_count(), 0);
     page_mirror_.resize(set_.texture_count());
     for (uint32_t t = 0; t < set_.texture_count(); ++t) page_mirror_[t].assign(set_.levels_of(t).tile_count(), 0u);
     writes_.reserve(4096);
@@ -721,8 +703,6 @@ class StreamingRenderer {
   std::vector<std::vector<uint16_t>> staging_;
   std::vector<uint32_t> feedback_;
   std::vector<PageTableWrite> writes_;
-  std::vector<TileId> slot_tiles_;                  // tile per slot at the last write_page_tables()
-  std::vector<uint8_t> slot_used_;                  // slot held a tile then
   std::vector<std::vector<uint32_t>> page_mirror_;  // per texture: every GPU page-table texel written so far
   uint64_t total_page_table_writes_ = 0;
   uint32_t full_rewrites_ = 0;

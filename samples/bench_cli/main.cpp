@@ -514,12 +514,15 @@ int cmd_compare(int argc, char** argv) {
         verdict = "REGRESSION", ++regressions;
       else if (ratio > 1.0 + band)
         verdict = "improved", ++improvements;
+    } else if (ma.noise > 0 || mb.noise > 0) {
+      verdict = ratio > 1.0 + band || ratio < 1.0 / (1.0 + band) ? "changed" : "~";  // a timing kept for reference
+      if (verdict[0] == 'c') ++changed;
     } else {
       verdict = ma.value == mb.value ? "=" : "changed";
       if (ma.value != mb.value) ++changed;
     }
     std::printf("%-58s %14.6g %14.6g %8.3f %6.0f%%  %s\n", ma.name.c_str(), ma.value, mb.value, ratio,
-                ma.better == Better::none ? 0.0 : band * 100.0, verdict);
+                ma.better == Better::none && ma.noise == 0 && mb.noise == 0 ? 0.0 : band * 100.0, verdict);
   }
   std::printf(
       "%d regressions, %d improvements beyond the noise band; %d exact counters changed; %d metrics missing in B\n",

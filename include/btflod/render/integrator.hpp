@@ -145,6 +145,7 @@ struct SceneKeys {
   uint64_t camera = 0;
   uint64_t geometry = 0;
   uint64_t light_positions = 0;
+  /// Equal keys: nothing that invalidates the sums changed.
   bool operator==(const SceneKeys&) const = default;
 };
 
@@ -196,7 +197,9 @@ struct RayCounts {
   uint64_t primary = 0;    ///< camera rays and mirror reflection rays (closest hit)
   uint64_t shadow = 0;     ///< point- and area-light shadow rays (any hit)
   uint64_t occlusion = 0;  ///< AO rays (any hit)
+  /// All rays.
   uint64_t total() const noexcept { return primary + shadow + occlusion; }
+  /// Adds another tile's counts.
   RayCounts& operator+=(const RayCounts& o) noexcept {
     primary += o.primary, shadow += o.shadow, occlusion += o.occlusion;
     return *this;
@@ -255,6 +258,7 @@ class ProgressiveAccumulator {
 
   /// N: samples accumulated per pixel since the last reset.
   uint32_t frames() const noexcept { return frames_; }
+  /// Image size and area-light count given to allocate().
   uint32_t width() const noexcept { return width_; }
   uint32_t height() const noexcept { return height_; }
   uint32_t area_light_count() const noexcept { return area_count_; }
@@ -287,7 +291,10 @@ class ProgressiveAccumulator {
     return frames_ > 0 ? ao_sum_[static_cast<size_t>(y) * width_ + x] / static_cast<float>(frames_) : 0.0f;
   }
 
-  // Per-pixel access for render_pixels (each pixel is written by exactly one caller per frame).
+  /// Per-pixel buffers (pixel p = y·width + x) for render_pixels() or another integrator: the
+  /// direct term and ambient reflectance are overwritten each frame, the sums accumulate. Each
+  /// pixel must be written by one thread per frame. Preconditions: p < width·height, light <
+  /// area_light_count(). noexcept.
   glm::vec3& direct(size_t p) noexcept { return direct_[p]; }
   glm::vec3& ambient_albedo(size_t p) noexcept { return ambient_albedo_[p]; }
   glm::vec3& area_sum(size_t p, uint32_t light) noexcept { return area_sum_[p * area_count_ + light]; }

@@ -20,9 +20,11 @@ namespace btflod {
 struct TriangleMeshData {
   std::vector<MeshVertex> vertices;
   std::vector<uint32_t> indices;
+  /// The tracer's view of this mesh (spans into it: valid while it lives and is not resized).
   SceneMesh mesh(uint32_t material) const noexcept { return SceneMesh{vertices, indices, material}; }
+  /// Number of triangles (indices / 3).
   size_t triangle_count() const noexcept { return indices.size() / 3; }
-  /// Appends another mesh (indices rebased).
+  /// Appends another mesh (indices rebased). Allocates; invalidates earlier mesh() views.
   void append(const TriangleMeshData& o) {
     const auto base = static_cast<uint32_t>(vertices.size());
     vertices.insert(vertices.end(), o.vertices.begin(), o.vertices.end());

@@ -42,6 +42,7 @@ class PixelRng {
     k = mix_bits64(k ^ (static_cast<uint64_t>(sample) | static_cast<uint64_t>(purpose) << 32));
     return PixelRng(k);
   }
+  /// A stream from a raw 64-bit state (any value).
   explicit constexpr PixelRng(uint64_t state) noexcept : state_(state) {}
 
   /// Next 64 random bits. noexcept.

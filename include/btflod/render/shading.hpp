@@ -103,7 +103,9 @@ class BtfMaterial {
     return combine_nine_tap(light_interp_.query(light_local), view_interp_.query(view_local));
   }
 
+  /// The shaded representation (shared, immutable).
   const AnyFactorization& representation() const noexcept { return *representation_; }
+  /// Texels per row and per column of the representation.
   int width() const noexcept { return width_; }
   int height() const noexcept { return height_; }
 
@@ -132,8 +134,11 @@ struct SurfaceMaterial {
   const BtfMaterial* btf = nullptr;
   glm::vec3 mirror_reflectance{0.9f};
 
+  /// A Lambertian surface (albedo per channel, in [0, 1] for energy conservation).
   static SurfaceMaterial lambertian(glm::vec3 albedo) noexcept { return {Kind::lambertian, albedo, nullptr, {}}; }
+  /// A BTF surface; `m` must outlive every scene using it.
   static SurfaceMaterial textured(const BtfMaterial& m) noexcept { return {Kind::btf, {}, &m, {}}; }
+  /// A perfect mirror reflecting `reflectance` per channel.
   static SurfaceMaterial mirror(glm::vec3 reflectance) noexcept { return {Kind::mirror, {}, nullptr, reflectance}; }
 };
 

@@ -172,6 +172,7 @@ inline SurfacePoint interpolate_surface(const SceneMesh& mesh, const TraceHit& h
 /// allocation-free and thread-safe. Satisfies RayTracer.
 class BruteForceTracer {
  public:
+  /// Traces `meshes` (not copied: they must outlive the tracer).
   explicit BruteForceTracer(std::span<const SceneMesh> meshes) noexcept : meshes_(meshes) {}
 
   /// Closest hit in (t_min, t_max).

@@ -1,0 +1,148 @@
+// SPMM (paper 003, factor/spmm.hpp): fit time of a 64×64 material sampled at the UBO2003
+// directions (81 × 81; the synthesised cloth of btf/synthesizer.hpp), and evaluation time per
+// sample next to FMF (paper 000, rank 16) on the same material in the same run. Evaluation
+// samples are random texels and random (non-measured) upper-hemisphere directions; both
+// representations interpolate through the same exact-grid interpolators (SPMM: analytic part
+// at the exact directions + residual over 3 × 3 taps; FMF: 3 × 3 taps).
+//
+//   build-x/bench/bench_spmm                        # fit once at 64×64, then the eval pairs
+//   BTFLOD_BENCH_SPMM_SIZE=32 build-x/bench/bench_spmm   # smaller material
+// Counters: ns_per_sample, and on the SPMM rows ratio_vs_fmf = SPMM ns / FMF ns from the
+// FMF row measured first in the same run.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include "btflod/angular/interpolators.hpp"
+#include "btflod/btf/synthesizer.hpp"
+#include "btflod/factor/fmf.hpp"
+#include "btflod/factor/spmm.hpp"
+
+namespace {
+
+using namespace btflod;
+
+int material_size() {
+  const char* s = std::getenv("BTFLOD_BENCH_SPMM_SIZE");
+  return s ? std::max(4, std::atoi(s)) : 64;
+}
+
+const BtfFloat& material() {
+  static const BtfFloat btf = [] {
+    const int n = material_size();
+    return synthesize_material(SynthMaterial::cloth, n, n, 1, SynthesisOptions{}).value();
+  }();
+  return btf;
+}
+
+double g_spmm_fit_s = 0.0;
+const Spmm& spmm() {
+  static const Spmm p = [] {
+    const auto t0 = std::chrono::steady_clock::now();
+    Spmm r = factorize_spmm(material(), SpmmOptions{.clusters = 8}).value();
+    g_spmm_fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }();
+  return p;
+}
+double g_fmf_fit_s = 0.0;
+const Fmf& fmf() {
+  static const Fmf f = [] {
+    const auto t0 = std::chrono::steady_clock::now();
+    Fmf r = factorize_fmf(material(), FmfOptions{.components = 16}).value();
+    g_fmf_fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }();
+  return f;
+}
+
+struct Samples {
+  std::vector<int> x, y;
+  std::vector<glm::vec3> l, v;
+};
+const Samples& samples() {
+  static const Samples s = [] {
+    Samples r;
+    uint64_t state = 0x853c49e6748fea9bull;
+    auto next = [&state] {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return static_cast<float>((state >> 40) & 0xffffff) / 16777216.0f;
+    };
+    auto hemi = [&] {
+      const float mu = 0.05f + 0.95f * next(), ph = 6.2831853f * next(), st = std::sqrt(1.0f - mu * mu);
+      return glm::vec3(st * std::cos(ph), st * std::sin(ph), mu);
+    };
+    const int n = material_size();
+    for (int i = 0; i < 4096; ++i) {
+      r.x.push_back(static_cast<int>(next() * static_cast<float>(n)) % n);
+      r.y.push_back(static_cast<int>(next() * static_cast<float>(n)) % n);
+      r.l.push_back(hemi());
+      r.v.push_back(hemi());
+    }
+    return r;
+  }();
+  return s;
+}
+
+const ExactGridInterpolator<ParabolicMap>& interp(bool light) {
+  static const auto li = ExactGridInterpolator<ParabolicMap>::build(material().lights()).value();
+  static const auto vi = ExactGridInterpolator<ParabolicMap>::build(material().views()).value();
+  return light ? li : vi;
+}
+
+void BM_SpmmFit(benchmark::State& state) {
+  for (auto _ : state) benchmark::DoNotOptimize(spmm().clusters());
+  state.counters["fit_s"] = g_spmm_fit_s;
+  state.counters["mean_bf"] = spmm().mean_basis_per_texel();
+  state.counters["ratio"] = spmm().compression_ratio();
+  (void)fmf();
+  state.counters["fmf_fit_s"] = g_fmf_fit_s;
+  state.counters["fit_vs_fmf"] = g_spmm_fit_s / std::max(g_fmf_fit_s, 1e-9);
+  std::printf("SPMM fit %dx%d UBO2003: %.2f s (FMF C=16: %.2f s), #BF %.2f\n", material_size(), material_size(),
+              g_spmm_fit_s, g_fmf_fit_s, spmm().mean_basis_per_texel());
+}
+BENCHMARK(BM_SpmmFit)->Iterations(1)->Unit(benchmark::kSecond);
+
+double g_fmf_ns = 0.0;
+void BM_FmfEval(benchmark::State& state) {
+  const Samples& s = samples();
+  const Fmf& f = fmf();
+  size_t i = 0, count = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    const size_t k = i++ & 4095;
+    benchmark::DoNotOptimize(f.evaluate(s.x[k], s.y[k], interp(true).query(s.l[k]), interp(false).query(s.v[k])));
+    ++count;
+  }
+  g_fmf_ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() /
+             static_cast<double>(std::max<size_t>(count, 1));
+  state.counters["ns_per_sample"] = g_fmf_ns;
+}
+BENCHMARK(BM_FmfEval);
+
+// Arg: −2 = no residual, −1 = all N_PCA, k ≥ 0 = N_PCA = k.
+void BM_SpmmEval(benchmark::State& state) {
+  const Samples& s = samples();
+  const Spmm& p = spmm();
+  const int arg = static_cast<int>(state.range(0));
+  const SpmmEvalOptions o{.residual = arg != -2, .pca_components = arg < 0 ? -1 : arg};
+  size_t i = 0, count = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (auto _ : state) {
+    const size_t k = i++ & 4095;
+    benchmark::DoNotOptimize(p.evaluate(s.x[k], s.y[k], s.l[k], s.v[k], interp(true), interp(false), o));
+    ++count;
+  }
+  const double ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count() /
+                    static_cast<double>(std::max<size_t>(count, 1));
+  state.counters["ns_per_sample"] = ns;
+  if (g_fmf_ns > 0.0) state.counters["ratio_vs_fmf"] = ns / g_fmf_ns;
+}
+BENCHMARK(BM_SpmmEval)->Arg(-2)->Arg(0)->Arg(2)->Arg(-1);
+
+}  // namespace
+
+BENCHMARK_MAIN();

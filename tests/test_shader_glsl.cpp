@@ -533,3 +533,28 @@ TEST(ShaderGlsl, BadFunctionOptionsAreRejectedWithAMessage) {
   bad.components = 0;
   EXPECT_FALSE(generate_functions(bsvtf, GlslTarget::gl450_core, bad).ok());
 }
+
+TEST(ShaderGlsl, DefaultFunctionNamesAreTheWholeProgramSamplerNames) {
+  // An ES host sets the whole programs' samplers by the names of shader_sampler_names(); the
+  // default options must produce exactly those names and bindings, or such a host binds nothing.
+  const GlslFunctionOptions o;
+  uint32_t all = 0;
+  for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
+  auto fn = generate_functions(all, GlslTarget::es300, ShaderConfig{}, o);
+  ASSERT_TRUE(fn.ok()) << fn.message();
+  ASSERT_EQ(fn->samplers.size(), shader_sampler_names().size());
+  for (const SamplerName& n : shader_sampler_names()) {
+    EXPECT_EQ(std::string(n.name), std::string("btflod_") + shader_binding_name(n.binding));
+    bool found = false;
+    for (const GlslSamplerUse& u : fn->samplers)
+      if (u.role == n.binding) {
+        found = true;
+        EXPECT_EQ(u.name, n.name);
+        EXPECT_EQ(u.binding, static_cast<uint32_t>(n.binding));
+        EXPECT_TRUE(u.declared);
+      }
+    EXPECT_TRUE(found) << n.name;
+  }
+  // same inputs, same bytes
+  EXPECT_EQ(fn->code, generate_functions(all, GlslTarget::es300, ShaderConfig{}, o)->code);
+}

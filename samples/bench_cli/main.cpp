@@ -4,7 +4,7 @@
 //   btflod-bench scheduler --trace FILE (--bsvtf FILE ... | --materials N [--texture S]
 //                          [--components C]) [--slots N] [--uploads U] [--decoding D]
 //                          [--requests R] [--bytes-in-flight B] [--mode weighted|votes-only]
-//                          [--window N] [--repeat R] [--json OUT] [--check-determinism]
+//                          [--window N] [--repeat R] [--json OUT] [--check-determinism] [--runtime]
 //                          [--sweep --sweep-slots a,b,.. --sweep-uploads a,b,.. --sweep-modes m,..
 //                           --csv OUT --svg OUT]
 //   btflod-bench codec --bsvtf FILE [--bsvtf FILE ...] [--repeat R] [--jpeg-quality Q]
@@ -37,12 +37,14 @@ constexpr const char* kUsage =
     "usage:\n"
     "  btflod-bench scheduler --trace FILE (--bsvtf FILE ... | --materials N [--texture S] [--components C])\n"
     "               [--slots N] [--uploads U] [--decoding D] [--requests R] [--bytes-in-flight B]\n"
-    "               [--mode weighted|votes-only] [--window N] [--repeat R] [--json OUT] [--check-determinism]\n"
+    "               [--mode weighted|votes-only] [--window N] [--repeat R] [--json OUT] [--check-determinism] "
+    "[--runtime]\n"
     "               [--sweep [--sweep-slots a,b,..] [--sweep-uploads a,b,..] [--sweep-modes m,..] [--csv OUT] [--svg "
     "OUT]]\n"
     "      Replays a feedback trace (btflod-demo --record-feedback, or FeedbackTraceRecorder in your engine)\n"
     "      through votes -> scheduler -> tile cache with an immediate source; reports per-frame CPU time\n"
-    "      percentiles next to one read of each feedback buffer, operations, budget hits and bytes.\n"
+    "      percentiles next to one read of each feedback buffer, operations, budget hits and bytes. --runtime also\n"
+    "      replays it through the runtime Streamer (update() per frame, decode jobs pumped, containers in memory).\n"
     "  btflod-bench codec --bsvtf FILE [--bsvtf FILE ...] [--repeat R] [--jpeg-quality Q] [--encode [--quality "
     "a,b,..]]\n"
     "               [--json OUT]\n"
@@ -110,6 +112,7 @@ struct SchedulerArgs {
   std::string json, csv, svg;
   bool check_determinism = false;
   bool sweep = false;
+  bool runtime = false;  ///< also replay through runtime/streamer.hpp (update + decode jobs)
   std::vector<uint32_t> sweep_slots{64, 256, 1024};
   std::vector<uint32_t> sweep_uploads{8, 32};
   std::vector<PriorityMode> sweep_modes{PriorityMode::weighted, PriorityMode::votes_only};
@@ -208,6 +211,10 @@ int cmd_scheduler(int argc, char** argv) {
     }
     if (k == "--sweep") {
       a.sweep = true;
+      continue;
+    }
+    if (k == "--runtime") {
+      a.runtime = true;
       continue;
     }
     if (i + 1 >= argc) return fail("option " + k + " needs a value (or is unknown)\n" + kUsage);
@@ -311,6 +318,55 @@ int cmd_scheduler(int argc, char** argv) {
     std::printf("schedule digest %016llx; deterministic: %s\n", static_cast<unsigned long long>(out->digest),
                 out->deterministic ? "yes" : "no");
     report.input("schedule_digest", std::to_string(out->digest));
+    if (a.runtime) {
+      if (a.bsvtf.empty() || a.materials)
+        return fail("scheduler --runtime: needs --bsvtf containers (and no described materials)");
+      std::vector<std::vector<uint8_t>> containers;
+      for (const auto& p : a.bsvtf) {
+        auto b = read_file_bytes(p);
+        if (!b) return fail(b.message());
+        containers.push_back(std::move(*b));
+      }
+      uint64_t first_digest = 0;
+      bool same = true;
+      for (uint32_t r = 0; r < a.repeat; ++r) {
+        auto run = replay_trace_runtime(containers, *trace, a.replay, r % 2 == 1);
+        if (!run) return fail("runtime replay: " + run.message());
+        if (r == 0) first_digest = run->digest;
+        same = same && run->digest == first_digest;
+        std::vector<double> fu(run->frame_ns.size()), uu(run->update_ns.size()), ru(run->read_ns.size());
+        for (size_t i = 0; i < fu.size(); ++i) fu[i] = run->frame_ns[i] / 1000.0, uu[i] = run->update_ns[i] / 1000.0;
+        for (size_t i = 0; i < ru.size(); ++i) ru[i] = run->read_ns[i] / 1000.0;
+        for (const char* q : {"p50", "p95", "p99", "max"}) {
+          const double pq = q[0] == 'm' ? 1.0 : std::atof(q + 1) / 100.0;
+          report.add(std::string("runtime.update_us.") + q, percentile(uu, pq), "us", Better::lower);
+          report.add(std::string("runtime.update_and_decode_us.") + q, percentile(fu, pq), "us", Better::lower);
+        }
+        report.add("runtime.x_read.p50", percentile(uu, 0.5) / std::max(percentile(ru, 0.5), 1e-3), "x", Better::lower);
+        report.add("runtime.tile_uploads", static_cast<double>(run->tile_uploads), "", Better::none);
+        report.add("runtime.page_table_writes", static_cast<double>(run->page_table_writes), "", Better::none);
+        report.add("runtime.bytes_read", static_cast<double>(run->bytes_read), "B", Better::none);
+        report.add("runtime.adds", static_cast<double>(run->total.adds), "ops", Better::none);
+        report.add("runtime.swaps", static_cast<double>(run->total.swaps), "ops", Better::none);
+        report.add("runtime.budget_hits", static_cast<double>(run->total.budget_hits()), "", Better::none);
+      }
+      report.finish();
+      auto v = [&](const std::string& n) { return report.find(n)->value; };
+      std::printf("runtime (Streamer::update + decode jobs pumped on this thread, %u repetitions, medians):\n",
+                  a.repeat);
+      std::printf("  update()          p50 %8.2f us  p95 %8.2f us  p99 %8.2f us  max %8.2f us  (%.1fx one read)\n",
+                  v("runtime.update_us.p50"), v("runtime.update_us.p95"), v("runtime.update_us.p99"),
+                  v("runtime.update_us.max"), v("runtime.x_read.p50"));
+      std::printf("  update + decode   p50 %8.2f us  p95 %8.2f us  p99 %8.2f us  max %8.2f us\n",
+                  v("runtime.update_and_decode_us.p50"), v("runtime.update_and_decode_us.p95"),
+                  v("runtime.update_and_decode_us.p99"), v("runtime.update_and_decode_us.max"));
+      std::printf(
+          "  %.0f tile uploads, %.0f page-table writes, %.0f bytes read, %.0f adds, %.0f swaps, %.0f budget hits; "
+          "deterministic: %s\n",
+          v("runtime.tile_uploads"), v("runtime.page_table_writes"), v("runtime.bytes_read"), v("runtime.adds"),
+          v("runtime.swaps"), v("runtime.budget_hits"), same ? "yes" : "no");
+      if (!same) out->deterministic = false;
+    }
     if (!a.json.empty())
       if (auto w = write_text(a.json, report.json()); !w) return fail(w.message());
     if (a.check_determinism && !out->deterministic) return 1;
@@ -603,6 +659,8 @@ int cmd_generate(int argc, char** argv) {
   md.width = md.height = texture;
   md.level_count = g.finest_level + 1;
   md.component_count = 8;
+  md.light_set = md.view_set = "generated-2";  // 2 lights x 2 views x RGB = 12 rows of U
+  md.light_directions = md.view_directions = {0.0f, 0.0f, 1.0f, 0.5f, 0.0f, 0.8660254f};
   md.u_rows = 12;
   std::vector<float> u(size_t{md.u_rows} * md.component_count);
   for (size_t i = 0; i < u.size(); ++i) u[i] = std::sin(0.7f * static_cast<float>(i));

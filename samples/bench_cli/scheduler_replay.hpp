@@ -14,6 +14,8 @@
 #include "btflod/core/file_io.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/feedback_trace.hpp"
+#include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/vt_layout.hpp"
@@ -194,6 +196,86 @@ inline Result<ReplayRun> replay_trace(const Materials& materials, const Feedback
   run.digest = digest;
   run.used_slots = cache->used_count();
   run.rejected_words = votes.rejected();
+  return run;
+}
+
+/// Replays the trace through the runtime object (runtime/streamer.hpp): per frame one
+/// Streamer::update() with the frame's words, then pump() runs every decode job on this thread
+/// (a memory source: reads are memcpy). frame_ns is update + pump (decoding included);
+/// update_ns (in read_ns's place when `update_only`) is update() alone. Containers in
+/// `containers` (file bytes) are the materials, in trace order. Errors of Streamer::create.
+struct RuntimeRun {
+  std::vector<double> frame_ns, update_ns, read_ns;
+  SchedulerCounters total;
+  uint64_t digest = 0, tile_uploads = 0, page_table_writes = 0, bytes_read = 0;
+};
+inline Result<RuntimeRun> replay_trace_runtime(const std::vector<std::vector<uint8_t>>& containers,
+                                               const FeedbackTrace& trace, const ReplayConfig& config,
+                                               bool read_first) {
+  std::vector<BsvtfDirectory> dirs;
+  std::vector<std::unique_ptr<MemorySource>> sources;
+  for (const auto& bytes : containers) {
+    auto d = read_bsvtf(bytes);
+    if (!d) return d.error();
+    dirs.push_back(std::move(*d));
+    sources.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(bytes)));
+  }
+  if (dirs.empty()) return make_error(Status::invalid_argument, "runtime replay: no containers");
+  std::vector<StreamerMaterial> mats(dirs.size());
+  for (size_t i = 0; i < dirs.size(); ++i) {
+    mats[i].directory = &dirs[i];
+    mats[i].source = sources[i].get();
+    mats[i].assumed_row_order = AngularRowOrder::light_major;
+  }
+  StreamerConfig sc;
+  sc.cache.slots_x = config.cache.slots_x;
+  sc.cache.slots_y = config.cache.slots_y;
+  sc.cache.tile_size = dirs[0].metadata.tile_size;
+  sc.cache.border = dirs[0].metadata.border;
+  sc.scheduler = config.scheduler;
+  const uint32_t d = trace.frame_count() ? trace.frames[0].decimation : 1;
+  sc.vote_window_frames = config.window ? config.window : d * d;
+  auto streamer = Streamer::create(mats, sc);
+  if (!streamer) return streamer.error();
+  std::vector<StreamerTileUpload> tiles(streamer->tile_uploads_bound());
+  std::vector<StreamerPacketUpload> packets(streamer->packet_uploads_bound());
+  std::vector<PageTableWrite> writes(1u << 16);
+  std::vector<ResidencyEvent> events(256);
+  RuntimeRun run;
+  uint64_t digest = 0xcbf29ce484222325ull;
+  auto read_pass = [&] {
+    for (size_t i = 0; i < trace.frame_count(); ++i) {
+      const auto words = trace.frame_words(i);
+      const double t0 = thread_cpu_ns();
+      uint64_t sum = 0;
+      for (const uint32_t w : words) sum += w;
+      asm volatile("" : : "r"(sum) : "memory");
+      run.read_ns.push_back(thread_cpu_ns() - t0);
+    }
+  };
+  if (read_first) read_pass();
+  streamer->pump();  // the pinned roots and U' packets queued by create()
+  for (size_t i = 0; i < trace.frame_count(); ++i) {
+    StreamerOutputs out{tiles, packets, writes, events};
+    const double t0 = thread_cpu_ns();
+    if (const Status st = streamer->update(trace.frame_words(i), out); st != Status::success)
+      return make_error(st, "runtime replay: update() of frame %zu failed", i);
+    const double t1 = thread_cpu_ns();
+    streamer->pump();
+    run.frame_ns.push_back(thread_cpu_ns() - t0);
+    run.update_ns.push_back(t1 - t0);
+    for (size_t k = 0; k < out.tile_upload_count; ++k) {
+      digest = fnv(digest, out.tile_uploads[k].slot);
+      digest = fnv(digest, out.tile_uploads[k].tile.key());
+    }
+    digest = fnv(digest, out.page_table_write_count);
+    run.tile_uploads += out.tile_upload_count;
+    run.page_table_writes += out.page_table_write_count;
+  }
+  if (!read_first) read_pass();
+  run.total = streamer->scheduler().total();
+  run.digest = digest;
+  run.bytes_read = streamer->bytes_read();
   return run;
 }
 

@@ -16,11 +16,15 @@ endfunction()
 
 run_bench(TRUE out generate --trace ${OUT}/t.btftrace --bsvtf ${OUT}/m.bsvtf --frames 32 --width 64 --height 36 --texture 256)
 
-# Replay: the same trace replayed in every repetition gives the same schedule bit for bit.
+# Replay (scheduler + cache, and the runtime Streamer with --runtime): the same trace replayed in
+# every repetition gives the same schedule bit for bit.
 run_bench(TRUE out scheduler --trace ${OUT}/t.btftrace --bsvtf ${OUT}/m.bsvtf --slots 12 --uploads 2 --repeat 3
-          --json ${OUT}/a.json --check-determinism)
+          --json ${OUT}/a.json --check-determinism --runtime)
 if(NOT out MATCHES "deterministic: yes")
   message(FATAL_ERROR "replay not deterministic:\n${out}")
+endif()
+if(NOT out MATCHES "update \\+ decode +p50 +[0-9.]+ us")
+  message(FATAL_ERROR "no runtime replay in the scheduler report:\n${out}")
 endif()
 if(NOT out MATCHES "frame CPU time +p50 +[0-9.]+ us")
   message(FATAL_ERROR "no percentiles in the scheduler report:\n${out}")

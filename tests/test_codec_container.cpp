@@ -452,3 +452,37 @@ TEST(CodecContainer, ToleranceMinScaleFloorsSmallComponentTolerances) {
   }
   EXPECT_FLOAT_EQ(info.tolerance[0], floor);  // the smallest component is lifted to the floor
 }
+
+// Version 3 stores U's row order and each tile's energy; version-2 files are still read (row
+// order unspecified, energies 0); a writer must say which order U is in.
+TEST(CodecContainer, RowOrderAndEnergiesRoundTripAndVersionTwoIsRead) {
+  Material m = make_material(2, 4);
+  m.metadata.u_row_order = AngularRowOrder::view_major;
+  for (size_t i = 0; i < m.tiles.size(); ++i) m.tiles[i].energy = 0.25f * static_cast<float>(i + 1);
+  const auto file = build(m);
+  const auto d = read_bsvtf(file);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.version, kBsvtfVersion);
+  EXPECT_EQ(d->metadata.u_row_order, AngularRowOrder::view_major);
+  for (const auto& t : m.tiles) EXPECT_EQ(d->find(t.id)->energy, t.energy);
+  // The same tiles written as version 2.
+  std::vector<BsvtfEncodedTile> tiles;
+  for (const auto& e : d->tiles)
+    tiles.push_back(BsvtfEncodedTile{e.id, std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
+                                                                file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
+                                     e.weight, e.energy});
+  BsvtfMetadata md = d->metadata;
+  const auto v2 = write_bsvtf(md, m.u, tiles, 2);
+  ASSERT_TRUE(v2.ok()) << v2.message();
+  const auto d2 = read_bsvtf(*v2);
+  ASSERT_TRUE(d2.ok()) << d2.message();
+  EXPECT_EQ(d2->header.version, 2u);
+  EXPECT_EQ(d2->metadata.u_row_order, AngularRowOrder::unspecified);
+  EXPECT_EQ(d2->tiles.size(), d->tiles.size());
+  for (const auto& e : d2->tiles) EXPECT_EQ(e.energy, 0.0f);
+  md.u_row_order = AngularRowOrder::unspecified;
+  const auto refused = write_bsvtf(md, m.u, tiles);
+  EXPECT_EQ(refused.status(), Status::invalid_argument);
+  EXPECT_NE(refused.message().find("u_row_order"), std::string::npos);
+  EXPECT_EQ(write_bsvtf(d->metadata, m.u, tiles, 4).status(), Status::invalid_argument);
+}

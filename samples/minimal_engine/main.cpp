@@ -1,0 +1,148 @@
+// btflod-minimal-engine — what an engine writes to stream BTF materials with btflod: build (or
+// load) `.bsvtf` containers, create one Streamer for the world, and once per frame hand it the
+// feedback words and copy its outputs to the GPU. The "GPU" here is plain arrays (a cache
+// texture of slots, one page table per virtual texture, U′ packets) and the feedback comes
+// from a camera sliding over two materials; a real engine renders the generated shaders' feedback
+// pass instead (docs/shaders.md). Decode jobs run on btflod's ThreadExecutor; an engine may run
+// Streamer::acquire_job()/run_job() on its own workers instead.
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/thread_executor.hpp"
+#include "btflod/stream/tile_source.hpp"
+#include "btflod/vt/bsvtf_build.hpp"
+
+using namespace btflod;
+
+namespace {
+
+// 1. Offline: a factorisation (here synthetic eigen-textures V′ and U′) → a .bsvtf file.
+std::vector<uint8_t> make_container(uint32_t components, float frequency) {
+  EigenTextures e;
+  e.textures.resize(256, 256, static_cast<int>(components));
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 256; ++x)
+      for (int c = 0; c < static_cast<int>(components); ++c)
+        e.textures.at(x, y, c) = 0.5f + 0.5f * std::sin(frequency * (x + 2 * y) * (c + 1)) / (1 + c);
+  e.light_count = 3;
+  e.view_count = 3;
+  e.angular.assign(size_t{3} * 3 * 3 * components, 0.1f);
+  BsvtfFromEigenOptions options;
+  options.tile_size = 32;  // T; 4 texels of border (B) by default
+  options.row_order = AngularRowOrder::light_major;
+  options.light_directions = {0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f};
+  options.view_directions = options.light_directions;
+  auto file = build_bsvtf_from_eigen_textures(e, options);
+  return file ? std::move(*file) : std::vector<uint8_t>{};
+}
+
+// The engine's side of the GPU: what the shaders read.
+struct FakeGpu {
+  std::vector<std::vector<uint16_t>> slots;        // cache texture, one RGBA16F tile per slot
+  std::vector<std::vector<uint32_t>> page_tables;  // per virtual texture, all levels
+  std::vector<std::vector<uint16_t>> u_packets;    // per virtual texture
+};
+
+// A camera sliding over two side-by-side materials: each feedback texel names the tile (level,
+// x, y) of the material it sees (lod/feedback.hpp's packed word).
+std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
+  std::vector<uint32_t> words;
+  for (uint32_t y = 0; y < 45; ++y)
+    for (uint32_t x = 0; x < 80; ++x) {
+      const float u = (x + frame * 0.5f) / 80.0f;
+      const uint32_t m = u < 1.0f ? 0u : 1u;
+      const VtLevelTable& lv = s.cache().set().material(m).levels;
+      const uint32_t level = std::min(lv.finest_level(), 1 + y / 15);
+      const uint32_t n = lv.tiles_x[level];
+      const float fu = u - std::floor(u), fv = y / 45.0f;
+      words.push_back(pack_feedback({m, level, std::min(n - 1, uint32_t(fu * n)), std::min(n - 1, uint32_t(fv * n))}));
+    }
+  return words;
+}
+
+}  // namespace
+
+int main() {
+  // 2. Containers and their sources (a file, an HTTP range source or memory, as here).
+  std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f)};
+  std::vector<BsvtfDirectory> directories;
+  std::vector<MemorySource> sources;
+  sources.reserve(files.size());
+  for (const auto& f : files) {
+    auto d = read_bsvtf(f);
+    if (!d) return std::fprintf(stderr, "container: %s\n", d.message().c_str()), 1;
+    directories.push_back(std::move(*d));
+    sources.emplace_back(std::span<const uint8_t>(f));
+  }
+  std::vector<StreamerMaterial> materials;
+  for (size_t i = 0; i < files.size(); ++i) materials.push_back({&directories[i], &sources[i], nullptr});
+
+  // 3. One Streamer for the world. The CacheConfig is also the shaders' VirtualTextureConfig.
+  StreamerConfig config;
+  config.cache = CacheConfig{8, 8, 1u << 14, 32, 4, 1};  // 64 slots of 40×40 texels
+  config.scheduler.budgets.uploads_per_frame = 8;
+  config.vote_window_frames = 1;
+  auto created = Streamer::create(materials, config);
+  if (!created) return std::fprintf(stderr, "streamer: %s\n", created.message().c_str()), 1;
+  Streamer streamer = std::move(*created);
+
+  // 4. Caller-owned outputs, sized once (nothing allocates per frame).
+  std::vector<StreamerTileUpload> tiles(streamer.tile_uploads_bound());
+  std::vector<StreamerPacketUpload> packets(streamer.packet_uploads_bound());
+  std::vector<PageTableWrite> writes(4096);
+  std::vector<ResidencyEvent> events(64);
+  FakeGpu gpu;
+  gpu.slots.resize(streamer.cache().slot_count());
+  for (uint32_t t = 0; t < streamer.cache().set().texture_count(); ++t)
+    gpu.page_tables.emplace_back(streamer.cache().set().levels_of(t).tile_count(), 0u);
+  gpu.u_packets.resize(streamer.cache().set().texture_count());
+
+  // 5. The frame loop.
+  uint64_t uploads = 0, page_writes = 0;
+  {
+    ThreadExecutor workers(streamer.jobs(), 2);
+    for (uint32_t frame = 0; frame < 120; ++frame) {
+      const std::vector<uint32_t> feedback = render_feedback(streamer, frame);  // GPU readback
+      StreamerOutputs out{tiles, packets, writes, events};
+      if (streamer.update(feedback, out) != Status::success) return 1;
+      for (size_t i = 0; i < out.tile_upload_count; ++i)  // glTexSubImage3D / vkCmdCopyBufferToImage
+        gpu.slots[tiles[i].slot].assign(tiles[i].texels.begin(), tiles[i].texels.end());
+      for (size_t i = 0; i < out.page_table_write_count; ++i) {  // one R32UI texel each
+        const PageTableWrite& w = writes[i];
+        gpu.page_tables[w.tile.texture][streamer.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
+      }
+      for (size_t i = 0; i < out.packet_upload_count; ++i)  // U′: rows × 4 halves, light-major
+        gpu.u_packets[packets[i].texture].assign(packets[i].halves.begin(), packets[i].halves.end());
+      for (size_t i = 0; i < out.event_count; ++i)
+        if (events[i].kind == ResidencyEventKind::material_ready)
+          std::printf("frame %3u: material %u ready (roots and U' loaded)\n", frame, events[i].material);
+      uploads += out.tile_upload_count;
+      page_writes += out.page_table_write_count;
+      // (the engine renders here: feedback pass + BSVTF pass with the generated shaders)
+    }
+    while (streamer.jobs_in_flight() > 0) streamer.pump();  // workers stop with the executor
+  }
+
+  // 6. Check: every slot the cache uses holds texels, every page-table texel the shader reads at
+  // a resident tile names that tile's slot.
+  uint32_t bad = 0, resident = 0;
+  const TileCache& cache = streamer.cache();
+  for (uint32_t t = 0; t < cache.set().texture_count(); ++t) {
+    const VtLevelTable& lv = cache.set().levels_of(t);
+    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+      const TileId id = lv.tile(t, i);
+      const uint32_t slot = cache.slot_of(id);
+      if (slot == kNoSlot) continue;
+      ++resident;
+      if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != make_page_entry(id.level, slot)) ++bad;
+    }
+  }
+  const bool ready = streamer.material_ready(0) && streamer.material_ready(1);
+  std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used, %llu bytes read\n",
+              static_cast<unsigned long long>(uploads), static_cast<unsigned long long>(page_writes), resident,
+              cache.used_count(), cache.slot_count(), static_cast<unsigned long long>(streamer.bytes_read()));
+  std::printf("converged: %s\n", ready && bad == 0 && resident > 2 * cache.set().texture_count() ? "yes" : "no");
+  return ready && bad == 0 ? 0 : 1;
+}

@@ -41,12 +41,18 @@ struct Spec {
   std::vector<std::vector<float>> u, sxv;
   // FMF
   uint32_t drr = 0;
+  // FMF height map header: the two u32 values as written (btflod: rows, cols; btflib's writer:
+  // width, height) and the samples in file order.
+  uint32_t hm_first = 2, hm_second = 1;
+  std::vector<float> height_samples = {0.5f, -1.0f};
 };
 
 void put_scalars(ByteWriter& w, const std::vector<float>& v, uint8_t scalar) {
   for (float x : v) {
-    if (scalar == 2) w.u16(float_to_half_bits(x));
-    else w.f32(x);
+    if (scalar == 2)
+      w.u16(float_to_half_bits(x));
+    else
+      w.f32(x);
   }
 }
 
@@ -118,10 +124,9 @@ std::vector<uint8_t> build(const Spec& s, Offsets* off = nullptr) {
   } else {
     w.u8(2);  // header version
     w.u32(s.drr);
-    w.u32(2);  // height map 2 × 1
-    w.u32(1);
-    w.u16(float_to_half_bits(0.5f));
-    w.u16(float_to_half_bits(-1.0f));
+    w.u32(s.hm_first);
+    w.u32(s.hm_second);
+    for (float hv : s.height_samples) w.u16(float_to_half_bits(hv));
     o.max_k = w.size();
     w.u32(1);
     w.u8(s.scalar);
@@ -228,6 +233,21 @@ TEST(BonnBtf, CosineFlagDividesByCosThetaLight) {
   auto raw = reconstruct_bonn_btf(*f, keep);
   ASSERT_TRUE(raw);
   EXPECT_FLOAT_EQ(raw->at(0, 0, 0, 2, 0), s.u[0][2] * s.sxv[0][0]);
+  // Asked for a convention, the flag decides: flag 1 holds ρ·cos already.
+  auto cos_conv = reconstruct_bonn_btf(*f, bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light));
+  ASSERT_TRUE(cos_conv);
+  EXPECT_FLOAT_EQ(cos_conv->at(0, 0, 0, 2, 0), s.u[0][2] * s.sxv[0][0]);
+  // Flag 0: the data is ρ; the ρ·cos convention multiplies by cosθ_l, the ρ one keeps it.
+  s.cosine = 0;
+  auto f0 = read_bonn_btf(build(s));
+  ASSERT_TRUE(f0) << f0.message();
+  EXPECT_FALSE(f0->cosine_in_data);
+  auto times_cos = reconstruct_bonn_btf(*f0, bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light));
+  ASSERT_TRUE(times_cos);
+  EXPECT_NEAR(times_cos->at(0, 0, 0, 2, 0), s.u[0][2] * s.sxv[0][0] * std::cos(1.0f), 1e-6);
+  auto as_rho = reconstruct_bonn_btf(*f0, bonn_reconstruct_options(BtfValueConvention::brdf));
+  ASSERT_TRUE(as_rho);
+  EXPECT_FLOAT_EQ(as_rho->at(0, 0, 0, 2, 0), s.u[0][2] * s.sxv[0][0]);
 }
 
 TEST(BonnBtf, FmfRowsAreChannelFastestAndDynamicRangeIsRestored) {
@@ -325,7 +345,9 @@ TEST(BonnBtf, FactorizeWriteReadReconstructRoundTripIsExactForLowRank) {
     ASSERT_TRUE(back) << back.message();
     EXPECT_EQ(back->views.name(), "UBO2003");  // recognised from the angles
     EXPECT_EQ(back->color_model, static_cast<int32_t>(model));
-    auto rec = reconstruct_bonn_btf(*back);
+    EXPECT_TRUE(back->cosine_in_data);  // factorised in btflod's convention, ρ·cosθ_l
+    // Reconstructed in the same convention: the stored values, whatever the flag.
+    auto rec = reconstruct_bonn_btf(*back, bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light));
     ASSERT_TRUE(rec) << rec.message();
     EXPECT_LT(max_abs_diff(*rec, btf), 2e-5) << "model " << static_cast<int>(model);
   }
@@ -357,7 +379,7 @@ TEST(BonnBtf, TruncationErrorFollowsEckartYoung) {
   opt.components = 2;
   auto f = factorize_bonn_dfmf(btf, opt);
   ASSERT_TRUE(f);
-  auto rec = reconstruct_bonn_btf(*f);
+  auto rec = reconstruct_bonn_btf(*f, bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light));
   ASSERT_TRUE(rec);
   // Independent SVD of the red channel: the squared error of the best rank-2 approximation
   // is the sum of the dropped squared singular values.
@@ -374,12 +396,59 @@ TEST(BonnBtf, TruncationErrorFollowsEckartYoung) {
     }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(a);
   double dropped = 0;
-  for (Eigen::Index j = 2; j < svd.singularValues().size(); ++j) dropped += svd.singularValues()[j] * svd.singularValues()[j];
+  for (Eigen::Index j = 2; j < svd.singularValues().size(); ++j)
+    dropped += svd.singularValues()[j] * svd.singularValues()[j];
   EXPECT_GT(dropped, 1e-3);
   EXPECT_NEAR(err2, dropped, 1e-3 * dropped);
 }
 
 // ---- failure classes ---------------------------------------------------------------------------
+
+// FMF height map header: btflod reads and writes (rows, cols); btflib's writer stores (width,
+// height). For a non-square texture whose height map has the texture's size, the header's order
+// is unambiguous and both are accepted; a square map is read rows first.
+TEST(BonnBtf, FmfHeightMapHeaderIsAcceptedInEitherOrderWhenTheTextureSizeDecides) {
+  Spec s;
+  s.signature = "!FMF12FCER";
+  s.w = 3;
+  s.h = 2;
+  s.u.resize(1);
+  s.sxv.resize(1);
+  for (uint32_t r = 0; r < 3 * 2 * 3; ++r) s.u[0].push_back(0.125f * static_cast<float>(r));
+  s.sxv[0] = {1.0f, -0.5f, 0.25f, 2.0f, 0.5f, 1.5f};
+  s.height_samples = {0.0f, 0.25f, 0.5f, 1.0f, 1.25f, 1.5f};  // row-major, 2 rows of 3
+  s.hm_first = 2;                                             // rows first (btflod)
+  s.hm_second = 3;
+  auto rows_first = read_bonn_btf(build(s));
+  ASSERT_TRUE(rows_first) << rows_first.message();
+  EXPECT_EQ(rows_first->height_map_rows, 2);
+  EXPECT_EQ(rows_first->height_map_cols, 3);
+  EXPECT_FALSE(rows_first->height_map_width_first);
+  EXPECT_TRUE(rows_first->warnings.empty());
+  s.hm_first = 3;  // width first (btflib's writer)
+  s.hm_second = 2;
+  const auto width_first_bytes = build(s);
+  auto width_first = read_bonn_btf(width_first_bytes);
+  ASSERT_TRUE(width_first) << width_first.message();
+  EXPECT_EQ(width_first->height_map_rows, 2);
+  EXPECT_EQ(width_first->height_map_cols, 3);
+  EXPECT_TRUE(width_first->height_map_width_first);
+  EXPECT_EQ(width_first->height_map, rows_first->height_map);
+  ASSERT_EQ(width_first->warnings.size(), 1u);
+  EXPECT_NE(width_first->warnings[0].find("width first"), std::string::npos) << width_first->warnings[0];
+  // Re-encoding keeps the file's order.
+  auto again = encode_bonn_btf(*width_first);
+  ASSERT_TRUE(again) << again.message();
+  EXPECT_EQ(*again, width_first_bytes);
+  // A height map of another size is read rows first, as the header says.
+  s.hm_first = 1;
+  s.hm_second = 6;
+  auto other = read_bonn_btf(build(s));
+  ASSERT_TRUE(other) << other.message();
+  EXPECT_EQ(other->height_map_rows, 1);
+  EXPECT_EQ(other->height_map_cols, 6);
+  EXPECT_FALSE(other->height_map_width_first);
+}
 
 // A file cut anywhere is truncation (short_output), never "oversized count" or any other class,
 // whichever field the cut falls in: every prefix of a small DFMF and a small FMF file.
@@ -539,7 +608,7 @@ TEST(BonnBtf, ConvenienceWriteAndLoad) {
   DfmfFactorizeOptions opt;
   opt.components = 3;
   ASSERT_TRUE(write_bonn_dfmf(path, btf, opt));
-  auto back = load_bonn_btf(path);
+  auto back = load_bonn_btf(path, {}, bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light));
   ASSERT_TRUE(back) << back.message();
   EXPECT_LT(max_abs_diff(*back, btf), 2e-5);
 }

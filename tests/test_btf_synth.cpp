@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "btflod/btf/bonn_btf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 
 namespace {
@@ -74,6 +75,47 @@ TEST(SynthFlat, LambertEqualsAlbedoCosOverPi) {
   auto plain = synthesize_btf(flat, opts);
   ASSERT_TRUE(plain.ok());
   EXPECT_NEAR(plain->value(1, 1, 40, 77, 0), albedo[0] / kPi, 1e-6f);
+}
+
+// The synthesiser stores ρ·cosθ_l by default; written as a Bonn file, the header's cosine flag
+// must say so (btflib: flag 1 = "the cosine is already multiplied into the data"), so a reader
+// that follows the flag's meaning (reconstruct_bonn_btf divides by cosθ_l, as btflib does) gets
+// the synthesiser's ρ back, and one that keeps the stored values gets ρ·cosθ_l.
+TEST(SynthBonn, CosineFlagMatchesTheStoredValuesThroughAFileRoundTrip) {
+  auto meso = make_mesostructure(SynthMaterial::stone, 4, 4, 5);
+  ASSERT_TRUE(meso.ok()) << meso.message();
+  SynthesisOptions opts = options_with(DirectionSet::ubo2003(), DirectionSet::ubo2003());
+  auto with_cos = synthesize_btf(*meso, opts);
+  ASSERT_TRUE(with_cos.ok()) << with_cos.message();
+  opts.convention = BtfValueConvention::brdf;
+  auto rho = synthesize_btf(*meso, opts);
+  ASSERT_TRUE(rho.ok()) << rho.message();
+
+  DfmfFactorizeOptions fo;
+  fo.components = 16;  // 4 × 4 texels: full rank, the factorisation is exact up to rounding
+  auto file = factorize_bonn_dfmf(*with_cos, fo);
+  ASSERT_TRUE(file.ok()) << file.message();
+  auto bytes = encode_bonn_btf(*file);
+  ASSERT_TRUE(bytes.ok()) << bytes.message();
+  auto read = read_bonn_btf(*bytes);
+  ASSERT_TRUE(read.ok()) << read.message();
+  EXPECT_TRUE(read->cosine_in_data) << "the data is rho*cos(theta_l): the Bonn cosine flag must be 1";
+
+  auto follows_flag = reconstruct_bonn_btf(*read);  // btflib's decoder: divide when the flag is 1
+  ASSERT_TRUE(follows_flag.ok()) << follows_flag.message();
+  BonnReconstructOptions keep;
+  keep.remove_cosine = false;
+  auto as_stored = reconstruct_bonn_btf(*read, keep);
+  ASSERT_TRUE(as_stored.ok()) << as_stored.message();
+  double max_rho = 0, err_rho = 0, err_stored = 0;
+  for (size_t i = 0; i < rho->samples().size(); ++i) {
+    max_rho = std::max(max_rho, double(rho->samples()[i]));
+    err_rho = std::max(err_rho, std::abs(double(follows_flag->samples()[i]) - rho->samples()[i]));
+    err_stored = std::max(err_stored, std::abs(double(as_stored->samples()[i]) - with_cos->samples()[i]));
+  }
+  ASSERT_GT(max_rho, 0.05);
+  EXPECT_LT(err_rho, 1e-4 * max_rho);
+  EXPECT_LT(err_stored, 1e-4 * max_rho);
 }
 
 TEST(SynthFlat, AnalyticBrdfIsReciprocal) {
@@ -253,9 +295,9 @@ TEST(SynthMaterials, AllFourAreTileableAndHaveRelief) {
       seam = std::max(seam, std::abs(h.at(0, i) - h.at(63, i)));
       seam = std::max(seam, std::abs(h.at(i, 0) - h.at(i, 63)));
     }
-    EXPECT_GT(hi - lo, 1.0f);                   // real relief, in texels
-    EXPECT_LE(seam, interior + 1e-4f);           // the wrap is no rougher than the inside
-    EXPECT_NEAR(mean / 4096.0, 0.0, 1e-3);       // reference plane through the middle
+    EXPECT_GT(hi - lo, 1.0f);               // real relief, in texels
+    EXPECT_LE(seam, interior + 1e-4f);      // the wrap is no rougher than the inside
+    EXPECT_NEAR(mean / 4096.0, 0.0, 1e-3);  // reference plane through the middle
   }
   EXPECT_FALSE(material_from_name("velvet").has_value());
   EXPECT_FALSE(make_mesostructure(SynthMaterial::cloth, 0, 4, 1).ok());
@@ -270,7 +312,8 @@ TEST(SynthMeasured, FlatFieldReproducesTheMeasuredBrdfTimesCos) {
   opts.measured_brdf = &*constant;
   auto btf = synthesize_btf(flat, opts);
   ASSERT_TRUE(btf.ok()) << btf.message();
-  for (size_t l = 0; l < 81; l += 4) EXPECT_NEAR(btf->value(1, 0, 30, l, 2), 0.2f * std::cos(btf->lights()[l].theta), 1e-5f);
+  for (size_t l = 0; l < 81; l += 4)
+    EXPECT_NEAR(btf->value(1, 0, 30, l, 2), 0.2f * std::cos(btf->lights()[l].theta), 1e-5f);
 
   const std::string path = std::string(BTFLOD_SHARED_DIR) + "/data/measured/carpaint_blue.mbsdf";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is absent";

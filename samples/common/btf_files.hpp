@@ -82,7 +82,9 @@ inline Result<BtfFloat> load_btf(const std::string& path, const ProgressCallback
 #if BTFLOD_SAMPLES_HAVE_BONN
       auto file = read_bonn_btf(path);
       if (!file) return file.error();
-      BonnReconstructOptions opts;
+      // btflod's samples work in ρ·cosθ_l (BtfValueConvention::abrdf_cos_light), whatever the
+      // file's cosine flag says it holds.
+      const BonnReconstructOptions opts = bonn_reconstruct_options(BtfValueConvention::abrdf_cos_light);
       auto btf = reconstruct_bonn_btf(*file, opts);
       if (!btf) return Error{btf.status(), path + ": " + btf.message()};
       return btf;

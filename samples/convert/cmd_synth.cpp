@@ -1,12 +1,14 @@
 // btflod-convert synth — write a procedurally synthesised BTF material (btf/synthesizer.hpp).
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "command.hpp"
 #include "common/btf_files.hpp"
 #include "common/progress_bar.hpp"
 
+#include "btflod/btf/merl_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
 
 namespace {
@@ -18,11 +20,12 @@ int run_synth(int argc, char** argv) {
   if (opt.wants_help()) {
     std::puts(
         "usage: btflod-convert synth -o OUT [--material cloth|stone|leather|tiles] [--size N]\n"
-        "                            [--dirs ubo2003|ubo2014] [--seed N] [--brdf FILE.mbsdf]\n"
+        "                            [--dirs ubo2003|ubo2014] [--seed N] [--brdf FILE.mbsdf|FILE.binary]\n"
         "                            [--interreflection] [--depth X] [--components K] [--quiet]\n"
         "  Synthesises a tileable BTF: a height-field mesostructure rendered for every (view, light)\n"
         "  pair with ray-marched masking and self-shadowing, Lambert+GGX base reflectance (or the\n"
-        "  measured BRDF given with --brdf). Values are rho*cos(theta_light), linear RGB.\n"
+        "  measured BRDF given with --brdf: NVIDIA MBSDF, or MERL .binary resampled to 90 x 90 x 180).\n"
+        "  Values are rho*cos(theta_light), linear RGB; a .btf output says so in its cosine flag.\n"
         "  OUT ending in .btf is written as a Bonn DFMF file (K components per channel, default 16);\n"
         "  any other OUT as a UBO2003-style PNG image folder.\n"
         "  defaults: --material cloth --size 64 --dirs ubo2003 --seed 1 --depth 1");
@@ -54,12 +57,27 @@ int run_synth(int argc, char** argv) {
   so.interreflection = interreflection;
   MeasuredBrdf brdf;
   if (brdf_path) {
-    auto b = read_mbsdf(*brdf_path);
-    if (!b) {
-      std::fprintf(stderr, "btflod-convert synth: %s\n", b.message().c_str());
-      return convert::kExitFailure;
+    const bool merl = std::filesystem::path(*brdf_path).extension() == ".binary";
+    if (merl) {
+      auto b = read_merl_binary(*brdf_path);
+      if (!b) {
+        std::fprintf(stderr, "btflod-convert synth: %s\n", b.message().c_str());
+        return convert::kExitFailure;
+      }
+      if (!quiet && b->report.not_measured)
+        std::fprintf(stderr,
+                     "synth: %s: %zu of %zu samples not measured (interpolated from measured neighbours; "
+                     "%zu resampled cells without any set to 0)\n",
+                     brdf_path->c_str(), b->report.not_measured, 3 * b->report.plane_samples, b->report.unfilled_cells);
+      brdf = std::move(b->brdf);
+    } else {
+      auto b = read_mbsdf(*brdf_path);
+      if (!b) {
+        std::fprintf(stderr, "btflod-convert synth: %s\n", b.message().c_str());
+        return convert::kExitFailure;
+      }
+      brdf = std::move(*b);
     }
-    brdf = std::move(*b);
     so.measured_brdf = &brdf;
   }
   auto meso = make_mesostructure(*material, size, size, seed, static_cast<float>(depth));

@@ -19,6 +19,10 @@ message(STATUS "${info}")
 if(NOT info MATCHES "8 x 8" OR NOT info MATCHES "81 directions")
   message(FATAL_ERROR "info does not describe the 8x8 UBO2003 material it was given:\n${info}")
 endif()
+# synth stores rho*cos(theta_light): the Bonn cosine flag must say so (btflib: 1 = cosine in the data).
+if(NOT info MATCHES "cosine in data: yes")
+  message(FATAL_ERROR "synth wrote rho*cos(theta_light) but the file's cosine flag says otherwise:\n${info}")
+endif()
 
 # The same through a UBO2003-style PNG folder (any output path not ending in .btf).
 set(folder ${OUT}/synth_test_folder)

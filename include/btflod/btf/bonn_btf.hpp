@@ -25,7 +25,10 @@
 //          u32 k, u32 rows (= nL·nV), u32 cols (= w·h), S[k], U[rows × k], SxV[cols × k]
 //          (matrices row-major: the k components of one row are contiguous).
 //   FMF:   u8 header version; ≥ 1: u32 dynamic-range reduction method; ≥ 2: u32 rows, u32 cols
-//          + rows·cols half-float height map; then u32 max components, u8 scalar size, u32 k,
+//          + rows·cols half-float height map (btflod reads and writes rows first, as btflib's
+//          reader does; btflib's writer stores the width first — a non-square map of the
+//          texture's size is read in whichever order its header has, see
+//          BonnBtfFile::height_map_width_first); then u32 max components, u8 scalar size, u32 k,
 //          u32 rows (= nC·nL·nV), u32 cols (= w·h), S, U, SxV as above.
 //   value(c, l, v, x, y) = Σ_j U[l + nL·v][j] · SxV[x + w·y][j]   (DFMF, per channel c)
 //
@@ -135,9 +138,16 @@ struct BonnBtfFile {
   // FMF
   uint8_t fmf_header_version = 2;
   uint32_t dynamic_range_reduction = 0;  ///< 0 none, else values are log(v + eps)
+  /// Height map size. btflod reads the header's first value as rows (as btflib's reader does)
+  /// and writes rows first; btflib's writer stores the width first. When the map has the
+  /// texture's size and the texture is not square, the file decides: a header of (width,
+  /// height) is read as width first (height_map_width_first, with a warning); otherwise (square
+  /// maps, other sizes) rows first. The samples are row-major (x fastest) in either case.
   int height_map_rows = 0;
   int height_map_cols = 0;
   std::vector<float> height_map;  ///< rows × cols, row-major
+  /// The header stores (cols, rows) (btflib's writer); encode_bonn_btf() keeps the order.
+  bool height_map_width_first = false;
   /// DFMF: one per channel; FMF: exactly one.
   std::vector<BonnFactors> factors;
   /// Things the reader accepted but a person may want to know (transposed matrices, differing
@@ -155,15 +165,31 @@ struct BonnReadOptions {
   uint64_t max_file_bytes = uint64_t{1} << 36;
 };
 
-/// Options of reconstruct_bonn_btf().
+/// Options of reconstruct_bonn_btf(). bonn_reconstruct_options(convention) sets the cosine
+/// fields for a wanted BtfValueConvention.
 struct BonnReconstructOptions {
   /// Largest number of float samples (W·H·nV·nL·3) to allocate.
   uint64_t max_samples = uint64_t{1} << 31;
-  /// Divide by cos θ_light when the file says the cosine is in the data.
+  /// Divide by cos θ_light when the file says the cosine is in the data (btflib's decoder:
+  /// the result is ρ whatever the flag).
   bool remove_cosine = true;
+  /// Multiply by cos θ_light when the file says the cosine is NOT in the data (used with
+  /// remove_cosine = false: the result is then ρ·cosθ_l whatever the flag, btflod's default
+  /// BtfValueConvention). Ignored when remove_cosine is true.
+  bool add_cosine = false;
   /// Pool for the matrix products; null uses default_thread_pool().
   ThreadPool* pool = nullptr;
 };
+
+/// Reconstruction options whose result holds `convention` whatever the file's cosine flag:
+/// brdf divides by cos θ_light when the flag is 1; abrdf_cos_light multiplies by it when the
+/// flag is 0. Other fields keep their defaults. Thread-safe.
+inline BonnReconstructOptions bonn_reconstruct_options(BtfValueConvention convention) {
+  BonnReconstructOptions o;
+  o.remove_cosine = convention == BtfValueConvention::brdf;
+  o.add_cosine = convention == BtfValueConvention::abrdf_cos_light;
+  return o;
+}
 
 namespace detail {
 
@@ -545,6 +571,15 @@ inline Result<BonnBtfFile> read_bonn_btf(std::span<const uint8_t> bytes, const B
         return p.error();
       }
       if (!p.count_fits(uint64_t{hr} * hc, 2, "height map samples")) return p.error();
+      // btflib's writer stores (width, height), its reader and btflod read (rows, cols). The
+      // texture size decides when it can: a non-square map of the texture's transposed size.
+      f.height_map_width_first = hr != hc && hr == w && hc == h;
+      if (f.height_map_width_first) {
+        std::swap(hr, hc);
+        f.warnings.push_back(format_message("FMF height map header stores width first (%u × %u for a %u × %u "
+                                            "texture); read as %u rows × %u columns",
+                                            hc, hr, w, h, hr, hc));
+      }
       f.height_map_rows = static_cast<int>(hr);
       f.height_map_cols = static_cast<int>(hc);
       f.height_map.resize(uint64_t{hr} * hc);
@@ -624,7 +659,8 @@ inline bool bonn_undecorrelate(int32_t model, const std::array<float, 3>& mean, 
 /// Multiplies the factors back into a tabulated BTF in linear RGB: U · SxVᵀ per channel, then
 /// the colour model is undone (DFMF), the dynamic-range reduction undone (FMF: exp(v) − eps),
 /// and the cosine divided out (when the file's flag says it is in the data and
-/// options.remove_cosine; samples with cos θ_light ≤ 1e-6 become 0).
+/// options.remove_cosine; samples with cos θ_light ≤ 1e-6 become 0) or multiplied in (when the
+/// flag says it is not, options.add_cosine and not options.remove_cosine).
 /// Returns unsupported for colour models lab/spectral or a channel count other than 3;
 /// insufficient_space when W·H·nV·nL·3 exceeds options.max_samples; invalid_argument when the
 /// factor shapes are inconsistent (only possible for a hand-built BonnBtfFile).
@@ -678,6 +714,7 @@ inline Result<BtfFloat> reconstruct_bonn_btf(const BonnBtfFile& f, const BonnRec
       const size_t l = r % n_light;
       const float cos_l = std::cos(f.lights[l].theta);
       const bool divide = f.cosine_in_data && options.remove_cosine;
+      const bool multiply = !f.cosine_in_data && options.add_cosine && !options.remove_cosine;
       for (size_t i = 0; i < n_spatial; ++i) {
         float v[3] = {img[i * 3], img[i * 3 + 1], img[i * 3 + 2]};
         if (f.format == BonnFormat::dfmf) {
@@ -687,6 +724,8 @@ inline Result<BtfFloat> reconstruct_bonn_btf(const BonnBtfFile& f, const BonnRec
         }
         if (divide) {
           for (float& e : v) e = cos_l > 1e-6f ? e / cos_l : 0.0f;
+        } else if (multiply) {
+          for (float& e : v) e *= std::max(cos_l, 0.0f);
         }
         img[i * 3] = v[0];
         img[i * 3 + 1] = v[1];
@@ -821,8 +860,8 @@ inline Result<std::vector<uint8_t>> encode_bonn_btf(const BonnBtfFile& f) {
       if (f.height_map.size() != static_cast<size_t>(f.height_map_rows) * static_cast<size_t>(f.height_map_cols))
         return make_error(Status::invalid_argument, "encode_bonn_btf: height map has %zu samples, expected %d x %d",
                           f.height_map.size(), f.height_map_rows, f.height_map_cols);
-      w.u32(static_cast<uint32_t>(f.height_map_rows));
-      w.u32(static_cast<uint32_t>(f.height_map_cols));
+      w.u32(static_cast<uint32_t>(f.height_map_width_first ? f.height_map_cols : f.height_map_rows));
+      w.u32(static_cast<uint32_t>(f.height_map_width_first ? f.height_map_rows : f.height_map_cols));
       detail::write_bonn_scalars(w, f.height_map.data(), f.height_map.size(), 2);
     }
     w.u32(max_k);
@@ -850,6 +889,10 @@ struct DfmfFactorizeOptions {
   BonnColorModel color_model = BonnColorModel::rgb;
   /// Scalar size written for the matrices: 2 (half, as btflib writes) or 4 (float).
   uint8_t scalar_size = 4;
+  /// What the BTF's samples hold; sets the file's cosine flag (btflib: 1 = "the cosine is
+  /// already multiplied into the data"). The default is btflod's convention (ρ·cosθ_l), which
+  /// the synthesiser, sample_to_btf() and the image-folder readers produce.
+  BtfValueConvention values = BtfValueConvention::abrdf_cos_light;
   ProgressCallback progress;
 };
 
@@ -890,6 +933,7 @@ inline Result<BonnBtfFile> factorize_bonn_dfmf(const BtfFloat& btf, const DfmfFa
   f.width = btf.width();
   f.height = btf.height();
   f.color_model = static_cast<int32_t>(options.color_model);
+  f.cosine_in_data = options.values == BtfValueConvention::abrdf_cos_light;
   f.max_components = static_cast<uint32_t>(k);
   f.measurement_setup = "btflod factorize_bonn_dfmf";
   f.channel_names = {"R", "G", "B"};

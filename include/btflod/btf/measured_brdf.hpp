@@ -36,14 +36,6 @@
 
 namespace btflod {
 
-/// What a BTF sample holds. Bonn's measured BTFs store the apparent BRDF times the cosine of
-/// the light's polar angle (ρ·cosθ_l: the reflected radiance under unit irradiance along the
-/// normal); btflod follows that convention by default.
-enum class BtfValueConvention : unsigned char {
-  abrdf_cos_light = 0,  ///< ρ · cosθ_l (default, what Bonn BTFs hold)
-  brdf = 1,             ///< ρ alone
-};
-
 /// Largest res_theta / res_phi a file may declare; the real data uses 45 × 90. Larger values
 /// are rejected before any allocation (a hostile header cannot make the reader allocate more
 /// than kMbsdfMaxResolution² · kMbsdfMaxResolution · 3 floats, and only when the file holds them).

@@ -299,7 +299,7 @@ inline VoidResult synthesize_btf_views(const Mesostructure& meso, const Synthesi
     if (!report_progress(options.progress, stage, fraction)) cancelled = true;
   };
 
-  // Phase 1: light visibility from every texel centre, per light (self-shadowing).
+  // Pass 1: light visibility from every texel centre, per light (self-shadowing).
   std::vector<float> visibility(n_lights * n_texels);
   std::atomic<size_t> lights_done{0};
   report("shadows", 0.0);
@@ -320,7 +320,7 @@ inline VoidResult synthesize_btf_views(const Mesostructure& meso, const Synthesi
   });
   if (cancelled) return make_error(Status::cancelled, "synthesis cancelled while computing shadows");
 
-  // Phase 2 (optional): one diffuse bounce. indirect[l][texel] = albedo · mean over rays of the
+  // Pass 2 (optional): one diffuse bounce. indirect[l][texel] = albedo · mean over rays of the
   // direct diffuse radiance at the hit point (cosine-weighted gather: L = albedo/π · π/K · ΣLi).
   std::vector<float> indirect;
   if (options.interreflection) {
@@ -379,7 +379,7 @@ inline VoidResult synthesize_btf_views(const Mesostructure& meso, const Synthesi
     if (cancelled) return make_error(Status::cancelled, "synthesis cancelled during interreflection");
   }
 
-  // Phase 3: per view, march the camera rays and shade every light.
+  // Pass 3: per view, march the camera rays and shade every light.
   std::vector<float> block(n_lights * n_texels * 3);
   const MeasuredBrdf* measured = options.measured_brdf;
   for (size_t v = 0; v < n_views; ++v) {

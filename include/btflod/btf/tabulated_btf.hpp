@@ -25,6 +25,15 @@
 
 namespace btflod {
 
+/// What a BTF sample holds. Bonn's measured BTFs store the apparent BRDF times the cosine of
+/// the light's polar angle (ρ·cosθ_l: the reflected radiance under unit irradiance along the
+/// normal); btflod follows that convention by default. A Bonn .btf file says which one it
+/// holds in its cosine flag (1 = ρ·cosθ_l, btf/bonn_btf.hpp).
+enum class BtfValueConvention : unsigned char {
+  abrdf_cos_light = 0,  ///< ρ · cosθ_l (default, what Bonn BTFs hold)
+  brdf = 1,             ///< ρ alone
+};
+
 /// Converts a stored sample to float (identity for float).
 constexpr float to_float(float v) noexcept { return v; }
 constexpr float to_float(Half v) noexcept { return v.to_float(); }

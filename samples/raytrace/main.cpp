@@ -878,7 +878,7 @@ int run(int argc, char** argv) {
     std::fprintf(stderr, "btflod-raytrace: %s\n", frames.message().c_str());
     return 1;
   }
-  std::printf("frames: %zu written (%.1f s)\n", frames->size(), seconds_since(t_start));
+  std::printf("frames: %zu rendered, PNGs in %s (%.1f s)\n", frames->size(), o.out.c_str(), seconds_since(t_start));
   if (auto w = demo::write_frame_sheet((std::filesystem::path(o.out) / "contact_sheet.png").string(), sheet); !w) {
     std::fprintf(stderr, "btflod-raytrace: %s\n", w.message().c_str());
     return 1;

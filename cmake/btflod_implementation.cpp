@@ -16,3 +16,4 @@
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
 #include "btflod/factor/truncated_svd.hpp"
+#include "btflod/lod/feedback_trace.hpp"

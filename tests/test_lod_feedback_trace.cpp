@@ -3,6 +3,7 @@
 // signature/version, CRCs, sizes that do not match, decompression bomb, limits), and a trace
 // replayed twice through the scheduler gives the same schedule bit for bit.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cstdio>
 #include <filesystem>

@@ -24,13 +24,12 @@
 // than FeedbackTraceLimits allows).
 #pragma once
 
-#include <zlib.h>
-
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <new>
 #include <span>
 #include <string>
 #include <utility>
@@ -77,6 +76,21 @@ struct FeedbackFrameInfo {
 };
 
 namespace detail {
+/// Raw-deflate state for FeedbackTraceWriter (zlib; defined in the implementation TU, so this
+/// header includes no zlib). create allocates once; deflate allocates nothing.
+struct TraceDeflater;
+TraceDeflater* trace_deflater_create(int level) noexcept;
+void trace_deflater_destroy(TraceDeflater* d) noexcept;
+/// Worst-case raw-deflate size of n input bytes.
+size_t trace_deflate_bound(TraceDeflater* d, size_t n) noexcept;
+/// Compresses in[0, n) as one raw deflate stream into out; false when out is too small or zlib fails.
+bool trace_deflate(TraceDeflater* d, const uint8_t* in, size_t n, uint8_t* out, size_t capacity,
+                   size_t& written) noexcept;
+/// Inflates one raw deflate stream into exactly out_size bytes. Returns nullptr on success or
+/// what is wrong: more output than out_size (never written past it), fewer, invalid stream,
+/// stream ends before its end, bytes after the stream. Allocates zlib's state (offline reader).
+const char* trace_inflate_exact(const uint8_t* in, size_t n, uint8_t* out, size_t out_size) noexcept;
+
 inline void trace_put_u32(uint8_t* p, uint32_t v) noexcept { std::memcpy(p, &v, 4); }
 inline void trace_put_u64(uint8_t* p, uint64_t v) noexcept { std::memcpy(p, &v, 8); }
 inline void trace_put_f32(uint8_t* p, float v) noexcept { std::memcpy(p, &v, 4); }
@@ -129,12 +143,9 @@ class FeedbackTraceWriter {
                         config.deflate_level);
     FeedbackTraceWriter w;
     w.config_ = config;
-    w.stream_.reset(new z_stream{});
-    if (deflateInit2(w.stream_.get(), config.deflate_level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
-      w.stream_.reset();
-      return make_error(Status::insufficient_space, "feedback trace writer: deflateInit2 failed");
-    }
-    const uLong bound = deflateBound(w.stream_.get(), static_cast<uLong>(config.max_frame_words) * 4u);
+    w.stream_.reset(detail::trace_deflater_create(config.deflate_level));
+    if (!w.stream_) return make_error(Status::insufficient_space, "feedback trace writer: deflate set-up failed");
+    const size_t bound = detail::trace_deflate_bound(w.stream_.get(), static_cast<size_t>(config.max_frame_words) * 4u);
     w.buffer_.resize(kFeedbackTraceFrameHeaderSize + bound);
     uint8_t* h = w.header_;
     std::memcpy(h, kFeedbackTraceMagic, 8);
@@ -171,14 +182,12 @@ class FeedbackTraceWriter {
         info.sample_dy >= info.decimation)
       return Status::invalid_argument;
     if (frames_ > 0 && info.frame_index <= last_frame_) return Status::invalid_argument;
-    z_stream& z = *stream_;
-    if (deflateReset(&z) != Z_OK) return Status::bad_data;
-    z.next_in = reinterpret_cast<Bytef*>(const_cast<uint32_t*>(words.data()));
-    z.avail_in = static_cast<uInt>(n * 4);
-    z.next_out = buffer_.data() + kFeedbackTraceFrameHeaderSize;
-    z.avail_out = static_cast<uInt>(buffer_.size() - kFeedbackTraceFrameHeaderSize);
-    if (deflate(&z, Z_FINISH) != Z_STREAM_END) return Status::bad_data;
-    const uint32_t payload = static_cast<uint32_t>(z.total_out);
+    size_t written = 0;
+    if (!detail::trace_deflate(stream_.get(), reinterpret_cast<const uint8_t*>(words.data()),
+                               static_cast<size_t>(n) * 4, buffer_.data() + kFeedbackTraceFrameHeaderSize,
+                               buffer_.size() - kFeedbackTraceFrameHeaderSize, written))
+      return Status::bad_data;
+    const uint32_t payload = static_cast<uint32_t>(written);
     const std::span<const uint8_t> payload_bytes(buffer_.data() + kFeedbackTraceFrameHeaderSize, payload);
     const uint32_t words_crc = crc32_of({reinterpret_cast<const uint8_t*>(words.data()), static_cast<size_t>(n) * 4});
     detail::trace_write_frame_header(buffer_.data(), info, words_crc, payload, crc32_of(payload_bytes));
@@ -208,13 +217,10 @@ class FeedbackTraceWriter {
 
  private:
   struct ZDeleter {
-    void operator()(z_stream* z) const noexcept {
-      deflateEnd(z);
-      delete z;
-    }
+    void operator()(detail::TraceDeflater* d) const noexcept { detail::trace_deflater_destroy(d); }
   };
   FeedbackTraceWriterConfig config_;
-  std::unique_ptr<z_stream, ZDeleter> stream_;  // heap: zlib's state points back at its z_stream
+  std::unique_ptr<detail::TraceDeflater, ZDeleter> stream_;
   std::vector<uint8_t> buffer_;
   uint8_t header_[kFeedbackTraceHeaderSize] = {};
   uint8_t end_[kFeedbackTraceEndSize] = {};
@@ -444,37 +450,23 @@ inline Result<FeedbackTrace> read_feedback_trace(std::span<const uint8_t> bytes,
   // Pass 2: inflate each payload into exactly width·height words (never more: bomb-proof).
   t.words.resize(static_cast<size_t>(total_words));
   t.offsets.assign(1, 0);
-  z_stream z{};
-  if (inflateInit2(&z, -15) != Z_OK)
-    return make_error(Status::insufficient_space, "feedback trace: inflateInit2 failed");
   for (size_t i = 0; i < recs.size(); ++i) {
     const Rec& rec = recs[i];
     const auto payload = bytes.subspan(rec.payload_offset, rec.payload_size);
     const uint64_t n = static_cast<uint64_t>(t.frames[i].width) * t.frames[i].height;
     uint32_t* dst = t.words.data() + t.offsets.back();
     auto fail = [&](const char* what) {
-      inflateEnd(&z);
       return make_error(Status::bad_data, "feedback trace: frame %zu (index %llu): %s", i,
                         static_cast<unsigned long long>(t.frames[i].frame_index), what);
     };
     if (crc32_of(payload) != rec.payload_crc) return fail("payload CRC mismatch");
-    inflateReset(&z);
-    z.next_in = const_cast<Bytef*>(payload.data());
-    z.avail_in = static_cast<uInt>(payload.size());
-    z.next_out = reinterpret_cast<Bytef*>(dst);
-    z.avail_out = static_cast<uInt>(n * 4);
-    const int ret = inflate(&z, Z_FINISH);
-    if (ret == Z_BUF_ERROR && z.avail_out == 0) return fail("payload inflates to more than width x height words");
-    if (ret != Z_STREAM_END)
-      return fail(z.avail_in == 0 ? "payload ends before its deflate stream does"
-                                  : "payload is not a valid deflate stream");
-    if (z.avail_out != 0) return fail("payload inflates to fewer than width x height words");
-    if (z.avail_in != 0) return fail("bytes after the deflate stream inside the payload");
+    if (const char* why = detail::trace_inflate_exact(payload.data(), payload.size(), reinterpret_cast<uint8_t*>(dst),
+                                                      static_cast<size_t>(n) * 4))
+      return fail(why);
     if (crc32_of({reinterpret_cast<const uint8_t*>(dst), static_cast<size_t>(n) * 4}) != rec.words_crc)
       return fail("CRC of the decoded words does not match");
     t.offsets.push_back(t.offsets.back() + n);
   }
-  inflateEnd(&z);
   return t;
 }
 
@@ -512,3 +504,69 @@ inline Result<std::vector<uint8_t>> write_feedback_trace(std::span<const Feedbac
 }
 
 }  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+#include <zlib.h>
+
+namespace btflod::detail {
+
+struct TraceDeflater {
+  z_stream z{};
+};
+
+TraceDeflater* trace_deflater_create(int level) noexcept {
+  auto* d = new (std::nothrow) TraceDeflater;
+  if (d == nullptr) return nullptr;
+  if (deflateInit2(&d->z, level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+    delete d;
+    return nullptr;
+  }
+  return d;
+}
+
+void trace_deflater_destroy(TraceDeflater* d) noexcept {
+  if (d == nullptr) return;
+  deflateEnd(&d->z);
+  delete d;
+}
+
+size_t trace_deflate_bound(TraceDeflater* d, size_t n) noexcept { return deflateBound(&d->z, static_cast<uLong>(n)); }
+
+bool trace_deflate(TraceDeflater* d, const uint8_t* in, size_t n, uint8_t* out, size_t capacity,
+                   size_t& written) noexcept {
+  written = 0;
+  z_stream& z = d->z;
+  if (n > (1u << 30) || deflateReset(&z) != Z_OK) return false;
+  z.next_in = const_cast<Bytef*>(in);
+  z.avail_in = static_cast<uInt>(n);
+  z.next_out = out;
+  z.avail_out = static_cast<uInt>(capacity > (1u << 31) ? (1u << 31) : capacity);
+  if (deflate(&z, Z_FINISH) != Z_STREAM_END) return false;
+  written = static_cast<size_t>(z.total_out);
+  return true;
+}
+
+const char* trace_inflate_exact(const uint8_t* in, size_t n, uint8_t* out, size_t out_size) noexcept {
+  if (n > (1u << 31) || out_size > (1u << 31)) return "payload too large";
+  z_stream z{};
+  if (inflateInit2(&z, -15) != Z_OK) return "inflate set-up failed";
+  z.next_in = const_cast<Bytef*>(in);
+  z.avail_in = static_cast<uInt>(n);
+  z.next_out = out;
+  z.avail_out = static_cast<uInt>(out_size);
+  const int ret = inflate(&z, Z_FINISH);  // never writes past out_size: a bomb stops here
+  const char* why = nullptr;
+  if (ret == Z_BUF_ERROR && z.avail_out == 0)
+    why = "payload inflates to more than width x height words";
+  else if (ret != Z_STREAM_END)
+    why = z.avail_in == 0 ? "payload ends before its deflate stream does" : "payload is not a valid deflate stream";
+  else if (z.avail_out != 0)
+    why = "payload inflates to fewer than width x height words";
+  else if (z.avail_in != 0)
+    why = "bytes after the deflate stream inside the payload";
+  inflateEnd(&z);
+  return why;
+}
+
+}  // namespace btflod::detail
+#endif  // BTFLOD_IMPLEMENTATION

@@ -32,6 +32,7 @@
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/core/simd.hpp"
+#include "btflod/core/thin_svd.hpp"
 #include "btflod/core/thread_pool.hpp"
 
 // btf

@@ -63,9 +63,6 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Dense>
-#include <Eigen/SVD>
-
 #include "btflod/btf/directions.hpp"
 #include "btflod/btf/tabulated_btf.hpp"
 #include "btflod/core/bytes.hpp"
@@ -74,6 +71,7 @@
 #include "btflod/core/math.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/core/thin_svd.hpp"  // Eigen (as a system header) and exact_thin_svd
 #include "btflod/core/thread_pool.hpp"
 
 namespace btflod {
@@ -948,13 +946,13 @@ inline Result<BonnBtfFile> factorize_bonn_dfmf(const BtfFloat& btf, const DfmfFa
         const float* px = samples + (static_cast<size_t>(r) * static_cast<size_t>(cols) + static_cast<size_t>(i)) * 3;
         a(r, i) = from_rgb(c, 0) * px[0] + from_rgb(c, 1) * px[1] + from_rgb(c, 2) * px[2];
       }
-    Eigen::BDCSVD<Eigen::MatrixXf> svd(a, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    const ThinSvd svd = exact_thin_svd(a);  // BDCSVD, instantiated once in the implementation TU
     auto& fac = f.factors[static_cast<size_t>(c)];
     fac.scalar_size = options.scalar_size;
     fac.s.resize(static_cast<size_t>(k));
-    for (Eigen::Index j = 0; j < k; ++j) fac.s[static_cast<size_t>(j)] = svd.singularValues()[j];
-    fac.u = svd.matrixU().leftCols(k);
-    fac.sxv = svd.matrixV().leftCols(k) * svd.singularValues().head(k).asDiagonal();
+    for (Eigen::Index j = 0; j < k; ++j) fac.s[static_cast<size_t>(j)] = svd.s[j];
+    fac.u = svd.u.leftCols(k);
+    fac.sxv = svd.v.leftCols(k) * svd.s.head(k).asDiagonal();
   }
   report_progress(options.progress, "factorize", 1.0);
   return f;

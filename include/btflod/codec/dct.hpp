@@ -33,7 +33,7 @@ namespace btflod {
 template <int N, class S>
 inline const std::array<S, N * N>& dct_basis() noexcept {
   static_assert(N >= 2 && N <= 64, "block size out of range");
-  static const std::array<S, N * N> basis = [] {
+  static const std::array<S, N* N> basis = [] {
     std::array<S, N * N> c{};
     for (int k = 0; k < N; ++k) {
       const long double s = k == 0 ? std::sqrt(1.0L / N) : std::sqrt(2.0L / N);

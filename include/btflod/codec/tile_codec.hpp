@@ -168,10 +168,14 @@ inline void upsample_parent(const TileLayout& layout, const float* parent, uint3
   const float base_x = static_cast<float>(qx & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
   const float base_y = static_cast<float>(qy & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
   switch (layout.channels) {
-    case 1: return detail::upsample_parent_rows<1>(s, base_x, base_y, parent, out);
-    case 2: return detail::upsample_parent_rows<2>(s, base_x, base_y, parent, out);
-    case 3: return detail::upsample_parent_rows<3>(s, base_x, base_y, parent, out);
-    default: return detail::upsample_parent_rows<4>(s, base_x, base_y, parent, out);
+    case 1:
+      return detail::upsample_parent_rows<1>(s, base_x, base_y, parent, out);
+    case 2:
+      return detail::upsample_parent_rows<2>(s, base_x, base_y, parent, out);
+    case 3:
+      return detail::upsample_parent_rows<3>(s, base_x, base_y, parent, out);
+    default:
+      return detail::upsample_parent_rows<4>(s, base_x, base_y, parent, out);
   }
 }
 
@@ -221,7 +225,7 @@ void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst, size_t row_stride) 
 struct TileHeaderInfo {
   uint32_t channels = 0;
   uint32_t stored_size = 0;
-  bool residual = false;  ///< true: decoding needs the parent's decoded tile
+  bool residual = false;                           ///< true: decoding needs the parent's decoded tile
   uint32_t weight_quarters = kJpegWeightQuarters;  ///< frequency-weighting exponent γ · 4 (quant_step_factors)
   float tolerance[kTileMaxChannels] = {};
   uint32_t symbol_bytes = 0;
@@ -231,7 +235,8 @@ struct TileHeaderInfo {
 /// header) or bad_data (wrong version or block size, sizes out of range, tolerance not finite
 /// and positive, symbol byte count outside [2, 383] bytes per channel block). Safe on untrusted
 /// input; thread-safe, no allocation.
-inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo& info, const char** why = nullptr) noexcept {
+inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo& info,
+                               const char** why = nullptr) noexcept {
   auto fail = [&](Status s, const char* m) {
     if (why) *why = m;
     return s;
@@ -244,11 +249,13 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
   if ((payload[3] & ~0x0Fu) != 0) return fail(Status::bad_data, "tile flags have unknown bits set");
   const uint32_t softening = (payload[3] >> 1) & 7u;
   if (softening > kJpegWeightQuarters) return fail(Status::bad_data, "tile frequency weighting code not in 0..4");
-  if (payload.size() < tile_header_size(channels)) return fail(Status::short_output, "tile payload shorter than its header");
+  if (payload.size() < tile_header_size(channels))
+    return fail(Status::short_output, "tile payload shorter than its header");
   uint16_t w = 0, h = 0;
   std::memcpy(&w, payload.data() + 4, 2);
   std::memcpy(&h, payload.data() + 6, 2);
-  if (w != h || w == 0 || w % kTileBlock != 0 || w > 1024) return fail(Status::bad_data, "tile size not square, a multiple of 8 and <= 1024");
+  if (w != h || w == 0 || w % kTileBlock != 0 || w > 1024)
+    return fail(Status::bad_data, "tile size not square, a multiple of 8 and <= 1024");
   info.channels = channels;
   info.stored_size = w;
   info.residual = (payload[3] & 1u) != 0;
@@ -356,19 +363,23 @@ inline uint8_t* tile_write_varint(uint8_t* p, uint32_t v) noexcept {
   *p++ = static_cast<uint8_t>(v);
   return p;
 }
-constexpr int64_t tile_unzigzag(uint32_t u) noexcept { return static_cast<int64_t>(u >> 1) ^ -static_cast<int64_t>(u & 1u); }
-constexpr uint32_t tile_zigzag(int32_t v) noexcept { return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31); }
+constexpr int64_t tile_unzigzag(uint32_t u) noexcept {
+  return static_cast<int64_t>(u >> 1) ^ -static_cast<int64_t>(u & 1u);
+}
+constexpr uint32_t tile_zigzag(int32_t v) noexcept {
+  return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
+}
 
 enum class TileTokenKind : uint8_t { value, end_of_block, zero_run, escape, invalid };
 // Decoding table of the AC token bytes, plus the extent (rows, columns) of the coefficients up
 // to each zig-zag position. Built once; thread-safe.
 struct TileTokenTable {
-  uint8_t run[256];       // positions skipped before the coefficient (16 for 0xF0, 0 for 0x00)
+  uint8_t run[256];  // positions skipped before the coefficient (16 for 0xF0, 0 for 0x00)
   TileTokenKind kind[256];
-  float value[256];       // the coefficient of a `value` token, in steps
-  uint8_t rows_up_to[64]; // 1 + the largest row among zig-zag positions 0..k
+  float value[256];        // the coefficient of a `value` token, in steps
+  uint8_t rows_up_to[64];  // 1 + the largest row among zig-zag positions 0..k
   uint8_t cols_up_to[64];
-  uint8_t zigzag[64];     // zigzag_order<8>() as bytes
+  uint8_t zigzag[64];  // zigzag_order<8>() as bytes
 };
 inline const TileTokenTable& tile_token_table() noexcept {
   static const TileTokenTable table = [] {
@@ -451,9 +462,13 @@ class TileDecoder {
   /// The entropy stage of decode() alone (header checks and inflate into the internal symbol
   /// buffer), for profiling; same arguments and failures as decode() for those stages. After
   /// success, symbol_bytes() is the inflated size.
-  Status inflate_symbols(std::span<const uint8_t> payload, std::span<const float> parent, std::span<float> out) noexcept {
-    if (!ready_) return fail(Status::invalid_argument, "decoder has an invalid layout or its inflate state could not be allocated");
-    if (out.size() < layout_.sample_count()) return fail(Status::insufficient_space, "output span smaller than the tile");
+  Status inflate_symbols(std::span<const uint8_t> payload, std::span<const float> parent,
+                         std::span<float> out) noexcept {
+    if (!ready_)
+      return fail(Status::invalid_argument,
+                  "decoder has an invalid layout or its inflate state could not be allocated");
+    if (out.size() < layout_.sample_count())
+      return fail(Status::insufficient_space, "output span smaller than the tile");
     TileHeaderInfo& info = info_;
     const char* why = nullptr;
     if (Status s = tile_peek_header(payload, info, &why); s != Status::success) return fail(s, why);
@@ -466,7 +481,8 @@ class TileDecoder {
     // to more is rejected when the buffer fills (this is the decompression-bomb guard).
     const size_t header = tile_header_size(info.channels);
     const char* inflate_why = nullptr;
-    if (Status z = inflater_.inflate(payload.subspan(header), std::span<uint8_t>(symbols_.data(), info.symbol_bytes), &inflate_why);
+    if (Status z = inflater_.inflate(payload.subspan(header), std::span<uint8_t>(symbols_.data(), info.symbol_bytes),
+                                     &inflate_why);
         z != Status::success)
       return fail(z, inflate_why);
     return Status::success;
@@ -586,8 +602,9 @@ class TileDecoder {
           // (fixed 32-byte clears compile to vector stores; a 256-byte memset was 8 % of decode).
           for (uint32_t r = 0; r < b.rows; ++r) std::memset(b.coef + r * 8, 0, 8 * sizeof(float));
           b.rows = b.cols = 0;
-          p = static_cast<size_t>(end - p) >= kTileMaxBlockCode ? parse_block<true>(p, end, dc[c], steps[c], b, tokens)
-                                                                 : parse_block<false>(p, end, dc[c], steps[c], b, tokens);
+          p = static_cast<size_t>(end - p) >= kTileMaxBlockCode
+                  ? parse_block<true>(p, end, dc[c], steps[c], b, tokens)
+                  : parse_block<false>(p, end, dc[c], steps[c], b, tokens);
           if (p == nullptr) {  // parse_block may have written coefficients: leave blocks_ all zero
             for (TileCoefBlock& z : blocks_) z = TileCoefBlock{};
             return Status::bad_data;
@@ -596,7 +613,8 @@ class TileDecoder {
         float* first = dst + (size_t{by} * kTileBlock * s + size_t{bx} * kTileBlock) * ch;
 #if BTFLOD_HAS_X86_DISPATCH
         if (simd) {
-          if (blocks_[0].rows | blocks_[1].rows | blocks_[2].rows | blocks_[3].rows) tile_idct_add4_avx2(blocks_, first, row_stride);
+          if (blocks_[0].rows | blocks_[1].rows | blocks_[2].rows | blocks_[3].rows)
+            tile_idct_add4_avx2(blocks_, first, row_stride);
           continue;
         }
 #else
@@ -658,16 +676,21 @@ class TileEncoder {
                 std::span<const float> tolerance, std::span<uint8_t> out, size_t& written,
                 std::span<float> reconstruction = {}) noexcept {
     written = 0;
-    if (!ready_) return fail(Status::invalid_argument, "encoder has an invalid layout or its deflate state could not be allocated");
+    if (!ready_)
+      return fail(Status::invalid_argument,
+                  "encoder has an invalid layout or its deflate state could not be allocated");
     const uint32_t s = layout_.stored_size();
     const uint32_t ch = layout_.channels;
     const size_t n = layout_.sample_count();
     if (tile.size() < n) return fail(Status::invalid_argument, "tile span smaller than the layout");
-    if (!parent.empty() && parent.size() < n) return fail(Status::invalid_argument, "parent span smaller than the layout");
+    if (!parent.empty() && parent.size() < n)
+      return fail(Status::invalid_argument, "parent span smaller than the layout");
     if (tolerance.size() < ch) return fail(Status::invalid_argument, "fewer tolerances than channels");
     for (uint32_t c = 0; c < ch; ++c)
-      if (!(tolerance[c] > 0.0f) || !(tolerance[c] < 1e15f)) return fail(Status::invalid_argument, "tolerance not finite and positive");
-    if (!reconstruction.empty() && reconstruction.size() < n) return fail(Status::insufficient_space, "reconstruction span too small");
+      if (!(tolerance[c] > 0.0f) || !(tolerance[c] < 1e15f))
+        return fail(Status::invalid_argument, "tolerance not finite and positive");
+    if (!reconstruction.empty() && reconstruction.size() < n)
+      return fail(Status::insufficient_space, "reconstruction span too small");
     const size_t header = tile_header_size(ch);
     if (out.size() < header) return fail(Status::insufficient_space, "output smaller than the header");
 
@@ -882,8 +905,8 @@ Status RawInflater::inflate(std::span<const uint8_t> in, std::span<uint8_t> out,
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
   if (state_->libdeflate) {
     size_t used = 0, produced = 0;
-    const libdeflate_result r =
-        libdeflate_deflate_decompress_ex(state_->libdeflate, in.data(), in.size(), out.data(), out.size(), &used, &produced);
+    const libdeflate_result r = libdeflate_deflate_decompress_ex(state_->libdeflate, in.data(), in.size(), out.data(),
+                                                                 out.size(), &used, &produced);
     if (r == LIBDEFLATE_SUCCESS && produced == out.size() && used == in.size()) return Status::success;
     // Failures only: libdeflate does not tell a truncated stream from a corrupt one, so zlib
     // below classifies it (same status and message with either backend).

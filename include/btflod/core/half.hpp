@@ -23,14 +23,14 @@ constexpr uint16_t float_to_half_bits(float value) noexcept {
   const uint32_t f = btflod::bit_cast<uint32_t>(value);
   const uint32_t sign = (f >> 16) & 0x8000u;
   const uint32_t abs = f & 0x7fffffffu;
-  if (abs >= 0x7f800000u) {                       // Inf or NaN
+  if (abs >= 0x7f800000u) {  // Inf or NaN
     if (abs > 0x7f800000u) return static_cast<uint16_t>(sign | 0x7e00u | ((abs >> 13) & 0x3ffu));
     return static_cast<uint16_t>(sign | 0x7c00u);
   }
   if (abs >= 0x477ff000u) return static_cast<uint16_t>(sign | 0x7c00u);  // ≥ 65520 rounds to Inf
-  if (abs < 0x38800000u) {                        // below 2^-14: half subnormal or zero
+  if (abs < 0x38800000u) {                                               // below 2^-14: half subnormal or zero
     const uint32_t exponent = abs >> 23;
-    const uint32_t shift = 126u - exponent;       // half ulp 2^-24 relative to the float's bits
+    const uint32_t shift = 126u - exponent;  // half ulp 2^-24 relative to the float's bits
     if (exponent == 0 || shift > 24) return static_cast<uint16_t>(sign);
     const uint32_t mantissa = (abs & 0x7fffffu) | 0x800000u;
     uint32_t h = mantissa >> shift;

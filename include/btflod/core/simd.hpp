@@ -26,7 +26,8 @@
 
 namespace btflod {
 
-/// True when the environment variable BTFLOD_DISABLE_SIMD is set and does not start with "0". Read once (first call); thread-safe.
+/// True when the environment variable BTFLOD_DISABLE_SIMD is set and does not start with "0". Read once (first call);
+/// thread-safe.
 bool simd_disabled_by_environment() noexcept;
 
 /// True when the running CPU supports F16C and AVX (with the OS saving YMM state) and

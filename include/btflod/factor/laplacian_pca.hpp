@@ -53,81 +53,13 @@ struct PhongParams {
 /// over a ladder of exponents. α is kept in [0, 10⁴]. Returns the parameters
 /// (deterministic). `max_iterations` bounds the LM iterations (as residual evaluations
 /// 10·max_iterations). Precondition: target has n_view·n_light values.
-inline PhongParams fit_phong_lm(const DirectionSet& views, const DirectionSet& lights, std::span<const float> target,
-                                int max_iterations = 200) {
-  const size_t nv = views.size(), nl = lights.size(), count = nv * nl;
-  std::vector<double> cl(count), ch(count);
-  for (size_t v = 0; v < nv; ++v)
-    for (size_t l = 0; l < nl; ++l) {
-      const glm::vec3 lv = lights[l].vector, vv = views[v].vector;
-      const glm::vec3 h = lv + vv;
-      const float len = glm::length(h);
-      cl[v * nl + l] = std::max(lv.z, 0.0f);
-      ch[v * nl + l] = len > 0.0f ? std::max(h.z / len, 0.0f) : 0.0f;
-    }
-  auto powc = [](double c, double a) { return c > 0.0 ? std::pow(c, a) : 0.0; };
-  auto cost = [&](const Eigen::Vector4d& p) {
-    double s = 0.0;
-    for (size_t i = 0; i < count; ++i) {
-      const double r = target[i] - (p[0] + p[1] * cl[i] + p[2] * powc(ch[i], p[3]));
-      s += r * r;
-    }
-    return s;
-  };
-  // Initial guess: linear least squares in (ka, kd, ks) for each α of a ladder.
-  Eigen::Vector4d best(0, 0, 0, 1);
-  double best_cost = INFINITY;
-  for (double a : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 256.0}) {
-    Eigen::MatrixXd j(static_cast<Eigen::Index>(count), 3);
-    Eigen::VectorXd y(static_cast<Eigen::Index>(count));
-    for (size_t i = 0; i < count; ++i) {
-      const auto ii = static_cast<Eigen::Index>(i);
-      j(ii, 0) = 1.0;
-      j(ii, 1) = cl[i];
-      j(ii, 2) = powc(ch[i], a);
-      y[ii] = target[i];
-    }
-    const Eigen::Vector3d k = j.colPivHouseholderQr().solve(y);
-    const Eigen::Vector4d p(k[0], k[1], k[2], a);
-    const double c = cost(p);
-    if (c < best_cost) best_cost = c, best = p;
-  }
-  // Levenberg–Marquardt on r_i = model_i − target_i; α is clamped inside the model, so the
-  // solver may step past the bounds without leaving the valid range.
-  const auto n = static_cast<Eigen::Index>(count);
-  auto residual = [&](const Eigen::VectorXd& q, Eigen::VectorXd& r) {
-    const double a = std::clamp(q[3], 0.0, 1e4);
-    for (size_t i = 0; i < count; ++i)
-      r[static_cast<Eigen::Index>(i)] = q[0] + q[1] * cl[i] + q[2] * powc(ch[i], a) - target[i];
-  };
-  auto jacobian = [&](const Eigen::VectorXd& q, Eigen::MatrixXd& jac) {
-    const double a = std::clamp(q[3], 0.0, 1e4);
-    const bool inside = q[3] > 0.0 && q[3] < 1e4;
-    for (size_t i = 0; i < count; ++i) {
-      const auto ii = static_cast<Eigen::Index>(i);
-      const double pw = powc(ch[i], a);
-      jac(ii, 0) = 1.0;
-      jac(ii, 1) = cl[i];
-      jac(ii, 2) = pw;
-      jac(ii, 3) = inside && ch[i] > 0.0 ? q[2] * pw * std::log(ch[i]) : 0.0;
-    }
-  };
-  Eigen::VectorXd q = best;
-  LeastSquaresOptions lo;
-  lo.max_evaluations = 10 * std::max(1, max_iterations);
-  lo.tolerance = 1e-12;
-  if (n >= 4) minimize_least_squares(q, n, residual, jacobian, lo);
-  q[3] = std::clamp(q[3], 0.0, 1e4);
-  Eigen::Vector4d p = best;
-  if (q.allFinite() && cost(Eigen::Vector4d(q)) <= best_cost) p = q;
-  return PhongParams{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]),
-                     static_cast<float>(p[3])};
-}
+PhongParams fit_phong_lm(const DirectionSet& views, const DirectionSet& lights, std::span<const float> target,
+                         int max_iterations = 200);
 
 /// Options of factorize_laplacian_pca(). Defaults follow paper 001 §3.3 (8 / 2 / 2).
 struct LaplacianPcaOptions {
-  int mip_count = 0;  ///< λmax (bands below the top); 0 = automatic (halve while the next
-                      ///< mip has at least 2·components_y texels, as §3.2 stops the pyramid)
+  int mip_count = 0;                       ///< λmax (bands below the top); 0 = automatic (halve while the next
+                                           ///< mip has at least 2·components_y texels, as §3.2 stops the pyramid)
   std::array<int, 3> components{8, 2, 2};  ///< Y, Cb, Cr
   SvdOptions svd{};
 };
@@ -199,7 +131,8 @@ struct LaplacianPca {
   size_t size_bytes() const noexcept {
     size_t s = 6 * sizeof(float);
     for (const auto& m : mips)
-      for (int ch = 0; ch < 3; ++ch) s += (m.weights[static_cast<size_t>(ch)].size() + m.eigen[static_cast<size_t>(ch)].size()) * sizeof(float);
+      for (int ch = 0; ch < 3; ++ch)
+        s += (m.weights[static_cast<size_t>(ch)].size() + m.eigen[static_cast<size_t>(ch)].size()) * sizeof(float);
     return s;
   }
   double compression_ratio() const noexcept {
@@ -254,7 +187,8 @@ struct LaplacianPca {
     auto file = FactorFile::parse(bytes);
     if (!file) return file.error();
     if (file->kind != FactorKind::laplacian_pca)
-      return make_error(Status::bad_data, "factor file: kind %u is not Laplacian PCA (3)", static_cast<unsigned>(file->kind));
+      return make_error(Status::bad_data, "factor file: kind %u is not Laplacian PCA (3)",
+                        static_cast<unsigned>(file->kind));
     auto shape = file->shape();
     if (!shape) return shape.error();
     LaplacianPca p;
@@ -273,14 +207,16 @@ struct LaplacianPca {
       m.width = static_cast<int>(r.u32());
       m.height = static_cast<int>(r.u32());
       if (m.width != w || m.height != h)
-        return make_error(Status::bad_data, "Laplacian PCA: mip %u is %dx%d, expected %dx%d", k, m.width, m.height, w, h);
+        return make_error(Status::bad_data, "Laplacian PCA: mip %u is %dx%d, expected %dx%d", k, m.width, m.height, w,
+                          h);
       for (size_t ch = 0; ch < 3; ++ch) {
         const uint32_t c = r.u32();
         if (c > std::min<size_t>(images, static_cast<size_t>(w) * static_cast<size_t>(h)))
           return make_error(Status::bad_data, "Laplacian PCA: mip %u channel %zu has %u components", k, ch, c);
         m.components[ch] = static_cast<int>(c);
         if (c > bytes.size() / (4 * (static_cast<size_t>(w) * static_cast<size_t>(h) + images)))  // no overflow
-          return make_error(Status::short_output, "Laplacian PCA: mip %u channel %zu: %u components exceed the file", k, ch, c);
+          return make_error(Status::short_output, "Laplacian PCA: mip %u channel %zu: %u components exceed the file", k,
+                            ch, c);
         wsize += static_cast<size_t>(w) * static_cast<size_t>(h) * c;
         esize += images * c;
       }
@@ -289,20 +225,23 @@ struct LaplacianPca {
       h = (h + 1) / 2;
     }
     if ((wsize + esize) * 4 > bytes.size())
-      return make_error(Status::short_output, "Laplacian PCA: mips need %zu bytes, file has %zu", (wsize + esize) * 4, bytes.size());
+      return make_error(Status::short_output, "Laplacian PCA: mips need %zu bytes, file has %zu", (wsize + esize) * 4,
+                        bytes.size());
     std::vector<float> means, wall, eall;
     if (auto s = file->read_array<float>(factor_tag("MEAN"), 6, means); !s) return s.error();
     if (auto s = file->read_array<float>(factor_tag("WALL"), wsize, wall); !s) return s.error();
     if (auto s = file->read_array<float>(factor_tag("EALL"), esize, eall); !s) return s.error();
     p.phong = PhongParams{means[0], means[1], means[2], means[3]};
     if (!(p.phong.alpha >= 0.0f && p.phong.alpha <= 1e4f))
-      return make_error(Status::bad_data, "Laplacian PCA: Phong exponent %g out of [0, 1e4]", static_cast<double>(p.phong.alpha));
+      return make_error(Status::bad_data, "Laplacian PCA: Phong exponent %g out of [0, 1e4]",
+                        static_cast<double>(p.phong.alpha));
     p.cb_mean = means[4];
     p.cr_mean = means[5];
     size_t wo = 0, eo = 0;
     for (auto& m : p.mips)
       for (size_t ch = 0; ch < 3; ++ch) {
-        const size_t ws = static_cast<size_t>(m.width) * static_cast<size_t>(m.height) * static_cast<size_t>(m.components[ch]);
+        const size_t ws =
+            static_cast<size_t>(m.width) * static_cast<size_t>(m.height) * static_cast<size_t>(m.components[ch]);
         const size_t es = images * static_cast<size_t>(m.components[ch]);
         m.weights[ch].assign(wall.begin() + static_cast<ptrdiff_t>(wo), wall.begin() + static_cast<ptrdiff_t>(wo + ws));
         m.eigen[ch].assign(eall.begin() + static_cast<ptrdiff_t>(eo), eall.begin() + static_cast<ptrdiff_t>(eo + es));
@@ -346,11 +285,92 @@ inline int laplacian_auto_mip_count(int width, int height, int components_y) {
 /// Builds the Laplacian-pyramid PCA of `btf` (paper 001 §3). Returns an error for an empty BTF
 /// or a mip count that does not fit the size; Status::cancelled when progress returns false.
 /// Memory: the whole pyramid of coefficients (≈ 1.33 × the input) during construction.
-inline Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const LaplacianPcaOptions& options = {},
-                                                    const ProgressCallback& progress = {}) {
+Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const LaplacianPcaOptions& options = {},
+                                             const ProgressCallback& progress = {});
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+// The Levenberg–Marquardt Phong fit (Eigen's LevenbergMarquardt) and the factorisation are compiled once, in the
+// implementation TU.
+namespace btflod {
+
+PhongParams fit_phong_lm(const DirectionSet& views, const DirectionSet& lights, std::span<const float> target,
+                         int max_iterations) {
+  const size_t nv = views.size(), nl = lights.size(), count = nv * nl;
+  std::vector<double> cl(count), ch(count);
+  for (size_t v = 0; v < nv; ++v)
+    for (size_t l = 0; l < nl; ++l) {
+      const glm::vec3 lv = lights[l].vector, vv = views[v].vector;
+      const glm::vec3 h = lv + vv;
+      const float len = glm::length(h);
+      cl[v * nl + l] = std::max(lv.z, 0.0f);
+      ch[v * nl + l] = len > 0.0f ? std::max(h.z / len, 0.0f) : 0.0f;
+    }
+  auto powc = [](double c, double a) { return c > 0.0 ? std::pow(c, a) : 0.0; };
+  auto cost = [&](const Eigen::Vector4d& p) {
+    double s = 0.0;
+    for (size_t i = 0; i < count; ++i) {
+      const double r = target[i] - (p[0] + p[1] * cl[i] + p[2] * powc(ch[i], p[3]));
+      s += r * r;
+    }
+    return s;
+  };
+  // Initial guess: linear least squares in (ka, kd, ks) for each α of a ladder.
+  Eigen::Vector4d best(0, 0, 0, 1);
+  double best_cost = INFINITY;
+  for (double a : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 256.0}) {
+    Eigen::MatrixXd j(static_cast<Eigen::Index>(count), 3);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(count));
+    for (size_t i = 0; i < count; ++i) {
+      const auto ii = static_cast<Eigen::Index>(i);
+      j(ii, 0) = 1.0;
+      j(ii, 1) = cl[i];
+      j(ii, 2) = powc(ch[i], a);
+      y[ii] = target[i];
+    }
+    const Eigen::Vector3d k = j.colPivHouseholderQr().solve(y);
+    const Eigen::Vector4d p(k[0], k[1], k[2], a);
+    const double c = cost(p);
+    if (c < best_cost) best_cost = c, best = p;
+  }
+  // Levenberg–Marquardt on r_i = model_i − target_i; α is clamped inside the model, so the
+  // solver may step past the bounds without leaving the valid range.
+  const auto n = static_cast<Eigen::Index>(count);
+  auto residual = [&](const Eigen::VectorXd& q, Eigen::VectorXd& r) {
+    const double a = std::clamp(q[3], 0.0, 1e4);
+    for (size_t i = 0; i < count; ++i)
+      r[static_cast<Eigen::Index>(i)] = q[0] + q[1] * cl[i] + q[2] * powc(ch[i], a) - target[i];
+  };
+  auto jacobian = [&](const Eigen::VectorXd& q, Eigen::MatrixXd& jac) {
+    const double a = std::clamp(q[3], 0.0, 1e4);
+    const bool inside = q[3] > 0.0 && q[3] < 1e4;
+    for (size_t i = 0; i < count; ++i) {
+      const auto ii = static_cast<Eigen::Index>(i);
+      const double pw = powc(ch[i], a);
+      jac(ii, 0) = 1.0;
+      jac(ii, 1) = cl[i];
+      jac(ii, 2) = pw;
+      jac(ii, 3) = inside && ch[i] > 0.0 ? q[2] * pw * std::log(ch[i]) : 0.0;
+    }
+  };
+  Eigen::VectorXd q = best;
+  LeastSquaresOptions lo;
+  lo.max_evaluations = 10 * std::max(1, max_iterations);
+  lo.tolerance = 1e-12;
+  if (n >= 4) minimize_least_squares(q, n, residual, jacobian, lo);
+  q[3] = std::clamp(q[3], 0.0, 1e4);
+  Eigen::Vector4d p = best;
+  if (q.allFinite() && cost(Eigen::Vector4d(q)) <= best_cost) p = q;
+  return PhongParams{static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]),
+                     static_cast<float>(p[3])};
+}
+
+Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const LaplacianPcaOptions& options,
+                                             const ProgressCallback& progress) {
   if (btf.empty()) return make_error(Status::invalid_argument, "factorize_laplacian_pca: empty BTF");
   const int lmax = options.mip_count > 0 ? options.mip_count
-                                          : laplacian_auto_mip_count(btf.width(), btf.height(), options.components[0]);
+                                         : laplacian_auto_mip_count(btf.width(), btf.height(), options.components[0]);
   int max_mips = 0;
   for (int w = btf.width(), h = btf.height(); w > 1 || h > 1; w = (w + 1) / 2, h = (h + 1) / 2) ++max_mips;
   if (lmax > max_mips)
@@ -361,12 +381,17 @@ inline Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const L
   const size_t nv = btf.view_count(), nl = btf.light_count(), images = nv * nl;
   std::vector<int> ws(static_cast<size_t>(lmax) + 1), hs(static_cast<size_t>(lmax) + 1);
   ws[0] = btf.width(), hs[0] = btf.height();
-  for (int k = 1; k <= lmax; ++k) ws[static_cast<size_t>(k)] = (ws[static_cast<size_t>(k) - 1] + 1) / 2, hs[static_cast<size_t>(k)] = (hs[static_cast<size_t>(k) - 1] + 1) / 2;
-  auto texels = [&](int k) { return static_cast<size_t>(ws[static_cast<size_t>(k)]) * static_cast<size_t>(hs[static_cast<size_t>(k)]); };
+  for (int k = 1; k <= lmax; ++k)
+    ws[static_cast<size_t>(k)] = (ws[static_cast<size_t>(k) - 1] + 1) / 2,
+    hs[static_cast<size_t>(k)] = (hs[static_cast<size_t>(k) - 1] + 1) / 2;
+  auto texels = [&](int k) {
+    return static_cast<size_t>(ws[static_cast<size_t>(k)]) * static_cast<size_t>(hs[static_cast<size_t>(k)]);
+  };
   // coef[k][ch]: texels_k × images, column-major (one column per BTF image).
   std::vector<std::array<Eigen::MatrixXf, 3>> coef(static_cast<size_t>(lmax) + 1);
   for (int k = 0; k <= lmax; ++k)
-    for (auto& m : coef[static_cast<size_t>(k)]) m.resize(static_cast<Eigen::Index>(texels(k)), static_cast<Eigen::Index>(images));
+    for (auto& m : coef[static_cast<size_t>(k)])
+      m.resize(static_cast<Eigen::Index>(texels(k)), static_cast<Eigen::Index>(images));
   ThreadPool& pool = options.svd.pool ? *options.svd.pool : default_thread_pool();
   pool.parallel_for(0, images, 8, [&](size_t i0, size_t i1) {
     std::vector<float> f, next;
@@ -384,7 +409,9 @@ inline Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const L
           for (int y = 0; y < hs[static_cast<size_t>(k)]; ++y)
             for (int x = 0; x < w; ++x) {
               const size_t t = static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x);
-              col[t] = f[t] - next[static_cast<size_t>(y >> 1) * static_cast<size_t>(w2) + static_cast<size_t>(x >> 1)];  // eq. 3
+              col[t] =
+                  f[t] -
+                  next[static_cast<size_t>(y >> 1) * static_cast<size_t>(w2) + static_cast<size_t>(x >> 1)];  // eq. 3
             }
           std::swap(f, next);
         }
@@ -401,7 +428,8 @@ inline Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const L
   p.cr_mean = top[2].mean();
   for (size_t v = 0; v < nv; ++v)
     for (size_t l = 0; l < nl; ++l)
-      top[0].col(static_cast<Eigen::Index>(v * nl + l)).array() -= p.phong.evaluate(btf.lights()[l].vector, btf.views()[v].vector);
+      top[0].col(static_cast<Eigen::Index>(v * nl + l)).array() -=
+          p.phong.evaluate(btf.lights()[l].vector, btf.views()[v].vector);
   top[1].array() -= p.cb_mean;
   top[2].array() -= p.cr_mean;
   // Per mip and channel: uncentred PCA (eq. 4).
@@ -431,3 +459,4 @@ inline Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const L
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -174,8 +174,19 @@ struct LocalPca {
 /// Builds the Local PCA of `btf` (paper 002 §3 / ref. [10]). Deterministic. Returns an error
 /// for an empty BTF, K < 1, C < 0 or K > texels; Status::cancelled when progress returns false.
 /// Memory: one copy of the BTF as a d × n matrix plus O(K·d·C + n·K).
-inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaOptions& options = {},
-                                            const ProgressCallback& progress = {}) {
+/// Defined in the implementation TU (BTFLOD_IMPLEMENTATION).
+Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaOptions& options = {},
+                                     const ProgressCallback& progress = {});
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+// factorize_local_pca instantiates Eigen's SelfAdjointEigenSolver and the blocked truncated SVD:
+// compiled once, in the implementation TU.
+namespace btflod {
+
+Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaOptions& options,
+                                     const ProgressCallback& progress) {
   const size_t n = btf.texel_count(), d = btf.view_count() * btf.light_count() * 3;
   if (btf.empty() || options.clusters < 1 || options.components < 0 || static_cast<size_t>(options.clusters) > n ||
       options.clusters > 65535)
@@ -389,3 +400,4 @@ inline Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaO
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -597,47 +597,8 @@ inline Eigen::VectorXd spmm_params_to(AnalyticModel model, std::span<const float
 
 /// Fits one basis of `model` to `target` (variable projection, α* ≥ 0 closed form) by LM from
 /// the best of a few starting points. Returns the basis, writes α* and the squared error.
-inline AnalyticBasis spmm_fit_basis(AnalyticModel model, const SpmmFitData& data, const Eigen::VectorXd& target,
-                                    int max_evaluations, double& alpha, double& cost) {
-  const Eigen::Index m = static_cast<Eigen::Index>(data.light.size());
-  Eigen::VectorXd values(m);
-  auto eval = [&](const Eigen::VectorXd& u, Eigen::VectorXd& r, double* a_out) {
-    const AnalyticBasis b = spmm_basis_from(model, u);
-    for (Eigen::Index i = 0; i < m; ++i)
-      values[i] = evaluate_analytic_basis(b, data.light[static_cast<size_t>(i)], data.view[static_cast<size_t>(i)]);
-    const double bb = values.squaredNorm();
-    const double a = bb > 0.0 ? std::max(0.0, values.dot(target) / bb) : 0.0;
-    r = target - a * values;
-    if (a_out) *a_out = a;
-  };
-  // Starting points: every log-scale parameter at the same fraction of its (log) range.
-  const auto info = analytic_param_info(model);
-  Eigen::VectorXd best_u;
-  double best = std::numeric_limits<double>::infinity();
-  Eigen::VectorXd r(m);
-  for (double f : {0.15, 0.4, 0.65}) {
-    std::array<float, kAnalyticMaxParams> k{};
-    for (size_t i = 0; i < info.size(); ++i)
-      k[i] = info[i].log_scale ? static_cast<float>(std::exp(std::log(info[i].min) +
-                                                             f * (std::log(info[i].max) - std::log(info[i].min))))
-                               : info[i].initial;
-    const Eigen::VectorXd u = spmm_params_to(model, std::span<const float>(k.data(), info.size()));
-    eval(u, r, nullptr);
-    const double c = r.squaredNorm();
-    if (c < best) best = c, best_u = u;
-    if (info.empty()) break;
-  }
-  if (m > best_u.size()) {
-    LeastSquaresOptions lo;
-    lo.max_evaluations = max_evaluations;
-    lo.tolerance = 1e-8;
-    minimize_least_squares_numeric(
-        best_u, m, [&](const Eigen::VectorXd& u, Eigen::VectorXd& out) { eval(u, out, nullptr); }, lo);
-  }
-  eval(best_u, r, &alpha);
-  cost = r.squaredNorm();
-  return spmm_basis_from(model, best_u);
-}
+AnalyticBasis spmm_fit_basis(AnalyticModel model, const SpmmFitData& data, const Eigen::VectorXd& target,
+                             int max_evaluations, double& alpha, double& cost);
 
 /// Non-negative stagewise LASSO (BLasso, Zhao & Yu 2007, with the constraint β ≥ 0) of one
 /// texel on the quadratic loss L(β) = ‖y‖² − 2cᵀβ + βᵀGβ over 3·M coordinates (channel-major:
@@ -721,8 +682,61 @@ inline void spmm_blasso(const Eigen::MatrixXd& g, const Eigen::VectorXd& c, int 
 /// representatives < 1, lobes < 0, no enabled model, max_basis_per_texel ∉ [1, 64],
 /// residual_components < 0, fit_samples < 1); Status::cancelled when progress returns false.
 /// Memory: one float copy of the BTF (d × texels) plus O(K·d·N_PCA).
-inline Result<Spmm> factorize_spmm(const BtfFloat& btf, const SpmmOptions& options = {},
-                                   const ProgressCallback& progress = {}) {
+Result<Spmm> factorize_spmm(const BtfFloat& btf, const SpmmOptions& options = {},
+                            const ProgressCallback& progress = {});
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+// The Levenberg–Marquardt fits (Eigen's LevenbergMarquardt) and the factorisation are compiled once, in the
+// implementation TU.
+namespace btflod {
+
+namespace detail {
+AnalyticBasis spmm_fit_basis(AnalyticModel model, const SpmmFitData& data, const Eigen::VectorXd& target,
+                             int max_evaluations, double& alpha, double& cost) {
+  const Eigen::Index m = static_cast<Eigen::Index>(data.light.size());
+  Eigen::VectorXd values(m);
+  auto eval = [&](const Eigen::VectorXd& u, Eigen::VectorXd& r, double* a_out) {
+    const AnalyticBasis b = spmm_basis_from(model, u);
+    for (Eigen::Index i = 0; i < m; ++i)
+      values[i] = evaluate_analytic_basis(b, data.light[static_cast<size_t>(i)], data.view[static_cast<size_t>(i)]);
+    const double bb = values.squaredNorm();
+    const double a = bb > 0.0 ? std::max(0.0, values.dot(target) / bb) : 0.0;
+    r = target - a * values;
+    if (a_out) *a_out = a;
+  };
+  // Starting points: every log-scale parameter at the same fraction of its (log) range.
+  const auto info = analytic_param_info(model);
+  Eigen::VectorXd best_u;
+  double best = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd r(m);
+  for (double f : {0.15, 0.4, 0.65}) {
+    std::array<float, kAnalyticMaxParams> k{};
+    for (size_t i = 0; i < info.size(); ++i)
+      k[i] = info[i].log_scale ? static_cast<float>(std::exp(std::log(info[i].min) +
+                                                             f * (std::log(info[i].max) - std::log(info[i].min))))
+                               : info[i].initial;
+    const Eigen::VectorXd u = spmm_params_to(model, std::span<const float>(k.data(), info.size()));
+    eval(u, r, nullptr);
+    const double c = r.squaredNorm();
+    if (c < best) best = c, best_u = u;
+    if (info.empty()) break;
+  }
+  if (m > best_u.size()) {
+    LeastSquaresOptions lo;
+    lo.max_evaluations = max_evaluations;
+    lo.tolerance = 1e-8;
+    minimize_least_squares_numeric(
+        best_u, m, [&](const Eigen::VectorXd& u, Eigen::VectorXd& out) { eval(u, out, nullptr); }, lo);
+  }
+  eval(best_u, r, &alpha);
+  cost = r.squaredNorm();
+  return spmm_basis_from(model, best_u);
+}
+}  // namespace detail
+
+Result<Spmm> factorize_spmm(const BtfFloat& btf, const SpmmOptions& options, const ProgressCallback& progress) {
   using Eigen::Index;
   const size_t n = btf.texel_count(), nl = btf.light_count(), nv = btf.view_count(), nvl = nv * nl, d = nvl * 3;
   if (btf.empty() || options.clusters < 1 || static_cast<size_t>(options.clusters) > n || options.clusters > 65535 ||
@@ -901,3 +915,4 @@ inline Result<Spmm> factorize_spmm(const BtfFloat& btf, const SpmmOptions& optio
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -514,4 +514,3 @@ Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const Svd
 
 }  // namespace btflod
 #endif  // BTFLOD_IMPLEMENTATION
-

@@ -55,13 +55,16 @@
 #include "btflod/angular/triangle_locator.hpp"
 
 // factor
+#include "btflod/factor/analytic_brdf.hpp"
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
+#include "btflod/factor/levenberg_marquardt.hpp"
 #include "btflod/factor/local_pca.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
 #include "btflod/factor/pca_views.hpp"
+#include "btflod/factor/spmm.hpp"
 #include "btflod/factor/truncated_svd.hpp"
 
 // metrics

@@ -22,7 +22,7 @@
 namespace btflod {
 namespace {
 
-/// A tiny synthesised stone BTF (8 × 8 texels, 13 directions) and its four representations.
+/// A tiny synthesised stone BTF (8 × 8 texels, 13 directions) and its five representations.
 std::vector<std::shared_ptr<const AnyFactorization>> representations() {
   static std::vector<std::shared_ptr<const AnyFactorization>> cache;
   if (!cache.empty()) return cache;
@@ -44,6 +44,12 @@ std::vector<std::shared_ptr<const AnyFactorization>> representations() {
   cache.push_back(std::make_shared<AnyFactorization>(factorize_pca_views(*btf, po).value()));
   cache.push_back(std::make_shared<AnyFactorization>(factorize_laplacian_pca(*btf, lo).value()));
   cache.push_back(std::make_shared<AnyFactorization>(factorize_local_pca(*btf, co).value()));
+  SpmmOptions sp;
+  sp.clusters = 2;
+  sp.representatives = 2;
+  sp.lobes_per_representative = 1;
+  sp.residual_components = 2;
+  cache.push_back(std::make_shared<AnyFactorization>(factorize_spmm(*btf, sp).value()));
   return cache;
 }
 
@@ -114,10 +120,20 @@ TEST(RenderShading, InteractiveQualityChangesOnlyLodRepresentations) {
     ASSERT_TRUE(m);
     const glm::vec3 full = m->evaluate({0.3f, 0.6f}, wl, wv, ShadeQuality::full);
     const glm::vec3 fast = m->evaluate({0.3f, 0.6f}, wl, wv, ShadeQuality::interactive);
-    if (rep->index() == 2)
+    if (rep->index() == 2) {
       EXPECT_NE(full, fast) << "laplacian";
-    else
+    } else if (const Spmm* spmm = std::get_if<Spmm>(rep.get())) {
+      // paper 003 §5.4: the analytic mixture alone, exactly what evaluate() gives without the
+      // residual at the same nine taps.
+      SpmmEvalOptions no_residual;
+      no_residual.residual = false;
+      const int x = BtfMaterial::wrap_index(0.3f, m->width()), y = BtfMaterial::wrap_index(0.6f, m->height());
+      const AngularSample l = m->light_sample(wl), v = m->view_sample(wv);
+      EXPECT_EQ(fast, spmm->evaluate(x, y, l, v, no_residual)) << "spmm";
+      EXPECT_NE(full, fast) << "spmm";
+    } else {
       EXPECT_EQ(full, fast) << factorization_name(*rep);
+    }
   }
 }
 

@@ -198,7 +198,7 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 
 struct Materials {
   std::vector<NamedBtf> btfs;  ///< 0 stone/fmf, 1 cloth/pca-k, 2 leather/laplacian, 3 tiles/lpca,
-                               ///< 4.. stone in pca-k, laplacian, lpca (per-representation runs)
+                               ///< 4.. stone in pca-k, laplacian, lpca, spmm (per-representation runs)
   double seconds = 0;
 
   /// SurfaceMaterials: the four mixed BTFs then a mirror (index 4).
@@ -229,7 +229,7 @@ Result<Materials> prepare_materials(const Options& o) {
     if (!b) return b.error();
     m.btfs.push_back(std::move(*b));
   }
-  for (int i = 1; i < 4; ++i) {
+  for (size_t i = 1; i < std::size(kAllRepresentations); ++i) {
     auto b = make_btf(SynthMaterial::stone, kAllRepresentations[i], o.material_size, o.seed);
     if (!b) return b.error();
     m.btfs.push_back(std::move(*b));

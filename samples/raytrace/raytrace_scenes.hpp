@@ -26,12 +26,12 @@
 
 namespace btflod::raytrace {
 
-/// The representations a material can use. A representation added to AnyFactorization (SPMM)
-/// gets a case in factorize() and a name here; shading needs nothing more (it visits the
-/// variant, render/shading.hpp).
-enum class Representation : uint8_t { fmf, pca_k, laplacian, lpca };
-inline constexpr Representation kAllRepresentations[] = {Representation::fmf, Representation::pca_k,
-                                                         Representation::laplacian, Representation::lpca};
+/// The representations a material can use. A representation added to AnyFactorization gets a
+/// case in factorize() and a name here; shading needs nothing more (it visits the variant,
+/// render/shading.hpp).
+enum class Representation : uint8_t { fmf, pca_k, laplacian, lpca, spmm };
+inline constexpr Representation kAllRepresentations[] = {
+    Representation::fmf, Representation::pca_k, Representation::laplacian, Representation::lpca, Representation::spmm};
 
 inline const char* representation_name(Representation r) noexcept {
   switch (r) {
@@ -43,6 +43,8 @@ inline const char* representation_name(Representation r) noexcept {
       return "laplacian";
     case Representation::lpca:
       return "lpca";
+    case Representation::spmm:
+      return "spmm";
   }
   return "?";
 }
@@ -92,6 +94,17 @@ inline Result<std::shared_ptr<const AnyFactorization>> factorize(const BtfFloat&
       o.components = 3;
       o.max_iterations = 6;
       return wrap(factorize_local_pca(btf, o));
+    }
+    case Representation::spmm: {  // paper 003: small dictionary, #BF ≤ 3, N_PCA = 2
+      SpmmOptions o;
+      o.clusters = 3;
+      o.representatives = 2;
+      o.lobes_per_representative = 1;
+      o.max_basis_per_texel = 3;
+      o.residual_components = 2;
+      o.fit_samples = 512;
+      o.lasso_max_steps = 1500;
+      return wrap(factorize_spmm(btf, o));
     }
   }
   return make_error(Status::invalid_argument, "unknown representation");

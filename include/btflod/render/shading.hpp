@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <memory>
+#include <type_traits>
 #include <utility>
 
 #include <glm/glm.hpp>
@@ -29,10 +30,10 @@
 namespace btflod {
 
 /// How much work a BTF evaluation may do. `interactive` is what a renderer uses while the
-/// camera moves (paper 003 §5.4 skips SPMM's residual then): representations with a
-/// level-of-detail knob evaluate a coarser, cheaper level (Laplacian PCA: one band up, λ = 1);
-/// the others are unchanged. A representation added to AnyFactorization with a cheaper
-/// evaluation path gets it here, in evaluate_representation().
+/// camera moves: SPMM evaluates its analytic mixture only, without the residual (paper 003
+/// §5.4); representations with a level-of-detail knob evaluate a coarser, cheaper level
+/// (Laplacian PCA: one band up, λ = 1); the others are unchanged. A representation added to
+/// AnyFactorization with a cheaper evaluation path gets it here, in evaluate_representation().
 enum class ShadeQuality : uint8_t { full, interactive };
 
 /// Evaluates representation `f` at texel (x, y) for the nine taps of a light and a view
@@ -45,7 +46,12 @@ inline glm::vec3 evaluate_representation(const AnyFactorization& f, int x, int y
                                          ShadeQuality quality = ShadeQuality::full) noexcept {
   return std::visit(
       [&](const auto& r) -> glm::vec3 {
-        if constexpr (requires { r.evaluate(x, y, light, view, 0.0f); }) {
+        if constexpr (std::is_same_v<std::decay_t<decltype(r)>, Spmm>) {
+          // paper 003 §5.4: no residual (ε of eq. 3) while the camera moves.
+          SpmmEvalOptions options;
+          options.residual = quality == ShadeQuality::full;
+          return r.evaluate(x, y, light, view, options);
+        } else if constexpr (requires { r.evaluate(x, y, light, view, 0.0f); }) {
           const float lod = quality == ShadeQuality::interactive ? 1.0f : 0.0f;
           return r.evaluate(x, y, light, view, lod);
         } else {
@@ -102,6 +108,12 @@ class BtfMaterial {
   NineTapSample taps(glm::vec3 light_local, glm::vec3 view_local) const noexcept {
     return combine_nine_tap(light_interp_.query(light_local), view_interp_.query(view_local));
   }
+
+  /// The angular samples (three taps and weights each) evaluate() uses for a light and a view
+  /// direction in the tangent frame, for callers that evaluate the representation themselves
+  /// (e.g. with their own SpmmEvalOptions). noexcept.
+  AngularSample light_sample(glm::vec3 light_local) const noexcept { return light_interp_.query(light_local); }
+  AngularSample view_sample(glm::vec3 view_local) const noexcept { return view_interp_.query(view_local); }
 
   /// The shaded representation (shared, immutable).
   const AnyFactorization& representation() const noexcept { return *representation_; }

@@ -15,18 +15,20 @@
 // Targets (issue 5): ≤ 0.25 ms per frame at 320×180 with 100 materials; ≤ 5× the read at 1280×720.
 #include <benchmark/benchmark.h>
 
-#include <ctime>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
-#include "btflod/vt/scheduler.hpp"
 #include "../samples/bench_cli/scheduler_replay.hpp"
+#include "btflod/lod/feedback.hpp"
+#include "btflod/lod/feedback_trace.hpp"
+#include "btflod/vt/scheduler.hpp"
 
 using namespace btflod;
 
@@ -154,11 +156,67 @@ void BM_SchedulerFrame(benchmark::State& state) {
   state.SetItemsProcessed(static_cast<int64_t>(iterations) * width * height);
 }
 
+// What recording a feedback trace costs an engine per frame: FeedbackTraceWriter::encode_frame
+// (deflate level 1 + CRCs) on the same synthetic buffers, next to one read of the buffer and one
+// scheduler frame (votes + plan + cache updates) over the same buffer, measured in the same run.
+void BM_TraceRecordFrame(benchmark::State& state) {
+  const uint32_t materials = static_cast<uint32_t>(state.range(0));
+  const uint32_t width = static_cast<uint32_t>(state.range(1)), height = width * 9 / 16;
+  auto s = make_setup(materials, width, height);
+  FeedbackTraceWriterConfig wc;
+  wc.max_frame_words = width * height;
+  auto writer = FeedbackTraceWriter::create(wc);
+  if (!writer) {
+    state.SkipWithError(writer.message().c_str());
+    return;
+  }
+  uint64_t frame = 0, bytes = 0, iterations = 0;
+  const double t0 = cpu_ns();
+  for (auto _ : state) {
+    FeedbackFrameInfo info;
+    info.frame_index = frame;
+    info.width = width;
+    info.height = height;
+    std::span<const uint8_t> out;
+    if (writer->encode_frame(info, s->frames[frame % kFrames], out) != Status::success) {
+      state.SkipWithError("encode_frame failed");
+      return;
+    }
+    bytes += out.size();
+    ++frame;
+    ++iterations;
+  }
+  const double record_ns = (cpu_ns() - t0) / double(iterations);
+  // One scheduler frame on the same buffers (after a warm-up to the steady state).
+  for (int i = 0; i < 200; ++i) {
+    s->votes->count(s->frames[static_cast<size_t>(i) % kFrames]);
+    s->scheduler->run_frame(*s->cache, *s->votes, static_cast<uint64_t>(i));
+  }
+  const int sched_frames = 50;
+  const double t1 = cpu_ns();
+  for (int i = 0; i < sched_frames; ++i) {
+    s->votes->count(s->frames[static_cast<size_t>(i) % kFrames]);
+    s->scheduler->run_frame(*s->cache, *s->votes, static_cast<uint64_t>(200 + i));
+  }
+  const double sched_ns = (cpu_ns() - t1) / sched_frames;
+  const double read_ns = read_once_ns(s->frames[0]);
+  state.counters["record_us"] = record_ns / 1000.0;
+  state.counters["read_us"] = read_ns / 1000.0;
+  state.counters["x_read"] = record_ns / read_ns;        // recording / one read of the buffer
+  state.counters["x_scheduler"] = record_ns / sched_ns;  // recording / one scheduler frame
+  state.counters["bytes_per_frame"] = double(bytes) / double(iterations);
+  state.counters["ratio"] = double(width) * height * 4.0 / (double(bytes) / double(iterations));
+}
+
 }  // namespace
 
 BENCHMARK(BM_SchedulerFrame)
     ->ArgNames({"materials", "width"})
     ->ArgsProduct({{1, 10, 100}, {160, 320, 1280}})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_TraceRecordFrame)
+    ->ArgNames({"materials", "width"})
+    ->ArgsProduct({{100}, {160, 320, 1280}})
     ->Unit(benchmark::kMicrosecond);
 
 namespace {
@@ -212,21 +270,27 @@ int main(int argc, char** argv) {
   bool user_repetitions = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (i + 1 < argc && (a == "--trace" || a == "--bsvtf" || a == "--materials" || a == "--texture" || a == "--components" ||
-                         a == "--slots" || a == "--uploads")) {
+    if (i + 1 < argc && (a == "--trace" || a == "--bsvtf" || a == "--materials" || a == "--texture" ||
+                         a == "--components" || a == "--slots" || a == "--uploads")) {
       const char* v = argv[++i];
       const uint32_t n = static_cast<uint32_t>(std::strtoul(v, nullptr, 10));
-      if (a == "--trace") trace_path = v;
+      if (a == "--trace")
+        trace_path = v;
       else if (a == "--bsvtf") {
         if (auto r = btflod::bench::add_bsvtf_material(in.materials, v); !r) {
           std::fprintf(stderr, "bench_scheduler: %s\n", r.message().c_str());
           return 2;
         }
-      } else if (a == "--materials") described = n;
-      else if (a == "--texture") texture = std::max(n, 64u);
-      else if (a == "--components") components = std::max(n, 1u);
-      else if (a == "--slots") slots = std::max(n, 1u);
-      else in.config.budgets.uploads_per_frame = std::max(n, 1u);
+      } else if (a == "--materials")
+        described = n;
+      else if (a == "--texture")
+        texture = std::max(n, 64u);
+      else if (a == "--components")
+        components = std::max(n, 1u);
+      else if (a == "--slots")
+        slots = std::max(n, 1u);
+      else
+        in.config.budgets.uploads_per_frame = std::max(n, 1u);
       continue;
     }
     user_repetitions = user_repetitions || a.rfind("--benchmark_repetitions", 0) == 0;
@@ -241,7 +305,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "bench_scheduler: %s\n", t.message().c_str());
       return 2;
     }
-    if (t->frame_count() == 0) return std::fprintf(stderr, "bench_scheduler: %s has no frames\n", trace_path.c_str()), 2;
+    if (t->frame_count() == 0)
+      return std::fprintf(stderr, "bench_scheduler: %s has no frames\n", trace_path.c_str()), 2;
     in.trace = std::move(*t);
     if (described) btflod::bench::add_described_materials(in.materials, described, texture, components);
     if (in.materials.set.material_count() == 0) {

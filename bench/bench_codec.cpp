@@ -1,5 +1,5 @@
 // btflod-link: PkgConfig::BTFLOD_TURBOJPEG PkgConfig::BTFLOD_LIBDEFLATE
-// Tile codec benchmark (issue 6), all baselines in the same run on the same tile content:
+// Tile codec benchmark, all baselines in the same run on the same tile content:
 //   - btflod tile codec (DCT + quantisation + deflate on closed-loop parent residuals),
 //   - libjpeg-turbo (TurboJPEG API) coding each 72×72 component plane as 8-bit grayscale at the
 //     JPEG quality whose RMSE matches ours,

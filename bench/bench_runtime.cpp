@@ -8,7 +8,7 @@
 // The containers are real `.bsvtf` files (one, shared by the 100 materials) whose tiles all
 // carry the same valid payload of a zero residual, so the decode jobs — run between updates,
 // outside the timing — succeed cheaply and the cache reaches its steady state of swaps.
-// Targets (issue 12): ≤ 0.1 ms per update at 320×180; ≤ 3× one read at 1280×720.
+// Targets: ≤ 0.1 ms per update at 320×180; ≤ 3× one read at 1280×720.
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -12,7 +12,7 @@
 // (lod/feedback_trace.hpp; same inputs as `btflod-bench scheduler`) as BM_TraceReplay, one frame
 // per iteration, cycling through the trace; then 5 randomly interleaved repetitions with medians
 // are the defaults (--benchmark_* flags override them).
-// Targets (issue 5): ≤ 0.25 ms per frame at 320×180 with 100 materials; ≤ 5× the read at 1280×720.
+// Targets: ≤ 0.25 ms per frame at 320×180 with 100 materials; ≤ 5× the read at 1280×720.
 #include <benchmark/benchmark.h>
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// Tests for btf/ubo2003_folder.hpp: the key-based name parser on every spelling from the issue,
+// Tests for btf/ubo2003_folder.hpp: the key-based name parser on every known spelling,
 // writer → reader round trips (flat and per-view-folder layouts, PNG exact, JPEG close,
 // UBO2003 recognised automatically, half-degree UBO2014 angles), and the failure classes of the
 // folder reader (missing combinations, duplicates, differing sizes, unparseable names,
@@ -40,7 +40,7 @@ void expect_keys(std::string_view text, float tl, float pl, float tv, float pv) 
   EXPECT_FLOAT_EQ(k->degrees[UboAngleKeys::pv], pv) << text;
 }
 
-TEST(Ubo2003Names, EverySpellingFromTheIssueParses) {
+TEST(Ubo2003Names, EveryKnownSpellingParses) {
   expect_keys("00008 tl000 pl000 tv030 pv030", 0, 0, 30, 30);
   expect_keys("WoolPKNT256_00084_tl015_pl000_tv015_pv120", 15, 0, 15, 120);
   expect_keys("tl000_pl000_tv000_pv000", 0, 0, 0, 0);

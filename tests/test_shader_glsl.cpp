@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-// angular/ and lod/ are written in parallel by other engineers: cross-check when present.
+// Cross-checks against angular/ and lod/ when their headers are present.
 #if __has_include("btflod/angular/parameterization.hpp")
 #include "btflod/angular/parameterization.hpp"
 #define BTFLOD_TEST_HAS_ANGULAR 1

@@ -1,5 +1,5 @@
 // btflod-demo — the steps of the demo, each a plain function over a DemoConfig, so main() stays
-// a short list of calls that later issues extend (factorise, build the tile pyramid, stream,
+// a short list of calls that later steps extend (factorise, build the tile pyramid, stream,
 // render frames) without restructuring.
 #pragma once
 
@@ -162,7 +162,7 @@ inline Result<std::string> write_contact_sheet(const DemoConfig& cfg, const BtfF
 
 /// Step 5 (headless frames): the material seen from above under a light circling at 45°,
 /// `frames` PNG images (nearest measured light direction; angular interpolation and the
-/// streaming renderer come in later issues). Returns the number written.
+/// streaming renderer come in later steps). Returns the number written.
 inline Result<int> write_frames(const DemoConfig& cfg, const BtfFloat& btf) {
   const auto dir = std::filesystem::path(cfg.out_dir) / "frames";
   std::error_code ec;

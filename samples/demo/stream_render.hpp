@@ -164,7 +164,7 @@ class GpuFrameRenderer final : public FrameRenderer {
   }
 
  private:
-  // The feedback pass (1/2^shift of the screen, paper 000 §5 / issue #5) for every mesh first,
+  // The feedback pass (1/2^shift of the screen, paper 000 §5) for every mesh first,
   // then the BSVTF colour pass: one render-target switch per frame instead of two per mesh
   // (on llvmpipe each switch flushes the binned scene). Each feedback texel samples one screen
   // pixel of its 2^shift × 2^shift block, a different one every frame (lod/feedback.hpp's

@@ -1,5 +1,4 @@
-// btflod-progressive — progressive quality vs bytes received for three streaming orders
-// (issue 6, Evidence, last bullet).
+// btflod-progressive — progressive quality vs bytes received for three streaming orders.
 //
 // Materials are synthesised (btf/synthesizer.hpp), factorised with FMF (paper 000 eq. 4–5), cut
 // into tile pyramids and ENCODED into .bsvtf containers with the real codec — all through the

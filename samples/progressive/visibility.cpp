@@ -1,6 +1,6 @@
-// btflod-visibility — is the tile codec's loss visible in rendered images? (issue 6, Evidence:
+// btflod-visibility — is the tile codec's loss visible in rendered images? The target:
 // "compression at least 1.3× paper 000's 6:1 at a quality where the rendered difference is
-// invisible (state the PSNR)").
+// invisible (state the PSNR)".
 //
 // The demo's materials (synthesised, FMF-factorised: samples/demo/materials.hpp) and scene are
 // rendered by the CPU reference (scene_render.hpp, the renderer of btflod-progressive) twice per

@@ -1,4 +1,4 @@
-// btflod-replay — replay harness for the sparse virtual texture path (issue 5, paper 000 §5).
+// btflod-replay — replay harness for the sparse virtual texture path (paper 000 §5).
 //
 // A camera path over a scene of four FMF materials (a plane, a sphere, two tori); per frame the
 // CPU reference renders the feedback buffer (decimated, rotating sample), the votes of eq. 9 are

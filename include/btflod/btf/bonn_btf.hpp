@@ -32,7 +32,7 @@
 //          u32 rows (= nC·nL·nV), u32 cols (= w·h), S, U, SxV as above.
 //   value(c, l, v, x, y) = Σ_j U[l + nL·v][j] · SxV[x + w·y][j]   (DFMF, per channel c)
 //
-// Where this comes from: the layout follows the issue text and was checked against the field
+// Where this comes from: the layout follows the format description and was checked against the field
 // order of Bonn's public btflib reader/writer (read_meta_data, read_bidir_sampling,
 // read_common_header, read_ubo_dfmf, read_ubo_fmf, write_ubo_dfmf, fread_matrix: "stored in
 // row-major order"), and its decoder (undecorrelate, restore_dynamic_range; the order is

@@ -68,7 +68,7 @@ struct SvdOptions {
   int max_power_iterations = 6;
   /// τ: stop once the predicted excess of the squared error over its limit (the Eckart–Young
   /// optimum) is ≤ τ times the squared error, i.e. error / optimum ≤ 1/sqrt(1 − τ) ≈ 1 + τ/2
-  /// (1.0025 for the default τ = 0.005, half the 1.005 bound of issue #4).
+  /// (1.0025 for the default τ = 0.005, half of a 1.005 bound).
   double power_tolerance = 0.005;
   /// ζ: nonzeros (±1) per row of the sparse sign test matrix; 0 = dense Gaussian test matrix.
   int sketch_nonzeros = 8;

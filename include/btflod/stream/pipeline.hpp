@@ -75,7 +75,7 @@ struct PipelineConfig {
   ProgressCallback progress;                  ///< called from deliver() with ("stream", converged fraction)
 };
 
-/// Counters and progress (paper 004 §5's progress bar; issue 6's bytes, tiles, components and
+/// Counters and progress (paper 004 §5's progress bar: bytes, tiles, components and
 /// fraction of the converged state).
 struct PipelineProgress {
   uint64_t bytes_received = 0;   ///< verified payload bytes fetched from the source

@@ -4,7 +4,7 @@
 // throttled wrapper that simulates bandwidth and latency live in stream/file_source.hpp (POSIX,
 // threads), the HTTP range-request source in stream/http_source.hpp (libcurl). All of them serve byte ranges of
 // one static file, so any web server, CDN or disk can hold a material (paper 000 §6 streams
-// tiles from a server; issue 6 asks for plain byte ranges, no custom server).
+// tiles from a server; plain byte ranges, no custom server).
 #pragma once
 
 #include <algorithm>

@@ -87,6 +87,26 @@ TEST(MerlBrdf, FileLayoutIndexesAndScalesAsDocumented) {
   EXPECT_NEAR(t[2 * kMerlPlaneSize + i] * 1.66 / 1500.0, rho.z, 1e-9);
 }
 
+// Found by fuzz_merl_binary: a NaN angle went through std::clamp unchanged and was converted to
+// an int index (undefined behaviour, then a read far outside the table).
+TEST(MerlBrdf, NanAnglesInALookupAreNotMeasuredNeverAnOutOfBoundsRead) {
+  const MerlTable table{std::vector<double>(analytic_table())};
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  for (const HalfDiffAngles& a : {HalfDiffAngles{nan, 0.3, 0.2}, HalfDiffAngles{0.3, nan, 0.2},
+                                  HalfDiffAngles{nan, nan, nan}, HalfDiffAngles{0.3, 0.2, nan}}) {
+    bool measured = true;
+    const glm::dvec3 r = table.lookup(a, &measured);
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(std::isfinite(r[c]) && r[c] >= 0.0);
+    if (std::isnan(a.theta_half) || std::isnan(a.theta_diff)) {
+      EXPECT_FALSE(measured);
+      EXPECT_EQ(r, glm::dvec3(0.0));
+    }
+  }
+  // Infinite angles clamp to the table's range.
+  const glm::dvec3 r = table.lookup(HalfDiffAngles{inf, -inf, inf});
+  for (int c = 0; c < 3; ++c) EXPECT_TRUE(std::isfinite(r[c]) && r[c] >= 0.0);
+}
+
 TEST(MerlBrdf, AnalyticBrdfReadBackMatchesTheFunction) {
   const std::string path = std::string(BTFLOD_TEST_TMP_DIR) + "/analytic.binary";
   ASSERT_TRUE(write_file_bytes(path, analytic_file()).ok());

@@ -111,11 +111,15 @@ class MerlTable {
   }
 
   /// Scaled BRDF value ρ (linear RGB, 1/sr) at half/difference angles; `measured` (optional)
-  /// receives false when no measured sample surrounds the point (the value is then 0).
+  /// receives false when no measured sample surrounds the point or an angle is NaN (the value
+  /// is then 0). Any input is safe: infinite angles clamp to the table's range.
   /// noexcept, allocation-free, thread-safe.
   glm::dvec3 lookup(const HalfDiffAngles& a, bool* measured = nullptr) const noexcept {
     if (measured) *measured = false;
     if (empty()) return glm::dvec3(0.0);
+    // NaN angles name no direction (std::clamp passes NaN through, and NaN → int is undefined):
+    // reported as not measured.
+    if (std::isnan(a.theta_half) || std::isnan(a.theta_diff)) return glm::dvec3(0.0);
     constexpr double kHalfPi = 0.5 * 3.14159265358979323846, kPiD = 3.14159265358979323846;
     const double th = std::clamp(a.theta_half, 0.0, kHalfPi);
     const double td = std::clamp(a.theta_diff, 0.0, kHalfPi);

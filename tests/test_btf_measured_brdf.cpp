@@ -221,6 +221,23 @@ TEST(MeasuredBrdfFailure, NanAndInfinityAreRejectedWithTheirCell) {
   EXPECT_FALSE(parse_mbsdf(make_mbsdf(1, 2, 3, values)).ok());
 }
 
+TEST(MeasuredBrdfFailure, HugeFiniteValuesThatWouldInterpolateToInfinityAreRejected) {
+  // ±3e38 are finite floats, but lo + t·(hi − lo) between them overflows to infinity.
+  std::vector<float> values(2 * 2 * 3 * 3, 0.1f);
+  values[0] = 3e38f;
+  values[3] = -3e38f;
+  auto r = parse_mbsdf(make_mbsdf(1, 2, 3, values));
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status(), Status::bad_data);
+  EXPECT_NE(r.message().find("too large"), std::string::npos) << r.message();
+  values[0] = kMbsdfMaxMagnitude;
+  values[3] = -kMbsdfMaxMagnitude;
+  auto ok = parse_mbsdf(make_mbsdf(1, 2, 3, values));
+  ASSERT_TRUE(ok.ok()) << ok.message();
+  for (float phi : {0.0f, 0.3f, 1.0f, 3.0f})
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(std::isfinite(ok->evaluate_angles(0.2f, 0.4f, phi)[c]));
+}
+
 TEST(MeasuredBrdfFailure, AbsurdResolutionsAreRejectedBeforeAllocating) {
   for (auto [rt, rp] : {std::pair<uint32_t, uint32_t>{0, 90}, {45, 0}, {0xffffffffu, 90}, {45, 0x80000000u},
                         {kMbsdfMaxResolution + 1, 1}}) {

@@ -41,6 +41,11 @@ namespace btflod {
 /// than kMbsdfMaxResolution² · kMbsdfMaxResolution · 3 floats, and only when the file holds them).
 inline constexpr uint32_t kMbsdfMaxResolution = 1024;
 
+/// Largest |value| a table may hold. Measured BRDFs stay below ~10⁴ even at mirror peaks; the
+/// bound keeps trilinear interpolation (differences and weighted sums of up to eight entries)
+/// finite, which values near FLT_MAX would overflow to infinity.
+inline constexpr float kMbsdfMaxMagnitude = 1e30f;
+
 /// A tabulated isotropic BRDF on the (θ_in, θ_out, φ_diff) grid of the MBSDF format.
 /// Immutable after construction; all const methods are thread-safe.
 class MeasuredBrdf {
@@ -49,8 +54,9 @@ class MeasuredBrdf {
 
   /// Builds a BRDF from a table laid out like the file (see the header comment).
   /// Returns invalid_argument when a resolution is 0 or above kMbsdfMaxResolution, channels is
-  /// not 1 or 3, values has the wrong size or holds a NaN or infinity (the message names the
-  /// first bad cell). Safe for untrusted input.
+  /// not 1 or 3, values has the wrong size, and bad_data when it holds a NaN, an infinity or a
+  /// magnitude above kMbsdfMaxMagnitude (the message names the first bad cell). Safe for
+  /// untrusted input.
   static Result<MeasuredBrdf> from_table(uint32_t res_theta, uint32_t res_phi, int channels,
                                          std::vector<float> values) {
     if (res_theta == 0 || res_phi == 0 || res_theta > kMbsdfMaxResolution || res_phi > kMbsdfMaxResolution)
@@ -67,13 +73,15 @@ class MeasuredBrdf {
     out.channels_ = channels;
     for (size_t n = 0; n < values.size(); ++n) {
       const float v = values[n];
-      if (!std::isfinite(v)) {
+      if (!(std::abs(v) <= kMbsdfMaxMagnitude)) {
         const size_t cell = n / static_cast<size_t>(channels);
         return make_error(Status::bad_data,
                           "MBSDF value %zu (theta_in %zu, theta_out %zu, phi %zu, channel %zu) is %s, expected a "
-                          "finite number",
+                          "finite number of magnitude at most %g",
                           n, cell / (static_cast<size_t>(res_phi) * res_theta), (cell / res_phi) % res_theta,
-                          cell % res_phi, n % static_cast<size_t>(channels), std::isnan(v) ? "NaN" : "infinite");
+                          cell % res_phi, n % static_cast<size_t>(channels),
+                          std::isnan(v) ? "NaN" : (std::isinf(v) ? "infinite" : "too large"),
+                          static_cast<double>(kMbsdfMaxMagnitude));
       }
       if (v < 0.0f) ++out.negative_count_;
       out.max_value_ = std::max(out.max_value_, v);
@@ -211,7 +219,7 @@ inline std::string printable_prefix(std::span<const uint8_t> bytes, size_t n) {
 /// reflection part; a transmission part, when present, is validated the same way and then
 /// dropped (had_transmission() says so). Errors (Status, message naming the byte offset):
 ///   bad_data — wrong first line, unknown part line, type other than 0/1, resolution 0 or
-///              above kMbsdfMaxResolution, a NaN/infinite value, a repeated part, bytes after
+///              above kMbsdfMaxResolution, a NaN/infinite value or one above kMbsdfMaxMagnitude, a repeated part, bytes after
 ///              the last part, no reflection part;
 ///   short_output — the file ends before the declared table.
 /// Safe for untrusted input: sizes are checked against the remaining bytes before allocating.

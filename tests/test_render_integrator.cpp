@@ -15,6 +15,7 @@
 
 #include "btflod/metrics/image_metrics.hpp"
 #include "btflod/render/integrator.hpp"
+#include "btflod/render/owned_scene.hpp"
 #include "btflod/render/primitives.hpp"
 
 namespace btflod {
@@ -22,49 +23,7 @@ namespace {
 
 constexpr uint32_t kSize = 64;
 
-/// Owns a scene's meshes, materials and lights (copies re-point their mesh spans).
-struct TestScene {
-  std::vector<TriangleMeshData> data;
-  std::vector<uint32_t> mesh_material;
-  std::vector<SceneMesh> meshes;
-  std::vector<SurfaceMaterial> materials;
-  std::vector<PointLight> points;
-  std::vector<AreaLight> areas;
-  AmbientLight ambient;
-  glm::vec3 background{0.0f};
-
-  TestScene() = default;
-  TestScene(const TestScene& o)
-      : data(o.data),
-        mesh_material(o.mesh_material),
-        materials(o.materials),
-        points(o.points),
-        areas(o.areas),
-        ambient(o.ambient),
-        background(o.background) {
-    rebuild();
-  }
-  TestScene& operator=(const TestScene& o) {
-    if (this != &o) {
-      TestScene copy(o);
-      std::swap(data, copy.data);
-      std::swap(mesh_material, copy.mesh_material);
-      materials = o.materials, points = o.points, areas = o.areas, ambient = o.ambient, background = o.background;
-      rebuild();
-    }
-    return *this;
-  }
-  void add(TriangleMeshData m, uint32_t material) {
-    data.push_back(std::move(m));
-    mesh_material.push_back(material);
-    rebuild();
-  }
-  void rebuild() {
-    meshes.clear();
-    for (size_t i = 0; i < data.size(); ++i) meshes.push_back(data[i].mesh(mesh_material[i]));
-  }
-  RenderScene scene() const { return RenderScene{meshes, materials, points, areas, ambient, background}; }
-};
+using TestScene = OwnedScene;
 
 /// A 2 × 2 × 2 room (inward faces, white) with a 0.6 × 0.6 ceiling light and a block on the floor.
 TestScene cornell_box() {
@@ -95,7 +54,7 @@ SceneKeys keys_of(const TestScene& s, const PinholeCamera& c, uint64_t geometry 
 /// round-robin.
 void render(const TestScene& ts, const PinholeCamera& cam, const RenderSettings& settings, ProgressiveAccumulator& acc,
             uint32_t frames, unsigned threads = 1, uint32_t tile = kSize) {
-  const RenderScene scene = ts.scene();
+  const RenderScene scene = ts.view();
   BruteForceTracer tracer(scene.meshes);
   for (uint32_t f = 0; f < frames; ++f) {
     acc.begin_frame(keys_of(ts, cam));
@@ -122,7 +81,7 @@ Image<float> resolved(const TestScene& ts, const ProgressiveAccumulator& acc) {
   return img;
 }
 
-TEST(RenderIntegrator, SceneIsValid) { EXPECT_TRUE(validate_render_scene(cornell_box().scene())); }
+TEST(RenderIntegrator, SceneIsValid) { EXPECT_TRUE(validate_render_scene(cornell_box().view())); }
 
 TEST(RenderIntegrator, AmbientOcclusionOfAnUnoccludedPlaneIsOne) {
   TestScene s;
@@ -365,25 +324,25 @@ TEST(RenderIntegrator, MirrorsReflectOncePerBounce) {
 TEST(RenderIntegrator, BadScenesAreRejected) {
   TestScene s = cornell_box();
   s.data[1].vertices[0].position[0] = std::nanf("");
-  auto r = validate_render_scene(s.scene());
+  auto r = validate_render_scene(s.view());
   ASSERT_FALSE(r);
   EXPECT_NE(r.message().find("mesh 1"), std::string::npos) << r.message();
   EXPECT_NE(r.message().find("NaN"), std::string::npos) << r.message();
   s = cornell_box();
   s.meshes[0].material = 7;
-  EXPECT_FALSE(validate_render_scene(s.scene()));
+  EXPECT_FALSE(validate_render_scene(s.view()));
   s = cornell_box();
   s.areas[0].edge_v = glm::vec3(0.3f, 0, 0.6f);  // not perpendicular
-  EXPECT_FALSE(validate_render_scene(s.scene()));
+  EXPECT_FALSE(validate_render_scene(s.view()));
   s = cornell_box();
   s.areas[0].radiance.x = -1.0f;
-  EXPECT_FALSE(validate_render_scene(s.scene()));
+  EXPECT_FALSE(validate_render_scene(s.view()));
   s = cornell_box();
   s.ambient.radius = std::nanf("");
-  EXPECT_FALSE(validate_render_scene(s.scene()));
+  EXPECT_FALSE(validate_render_scene(s.view()));
   s = cornell_box();
   s.materials[0] = SurfaceMaterial{SurfaceMaterial::Kind::btf, {}, nullptr, {}};
-  EXPECT_FALSE(validate_render_scene(s.scene()));
+  EXPECT_FALSE(validate_render_scene(s.view()));
   ProgressiveAccumulator acc;
   EXPECT_FALSE(acc.allocate(0, 4, 0));
   Image<float> wrong(3, 3, 3);

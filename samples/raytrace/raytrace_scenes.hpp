@@ -21,6 +21,7 @@
 #include "btflod/factor/local_pca.hpp"
 #include "btflod/factor/pca_views.hpp"
 #include "btflod/render/integrator.hpp"
+#include "btflod/render/owned_scene.hpp"
 #include "btflod/render/primitives.hpp"
 #include "scene/demo_scene.hpp"
 
@@ -131,34 +132,6 @@ inline Result<NamedBtf> make_btf(SynthMaterial kind, Representation r, int size,
   out.material = std::make_unique<BtfMaterial>(std::move(*m));
   return out;
 }
-
-/// A scene that owns its meshes, materials and lights; view() gives the integrator's
-/// RenderScene. geometry_key counts geometry edits (the accumulation key).
-struct OwnedScene {
-  std::vector<TriangleMeshData> data;
-  std::vector<uint32_t> mesh_material;
-  std::vector<SceneMesh> meshes;
-  std::vector<SurfaceMaterial> materials;
-  std::vector<PointLight> points;
-  std::vector<AreaLight> areas;
-  AmbientLight ambient;
-  glm::vec3 background{0.0f};
-  uint64_t geometry_key = 1;
-
-  void add(TriangleMeshData m, uint32_t material) {
-    data.push_back(std::move(m));
-    mesh_material.push_back(material);
-    meshes.clear();
-    for (size_t i = 0; i < data.size(); ++i) meshes.push_back(data[i].mesh(mesh_material[i]));
-    ++geometry_key;
-  }
-  RenderScene view() const { return RenderScene{meshes, materials, points, areas, ambient, background}; }
-  size_t triangle_count() const {
-    size_t n = 0;
-    for (const auto& d : data) n += d.triangle_count();
-    return n;
-  }
-};
 
 /// Converts the demo scene's object (scene/demo_scene.hpp) to a mesh.
 inline TriangleMeshData to_mesh(const scene::SceneObject& o) { return TriangleMeshData{o.vertices, o.indices}; }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "btflod/codec/container.hpp"
+#include "btflod/core/thread_pool.hpp"
 
 namespace {
 

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "btflod/core/thread_pool.hpp"
 #include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/pipeline.hpp"
 #include "btflod/stream/tile_source.hpp"

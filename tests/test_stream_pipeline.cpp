@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "btflod/core/file_io.hpp"
+#include "btflod/core/thread_pool.hpp"
 #include "btflod/stream/pipeline.hpp"
 #include "btflod/stream/file_source.hpp"
 #include "btflod/stream/tile_source.hpp"

@@ -10,6 +10,10 @@
 //
 // Readers never trust a size: every count, offset and size is checked against the section that
 // holds it and against the file size before use; each section and payload has a CRC-32.
+//
+// Reading is runtime code and stays cheap to include; build_bsvtf (the multi-threaded encoder)
+// is defined in the implementation TU (BTFLOD_IMPLEMENTATION), so this header includes no
+// <thread>, <future> or <mutex>.
 #pragma once
 
 #include <algorithm>
@@ -17,10 +21,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <mutex>
 #include <span>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "btflod/codec/tile_codec.hpp"
@@ -28,10 +30,11 @@
 #include "btflod/core/half.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
-#include "btflod/core/thread_pool.hpp"
 #include "btflod/vt/tile_id.hpp"
 
 namespace btflod {
+
+class ThreadPool;  // core/thread_pool.hpp (offline): build_bsvtf's workers
 
 inline constexpr uint8_t kBsvtfMagic[8] = {'B', 'S', 'V', 'T', 'F', '\r', '\n', 0x1a};
 /// Version written. 3: the metadata stores the row order of U (u_row_order) and each tile
@@ -665,9 +668,25 @@ inline std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput>
 /// empty, and metadata.quality from the options. Tiles of one level are encoded in parallel on
 /// the pool; each tile is coded against its parent's reconstruction. Returns the file bytes,
 /// invalid_argument (bad ids, sizes, missing parents, non-finite samples) or cancelled.
-/// Deterministic: the same input gives the same bytes for any thread count.
-inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const float> u,
-                                                std::span<const BsvtfTileInput> tiles, const BsvtfBuildOptions& options = {}) {
+/// Deterministic: the same input gives the same bytes for any thread count. Not for per-frame
+/// use (allocates, runs threads). Defined in the implementation TU (BTFLOD_IMPLEMENTATION).
+Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const float> u,
+                                         std::span<const BsvtfTileInput> tiles, const BsvtfBuildOptions& options = {});
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+// build_bsvtf encodes the tiles of a level on a ThreadPool: <thread>, <future> and <mutex> are
+// included here only, so that reading containers stays cheap to include.
+#include <mutex>
+#include <unordered_map>
+
+#include "btflod/core/thread_pool.hpp"
+
+namespace btflod {
+
+Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const float> u,
+                                         std::span<const BsvtfTileInput> tiles, const BsvtfBuildOptions& options) {
   metadata.quality = options.quality;
   if (options.weight_quarters > kJpegWeightQuarters)
     return make_error(Status::invalid_argument, "build_bsvtf: weight_quarters %u not in 0..4", options.weight_quarters);
@@ -765,3 +784,4 @@ inline Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::spa
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -6,10 +6,11 @@
 
 #include <cstdarg>
 #include <cstdio>
+#include <cstdlib>
+#include <new>
 #include <string>
 #include <type_traits>
 #include <utility>
-#include <variant>
 
 namespace btflod {
 
@@ -86,31 +87,88 @@ inline Error make_error(Status status, const char* fmt, ...) {
 }
 
 /// Either a value or an Error. A small stand-in for C++23 std::expected.
-/// Accessing value() of a failed result is a precondition violation (asserted in debug).
+/// Accessing value() of a failed result (or error() of a successful one) is a precondition
+/// violation: it aborts the program (like std::get on the wrong alternative without exceptions).
+/// A tagged union rather than std::variant: every Result<T> instantiation of std::variant's
+/// visitation machinery cost compile time in every translation unit (README "Compile cost").
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : storage_(std::in_place_index<0>, std::move(value)) {}  // NOLINT: implicit by design
-  Result(Error error) : storage_(std::in_place_index<1>, std::move(error)) {}  // NOLINT
+  Result(T value) : value_(std::move(value)), ok_(true) {}       // NOLINT: implicit by design
+  Result(Error error) : error_(std::move(error)), ok_(false) {}  // NOLINT
+  /// Copies are available when T is copyable.
+  Result(const Result& other) requires std::is_copy_constructible_v<T> : ok_(other.ok_) {
+    if (ok_)
+      ::new (static_cast<void*>(&value_)) T(other.value_);
+    else
+      ::new (static_cast<void*>(&error_)) Error(other.error_);
+  }
+  Result(Result&& other) noexcept(std::is_nothrow_move_constructible_v<T>) : ok_(other.ok_) {
+    if (ok_)
+      ::new (static_cast<void*>(&value_)) T(std::move(other.value_));
+    else
+      ::new (static_cast<void*>(&error_)) Error(std::move(other.error_));
+  }
+  Result& operator=(const Result& other) requires std::is_copy_constructible_v<T> {
+    if (this != &other) {
+      destroy();
+      ok_ = other.ok_;
+      if (ok_)
+        ::new (static_cast<void*>(&value_)) T(other.value_);
+      else
+        ::new (static_cast<void*>(&error_)) Error(other.error_);
+    }
+    return *this;
+  }
+  Result& operator=(Result&& other) noexcept(std::is_nothrow_move_constructible_v<T>) {
+    if (this != &other) {
+      destroy();
+      ok_ = other.ok_;
+      if (ok_)
+        ::new (static_cast<void*>(&value_)) T(std::move(other.value_));
+      else
+        ::new (static_cast<void*>(&error_)) Error(std::move(other.error_));
+    }
+    return *this;
+  }
+  ~Result() { destroy(); }
 
-  bool ok() const noexcept { return storage_.index() == 0; }
-  explicit operator bool() const noexcept { return ok(); }
+  bool ok() const noexcept { return ok_; }
+  explicit operator bool() const noexcept { return ok_; }
 
-  T& value() & { return std::get<0>(storage_); }
-  const T& value() const& { return std::get<0>(storage_); }
-  T&& value() && { return std::get<0>(std::move(storage_)); }
+  T& value() & { return checked_value(); }
+  const T& value() const& { return const_cast<Result*>(this)->checked_value(); }
+  T&& value() && { return std::move(checked_value()); }
   T* operator->() { return &value(); }
   const T* operator->() const { return &value(); }
   T& operator*() & { return value(); }
   const T& operator*() const& { return value(); }
 
-  const Error& error() const { return std::get<1>(storage_); }
-  Status status() const noexcept { return ok() ? Status::success : std::get<1>(storage_).status; }
+  const Error& error() const {
+    if (ok_) std::abort();  // precondition: !ok()
+    return error_;
+  }
+  Status status() const noexcept { return ok_ ? Status::success : error_.status; }
   /// Returns the error message, or an empty string on success.
-  std::string message() const { return ok() ? std::string() : std::get<1>(storage_).message; }
+  std::string message() const { return ok_ ? std::string() : error_.message; }
 
  private:
-  std::variant<T, Error> storage_;
+  T& checked_value() {
+    if (!ok_) std::abort();  // precondition: ok()
+    return value_;
+  }
+  void destroy() noexcept {
+    if (ok_)
+      value_.~T();
+    else
+      error_.~Error();
+  }
+
+  union {
+    T value_;
+    Error error_;
+  };
+  bool ok_;
 };
 
 /// Result of an operation that produces no value.

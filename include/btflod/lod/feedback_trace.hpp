@@ -28,7 +28,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <memory>
 #include <new>
 #include <span>
 #include <string>
@@ -38,6 +37,7 @@
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/core/unique_handle.hpp"
 
 namespace btflod {
 
@@ -220,7 +220,7 @@ class FeedbackTraceWriter {
     void operator()(detail::TraceDeflater* d) const noexcept { detail::trace_deflater_destroy(d); }
   };
   FeedbackTraceWriterConfig config_;
-  std::unique_ptr<detail::TraceDeflater, ZDeleter> stream_;
+  UniqueHandle<detail::TraceDeflater, ZDeleter> stream_;
   std::vector<uint8_t> buffer_;
   uint8_t header_[kFeedbackTraceHeaderSize] = {};
   uint8_t end_[kFeedbackTraceEndSize] = {};
@@ -285,7 +285,7 @@ class FeedbackTraceRecorder {
   };
   FeedbackTraceWriter writer_;
   std::string path_;
-  std::unique_ptr<std::FILE, FileCloser> file_;
+  UniqueHandle<std::FILE, FileCloser> file_;
 };
 
 /// Caps on what read_feedback_trace() will allocate for untrusted input.

@@ -18,8 +18,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <memory>
 #include <span>
+
+#include "btflod/core/unique_handle.hpp"
 
 namespace btflod {
 
@@ -48,18 +49,18 @@ class PayloadCache {
       chunks_ = max_entries_ = 0;
       return;
     }
-    arena_.reset(new uint8_t[chunks_ * chunk_]);  // uninitialised on purpose (libc++ 13 has no make_unique_for_overwrite)
-    next_chunk_ = std::make_unique<uint32_t[]>(chunks_);
+    arena_ = make_unique_array_for_overwrite<uint8_t>(chunks_ * chunk_);  // uninitialised on purpose
+    next_chunk_ = make_unique_array<uint32_t>(chunks_);
     for (size_t i = 0; i < chunks_; ++i) next_chunk_[i] = i + 1 < chunks_ ? static_cast<uint32_t>(i + 1) : kNone;
     free_chunk_ = 0;
     free_chunks_ = chunks_;
-    entries_ = std::make_unique<Entry[]>(max_entries_);
+    entries_ = make_unique_array<Entry>(max_entries_);
     for (size_t i = 0; i < max_entries_; ++i)
       entries_[i].next = i + 1 < max_entries_ ? static_cast<uint32_t>(i + 1) : kNone;
     free_entry_ = 0;
     index_size_ = 4;
     while (index_size_ < 2 * max_entries_) index_size_ *= 2;
-    index_ = std::make_unique<uint32_t[]>(index_size_);
+    index_ = make_unique_array<uint32_t>(index_size_);
     std::fill_n(index_.get(), index_size_, kNone);
   }
 
@@ -227,10 +228,10 @@ class PayloadCache {
   }
 
   size_t chunk_ = 512, chunks_ = 0, max_entries_ = 0, index_size_ = 0;
-  std::unique_ptr<uint8_t[]> arena_;
-  std::unique_ptr<uint32_t[]> next_chunk_;
-  std::unique_ptr<Entry[]> entries_;
-  std::unique_ptr<uint32_t[]> index_;
+  UniqueArray<uint8_t> arena_;
+  UniqueArray<uint32_t> next_chunk_;
+  UniqueArray<Entry> entries_;
+  UniqueArray<uint32_t> index_;
   uint32_t free_chunk_ = kNone, free_entry_ = kNone, head_ = kNone, tail_ = kNone;
   size_t free_chunks_ = 0, bytes_ = 0, count_ = 0;
   uint64_t evictions_ = 0;

@@ -69,11 +69,15 @@ std::vector<std::pair<std::string, ShaderConfig>> configs() {
   b.lpca.grid_resolution = 2;
   b.pca.views_per_group = 151;
   b.pca.light_count = 151;
+  b.spmm.slots = 1;  // one slot, mean-only residual (N_PCA = 0)
+  b.spmm.residual_components = 0;
   out.emplace_back("variant", b);
   ShaderConfig c;
   c.components = 16;
   c.angular.parameterisation = DirectionParameterisation::elevated_concentric;
   c.vt.finest_level = 0;
+  c.spmm.slots = 9;  // more slots and components than one RGBA texel holds
+  c.spmm.residual_components = 7;
   out.emplace_back("c16_l0", c);
   return out;
 }
@@ -131,7 +135,7 @@ TEST(ShaderGlsl, EveryProgramAndTargetCompilesWithGlslang) {
         if (!validate_batch({path}, t, "single").empty()) ADD_FAILURE() << path << ":\n" << text;
     }
   }
-  EXPECT_EQ(generated, 3 * 6 * 3 * 2);
+  EXPECT_EQ(generated, 3 * 7 * 3 * 2);
 }
 
 TEST(ShaderGlsl, ValidatorRejectsBrokenSource) {
@@ -282,7 +286,7 @@ namespace {
 constexpr GlslPiece kAllPieces[] = {GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,
                                     GlslPiece::fmf_brdf,      GlslPiece::fmf,         GlslPiece::page_table,
                                     GlslPiece::bsvtf,         GlslPiece::feedback,    GlslPiece::laplacian,
-                                    GlslPiece::lpca,          GlslPiece::pca_views};
+                                    GlslPiece::lpca,          GlslPiece::pca_views,   GlslPiece::spmm};
 
 // Options an engine might choose: its own prefix, bindings from 20 up, Vulkan sets 1 and 2, one
 // sampler declared by the engine itself, uniform sources in its own block.
@@ -300,6 +304,7 @@ GlslFunctionOptions engine_options() {
   o.uniforms.range_lod_scale = "material.lod.z";
   o.uniforms.first_layer = "material.ids.x";
   o.uniforms.texture_id = "material.ids[1]";
+  o.uniforms.spmm_mode = "material.ids.w";
   return o;
 }
 
@@ -357,6 +362,8 @@ std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t p
     s += "  rho += eng_btf_laplacian(f_uv, wl, wv, eng_btf_laplacian_lambda(length(f_position)));\n";
   if (has(GlslPiece::lpca)) s += "  rho += eng_btf_lpca(f_uv, wl, wv);\n";
   if (has(GlslPiece::pca_views)) s += "  rho += eng_btf_pca_views(f_uv, wl, wv);\n";
+  if (has(GlslPiece::spmm))
+    s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon(ivec2(0), wl, wv, 2);\n";
   s += "  f_color = vec4(rho, float(word & 255u));\n}\n";
   return s;
 }
@@ -409,7 +416,7 @@ TEST(ShaderGlsl, FunctionsInAnEngineShaderCompileForEveryTarget) {
         if (!validate_batch({path}, t, "single").empty()) ADD_FAILURE() << path << ":\n" << text;
     }
   }
-  EXPECT_EQ(generated, 3 * (3 + 11));
+  EXPECT_EQ(generated, 3 * (3 + 12));
 }
 
 TEST(ShaderGlsl, FunctionsFollowTheCallersNamesBindingsSetsAndSources) {
@@ -470,6 +477,7 @@ TEST(ShaderGlsl, WholeProgramsAreAssembledFromTheFunctions) {
       {ShaderProgram::laplacian, glsl_pieces({GlslPiece::laplacian, GlslPiece::local_frame})},
       {ShaderProgram::lpca, glsl_pieces({GlslPiece::lpca, GlslPiece::local_frame})},
       {ShaderProgram::pca_views, glsl_pieces({GlslPiece::pca_views, GlslPiece::local_frame})},
+      {ShaderProgram::spmm, glsl_pieces({GlslPiece::spmm, GlslPiece::local_frame})},
   };
   for (GlslTarget t : kAllGlslTargets)
     for (const auto& k : cases) {

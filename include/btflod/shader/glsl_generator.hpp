@@ -26,6 +26,9 @@
 //   laplacian      float P_laplacian_lambda(float distance); vec3 P_laplacian(uv, wl, wv, lambda)
 //   lpca           vec3 P_lpca(vec2 uv, vec3 wl, vec3 wv)                         paper 002 §6.2
 //   pca_views      vec3 P_pca_views(vec2 uv, vec3 wl, vec3 wv)                    paper 004 §6.3
+//   spmm           float P_spmm_brdf(int model, vec3 kappa, vec3 wi, vec3 wo); float P_spmm_basis(int g, wl, wv);
+//                  vec3 P_spmm_analytic(ivec2 texel, wl, wv); vec3 P_spmm_epsilon(ivec2 texel, wl, wv, int n_pca);
+//                  vec3 P_spmm(vec2 uv, vec3 wl, vec3 wv)                         paper 003 eq. 1–3
 //
 // A requested piece brings the pieces it calls (each emitted once, in dependency order). The
 // evaluation functions return ρ (rgb, before the light's colour); wl, wv are local directions
@@ -52,11 +55,11 @@
 
 namespace btflod {
 
-enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views };
+enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views, spmm };
 
-inline constexpr ShaderProgram kAllShaderPrograms[] = {ShaderProgram::fmf,      ShaderProgram::bsvtf,
-                                                       ShaderProgram::feedback, ShaderProgram::laplacian,
-                                                       ShaderProgram::lpca,     ShaderProgram::pca_views};
+inline constexpr ShaderProgram kAllShaderPrograms[] = {
+    ShaderProgram::fmf,  ShaderProgram::bsvtf,     ShaderProgram::feedback, ShaderProgram::laplacian,
+    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm};
 inline constexpr GlslTarget kAllGlslTargets[] = {GlslTarget::gl450_core, GlslTarget::vulkan450, GlslTarget::es300};
 
 /// Stable lower-case name, e.g. "bsvtf". Never null.
@@ -74,6 +77,8 @@ constexpr const char* shader_program_name(ShaderProgram p) noexcept {
       return "lpca";
     case ShaderProgram::pca_views:
       return "pca_views";
+    case ShaderProgram::spmm:
+      return "spmm";
   }
   return "unknown";
 }
@@ -122,13 +127,16 @@ inline std::span<const SamplerName> shader_sampler_names() noexcept {
       {"btflod_lpca_volume", ShaderBinding::lpca_volume},
       {"btflod_pca_l", ShaderBinding::pca_l},
       {"btflod_pca_r", ShaderBinding::pca_r},
+      {"btflod_spmm_texels", ShaderBinding::spmm_texels},
+      {"btflod_spmm_dictionary", ShaderBinding::spmm_dictionary},
+      {"btflod_spmm_residual", ShaderBinding::spmm_residual},
   };
   return kNames;
 }
 
 /// Number of ShaderBinding values (the block at 0 and every sampler role); sizes
 /// GlslFunctionOptions::resources. Grows with ShaderBinding.
-inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::pca_r) + 1;
+inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::spmm_residual) + 1;
 
 /// Role name of a binding without prefix, e.g. "tile_cache" ("params" for the uniform block).
 constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
@@ -163,6 +171,12 @@ constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
       return "pca_l";
     case ShaderBinding::pca_r:
       return "pca_r";
+    case ShaderBinding::spmm_texels:
+      return "spmm_texels";
+    case ShaderBinding::spmm_dictionary:
+      return "spmm_dictionary";
+    case ShaderBinding::spmm_residual:
+      return "spmm_residual";
   }
   return "unknown";
 }
@@ -180,8 +194,9 @@ enum class GlslPiece : unsigned char {
   laplacian,
   lpca,
   pca_views,
+  spmm,
 };
-inline constexpr uint32_t kGlslPieceCount = static_cast<uint32_t>(GlslPiece::pca_views) + 1;
+inline constexpr uint32_t kGlslPieceCount = static_cast<uint32_t>(GlslPiece::spmm) + 1;
 
 /// Stable lower-case name of a piece, e.g. "page_table". Never null.
 constexpr const char* glsl_piece_name(GlslPiece p) noexcept {
@@ -208,6 +223,8 @@ constexpr const char* glsl_piece_name(GlslPiece p) noexcept {
       return "lpca";
     case GlslPiece::pca_views:
       return "pca_views";
+    case GlslPiece::spmm:
+      return "spmm";
   }
   return "unknown";
 }
@@ -235,6 +252,7 @@ struct GlslUniformSources {
   std::string range_lod_scale = "btflod.lod.z";      ///< float: laplacian λ = log2(distance · scale)
   std::string first_layer = "btflod.ids.x";          ///< uint: page-table layer of component group 0 (bsvtf)
   std::string texture_id = "btflod.ids.y";           ///< uint: texture id in the feedback word (feedback)
+  std::string spmm_mode = "btflod.ids.w";            ///< uint: SPMM residual switch, spmm_residual_mode() (spmm)
 };
 
 /// Names, bindings, sets and uniform sources of generate_functions().
@@ -369,6 +387,7 @@ struct GlslEmitter {
                              : key == "range_lod_scale"     ? &u.range_lod_scale
                              : key == "first_layer"         ? &u.first_layer
                              : key == "texture_id"          ? &u.texture_id
+                             : key == "spmm_mode"           ? &u.spmm_mode
                                                             : nullptr;
     if (src) return "(" + *src + ")";
     for (uint32_t i = 1; i < kShaderBindingCount; ++i)
@@ -797,6 +816,134 @@ inline void piece_pca_views(GlslEmitter& e) {
       "}\n");
 }
 
+// SPMM: sparse mixture of analytic basis functions plus a clustered-PCA residual, paper 003
+// eq. 1–3. Per fragment: the texel's slots (one RGBA32UI texel each, adjacent fragments read
+// adjacent texels of one layer), two dictionary texels per occupied slot (scattered: the index
+// is data), the residual layer(s) of the texel and 3 × 3 × (1 + n) residual-table texels.
+inline void piece_spmm(GlslEmitter& e) {
+  e.sampler("usampler2DArray", ShaderBinding::spmm_texels);
+  e.sampler("sampler2D", ShaderBinding::spmm_dictionary);
+  e.sampler("sampler2DArray", ShaderBinding::spmm_residual);
+  e.constant_int("kSpmmSlots", e.config.spmm.slots);
+  e.constant_int("kSpmmResidualComponents", e.config.spmm.residual_components);
+  e.constant_int("kSpmmBasesPerRow", kSpmmBasesPerRow);
+  e.emit(
+      "// f_j(kappa, wi, wo) of factor/analytic_brdf.hpp, both directions in the basis frame (paper 003 §3).\n"
+      "float @spmm_brdf(int model, vec3 kappa, vec3 wi, vec3 wo) {\n"
+      "  const float inv_pi = 0.318309886;\n"
+      "  if (wi.z <= 0.0 || wo.z <= 0.0) return 0.0;\n"
+      "  if (model == 0) return inv_pi;  // Lambert\n"
+      "  if (model == 1) {  // Oren-Nayar, qualitative model\n"
+      "    float s2 = kappa.x * kappa.x;\n"
+      "    float a = 1.0 - 0.5 * s2 / (s2 + 0.33);\n"
+      "    float bb = 0.45 * s2 / (s2 + 0.09);\n"
+      "    float pi_ = sqrt(max(0.0, wi.x * wi.x + wi.y * wi.y));\n"
+      "    float po = sqrt(max(0.0, wo.x * wo.x + wo.y * wo.y));\n"
+      "    float cos_phi = 0.0;\n"
+      "    if (pi_ > 1e-6 && po > 1e-6) cos_phi = max(0.0, (wi.x * wo.x + wi.y * wo.y) / (pi_ * po));\n"
+      "    float cos_a = min(wi.z, wo.z);\n"
+      "    float cos_b = max(wi.z, wo.z);\n"
+      "    float sin_a = sqrt(max(0.0, 1.0 - cos_a * cos_a));\n"
+      "    float tan_b = sqrt(max(0.0, 1.0 - cos_b * cos_b)) / cos_b;\n"
+      "    return inv_pi * (a + bb * cos_phi * sin_a * tan_b);\n"
+      "  }\n"
+      "  if (model == 2) {  // normalised Blinn-Phong (e + 8)/(8 pi) (n.h)^e\n"
+      "    vec3 h = wi + wo;\n"
+      "    float len = length(h);\n"
+      "    if (len <= 0.0) return 0.0;\n"
+      "    return (kappa.x + 8.0) * (inv_pi / 8.0) * pow(max(h.z / len, 0.0), kappa.x);\n"
+      "  }\n"
+      "  if (model == 3) {  // Ward, anisotropic Gaussian\n"
+      "    vec3 h = wi + wo;\n"
+      "    float ex = (h.x * h.x / (kappa.x * kappa.x) + h.y * h.y / (kappa.y * kappa.y)) / (h.z * h.z);\n"
+      "    return exp(-ex) / (4.0 * 3.14159265 * kappa.x * kappa.y * sqrt(wi.z * wo.z));\n"
+      "  }\n"
+      "  if (model == 4) {  // Cook-Torrance: Beckmann D, Schlick F, V-cavity G\n"
+      "    vec3 h = normalize(wi + wo);\n"
+      "    float m2 = kappa.x * kappa.x;\n"
+      "    float c2 = h.z * h.z;\n"
+      "    float d = exp(-((1.0 - c2) / c2) / m2) / (3.14159265 * m2 * c2 * c2);\n"
+      "    float vh = max(dot(wo, h), 1e-6);\n"
+      "    float q = 1.0 - min(vh, 1.0);\n"
+      "    float f = kappa.y + (1.0 - kappa.y) * (q * q * q * q * q);\n"
+      "    float g = min(1.0, min(2.0 * h.z * wo.z / vh, 2.0 * h.z * wi.z / vh));\n"
+      "    return d * f * g / (4.0 * wi.z * wo.z);\n"
+      "  }\n"
+      "  if (model == 5) {  // Lafortune, one generalised cosine lobe\n"
+      "    float s = kappa.x * (wi.x * wo.x + wi.y * wo.y) + kappa.y * wi.z * wo.z;\n"
+      "    if (s <= 0.0) return 0.0;\n"
+      "    return (kappa.z + 2.0) * (inv_pi / 2.0) * pow(s, kappa.z);\n"
+      "  }\n"
+      "  if (model == 6) {  // Ashikhmin-Shirley, anisotropic specular term\n"
+      "    vec3 h = normalize(wi + wo);\n"
+      "    float sin2 = h.x * h.x + h.y * h.y;\n"
+      "    float expo = sin2 > 1e-12 ? (kappa.x * h.x * h.x + kappa.y * h.y * h.y) / sin2 : 0.5 * (kappa.x + kappa.y);\n"
+      "    float hk = max(dot(h, wi), 1e-6);\n"
+      "    float q = 1.0 - min(hk, 1.0);\n"
+      "    float f = kappa.z + (1.0 - kappa.z) * (q * q * q * q * q);\n"
+      "    return sqrt((kappa.x + 1.0) * (kappa.y + 1.0)) * (inv_pi / 8.0) * pow(max(h.z, 0.0), expo) /\n"
+      "           (hk * max(wi.z, wo.z)) * f;\n"
+      "  }\n"
+      "  return 0.0;\n"
+      "}\n"
+      "// rho_g(wl, wv) of paper 003 eq. 2 for global dictionary entry g: f_j in the frame of n_j (the\n"
+      "// minimal rotation taking +z to n_j) times max(n_j . wl, 0).\n"
+      "float @spmm_basis(int g, vec3 wl, vec3 wv) {\n"
+      "  ivec2 at = ivec2(2 * (g % @kSpmmBasesPerRow), g / @kSpmmBasesPerRow);\n"
+      "  vec4 p = texelFetch($spmm_dictionary$, at, 0);  // model id, kappa_j\n"
+      "  vec3 n = texelFetch($spmm_dictionary$, at + ivec2(1, 0), 0).xyz;  // n_j\n"
+      "  float k = 1.0 / (1.0 + n.z);\n"
+      "  vec3 t = vec3(1.0 - n.x * n.x * k, -n.x * n.y * k, -n.x);\n"
+      "  vec3 b = vec3(-n.x * n.y * k, 1.0 - n.y * n.y * k, -n.y);\n"
+      "  vec3 li = vec3(dot(wl, t), dot(wl, b), dot(wl, n));\n"
+      "  vec3 lo = vec3(dot(wv, t), dot(wv, b), dot(wv, n));\n"
+      "  return @spmm_brdf(int(p.x), p.yzw, li, lo) * max(li.z, 0.0);\n"
+      "}\n"
+      "// Paper 003 eq. 1 without the residual: sum over the texel's occupied slots of alpha_j rho_j.\n"
+      "vec3 @spmm_analytic(ivec2 texel, vec3 wl, vec3 wv) {\n"
+      "  vec3 acc = vec3(0.0);\n"
+      "  for (int k = 0; k < @kSpmmSlots; ++k) {\n"
+      "    uvec4 s = texelFetch($spmm_texels$, ivec3(texel, k), 0);  // x = basis, yzw = alpha (float bits)\n"
+      "    if (s.x == 0xFFFFFFFFu) break;  // occupied slots come first\n"
+      "    acc += @spmm_basis(int(s.x), wl, wv) * uintBitsToFloat(s.yzw);\n"
+      "  }\n"
+      "  return acc;\n"
+      "}\n"
+      "// Paper 003 eq. 3: eps = mean + sum_{i < n_pca} coef_i(t) b_i(c), each read at the 3 x 3 measured\n"
+      "// direction pairs of the angular tables and blended with their barycentric weights.\n"
+      "vec3 @spmm_epsilon(ivec2 texel, vec3 wl, vec3 wv, int n_pca) {\n"
+      "  int n = clamp(n_pca, 0, @kSpmmResidualComponents);\n"
+      "  vec4 cf[(@kSpmmResidualComponents + 4) / 4];  // [cluster, coef_0, coef_1, ...]\n"
+      "  for (int g = 0; g <= n / 4; ++g) cf[g] = uintBitsToFloat(texelFetch($spmm_texels$, ivec3(texel, @kSpmmSlots + g), 0));\n"
+      "  int base = int(floatBitsToUint(cf[0].x)) * (@kSpmmResidualComponents + 1);\n"
+      "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
+      "  @angular(0, wl, il, al);\n"
+      "  @angular(1, wv, iv, av);\n"
+      "  vec3 acc = vec3(0.0);\n"
+      "  for (int j = 0; j < @kAngularTaps; ++j) {\n"
+      "    for (int i = 0; i < @kAngularTaps; ++i) {\n"
+      "      float w = al[i] * av[j];\n"
+      "      if (w <= 0.0) continue;\n"
+      "      ivec2 lv = ivec2(il[i], iv[j]);\n"
+      "      vec3 e = texelFetch($spmm_residual$, ivec3(lv, base), 0).rgb;  // mean of cluster c\n"
+      "      for (int q = 1; q <= n; ++q) e += cf[q / 4][q % 4] * texelFetch($spmm_residual$, ivec3(lv, base + q), 0).rgb;\n"
+      "      acc += w * e;\n"
+      "    }\n"
+      "  }\n"
+      "  return acc;\n"
+      "}\n"
+      "// Paper 003 eq. 1 at texel floor(fract(uv) (W, H)); $spmm_mode$ = spmm_residual_mode(): 0 = every\n"
+      "// stored component, 1 = no residual (paper 003 §5.2), 2 + n = n components.\n"
+      "vec3 @spmm(vec2 uv, vec3 wl, vec3 wv) {\n"
+      "  ivec2 size = textureSize($spmm_texels$, 0).xy;\n"
+      "  ivec2 texel = clamp(ivec2(fract(uv) * vec2(size)), ivec2(0), size - 1);\n"
+      "  vec3 rho = @spmm_analytic(texel, wl, wv);\n"
+      "  uint mode = uint($spmm_mode$);\n"
+      "  if (mode == 1u) return rho;\n"
+      "  return rho + @spmm_epsilon(texel, wl, wv, mode == 0u ? @kSpmmResidualComponents : int(mode) - 2);\n"
+      "}\n");
+}
+
 using GlslPieceSet = uint32_t;
 constexpr GlslPieceSet piece_bit(GlslPiece p) noexcept { return 1u << static_cast<uint32_t>(p); }
 
@@ -819,6 +966,7 @@ inline constexpr GlslPieceRecipe kPieces[] = {
     {GlslPiece::laplacian, piece_bit(GlslPiece::angular), piece_laplacian},
     {GlslPiece::lpca, piece_bit(GlslPiece::direction_map), piece_lpca},
     {GlslPiece::pca_views, piece_bit(GlslPiece::angular), piece_pca_views},
+    {GlslPiece::spmm, piece_bit(GlslPiece::angular), piece_spmm},
 };
 static_assert(std::size(kPieces) == kGlslPieceCount, "one recipe per GlslPiece, in enum order");
 
@@ -880,6 +1028,7 @@ inline VoidResult validate_function_options(GlslPieceSet pieces, const GlslFunct
       {&o.uniforms.range_lod_scale, "range_lod_scale", piece_bit(GlslPiece::laplacian)},
       {&o.uniforms.first_layer, "first_layer", piece_bit(GlslPiece::bsvtf)},
       {&o.uniforms.texture_id, "texture_id", piece_bit(GlslPiece::feedback)},
+      {&o.uniforms.spmm_mode, "spmm_mode", piece_bit(GlslPiece::spmm)},
   };
   for (const auto& s : sources)
     if ((pieces & s.used_by) && !glsl_expression(*s.expr))
@@ -974,6 +1123,7 @@ inline constexpr GlslProgramRecipe kProgramRecipes[] = {
      ", btflod_laplacian_lambda(distance(btflod.camera_pos.xyz, v_world_pos))"},
     {ShaderProgram::lpca, GlslPiece::lpca, false, ""},
     {ShaderProgram::pca_views, GlslPiece::pca_views, false, ""},
+    {ShaderProgram::spmm, GlslPiece::spmm, false, ""},
 };
 
 inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, GlslTarget t, const ShaderConfig& c) {

@@ -170,6 +170,32 @@ struct PcaViewsConfig {
   uint32_t light_count = 81;
 };
 
+/// SPMM (paper 003 eq. 1–3) texture layout parameters (docs/shaders.md, "spmm"). Textures: per
+/// texel RGBA32UI 2D array `spmm_texels` (layer k < slots: x = global basis index or 0xffffffff,
+/// yzw = α rgb as float bits, occupied slots first; layer slots + g: the cluster id and the
+/// residual coefficients, 4 per texel); the dictionary `spmm_dictionary` (RGBA32F 2D, 2 texels
+/// per basis, kSpmmBasesPerRow bases per row: (model id, κ0, κ1, κ2), (n_j, 0)); the residual
+/// table `spmm_residual` (RGBA32F 2D array, texel (light, view), layer cluster·(P+1) + i: i = 0
+/// the mean ε̄, i ≥ 1 component b_{i−1}).
+struct SpmmShaderConfig {
+  uint32_t slots = 4;                ///< weight slots per texel (Spmm::slots), 1..64
+  uint32_t residual_components = 4;  ///< N_PCA stored per cluster (Spmm::residual_components), 0..64
+};
+
+/// Bases per row of the SPMM dictionary texture (2 RGBA32F texels each: 256 texels wide).
+inline constexpr uint32_t kSpmmBasesPerRow = 128;
+/// Texels of `spmm_texels` layer `slots` and up: the cluster id, then the residual coefficients.
+constexpr uint32_t spmm_residual_layers(uint32_t residual_components) noexcept {
+  return (residual_components + 1 + 3) / 4;
+}
+/// The SPMM residual switch of ShaderParams::ids.w (paper 003 §5.2, Table 4): 0 = the mean and
+/// every stored component, 1 = no residual ("no-RES", the interactive path while the camera
+/// moves), 2 + n = the mean and the first n components (clamped to the stored N_PCA in the shader).
+/// Precondition: n ≥ 0 when residual is true; n < 0 means every stored component.
+constexpr uint32_t spmm_residual_mode(bool residual, int n_pca) noexcept {
+  return !residual ? 1u : n_pca < 0 ? 0u : 2u + static_cast<uint32_t>(n_pca);
+}
+
 /// All parameters of the generated programs.
 struct ShaderConfig {
   uint32_t components = 8;  ///< C: eigen-texture components (FMF / BSVTF / PCA / LPCA / Laplacian)
@@ -178,6 +204,7 @@ struct ShaderConfig {
   LaplacianLodConfig laplacian;
   LpcaConfig lpca;
   PcaViewsConfig pca;
+  SpmmShaderConfig spmm;
 
   constexpr uint32_t component_groups() const noexcept { return (components + 3) / 4; }
 };
@@ -199,7 +226,8 @@ struct alignas(16) ShaderParams {
   /// L_m (≤ VirtualTextureConfig::finest_level), w unused.
   glm::vec4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
   /// x: page-table layer of component group 0 of this material; y: texture id written to the
-  /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: unused.
+  /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: SPMM residual
+  /// switch (spmm_residual_mode()).
   glm::uvec4 ids{0u, 0u, 0u, 0u};
 };
 static_assert(sizeof(ShaderParams) == 224, "ShaderParams must match the std140 block in the shaders");
@@ -222,6 +250,9 @@ enum class ShaderBinding : uint32_t {
   lpca_volume = 12,
   pca_l = 13,  ///< paper 004 L = [m | UΣ]
   pca_r = 14,  ///< paper 004 R = [1; Vᵀ]
+  spmm_texels = 15,      ///< paper 003: per-texel slots (basis index, α) and residual coefficients
+  spmm_dictionary = 16,  ///< paper 003 eq. 2: model id, κ_j, n_j of every cluster's basis functions
+  spmm_residual = 17,    ///< paper 003 eq. 3: ε̄ and b_i per cluster over the measured directions
 };
 
 /// Vertex attribute locations of every generated vertex shader.
@@ -308,6 +339,9 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
   if (c.lpca.clusters == 0 || c.lpca.grid_resolution < 2)
     return make_error(Status::invalid_argument, "shader config: lpca clusters = %u, grid = %u, expected ≥ 1, ≥ 2",
                       c.lpca.clusters, c.lpca.grid_resolution);
+  if (c.spmm.slots == 0 || c.spmm.slots > 64 || c.spmm.residual_components > 64)
+    return make_error(Status::invalid_argument, "shader config: spmm slots = %u, residual_components = %u, expected 1..64, 0..64",
+                      c.spmm.slots, c.spmm.residual_components);
   if (c.pca.views_per_group == 0 || c.pca.light_count == 0)
     return make_error(Status::invalid_argument, "shader config: pca views_per_group = %u, light_count = %u, expected ≥ 1",
                       c.pca.views_per_group, c.pca.light_count);

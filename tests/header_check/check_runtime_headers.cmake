@@ -4,7 +4,10 @@
 #   2. all of them compile together with -fno-exceptions -fno-rtti -Wall -Wextra -Werror, with
 #      GCC and with clang (when found);
 #   3. all of them pass `em++ -std=c++20 -fsyntax-only` (Debian's emscripten 3.1.6: clang 14 +
-#      libc++ 13); skipped with a message when em++ is absent.
+#      libc++ 13); skipped with a message when em++ is absent;
+#   4. the per-frame headers (all of the above but the thread-owning conveniences) pull in none of
+#      the standard headers that make a translation unit expensive (threads, futures, iostreams,
+#      <memory>, <regex>, …; README "Compile cost"), so that including them stays cheap.
 # Run by ctest (test runtime_headers_check):
 #   cmake -DSOURCE_DIR=<repo> -DWORK_DIR=<dir> -DGXX=<g++> [-DCLANGXX=<clang++>] [-DEMXX=<em++>]
 #         -P check_runtime_headers.cmake
@@ -41,6 +44,22 @@ set(glm_exceptions
 # Headers that are checked for forbidden includes (1) but not compiled with em++ (3), with the
 # reason.
 set(em_exceptions "")
+# Conveniences that own threads or use the platform's clock: checked by 1-3, exempt from the
+# heavy standard headers of check 4. The per-frame API leaves threads and I/O to the engine
+# (runtime/streamer.hpp's decode jobs, AsyncTileSource); these are ready-made defaults for
+# programs that do not care.
+set(convenience_headers
+    # A thread pool running the Streamer's decode jobs: <thread>, <mutex>, <condition_variable>.
+    btflod/stream/thread_executor.hpp
+    # The streaming pipeline with its own worker threads (the demo's loop).
+    btflod/stream/pipeline.hpp
+    # POSIX pread and a throttled source that sleeps (<chrono>, <thread>).
+    btflod/stream/file_source.hpp)
+# Standard headers a per-frame header must not reach (check 4), as the file names the
+# preprocessor enters (libstdc++ and libc++ alike: .../c++/<version>/<name>). With libstdc++ 12,
+# <memory>, <thread> and <chrono> all bring in <ostream> and the locale machinery.
+set(heavy_std_headers thread future mutex shared_mutex condition_variable semaphore stop_token chrono
+    regex iostream istream ostream sstream fstream memory locale random filesystem)
 list(REMOVE_ITEM runtime_headers ${exceptions})
 list(REMOVE_DUPLICATES runtime_headers)
 list(SORT runtime_headers)
@@ -79,6 +98,17 @@ foreach(h IN LISTS runtime_headers)
       break()
     endif()
   endforeach()
+  # 4. Heavy standard headers (per-frame headers only).
+  if(NOT h IN_LIST convenience_headers)
+    list(JOIN heavy_std_headers "|" heavy)
+    foreach(m IN LISTS markers)
+      if(m MATCHES "/c\\+\\+/[^/\"]+/(${heavy})\"$")
+        string(REGEX REPLACE "# [0-9]+ \"([^\"]*)\"" "\\1" path "${m}")
+        list(APPEND failures "${h}: a per-frame header includes ${path} (a heavy standard header, README \"Compile cost\")")
+        break()
+      endif()
+    endforeach()
+  endif()
 endforeach()
 
 # 0. Every header with an implementation section is compiled by cmake/btflod_implementation.cpp

@@ -1,7 +1,9 @@
 #!/bin/sh
 # Compile cost of btflod's headers, measured in one run next to a baseline TU that includes only
 # <vector> (README "Compile cost"). CPU seconds (user + sys) and peak RSS from /usr/bin/time -v,
-# g++ -std=c++20 -O2 -c, each TU compiled once. Usage: tests/header_check/measure_compile_times.sh [g++]
+# g++ -std=c++20 -O2 -c. Each TU is compiled REPEAT times (default 5, interleaved with the others
+# so that load changes hit every TU alike) and the median is printed, with its difference to and
+# ratio over the baseline. Usage: [REPEAT=n] [TUS="baseline runtime ..."] measure_compile_times.sh [g++]
 set -eu
 CXX=${1:-g++}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -10,31 +12,54 @@ trap 'rm -rf "$DIR"' EXIT
 INC="-I$ROOT/include -isystem /usr/include/eigen3 -isystem /usr/include/stb"
 
 printf '#include <vector>\nint main() { std::vector<int> v(3); return static_cast<int>(v.size()) - 3; }\n' > "$DIR/baseline.cpp"
+# The per-frame headers: what check_runtime_headers.cmake checks, without the thread-owning
+# conveniences (measured on their own) and the libcurl source.
 {
   for d in lod vt stream runtime shader; do
     for h in "$ROOT"/include/btflod/$d/*.hpp; do
       [ -e "$h" ] || continue
-      case "$h" in */stream/http_source.hpp) continue ;; esac  # libcurl: not a per-frame header
+      case "$h" in */stream/http_source.hpp | */stream/pipeline.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp) continue ;; esac
       echo "#include \"btflod/$d/$(basename "$h")\""
     done
   done
-  for h in codec/tile_codec.hpp codec/container.hpp backend/backend.hpp backend/page_table_writes.hpp core/half.hpp; do
+  for h in codec/tile_codec.hpp codec/container.hpp codec/dct.hpp codec/quantize.hpp backend/backend.hpp \
+           backend/page_table_writes.hpp core/half.hpp; do
     echo "#include \"btflod/$h\""
   done
   echo 'int main() { return 0; }'
 } > "$DIR/runtime.cpp"
+printf '#include "btflod/stream/pipeline.hpp"\n#include "btflod/stream/thread_executor.hpp"\n#include "btflod/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
+for h in runtime/streamer stream/payload_cache codec/container shader/glsl_generator backend/backend vt/scheduler; do
+  printf '#include "btflod/%s.hpp"\nint main() { return 0; }\n' "$h" > "$DIR/$(basename "$h").cpp"
+done
 printf '#include "btflod/btflod.hpp"\nint main() { return 0; }\n' > "$DIR/umbrella.cpp"
 printf '#include "btflod/factor/truncated_svd.hpp"\nint main() { return 0; }\n' > "$DIR/truncated_svd.cpp"
 printf '#define BTFLOD_IMPLEMENTATION\n#include "btflod/btflod.hpp"\n' > "$DIR/implementation.cpp"
 
-measure() {
+# One compile: appends "cpu_seconds rss_kb" to $DIR/<tu>.runs.
+compile_once() {
   /usr/bin/time -v "$CXX" -std=c++20 -O2 $INC -c "$DIR/$1.cpp" -o "$DIR/$1.o" 2> "$DIR/$1.time"
   user=$(sed -n 's/.*User time (seconds): //p' "$DIR/$1.time")
   sys=$(sed -n 's/.*System time (seconds): //p' "$DIR/$1.time")
   rss=$(sed -n 's/.*Maximum resident set size (kbytes): //p' "$DIR/$1.time")
-  lines=$("$CXX" -std=c++20 $INC -E "$DIR/$1.cpp" | wc -l)
-  awk -v n="$1" -v u="$user" -v s="$sys" -v r="$rss" -v l="$lines" \
-    'BEGIN { printf "%-16s %7.2f s CPU %7.0f MB RSS %8d preprocessed lines\n", n, u + s, r / 1024, l }'
+  awk -v u="$user" -v s="$sys" -v r="$rss" 'BEGIN { printf "%.3f %d\n", u + s, r }' >> "$DIR/$1.runs"
 }
-echo "$CXX -std=c++20 -O2 -c, $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)"
-for tu in baseline runtime truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}; do measure $tu; done
+# Median CPU seconds of $DIR/<tu>.runs.
+median() { sort -n "$DIR/$1.runs" | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+REPEAT=${REPEAT:-5}
+TUS=${TUS:-"baseline runtime conveniences streamer payload_cache container glsl_generator backend scheduler truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}"}
+echo "$CXX -std=c++20 -O2 -c, median of $REPEAT, $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)"
+i=0
+while [ "$i" -lt "$REPEAT" ]; do
+  for tu in $TUS; do compile_once "$tu"; done
+  i=$((i + 1))
+done
+base=$(median baseline)
+for tu in $TUS; do
+  m=$(median "$tu")
+  rss=$(sort -n -k2 "$DIR/$tu.runs" | tail -n 1 | cut -d' ' -f2)
+  lines=$("$CXX" -std=c++20 $INC -E "$DIR/$tu.cpp" | wc -l)
+  runs=$(cut -d' ' -f1 "$DIR/$tu.runs" | tr '\n' ' ')
+  awk -v n="$tu" -v m="$m" -v b="$base" -v r="$rss" -v l="$lines" -v runs="$runs" \
+    'BEGIN { printf "%-15s %6.2f s CPU  %+6.2f s  x%5.1f  %5.0f MB RSS  %7d lines  (runs: %s)\n", n, m, m - b, m / b, r / 1024, l, runs }'
+done

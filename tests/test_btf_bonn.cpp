@@ -250,7 +250,8 @@ TEST(BonnBtf, CosineFlagDividesByCosThetaLight) {
   EXPECT_FLOAT_EQ(as_rho->at(0, 0, 0, 2, 0), s.u[0][2] * s.sxv[0][0]);
 }
 
-TEST(BonnBtf, FmfRowsAreChannelFastestAndDynamicRangeIsRestored) {
+// A small FMF file: one 3-channel, 2-view, 3-light U block with entries 0.125·r, S·Vᵀ = {1, −0.5}.
+Spec fmf_spec() {
   Spec s;
   s.signature = "!FMF12FCER";
   s.drr = 1;
@@ -258,6 +259,11 @@ TEST(BonnBtf, FmfRowsAreChannelFastestAndDynamicRangeIsRestored) {
   s.sxv.resize(1);
   for (uint32_t r = 0; r < 3 * 2 * 3; ++r) s.u[0].push_back(0.125f * static_cast<float>(r));
   s.sxv[0] = {1.0f, -0.5f};
+  return s;
+}
+
+TEST(BonnBtf, FmfRowsAreChannelFastestAndDynamicRangeIsRestored) {
+  const Spec s = fmf_spec();
   auto f = read_bonn_btf(build(s));
   ASSERT_TRUE(f) << f.message();
   EXPECT_EQ(f->format, BonnFormat::fmf);
@@ -452,17 +458,6 @@ TEST(BonnBtf, FmfHeightMapHeaderIsAcceptedInEitherOrderWhenTheTextureSizeDecides
 
 // A file cut anywhere is truncation (short_output), never "oversized count" or any other class,
 // whichever field the cut falls in: every prefix of a small DFMF and a small FMF file.
-Spec fmf_spec() {
-  Spec s;
-  s.signature = "!FMF12FCER";
-  s.drr = 1;
-  s.u.resize(1);
-  s.sxv.resize(1);
-  for (uint32_t r = 0; r < 3 * 2 * 3; ++r) s.u[0].push_back(0.125f * static_cast<float>(r));
-  s.sxv[0] = {1.0f, -0.5f};
-  return s;
-}
-
 TEST(BonnBtf, TruncatedInputIsShortOutputAtEveryLength) {
   for (const Spec& spec : {dfmf_spec(), fmf_spec()}) {
     const auto bytes = build(spec);

@@ -7,6 +7,7 @@
 
 #include "btflod/factor/local_pca.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/metrics/image_metrics.hpp"
 
 namespace btflod {
 namespace {
@@ -30,14 +31,7 @@ BtfFloat three_subspace_btf(int w = 12, int h = 8) {
   return btf;
 }
 
-double rms(const BtfFloat& a, const BtfFloat& b) {
-  double s = 0.0;
-  for (size_t i = 0; i < a.samples().size(); ++i) {
-    const double d = static_cast<double>(a.samples()[i]) - b.samples()[i];
-    s += d * d;
-  }
-  return std::sqrt(s / static_cast<double>(a.samples().size()));
-}
+double rms(const BtfFloat& a, const BtfFloat& b) { return rmse(a.samples(), b.samples()); }
 
 TEST(FactorLocalPca, RecoversClustersAndIsExactOnUnionOfSubspaces) {
   const auto btf = three_subspace_btf();

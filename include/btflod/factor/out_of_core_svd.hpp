@@ -362,7 +362,9 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
     return make_error(Status::invalid_argument,
                       "out_of_core_svd: at least one power iteration is needed (max_power_iterations 0 given)");
   const size_t align = std::max<size_t>(1, options.column_alignment);
-  const auto [c0, c1] = out_of_core_column_range(n, align, comm.rank(), comm.size());
+  // Not a structured binding: clang before 16 cannot capture those in the lambdas below.
+  const std::pair<size_t, size_t> range = out_of_core_column_range(n, align, comm.rank(), comm.size());
+  const size_t c0 = range.first, c1 = range.second;
   if (!comm.all_ok(c1 > c0))
     return make_error(Status::invalid_argument, "out_of_core_svd: %d processes for %zu column blocks of %zu",
                       comm.size(), (n + align - 1) / align, align);

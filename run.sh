@@ -8,6 +8,9 @@
 #                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
 #   ./run.sh raytrace [args...]   Embree ray tracer with BTF materials on built-in data, into
 #                                 out/raytrace/ (docs/raytrace.md)
+#   ./run.sh fuzz [minutes]       fuzzing campaign: every libFuzzer target for the given minutes
+#                                 (default 10), corpus merged into fuzz/corpus/, a table per
+#                                 target; then the random-operation tests with 10^6 operations
 # Environment: BTFLOD_JOBS (parallel build jobs, default nproc), BTFLOD_BUILD_DIR (default build).
 # Every command passes each build option it depends on, so commands can run in any order on the
 # same build folder (a cached option from an earlier command never changes what a later one does),
@@ -93,6 +96,22 @@ case "$cmd" in
     (cd "$BUILD-fuzz" && ctest --no-tests=error --output-on-failure -j "$JOBS" -L fuzz --timeout 900)
     echo "btflod: all test stages passed in $(( $(date +%s) - start )) s"
     ;;
+  fuzz)
+    install_packages
+    minutes=${1:-10}
+    case "$minutes" in '' | *[!0-9]*) echo "usage: ./run.sh fuzz [minutes]" >&2; exit 2 ;; esac
+    CC=clang CXX=clang++ configure_and_build "$BUILD-fuzz" -DBTFLOD_BUILD_FUZZ=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=OFF \
+      -DBTFLOD_SANITIZE=OFF
+    status=0
+    fuzz/campaign.sh "$BUILD-fuzz" "$minutes" "$JOBS" || status=$?
+    echo "== random-operation tests, 10^6 operations each (invariants checked after every one) =="
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF \
+      -DBTFLOD_SANITIZE=OFF -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_TEST_FILTER='^test_vt_(cache|scheduler)$'
+    BTFLOD_RANDOM_OPS=1000000 "$BUILD/tests/test_vt_cache" --gtest_filter='*Random*' || status=1
+    BTFLOD_RANDOM_OPS=1000000 "$BUILD/tests/test_vt_scheduler" --gtest_filter='*Random*' || status=1
+    exit $status
+    ;;
   bench)
     install_packages
     configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
@@ -117,7 +136,7 @@ case "$cmd" in
     "$BUILD"/samples/raytrace/btflod-raytrace --out out/raytrace "$@"
     ;;
   *)
-    echo "usage: ./run.sh demo|test|bench|web|raytrace" >&2
+    echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz" >&2
     exit 2
     ;;
 esac

@@ -11,6 +11,7 @@
 #include "btflod/backend/page_table_writes.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
+#include "test_random_operations.hpp"
 
 using namespace btflod;
 
@@ -141,7 +142,8 @@ TEST(TileCache, LongRandomOperationSequencesKeepEveryInvariant) {
   std::mt19937 rng(11);
   const auto pick = [&](uint32_t n) { return static_cast<uint32_t>(rng() % n); };
   uint32_t adds = 0, removes = 0, swaps = 0, inserts = 0;
-  for (int step = 0; step < 4000; ++step) {
+  const uint64_t steps = test::random_operation_count(4000);
+  for (uint64_t step = 0; step < steps; ++step) {
     const uint32_t tex = pick(3);
     const VtLevelTable& lv = set.levels_of(tex);
     const TileId t = lv.tile(tex, pick(lv.tile_count()));

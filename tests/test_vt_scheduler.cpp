@@ -10,6 +10,7 @@
 
 #include "btflod/lod/feedback.hpp"
 #include "btflod/vt/scheduler.hpp"
+#include "test_random_operations.hpp"
 
 using namespace btflod;
 
@@ -271,7 +272,8 @@ TEST(Scheduler, RandomFeedbackKeepsInvariantsAndReplaysIdentically) {
     cfg.budgets.uploads_per_frame = 4;
     Rig rig(5, 5, cfg, 2, 3);  // 3 materials × 2 textures, 25 slots
     std::mt19937 rng(99);
-    for (uint64_t f = 0; f < 250; ++f) {
+    const uint64_t frames = test::random_operation_count(250);
+    for (uint64_t f = 0; f < frames; ++f) {
       std::vector<uint32_t> w;
       const uint32_t spots = 1 + rng() % 6;
       for (uint32_t s = 0; s < spots; ++s) {

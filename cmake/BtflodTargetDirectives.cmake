@@ -15,6 +15,20 @@ find_package(Vulkan QUIET)
 pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
 # PkgConfig::BTFLOD_LIBDEFLATE comes from BtflodDependencies.cmake (BTFLOD_WITH_LIBDEFLATE).
 pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
+# MPI (Debian: libopenmpi-dev, openmpi-bin): the distributed factorisation (factor/mpi_svd.hpp).
+# ON defines the target btflod_mpi (MPI::MPI_CXX), usable in btflod-link lines; OFF leaves the
+# MPI command, tests and benchmarks out.
+find_package(MPI QUIET COMPONENTS CXX)
+option(BTFLOD_WITH_MPI "Build the MPI factorisation command and tests (default ON when MPI is found)" ${MPI_CXX_FOUND})
+if(BTFLOD_WITH_MPI)
+  if(NOT MPI_CXX_FOUND)
+    message(FATAL_ERROR "BTFLOD_WITH_MPI is ON but find_package(MPI) finds no C++ MPI (Debian: libopenmpi-dev); "
+                        "install it or configure with -DBTFLOD_WITH_MPI=OFF")
+  endif()
+  add_library(btflod_mpi INTERFACE)
+  target_link_libraries(btflod_mpi INTERFACE MPI::MPI_CXX)
+endif()
+message(STATUS "btflod: MPI factorisation: ${BTFLOD_WITH_MPI}")
 
 # btflod_read_directives(<source> <out_links> <out_labels> <out_ok>)
 function(btflod_read_directives src out_links out_labels out_ok)

@@ -135,7 +135,7 @@ TEST(ShaderGlsl, EveryProgramAndTargetCompilesWithGlslang) {
         if (!validate_batch({path}, t, "single").empty()) ADD_FAILURE() << path << ":\n" << text;
     }
   }
-  EXPECT_EQ(generated, 3 * 7 * 3 * 2);
+  EXPECT_EQ(generated, 3 * 8 * 3 * 2);
 }
 
 TEST(ShaderGlsl, ValidatorRejectsBrokenSource) {
@@ -283,10 +283,10 @@ TEST(ShaderConfig, ParameterisationsMapKnownDirections) {
 
 namespace {
 
-constexpr GlslPiece kAllPieces[] = {GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,
-                                    GlslPiece::fmf_brdf,      GlslPiece::fmf,         GlslPiece::page_table,
-                                    GlslPiece::bsvtf,         GlslPiece::feedback,    GlslPiece::laplacian,
-                                    GlslPiece::lpca,          GlslPiece::pca_views,   GlslPiece::spmm};
+constexpr GlslPiece kAllPieces[] = {
+    GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,     GlslPiece::fmf_brdf,  GlslPiece::fmf,
+    GlslPiece::page_table,    GlslPiece::bsvtf,       GlslPiece::feedback,    GlslPiece::laplacian, GlslPiece::lpca,
+    GlslPiece::pca_views,     GlslPiece::spmm,        GlslPiece::ring_search, GlslPiece::pca_rings};
 
 // Options an engine might choose: its own prefix, bindings from 20 up, Vulkan sets 1 and 2, one
 // sampler declared by the engine itself, uniform sources in its own block.
@@ -362,6 +362,9 @@ std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t p
     s += "  rho += eng_btf_laplacian(f_uv, wl, wv, eng_btf_laplacian_lambda(length(f_position)));\n";
   if (has(GlslPiece::lpca)) s += "  rho += eng_btf_lpca(f_uv, wl, wv);\n";
   if (has(GlslPiece::pca_views)) s += "  rho += eng_btf_pca_views(f_uv, wl, wv);\n";
+  if (has(GlslPiece::ring_search))
+    s += "  ivec3 ri; vec3 rw;\n  eng_btf_ring_search(1, wv, ri, rw);\n  rho += rw * float(ri.y);\n";
+  if (has(GlslPiece::pca_rings)) s += "  rho += eng_btf_pca_rings(f_uv, wl, wv);\n";
   if (has(GlslPiece::spmm))
     s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon(ivec2(0), wl, wv, 2);\n";
   s += "  f_color = vec4(rho, float(word & 255u));\n}\n";
@@ -416,7 +419,7 @@ TEST(ShaderGlsl, FunctionsInAnEngineShaderCompileForEveryTarget) {
         if (!validate_batch({path}, t, "single").empty()) ADD_FAILURE() << path << ":\n" << text;
     }
   }
-  EXPECT_EQ(generated, 3 * (3 + 12));
+  EXPECT_EQ(generated, 3 * (3 + 14));
 }
 
 TEST(ShaderGlsl, FunctionsFollowTheCallersNamesBindingsSetsAndSources) {

@@ -26,6 +26,9 @@
 //   laplacian      float P_laplacian_lambda(float distance); vec3 P_laplacian(uv, wl, wv, lambda)
 //   lpca           vec3 P_lpca(vec2 uv, vec3 wl, vec3 wv)                         paper 002 §6.2
 //   pca_views      vec3 P_pca_views(vec2 uv, vec3 wl, vec3 wv)                    paper 004 §6.3
+//   ring_search    void P_ring_search(int table, vec3 d, out ivec3 idx, out vec3 w)   paper 004 §4.4
+//                  reads the uniform block P_DirectionRings (backend/ring_search_block.hpp)
+//   pca_rings      vec3 P_pca_rings(vec2 uv, vec3 wl, vec3 wv)            paper 004 §6.3 with §4.4
 //   spmm           float P_spmm_brdf(int model, vec3 kappa, vec3 wi, vec3 wo); float P_spmm_basis(int g, wl, wv);
 //                  vec3 P_spmm_analytic(ivec2 texel, wl, wv); vec3 P_spmm_epsilon(ivec2 texel, wl, wv, int n_pca);
 //                  vec3 P_spmm(vec2 uv, vec3 wl, vec3 wv)                         paper 003 eq. 1–3
@@ -55,11 +58,15 @@
 
 namespace btflod {
 
-enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views, spmm };
+enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views, spmm, pca_rings };
 
 inline constexpr ShaderProgram kAllShaderPrograms[] = {
     ShaderProgram::fmf,  ShaderProgram::bsvtf,     ShaderProgram::feedback, ShaderProgram::laplacian,
-    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm};
+    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm, ShaderProgram::pca_rings};
+/// Rings and directions per table (light, view) of the ring search's uniform block (UBO2014:
+/// 10 rings, 151 directions). backend/ring_search_block.hpp packs the block.
+inline constexpr uint32_t kRingSearchMaxRings = 16;
+inline constexpr uint32_t kRingSearchMaxSlots = 256;
 inline constexpr GlslTarget kAllGlslTargets[] = {GlslTarget::gl450_core, GlslTarget::vulkan450, GlslTarget::es300};
 
 /// Stable lower-case name, e.g. "bsvtf". Never null.
@@ -77,6 +84,8 @@ constexpr const char* shader_program_name(ShaderProgram p) noexcept {
       return "lpca";
     case ShaderProgram::pca_views:
       return "pca_views";
+    case ShaderProgram::pca_rings:
+      return "pca_rings";
     case ShaderProgram::spmm:
       return "spmm";
   }
@@ -136,7 +145,7 @@ inline std::span<const SamplerName> shader_sampler_names() noexcept {
 
 /// Number of ShaderBinding values (the block at 0 and every sampler role); sizes
 /// GlslFunctionOptions::resources. Grows with ShaderBinding.
-inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::spmm_residual) + 1;
+inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::direction_rings) + 1;
 
 /// Role name of a binding without prefix, e.g. "tile_cache" ("params" for the uniform block).
 constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
@@ -171,6 +180,8 @@ constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
       return "pca_l";
     case ShaderBinding::pca_r:
       return "pca_r";
+    case ShaderBinding::direction_rings:
+      return "direction_rings";
     case ShaderBinding::spmm_texels:
       return "spmm_texels";
     case ShaderBinding::spmm_dictionary:
@@ -195,8 +206,10 @@ enum class GlslPiece : unsigned char {
   lpca,
   pca_views,
   spmm,
+  ring_search,
+  pca_rings,
 };
-inline constexpr uint32_t kGlslPieceCount = static_cast<uint32_t>(GlslPiece::spmm) + 1;
+inline constexpr uint32_t kGlslPieceCount = static_cast<uint32_t>(GlslPiece::pca_rings) + 1;
 
 /// Stable lower-case name of a piece, e.g. "page_table". Never null.
 constexpr const char* glsl_piece_name(GlslPiece p) noexcept {
@@ -223,6 +236,10 @@ constexpr const char* glsl_piece_name(GlslPiece p) noexcept {
       return "lpca";
     case GlslPiece::pca_views:
       return "pca_views";
+    case GlslPiece::ring_search:
+      return "ring_search";
+    case GlslPiece::pca_rings:
+      return "pca_rings";
     case GlslPiece::spmm:
       return "spmm";
   }
@@ -778,8 +795,8 @@ inline void piece_lpca(GlslEmitter& e) {
       "}\n");
 }
 
-// PCA over groups of k views, L = [m | UΣ], R = [1; Vᵀ], paper 004 §6.3.
-inline void piece_pca_views(GlslEmitter& e) {
+// PCA over groups of k views, L = [m | UΣ], R = [1; Vᵀ], paper 004 §6.3: samplers and constants.
+inline void pca_views_declarations(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::pca_l);
   e.sampler("sampler2D", ShaderBinding::pca_r);
   // L = [m | UΣ] holds one scalar per texel and component (paper 004 §4.3.2: red(x, y) =
@@ -788,21 +805,26 @@ inline void piece_pca_views(GlslEmitter& e) {
   e.constant_int("kPcaViewsPerGroup", e.config.pca.views_per_group);
   e.constant_int("kPcaLightCount", e.config.pca.light_count);
   e.constant_int("kPcaLayers", (e.config.components + 4) / 4);
-  e.emit(
+}
+
+// The PCA-k evaluation `vec3 @<name>(uv, wl, wv)` with the direction lookup `lookup` (a function
+// (int table, vec3 d, out ivec3 idx, out vec3 w)) and `taps` (GLSL expression) taps per direction.
+inline void pca_views_function(GlslEmitter& e, std::string_view name, std::string_view lookup, std::string_view taps) {
+  std::string t =
       "// paper 004 §4.4: 3 closest directions with barycentric weights\n"
-      "vec3 @pca_views(vec2 uv, vec3 wl, vec3 wv) {\n"
+      "vec3 @NAME(vec2 uv, vec3 wl, vec3 wv) {\n"
       "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
-      "  @angular(0, wl, il, al);\n"
-      "  @angular(1, wv, iv, av);\n"
+      "  LOOKUP(0, wl, il, al);\n"
+      "  LOOKUP(1, wv, iv, av);\n"
       "  ivec2 size = textureSize($pca_l$, 0).xy;\n"
       "  ivec2 texel = clamp(ivec2(fract(uv) * vec2(size)), ivec2(0), size - 1);  // paper 004 §6.3: i = floor(u N)\n"
       "  vec3 acc = vec3(0.0);\n"
-      "  for (int j = 0; j < @kAngularTaps; ++j) {\n"
+      "  for (int j = 0; j < TAPS; ++j) {\n"
       "    int view = iv[j];\n"
       "    int base = (view / @kPcaViewsPerGroup) * @kPcaLayers;  // PCA group b of k views\n"
       "    vec4 lc[@kPcaLayers];  // L = [m | U Sigma] of this texel, component c in lc[c / 4][c % 4]\n"
       "    for (int g = 0; g < @kPcaLayers; ++g) lc[g] = texelFetch($pca_l$, ivec3(texel, base + g), 0);\n"
-      "    for (int i = 0; i < @kAngularTaps; ++i) {\n"
+      "    for (int i = 0; i < TAPS; ++i) {\n"
       "      float w = al[i] * av[j];\n"
       "      if (w <= 0.0) continue;\n"
       "      int row = il[i] + @kPcaLightCount * view;\n"
@@ -813,7 +835,20 @@ inline void piece_pca_views(GlslEmitter& e) {
       "    }\n"
       "  }\n"
       "  return acc;\n"
-      "}\n");
+      "}\n";
+  const auto substitute = [&t](std::string_view token, std::string_view with) {
+    for (size_t at = t.find(token); at != std::string::npos; at = t.find(token, at + with.size()))
+      t.replace(at, token.size(), with);
+  };
+  substitute("NAME", name);
+  substitute("LOOKUP", lookup);
+  substitute("TAPS", taps);
+  e.emit(t);
+}
+
+inline void piece_pca_views(GlslEmitter& e) {
+  pca_views_declarations(e);
+  pca_views_function(e, "pca_views", "@angular", "@kAngularTaps");
 }
 
 // SPMM: sparse mixture of analytic basis functions plus a clustered-PCA residual, paper 003
@@ -944,6 +979,103 @@ inline void piece_spmm(GlslEmitter& e) {
       "}\n");
 }
 
+// Ring search over ring-sampled direction sets held in a uniform block, paper 004 §4.4: the
+// bracketing rings and, on each, the azimuth neighbours A, B (lower) and C, D (upper); triangle
+// ABC when P is closer to A than to D (§4.4.1's d′), else BCD, pole-C-D above the pole; weights
+// are the tetrahedron volumes |det(P, P_j, P_k)| normalised (§4.4.2); beyond the last ring (or
+// below the first of a set without pole) linear in φ on that ring. Same arithmetic as
+// RingSearchInterpolator::query (angular/ring_search.hpp); table 0 = light, 1 = view.
+inline void piece_ring_search(GlslEmitter& e) {
+  e.constant_int("kRingMax", kRingSearchMaxRings);
+  e.constant_int("kRingSlots", kRingSearchMaxSlots);
+  const GlslResource& r = e.options.resource(ShaderBinding::direction_rings);
+  // With declare = false the host declares the same block itself (same member names).
+  if (r.declare) {
+    switch (e.target) {
+      case GlslTarget::gl450_core:
+        e.out += format_message("layout(std140, binding = %u) uniform ", r.binding);
+        break;
+      case GlslTarget::vulkan450:
+        e.out += format_message("layout(std140, set = %u, binding = %u) uniform ", r.set, r.binding);
+        break;
+      case GlslTarget::es300:
+        e.out += "layout(std140) uniform ";
+        break;
+    }
+    e.emit(
+        "@DirectionRings {\n"
+        "  vec4 @rings[2 * @kRingMax];          // table t, ring r at t * kRingMax + r: theta, phi0, n, slot 0\n"
+        "  uvec4 @ring_slots[@kRingSlots / 2];  // table t, slot s at t * kRingSlots + s: direction index\n"
+        "  ivec4 @ring_counts;                  // x: light rings, y: view rings\n"
+        "};\n");
+  }
+  e.emit(
+      "uint @ring_slot(int table, float slot) {\n"
+      "  int i = table * @kRingSlots + int(slot);\n"
+      "  return @ring_slots[i / 4][i % 4];\n"
+      "}\n"
+      "vec3 @ring_dir(vec4 ring, float k) {\n"
+      "  float phi = ring.y + k * 6.28318530718 / max(ring.z, 1.0);\n"
+      "  return vec3(sin(ring.x) * cos(phi), sin(ring.x) * sin(phi), cos(ring.x));\n"
+      "}\n"
+      "// Azimuth neighbours k, k + 1 (mod count) of phi on a ring (paper 004: f^l, f^u) and the fraction.\n"
+      "void @ring_neighbours(vec4 ring, float phi, out float lo, out float hi, out float frac) {\n"
+      "  if (ring.z <= 1.0) { lo = 0.0; hi = 0.0; frac = 0.0; return; }\n"
+      "  float dphi = 6.28318530718 / ring.z;\n"
+      "  float rel = phi - ring.y;\n"
+      "  rel = (rel - 6.28318530718 * floor(rel / 6.28318530718)) / dphi;\n"
+      "  lo = min(floor(rel), ring.z - 1.0);\n"
+      "  frac = clamp(rel - lo, 0.0, 1.0);\n"
+      "  hi = lo + 1.0 >= ring.z ? 0.0 : lo + 1.0;\n"
+      "}\n"
+      "void @ring_search(int table, vec3 d, out ivec3 idx, out vec3 w) {\n"
+      "  float len = length(d);\n"
+      "  vec3 p = len > 0.0 ? d / len : vec3(0.0, 0.0, 1.0);\n"
+      "  if (p.z < 0.0) p = length(p.xy) > 0.0 ? vec3(normalize(p.xy), 0.0) : vec3(0.0, 0.0, 1.0);\n"
+      "  float theta = acos(clamp(p.z, -1.0, 1.0));\n"
+      "  float phi = (p.x == 0.0 && p.y == 0.0) ? 0.0 : atan(p.y, p.x);\n"
+      "  int n = table == 0 ? @ring_counts.x : @ring_counts.y;\n"
+      "  int base = table * @kRingMax;\n"
+      "  int upper = 0;  // first ring above theta (rings sorted by theta)\n"
+      "  for (int r = 0; r < @kRingMax; ++r)\n"
+      "    if (r < n && @rings[base + r].x <= theta) upper = r + 1;\n"
+      "  float a; float b; float c; float dd; float f;\n"
+      "  if (upper == n || upper == 0) {  // beyond the last ring (or below the first): linear in phi\n"
+      "    vec4 ring = @rings[base + (upper == 0 ? 0 : n - 1)];\n"
+      "    @ring_neighbours(ring, phi, a, b, f);\n"
+      "    int ia = int(@ring_slot(table, ring.w + a));\n"
+      "    idx = ivec3(ia, int(@ring_slot(table, ring.w + b)), ia);\n"
+      "    w = vec3(1.0 - f, f, 0.0);\n"
+      "    return;\n"
+      "  }\n"
+      "  vec4 rl = @rings[base + upper - 1];\n"
+      "  vec4 ru = @rings[base + upper];\n"
+      "  @ring_neighbours(rl, phi, a, b, f);\n"
+      "  @ring_neighbours(ru, phi, c, dd, f);\n"
+      "  vec3 pa = @ring_dir(rl, a); vec3 pb = @ring_dir(rl, b);\n"
+      "  vec3 pc = @ring_dir(ru, c); vec3 pd = @ring_dir(ru, dd);\n"
+      "  uint sa = @ring_slot(table, rl.w + a); uint sb = @ring_slot(table, rl.w + b);\n"
+      "  uint sc = @ring_slot(table, ru.w + c); uint sd = @ring_slot(table, ru.w + dd);\n"
+      "  vec3 p1; vec3 p2; vec3 p3;\n"
+      "  if (rl.z <= 1.0) { p1 = pa; p2 = pc; p3 = pd; idx = ivec3(uvec3(sa, sc, sd)); }  // pole-C-D\n"
+      "  else if (dot(p, pa) >= dot(p, pd)) { p1 = pa; p2 = pb; p3 = pc; idx = ivec3(uvec3(sa, sb, sc)); }  // d'\n"
+      "  else { p1 = pb; p2 = pc; p3 = pd; idx = ivec3(uvec3(sb, sc, sd)); }\n"
+      "  // paper 004 §4.4.2: |det(P, P_j, P_k)| (the 4 x 4 determinant with O is a triple product)\n"
+      "  vec3 v = vec3(abs(dot(p, cross(p2, p3))), abs(dot(p, cross(p3, p1))), abs(dot(p, cross(p1, p2))));\n"
+      "  float sum = v.x + v.y + v.z;\n"
+      "  w = sum > 0.0 ? v / sum : vec3(1.0, 0.0, 0.0);\n"
+      "}\n");
+}
+
+// PCA over groups of k views (pca_views' layout and arithmetic) with the ring search of the
+// uniform block instead of the angular tables, paper 004 §6.3 with §4.4.
+inline void piece_pca_rings(GlslEmitter& e) {
+  bool declared = false;  // pca_views in the same generation already declared L, R and the constants
+  for (const GlslSamplerUse& u : e.samplers) declared = declared || u.role == ShaderBinding::pca_l;
+  if (!declared) pca_views_declarations(e);
+  pca_views_function(e, "pca_rings", "@ring_search", "3");
+}
+
 using GlslPieceSet = uint32_t;
 constexpr GlslPieceSet piece_bit(GlslPiece p) noexcept { return 1u << static_cast<uint32_t>(p); }
 
@@ -967,6 +1099,8 @@ inline constexpr GlslPieceRecipe kPieces[] = {
     {GlslPiece::lpca, piece_bit(GlslPiece::direction_map), piece_lpca},
     {GlslPiece::pca_views, piece_bit(GlslPiece::angular), piece_pca_views},
     {GlslPiece::spmm, piece_bit(GlslPiece::angular), piece_spmm},
+    {GlslPiece::ring_search, 0, piece_ring_search},
+    {GlslPiece::pca_rings, piece_bit(GlslPiece::ring_search), piece_pca_rings},
 };
 static_assert(std::size(kPieces) == kGlslPieceCount, "one recipe per GlslPiece, in enum order");
 
@@ -1124,6 +1258,7 @@ inline constexpr GlslProgramRecipe kProgramRecipes[] = {
     {ShaderProgram::lpca, GlslPiece::lpca, false, ""},
     {ShaderProgram::pca_views, GlslPiece::pca_views, false, ""},
     {ShaderProgram::spmm, GlslPiece::spmm, false, ""},
+    {ShaderProgram::pca_rings, GlslPiece::pca_rings, false, ""},
 };
 
 inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, GlslTarget t, const ShaderConfig& c) {

@@ -253,6 +253,7 @@ enum class ShaderBinding : uint32_t {
   spmm_texels = 15,      ///< paper 003: per-texel slots (basis index, α) and residual coefficients
   spmm_dictionary = 16,  ///< paper 003 eq. 2: model id, κ_j, n_j of every cluster's basis functions
   spmm_residual = 17,    ///< paper 003 eq. 3: ε̄ and b_i per cluster over the measured directions
+  direction_rings = 18,  ///< paper 004 §4.4: uniform block <prefix>DirectionRings (ring_search)
 };
 
 /// Vertex attribute locations of every generated vertex shader.

@@ -35,7 +35,7 @@ void fill(const DirectionSet& dirs, DirectionParameterisation p, std::vector<uin
       const glm::vec2 c((static_cast<float>(x) + 0.5f) / kRes, (static_cast<float>(y) + 0.5f) / kRes);
       std::vector<std::pair<float, uint32_t>> d;
       for (uint32_t i = 0; i < dirs.size(); ++i)
-        d.emplace_back(glm::length(shader_direction_to_unit_square(p, dirs[i].vector) - c), i);
+        d.emplace_back(glm::length(glm::vec2(shader_direction_to_unit_square(p, dirs[i].vector)) - c), i);
       std::sort(d.begin(), d.end());
       const float a = 1.0f / (d[0].first + 0.05f), b = 1.0f / (d[1].first + 0.05f), e = 1.0f / (d[2].first + 0.05f);
       const size_t o = (static_cast<size_t>(y) * kRes + x) * 3;

@@ -34,13 +34,6 @@ list(APPEND runtime_headers
 set(exceptions
     # Platform I/O by design: the libcurl HTTP range source (not in btflod.hpp; needs libcurl).
     btflod/stream/http_source.hpp)
-# Headers that may still include GLM (check 1 passes them for GLM only; Eigen and intrinsics stay
-# forbidden), with the reason. GLM is header-only and portable (em++ compiles it).
-set(glm_exceptions
-    # ShaderUniforms (the uniform block the generated programs read) is made of glm::mat4/vec4 and
-    # the direction-map helpers take glm vectors; the GLSL generator and the backend interface
-    # include it.
-    btflod/shader/shader_config.hpp btflod/shader/glsl_generator.hpp btflod/backend/backend.hpp)
 # Headers that are checked for forbidden includes (1) but not compiled with em++ (3), with the
 # reason.
 set(em_exceptions "")
@@ -88,9 +81,6 @@ foreach(h IN LISTS runtime_headers)
   string(REGEX MATCHALL "# [0-9]+ \"[^\"]*\"" markers "${pp}")
   list(REMOVE_DUPLICATES markers)
   set(forbidden "/Eigen/|/eigen3/|[a-z0-9]*intrin\\.h|/glm/")
-  if(h IN_LIST glm_exceptions)
-    set(forbidden "/Eigen/|/eigen3/|[a-z0-9]*intrin\\.h")
-  endif()
   foreach(m IN LISTS markers)
     if(m MATCHES "${forbidden}")
       string(REGEX REPLACE "# [0-9]+ \"([^\"]*)\"" "\\1" path "${m}")
@@ -150,14 +140,9 @@ if(NOT EMXX)
 else()
   # zlib: emscripten provides it as a port (-sUSE_ZLIB=1, fetched over the network at link time)
   # or from source (samples/web); for a syntax check the host's zlib.h and zconf.h stand in for
-  # the identical headers. GLM (header-only, for the glm_exceptions above): the host's folder
-  # alone, never the host's whole /usr/include.
+  # the identical headers (never the host's whole /usr/include).
   set(em_inc ${WORK_DIR}/emscripten_include)
   file(MAKE_DIRECTORY ${em_inc})
-  find_path(host_glm_dir glm/glm.hpp PATHS /usr/include /usr/local/include NO_DEFAULT_PATH NO_CACHE)
-  if(host_glm_dir AND NOT EXISTS ${em_inc}/glm)
-    file(CREATE_LINK ${host_glm_dir}/glm ${em_inc}/glm SYMBOLIC)
-  endif()
   foreach(zh zlib.h zconf.h)
     find_file(host_${zh} ${zh} PATHS /usr/include /usr/include/x86_64-linux-gnu NO_DEFAULT_PATH NO_CACHE)
     if(host_${zh})

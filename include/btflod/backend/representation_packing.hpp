@@ -282,8 +282,8 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
 inline glm::vec3 reference_lpca_packed(const LpcaMaterialData& m, glm::vec2 uv, glm::vec3 wl, glm::vec3 wv) noexcept {
   const uint32_t R = m.grid_resolution;
   const float r1 = static_cast<float>(R - 1);
-  const glm::vec2 sv = glm::clamp(shader_direction_to_unit_square(m.parameterisation, wv), 0.0f, 1.0f) * r1;
-  const glm::vec2 sl = glm::clamp(shader_direction_to_unit_square(m.parameterisation, wl), 0.0f, 1.0f) * r1;
+  const glm::vec2 sv = glm::clamp(glm::vec2(shader_direction_to_unit_square(m.parameterisation, wv)), 0.0f, 1.0f) * r1;
+  const glm::vec2 sl = glm::clamp(glm::vec2(shader_direction_to_unit_square(m.parameterisation, wl)), 0.0f, 1.0f) * r1;
   const float g[4] = {sv.x, sv.y, sl.x, sl.y};
   uint32_t lo[4];
   float fr[4];
@@ -327,8 +327,8 @@ inline glm::vec3 reference_lpca(const LocalPca& p, uint32_t grid_resolution, Dir
                                 const AngularTablesData& tables, bool nearest, glm::vec2 uv, glm::vec3 wl,
                                 glm::vec3 wv) noexcept {
   const float r1 = static_cast<float>(grid_resolution - 1);
-  const glm::vec2 sv = glm::clamp(shader_direction_to_unit_square(param, wv), 0.0f, 1.0f) * r1;
-  const glm::vec2 sl = glm::clamp(shader_direction_to_unit_square(param, wl), 0.0f, 1.0f) * r1;
+  const glm::vec2 sv = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wv)), 0.0f, 1.0f) * r1;
+  const glm::vec2 sl = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wl)), 0.0f, 1.0f) * r1;
   const float g[4] = {sv.x, sv.y, sl.x, sl.y};
   int lo[4];
   float fr[4];

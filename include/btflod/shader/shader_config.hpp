@@ -12,9 +12,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <glm/glm.hpp>
-
 #include "btflod/core/result.hpp"
+#include "btflod/shader/std140.hpp"
 #include "btflod/vt/cache_config.hpp"
 
 namespace btflod {
@@ -210,27 +209,36 @@ struct ShaderConfig {
 };
 
 /// Uniform block `BtflodParams` (std140, binding 0) mirrored byte for byte. Matrices are
-/// column-major (GLM). The backends upload it as one uniform buffer. Conventions are OpenGL's
-/// for every target: clip z in [−w, w] (the Vulkan vertex shader remaps it to [0, w]) and NDC
-/// y = +1 at the top of the image (the Vulkan backend uses a negative-height viewport).
+/// column-major; the members are plain std140 types (shader/std140.hpp) that convert to and from
+/// the engine's math types (glm::mat4, glm::vec4, glm::uvec4). The backends upload it as one
+/// uniform buffer. Conventions are OpenGL's for every target: clip z in [−w, w] (the Vulkan
+/// vertex shader remaps it to [0, w]) and NDC y = +1 at the top of the image (the Vulkan backend
+/// uses a negative-height viewport).
 struct alignas(16) ShaderParams {
-  glm::mat4 model_view_proj{1.0f};
-  glm::mat4 model{1.0f};
-  glm::vec4 camera_pos{0.0f, 0.0f, 1.0f, 1.0f};   ///< world position of the eye (xyz)
-  glm::vec4 light{0.0f, 0.0f, 1.0f, 0.0f};        ///< w = 0: direction towards the light; w = 1: position
-  glm::vec4 light_color{1.0f, 1.0f, 1.0f, 1.0f};  ///< rgb radiance scale
+  Float4x4 model_view_proj;                    ///< identity by default
+  Float4x4 model;                              ///< identity by default
+  Float4 camera_pos{0.0f, 0.0f, 1.0f, 1.0f};   ///< world position of the eye (xyz)
+  Float4 light{0.0f, 0.0f, 1.0f, 0.0f};        ///< w = 0: direction towards the light; w = 1: position
+  Float4 light_color{1.0f, 1.0f, 1.0f, 1.0f};  ///< rgb radiance scale
   /// x: LOD bias in levels; y: log2(screen size / feedback size); z: range-LOD distance scale
   /// (paper 001: λ = log2(distance·z)); w: unused.
-  glm::vec4 lod{0.0f, 0.0f, 1.0f, 0.0f};
+  Float4 lod{0.0f, 0.0f, 1.0f, 0.0f};
   /// BSVTF / feedback: x, y = M, N (finest-level texels of this material), z = its finest level
   /// L_m (≤ VirtualTextureConfig::finest_level), w unused.
-  glm::vec4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
+  Float4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
   /// x: page-table layer of component group 0 of this material; y: texture id written to the
   /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: SPMM residual
   /// switch (spmm_residual_mode()).
-  glm::uvec4 ids{0u, 0u, 0u, 0u};
+  UInt4 ids{0u, 0u, 0u, 0u};
 };
 static_assert(sizeof(ShaderParams) == 224, "ShaderParams must match the std140 block in the shaders");
+// std140 offsets of the block in the shaders (GLSL 4.50 §7.6.2.2: mat4 = 4 × 16 bytes, vec4 16).
+static_assert(offsetof(ShaderParams, model) == 64, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, camera_pos) == 128, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, light) == 144, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, light_color) == 160, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, lod) == 176, "ShaderParams must match the std140 block in the shaders");
+static_assert(offsetof(ShaderParams, vt_extent) == 192, "ShaderParams must match the std140 block in the shaders");
 static_assert(offsetof(ShaderParams, ids) == 208, "ShaderParams must match the std140 block in the shaders");
 
 /// Binding points (GL binding = Vulkan set 0 binding = ES texture unit) used by every program.
@@ -262,20 +270,21 @@ enum class VertexAttribute : uint32_t { position = 0, normal = 1, tangent = 2, u
 /// CPU twin of the shaders' direction → unit-square mapping (used to build lookup tables and
 /// reference images). Directions below the horizon are clamped to it (z = max(z, 0), then
 /// renormalised); a zero vector maps to the centre. Returns coordinates in [0,1]².
-/// Thread-safe, noexcept.
-inline glm::vec2 shader_direction_to_unit_square(DirectionParameterisation p, glm::vec3 d) noexcept {
+/// Thread-safe, noexcept. Float3 and Float2 convert from and to glm::vec3 and glm::vec2.
+inline Float2 shader_direction_to_unit_square(DirectionParameterisation p, Float3 d) noexcept {
   d.z = std::max(d.z, 0.0f);
   const float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  if (!(len > 1e-20f)) return glm::vec2(0.5f);
-  d /= len;
+  if (!(len > 1e-20f)) return Float2(0.5f, 0.5f);
+  d = Float3(d.x / len, d.y / len, d.z / len);
   if (p == DirectionParameterisation::parabolic) {
-    return glm::vec2(d.x, d.y) / (1.0f + d.z) * 0.5f + 0.5f;
+    return Float2(d.x / (1.0f + d.z) * 0.5f + 0.5f, d.y / (1.0f + d.z) * 0.5f + 0.5f);
   }
   // Elevated concentric (paper 002): disk radius r = sqrt(1 − z), so the disk point is
   // (x, y) · r / |(x, y)| = (x, y) / sqrt(1 + z); then the inverse Shirley–Chiu map.
-  const glm::vec2 disk = glm::vec2(d.x, d.y) / std::sqrt(1.0f + d.z);
+  const float disk_scale = std::sqrt(1.0f + d.z);
+  const Float2 disk(d.x / disk_scale, d.y / disk_scale);
   const float r = std::sqrt(disk.x * disk.x + disk.y * disk.y);
-  if (r < 1e-7f) return glm::vec2(0.5f);
+  if (r < 1e-7f) return Float2(0.5f, 0.5f);
   constexpr float kQuarter = 0.78539816339744831f;
   float phi = std::atan2(disk.y, disk.x);
   if (phi < -kQuarter) phi += 8.0f * kQuarter;
@@ -293,15 +302,16 @@ inline glm::vec2 shader_direction_to_unit_square(DirectionParameterisation p, gl
     b = -r;
     a = -(phi - 6.0f * kQuarter) * b / kQuarter;
   }
-  return glm::vec2(a, b) * 0.5f + 0.5f;
+  return Float2(a * 0.5f + 0.5f, b * 0.5f + 0.5f);
 }
 
 /// Lookup-table texel the shaders read for a unit-square coordinate (nearest, clamped).
-inline glm::ivec2 shader_table_texel(glm::vec2 unit, uint32_t resolution) noexcept {
+/// Thread-safe, noexcept. Precondition: resolution ≥ 1.
+inline Int2 shader_table_texel(Float2 unit, uint32_t resolution) noexcept {
   const int res = static_cast<int>(resolution);
   const int x = static_cast<int>(std::floor(unit.x * static_cast<float>(res)));
   const int y = static_cast<int>(std::floor(unit.y * static_cast<float>(res)));
-  return glm::ivec2(std::clamp(x, 0, res - 1), std::clamp(y, 0, res - 1));
+  return Int2(std::clamp(x, 0, res - 1), std::clamp(y, 0, res - 1));
 }
 
 /// Checks a configuration before generation. Returns invalid_argument with the offending field

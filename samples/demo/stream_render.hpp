@@ -187,7 +187,7 @@ class GpuFrameRenderer final : public FrameRenderer {
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
     for (size_t i = 0; i < meshes_.size(); ++i) {
       ShaderParams p = params(material_of_[i]);
-      p.model_view_proj = shift_ndc * p.model_view_proj;
+      p.model_view_proj = shift_ndc * glm::mat4(p.model_view_proj);
       p.lod.y = static_cast<float>(shift);
       if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
     }

@@ -142,6 +142,29 @@ export class BtflodClient {
       offset: arr[b + 5] + arr[b + 6] * 2 ** 32, size: arr[b + 7] };
   }
 
+  /// One Range request of `info` (offset, size) with the client's retry policy: a failed
+  /// transfer (HTTP error, dropped connection, wrong Content-Range) is retried until
+  /// opt.maxRetries attempts in all, counting from `attempt`. The faults hook may name another
+  /// URL per attempt. Resolves to { bytes, attempt } or null after the last failed attempt.
+  async fetchWithRetries(info, url, attempt = 0) {
+    for (; ; ++attempt) {
+      try {
+        // Test hook: another URL for this attempt (a copy with corrupted payloads, or a URL the
+        // server answers by closing the connection) — real transfers, no bytes altered here.
+        const u = this.faults ? this.faults(info, attempt, url) || url : url;
+        const { bytes } = await fetchRange(u, info.offset, info.size, this.stats);
+        this.stats.payloadBytes += bytes.length;
+        return { bytes, attempt };
+      } catch (e) {
+        this.stats.retries += 1;
+        if (attempt + 1 >= this.opt.maxRetries) {
+          this.stats.failures += 1;
+          return null;
+        }
+      }
+    }
+  }
+
   // One fetch with retries; hands the bytes to the runtime. A corrupt payload is refused there
   // (the scheduler re-plans the tile: a new request); a dropped connection is retried here.
   async fetchAndDeliver(info) {
@@ -158,41 +181,34 @@ export class BtflodClient {
       if (code === BW.ok) return;
     }
     for (let attempt = 0; ; ++attempt) {
-      try {
-        // Test hook: another URL for this attempt (a copy with corrupted payloads, or a URL the
-        // server answers by closing the connection) — real transfers, no bytes altered here.
-        const url = this.faults ? this.faults(info, attempt, mat.url) || mat.url : mat.url;
-        const { bytes } = await fetchRange(url, info.offset, info.size, this.stats);
-        this.stats.payloadBytes += bytes.length;
-        const p = this.heapCopy(bytes);
-        const code = this.M._bw_deliver(info.id, p, bytes.length);
-        this.M._free(p);
-        if (code === BW.corrupt) {
-          this.stats.corrupt += 1;
-          if (info.id >= ROOT_BASE) continue;  // roots are not scheduled: fetch again here
-          return;
-        }
-        if (code !== BW.ok) {
-          this.stats.failures += 1;
-          console.warn(`deliver ${info.id}: ${this.error()}`);
-        } else if (!this.payloads.has(cacheKey)) {  // verified by CRC: keep it
-          this.payloads.set(cacheKey, bytes);
-          this.payloadBytes += bytes.length;
-          for (const [k, v] of this.payloads) {
-            if (this.payloadBytes <= this.payloadBudget) break;
-            this.payloads.delete(k);
-            this.payloadBytes -= v.length;
-          }
-        }
+      const got = await this.fetchWithRetries(info, mat.url, attempt);
+      if (!got) {
+        if (info.id < ROOT_BASE) this.M._bw_cancel(info.id);
         return;
-      } catch (e) {
-        this.stats.retries += 1;
-        if (attempt + 1 >= this.opt.maxRetries) {
-          this.stats.failures += 1;
-          if (info.id < ROOT_BASE) this.M._bw_cancel(info.id);
-          return;
+      }
+      const { bytes } = got;
+      attempt = got.attempt;
+      const p = this.heapCopy(bytes);
+      const code = this.M._bw_deliver(info.id, p, bytes.length);
+      this.M._free(p);
+      if (code === BW.corrupt) {
+        this.stats.corrupt += 1;
+        if (info.id >= ROOT_BASE) continue;  // roots are not scheduled: fetch again here
+        return;
+      }
+      if (code !== BW.ok) {
+        this.stats.failures += 1;
+        console.warn(`deliver ${info.id}: ${this.error()}`);
+      } else if (!this.payloads.has(cacheKey)) {  // verified by CRC: keep it
+        this.payloads.set(cacheKey, bytes);
+        this.payloadBytes += bytes.length;
+        for (const [k, v] of this.payloads) {
+          if (this.payloadBytes <= this.payloadBudget) break;
+          this.payloads.delete(k);
+          this.payloadBytes -= v.length;
         }
       }
+      return;
     }
   }
 
@@ -286,6 +302,14 @@ export class BtflodClient {
       m.feedbackProgram = this.generated(PROGRAM.feedback, m.index);
       m.vao = this.planeVao(planeOrigin(m.index, n));
     }
+    this.initFrameResources();
+    this.resize(this.canvas.width, this.canvas.height);
+  }
+
+  // Shared by every client: the BtflodParams uniform buffer (binding 0, ShaderParams' 224 bytes)
+  // and the display program (float colour target → sRGB canvas).
+  initFrameResources() {
+    const gl = this.gl;
     this.ubo = gl.createBuffer();
     gl.bindBuffer(gl.UNIFORM_BUFFER, this.ubo);
     gl.bufferData(gl.UNIFORM_BUFFER, 224, gl.DYNAMIC_DRAW);
@@ -300,7 +324,6 @@ export class BtflodClient {
       'void main() { vec3 c = max(texture(img, uv).rgb, 0.0);\n' +
       ' c = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));\n' +
       ' color = vec4(clamp(c, 0.0, 1.0), 1.0); }\n');
-    this.resize(this.canvas.width, this.canvas.height);
   }
 
   planeVao(o) {
@@ -638,20 +661,7 @@ export class PcakClient extends BtflodClient {
     const vsrc = M.UTF8ToString(vs);
     m.program = this.link(vsrc, M.UTF8ToString(M._bw_pca_program_source(1, C, k, lights, res)));
     m.vao = this.planeVao(planeOrigin(0, 1));
-    this.ubo = gl.createBuffer();
-    gl.bindBuffer(gl.UNIFORM_BUFFER, this.ubo);
-    gl.bufferData(gl.UNIFORM_BUFFER, 224, gl.DYNAMIC_DRAW);
-    gl.bindBufferBase(gl.UNIFORM_BUFFER, 0, this.ubo);
-    this.params = new ArrayBuffer(224);
-    this.paramsF = new Float32Array(this.params);
-    this.paramsU = new Uint32Array(this.params);
-    this.display = this.link(
-      '#version 300 es\nout vec2 uv;\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n' +
-      ' uv = p; gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }\n',
-      '#version 300 es\nprecision highp float;\nin vec2 uv;\nuniform sampler2D img;\nout vec4 color;\n' +
-      'void main() { vec3 c = max(texture(img, uv).rgb, 0.0);\n' +
-      ' c = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));\n' +
-      ' color = vec4(clamp(c, 0.0, 1.0), 1.0); }\n');
+    this.initFrameResources();
     this.opt.feedbackShift = 0;
     this.resize(this.canvas.width, this.canvas.height);
     this.loaded = true;

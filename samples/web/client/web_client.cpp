@@ -623,6 +623,32 @@ EMSCRIPTEN_KEEPALIVE const char* bw_pca_program_source(int stage, uint32_t compo
   return c.shader_text.c_str();
 }
 
+/// GLSL ES 3.00 source of the pca_rings program (paper 004: PCA over groups of k views, the
+/// view/light lookup by the ring search over the uniform block btflod_DirectionRings, packed by
+/// pack_ring_search_block), stage 0 vertex / 1 fragment, for C components per group, k views per
+/// group and `lights` light directions. Null on error (bw_last_error).
+EMSCRIPTEN_KEEPALIVE const char* bw_pca_rings_program_source(int stage, uint32_t components, uint32_t views_per_group,
+                                                             uint32_t lights) {
+  auto& c = client();
+  btflod::ShaderConfig config;
+  config.components = components;
+  config.pca.views_per_group = views_per_group;
+  config.pca.light_count = lights;
+  auto src = btflod::generate_program(btflod::ShaderProgram::pca_rings, btflod::GlslTarget::es300, config);
+  if (!src) {
+    c.error = src.message();
+    return nullptr;
+  }
+  c.shader_text = stage == 0 ? src->vertex : src->fragment;
+  return c.shader_text.c_str();
+}
+
+/// CRC-32 (the container's, codec/container.hpp) of `len` bytes: the page checks .pcak chunks
+/// with it before they reach a texture.
+EMSCRIPTEN_KEEPALIVE uint32_t bw_crc32(const uint8_t* bytes, uint32_t len) {
+  return btflod::crc32_of(std::span<const uint8_t>(bytes, len));
+}
+
 /// Material facts as uint32[16]: width, height, levels, C, lights, views, first page-table layer,
 /// tile size, border, finest level, packets, packets loaded, page-table side (2^finest of the
 /// page), slots_x, slots_y, angular resolution.

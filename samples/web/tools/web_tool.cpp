@@ -12,9 +12,10 @@
 //       PSNR (rgb, peak = reference maximum, as the GPU golden tests) and mean SSIM.
 //   pcak --out FILE.pcak --ref FILE.f32 [--index I] [--k 3] [--components 4] + the view options
 //       synthesises material I (as `materials` does), factorises it with PCA over groups of k
-//       views (paper 004, factor/pca_views.hpp), writes the pca_views GPU layout
-//       (backend/representation_packing.hpp) and angular tables as one static file for the
-//       page, and the CPU reference frame of one 2×2 plane at the origin (reference_pca_views)
+//       views (paper 004, factor/pca_views.hpp), writes the pca_rings GPU layout (L planes and R
+//       columns one component per chunk, the ring search's uniform block) as one static file
+//       for the page, and the CPU reference frame of one 2×2 plane at the origin
+//       (reference_pca_rings)
 //   decode --bsvtf FILE [--repeats N]
 //       decodes every tile with zlib and libdeflate: hash (bit identity with the wasm decoder),
 //       µs per tile. Prints JSON.
@@ -29,6 +30,7 @@
 
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/representation_packing.hpp"
+#include "btflod/backend/ring_search_block.hpp"
 #include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
@@ -251,10 +253,15 @@ int cmd_reference(const Args& a) {
   return 0;
 }
 
-// .pcak: the page's PCA-k file. Header of 16 uint32 (little-endian): magic 'PCAK', version 1,
-// C, k, lights, views, W, H, L layers, angular resolution, L floats, R floats, table texels
-// (res² · 2), CRC-32 of the body, 2 reserved; then L (RGBA32F, layers × H × W), R (RGBA32F,
-// lights·views rows × C), angular index (RGBA32UI) and weight (RGBA32F) tables.
+// .pcak: the page's PCA-k file, laid out for streaming component by component (paper 004 §5:
+// the first components render first, quality grows as the others arrive).
+//   header, 16 uint32 (little-endian): magic 'PCAK', version 2, C, k, lights, views, W, H,
+//     groups, chunk count (C + 1), ring block bytes, 3 reserved, CRC-32 of the chunk table, 0
+//   chunk table at byte 64: one entry per chunk, 4 uint32: offset, size, CRC-32 of the chunk, 0
+//   chunk 0: the ring search's uniform block (RingSearchBlock, std140) and the mean plane
+//     m (groups × H × W float32); chunk c ≥ 1: component c's plane of L = [m | UΣ]
+//     (groups × H × W float32) and column c − 1 of R = [1; Vᵀ] (lights · views RGBA32F texels)
+// Every chunk is one Range request; the page verifies its CRC before it touches a texture.
 int cmd_pcak(const Args& a) {
   int W, H;
   if (!size_arg(a, W, H)) return fail("pcak: bad --size");
@@ -274,46 +281,51 @@ int cmd_pcak(const Args& a) {
   if (!pca) return fail(pca.message());
   auto packed = pack_pca_views_material(*pca);
   if (!packed) return fail(packed.message());
-  const uint32_t res = static_cast<uint32_t>(std::atoi(a.get("angular-resolution", "32").c_str()));
-  auto lt = LookupTableInterpolator<ParabolicMap>::build(btf->lights(), static_cast<int>(res));
-  auto vt = LookupTableInterpolator<ParabolicMap>::build(btf->views(), static_cast<int>(res));
-  if (!lt || !vt) return fail("pcak: angular tables");
-  const auto li = lt->index_table().elements(), vi = vt->index_table().elements();
-  const auto lw = lt->weight_table().elements(), vw = vt->weight_table().elements();
-  const AngularTablesData tables{res, li, lw, vi, vw};
-  std::vector<uint32_t> index_rgba;
-  std::vector<float> weight_rgba;
-  pack_angular_tables_rgba(tables, index_rgba, weight_rgba);
+  // Paper 004 §4.4: the ring search over the measured directions, held in a uniform block.
+  auto light_rings = RingSearchInterpolator::build(btf->lights());
+  auto view_rings = RingSearchInterpolator::build(btf->views());
+  if (!light_rings) return fail(light_rings.message());
+  if (!view_rings) return fail(view_rings.message());
+  auto block = pack_ring_search_block(*light_rings, *view_rings);
+  if (!block) return fail(block.message());
   const PcaViewsMaterialData& info = packed->info;
-  const uint32_t layers = static_cast<uint32_t>(packed->l.size() / (static_cast<size_t>(info.width) * info.height * 4));
-  std::vector<uint8_t> body;
-  const auto append = [&](const void* p, size_t n) {
+  const uint32_t C = info.components, groups = static_cast<uint32_t>(pca->groups.size());
+  const uint32_t layers = (C + 4) / 4;  // L layers per group: components 0..C in RGBA texels
+  const size_t n = static_cast<size_t>(info.width) * info.height, rows = static_cast<size_t>(info.light_count) *
+                                                                            info.view_count;
+  std::vector<std::vector<uint8_t>> chunks(C + 1);
+  const auto append = [](std::vector<uint8_t>& to, const void* p, size_t bytes) {
     const auto* b = static_cast<const uint8_t*>(p);
-    body.insert(body.end(), b, b + n);
+    to.insert(to.end(), b, b + bytes);
   };
-  append(packed->l.data(), packed->l.size() * 4);
-  append(packed->r.data(), packed->r.size() * 4);
-  append(index_rgba.data(), index_rgba.size() * 4);
-  append(weight_rgba.data(), weight_rgba.size() * 4);
-  const uint32_t header[16] = {0x4b414350u,
-                               1,
-                               info.components,
-                               info.views_per_group,
-                               info.light_count,
-                               info.view_count,
-                               info.width,
-                               info.height,
-                               layers,
-                               res,
-                               static_cast<uint32_t>(packed->l.size()),
-                               static_cast<uint32_t>(packed->r.size()),
-                               res * res * 2,
-                               crc32_of(body),
-                               0,
-                               0};
-  std::vector<uint8_t> file(sizeof header);
-  std::memcpy(file.data(), header, sizeof header);
-  file.insert(file.end(), body.begin(), body.end());
+  append(chunks[0], &*block, sizeof(RingSearchBlock));
+  std::vector<float> plane(groups * n), column(rows * 4);
+  for (uint32_t c = 0; c <= C; ++c) {
+    for (uint32_t b = 0; b < groups; ++b)
+      for (size_t t = 0; t < n; ++t) plane[b * n + t] = packed->l[((b * layers + c / 4) * n + t) * 4 + c % 4];
+    append(chunks[c], plane.data(), plane.size() * 4);
+    if (c == 0) continue;
+    for (size_t r = 0; r < rows; ++r)
+      for (int k = 0; k < 4; ++k) column[r * 4 + k] = packed->r[(r * C + (c - 1)) * 4 + k];
+    append(chunks[c], column.data(), column.size() * 4);
+  }
+  std::vector<uint32_t> table(4 * (C + 1));
+  uint32_t cursor = 64 + static_cast<uint32_t>(table.size() * 4);
+  for (uint32_t c = 0; c <= C; ++c) {
+    table[4 * c] = cursor;
+    table[4 * c + 1] = static_cast<uint32_t>(chunks[c].size());
+    table[4 * c + 2] = crc32_of(chunks[c]);
+    cursor += table[4 * c + 1];
+  }
+  const uint32_t table_crc =
+      crc32_of(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(table.data()), table.size() * 4));
+  const uint32_t header[16] = {0x4b414350u, 2, C, info.views_per_group, info.light_count, info.view_count,
+                               info.width, info.height, groups, C + 1, static_cast<uint32_t>(sizeof(RingSearchBlock)),
+                               0, 0, 0, table_crc, 0};
+  std::vector<uint8_t> file;
+  append(file, header, sizeof header);
+  append(file, table.data(), table.size() * 4);
+  for (const auto& ch : chunks) append(file, ch.data(), ch.size());
   if (auto w = write_file_bytes(a.get("out"), file); !w) return fail(w.message());
   // Reference frame: one plane at the origin, the program's arithmetic on the CPU.
   Scene scene;
@@ -332,10 +344,9 @@ int cmd_pcak(const Args& a) {
     for (int x = 0; x < W; ++x) {
       const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
       if (!h.hit) continue;
-      const glm::vec3 rgb =
-          reference_pca_views(*pca, tables, DirectionParameterisation::parabolic, false, h.texcoord, to_local(h, light),
-                              to_local(h, glm::normalize(cam.position - h.position))) *
-          light_color;
+      const glm::vec3 rgb = reference_pca_rings(*pca, *light_rings, *view_rings, h.texcoord, to_local(h, light),
+                                                to_local(h, glm::normalize(cam.position - h.position))) *
+                            light_color;
       float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
       p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
     }
@@ -343,8 +354,9 @@ int cmd_pcak(const Args& a) {
                                 std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
       !w)
     return fail(w.message());
-  std::printf("%s: C = %u, k = %u, %u groups, %zu bytes; reference %dx%d\n", a.get("out").c_str(), info.components,
-              info.views_per_group, static_cast<unsigned>(pca->groups.size()), file.size(), W, H);
+  std::printf("%s: C = %u, k = %u, %u groups, %u + %u rings, %zu bytes; reference %dx%d\n", a.get("out").c_str(),
+              info.components, info.views_per_group, groups, static_cast<unsigned>(light_rings->rings().size()),
+              static_cast<unsigned>(view_rings->rings().size()), file.size(), W, H);
   return 0;
 }
 

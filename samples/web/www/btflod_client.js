@@ -15,12 +15,16 @@
 'use strict';
 
 const BW = { ok: 0, badArgument: 1, corrupt: 2, decodeFailed: 3, busy: 4, failed: 5 };
-const PROGRAM = { fmf: 0, bsvtf: 1, feedback: 2, laplacian: 3, lpca: 4, pca_views: 5 };
+const PROGRAM = { fmf: 0, bsvtf: 1, feedback: 2, laplacian: 3, lpca: 4, pca_views: 5, spmm: 6, pca_rings: 7 };
 const BINDING = {
   btflod_eigen_abrdfs: 1, btflod_angular_index: 2, btflod_angular_weight: 3, btflod_eigen_textures: 4,
   btflod_tile_cache: 5, btflod_page_table: 6, btflod_pca_l: 13, btflod_pca_r: 14,
 };
 const ROOT_BASE = 0x40000000;
+// The ring search's uniform block (backend/ring_search_block.hpp: RingSearchBlock) and the
+// binding point the page gives it (ES: assigned by name, btflod_DirectionRings).
+const RING_BLOCK_BYTES = 2576;
+const RING_BLOCK_BINDING = 1;
 
 // ---- small matrix helpers (column-major, like GLM) ------------------------------------------
 const mat4 = {
@@ -623,54 +627,139 @@ export class BtflodClient {
   }
 }
 
-/// PCA-k (paper 004: PCA over groups of k neighbouring views, L = [m | UΣ], R = [1; Vᵀ]) drawn
-/// with btflod's generated pca_views program. The .pcak file (btflod-web-tool pcak) holds the
-/// program's GPU layout; it is fetched with two Range requests (header, body) from the same
-/// static server and drawn on one 2 × 2 plane at the origin.
+/// PCA-k as paper 004 draws it (PCA over groups of k neighbouring views, L = [m | UΣ],
+/// R = [1; Vᵀ]; the light/view lookup by the ring search over a uniform block, §4.4) with
+/// btflod's generated pca_rings program, streamed component by component (§5): the .pcak file
+/// (btflod-web-tool pcak) is fetched from the same static server with one Range request per
+/// chunk — header, chunk table, then chunk 0 (ring block and mean plane) and components 1..C in
+/// order. Every chunk is checked against its CRC-32 before it touches a texture; a corrupt or
+/// dropped transfer is requested again. Missing components are zeros in L and R, so the frame
+/// is the rank-c reconstruction while c components have arrived. One 2 × 2 plane at the origin.
 export class PcakClient extends BtflodClient {
   async open(url) {
     const head = await fetchRange(url, 0, 64, this.stats);
-    const h = new Uint32Array(head.bytes.buffer, head.bytes.byteOffset, 16);
-    if (h[0] !== 0x4b414350 || h[1] !== 1) throw new Error(`${url}: not a version 1 .pcak file`);
-    const [C, k, lights, views, W, H, layers, res, lFloats, rFloats, tableTexels] = Array.from(h.subarray(2, 13));
-    const bodySize = 4 * (lFloats + rFloats + 8 * tableTexels);
-    if (head.total !== 64 + bodySize) throw new Error(`${url}: ${head.total} bytes, header says ${64 + bodySize}`);
-    const body = (await fetchRange(url, 64, bodySize, this.stats)).bytes;
-    this.stats.payloadBytes += body.length;
-    const f32 = (off, n) => new Float32Array(body.buffer, body.byteOffset + off, n);
+    const h = new Uint32Array(head.bytes.buffer, head.bytes.byteOffset, 16).slice();
+    if (h[0] !== 0x4b414350 || h[1] !== 2) throw new Error(`${url}: not a version 2 .pcak file`);
+    const [C, k, lights, views, W, H, groups, chunkCount, blockBytes] = Array.from(h.subarray(2, 11));
+    if (chunkCount !== C + 1 || C < 1 || C > 64 || !W || !H || !groups || blockBytes !== RING_BLOCK_BYTES)
+      throw new Error(`${url}: inconsistent .pcak header`);
+    this.url = url;
+    const tableBytes = await this.fetchVerified({ kind: 2, offset: 64, size: 16 * chunkCount, chunk: -1 }, h[14]);
+    const table = new Uint32Array(tableBytes.buffer, tableBytes.byteOffset, 4 * chunkCount).slice();
+    const plane = groups * W * H, rows = lights * views;
+    this.chunks = [];
+    let end = 64 + 16 * chunkCount;
+    for (let c = 0; c < chunkCount; ++c) {
+      const [offset, size, crc] = [table[4 * c], table[4 * c + 1], table[4 * c + 2]];
+      const want = c === 0 ? blockBytes + 4 * plane : 4 * (plane + 4 * rows);
+      if (offset !== end || size !== want) throw new Error(`${url}: chunk ${c} at ${offset}, ${size} bytes`);
+      end += size;
+      this.chunks.push({ kind: 2, chunk: c, offset, size, crc });
+    }
+    if (end !== head.total) throw new Error(`${url}: ${head.total} bytes, the chunk table says ${end}`);
     const gl = this.gl;
-    const m = { index: 0, C, k, lights, views, width: W, height: H, finest: 0, firstLayer: 0 };
+    const layers = Math.floor((C + 4) / 4);  // L layers per group: components 0..C
+    const m = { index: 0, C, k, lights, views, groups, layers, width: W, height: H, finest: 0, firstLayer: 0 };
     this.materials = [m];
-    m.lTex = this.texArray(gl.RGBA32F, W, H, layers, gl.NEAREST);
-    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, W, H, layers, gl.RGBA, gl.FLOAT, f32(0, lFloats));
+    m.lData = new Float32Array(groups * layers * W * H * 4);
+    m.lTex = this.texArray(gl.RGBA32F, W, H, groups * layers, gl.NEAREST);
+    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, W, H, groups * layers, gl.RGBA, gl.FLOAT, m.lData);
+    m.rData = new Float32Array(C * rows * 4);
     m.rTex = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_2D, m.rTex);
-    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, C, lights * views);
+    gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, C, rows);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
     gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
-    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, C, lights * views, gl.RGBA, gl.FLOAT, f32(4 * lFloats, rFloats));
-    const tOff = 4 * (lFloats + rFloats);
-    m.angIndex = this.texArray(gl.RGBA32UI, res, res, 2, gl.NEAREST);
-    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, res, res, 2, gl.RGBA_INTEGER, gl.UNSIGNED_INT,
-      new Uint32Array(body.buffer, body.byteOffset + tOff, 4 * tableTexels));
-    m.angWeight = this.texArray(gl.RGBA32F, res, res, 2, gl.NEAREST);
-    gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, 0, res, res, 2, gl.RGBA, gl.FLOAT, f32(tOff + 16 * tableTexels, 4 * tableTexels));
+    gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, C, rows, gl.RGBA, gl.FLOAT, m.rData);
     const M = this.M;
-    const vs = M._bw_pca_program_source(0, C, k, lights, res);
+    const vs = M._bw_pca_rings_program_source(0, C, k, lights);
     if (!vs) throw new Error(this.error());
     const vsrc = M.UTF8ToString(vs);
-    m.program = this.link(vsrc, M.UTF8ToString(M._bw_pca_program_source(1, C, k, lights, res)));
+    m.program = this.link(vsrc, M.UTF8ToString(M._bw_pca_rings_program_source(1, C, k, lights)));
+    const ringBlock = gl.getUniformBlockIndex(m.program, 'btflod_DirectionRings');
+    if (ringBlock === gl.INVALID_INDEX) throw new Error('pca_rings program without btflod_DirectionRings');
+    gl.uniformBlockBinding(m.program, ringBlock, RING_BLOCK_BINDING);
+    m.ringUbo = gl.createBuffer();
+    gl.bindBuffer(gl.UNIFORM_BUFFER, m.ringUbo);
+    gl.bufferData(gl.UNIFORM_BUFFER, blockBytes, gl.STATIC_DRAW);
+    gl.bindBufferBase(gl.UNIFORM_BUFFER, RING_BLOCK_BINDING, m.ringUbo);
     m.vao = this.planeVao(planeOrigin(0, 1));
     this.initFrameResources();
     this.opt.feedbackShift = 0;
     this.resize(this.canvas.width, this.canvas.height);
+    this.totalBytes = head.total;
+    this.nextChunk = 0;
+    this.chunkInFlight = false;
+    this.chunksApplied = 0;
+    this.drawnSinceChunk = true;
     this.loaded = true;
+  }
+
+  /// fetchWithRetries plus the CRC-32 check: a payload whose CRC differs is counted, refused and
+  /// requested again (at most 4 · maxRetries attempts, then an error). Resolves to the bytes.
+  async fetchVerified(info, crc) {
+    let attempt = 0;
+    for (let tries = 0; tries < 4 * this.opt.maxRetries; ++tries) {
+      const got = await this.fetchWithRetries(info, this.url || info.url, attempt);
+      if (!got) break;
+      attempt = got.attempt + 1;
+      const p = this.heapCopy(got.bytes);
+      const sum = this.M._bw_crc32(p, got.bytes.length) >>> 0;
+      this.M._free(p);
+      if (sum === crc >>> 0) return got.bytes;
+      this.stats.corrupt += 1;  // refused: nothing of it reaches a texture
+    }
+    throw new Error(`chunk ${info.chunk}: no verified transfer after ${attempt} attempts`);
+  }
+
+  // Chunk c into the staging copies and the textures: 0 = ring block + mean (component 0 of L),
+  // c ≥ 1 = component c of L (channel c % 4 of layer c / 4 of every group) and column c − 1 of R.
+  applyChunk(c, bytes) {
+    const gl = this.gl, m = this.materials[0];
+    const n = m.width * m.height;
+    let off = 0;
+    if (c === 0) {
+      gl.bindBuffer(gl.UNIFORM_BUFFER, m.ringUbo);
+      gl.bufferSubData(gl.UNIFORM_BUFFER, 0, bytes.subarray(0, RING_BLOCK_BYTES));
+      off = RING_BLOCK_BYTES;
+    }
+    const f = new Float32Array(bytes.buffer.slice(bytes.byteOffset + off, bytes.byteOffset + bytes.length));
+    const layer = Math.floor(c / 4), ch = c % 4;
+    gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.lTex);
+    for (let b = 0; b < m.groups; ++b) {
+      const z = b * m.layers + layer;
+      const dst = m.lData.subarray(z * n * 4, (z + 1) * n * 4);
+      for (let t = 0; t < n; ++t) dst[t * 4 + ch] = f[b * n + t];
+      gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, 0, 0, z, m.width, m.height, 1, gl.RGBA, gl.FLOAT, dst);
+    }
+    if (c > 0) {
+      const rows = m.lights * m.views, col = f.subarray(m.groups * n);
+      for (let r = 0; r < rows; ++r) m.rData.set(col.subarray(r * 4, r * 4 + 4), (r * m.C + (c - 1)) * 4);
+      gl.bindTexture(gl.TEXTURE_2D, m.rTex);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, m.C, rows, gl.RGBA, gl.FLOAT, m.rData);
+    }
+    this.chunksApplied += 1;
+    this.stats.uploads += 1;
+  }
+
+  // Component by component (paper 004 §5): the next chunk is requested once the previous one has
+  // been applied and drawn, so every frame shows at most one more component.
+  pumpChunks() {
+    if (this.chunkInFlight || this.nextChunk >= this.chunks.length || !this.drawnSinceChunk) return;
+    const info = this.chunks[this.nextChunk++];
+    this.chunkInFlight = true;
+    this.fetchVerified(info, info.crc).then((bytes) => {
+      this.applyChunk(info.chunk, bytes);
+      this.drawnSinceChunk = false;
+    }).catch((e) => {
+      this.stats.failures += 1;
+      this.nextChunk -= 1;  // asked again on a later frame
+      console.warn(String(e));
+    }).finally(() => { this.chunkInFlight = false; });
   }
 
   bindTextures(m) {
     const gl = this.gl;
-    gl.activeTexture(gl.TEXTURE2); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.angIndex);
-    gl.activeTexture(gl.TEXTURE3); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.angWeight);
     gl.activeTexture(gl.TEXTURE13); gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.lTex);
     gl.activeTexture(gl.TEXTURE14); gl.bindTexture(gl.TEXTURE_2D, m.rTex);
   }
@@ -679,10 +768,14 @@ export class PcakClient extends BtflodClient {
     const t0 = performance.now();
     this.drawColor();
     this.present();
+    this.drawnSinceChunk = true;
+    this.pumpChunks();
     this.stats.frames += 1;
+    this.timeline.push({ t: performance.now() - this.startTime, bytes: this.stats.bytes, quality: this.quality() });
     this.frameMs = performance.now() - t0;
     return this.frameMs;
   }
-  quality() { return this.loaded ? 1 : 0; }
-  converged() { return !!this.loaded; }
+  /// Components delivered / all (replaced by the SSIM estimate when a quality reference is set).
+  quality() { return this.loaded ? this.chunksApplied / this.chunks.length : 0; }
+  converged() { return !!this.loaded && this.chunksApplied === this.chunks.length && this.drawnSinceChunk; }
 }

@@ -1,0 +1,127 @@
+// shader/std140.hpp and ShaderParams: the plain std140 types hold exactly the bytes GLM's types
+// held (the backends memcpy ShaderParams into a uniform buffer), convert both ways with GLM, and
+// the CPU twins of the shaders' direction map give bit for bit what the former GLM arithmetic gave.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <type_traits>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "btflod/shader/shader_config.hpp"
+#include "btflod/shader/std140.hpp"
+
+using namespace btflod;
+
+namespace {
+
+// The formula shader_direction_to_unit_square used when it took and returned GLM vectors.
+glm::vec2 glm_direction_to_unit_square(DirectionParameterisation p, glm::vec3 d) {
+  d.z = std::max(d.z, 0.0f);
+  const float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  if (!(len > 1e-20f)) return glm::vec2(0.5f);
+  d /= len;
+  if (p == DirectionParameterisation::parabolic) return glm::vec2(d.x, d.y) / (1.0f + d.z) * 0.5f + 0.5f;
+  const glm::vec2 disk = glm::vec2(d.x, d.y) / std::sqrt(1.0f + d.z);
+  const float r = std::sqrt(disk.x * disk.x + disk.y * disk.y);
+  if (r < 1e-7f) return glm::vec2(0.5f);
+  constexpr float kQuarter = 0.78539816339744831f;
+  float phi = std::atan2(disk.y, disk.x);
+  if (phi < -kQuarter) phi += 8.0f * kQuarter;
+  float a, b;
+  if (phi < kQuarter) {
+    a = r;
+    b = phi * a / kQuarter;
+  } else if (phi < 3.0f * kQuarter) {
+    b = r;
+    a = -(phi - 2.0f * kQuarter) * b / kQuarter;
+  } else if (phi < 5.0f * kQuarter) {
+    a = -r;
+    b = (phi - 4.0f * kQuarter) * a / kQuarter;
+  } else {
+    b = -r;
+    a = -(phi - 6.0f * kQuarter) * b / kQuarter;
+  }
+  return glm::vec2(a, b) * 0.5f + 0.5f;
+}
+
+}  // namespace
+
+TEST(ShaderStd140, MatrixHoldsGlmBytesColumnMajorAndRoundTrips) {
+  const glm::mat4 m = glm::perspective(0.9f, 1.5f, 0.1f, 50.0f) *
+                      glm::lookAt(glm::vec3(1, 2, 3), glm::vec3(0, 0, 0), glm::vec3(0, 1, 0));
+  const Float4x4 f = m;
+  static_assert(sizeof(Float4x4) == sizeof(glm::mat4));
+  EXPECT_EQ(std::memcmp(&f, &m, sizeof m), 0) << "the uniform buffer bytes changed";
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) EXPECT_EQ(f(c, r), m[c][r]);
+  const glm::mat4 back = f;
+  EXPECT_EQ(back, m);
+  EXPECT_EQ(glm::mat4(Float4x4{}), glm::mat4(1.0f)) << "default is the identity";
+}
+
+TEST(ShaderStd140, VectorsRoundTripWithGlm) {
+  const Float4 v = glm::vec4(1.5f, -2.0f, 3.25f, 4.0f);
+  EXPECT_EQ(v, Float4(1.5f, -2.0f, 3.25f, 4.0f));
+  EXPECT_EQ(glm::vec4(v), glm::vec4(1.5f, -2.0f, 3.25f, 4.0f));
+  EXPECT_EQ(glm::vec3(v), glm::vec3(1.5f, -2.0f, 3.25f)) << "explicit xyz, as glm::vec3(vec4)";
+  const UInt4 u = glm::uvec4(1u, 2u, 0xffffffffu, 7u);
+  EXPECT_EQ(glm::uvec4(u), glm::uvec4(1u, 2u, 0xffffffffu, 7u));
+  const Float2 p = glm::vec2(0.25f, 0.75f);
+  EXPECT_EQ(glm::vec2(p), glm::vec2(0.25f, 0.75f));
+  const Int2 i = glm::ivec2(-3, 9);
+  EXPECT_EQ(glm::ivec2(i), glm::ivec2(-3, 9));
+  const Float3 d = glm::vec3(0.0f, 0.6f, 0.8f);
+  EXPECT_EQ(glm::vec3(d), glm::vec3(0.0f, 0.6f, 0.8f));
+  // No silent conversion between the block types themselves, nor vec4 → vec3 without a cast.
+  static_assert(!std::is_convertible_v<Float4, UInt4> && !std::is_convertible_v<UInt4, Float4>);
+  static_assert(!std::is_convertible_v<Float2, Int2> && !std::is_convertible_v<Int2, Float2>);
+  static_assert(!std::is_convertible_v<Float4, glm::vec3>);
+}
+
+TEST(ShaderStd140, ShaderParamsKeepsTheLayoutAndDefaultsOfTheGlmBlock) {
+  // The block as it was declared with GLM members (the shaders' BtflodParams, std140).
+  struct GlmParams {
+    glm::mat4 model_view_proj{1.0f};
+    glm::mat4 model{1.0f};
+    glm::vec4 camera_pos{0.0f, 0.0f, 1.0f, 1.0f};
+    glm::vec4 light{0.0f, 0.0f, 1.0f, 0.0f};
+    glm::vec4 light_color{1.0f, 1.0f, 1.0f, 1.0f};
+    glm::vec4 lod{0.0f, 0.0f, 1.0f, 0.0f};
+    glm::vec4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
+    glm::uvec4 ids{0u, 0u, 0u, 0u};
+  };
+  static_assert(sizeof(GlmParams) == sizeof(ShaderParams));
+  GlmParams g;
+  ShaderParams s;
+  EXPECT_EQ(std::memcmp(&g, &s, sizeof s), 0) << "default values";
+  g.model_view_proj = glm::translate(glm::mat4(1.0f), glm::vec3(1, 2, 3));
+  g.light = glm::vec4(0.3f, 0.4f, 0.5f, 1.0f);
+  g.ids = glm::uvec4(4u, 5u, 1u, 2u);
+  s.model_view_proj = g.model_view_proj;
+  s.light = g.light;
+  s.ids = g.ids;
+  EXPECT_EQ(std::memcmp(&g, &s, sizeof s), 0) << "assigned from GLM";
+}
+
+TEST(ShaderStd140, DirectionMapTwinIsBitIdenticalToTheGlmFormula) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  for (auto p : {DirectionParameterisation::parabolic, DirectionParameterisation::elevated_concentric}) {
+    for (int i = 0; i < 20000; ++i) {
+      const glm::vec3 d(u(rng), u(rng), u(rng));
+      const glm::vec2 want = glm_direction_to_unit_square(p, d);
+      const glm::vec2 got = shader_direction_to_unit_square(p, d);
+      ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << d.x << " " << d.y << " " << d.z;
+      const glm::ivec2 t = shader_table_texel(got, 33);
+      ASSERT_GE(t.x, 0);
+      ASSERT_LT(t.x, 33);
+      ASSERT_GE(t.y, 0);
+      ASSERT_LT(t.y, 33);
+    }
+    EXPECT_EQ(glm::vec2(shader_direction_to_unit_square(p, Float3(0, 0, 0))), glm::vec2(0.5f));
+  }
+}

@@ -128,18 +128,13 @@ struct VirtualTextureConfig : CacheConfig {
   FeedbackWordLayout feedback;
 };
 
-/// Texel origin (top-left of the padded slot, border included) and layer of a cache slot.
-struct SlotPlacement {
-  uint32_t x = 0;
-  uint32_t y = 0;
-  uint32_t layer = 0;
-};
-/// Where slot `slot` lives in the cache texture. Precondition: slot < config.slot_count().
+/// Texel origin (top-left of the padded slot, border included) and layer of a cache slot: the
+/// tile cache's placement (vt/cache_config.hpp), one definition for the bookkeeping and shaders.
+using SlotPlacement = CacheSlotPlacement;
+/// Where slot `slot` lives in the cache texture (cache_slot_placement of the cache shape).
+/// Precondition: slot < config.slot_count(). constexpr, noexcept.
 constexpr SlotPlacement slot_placement(const VirtualTextureConfig& c, uint32_t slot) noexcept {
-  const uint32_t per_layer = c.slots_x * c.slots_y;
-  const uint32_t r = slot % per_layer;
-  return SlotPlacement{(r % c.slots_x) * c.padded_tile_size(), (r / c.slots_x) * c.padded_tile_size(),
-                       slot / per_layer};
+  return cache_slot_placement(c, slot);
 }
 
 /// Laplacian-pyramid LOD (paper 001 §3.4, eq. 7).

@@ -2,10 +2,13 @@
 // votes of paper 000 eq. 9 (checked against a brute-force count).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <random>
 #include <set>
+#include <span>
 #include <tuple>
 #include <vector>
 
@@ -142,6 +145,101 @@ TEST(Votes, MatchBruteForceEquation9OnRandomBuffers) {
     EXPECT_EQ(counter.touched().size(), nonzero);
   }
   EXPECT_GT(counter.rejected(), 0u);
+}
+
+namespace {
+// count() as the file comment defines it, one word at a time: the touched list holds the
+// directly voted tiles in first-seen order, then their ancestors in the order the chains are
+// pushed; returns the valid words and the rejected ones.
+struct ReferenceVotes {
+  std::map<std::array<uint32_t, 4>, uint32_t> votes, direct;
+  std::vector<uint32_t> touched;
+  size_t valid = 0;
+  uint64_t rejected = 0;
+};
+ReferenceVotes reference_count(const std::vector<uint32_t>& words, const std::vector<VoteLayout>& layouts,
+                               uint32_t weight, uint32_t level_drop) {
+  ReferenceVotes r;
+  const auto tiles = [&](uint32_t m, uint32_t l, uint32_t& tx, uint32_t& ty) {
+    const uint32_t s = layouts[m].finest_level - l;
+    tx = (layouts[m].tiles_x + (1u << s) - 1) >> s;
+    ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
+  };
+  for (uint32_t w : words) {
+    if (w == kFeedbackNone) continue;
+    FeedbackTile t = unpack_feedback(w);
+    uint32_t tx = 0, ty = 0;
+    if (t.material >= layouts.size() || t.level > layouts[t.material].finest_level) {
+      ++r.rejected;
+      continue;
+    }
+    tiles(t.material, t.level, tx, ty);
+    if (t.x >= tx || t.y >= ty) {
+      ++r.rejected;
+      continue;
+    }
+    const uint32_t drop = std::min(level_drop, t.level);
+    t = FeedbackTile{t.material, t.level - drop, t.x >> drop, t.y >> drop};
+    const std::array<uint32_t, 4> key{t.material, t.level, t.x, t.y};
+    if (r.direct[key] == 0) r.touched.push_back(pack_feedback(t));
+    r.direct[key] += weight;
+    ++r.valid;
+  }
+  r.votes = r.direct;
+  const size_t direct_tiles = r.touched.size();
+  for (size_t k = 0; k < direct_tiles; ++k) {
+    FeedbackTile t = unpack_feedback(r.touched[k]);
+    const uint32_t count = r.direct[{t.material, t.level, t.x, t.y}];
+    while (t.level > 0) {
+      t = FeedbackTile{t.material, t.level - 1, t.x >> 1, t.y >> 1};
+      uint32_t& v = r.votes[{t.material, t.level, t.x, t.y}];
+      if (v == 0) r.touched.push_back(pack_feedback(t));
+      v += count;
+    }
+  }
+  return r;
+}
+}  // namespace
+
+// count() finds runs 256 words at a time and memoises recently seen words: runs that cross or
+// fill whole passes, buffers of every length around the pass size, more distinct words than
+// the memo holds (collisions), hostile words and a level drop must give exactly the touched
+// order, votes, valid and rejected counts of a word-by-word count.
+TEST(Votes, RunDetectionAndMemoGiveTheWordByWordResult) {
+  const std::vector<VoteLayout> layouts = {{5, 32, 32}, {4, 13, 5}, {0, 1, 1}};
+  VoteCounter counter(layouts);
+  std::mt19937 rng(11);
+  const size_t lengths[] = {0, 1, 2, 255, 256, 257, 258, 511, 512, 513, 4000, 20000};
+  for (const size_t n : lengths)
+    for (uint32_t level_drop = 0; level_drop < 3; level_drop += 2) {
+      std::vector<uint32_t> words;
+      while (words.size() < n) {
+        const uint32_t r = uint32_t(rng()) % 16;
+        uint32_t w = 0;
+        if (r == 0) {
+          w = kFeedbackNone;
+        } else if (r == 1) {
+          w = uint32_t(rng());  // hostile: any bits
+        } else {
+          const uint32_t m = uint32_t(rng()) % 3;
+          const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
+          const uint32_t s = layouts[m].finest_level - l;
+          const uint32_t tx = (layouts[m].tiles_x + (1u << s) - 1) >> s, ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
+          w = pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty});
+        }
+        // Runs from 1 word to longer than a pass.
+        const size_t run = r < 12 ? 1 + uint32_t(rng()) % 8 : (r < 15 ? 1 + uint32_t(rng()) % 90 : 200 + uint32_t(rng()) % 400);
+        for (size_t i = 0; i < run && words.size() < n; ++i) words.push_back(w);
+      }
+      const uint64_t rejected_before = counter.rejected();
+      const size_t valid = counter.count(words, 3, level_drop);
+      const ReferenceVotes want = reference_count(words, layouts, 3, level_drop);
+      ASSERT_EQ(valid, want.valid) << n;
+      ASSERT_EQ(counter.rejected() - rejected_before, want.rejected) << n;
+      const std::span<const uint32_t> touched = counter.touched();
+      ASSERT_EQ(std::vector<uint32_t>(touched.begin(), touched.end()), want.touched) << n << " " << level_drop;
+      for (const auto& [key, v] : want.votes) ASSERT_EQ(counter.votes(key[0], key[1], key[2], key[3]), v);
+    }
 }
 
 TEST(Votes, PreviousFrameIsClearedAndWeightsScale) {

@@ -14,7 +14,12 @@
 // VoteCounter turns a span of words into v(i, l) (eq. 9: a pixel votes for its tile and every
 // ancestor) with flat arrays: one run of equal words at a time is added to the tile's direct
 // count, then each distinct voted tile pushes its count up its ancestor chain once. Cost:
-// O(pixels) sequential reads + O(distinct tiles · L); no hash maps, no allocation per frame.
+// O(pixels) sequential reads + O(runs) + O(distinct tiles · L); no hash maps, no allocation per
+// frame. The runs are found without a branch per word (a vectorisable pass compares each word
+// with the one before, 128 at a time), and a small direct-mapped memo of recently seen words
+// skips the decoding and range checks of a word met a few runs earlier (the rows of a feedback
+// buffer repeat the tiles of the row above): at 1280×720 words this made count() 1.6–2.1×
+// faster than scanning each run 8 words per step, with identical results (docs/vt.md).
 //
 // Decimated feedback with a rotating sample position (feedback_sample_offset: one pixel of each
 // d×d block per frame, every pixel once per d² frames) needs its votes accumulated over the
@@ -36,7 +41,9 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <vector>
 
@@ -167,31 +174,38 @@ class VoteCounter {
   /// number of words that named a valid tile. noexcept; no allocation.
   size_t count(std::span<const uint32_t> words, uint32_t weight = 1, uint32_t level_drop = 0) noexcept {
     clear();
-    size_t valid = 0;
     const size_t n = words.size();
     const uint32_t* w = words.data();
-    size_t i = 0;
-    while (i < n) {
-      const uint32_t word = w[i];
-      size_t j = i + 1;
-      // One run of equal words at a time; skip long runs 8 words per step (branch-free inner
-      // block the compiler vectorises; plain C++, so there is no SIMD path needing a twin).
-      while (j + 8 <= n) {
-        uint32_t diff = 0;
-        for (size_t k = 0; k < 8; ++k) diff |= w[j + k] ^ word;
-        if (diff != 0) break;
-        j += 8;
+    for (MemoEntry& e : memo_) e.word = kFeedbackNone;
+    RunTotals totals;
+    if (n > 0) {
+      // Runs of equal words: a branch-free pass marks where a word differs from the one before
+      // (a byte per word, which the compiler vectorises), then the marks are read 8 at a time
+      // and each run is counted once. Plain C++: no SIMD path needing a scalar twin.
+      uint8_t differs[kRunChunk];
+      size_t start = 0;
+      for (size_t base = 1; base < n; base += kRunChunk) {
+        const size_t m = std::min(kRunChunk, n - base);
+        const uint32_t* p = w + base;
+        if (m == kRunChunk) {
+          for (size_t k = 0; k < kRunChunk; ++k) differs[k] = static_cast<uint8_t>(p[k] != p[k - 1]);
+        } else {
+          for (size_t k = 0; k < kRunChunk; ++k) differs[k] = k < m ? static_cast<uint8_t>(p[k] != p[k - 1]) : 0;
+        }
+        for (size_t q = 0; q < kRunChunk; q += 8) {
+          uint64_t bits;
+          std::memcpy(&bits, differs + q, 8);
+          for (; bits != 0; bits &= bits - 1) {
+            const size_t end = base + q + static_cast<size_t>(std::countr_zero(bits)) / 8;
+            add_run(w[start], static_cast<uint32_t>(end - start), weight, level_drop, totals);
+            start = end;
+          }
+        }
       }
-      while (j < n && w[j] == word) ++j;
-      const uint32_t run = static_cast<uint32_t>(j - i);
-      if (word != kFeedbackNone) {
-        if (add_direct(word, run * weight, level_drop))
-          valid += run;
-        else
-          rejected_ += run;
-      }
-      i = j;
+      add_run(w[start], static_cast<uint32_t>(n - start), weight, level_drop, totals);
     }
+    rejected_ += totals.rejected;
+    const size_t valid = totals.valid;
     direct_tiles_ = touched_.size();
     push_to_ancestors();
     return valid;
@@ -349,25 +363,60 @@ class VoteCounter {
     touched_words_.clear();
   }
 
-  bool add_direct(uint32_t word, uint32_t count, uint32_t level_drop) noexcept {
+  static constexpr uint32_t kNoIndex = 0xffffffffu;
+  static constexpr size_t kMemoSize = 256;
+  struct MemoEntry {
+    uint32_t word = kFeedbackNone;  // kFeedbackNone: empty (never memoised: skipped before)
+    uint32_t index = 0;             // flat tile index after level_drop
+    uint32_t packed = 0;            // the tile's word after level_drop
+  };
+  static size_t memo_slot(uint32_t word) noexcept { return ((word * 0x9e3779b1u) >> 24) & (kMemoSize - 1); }
+
+  // Words per pass of count()'s run detection (a stack array of as many bytes).
+  static constexpr size_t kRunChunk = 128;
+  struct RunTotals {
+    size_t valid = 0;
+    uint64_t rejected = 0;
+  };
+  // One run of `run` equal words: the tile's direct count (eq. 9's own pixels). The memo keeps
+  // recently seen words (direct-mapped by a hash of the word): the rows of a feedback buffer
+  // repeat the tiles of the row above, so most runs name a tile looked up a few runs earlier.
+  void add_run(uint32_t word, uint32_t run, uint32_t weight, uint32_t level_drop, RunTotals& totals) noexcept {
+    if (word == kFeedbackNone) return;
+    MemoEntry& e = memo_[memo_slot(word)];
+    if (e.word != word) {
+      uint32_t packed = 0;
+      const uint32_t idx = direct_index(word, level_drop, packed);
+      if (idx == kNoIndex) {
+        totals.rejected += run;
+        return;
+      }
+      e = MemoEntry{word, idx, packed};
+    }
+    if (votes_[e.index] == 0) {
+      touched_.push_back(e.index);
+      touched_words_.push_back(e.packed);
+    }  // (ancestors are pushed only after all runs, so v > 0 here means a direct count)
+    votes_[e.index] += run * weight;
+    direct_[e.index] += run * weight;
+    totals.valid += run;
+  }
+
+  // Flat index of the tile a word votes for directly (after level_drop), and that tile's word;
+  // kNoIndex when the word names no tile of a known material.
+  uint32_t direct_index(uint32_t word, uint32_t level_drop, uint32_t& packed) const noexcept {
     FeedbackTile t = unpack_feedback(word);
-    if (t.material >= materials_.size()) return false;
+    if (t.material >= materials_.size()) return kNoIndex;
     const Material& m = materials_[t.material];
-    if (t.level > m.finest_level || t.x >= m.tiles_x[t.level] || t.y >= m.tiles_y[t.level]) return false;
+    if (t.level > m.finest_level || t.x >= m.tiles_x[t.level] || t.y >= m.tiles_y[t.level]) return kNoIndex;
     if (level_drop > 0) {
       const uint32_t drop = std::min(level_drop, t.level);
       t.level -= drop;
       t.x >>= drop;
       t.y >>= drop;
     }
-    const uint32_t idx = m.base + m.offset[t.level] + t.y * m.tiles_x[t.level] + t.x;
-    if (votes_[idx] == 0) {
-      touched_.push_back(idx);
-      touched_words_.push_back(pack_feedback(t));
-    }  // (ancestors are pushed only after all runs, so v > 0 here means a direct count)
-    votes_[idx] += count;
-    direct_[idx] += count;
-    return true;
+    packed = pack_feedback(t);
+    return m.base + m.offset[t.level] + t.y * m.tiles_x[t.level] + t.x;
   }
 
   std::vector<Material> materials_;
@@ -393,6 +442,7 @@ class VoteCounter {
   std::vector<uint32_t> live_;        // tiles with window_ > 0, first-seen order
   std::vector<uint32_t> live_words_;  // the same tiles as feedback words
   uint64_t window_overflow_ = 0;
+  MemoEntry memo_[kMemoSize];
 };
 
 }  // namespace btflod

@@ -392,10 +392,14 @@ class Scheduler {
       const size_t base = material_base_[ft.material] + static_cast<size_t>(flat) * m.texture_count;
       const uint8_t* requested = requested_.data() + base;
       const float* weights = weights_.data() + base;
+      // Branch-light: the tests below combine with | and & (no short circuit), so the loop
+      // branches only for tiles that can be added (same decisions as the plain if-chain).
+      const bool voted = direct > 0, has_parent = ft.level > 0;
+      uint32_t missing_count = 0;  // a local: requested (bytes) may alias the counters
       for (uint32_t k = 0; k < usable; ++k) {
-        if (slots[k] != kNoSlot) continue;
-        if (direct > 0) ++frame_counters_.visible_missing;
-        if (requested[k] || parent_slots[k] == kNoSlot || ft.level == 0) continue;
+        const bool missing = slots[k] == kNoSlot;
+        missing_count += static_cast<uint32_t>(missing);
+        if (!(missing & has_parent & (requested[k] == 0) & (parent_slots[k] != kNoSlot))) continue;
         const AddCandidate c{static_cast<double>(weights[k]) * v, m.first_texture + k, flat};  // paper 000 §5.2
         if (c.priority <= 0.0) continue;
         if (adds_.size() == keep && !add_before(c, adds_.back())) continue;
@@ -404,6 +408,7 @@ class Scheduler {
         if (adds_.size() == keep) adds_.pop_back();
         adds_.insert(it, c);
       }
+      if (voted) frame_counters_.visible_missing += missing_count;
     }
   }
 

@@ -1,6 +1,6 @@
 // btflod-demo — the main job: synthesise a few procedural BTFs, factorise them (FMF), build
 // .bsvtf containers, then fly a camera through a scene of BTF-textured tori on a plane while
-// streaming tiles through a throttled source and the streaming pipeline, rendering BSVTF with
+// streaming tiles through throttled sources with one runtime Streamer, rendering BSVTF with
 // the GL backend (or, without GL, the CPU reference ray-caster, saying so; FMF of the same view
 // is the converged reference). Writes frames, a contact
 // sheet, report.html and report.json. The phases live in materials.hpp, stream_render.hpp,

@@ -1,13 +1,12 @@
 // btflod-demo — the streaming fly-through: per frame, the backend renders the feedback pass
-// (paper 000 eq. 1–2) and the BSVTF image through the page table (eq. 3); the feedback becomes
-// votes (eq. 9), the scheduler plans add/swap operations (§5, P = w·v), the requested tiles are
-// fetched from a THROTTLED source through the streaming pipeline (one .bsvtf container per
-// material), decoded, uploaded into the cache slots the scheduler reserved, and the GPU page
-// table is brought up to date with the cache's deltas (vt/tile_cache.hpp, converted by
-// backend/page_table_writes.hpp; whole tables only at start-up or after a delta overflow). The
-// same view is also rendered with FMF (eq. 5, every eigen-texture resident, uncompressed): that
-// is the converged image the SSIM is measured against, and the frame time of both programs is
-// measured on the same view in the same frame, in alternating order.
+// (paper 000 eq. 1–2) and the BSVTF image through the page table (eq. 3); one
+// btflod::Streamer (runtime/streamer.hpp) serves every material: its update() turns the
+// feedback into votes (eq. 9), plans add/swap operations (§5, P = w·v), hands decode jobs to a
+// ThreadExecutor whose workers read the containers through THROTTLED sources, and returns this
+// frame's tile uploads and page-table texels, which backend/streamer_outputs.hpp applies to the
+// renderer. The same view is also rendered with FMF (eq. 5, every eigen-texture resident,
+// uncompressed): that is the converged image the SSIM is measured against, and the frame time
+// of both programs is measured on the same view in the same frame, in alternating order.
 #pragma once
 
 #include <algorithm>
@@ -17,23 +16,21 @@
 #include <functional>
 #include <memory>
 #include <string>
-#include <thread>
-#include <unordered_map>
 #include <vector>
 
 #include "btflod/backend/backend.hpp"
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/page_table_writes.hpp"
+#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/codec/container.hpp"
 #include "btflod/core/thread_pool.hpp"
-#include "btflod/core/half.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/metrics/image_metrics.hpp"
-#include "btflod/stream/pipeline.hpp"
+#include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/file_source.hpp"
+#include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
 
@@ -94,10 +91,13 @@ class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
   virtual std::string name() const = 0;
-  /// Set-up: shaders/targets, meshes or shapes, materials. `cache` and `set` outlive the renderer.
-  virtual VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache& cache,
-                          const std::vector<DemoMaterial>& materials, const std::vector<scene::SceneObject>& objects) = 0;
-  virtual Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) = 0;
+  /// Set-up: shaders/targets, meshes or shapes, materials. `cache` (the Streamer's) outlives
+  /// the renderer.
+  virtual VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
+                          const std::vector<scene::SceneObject>& objects) = 0;
+  /// Applies one Streamer::update()'s tile uploads and page-table writes.
+  virtual Status apply(const StreamerOutputs& out) = 0;
+  /// Writes page-table texels (the page-table check's full rewrite).
   virtual Status write_page_table(std::span<const PageTableWrite> writes) = 0;
   /// True when the image depends on the writes above (GPU); the CPU reference reads the cache.
   virtual bool renders_page_table() const { return false; }
@@ -118,9 +118,9 @@ class GpuFrameRenderer final : public FrameRenderer {
  public:
   explicit GpuFrameRenderer(Backend& be) : be_(be) {}
   std::string name() const override { return be_.name(); }
-  VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache&, const std::vector<DemoMaterial>& materials,
+  VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
                   const std::vector<scene::SceneObject>& objects) override {
-    if (auto e = be_.init(config, set.texture_count()); !e) return e.error();
+    if (auto e = be_.init(config, cache.set().texture_count()); !e) return e.error();
     for (const auto& o : objects) {
       auto h = be_.create_mesh(MeshData{o.vertices, o.indices});
       if (!h) return h.error();
@@ -137,10 +137,7 @@ class GpuFrameRenderer final : public FrameRenderer {
     }
     return {};
   }
-  Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) override {
-    const TileUpload up{slot, texels};
-    return be_.upload_tiles({&up, 1});
-  }
+  Status apply(const StreamerOutputs& out) override { return apply_streamer_outputs(be_, out); }
   Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
   bool renders_page_table() const override { return true; }
   /// Called after each BSVTF colour pass, outside both timings, while its image is the
@@ -239,9 +236,9 @@ class GpuFrameRenderer final : public FrameRenderer {
 class CpuFrameRenderer final : public FrameRenderer {
  public:
   std::string name() const override { return "CPU reference (backend/cpu_reference.hpp ray-caster)"; }
-  VoidResult init(const ShaderConfig& config, const VtSet& set, const TileCache& cache,
-                  const std::vector<DemoMaterial>& materials, const std::vector<scene::SceneObject>&) override {
-    set_ = &set;
+  VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
+                  const std::vector<scene::SceneObject>&) override {
+    set_ = &cache.set();
     cache_ = &cache;
     materials_ = &materials;
     config_ = config;
@@ -256,8 +253,16 @@ class CpuFrameRenderer final : public FrameRenderer {
     }
     return {};
   }
-  Status upload_tile(uint32_t slot, std::span<const uint16_t> texels) override {
-    return texture_->upload(*cache_, slot, texels) ? Status::success : Status::invalid_argument;
+  // Tiles into the cache texture; the ray-caster samples the tile cache's own page table.
+  Status apply(const StreamerOutputs& out) override {
+    return forward_streamer_outputs(
+        out,
+        [&](std::span<const TileUpload> tiles) noexcept {
+          for (const TileUpload& t : tiles)
+            if (!texture_->upload(*cache_, t.slot, t.texels)) return Status::invalid_argument;
+          return Status::success;
+        },
+        [](std::span<const PageTableWrite>) noexcept { return Status::success; });
   }
   Status write_page_table(std::span<const PageTableWrite>) override { return Status::success; }  // reads the cache's table
   VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
@@ -347,20 +352,21 @@ class CpuFrameRenderer final : public FrameRenderer {
   std::unique_ptr<CpuCacheTexture> texture_;
 };
 
-/// The streaming renderer over a FrameRenderer. Set-up allocates; frame() does the per-frame loop.
+/// The streaming renderer over a FrameRenderer: one btflod::Streamer for every material
+/// (runtime/streamer.hpp), its decode jobs on a ThreadExecutor, each container behind its own
+/// throttled link. Set-up allocates; frame() renders, calls Streamer::update() once and applies
+/// its outputs (backend/streamer_outputs.hpp).
 class StreamingRenderer {
  public:
-  /// Creates the VT set, cache, scheduler, the renderer's resources and one pipeline per
-  /// material over a throttled link, and loads the pinned root tiles (blocking). Returns an
-  /// error naming the failing step. `renderer` and `materials` must outlive the object.
+  /// Creates the renderer's resources and the Streamer over one throttled link per material,
+  /// and loads every pinned root tile and U′ packet (update() + pump() on this thread, before
+  /// any worker exists). Returns an error naming the failing step. `renderer` and `materials`
+  /// must outlive the object.
   static Result<std::unique_ptr<StreamingRenderer>> create(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials,
                                                            const StreamSettings& s) {
     std::unique_ptr<StreamingRenderer> r(new StreamingRenderer(renderer, materials, s));
     if (auto e = r->init(); !e) return e.error();
     return r;
-  }
-  ~StreamingRenderer() {
-    for (auto& p : pipelines_) p->shutdown();
   }
 
   /// Renders frame f (camera at path position view_frame of `frames`) and streams; writes the
@@ -375,127 +381,84 @@ class StreamingRenderer {
         !e)
       return e.error();
 
-    // Streaming: votes → plan → requests → pipeline → uploads → page table. The votes are the
-    // sum over the last 4^shift frames (one rotation of the feedback sample position), so every
-    // screen pixel counts once, with weight 1 (lod/feedback.hpp, VoteCounter::accumulate).
-    if (!feedback_.empty()) votes_->accumulate(feedback_, 1, sched_->lod_bias());
-    const auto requests = sched_->plan(*cache_, *votes_, f);
-    rec.requests = static_cast<uint32_t>(requests.size());
-    rec.swaps = static_cast<uint32_t>(sched_->frame().swaps);
-    rec.lod_bias = sched_->lod_bias();
-    for (const TileRequest& q : requests) {
-      if (q.u_packet) {  // U is loaded up front (stream_u_columns = false): nothing to fetch
-        if (sched_->begin_decode(q.id)) sched_->finish_decode(q.id);
-        continue;
-      }
-      const uint32_t m = set_.material_of(q.tile.texture);
-      const TileId local{q.tile.texture - set_.material(m).first_texture, q.tile.level, q.tile.x, q.tile.y};
-      outstanding_[m].push_back(StreamItem::for_tile(local));
-      request_of_[m][local.key()] = q.id;
-    }
-    for (uint32_t m = 0; m < pipelines_.size(); ++m) {
-      pipelines_[m]->request(outstanding_[m]);
-      pipelines_[m]->deliver(s_.uploads_per_frame, [&](const StreamDelivery& d) {
-        const auto it = request_of_[m].find(d.item.key());
-        if (it == request_of_[m].end()) return;
-        std::vector<uint16_t>& texels = staging_[it->second];
-        texels.resize(d.samples.size());
-        float_to_half(d.samples, texels);
-        if (sched_->begin_decode(it->second)) sched_->finish_decode(it->second);
-        forget(m, it->first);
-      });
-      pipelines_[m]->drain_events([&](const PipelineEvent& e) {
-        if (!e.skipped) return;
-        const auto it = request_of_[m].find(e.item.key());
-        if (it == request_of_[m].end()) return;
-        sched_->cancel(*cache_, it->second);
-        forget(m, it->first);
-      });
-    }
-    Status upload_status = Status::success;
-    rec.uploads = sched_->apply_uploads(*cache_, [&](const TileRequest& q) {
-      if (q.u_packet) return;
-      if (renderer_.upload_tile(q.slot, staging_[q.id]) != Status::success) upload_status = Status::io_error;
-    });
-    if (upload_status != Status::success) return make_error(upload_status, "tile upload failed");
-    if (auto e = write_page_tables(false); !e) return e.error();
-    rec.page_table_writes = static_cast<uint32_t>(writes_.size());
-    for (const auto& p : pipelines_) {
-      const PipelineProgress pr = p->progress();
-      rec.bytes_received += pr.bytes_received;
-      rec.tiles_delivered += pr.tiles_delivered;
-    }
-    rec.occupancy = static_cast<double>(cache_->used_count()) / static_cast<double>(cache_->slot_count());
+    // Streaming: one update() — votes summed over the last 4^shift frames (one rotation of the
+    // feedback sample position), plan, decode jobs handed to the workers, and this frame's
+    // tile uploads and page-table texels — applied to the renderer.
+    if (auto e = update(feedback_); !e) return e.error();
+    const SchedulerCounters& fc = streamer_.scheduler().frame();
+    rec.requests = static_cast<uint32_t>(fc.requests);
+    rec.swaps = static_cast<uint32_t>(fc.swaps);
+    rec.lod_bias = streamer_.scheduler().lod_bias();
+    rec.uploads = static_cast<uint32_t>(last_uploads_);
+    rec.page_table_writes = static_cast<uint32_t>(last_page_table_writes_);
+    rec.bytes_received = streamer_.bytes_read();
+    rec.tiles_delivered = tiles_delivered_;
+    rec.occupancy = static_cast<double>(streamer_.cache().used_count()) / static_cast<double>(streamer_.cache().slot_count());
     const Image<float> a = to_display(bsvtf_img), b = to_display(fmf_img);
     rec.ssim = mean_ssim(a.view(), b.view());
     rec.rmse = rmse(bsvtf_img.view(), fmf_img.view());
     return rec;
   }
 
-  /// Payload bytes of all containers (the whole data set).
+  /// Payload bytes of all containers (tiles and U′ packets: the whole data set).
   uint64_t total_payload_bytes() const {
     uint64_t n = 0;
-    for (const auto& p : pipelines_) n += p->progress().bytes_total;
+    for (const BsvtfDirectory& d : directories_) {
+      for (const BsvtfTileEntry& t : d.tiles) n += t.size;
+      for (const BsvtfPacketEntry& p : d.packets) n += p.size;
+    }
     return n;
   }
   const MemoryFigures& memory() const noexcept { return memory_; }
   /// Frames over which the votes are summed (one rotation cycle of the feedback sample position).
-  uint32_t vote_window_frames() const noexcept { return votes_->window_frames(); }
+  uint32_t vote_window_frames() const noexcept { return streamer_.votes().window_frames(); }
   /// The feedback words of the last frame (screen / 2^feedback_shift per axis; --record-feedback).
   const std::vector<uint32_t>& last_feedback() const noexcept { return feedback_; }
-  /// Tiles requested by the scheduler and not yet delivered.
-  size_t pending_tiles() const noexcept {
-    size_t n = 0;
-    for (const auto& o : outstanding_) n += o.size();
-    return n;
-  }
-  uint32_t slot_count() const noexcept { return cache_->slot_count(); }
-  uint32_t tile_count() const noexcept {
-    uint32_t n = 0;
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) n += set_.levels_of(t).tile_count();
-    return n;
-  }
+  /// Tiles requested by the scheduler and not yet uploaded.
+  size_t pending_tiles() const noexcept { return streamer_.scheduler().requests_in_flight(); }
+  /// Tiles or U′ packets that failed to arrive or decode (residency events) since set-up.
+  uint64_t failures() const noexcept { return failures_; }
+  uint32_t slot_count() const noexcept { return streamer_.cache().slot_count(); }
+  uint32_t tile_count() const noexcept { return static_cast<uint32_t>(full_page_table_size()); }
 
  private:
   StreamingRenderer(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials, const StreamSettings& s)
       : renderer_(renderer), materials_(materials), s_(s) {}
+
+  const VtSet& set() const noexcept { return streamer_.cache().set(); }
 
   ShaderParams material_params(const ShaderParams& base, uint32_t m) const {
     ShaderParams p = base;
     const DemoMaterial& d = materials_[m];
     p.vt_extent = glm::vec4(static_cast<float>(d.eigen_textures.width()), static_cast<float>(d.eigen_textures.height()),
                             static_cast<float>(d.finest_level), 0.0f);
-    p.ids = glm::uvec4(set_.material(m).first_texture, m, 0u, 0u);
+    p.ids = glm::uvec4(streamer_.first_texture(m), m, 0u, 0u);
     return p;
   }
 
-  void forget(uint32_t m, uint64_t key) {
-    request_of_[m].erase(key);
-    auto& o = outstanding_[m];
-    o.erase(std::remove_if(o.begin(), o.end(), [&](const StreamItem& i) { return i.key() == key; }), o.end());
-  }
-
-  // Brings the GPU page table in line with the cache. `full` (start-up) or a delta overflow:
-  // every texel of every level. Otherwise the writes the frame's cache operations imply: the
-  // cache's deltas and the chain of every tile it reports as touched (inserted, removed, swapped
-  // out, or hidden by an add), backend/page_table_writes.hpp — no slot diff.
-  VoidResult write_page_tables(bool full) {
-    writes_.clear();
-    if (full || cache_->deltas_overflowed()) {
-      for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
-      ++full_rewrites_;
-    } else {
-      append_frame_page_table_writes(*cache_, writes_);
+  // One Streamer::update() and its outputs applied to the renderer. The page-table writes are
+  // also kept in a CPU mirror of the GPU table, for check_page_tables_against_rebuild().
+  VoidResult update(std::span<const uint32_t> feedback) {
+    StreamerOutputs out{tile_uploads_, packet_uploads_, page_writes_, events_};
+    if (const Status st = streamer_.update(feedback, out); st != Status::success)
+      return make_error(st, "Streamer::update failed");
+    if (const Status st = renderer_.apply(out); st != Status::success)
+      return make_error(st, "applying the frame's outputs failed (%zu tiles, %zu page-table texels)", out.tile_upload_count,
+                        out.page_table_write_count);
+    for (size_t i = 0; i < out.page_table_write_count; ++i) {
+      const PageTableWrite& w = page_writes_[i];
+      page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
     }
-    cache_->clear_deltas();
-    for (const PageTableWrite& w : writes_) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
-    total_page_table_writes_ += writes_.size();
-    if (renderer_.write_page_table(writes_) != Status::success)
-      return make_error(Status::io_error, "page-table writes failed (%zu writes)", writes_.size());
+    for (size_t i = 0; i < out.event_count; ++i)
+      failures_ += events_[i].kind == ResidencyEventKind::tile_failed || events_[i].kind == ResidencyEventKind::packet_failed;
+    last_uploads_ = out.tile_upload_count;
+    last_page_table_writes_ = out.page_table_write_count;
+    tiles_delivered_ += static_cast<uint32_t>(out.tile_upload_count);
+    total_page_table_writes_ += out.page_table_write_count;
     return {};
   }
 
-  size_t mirror_index(const TileId& t) const { return set_.levels_of(t.texture).index(t); }
+  size_t mirror_index(const TileId& t) const { return set().levels_of(t.texture).index(t); }
 
   // The entry the BSVTF shader ends up sampling at tile t (level l, not the finest) for finest
   // tile f below it, from page table `table` (function of a tile): btflod_vt_fetch's rule, its
@@ -509,29 +472,34 @@ class StreamingRenderer {
   }
 
  public:
-  /// Page-table writes since set-up (deltas), full-table rewrites (start-up, overflows), and
-  /// the writes one full rewrite of every table takes.
+  /// Page-table texels written since set-up (the Streamer's writes: the initial upload of every
+  /// texel, then only texels whose value changed), full-table rewrites among them (the initial
+  /// upload), and the writes one full rewrite of every table takes.
   uint64_t total_page_table_writes() const noexcept { return total_page_table_writes_; }
-  uint32_t full_rewrites() const noexcept { return full_rewrites_; }
+  uint32_t full_rewrites() const noexcept { return 1; }
   size_t full_page_table_size() const noexcept {
     size_t n = 0;
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) n += set_.levels_of(t).tile_count();
+    for (uint32_t t = 0; t < set().texture_count(); ++t) n += set().levels_of(t).tile_count();
     return n;
   }
 
-  /// Checks that the page table built from deltas equals a from-scratch rebuild as far as the
-  /// shader can tell: for every texel of every level, the CPU mirror of the GPU table (every
-  /// write applied) and gpu_page_entry() of the cache give the same sampled entry (own entry
-  /// when resident at its level, else the deeper of it and the finest entry), and mip 0 is
-  /// identical. Then, on a GPU renderer, renders `view_frame` with the delta-built table,
+  /// Checks that the page table built from the Streamer's writes equals a from-scratch rebuild
+  /// as far as the shader can tell: for every texel of every level, the CPU mirror of the GPU
+  /// table (every write applied) and gpu_page_entry() of the cache give the same sampled entry
+  /// (own entry when resident at its level, else the deeper of it and the finest entry), and
+  /// mip 0 is identical. Then, on a GPU renderer, renders `view_frame` with the written table,
   /// rewrites every table from scratch, renders again and requires identical images. Returns
   /// the first difference (texture, level, tile, entries) or the largest pixel difference.
   VoidResult check_page_tables_against_rebuild(uint32_t view_frame, uint32_t frames, Image<float>& a, Image<float>& b) {
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) {
-      const VtLevelTable& lv = set_.levels_of(t);
+    if (streamer_.pending_page_table_writes() != 0)
+      return make_error(Status::invalid_argument, "%zu page-table writes still wait for output capacity",
+                        streamer_.pending_page_table_writes());
+    const TileCache& cache = streamer_.cache();
+    for (uint32_t t = 0; t < set().texture_count(); ++t) {
+      const VtLevelTable& lv = set().levels_of(t);
       const uint32_t L = lv.finest_level();
       const auto mirror = [&](const TileId& id) { return page_mirror_[t][lv.index(id)]; };
-      const auto rebuild = [&](const TileId& id) { return gpu_page_entry(*cache_, id); };
+      const auto rebuild = [&](const TileId& id) { return gpu_page_entry(cache, id); };
       for (uint32_t i = 0; i < lv.tile_count(); ++i) {
         const TileId id = lv.tile(t, i);
         if (id.level == L) {
@@ -560,11 +528,11 @@ class StreamingRenderer {
     double ms_a = 0, ms_b = 0;
     if (auto e = renderer_.render(view, 0, s_.feedback_shift, params, a, b, feedback, ms_a, ms_b); !e) return e;
     Image<float> delta_built = a;
-    writes_.clear();
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) append_full_page_table_writes(*cache_, t, writes_);
-    if (renderer_.write_page_table(writes_) != Status::success)
-      return make_error(Status::io_error, "page-table rebuild failed (%zu writes)", writes_.size());
-    for (const PageTableWrite& w : writes_) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
+    std::vector<PageTableWrite> writes;
+    for (uint32_t t = 0; t < set().texture_count(); ++t) append_full_page_table_writes(cache, t, writes);
+    if (renderer_.write_page_table(writes) != Status::success)
+      return make_error(Status::io_error, "page-table rebuild failed (%zu writes)", writes.size());
+    for (const PageTableWrite& w : writes) page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
     if (auto e = renderer_.render(view, 0, s_.feedback_shift, params, a, b, feedback, ms_a, ms_b); !e) return e;
     float worst = 0.0f;
     int wx = 0, wy = 0;
@@ -582,7 +550,6 @@ class StreamingRenderer {
   }
 
  private:
-
   VoidResult init() {
     const DemoMaterial& first = materials_.front();
     ShaderConfig config;
@@ -592,44 +559,35 @@ class StreamingRenderer {
     config.angular.resolution = first.angular_resolution;
     uint32_t finest = 0;
     for (const auto& m : materials_) finest = std::max(finest, m.finest_level);
-    // VT set from the containers' geometry (what a client knows before streaming).
+    // The containers' directories: geometry, C, tile weights w and energies, payload sizes.
     for (const DemoMaterial& m : materials_) {
       auto dir = read_bsvtf(m.bsvtf);
       if (!dir) return make_error(dir.status(), "%s: %s", m.bsvtf_path.c_str(), dir.message().c_str());
-      const BsvtfMetadata& md = dir->metadata;
-      const uint32_t mi = set_.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
-      tile_size_ = md.tile_size;
-      border_ = md.border;
-      // Weights w for the scheduler (paper 000 eq. 8) and energies (§6), from the container's index.
-      for (const BsvtfTileEntry& e : dir->tiles) {
-        const uint32_t t = set_.material(mi).first_texture + e.id.texture;
-        set_.weights(t)[set_.levels_of(t).index(e.id)] = Half(e.weight);
-        set_.energies(t)[set_.levels_of(t).index(e.id)] = Half(e.energy);
-      }
+      directories_.push_back(std::move(*dir));
     }
-    config.vt.tile_size = tile_size_;
-    config.vt.border = border_;
-    config.vt.slots_x = s_.slots_x;
-    config.vt.slots_y = s_.slots_y;
-    config.vt.cache_layers = 1;
+    StreamerConfig sc;
+    sc.cache = CacheConfig{s_.slots_x, s_.slots_y, 1u << 16, directories_.front().metadata.tile_size,
+                           directories_.front().metadata.border, 1};
+    sc.scheduler.budgets.uploads_per_frame = s_.uploads_per_frame;
+    sc.scheduler.budgets.requests_in_flight = 4 * s_.uploads_per_frame;
+    sc.scheduler.budgets.tiles_decoding = 4 * s_.uploads_per_frame;
+    sc.vote_window_frames = 1u << (2 * s_.feedback_shift);
+    // Streaming: one throttled link per container, each over its share (1/n) of the bandwidth.
+    std::vector<StreamerMaterial> streamer_materials;
+    for (size_t m = 0; m < materials_.size(); ++m) {
+      sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(materials_[m].bsvtf)));
+      throttled_.push_back(std::make_unique<ThrottledSource>(*sources_.back(),
+                                                             s_.bytes_per_second / static_cast<double>(materials_.size()),
+                                                             std::chrono::microseconds(s_.latency_ms * 1000)));
+      streamer_materials.push_back(StreamerMaterial{&directories_[m], throttled_.back().get(), nullptr});
+    }
+    auto streamer = Streamer::create(streamer_materials, sc);
+    if (!streamer) return streamer.error();
+    streamer_ = std::move(*streamer);
+    static_cast<CacheConfig&>(config.vt) = sc.cache;
     config.vt.finest_level = finest;
-    auto cache = TileCache::create(set_, TileCacheConfig{s_.slots_x, s_.slots_y, 1u << 16});
-    if (!cache) return cache.error();
-    cache_ = std::make_unique<TileCache>(std::move(*cache));
-    SchedulerConfig sc;
-    sc.budgets.uploads_per_frame = s_.uploads_per_frame;
-    sc.budgets.requests_in_flight = 4 * s_.uploads_per_frame;
-    sc.budgets.tiles_decoding = 4 * s_.uploads_per_frame;
-    sc.tile_bytes = static_cast<uint64_t>(TileLayout{tile_size_, border_, 4}.sample_count()) * 2;
-    auto sched = Scheduler::create(*cache_, sc);
-    if (!sched) return sched.error();
-    sched_ = std::make_unique<Scheduler>(std::move(*sched));
-    votes_ = std::make_unique<VoteCounter>(vote_layouts(set_), VoteWindowConfig{1u << (2 * s_.feedback_shift), 0});
-    staging_.resize(sc.budgets.requests_in_flight);
-    outstanding_.resize(materials_.size());
-    request_of_.resize(materials_.size());
     objects_ = scene::make_demo_scene(static_cast<uint32_t>(materials_.size()));
-    if (auto e = renderer_.init(config, set_, *cache_, materials_, objects_); !e) return e.error();
+    if (auto e = renderer_.init(config, streamer_.cache(), materials_, objects_); !e) return e.error();
     // Texture memory as a GPU backend allocates it.
     for (const DemoMaterial& m : materials_) {
       const uint64_t groups = (m.components + 3) / 4;
@@ -645,67 +603,51 @@ class StreamingRenderer {
     uint64_t pt = 0;
     for (uint32_t l = 0; l <= finest; ++l) pt += (1ull << l) * (1ull << l);
     memory_.bsvtf_bytes = static_cast<uint64_t>(config.vt.cache_width()) * config.vt.cache_height() * 8 +
-                          pt * 4 * set_.texture_count();
-    // Streaming: one pipeline per container, each over its share (1/n) of the throttled link.
-    for (const DemoMaterial& m : materials_) sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(m.bsvtf)));
-    for (auto& src : sources_) {
-      throttled_.push_back(std::make_unique<ThrottledSource>(*src, s_.bytes_per_second / static_cast<double>(sources_.size()),
-                                                             std::chrono::microseconds(s_.latency_ms * 1000)));
-      PipelineConfig pc;
-      pc.worker_threads = 1;
-      pc.ready_capacity = 4 * s_.uploads_per_frame;
-      auto p = StreamingPipeline::open(*throttled_.back(), pc);
-      if (!p) return p.error();
-      pipelines_.push_back(std::move(*p));
+                          pt * 4 * set().texture_count();
+    // Caller-owned outputs, sized once: every page-table texel fits (the first update writes
+    // them all).
+    tile_uploads_.resize(streamer_.tile_uploads_bound());
+    packet_uploads_.resize(streamer_.packet_uploads_bound());
+    page_writes_.resize(full_page_table_size());
+    events_.resize(256);
+    page_mirror_.resize(set().texture_count());
+    for (uint32_t t = 0; t < set().texture_count(); ++t) page_mirror_[t].assign(set().levels_of(t).tile_count(), 0u);
+    // Pinned roots and U′ packets: the Streamer queued them at creation; run their jobs on this
+    // thread until every material reports material_ready (each pump() blocks on the throttled
+    // links while it reads; no sleeping, no polling of a clock).
+    bool ready = false;
+    for (uint32_t round = 0; round < 100000 && !ready; ++round) {
+      if (auto e = update({}); !e) return e.error();
+      ready = true;
+      for (uint32_t m = 0; m < streamer_.material_count(); ++m) ready = ready && streamer_.material_ready(m);
+      if (failures_ > 1000)
+        return make_error(Status::io_error, "root tiles or U′ packets failed %llu times",
+                          static_cast<unsigned long long>(failures_));
+      if (!ready) streamer_.pump();
     }
-    // Pinned roots: fetch through the pipeline (blocking, bounded) and upload.
-    for (uint32_t m = 0; m < materials_.size(); ++m) {
-      const VtMaterial& vm = set_.material(m);
-      std::vector<StreamItem> roots;
-      for (uint32_t k = 0; k < vm.texture_count; ++k) roots.push_back(StreamItem::for_tile(TileId{k, 0, 0, 0}));
-      pipelines_[m]->request(roots);
-      uint32_t got = 0;
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-      while (got < vm.texture_count && std::chrono::steady_clock::now() < deadline) {
-        Status st = Status::success;
-        pipelines_[m]->deliver(roots.size(), [&](const StreamDelivery& d) {
-          std::vector<uint16_t> texels(d.samples.size());
-          float_to_half(d.samples, texels);
-          const TileId global{vm.first_texture + d.item.tile.texture, 0, 0, 0};
-          if (renderer_.upload_tile(cache_->slot_of(global), texels) != Status::success) st = Status::io_error;
-          ++got;
-        });
-        if (st != Status::success) return make_error(st, "root tile upload failed");
-        if (got < vm.texture_count) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-      }
-      if (got < vm.texture_count) return make_error(Status::io_error, "%s: root tiles did not arrive", materials_[m].name.c_str());
-      pipelines_[m]->request({});
-    }
-    page_mirror_.resize(set_.texture_count());
-    for (uint32_t t = 0; t < set_.texture_count(); ++t) page_mirror_[t].assign(set_.levels_of(t).tile_count(), 0u);
-    writes_.reserve(4096);
-    return write_page_tables(true);
+    if (!ready) return make_error(Status::io_error, "root tiles or U′ packets did not arrive");
+    // From now on the decode jobs run on worker threads (mostly waiting on the throttled links).
+    executor_ = std::make_unique<ThreadExecutor>(streamer_.jobs(), static_cast<unsigned>(materials_.size()));
+    return {};
   }
 
   FrameRenderer& renderer_;
   const std::vector<DemoMaterial>& materials_;
   StreamSettings s_;
-  uint32_t tile_size_ = 32, border_ = 4;
-  VtSet set_;
-  std::unique_ptr<TileCache> cache_;
-  std::unique_ptr<Scheduler> sched_;
-  std::unique_ptr<VoteCounter> votes_;
+  std::vector<BsvtfDirectory> directories_;
   std::vector<std::unique_ptr<MemorySource>> sources_;
   std::vector<std::unique_ptr<ThrottledSource>> throttled_;
-  std::vector<std::unique_ptr<StreamingPipeline>> pipelines_;
-  std::vector<std::vector<StreamItem>> outstanding_;
-  std::vector<std::unordered_map<uint64_t, uint32_t>> request_of_;
-  std::vector<std::vector<uint16_t>> staging_;
+  Streamer streamer_;
+  std::unique_ptr<ThreadExecutor> executor_;  // declared after streamer_: joined before it goes
+  std::vector<StreamerTileUpload> tile_uploads_;
+  std::vector<StreamerPacketUpload> packet_uploads_;
+  std::vector<PageTableWrite> page_writes_;
+  std::vector<ResidencyEvent> events_;
   std::vector<uint32_t> feedback_;
-  std::vector<PageTableWrite> writes_;
   std::vector<std::vector<uint32_t>> page_mirror_;  // per texture: every GPU page-table texel written so far
-  uint64_t total_page_table_writes_ = 0;
-  uint32_t full_rewrites_ = 0;
+  size_t last_uploads_ = 0, last_page_table_writes_ = 0;
+  uint32_t tiles_delivered_ = 0;
+  uint64_t total_page_table_writes_ = 0, failures_ = 0;
   std::vector<scene::SceneObject> objects_;
   MemoryFigures memory_;
 };

@@ -109,6 +109,30 @@ async function openPage(browser, query, v = view) {
   return page;
 }
 
+// The page's "quality so far" compares against the converged frame of its view: the CPU reference.
+async function setQualityReference(page, file) {
+  await page.evaluate((b64) => {
+    const bin = atob(b64);
+    const u = new Uint8Array(bin.length);
+    for (let i = 0; i < bin.length; ++i) u[i] = bin.charCodeAt(i);
+    const c = window.btflod.client;
+    c.opt.qualityEvery = 1;
+    c.setQualityReference(new Float32Array(u.buffer));
+  }, readFileSync(file).toString('base64'));
+}
+
+// The page's SSIM estimate (64² readback) next to the driver's full-resolution SSIM.
+function qualityCheck(gl, what, curve, finalQuality, r) {
+  const hitEst = curve.find((p) => p.quality_estimate >= 0.95), hit = curve.find((p) => p.ssim >= 0.95);
+  const meanDiff = curve.reduce((a, p) => a + Math.abs(p.quality_estimate - p.ssim), 0) / Math.max(1, curve.length);
+  r[`quality_estimate_${what}`] = { final: finalQuality, bytes_to_095_estimate: hitEst ? hitEst.bytes : null,
+    bytes_to_095_full: hit ? hit.bytes : null, mean_abs_difference: meanDiff };
+  check(`${gl}: ${what} "quality so far" is an SSIM against the converged frame`,
+    finalQuality >= 0.98 && curve.length > 1 && curve[0].quality_estimate < 0.95,
+    `page estimate ${curve.map((p) => p.quality_estimate.toFixed(3)).slice(0, 8).join(', ')}… final ${finalQuality.toFixed(4)}; ` +
+    `bytes to 0.95: estimate ${hitEst ? hitEst.bytes : '-'}, full-resolution SSIM ${hit ? hit.bytes : '-'}; mean |difference| ${meanDiff.toFixed(3)}`);
+}
+
 // Steps frames until converged (3 frames in a row) or maxFrames; snapshots every `every` frames.
 async function stream(page, { maxFrames, every, snapshots }) {
   let stable = 0, frames = 0;
@@ -154,7 +178,7 @@ async function runGl(gl) {
   const r = {};
   try {
     if (!benchOnly) await correctness(browser, gl, r);
-    await bench(browser, gl, r);
+    if (!reduced || gl === 'swiftshader') await bench(browser, gl, r);
   } finally {
     await browser.close();
   }
@@ -166,10 +190,14 @@ async function correctness(browser, gl, r) {
     // --- golden: priority streaming -------------------------------------------------------
     newLogLines();
     let page = await openPage(browser, '');
+    await setQualityReference(page, refPath);
     const pri = await stream(page, { maxFrames: reduced ? 400 : 800, every: reduced ? 4 : 2, snapshots: true });
     const g = compare(pri.final.image);
     r.golden = { frames: pri.frames, converged: pri.converged, psnr_db: g.psnr_db, ssim: g.ssim, stats: pri.final.stats };
-    check(`${gl}: priority streaming converged`, pri.converged, `${pri.frames} frames, ${pri.final.stats.bytes} bytes`);
+    const fs = pri.final.stats;
+    check(`${gl}: priority streaming converged (asynchronous feedback readback)`, pri.converged && fs.feedbackReadbacks > 0,
+      `${pri.frames} frames, ${fs.bytes} bytes; feedback readbacks ${fs.feedbackReadbacks}, fence not yet signalled ` +
+      `${fs.feedbackWaits || 0} times, passes skipped (all buffers in flight) ${fs.feedbackSkipped || 0}`);
     check(`${gl}: golden BSVTF vs CPU reference ≥ 40 dB`, g.psnr_db >= 40, `${g.psnr_db.toFixed(2)} dB, SSIM ${g.ssim.toFixed(4)}`);
     const log = newLogLines().filter((l) => l.uri && l.uri.endsWith('.bsvtf'));
     const nonRange = log.filter((l) => l.status !== 206 || !l.range.startsWith('bytes='));
@@ -177,8 +205,12 @@ async function correctness(browser, gl, r) {
       `${log.length} requests, ${nonRange.length} without Range/206`);
     const p95 = bytesToSsim(pri.shots, pri.final.stats.bytes, 0.95);
     r.priority_curve = p95.curve;
+    qualityCheck(gl, 'BSVTF', p95.curve, pri.final.quality, r);
     await page.close();
 
+    // The reduced run's second GL path (llvmpipe) repeats the golden checks only.
+    const lite = reduced && gl !== 'swiftshader';
+    if (!lite) {
     // --- components: paper 004's order over the same data -------------------------------
     page = await openPage(browser, '');
     await page.evaluate(() => window.btflod.client.startComponentOrder());
@@ -210,6 +242,7 @@ async function correctness(browser, gl, r) {
       `requests per file ${JSON.stringify(perFile)}`);
     r.needed = { perFile, bytes: need.final.stats.bytes };
     await page.close();
+    }
 
     // --- faults: dropped connections and corrupted payloads --------------------------------
     if (gl === 'swiftshader') {
@@ -244,6 +277,7 @@ async function correctness(browser, gl, r) {
 
     // --- PCA-k: paper 004's representation, ring search in the shader, component by component ---
     page = await openPage(browser, '&pcak=pcak-0.pcak', pcakView);
+    await setQualityReference(page, pcakRef);
     const pk = await stream(page, { maxFrames: 80, every: 1, snapshots: true });
     const gp = compare(pk.final.image, pcakRef);
     const pkFinal = path.join(WORK, `pcak_final_${gl}.f32`);
@@ -254,6 +288,7 @@ async function correctness(browser, gl, r) {
       if (!pcurve.length || shot.bytes !== pcurve[pcurve.length - 1].bytes)
         pcurve.push({ bytes: shot.bytes, quality_estimate: shot.quality, ssim: compare(shot.image, pkFinal).ssim });
     const hit = pcurve.find((p) => p.ssim >= 0.95);
+    qualityCheck(gl, 'PCA-k', pcurve, pk.final.quality, r);
     r.pcak = { psnr_db: gp.psnr_db, ssim: gp.ssim, bytes: pk.final.stats.bytes, frames: pk.frames, curve: pcurve,
       bytes_to_ssim_095: hit ? hit.bytes : pk.final.stats.bytes };
     check(`${gl}: PCA-k streamed component by component converged`, pk.converged && pcurve.length >= 3,
@@ -351,7 +386,7 @@ async function bench(browser, gl, r) {
   }
 }
 
-const gls = reduced ? ['swiftshader'] : ['swiftshader', 'llvmpipe'];
+const gls = ['swiftshader', 'llvmpipe'];  // reduced: llvmpipe runs the golden checks only
 if (benchOnly) report.bench_only = true;
 for (const gl of gls) {
   try {

@@ -74,6 +74,44 @@ async function fetchRange(url, offset, size, stats) {
   return { bytes, total: Number(m[3]) };
 }
 
+// "Quality so far": mean SSIM (8 × 8 windows, stride 4, on luminance) of a small readback of the
+// frame against the converged frame of the same view, both box-filtered to QUALITY_SIZE².
+const QUALITY_SIZE = 64;
+function lumaDown(img, w, h, n) {  // RGBA float32, row 0 = top → n × n luminance, row 0 = top
+  const out = new Float32Array(n * n), fx = w / n, fy = h / n;
+  for (let y = 0; y < n; ++y)
+    for (let x = 0; x < n; ++x) {
+      let s = 0, c = 0;
+      for (let yy = Math.floor(y * fy); yy < Math.floor((y + 1) * fy); ++yy)
+        for (let xx = Math.floor(x * fx); xx < Math.floor((x + 1) * fx); ++xx, ++c) {
+          const o = (yy * w + xx) * 4;
+          s += 0.2126 * img[o] + 0.7152 * img[o + 1] + 0.0722 * img[o + 2];
+        }
+      out[y * n + x] = c ? s / c : 0;
+    }
+  return out;
+}
+function meanSsim(a, b, n, peak) {
+  const c1 = (0.01 * peak) ** 2, c2 = (0.03 * peak) ** 2;
+  let sum = 0, count = 0;
+  for (let y = 0; y + 8 <= n; y += 4)
+    for (let x = 0; x + 8 <= n; x += 4) {
+      let ma = 0, mb = 0;
+      for (let j = 0; j < 8; ++j) for (let i = 0; i < 8; ++i) { ma += a[(y + j) * n + x + i]; mb += b[(y + j) * n + x + i]; }
+      ma /= 64; mb /= 64;
+      let va = 0, vb = 0, cov = 0;
+      for (let j = 0; j < 8; ++j)
+        for (let i = 0; i < 8; ++i) {
+          const da = a[(y + j) * n + x + i] - ma, db = b[(y + j) * n + x + i] - mb;
+          va += da * da; vb += db * db; cov += da * db;
+        }
+      va /= 63; vb /= 63; cov /= 63;
+      sum += ((2 * ma * mb + c1) * (2 * cov + c2)) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+      count += 1;
+    }
+  return count ? sum / count : 0;
+}
+
 export class BtflodClient {
   /// canvas: a WebGL 2 canvas; module: the instantiated wasm module; options: see defaults.
   constructor(canvas, module, options = {}) {
@@ -81,7 +119,8 @@ export class BtflodClient {
     this.M = module;
     this.opt = Object.assign({
       slotsX: 24, slotsY: 24, uploadsPerFrame: 16, requestsInFlight: 48, fetchConcurrency: 6,
-      angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4,
+      angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4, readbackBuffers: 3,
+      readbackMaxFrames: 3, qualityEvery: 2,
     }, options);
     this.gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
     if (!this.gl) throw new Error('WebGL 2 is not available');
@@ -386,6 +425,18 @@ export class BtflodClient {
     this.feedbackFbo = fbo(this.feedbackTex, this.fbW, this.fbH);
     this.feedbackWords = new Uint32Array(this.fbW * this.fbH * 4);
     this.feedbackHeap = this.M._malloc(this.fbW * this.fbH * 4);
+    for (const r of this.readbacks || []) {
+      if (r.fence) gl.deleteSync(r.fence);
+      gl.deleteBuffer(r.buffer);
+    }
+    this.pending = [];
+    this.readbacks = Array.from({ length: this.opt.readbackBuffers }, () => {
+      const buffer = gl.createBuffer();
+      gl.bindBuffer(gl.PIXEL_PACK_BUFFER, buffer);
+      gl.bufferData(gl.PIXEL_PACK_BUFFER, this.fbW * this.fbH * 16, gl.STREAM_READ);
+      return { buffer, fence: null };
+    });
+    gl.bindBuffer(gl.PIXEL_PACK_BUFFER, null);
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
   }
 
@@ -491,24 +542,63 @@ export class BtflodClient {
     gl.drawArrays(gl.TRIANGLES, 0, 3);
   }
 
-  // Feedback pass (paper 000 eq. 1–2) at 1/2^shift resolution, read back, voted and planned.
+  // Feedback pass (paper 000 eq. 1–2) at 1/2^shift resolution, read back without a stall: the
+  // words go into a PIXEL_PACK_BUFFER (one of opt.readbackBuffers) behind a fence, and a later
+  // frame whose fence has signalled (clientWaitSync with timeout 0: polling) hands them to the
+  // scheduler (votes, plan, requests). When every buffer is still in flight the pass is skipped;
+  // a readback older than opt.readbackMaxFrames frames is taken anyway (the browser may then
+  // wait for the GPU: counted in stats.feedbackForced), so the feedback latency stays bounded
+  // where the browser signals fences late (headless pages update them once per compositor frame).
   feedback() {
-    const gl = this.gl, M = this.M;
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.feedbackFbo);
-    gl.viewport(0, 0, this.fbW, this.fbH);
-    gl.enable(gl.DEPTH_TEST);
-    gl.clearBufferuiv(gl.COLOR, 0, [0xffffffff, 0, 0, 0]);
-    gl.clear(gl.DEPTH_BUFFER_BIT);
-    for (const m of this.materials) {
-      gl.useProgram(m.feedbackProgram);
-      this.writeParams(m, this.opt.feedbackShift);
-      gl.activeTexture(gl.TEXTURE6);
-      gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.pageTex);
-      gl.bindVertexArray(m.vao);
-      gl.drawElements(gl.TRIANGLES, 6, gl.UNSIGNED_SHORT, 0);
+    const gl = this.gl;
+    const slot = this.readbacks.find((r) => !r.fence);
+    if (slot) {
+      gl.bindFramebuffer(gl.FRAMEBUFFER, this.feedbackFbo);
+      gl.viewport(0, 0, this.fbW, this.fbH);
+      gl.enable(gl.DEPTH_TEST);
+      gl.clearBufferuiv(gl.COLOR, 0, [0xffffffff, 0, 0, 0]);
+      gl.clear(gl.DEPTH_BUFFER_BIT);
+      for (const m of this.materials) {
+        gl.useProgram(m.feedbackProgram);
+        this.writeParams(m, this.opt.feedbackShift);
+        gl.activeTexture(gl.TEXTURE6);
+        gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.pageTex);
+        gl.bindVertexArray(m.vao);
+        gl.drawElements(gl.TRIANGLES, 6, gl.UNSIGNED_SHORT, 0);
+      }
+      gl.bindVertexArray(null);
+      gl.bindBuffer(gl.PIXEL_PACK_BUFFER, slot.buffer);
+      gl.readPixels(0, 0, this.fbW, this.fbH, gl.RGBA_INTEGER, gl.UNSIGNED_INT, 0);
+      gl.bindBuffer(gl.PIXEL_PACK_BUFFER, null);
+      slot.fence = gl.fenceSync(gl.SYNC_GPU_COMMANDS_COMPLETE, 0);
+      slot.frame = this.stats.frames;
+      this.pending.push(slot);
+      gl.flush();
+    } else {
+      this.stats.feedbackSkipped = (this.stats.feedbackSkipped || 0) + 1;
     }
-    gl.bindVertexArray(null);
-    gl.readPixels(0, 0, this.fbW, this.fbH, gl.RGBA_INTEGER, gl.UNSIGNED_INT, this.feedbackWords);
+    while (this.pending.length && this.pollFeedback()) {}
+  }
+
+  // The oldest pending readback, if its fence has signalled: words → votes → plan → requests.
+  // Returns false when it is still in flight.
+  pollFeedback() {
+    const gl = this.gl, M = this.M, slot = this.pending[0];
+    const status = gl.clientWaitSync(slot.fence, 0, 0);
+    if (status === gl.TIMEOUT_EXPIRED) {
+      if (this.stats.frames - slot.frame < this.opt.readbackMaxFrames) {
+        this.stats.feedbackWaits = (this.stats.feedbackWaits || 0) + 1;
+        return false;
+      }
+      this.stats.feedbackForced = (this.stats.feedbackForced || 0) + 1;
+    }
+    gl.deleteSync(slot.fence);
+    slot.fence = null;
+    this.pending.shift();
+    gl.bindBuffer(gl.PIXEL_PACK_BUFFER, slot.buffer);
+    gl.getBufferSubData(gl.PIXEL_PACK_BUFFER, 0, this.feedbackWords);
+    gl.bindBuffer(gl.PIXEL_PACK_BUFFER, null);
+    this.stats.feedbackReadbacks = (this.stats.feedbackReadbacks || 0) + 1;
     const n = this.fbW * this.fbH;
     const words = new Uint32Array(M.HEAPU8.buffer, this.feedbackHeap, n);
     this.visible = new Set();
@@ -522,6 +612,7 @@ export class BtflodClient {
     const reqs = new Uint32Array(M.HEAPU8.buffer, M._bw_requests(), count * 8).slice();
     for (let i = 0; i < count; ++i) this.queue.push(this.requestInfo(reqs, i));
     this.pump();
+    return true;
   }
 
   /// Switches to paper 004's fixed order for comparison (§5: component by component — U'
@@ -570,6 +661,7 @@ export class BtflodClient {
     this.drawColor();
     this.present();
     if (!this.fixedOrder) this.feedback();
+    this.updateQuality();
     this.stats.frames += 1;
     const t = performance.now() - this.startTime;
     this.timeline.push({ t, bytes: this.stats.bytes, quality: this.quality() });
@@ -577,9 +669,11 @@ export class BtflodClient {
     return this.frameMs;
   }
 
-  /// Σ w of delivered tiles / Σ w of all tiles over the materials (paper 000 eq. 8: w is the
-  /// error a tile removes) — the "quality so far" estimate the page shows.
+  /// The "quality so far" the page shows: the SSIM estimate against the converged frame when
+  /// setQualityReference() gave one, else Σ w of delivered tiles / Σ w of all tiles over the
+  /// materials (paper 000 eq. 8: w is the error a tile removes).
   quality() {
+    if (this.qualityRef) return this.qualitySsim;
     let q = 0;
     for (const m of this.materials) q += this.M._bw_converged_fraction(m.index);
     return q / this.materials.length;
@@ -611,6 +705,52 @@ export class BtflodClient {
     const out = new Float32Array(w * h * 4);
     for (let y = 0; y < h; ++y) out.set(px.subarray((h - 1 - y) * w * 4, (h - y) * w * 4), y * w * 4);
     return out;
+  }
+
+  /// Sets the converged frame of the current view (linear RGBA float32 of the canvas size, row
+  /// 0 = top: e.g. the CPU reference of that view). quality() is then the SSIM of a
+  /// QUALITY_SIZE² readback of each opt.qualityEvery-th frame against it; null goes back to the
+  /// Σw estimate.
+  setQualityReference(img) {
+    this.qualityRef = img ? lumaDown(img, this.width, this.height, QUALITY_SIZE) : null;
+    this.qualityPeak = this.qualityRef ? Math.max(1e-6, ...this.qualityRef) : 1;
+    this.qualitySsim = 0;
+  }
+
+  // Box-filters the colour target to QUALITY_SIZE² luminance on the GPU, reads those 64 × 64
+  // texels back and updates the SSIM estimate.
+  updateQuality() {
+    if (!this.qualityRef || this.stats.frames % this.opt.qualityEvery) return;
+    const gl = this.gl, n = QUALITY_SIZE;
+    if (!this.qualityProgram) {
+      this.qualityProgram = this.link(
+        '#version 300 es\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n' +
+        ' gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }\n',
+        '#version 300 es\nprecision highp float;\nuniform sampler2D img;\nuniform ivec2 box;\nout vec4 color;\n' +
+        'void main() { ivec2 p = ivec2(gl_FragCoord.xy) * box; vec3 s = vec3(0.0);\n' +
+        ' for (int y = 0; y < box.y; ++y) for (int x = 0; x < box.x; ++x) s += texelFetch(img, p + ivec2(x, y), 0).rgb;\n' +
+        ' color = vec4(dot(s / float(box.x * box.y), vec3(0.2126, 0.7152, 0.0722)), 0.0, 0.0, 1.0); }\n');
+      this.qualityTex = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, this.qualityTex);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, n, n);
+      this.qualityFbo = gl.createFramebuffer();
+      gl.bindFramebuffer(gl.FRAMEBUFFER, this.qualityFbo);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, this.qualityTex, 0);
+      this.qualityPixels = new Float32Array(n * n * 4);
+    }
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.qualityFbo);
+    gl.viewport(0, 0, n, n);
+    gl.disable(gl.DEPTH_TEST);
+    gl.useProgram(this.qualityProgram);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, this.colorTex);
+    gl.uniform1i(gl.getUniformLocation(this.qualityProgram, 'img'), 0);
+    gl.uniform2i(gl.getUniformLocation(this.qualityProgram, 'box'), Math.floor(this.width / n), Math.floor(this.height / n));
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.readPixels(0, 0, n, n, gl.RGBA, gl.FLOAT, this.qualityPixels);
+    const luma = new Float32Array(n * n);
+    for (let y = 0; y < n; ++y) for (let x = 0; x < n; ++x) luma[y * n + x] = this.qualityPixels[((n - 1 - y) * n + x) * 4];
+    this.qualitySsim = meanSsim(luma, this.qualityRef, n, this.qualityPeak);
   }
 
   /// Mean ms of `frames` colour passes, each waited for (readPixels of one texel).
@@ -770,12 +910,16 @@ export class PcakClient extends BtflodClient {
     this.present();
     this.drawnSinceChunk = true;
     this.pumpChunks();
+    this.updateQuality();
     this.stats.frames += 1;
     this.timeline.push({ t: performance.now() - this.startTime, bytes: this.stats.bytes, quality: this.quality() });
     this.frameMs = performance.now() - t0;
     return this.frameMs;
   }
-  /// Components delivered / all (replaced by the SSIM estimate when a quality reference is set).
-  quality() { return this.loaded ? this.chunksApplied / this.chunks.length : 0; }
+  /// The SSIM estimate when a quality reference is set, else chunks delivered / all.
+  quality() {
+    if (this.qualityRef) return this.qualitySsim;
+    return this.loaded ? this.chunksApplied / this.chunks.length : 0;
+  }
   converged() { return !!this.loaded && this.chunksApplied === this.chunks.length && this.drawnSinceChunk; }
 }

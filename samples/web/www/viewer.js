@@ -1,5 +1,6 @@
 // btflod viewer page: orbit camera, light direction, material picker, streaming progress
-// (bytes received and the Σw "quality so far" estimate), frame time. window.btflod exposes the
+// (bytes received and "quality so far": an SSIM against the converged frame when one is given
+// with ?qref=, else the Σw estimate), frame time. window.btflod exposes the
 // client to the test driver (samples/web/test/driver.mjs).
 import { BtflodClient, PcakClient } from './btflod_client.js';
 
@@ -19,7 +20,13 @@ async function main() {
   // ?paused=1: no frame runs until a driver steps them (tests set the view first).
   window.btflod = { client, running: params.get('paused') !== '1', lastFrameMs: 0 };
   await client.open(pcak ? 'data/' + pcak : urls);
-  const totalBytes = list.materials.slice(0, count).reduce((s, m) => s + m.bytes, 0);
+  const totalBytes = pcak ? client.totalBytes : list.materials.slice(0, count).reduce((s, m) => s + m.bytes, 0);
+  // ?qref=FILE: the converged frame of the start view (RGBA float32, canvas size, row 0 = top,
+  // e.g. btflod-web-tool reference): "quality so far" becomes an SSIM against it.
+  if (params.get('qref')) {
+    const r = await fetch(params.get('qref'), { cache: 'no-store' });
+    if (r.ok) client.setQualityReference(new Float32Array(await r.arrayBuffer()));
+  }
 
   list.materials.slice(0, count).forEach((m, i) => {
     const o = document.createElement('option');
@@ -62,7 +69,8 @@ async function main() {
       last = now;
       $('bytes').textContent = `${(client.stats.bytes / 1024).toFixed(1)} KiB of ${(totalBytes / 1024).toFixed(1)} KiB`;
       const q = client.quality();
-      $('quality').textContent = `${(100 * q).toFixed(1)} % (Σw delivered / Σw)`;
+      $('quality').textContent = client.qualityRef ? `SSIM ${q.toFixed(3)} against the converged frame`
+        : pcak ? `${(100 * q).toFixed(1)} % of the components` : `${(100 * q).toFixed(1)} % (Σw delivered / Σw)`;
       $('fill').style.width = `${(100 * q).toFixed(1)}%`;
       $('reqs').textContent = `${client.stats.requests} (corrupt ${client.stats.corrupt}, retries ${client.stats.retries})`;
     }

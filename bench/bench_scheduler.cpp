@@ -26,56 +26,20 @@
 #include <vector>
 
 #include "../samples/bench_cli/scheduler_replay.hpp"
+#include "bench_feedback.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/feedback_trace.hpp"
 #include "btflod/vt/scheduler.hpp"
 
 using namespace btflod;
+using btflod::bench::cpu_ns;
+using btflod::bench::make_feedback;
+using btflod::bench::read_once_ns;
 
 namespace {
 
 constexpr uint32_t kTexturesPerMaterial = 25;  // C = 100 components, 4 per RGBA texel
-constexpr int kFrames = 8;
-
-uint32_t hash32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-
-std::vector<std::vector<uint32_t>> make_feedback(uint32_t materials, uint32_t width, uint32_t height, uint32_t L) {
-  std::vector<std::vector<uint32_t>> frames(kFrames);
-  const uint32_t cells = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(materials))));
-  for (int f = 0; f < kFrames; ++f) {
-    auto& words = frames[f];
-    words.resize(static_cast<size_t>(width) * height);
-    for (uint32_t y = 0; y < height; ++y)
-      for (uint32_t x = 0; x < width; ++x) {
-        const uint32_t cx = x * cells / width, cy = y * cells / height;
-        const uint32_t m = cy * cells + cx;
-        if (m >= materials) {
-          words[static_cast<size_t>(y) * width + x] = kFeedbackNone;
-          continue;
-        }
-        // Cell-local texel coordinates: near rows show ~1 texel per pixel, far rows up to 8
-        // (the texture repeats over the surface, as on the paper's tori); coordinates scroll a
-        // little every frame and each cell starts at its own offset.
-        const double ly = (y - cy * height / cells) / double(height / cells);  // 0 … 1 inside the cell
-        const double rho = std::ldexp(1.0, static_cast<int>(cy * 4 / cells)) * (1.0 + 1.5 * ly);
-        const double texels = 2048.0;
-        const double u = std::fmod(((x - cx * width / cells) * rho + 37.0 * m + 11.0 * f) / texels, 1.0);
-        const double v = std::fmod(((y - cy * height / cells) * rho + 53.0 * m) / texels, 1.0);
-        const uint32_t level = L - std::min<uint32_t>(L, static_cast<uint32_t>(std::ceil(std::log2(rho) - 1e-9)));
-        const uint32_t n = 1u << level;
-        words[static_cast<size_t>(y) * width + x] =
-            pack_feedback({m, level, std::min(n - 1, uint32_t(u * n)), std::min(n - 1, uint32_t(v * n))});
-      }
-  }
-  return frames;
-}
+constexpr int kFrames = bench::kFeedbackFrames;
 
 struct Setup {
   VtSet set;
@@ -93,7 +57,7 @@ std::unique_ptr<Setup> make_setup(uint32_t materials, uint32_t width, uint32_t h
     const VtLevelTable& lv = s->set.levels_of(t);
     const uint32_t k = t % kTexturesPerMaterial;  // later components matter less (SVD ordering)
     for (uint32_t i = 0; i < lv.tile_count(); ++i) {
-      const float w = (0.5f + (hash32(t * 7919u + i) & 0xffu) / 256.0f) / static_cast<float>((k + 1) * (k + 1));
+      const float w = bench::bench_tile_weight(t, i, k);
       s->set.weights(t)[i] = Half(w);
       s->set.energies(t)[i] = Half(w * 4.0f);
     }
@@ -103,25 +67,6 @@ std::unique_ptr<Setup> make_setup(uint32_t materials, uint32_t width, uint32_t h
   s->votes = std::make_unique<VoteCounter>(vote_layouts(s->set));
   s->frames = make_feedback(materials, width, height, g.finest_level);
   return s;
-}
-
-// Thread CPU time: the machine is shared, so wall time would charge other processes to us.
-double cpu_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e9 + static_cast<double>(ts.tv_nsec);
-}
-
-// The baseline: read the same buffer once (sum of its words), mean CPU time over 200 reads.
-double read_once_ns(const std::vector<uint32_t>& words) {
-  const int reads = 200;
-  const double t0 = cpu_ns();
-  for (int r = 0; r < reads; ++r) {
-    uint64_t sum = 0;
-    for (uint32_t w : words) sum += w;
-    benchmark::DoNotOptimize(sum);
-  }
-  return (cpu_ns() - t0) / reads;
 }
 
 void BM_SchedulerFrame(benchmark::State& state) {

@@ -15,8 +15,10 @@
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/bsvtf_build.hpp"
+#include "test_runtime_helpers.hpp"
 
 using namespace btflod;
+using btflod_test::decode_direct;
 
 namespace {
 
@@ -41,22 +43,6 @@ std::vector<uint8_t> build(const EigenTextures& e) {
   o.light_directions = {0, 0, 1, 0.6f, 0, 0.8f};
   o.view_directions = {0, 0, 1, 0, 0.6f, 0.8f};
   return build_bsvtf_from_eigen_textures(e, o).value();
-}
-
-std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, const BsvtfDirectory& d, TileId t) {
-  const TileLayout layout = d.metadata.layout();
-  TileDecoder dec(layout);
-  std::vector<float> parent(layout.sample_count()), out(layout.sample_count());
-  for (uint32_t l = 0; l <= t.level; ++l) {
-    const TileId a = t.ancestor(l);
-    const BsvtfTileEntry* e = d.find(a);
-    dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
-               l > 0 ? std::span<const float>(parent) : std::span<const float>(), a.x & 1u, a.y & 1u, out);
-    std::swap(parent, out);
-  }
-  std::vector<uint16_t> h(layout.sample_count());
-  float_to_half(parent, h);
-  return h;
 }
 
 // Every texture sampled on a 48×48 grid through the cache's page table.

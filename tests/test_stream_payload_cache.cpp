@@ -23,36 +23,8 @@
 #include "btflod/stream/pipeline.hpp"
 #include "btflod/stream/tile_source.hpp"
 
-namespace {
-std::atomic<bool> g_counting{false};
-std::atomic<uint64_t> g_allocations{0};
-void* counted_alloc(std::size_t n) {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
-// Replaceable global allocation functions ([new.delete.single], [new.delete.array]).
-void* operator new(std::size_t n) { return counted_alloc(n); }
-void* operator new[](std::size_t n) { return counted_alloc(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-// The nothrow forms too: the sanitizers' runtimes define them without calling the replaced
-// operator new, so their blocks would otherwise reach the free() above from another allocator
-// (RawInflater/RawDeflater allocate with new (std::nothrow)).
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  if (g_counting.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
+// Counts global allocations on any thread (the pipeline must not allocate after set-up).
+#include "test_counting_new.hpp"
 
 namespace {
 
@@ -318,12 +290,10 @@ TEST(PipelineAllocation, SteadyStateStreamingDoesNotAllocate) {
   ASSERT_TRUE(run_round(rounds[0])) << "warm-up";  // set-up: first decodes, lazy library state
   const PipelineProgress before = pipe.progress();
 
-  g_allocations.store(0);
-  g_counting.store(true);
+  const uint64_t allocations_before = btflod_test::global_news();
   bool all = true;
   for (int r = 1; r <= kRounds; ++r) all = all && run_round(rounds[r]);
-  g_counting.store(false);
-  const uint64_t allocations = g_allocations.load();
+  const uint64_t allocations = btflod_test::global_news() - allocations_before;
 
   ASSERT_TRUE(all) << "every round delivers every item";
   const PipelineProgress after = pipe.progress();

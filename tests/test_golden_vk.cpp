@@ -1,8 +1,9 @@
 // Golden images: the Vulkan backend (samples/vulkan, headless on lavapipe) vs the CPU reference
 // of backend/cpu_reference.hpp on the same scene:
 // PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache, and for
-// the laplacian (eq. 7 level blending), lpca (3 clusters) and pca_views (k = 3 of 9 views) programs
-// against the representations' CPU evaluators (test_golden_representations.hpp).
+// the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
+// (paper 003, three residual switches) programs against the representations' CPU evaluators
+// (test_golden_representations.hpp).
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_vk_backend
 // btflod-label: gpu
@@ -30,3 +31,4 @@ TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bs
 TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
 TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
 TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }
+TEST(GoldenVk, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_backend); }

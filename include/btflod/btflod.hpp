@@ -111,6 +111,7 @@
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/backend/page_table_writes.hpp"
 #include "btflod/backend/representation_packing.hpp"
+#include "btflod/backend/spmm_packing.hpp"
 #include "btflod/backend/streamer_outputs.hpp"
 
 // render (ray-tracer shading, sampling and progressive accumulation; paper 003 §4)

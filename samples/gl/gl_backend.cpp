@@ -214,6 +214,7 @@ class GlBackend final : public Backend {
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& data) override {
     return add_representation(data);
   }
+  Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& data) override { return add_representation(data); }
 
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     make_current();

@@ -115,6 +115,30 @@ Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, cons
   return finish(r, ShaderProgram::pca_views, representation_config(base, m));
 }
 
+Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const SpmmMaterialData& m) {
+  GlRepresentation r;
+  // Per texel: S slot layers (basis index, α as float bits) and the cluster id + residual
+  // coefficients (paper 003 eq. 1, 3), RGBA32UI, read with texelFetch.
+  const uint32_t layers = m.slots + spmm_residual_layers(m.residual_components);
+  GLuint texels = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &texels);
+  glTextureStorage3D(texels, 1, GL_RGBA32UI, sz(m.width), sz(m.height), sz(layers));
+  glTextureSubImage3D(texels, 0, 0, 0, 0, sz(m.width), sz(m.height), sz(layers), GL_RGBA_INTEGER, GL_UNSIGNED_INT,
+                      m.texels.data());
+  set_gl_sampling(texels, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  r.units[r.unit_count++] = {ShaderBinding::spmm_texels, texels};
+  // Dictionary (paper 003 eq. 2): 2 texels per basis function.
+  const uint32_t rows = (m.bases + kSpmmBasesPerRow - 1) / kSpmmBasesPerRow;
+  r.units[r.unit_count++] = {ShaderBinding::spmm_dictionary,
+                             float_array(2 * kSpmmBasesPerRow, rows, 0, 1, m.dictionary.data())};
+  // Residual mean and components per cluster over the measured directions (eq. 3).
+  r.units[r.unit_count++] = {
+      ShaderBinding::spmm_residual,
+      float_array(m.light_count, m.view_count, m.clusters * (m.residual_components + 1), 1, m.residual.data())};
+  add_angular(r, m.angular);
+  return finish(r, ShaderProgram::spmm, representation_config(base, m));
+}
+
 void bind_gl_representation(const GlRepresentation& r) noexcept {
   glUseProgram(r.gl_program);
   for (int i = 0; i < r.unit_count; ++i) glBindTextureUnit(static_cast<GLuint>(r.units[i].binding), r.units[i].texture);

@@ -1,5 +1,5 @@
-// btflod sample — the OpenGL side of the laplacian, lpca and pca_views programs (paper 001 eq. 7,
-// paper 002 §6.2, paper 004 §6.3): textures in the layouts of backend.hpp's *MaterialData and
+// btflod sample — the OpenGL side of the laplacian, lpca, pca_views and spmm programs (paper 001
+// eq. 7, paper 002 §6.2, paper 004 §6.3, paper 003 eq. 1–3): textures in the layouts of backend.hpp's *MaterialData and
 // the program generated for each material. Internal to btflod_gl_backend (includes glad).
 #pragma once
 
@@ -28,6 +28,7 @@ struct GlRepresentation {
 Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const LaplacianMaterialData& m);
 Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const LpcaMaterialData& m);
 Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const PcaViewsMaterialData& m);
+Result<GlRepresentation> create_gl_representation(const ShaderConfig& base, const SpmmMaterialData& m);
 
 /// glUseProgram + binds every texture to its unit. No allocation.
 void bind_gl_representation(const GlRepresentation& r) noexcept;

@@ -114,6 +114,7 @@ class VkBackend final : public Backend {
   Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& d) override;
   Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& d) override;
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override;
+  Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& d) override;
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override;
   Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override;
   Status begin_frame(const FrameDesc& frame) noexcept override;
@@ -131,7 +132,7 @@ class VkBackend final : public Backend {
  private:
   // --- laplacian / lpca / pca_views materials -----------------------------------------------
   static int rep_kind(ShaderProgram p) noexcept {
-    return p == ShaderProgram::laplacian ? 0 : p == ShaderProgram::lpca ? 1 : 2;
+    return p == ShaderProgram::laplacian ? 0 : p == ShaderProgram::lpca ? 1 : p == ShaderProgram::pca_views ? 2 : 3;
   }
 
   /// Creates and uploads `textures`, the program's set layout (first use), its pipeline and
@@ -204,9 +205,9 @@ class VkBackend final : public Backend {
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkPipeline fmf_ = VK_NULL_HANDLE, bsvtf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
   VkDescriptorSet feedback_set_ = VK_NULL_HANDLE;
-  // Set and pipeline layouts of the laplacian, lpca and pca_views programs (created on first use).
-  VkDescriptorSetLayout rep_set_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
-  VkPipelineLayout rep_pipeline_layout_[3] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+  // Set and pipeline layouts of the laplacian, lpca, pca_views and spmm programs (created on first use).
+  VkDescriptorSetLayout rep_set_layout_[4] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
+  VkPipelineLayout rep_pipeline_layout_[4] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;

@@ -126,6 +126,47 @@ Result<MaterialHandle> VkBackend::create_pca_views_material(const PcaViewsMateri
        {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
 }
 
+Result<MaterialHandle> VkBackend::create_spmm_material(const SpmmMaterialData& d) {
+  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_spmm_material before init");
+  if (VoidResult v = validate_material(d, config_); !v) return v.error();
+  std::vector<uint32_t> index;
+  std::vector<float> weight;
+  pack_angular_tables_rgba(d.angular, index, weight);
+  const uint32_t res = d.angular.resolution, rows = (d.bases + kSpmmBasesPerRow - 1) / kSpmmBasesPerRow;
+  const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
+  return add_representation(
+      ShaderProgram::spmm, representation_config(config_, d),
+      {// paper 003 eq. 1, 3: slots (basis index, α) and cluster + residual coefficients per texel
+       {ShaderBinding::spmm_texels,
+        VK_FORMAT_R32G32B32A32_UINT,
+        d.width,
+        d.height,
+        d.slots + spmm_residual_layers(d.residual_components),
+        1,
+        1,
+        true,
+        {d.texels.data()},
+        16,
+        false},
+       // eq. 2: model id, κ_j, n_j, 2 texels per basis function
+       {ShaderBinding::spmm_dictionary, f4, 2 * kSpmmBasesPerRow, rows, 1, 1, 1, false, {d.dictionary.data()}, 16,
+        false},
+       // eq. 3: residual mean and components per cluster, texel (light, view)
+       {ShaderBinding::spmm_residual,
+        f4,
+        d.light_count,
+        d.view_count,
+        d.clusters * (d.residual_components + 1),
+        1,
+        1,
+        true,
+        {d.residual.data()},
+        16,
+        false},
+       {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
+       {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+}
+
 Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, const ShaderConfig& config,
                                                      const std::vector<RepTexture>& textures) {
   const int kind = rep_kind(program);

@@ -262,6 +262,33 @@ struct PcaViewsMaterialData {
   AngularTablesData angular;  ///< 3 closest directions, barycentric weights (paper 004 §4.4)
 };
 
+/// SPMM (paper 003 eq. 1–3) in the layout of the spmm program (ShaderConfig::spmm; built by
+/// backend/spmm_packing.hpp). Chosen for few scattered fetches: everything per texel is in one
+/// RGBA32UI array texture (adjacent fragments read adjacent texels of one layer), only the
+/// dictionary entries (2 texels per occupied slot) and the residual table are data-addressed.
+struct SpmmMaterialData {
+  uint32_t slots = 0;                ///< S: weight slots per texel
+  uint32_t residual_components = 0;  ///< P: N_PCA stored per cluster
+  uint32_t clusters = 0;             ///< K
+  uint32_t bases = 0;                ///< dictionary entries of all clusters together
+  uint32_t light_count = 0;
+  uint32_t view_count = 0;
+  uint32_t width = 0;
+  uint32_t height = 0;
+  /// RGBA32UI 2D array of S + spmm_residual_layers(P) layers, W × H texels each. Layer k < S:
+  /// slot k = (global basis index or 0xffffffff when empty, α_r, α_g, α_b as float bits),
+  /// occupied slots first. Layer S + g: element 4g + i of [cluster id, coef_0 … coef_{P−1}]
+  /// (coefficients as float bits, zero-padded).
+  std::span<const uint32_t> texels;
+  /// RGBA32F 2D, 2·kSpmmBasesPerRow × ⌈bases / kSpmmBasesPerRow⌉ texels: basis g at texels
+  /// (2·(g mod 128), g / 128) = (model id as float, κ0, κ1, κ2) and (n_j, 0) (paper 003 eq. 2).
+  std::span<const float> dictionary;
+  /// RGBA32F 2D array, texel (light, view), K·(P+1) layers: layer c·(P+1) is the residual mean
+  /// ε̄(c) and layer c·(P+1) + 1 + i component b_i(c) (paper 003 eq. 3), rgb.
+  std::span<const float> residual;
+  AngularTablesData angular;  ///< the residual's 3 × 3 barycentric taps (paper 003 §4.2)
+};
+
 namespace detail {
 inline bool is_pow2(uint32_t v) noexcept { return v != 0 && (v & (v - 1)) == 0; }
 inline VoidResult check_angular(const AngularTablesData& a, uint32_t lights, uint32_t views, uint32_t resolution) {
@@ -349,6 +376,65 @@ inline VoidResult validate_material(const PcaViewsMaterialData& m, const ShaderC
   return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
 }
 
+/// Checks an SPMM material: counts (S 1..64, P 0..64, K·(P+1) ≤ 2048 layers, sizes ≤ 16384),
+/// span sizes, every slot index < bases or empty with occupied slots first, every cluster id
+/// < K, every weight, coefficient, κ, normal and residual value finite, model ids 0..6, basis
+/// normals with n.z > 0, angular tables. Returns invalid_argument naming the field. Safe for
+/// untrusted data (the shader then never reads outside a texture).
+inline VoidResult validate_material(const SpmmMaterialData& m, const ShaderConfig& config) {
+  const uint64_t layers = static_cast<uint64_t>(m.clusters) * (m.residual_components + 1ull);
+  const uint64_t rows = (m.bases + static_cast<uint64_t>(kSpmmBasesPerRow) - 1) / kSpmmBasesPerRow;
+  if (m.slots == 0 || m.slots > 64 || m.residual_components > 64 || m.clusters == 0 || layers > 2048 ||
+      m.bases == 0 || rows > 16384 || m.light_count == 0 || m.view_count == 0 || m.light_count > 16384 ||
+      m.view_count > 16384 || m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
+    return make_error(Status::invalid_argument,
+                      "spmm material: S = %u, P = %u, K = %u, %u bases, %u lights × %u views, %u×%u (expected S "
+                      "1..64, P 0..64, K·(P+1) ≤ 2048, sizes 1..16384)",
+                      m.slots, m.residual_components, m.clusters, m.bases, m.light_count, m.view_count, m.width,
+                      m.height);
+  const size_t n = static_cast<size_t>(m.width) * m.height;
+  const size_t texels = (m.slots + spmm_residual_layers(m.residual_components)) * n * 4;
+  const size_t dictionary = static_cast<size_t>(rows) * 2 * kSpmmBasesPerRow * 4;
+  const size_t residual = static_cast<size_t>(layers) * m.light_count * m.view_count * 4;
+  if (m.texels.size() != texels || m.dictionary.size() != dictionary || m.residual.size() != residual)
+    return make_error(Status::invalid_argument,
+                      "spmm material: texels/dictionary/residual have %zu/%zu/%zu values, expected %zu/%zu/%zu",
+                      m.texels.size(), m.dictionary.size(), m.residual.size(), texels, dictionary, residual);
+  auto bits_finite = [](uint32_t b) { return (b & 0x7f800000u) != 0x7f800000u; };
+  for (size_t t = 0; t < n; ++t) {
+    bool empty_seen = false;
+    for (size_t k = 0; k < m.slots; ++k) {
+      const uint32_t* s = &m.texels[(k * n + t) * 4];
+      if (s[0] == 0xffffffffu) {
+        empty_seen = true;
+        continue;
+      }
+      if (s[0] >= m.bases || empty_seen || !bits_finite(s[1]) || !bits_finite(s[2]) || !bits_finite(s[3]))
+        return make_error(Status::invalid_argument,
+                          "spmm material: texel %zu slot %zu: basis %u of %u%s or a non-finite weight", t, k, s[0],
+                          m.bases, empty_seen ? " after an empty slot" : "");
+    }
+    const size_t first = static_cast<size_t>(m.slots) * n * 4;
+    for (size_t g = 0; g < spmm_residual_layers(m.residual_components); ++g)
+      for (size_t i = 0; i < 4; ++i) {
+        const uint32_t v = m.texels[first + (g * n + t) * 4 + i];
+        if (g == 0 && i == 0 ? v >= m.clusters : !bits_finite(v))
+          return make_error(Status::invalid_argument, "spmm material: texel %zu: cluster %u of %u or a non-finite coefficient",
+                            t, m.texels[first + t * 4], m.clusters);
+      }
+  }
+  for (size_t g = 0; g < m.bases; ++g) {
+    const size_t row = g / kSpmmBasesPerRow, col = 2 * (g % kSpmmBasesPerRow);
+    const float* p = &m.dictionary[(row * 2 * kSpmmBasesPerRow + col) * 4];
+    bool ok = p[0] >= 0.0f && p[0] <= 6.0f && p[0] == std::floor(p[0]) && p[6] > 0.0f;
+    for (int i = 0; i < 8; ++i) ok = ok && std::isfinite(p[i]);
+    if (!ok) return make_error(Status::invalid_argument, "spmm material: basis %zu has model %g, a non-finite κ or n.z ≤ 0", g, static_cast<double>(p[0]));
+  }
+  for (float v : m.residual)
+    if (!std::isfinite(v)) return make_error(Status::invalid_argument, "spmm material: a residual value is not finite");
+  return detail::check_angular(m.angular, m.light_count, m.view_count, config.angular.resolution);
+}
+
 /// The config a backend generates a representation's program from: `base` (angular tables,
 /// targets) with the material's own component count and representation parameters.
 inline ShaderConfig representation_config(const ShaderConfig& base, const LaplacianMaterialData& m) {
@@ -373,6 +459,13 @@ inline ShaderConfig representation_config(const ShaderConfig& base, const PcaVie
   c.components = m.components;
   c.pca.views_per_group = m.views_per_group;
   c.pca.light_count = m.light_count;
+  return c;
+}
+/// See representation_config(const ShaderConfig&, const LaplacianMaterialData&).
+inline ShaderConfig representation_config(const ShaderConfig& base, const SpmmMaterialData& m) {
+  ShaderConfig c = base;
+  c.spmm.slots = m.slots;
+  c.spmm.residual_components = m.residual_components;
   return c;
 }
 
@@ -451,6 +544,11 @@ class Backend {
   virtual Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData&) {
     return make_error(Status::unsupported, "%s: no pca_views program", name());
   }
+  /// Uploads an SPMM material (paper 003 eq. 1–3; draw with ShaderProgram::spmm, residual
+  /// switch in ShaderParams::ids.w = spmm_residual_mode()). As above.
+  virtual Result<MaterialHandle> create_spmm_material(const SpmmMaterialData&) {
+    return make_error(Status::unsupported, "%s: no spmm program", name());
+  }
 
   // --- streaming (per frame; no allocation, no GPU wait) ----------------------------------
   /// Copies tiles into cache slots. Returns invalid_argument (and uploads nothing) when a slot
@@ -465,7 +563,7 @@ class Backend {
   /// FeedbackWordLayout::empty_word). Targets are (re)created when the size changes.
   virtual Status begin_frame(const FrameDesc& frame) noexcept = 0;
   /// Draws a mesh with `program` and the given shader parameters: fmf or bsvtf for an FMF
-  /// material, laplacian / lpca / pca_views for a material of that representation. Returns
+  /// material, laplacian / lpca / pca_views / spmm for a material of that representation. Returns
   /// invalid_argument when the program does not fit the material.
   virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
                       const ShaderParams& params) noexcept = 0;

@@ -55,7 +55,7 @@ JOBS=${BTFLOD_JOBS:-$(nproc)}
 # readers, codec, streaming, LOD/feedback, the virtual-texture cache and scheduler, the factor
 # file readers and the Delaunay triangulation (hostile point sets). The numeric factorisation and
 # shading tests run in the release stage only, to keep CI within its time budget.
-ASAN_TESTS='^test_(core|btf|codec|stream|lod|vt|runtime|factor_any|factor_spmm|angular_delaunay|angular_interpolators|render_sampling|render_surface)'
+ASAN_TESTS='^test_(core|btf|codec|stream|lod|vt|runtime|factor_any|factor_spmm|backend_spmm|angular_delaunay|angular_interpolators|render_sampling|render_surface)'
 
 BUILD=${BTFLOD_BUILD_DIR:-build}
 

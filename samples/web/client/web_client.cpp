@@ -58,7 +58,11 @@ struct ClientMaterial {
   std::vector<float> u;       ///< U row-major (row · C + c), for the CPU side
   uint32_t set_index = 0;
   uint32_t packets_loaded = 0;           ///< U' packets delivered (in order)
-  std::vector<uint64_t> decoded_offset;  ///< per (local texture, flat tile): float offset into the arena, or ~0
+  /// Per (flat tile · K + local texture): arena slot of the decoded tile, or kNotDecoded.
+  std::vector<uint32_t> decoded_slot;
+  /// Per (flat tile · K + local texture): the verified payload (compressed, ~1/10 of the decoded
+  /// size), kept to decode the tile again when a child needs it after the arena evicted it.
+  std::vector<std::vector<uint8_t>> payloads;
   std::vector<uint8_t> delivered;        ///< per (local texture, flat tile): delivered at least once
   double weight_total = 0, weight_delivered = 0;
 };
@@ -88,6 +92,7 @@ struct PageWrite {
 };
 
 inline constexpr uint32_t kRootBase = 0x40000000u;
+inline constexpr uint32_t kNotDecoded = 0xffffffffu;
 inline constexpr uint32_t kOrderBase = 0x50000000u;
 
 class Client {
@@ -103,7 +108,16 @@ class Client {
   uint32_t finest_level = 0;
   uint32_t angular_resolution = 32;
   ShaderConfig base_config;
-  std::vector<float> arena;           // decoded tiles (parents of later tiles)
+  // Decoded tiles (the parents of later tiles): an LRU arena of decoded_capacity slots, not one
+  // copy per tile of every material. Roots (level 0) are never evicted; an evicted ancestor is
+  // decoded again from its kept payload when a child needs it (redecodes).
+  std::vector<float> arena;
+  uint32_t decoded_capacity = 256;
+  std::vector<uint64_t> arena_stamp;                       // last use; 0 = free
+  std::vector<std::pair<ClientMaterial*, uint32_t>> arena_owner;  // (material, tile entry)
+  std::vector<uint8_t> arena_pinned;                       // roots
+  uint64_t arena_clock = 0;
+  uint64_t evictions = 0, redecodes = 0;
   std::vector<uint16_t> staging;      // half texels per request id (+ roots at the end)
   std::vector<float> packet_scratch;  // one unpacked U' packet
   std::vector<RequestInfo> requests;  // this frame's new requests
@@ -161,7 +175,8 @@ class Client {
       finest_level = std::max(finest_level, vm.levels.finest_level());
       // Paper 000 eq. 8 weights w from the tile index (the scheduler's priority P = w·v).
       const size_t tiles = vm.levels.tile_count();
-      m->decoded_offset.assign(tiles * vm.texture_count, ~uint64_t{0});
+      m->decoded_slot.assign(tiles * vm.texture_count, kNotDecoded);
+      m->payloads.assign(tiles * vm.texture_count, {});
       m->delivered.assign(tiles * vm.texture_count, 0);
       for (const BsvtfTileEntry& e : m->dir.tiles) {
         if (e.id.texture >= vm.texture_count) continue;
@@ -196,19 +211,18 @@ class Client {
     }
     votes = std::make_unique<VoteCounter>(vote_layouts(set), VoteWindowConfig{1u << (2 * feedback_shift), 0});
     decoder = std::make_unique<TileDecoder>(layout);
-    // Every tile of every material may become a parent: one decoded copy each (the sample keeps
-    // them all; an engine would bound this with an LRU and refetch evicted ancestors).
-    size_t total_tiles = 0;
-    size_t max_rows = 0;
+    // Decoded parents: a bounded LRU arena. A decode needs its ancestors (at most finest_level
+    // of them) resident at once, and roots stay: the capacity is raised to cover both.
+    size_t max_rows = 0, root_count = 0;
     for (auto& m : materials) {
-      total_tiles += m->decoded_offset.size();
       max_rows = std::max<size_t>(max_rows, m->dir.metadata.u_rows);
+      root_count += set.material(m->set_index).texture_count;
     }
-    arena.assign(total_tiles * layout.sample_count(), 0.0f);
-    size_t next = 0;
-    for (auto& m : materials)
-      for (auto& o : m->decoded_offset)
-        o = (next++) * layout.sample_count() | (uint64_t{1} << 63);  // bit 63: not decoded
+    decoded_capacity = std::max<uint32_t>(decoded_capacity, static_cast<uint32_t>(root_count) + finest_level + 4);
+    arena.assign(static_cast<size_t>(decoded_capacity) * layout.sample_count(), 0.0f);
+    arena_stamp.assign(decoded_capacity, 0);
+    arena_owner.assign(decoded_capacity, {nullptr, 0});
+    arena_pinned.assign(decoded_capacity, 0);
     packet_scratch.assign(max_rows * 4, 0.0f);
     // Roots: pinned, fetched first (one per virtual texture).
     for (uint32_t mi = 0; mi < materials.size(); ++mi) {
@@ -283,11 +297,61 @@ class Client {
     return static_cast<int>(requests.size());
   }
 
-  float* decoded(ClientMaterial& m, uint32_t local_texture, uint32_t flat, bool require) {
-    const uint32_t K = set.material(m.set_index).texture_count;
-    uint64_t& o = m.decoded_offset[static_cast<size_t>(flat) * K + local_texture];
-    if (require && (o >> 63)) return nullptr;
-    return arena.data() + (o & ~(uint64_t{1} << 63));
+  // An arena slot for a new decoded tile: a free one, else the least recently used unpinned
+  // one (its tile is decoded again from its payload if a child needs it later).
+  uint32_t acquire_slot() {
+    uint32_t best = kNotDecoded;
+    for (uint32_t i = 0; i < decoded_capacity; ++i) {
+      if (arena_stamp[i] == 0) return i;
+      if (!arena_pinned[i] && (best == kNotDecoded || arena_stamp[i] < arena_stamp[best])) best = i;
+    }
+    release(best);
+    ++evictions;
+    return best;
+  }
+
+  float* slot_data(uint32_t slot) { return arena.data() + static_cast<size_t>(slot) * layout.sample_count(); }
+
+  // The decoded samples of `local`, decoding it (and, recursively, its evicted ancestors) again
+  // from the kept payloads when the arena dropped it. Null when a payload was never delivered.
+  const float* decoded(ClientMaterial& m, TileId local, uint32_t depth = 0) {
+    const VtMaterial& vm = set.material(m.set_index);
+    const uint32_t entry = vm.levels.index(local) * vm.texture_count + local.texture;
+    if (m.decoded_slot[entry] != kNotDecoded) {
+      arena_stamp[m.decoded_slot[entry]] = ++arena_clock;
+      return slot_data(m.decoded_slot[entry]);
+    }
+    if (m.payloads[entry].empty() || depth > finest_level) return nullptr;
+    std::span<const float> parent;
+    if (local.level > 0) {
+      const float* p = decoded(m, local.parent(), depth + 1);
+      if (!p) return nullptr;
+      parent = std::span<const float>(p, layout.sample_count());
+    }
+    const uint32_t slot = acquire_slot();  // the ancestors just used are the newest: never evicted here
+    if (decoder->decode(m.payloads[entry], parent, local.x & 1, local.y & 1,
+                        std::span<float>(slot_data(slot), layout.sample_count())) != Status::success) {
+      release(slot);
+      return nullptr;
+    }
+    ++redecodes;
+    place(m, entry, slot, local.level == 0);
+    return slot_data(slot);
+  }
+
+  void release(uint32_t slot) {
+    auto& [owner, entry] = arena_owner[slot];
+    if (owner && owner->decoded_slot[entry] == slot) owner->decoded_slot[entry] = kNotDecoded;
+    arena_owner[slot] = {nullptr, 0};
+    arena_stamp[slot] = 0;
+    arena_pinned[slot] = 0;
+  }
+
+  void place(ClientMaterial& m, uint32_t entry, uint32_t slot, bool pinned) {
+    m.decoded_slot[entry] = slot;
+    arena_owner[slot] = {&m, entry};
+    arena_stamp[slot] = ++arena_clock;
+    arena_pinned[slot] = pinned ? 1 : 0;
   }
 
   // Verifies and decodes one tile payload into its arena slot and `halves`.
@@ -298,22 +362,30 @@ class Client {
       return fail(kCorrupt, format_message("tile %u/%u/%u/%u: payload size or CRC-32 mismatch", local.texture,
                                            local.level, local.x, local.y));
     const VtLevelTable& lv = set.material(m.set_index).levels;
+    const uint32_t flat = lv.index(local);
+    const uint32_t K = set.material(m.set_index).texture_count;
+    const uint32_t entry = flat * K + local.texture;
+    if (m.payloads[entry].empty()) m.payloads[entry].assign(bytes.begin(), bytes.end());
     std::span<const float> parent;
     if (local.level > 0) {
-      const float* p = decoded(m, local.texture, lv.index(local.parent()), true);
+      const float* p = decoded(m, local.parent());
       if (!p) return fail(kDecodeFailed, "parent tile not decoded");
       parent = std::span<const float>(p, layout.sample_count());
     }
-    const uint32_t flat = lv.index(local);
-    float* out = decoded(m, local.texture, flat, false);
+    uint32_t slot = m.decoded_slot[entry];
+    if (slot == kNotDecoded) slot = acquire_slot();  // the parent is the newest: not evicted here
+    float* out = slot_data(slot);
     const auto t0 = std::chrono::steady_clock::now();
     const Status s =
         decoder->decode(bytes, parent, local.x & 1, local.y & 1, std::span<float>(out, layout.sample_count()));
     decode_us_total += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
     ++decodes;
-    if (s != Status::success) return fail(kDecodeFailed, decoder->message());
-    const uint32_t K = set.material(m.set_index).texture_count;
-    m.decoded_offset[static_cast<size_t>(flat) * K + local.texture] &= ~(uint64_t{1} << 63);
+    if (s != Status::success) {
+      release(slot);  // whatever it held is overwritten
+      m.payloads[entry].clear();
+      return fail(kDecodeFailed, decoder->message());
+    }
+    place(m, entry, slot, local.level == 0);
     float_to_half(std::span<const float>(out, layout.sample_count()),
                   std::span<uint16_t>(halves, layout.sample_count()));
     // Paper 000 §6: ‖T‖²_F / T² of the tile (interior texels) for the U' packet priority.
@@ -701,6 +773,30 @@ EMSCRIPTEN_KEEPALIVE double bw_visible_missing() {
 /// Scheduler state for diagnostics as double[10]: U' packets loaded of materials 0 and 1, cache
 /// slots used, and this frame's adds, requests, U' requests, swaps, rejected swaps, budget hits,
 /// LOD bias. Returns 0.
+/// Bounds the decoded-parent arena to `tiles` decoded tiles (raised to roots + finest level + 4).
+/// Call before bw_start. Returns 0, or kBadArgument after start.
+EMSCRIPTEN_KEEPALIVE int bw_set_decoded_capacity(uint32_t tiles) {
+  auto& c = client();
+  if (c.started) return btflod::web::kBadArgument;
+  c.decoded_capacity = tiles;
+  return 0;
+}
+
+/// Decoded-parent arena as double[5]: capacity (tiles), resident tiles, evictions, tiles decoded
+/// again from their kept payloads, arena bytes.
+EMSCRIPTEN_KEEPALIVE int bw_decoded_stats(double* out) {
+  auto& c = client();
+  if (!c.started) return btflod::web::kBadArgument;
+  size_t resident = 0;
+  for (uint64_t s : c.arena_stamp) resident += s != 0;
+  out[0] = c.decoded_capacity;
+  out[1] = static_cast<double>(resident);
+  out[2] = static_cast<double>(c.evictions);
+  out[3] = static_cast<double>(c.redecodes);
+  out[4] = static_cast<double>(c.arena.size() * sizeof(float));
+  return 0;
+}
+
 EMSCRIPTEN_KEEPALIVE int bw_counters(double* out) {
   auto& c = client();
   if (!c.started) return btflod::web::kBadArgument;

@@ -193,7 +193,8 @@ async function correctness(browser, gl, r) {
     await setQualityReference(page, refPath);
     const pri = await stream(page, { maxFrames: reduced ? 400 : 800, every: reduced ? 4 : 2, snapshots: true });
     const g = compare(pri.final.image);
-    r.golden = { frames: pri.frames, converged: pri.converged, psnr_db: g.psnr_db, ssim: g.ssim, stats: pri.final.stats };
+    r.golden = { frames: pri.frames, converged: pri.converged, psnr_db: g.psnr_db, ssim: g.ssim, stats: pri.final.stats,
+      decoded: await page.evaluate(() => window.btflod.client.decodedStats()) };
     const fs = pri.final.stats;
     check(`${gl}: priority streaming converged (asynchronous feedback readback)`, pri.converged && fs.feedbackReadbacks > 0,
       `${pri.frames} frames, ${fs.bytes} bytes; feedback readbacks ${fs.feedbackReadbacks}, fence not yet signalled ` +
@@ -246,8 +247,10 @@ async function correctness(browser, gl, r) {
 
     // --- faults: dropped connections and corrupted payloads --------------------------------
     if (gl === 'swiftshader') {
+      // also with the decoded-parent arena bounded to 12 tiles (of 340): evicted ancestors are
+      // decoded again from their kept payloads, and the frame must not change
       newLogLines();
-      page = await openPage(browser, '');
+      page = await openPage(browser, '&decodedTiles=12');
       await page.evaluate(() => {
         const seen = new Map();
         let k = 0;
@@ -264,6 +267,12 @@ async function correctness(browser, gl, r) {
       });
       const f = await stream(page, { maxFrames: reduced ? 500 : 900, every: 1000, snapshots: false });
       const gf = compare(f.final.image);
+      const ds = await page.evaluate(() => window.btflod.client.decodedStats());
+      r.decoded_lru = ds;
+      check(`${gl}: decoded parents bounded by an LRU (12 tiles)`,
+        f.converged && gf.psnr_db >= 40 && ds.resident <= ds.capacity && ds.capacity < 40 && ds.evictions > 0 && ds.redecodes > 0,
+        `capacity ${ds.capacity} tiles (${ds.bytes} bytes), resident ${ds.resident}, evictions ${ds.evictions}, ` +
+        `decoded again ${ds.redecodes}, final ${gf.psnr_db.toFixed(2)} dB`);
       const flog = newLogLines();
       const dropped = flog.filter((l) => l.args && l.args.includes('drop=1')).length;
       const corruptServed = flog.filter((l) => l.uri && l.uri.startsWith('/data-corrupt/')).length;

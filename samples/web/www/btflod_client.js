@@ -170,6 +170,7 @@ export class BtflodClient {
       this.materials.push({ url, index, fileSize: head.total });
     }
     const o = this.opt;
+    if (o.decodedTiles) M._bw_set_decoded_capacity(o.decodedTiles);  // LRU bound of decoded parents
     if (M._bw_start(o.slotsX, o.slotsY, 0, o.uploadsPerFrame, o.requestsInFlight, o.streamU ? 1 : 0) !== 0)
       throw new Error(this.error());
     this.initGpu();
@@ -667,6 +668,15 @@ export class BtflodClient {
     this.timeline.push({ t, bytes: this.stats.bytes, quality: this.quality() });
     this.frameMs = performance.now() - t0;
     return this.frameMs;
+  }
+
+  /// The wasm side's decoded-parent arena: { capacity, resident, evictions, redecodes, bytes }.
+  decodedStats() {
+    const p = this.M._malloc(40);
+    this.M._bw_decoded_stats(p);
+    const [capacity, resident, evictions, redecodes, bytes] = new Float64Array(this.M.HEAPU8.buffer, p, 5);
+    this.M._free(p);
+    return { capacity, resident, evictions, redecodes, bytes };
   }
 
   /// The "quality so far" the page shows: the SSIM estimate against the converged frame when

@@ -16,7 +16,8 @@ async function main() {
   const size = Number(params.get('size') || 512);
   canvas.width = canvas.height = size;
   const pcak = params.get('pcak');
-  const client = pcak ? new PcakClient(canvas, module) : new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0' });
+  const client = pcak ? new PcakClient(canvas, module)
+    : new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0', decodedTiles: Number(params.get('decodedTiles') || 0) });
   // ?paused=1: no frame runs until a driver steps them (tests set the view first).
   window.btflod = { client, running: params.get('paused') !== '1', lastFrameMs: 0 };
   await client.open(pcak ? 'data/' + pcak : urls);

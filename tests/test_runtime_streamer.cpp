@@ -1,8 +1,9 @@
 // Tests for runtime/streamer.hpp: the engine's per-frame object. Convergence and exact texels
 // against a direct decode of the container, page tables rebuilt from the outputs alone, no
 // allocation after creation (global operator new counted) and every buffer through the
-// allocator callbacks, moves, asynchronous sources, several materials with different C, and
-// containers written with the other U row order shading identically.
+// allocator callbacks, moves, asynchronous sources, several materials with different C,
+// containers written with the other U row order shading identically, and the outputs forwarded
+// to a renderer (backend/streamer_outputs.hpp).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -14,43 +15,18 @@
 #include <thread>
 #include <vector>
 
+#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/bsvtf_build.hpp"
+#include "test_runtime_helpers.hpp"
 
 // Counts global allocations (the runtime must not allocate after create()).
-namespace {
-std::atomic<uint64_t> g_news{0};
-void* counted_alloc(std::size_t n) {
-  g_news.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-}  // namespace
-
-// Replaceable global allocation functions ([new.delete.single], [new.delete.array]).
-void* operator new(std::size_t n) { return counted_alloc(n); }
-void* operator new[](std::size_t n) { return counted_alloc(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-// The nothrow forms too: the sanitizers' runtimes define them without calling the replaced
-// operator new, so their blocks would otherwise reach the free() above from another allocator
-// (RawInflater/RawDeflater allocate with new (std::nothrow)).
-void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  g_news.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
-  g_news.fetch_add(1, std::memory_order_relaxed);
-  return std::malloc(n ? n : 1);
-}
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
+#include "test_counting_new.hpp"
 
 using namespace btflod;
+using btflod_test::decode_direct;
 
 namespace {
 
@@ -185,24 +161,6 @@ struct Engine {
   }
 };
 
-// Decodes tile t (container-local ids) of a container directly: the reference texels.
-std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, const BsvtfDirectory& d, TileId t) {
-  const TileLayout layout = d.metadata.layout();
-  TileDecoder dec(layout);
-  std::vector<float> parent(layout.sample_count()), out(layout.sample_count());
-  for (uint32_t l = 0; l <= t.level; ++l) {
-    const TileId a = t.ancestor(l);
-    const BsvtfTileEntry* e = d.find(a);
-    EXPECT_EQ(dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
-                         l > 0 ? std::span<const float>(parent) : std::span<const float>(), a.x & 1u, a.y & 1u, out),
-              Status::success);
-    std::swap(parent, out);
-  }
-  std::vector<uint16_t> h(layout.sample_count());
-  float_to_half(parent, h);
-  return h;
-}
-
 // Checks the engine's copies against the streamer's cache: every resident slot holds the
 // tile's exact texels, every GPU page-table texel the shader can reach is right.
 void check_engine(const World& w, const Streamer& s, const Engine& e) {
@@ -327,14 +285,14 @@ TEST(RuntimeStreamer, NoAllocationAfterCreateAndEveryBufferThroughTheCallbacks) 
     Engine e(s);
     const auto fb = full_feedback(s);
     std::vector<uint32_t> moving = fb;
-    const uint64_t before = g_news.load();
+    const uint64_t before = btflod_test::global_news();
     for (uint32_t f = 0; f < 60; ++f) {
       moving[f % moving.size()] = pack_feedback(FeedbackTile{0, f % 3, 0, 0});
       StreamerOutputs o = e.outputs();
       ASSERT_EQ(s.update(moving, o), Status::success);
       s.pump();
     }
-    EXPECT_EQ(g_news.load(), before) << "update() or a job allocated";
+    EXPECT_EQ(btflod_test::global_news(), before) << "update() or a job allocated";
     EXPECT_GT(s.scheduler().total().uploads, 10u);
   }
   EXPECT_EQ(counter.live, 0);
@@ -497,4 +455,147 @@ TEST(RuntimeStreamer, BadConfigurationsAreRefusedWithAMessage) {
   auto s = std::move(Streamer::create(w.materials, small_config()).value());
   StreamerOutputs too_small;
   EXPECT_EQ(s.update({}, too_small), Status::invalid_argument);
+}
+
+// backend/streamer_outputs.hpp: every output of an update reaches the sink once, in order —
+// tiles in batches of at most kStreamerUploadBatch, then the packets, then the page-table
+// writes — and the first failing callback stops the forwarding with its status.
+TEST(RuntimeStreamer, ForwardedOutputsArriveInOrderAndAFailureStops) {
+  World w;
+  w.add(build(make_eigen(128, 6, 1)));
+  w.finish();
+  StreamerConfig cfg = small_config();
+  cfg.scheduler.budgets.uploads_per_frame = 40;  // more tiles per frame than one batch
+  cfg.scheduler.budgets.requests_in_flight = 64;
+  cfg.scheduler.budgets.tiles_decoding = 64;
+  cfg.root_jobs = 2;
+  Streamer s = std::move(Streamer::create(w.materials, cfg).value());
+  Engine e(s);
+  const auto fb = full_feedback(s);
+  bool saw_batch_limit = false, saw_packets = false, saw_writes = false;
+  for (int f = 0; f < 12; ++f) {
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    std::vector<std::pair<uint32_t, const uint16_t*>> tiles;
+    size_t packets = 0, writes = 0;
+    const Status st = forward_streamer_outputs(
+        o,
+        [&](std::span<const TileUpload> batch) noexcept {
+          EXPECT_LE(batch.size(), kStreamerUploadBatch);
+          EXPECT_EQ(packets + writes, 0u) << "tiles after packets or page-table writes";
+          saw_batch_limit = saw_batch_limit || batch.size() == kStreamerUploadBatch;
+          for (const TileUpload& t : batch) tiles.emplace_back(t.slot, t.texels.data());
+          return Status::success;
+        },
+        [&](std::span<const PageTableWrite> pt) noexcept {
+          EXPECT_EQ(pt.data(), o.page_table_writes.data());
+          writes += pt.size();
+          return Status::success;
+        },
+        [&](const StreamerPacketUpload& p) noexcept {
+          EXPECT_EQ(writes, 0u) << "a packet after the page-table writes";
+          EXPECT_EQ(&p, &o.packet_uploads[packets]);
+          ++packets;
+          return Status::success;
+        });
+    ASSERT_EQ(st, Status::success);
+    ASSERT_EQ(tiles.size(), o.tile_upload_count);
+    for (size_t i = 0; i < tiles.size(); ++i) {
+      EXPECT_EQ(tiles[i].first, o.tile_uploads[i].slot);
+      EXPECT_EQ(tiles[i].second, o.tile_uploads[i].texels.data());
+    }
+    EXPECT_EQ(packets, o.packet_upload_count);
+    EXPECT_EQ(writes, o.page_table_write_count);
+    saw_packets = saw_packets || packets > 0;
+    saw_writes = saw_writes || writes > 0;
+    if (o.tile_upload_count > 0) {  // a failing upload: nothing after it is forwarded
+      size_t calls = 0, later = 0;
+      const Status failed = forward_streamer_outputs(
+          o,
+          [&](std::span<const TileUpload>) noexcept {
+            ++calls;
+            return Status::io_error;
+          },
+          [&](std::span<const PageTableWrite>) noexcept {
+            ++later;
+            return Status::success;
+          },
+          [&](const StreamerPacketUpload&) noexcept {
+            ++later;
+            return Status::success;
+          });
+      EXPECT_EQ(failed, Status::io_error);
+      EXPECT_EQ(calls, 1u);
+      EXPECT_EQ(later, 0u);
+    }
+    e.apply(s, o);
+    s.pump();
+  }
+  EXPECT_TRUE(saw_batch_limit);
+  EXPECT_TRUE(saw_packets);
+  EXPECT_TRUE(saw_writes);
+}
+
+// The decoded-ancestor cache (StreamerConfig::decoded_cache_tiles): decode jobs start below
+// their deepest cached ancestor, read fewer payload bytes and decode fewer levels, and every
+// frame's outputs — tile texels, slots, page-table writes — are the same as without it, under
+// swaps; a cache of one entry (constantly replaced while pinned entries are skipped) too.
+TEST(RuntimeStreamer, DecodedAncestorCacheGivesTheSameOutputsWithFewerReads) {
+  World w;
+  w.add(build(make_eigen(256, 8, 5)));  // 2 textures, L = 3: chains of up to 4 levels
+  w.finish();
+  struct Run {
+    Streamer s;
+    Engine e;
+    explicit Run(Streamer&& st) : s(std::move(st)), e(s) {}
+  };
+  std::vector<std::unique_ptr<Run>> runs;
+  for (const uint32_t tiles : {0u, 16u, 1u}) {
+    StreamerConfig cfg = small_config();
+    cfg.cache.slots_x = 6;
+    cfg.cache.slots_y = 6;  // 36 slots for 2 × 85 tiles: swaps
+    cfg.payload_cache_bytes = 0;
+    cfg.decoded_cache_tiles = tiles;
+    runs.push_back(std::make_unique<Run>(std::move(Streamer::create(w.materials, cfg).value())));
+  }
+  std::mt19937 rng(5);
+  for (uint32_t f = 0; f < 150; ++f) {
+    std::vector<uint32_t> fb;
+    const uint32_t level = 1 + (f / 10) % 3;
+    for (int k = 0; k < 8; ++k)
+      fb.push_back(pack_feedback(FeedbackTile{0, level, static_cast<uint32_t>(rng() % (1u << level)),
+                                              static_cast<uint32_t>(rng() % (1u << level))}));
+    std::vector<StreamerOutputs> outs;
+    for (auto& r : runs) {
+      outs.push_back(r->e.outputs());
+      ASSERT_EQ(r->s.update(fb, outs.back()), Status::success);
+    }
+    for (size_t i = 1; i < runs.size(); ++i) {
+      const StreamerOutputs &a = outs[0], &b = outs[i];
+      ASSERT_EQ(a.tile_upload_count, b.tile_upload_count) << "frame " << f;
+      for (size_t t = 0; t < a.tile_upload_count; ++t) {
+        ASSERT_EQ(a.tile_uploads[t].slot, b.tile_uploads[t].slot);
+        ASSERT_TRUE(std::equal(a.tile_uploads[t].texels.begin(), a.tile_uploads[t].texels.end(),
+                               b.tile_uploads[t].texels.begin(), b.tile_uploads[t].texels.end()))
+            << "frame " << f << " tile " << t;
+      }
+      ASSERT_EQ(a.page_table_write_count, b.page_table_write_count);
+      for (size_t t = 0; t < a.page_table_write_count; ++t)
+        ASSERT_EQ(a.page_table_writes[t].entry, b.page_table_writes[t].entry);
+    }
+    for (size_t i = 0; i < runs.size(); ++i) {
+      runs[i]->e.apply(runs[i]->s, outs[i]);
+      runs[i]->s.pump();
+    }
+  }
+  check_engine(w, runs[1]->s, runs[1]->e);
+  EXPECT_EQ(runs[0]->s.decoded_levels_skipped(), 0u);
+  EXPECT_GT(runs[1]->s.decoded_levels_skipped(), 100u);
+  EXPECT_GT(runs[2]->s.decoded_levels_skipped(), 0u);
+  EXPECT_LT(runs[1]->s.bytes_read(), runs[0]->s.bytes_read());
+  std::printf("bytes read: %llu without the decoded cache, %llu with 16 tiles (%llu levels not decoded), %llu with 1\n",
+              static_cast<unsigned long long>(runs[0]->s.bytes_read()),
+              static_cast<unsigned long long>(runs[1]->s.bytes_read()),
+              static_cast<unsigned long long>(runs[1]->s.decoded_levels_skipped()),
+              static_cast<unsigned long long>(runs[2]->s.bytes_read()));
 }

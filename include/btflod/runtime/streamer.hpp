@@ -94,6 +94,10 @@ struct StreamerConfig {
   /// Byte budget of the payload cache that keeps ancestors' compressed tiles, so a child's
   /// decode chain (root → parent) rarely needs another read.
   size_t payload_cache_bytes = 8u << 20;
+  /// Decoded tiles kept (as floats, (T+2B)² × 4 each) so a decode job starts from its deepest
+  /// cached ancestor instead of decoding the chain from the root (and reads no payload above
+  /// it). 0 disables the cache. The output is the same either way.
+  uint32_t decoded_cache_tiles = 16;
   /// Allocation callbacks for every buffer of the Streamer.
   RuntimeAllocator allocator;
 };
@@ -196,6 +200,12 @@ struct StreamerJob {
   TileId chain_tile[kMaxTileLevel + 1];
   uint32_t chain_offset[kMaxTileLevel + 1] = {};  // offset into bytes
   uint8_t chain_cached[kMaxTileLevel + 1] = {};   // bytes came from the payload cache
+  uint32_t chain_start = 0;       // first chain level decoded (those above come from `base`)
+  const float* base = nullptr;    // decoded ancestor chain_start − 1 (a pinned cache entry)
+  uint32_t pinned = 0xffffffffu;  // decoded-cache entry pinned for `base`
+  uint8_t result_in_out = 0;      // the decoded tile is in `out` (1) or `parent` (0)
+  uint8_t parent_decoded = 0;     // the other buffer holds the decoded parent of the tile
+  uint8_t decoded_kept = 0;       // the completion was handled (buffers offered, pin released)
   Status status = Status::success;
   uint8_t* bytes = nullptr;
   float* parent = nullptr;
@@ -275,6 +285,9 @@ class Streamer {
   uint64_t events_dropped() const noexcept;
   /// Payload bytes read from sources since creation.
   uint64_t bytes_read() const noexcept;
+  /// Tile levels decode jobs did not decode (nor read) since creation because the decoded
+  /// cache held an ancestor (StreamerConfig::decoded_cache_tiles).
+  uint64_t decoded_levels_skipped() const noexcept;
   /// Jobs currently runnable or running (an executor's hint).
   uint32_t jobs_in_flight() const noexcept;
 
@@ -321,6 +334,20 @@ struct Streamer::Impl final : StreamerJobQueue {
   size_t queue_head = 0, queue_count = 0;
   // Ready scheduler packets (request id → job) for apply_uploads.
   RuntimeArray<uint32_t> job_of_request;
+  // Decoded-ancestor cache: entries own float buffers of one tile each; only the update
+  // thread changes it. A job reads a pinned entry's buffer while it runs; finished jobs hand
+  // their decoded tile (and its parent) over by swapping buffers with the least recently used
+  // unpinned entry, so nothing is copied.
+  struct DecodedEntry {
+    uint64_t key = ~0ull;  // ~0: empty
+    float* samples = nullptr;
+    uint32_t pins = 0;
+    uint64_t used = 0;
+  };
+  RuntimeArray<DecodedEntry> decoded;
+  RuntimeArray<float> decoded_floats;
+  uint64_t decoded_clock = 0;
+  uint64_t decoded_levels_skipped = 0;
   uint64_t frame = 0;
   uint64_t dropped_events = 0;
   std::atomic<uint64_t> bytes_read{0};
@@ -380,7 +407,12 @@ struct Streamer::Impl final : StreamerJobQueue {
     const uint32_t m = job.material;
     const uint32_t k = local_texture(job.tile);
     const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
-    for (uint32_t i = 0; i < job.chain; ++i) {
+    // Decode chain_start … tile, each level against the previous one (the first against the
+    // cached ancestor `base`, or nothing for the root), alternating between the two buffers.
+    float* buffers[2] = {job.out, job.parent};
+    const float* previous = job.base;
+    uint32_t current = 0;
+    for (uint32_t i = job.chain_start; i < job.chain; ++i) {
       const TileId t = job.chain_tile[i];
       const detail::TileRecord& rec = record_of(m, k, lv.index(t));
       std::span<uint8_t> dst(job.bytes + job.chain_offset[i], rec.size);
@@ -390,13 +422,16 @@ struct Streamer::Impl final : StreamerJobQueue {
       }
       if (const Status v = verify_bsvtf_payload(rec.size, rec.crc, dst); v != Status::success) return Status::bad_data;
       const Status d = job.decoder->decode(
-          dst, t.level > 0 ? std::span<const float>(job.parent, layout.sample_count()) : std::span<const float>(),
-          t.x & 1u, t.y & 1u, std::span<float>(job.out, layout.sample_count()));
+          dst, t.level > 0 ? std::span<const float>(previous, layout.sample_count()) : std::span<const float>(),
+          t.x & 1u, t.y & 1u, std::span<float>(buffers[current], layout.sample_count()));
       if (d != Status::success) return d;
-      std::swap(job.parent, job.out);
+      previous = buffers[current];
+      current ^= 1u;
     }
-    std::swap(job.parent, job.out);  // the requested tile is in `out`
-    float_to_half(std::span<const float>(job.out, layout.sample_count()),
+    const uint32_t decoded_levels = job.chain - job.chain_start;
+    job.result_in_out = decoded_levels > 0 && previous == job.out ? 1 : 0;
+    job.parent_decoded = decoded_levels >= 2 ? 1 : 0;
+    float_to_half(std::span<const float>(previous, layout.sample_count()),
                   std::span<uint16_t>(job.halves, layout.sample_count()));
     return Status::success;
   }
@@ -441,11 +476,32 @@ struct Streamer::Impl final : StreamerJobQueue {
     const uint32_t k = local_texture(job.tile);
     const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
     job.chain = job.tile.level + 1;
+    release_decoded(job);
+    job.decoded_kept = 0;
+    // The deepest decoded ancestor (or the tile itself) in the decoded cache: pinned, and the
+    // chain is decoded below it only.
+    job.chain_start = 0;
+    job.base = nullptr;
+    for (uint32_t i = job.chain; i-- > 0 && decoded.size() > 0;) {
+      const uint32_t e = find_decoded(decoded_key(m, k, job.tile.ancestor(i)));
+      if (e == kNoJob) continue;
+      ++decoded[e].pins;
+      decoded[e].used = ++decoded_clock;
+      job.pinned = e;
+      job.base = decoded[e].samples;
+      job.chain_start = i + 1;
+      decoded_levels_skipped += i + 1;
+      break;
+    }
     uint32_t offset = 0, reads = 0;
     for (uint32_t i = 0; i < job.chain; ++i) {
       const TileId t = job.tile.ancestor(i);
       job.chain_tile[i] = t;
       job.chain_offset[i] = offset;
+      if (i < job.chain_start) {  // not decoded: no payload needed
+        job.chain_cached[i] = 1;
+        continue;
+      }
       const detail::TileRecord& rec = record_of(m, k, lv.index(t));
       const uint64_t key = (static_cast<uint64_t>(m) << 48) ^ TileId { k, t.level, t.x, t.y }.key();
       job.chain_cached[i] = payloads.get(key, std::span<uint8_t>(job.bytes + offset, rec.size)) == rec.size ? 1 : 0;
@@ -454,6 +510,47 @@ struct Streamer::Impl final : StreamerJobQueue {
     }
     job.next_read = 0;
     return reads;
+  }
+
+  static uint64_t decoded_key(uint32_t material, uint32_t local_texture, const TileId& t) noexcept {
+    return (static_cast<uint64_t>(material) << 48) ^ TileId{local_texture, t.level, t.x, t.y}.key();
+  }
+  uint32_t find_decoded(uint64_t key) const noexcept {
+    for (uint32_t e = 0; e < decoded.size(); ++e)
+      if (decoded[e].key == key) return e;
+    return kNoJob;
+  }
+  // Releases the job's pin on the decoded cache (update thread).
+  void release_decoded(detail::StreamerJob& job) noexcept {
+    if (job.pinned != kNoJob) --decoded[job.pinned].pins;
+    job.pinned = kNoJob;
+    job.base = nullptr;
+  }
+  // Hands a decoded tile over to the cache: the job's buffer `samples` is swapped with the
+  // least recently used unpinned entry's (nothing when the tile is cached already or every
+  // entry is pinned).
+  void offer_decoded(uint64_t key, float*& samples) noexcept {
+    if (find_decoded(key) != kNoJob) return;
+    uint32_t victim = kNoJob;
+    for (uint32_t e = 0; e < decoded.size(); ++e)
+      if (decoded[e].pins == 0 && (victim == kNoJob || decoded[e].used < decoded[victim].used)) victim = e;
+    if (victim == kNoJob) return;
+    std::swap(decoded[victim].samples, samples);
+    decoded[victim].key = key;
+    decoded[victim].used = ++decoded_clock;
+  }
+  // A finished tile or root job (once): releases its pin and, when it succeeded, offers the
+  // tile and its decoded parent to the decoded cache.
+  void keep_decoded(detail::StreamerJob& job, bool ok) noexcept {
+    if (job.decoded_kept) return;
+    job.decoded_kept = 1;
+    release_decoded(job);
+    if (!ok || decoded.size() == 0 || job.chain_start >= job.chain) return;
+    const uint32_t k = local_texture(job.tile);
+    float*& result = job.result_in_out ? job.out : job.parent;
+    float*& other = job.result_in_out ? job.parent : job.out;
+    offer_decoded(decoded_key(job.material, k, job.tile), result);
+    if (job.parent_decoded) offer_decoded(decoded_key(job.material, k, job.tile.parent()), other);
   }
 
   static uint64_t ticket_of(uint32_t job, uint32_t item) noexcept { return (static_cast<uint64_t>(job) << 8) | item; }
@@ -602,6 +699,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       const uint8_t st = job.state.load(std::memory_order_acquire);
       if (st != detail::kJobDone && st != detail::kJobFailed) continue;
       const bool ok = st == detail::kJobDone;
+      if (job.kind != detail::kPacketJob) keep_decoded(job, ok);
       if (job.kind == detail::kRootJob) {
         if (ok && out.tile_upload_count < out.tile_uploads.size()) {
           keep_payloads(job);
@@ -888,6 +986,10 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     }
   }
   std::fill(im->job_of_request.data(), im->job_of_request.data() + im->job_of_request.size(), kNoJob);
+  if (!im->decoded.allocate(al, config.decoded_cache_tiles) ||
+      !im->decoded_floats.allocate(al, size_t{config.decoded_cache_tiles} * samples))
+    return fail("decoded cache");
+  for (uint32_t e = 0; e < config.decoded_cache_tiles; ++e) im->decoded[e].samples = im->decoded_floats.data() + size_t{e} * samples;
   // Start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
   const uint32_t textures = set.texture_count();
   const uint32_t startup = textures + (config.scheduler.stream_u_columns ? 0 : textures);
@@ -953,6 +1055,7 @@ inline bool Streamer::material_ready(uint32_t m) const noexcept { return impl_->
 inline size_t Streamer::pending_page_table_writes() const noexcept { return impl_->queue_count; }
 inline uint64_t Streamer::events_dropped() const noexcept { return impl_->dropped_events; }
 inline uint64_t Streamer::bytes_read() const noexcept { return impl_->bytes_read.load(std::memory_order_relaxed); }
+inline uint64_t Streamer::decoded_levels_skipped() const noexcept { return impl_->decoded_levels_skipped; }
 inline uint32_t Streamer::jobs_in_flight() const noexcept {
   uint32_t n = 0;
   for (uint32_t j = 0; j < impl_->jobs.size(); ++j) {

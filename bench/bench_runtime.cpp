@@ -8,7 +8,8 @@
 // The containers are real `.bsvtf` files (one, shared by the 100 materials) whose tiles all
 // carry the same valid payload of a zero residual, so the decode jobs — run between updates,
 // outside the timing — succeed cheaply and the cache reaches its steady state of swaps.
-// Targets: ≤ 0.1 ms per update at 320×180; ≤ 3× one read at 1280×720.
+// Targets: ≤ 0.1 ms per update at 320×180; ≤ 3× one read at 1280×720. jobs_cpu_us is the
+// CPU time of the frame's decode jobs (pump()), with and without the decoded-ancestor cache.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -17,53 +18,21 @@
 #include <memory>
 #include <vector>
 
+#include "bench_feedback.hpp"
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/tile_source.hpp"
 
 using namespace btflod;
+using btflod::bench::cpu_ns;
+using btflod::bench::make_feedback;
+using btflod::bench::read_once_ns;
 
 namespace {
 
 constexpr uint32_t kMaterials = 100;
 constexpr uint32_t kComponents = 100;  // 25 virtual textures per material
 constexpr uint32_t kSize = 2048;
-constexpr int kFrames = 8;
-
-uint32_t hash32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-
-std::vector<std::vector<uint32_t>> make_feedback(uint32_t materials, uint32_t width, uint32_t height, uint32_t L) {
-  std::vector<std::vector<uint32_t>> frames(kFrames);
-  const uint32_t cells = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(materials))));
-  for (int f = 0; f < kFrames; ++f) {
-    auto& words = frames[f];
-    words.resize(static_cast<size_t>(width) * height);
-    for (uint32_t y = 0; y < height; ++y)
-      for (uint32_t x = 0; x < width; ++x) {
-        const uint32_t cx = x * cells / width, cy = y * cells / height;
-        const uint32_t m = cy * cells + cx;
-        if (m >= materials) {
-          words[static_cast<size_t>(y) * width + x] = kFeedbackNone;
-          continue;
-        }
-        const double ly = (y - cy * height / cells) / double(height / cells);
-        const double rho = std::ldexp(1.0, static_cast<int>(cy * 4 / cells)) * (1.0 + 1.5 * ly);
-        const double u = std::fmod(((x - cx * width / cells) * rho + 37.0 * m + 11.0 * f) / kSize, 1.0);
-        const double v = std::fmod(((y - cy * height / cells) * rho + 53.0 * m) / kSize, 1.0);
-        const uint32_t level = L - std::min<uint32_t>(L, static_cast<uint32_t>(std::ceil(std::log2(rho) - 1e-9)));
-        const uint32_t n = 1u << level;
-        words[static_cast<size_t>(y) * width + x] =
-            pack_feedback({m, level, std::min(n - 1, uint32_t(u * n)), std::min(n - 1, uint32_t(v * n))});
-      }
-  }
-  return frames;
-}
+constexpr int kFrames = bench::kFeedbackFrames;
 
 // A container of kComponents components whose every tile is the zero tile: the root payload
 // codes zeros, every other payload a zero residual against its parent.
@@ -96,28 +65,11 @@ std::vector<uint8_t> make_container() {
     for (uint32_t i = 0; i < lv.tile_count(); ++i) {
       const TileId id = lv.tile(k, i);
       // Later components matter less (SVD ordering); w varies per tile.
-      const float w = (0.5f + (hash32(k * 7919u + i) & 0xffu) / 256.0f) / static_cast<float>((k + 1) * (k + 1));
+      const float w = bench::bench_tile_weight(k, i, k);
       tiles.push_back(BsvtfEncodedTile{id, id.level == 0 ? root : child, w, 4.0f * w});
     }
   std::vector<float> u(size_t{md.u_rows} * kComponents, 0.1f);
   return write_bsvtf(md, u, tiles).value();
-}
-
-double cpu_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e9 + static_cast<double>(ts.tv_nsec);
-}
-
-double read_once_ns(const std::vector<uint32_t>& words) {
-  const int reads = 200;
-  const double t0 = cpu_ns();
-  for (int r = 0; r < reads; ++r) {
-    uint64_t sum = 0;
-    for (uint32_t w : words) sum += w;
-    benchmark::DoNotOptimize(sum);
-  }
-  return (cpu_ns() - t0) / reads;
 }
 
 struct Setup {
@@ -133,7 +85,7 @@ struct Setup {
   StreamerOutputs outputs() { return StreamerOutputs{tiles, packets, writes, events}; }
 };
 
-std::unique_ptr<Setup> make_setup(uint32_t width, uint32_t height) {
+std::unique_ptr<Setup> make_setup(uint32_t width, uint32_t height, uint32_t decoded_cache_tiles) {
   auto s = std::make_unique<Setup>();
   s->file = make_container();
   s->dir = read_bsvtf(s->file).value();
@@ -144,6 +96,7 @@ std::unique_ptr<Setup> make_setup(uint32_t width, uint32_t height) {
   cfg.vote_window_frames = 1;
   cfg.root_jobs = 64;
   cfg.packet_jobs = 4;
+  cfg.decoded_cache_tiles = decoded_cache_tiles;
   s->streamer = std::move(Streamer::create(materials, cfg).value());
   s->tiles.resize(s->streamer.tile_uploads_bound());
   s->packets.resize(s->streamer.packet_uploads_bound());
@@ -155,7 +108,7 @@ std::unique_ptr<Setup> make_setup(uint32_t width, uint32_t height) {
 
 void BM_RuntimeUpdate(benchmark::State& state) {
   const uint32_t width = static_cast<uint32_t>(state.range(0)), height = width * 9 / 16;
-  auto s = make_setup(width, height);
+  auto s = make_setup(width, height, static_cast<uint32_t>(state.range(1)));
   uint64_t frame = 0;
   // Warm up: roots and packets loaded, cache full, the schedule in its steady state.
   for (int i = 0; i < 300; ++i, ++frame) {
@@ -165,7 +118,8 @@ void BM_RuntimeUpdate(benchmark::State& state) {
   }
   const SchedulerCounters before = s->streamer.scheduler().total();
   uint64_t iterations = 0, writes = 0, uploads = 0;
-  double update_ns = 0;
+  double update_ns = 0, pump_ns = 0;
+  const uint64_t bytes_before = s->streamer.bytes_read();
   for (auto _ : state) {
     StreamerOutputs o = s->outputs();
     const double t0 = cpu_ns();
@@ -174,7 +128,9 @@ void BM_RuntimeUpdate(benchmark::State& state) {
     writes += o.page_table_write_count;
     uploads += o.tile_upload_count;
     state.PauseTiming();
-    s->streamer.pump();  // decode jobs: the engine's workers, outside the timing
+    const double p0 = cpu_ns();
+    s->streamer.pump();  // decode jobs: the engine's workers, outside the update's timing
+    pump_ns += cpu_ns() - p0;
     state.ResumeTiming();
     ++frame;
     ++iterations;
@@ -189,12 +145,23 @@ void BM_RuntimeUpdate(benchmark::State& state) {
       static_cast<double>(after.adds + after.swaps - before.adds - before.swaps) / static_cast<double>(iterations);
   state.counters["uploads_per_frame"] = static_cast<double>(uploads) / static_cast<double>(iterations);
   state.counters["pt_writes_per_frame"] = static_cast<double>(writes) / static_cast<double>(iterations);
+  state.counters["jobs_cpu_us"] = pump_ns / double(iterations) / 1000.0;
+  state.counters["read_kib_per_frame"] =
+      static_cast<double>(s->streamer.bytes_read() - bytes_before) / double(iterations) / 1024.0;
   state.counters["used_slots"] = s->streamer.cache().used_count();
   state.counters["vts"] = s->streamer.cache().set().texture_count();
 }
 
 }  // namespace
 
-BENCHMARK(BM_RuntimeUpdate)->ArgNames({"width"})->Arg(320)->Arg(1280)->Unit(benchmark::kMicrosecond)->Iterations(200);
+// Second argument: StreamerConfig::decoded_cache_tiles (0: every job decodes its chain from the
+// root; jobs_cpu_us and read_kib_per_frame show what the decoded-ancestor cache saves).
+BENCHMARK(BM_RuntimeUpdate)
+    ->ArgNames({"width", "decoded_cache"})
+    ->Args({320, 16})
+    ->Args({1280, 16})
+    ->Args({320, 0})
+    ->Unit(benchmark::kMicrosecond)
+    ->Iterations(200);
 
 BENCHMARK_MAIN();

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
@@ -105,14 +106,24 @@ int main() {
     const std::vector<uint32_t> feedback = render_feedback(streamer, frame);  // GPU readback
     StreamerOutputs out{tiles, packets, writes, events};
     if (const Status st = streamer.update(feedback, out); st != Status::success) return st;
-    for (size_t i = 0; i < out.tile_upload_count; ++i)  // glTexSubImage3D / vkCmdCopyBufferToImage
-      gpu.slots[tiles[i].slot].assign(tiles[i].texels.begin(), tiles[i].texels.end());
-    for (size_t i = 0; i < out.page_table_write_count; ++i) {  // one R32UI texel each
-      const PageTableWrite& w = writes[i];
-      gpu.page_tables[w.tile.texture][streamer.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
-    }
-    for (size_t i = 0; i < out.packet_upload_count; ++i)  // U′: rows × 4 halves, light-major
-      gpu.u_packets[packets[i].texture].assign(packets[i].halves.begin(), packets[i].halves.end());
+    // Tiles first, then U′, then the page-table texels (backend/streamer_outputs.hpp; with a
+    // btflod::Backend this is apply_streamer_outputs(backend, out)).
+    const Status applied = forward_streamer_outputs(
+        out,
+        [&](std::span<const TileUpload> batch) noexcept {  // glTexSubImage3D / vkCmdCopyBufferToImage
+          for (const TileUpload& t : batch) gpu.slots[t.slot].assign(t.texels.begin(), t.texels.end());
+          return Status::success;
+        },
+        [&](std::span<const PageTableWrite> texels) noexcept {  // one R32UI texel each
+          for (const PageTableWrite& w : texels)
+            gpu.page_tables[w.tile.texture][streamer.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
+          return Status::success;
+        },
+        [&](const StreamerPacketUpload& p) noexcept {  // U′: rows × 4 halves, light-major
+          gpu.u_packets[p.texture].assign(p.halves.begin(), p.halves.end());
+          return Status::success;
+        });
+    if (applied != Status::success) return applied;
     for (size_t i = 0; i < out.event_count; ++i)
       if (events[i].kind == ResidencyEventKind::material_ready)
         std::printf("frame %3u: material %u ready (roots and U' loaded)\n", frame, events[i].material);

@@ -23,7 +23,7 @@ PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-de
   libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libegl-dev libopengl-dev
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
   libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev libembree-dev emscripten
-  chromium nodejs npm)
+  chromium nodejs npm libopenmpi-dev openmpi-bin)
 
 install_packages() {
   local missing=()
@@ -128,6 +128,16 @@ case "$cmd" in
       -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     samples/web/run_web.sh serve --tool "$BUILD"/samples/web/btflod-web-tool --work "$BUILD"/web "$@"
     ;;
+  svd-compare)
+    # btflod's randomised SVD (in memory, out of core) vs SLEPc's on the same matrix: opt-in, so
+    # CI does not install SLEPc. Arguments go to btflod-svd-compare (--material, --size, --rank).
+    PACKAGES+=(libslepc-real-dev libbenchmark-dev)
+    install_packages
+    BTFLOD_TARGET=btflod-svd-compare configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF -DBTFLOD_WITH_MPI=ON
+    mkdir -p out
+    "$BUILD"/bench/btflod-svd-compare --dir out "$@"
+    ;;
   raytrace)
     install_packages
     BTFLOD_TARGET=btflod-raytrace configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
@@ -136,7 +146,7 @@ case "$cmd" in
     "$BUILD"/samples/raytrace/btflod-raytrace --out out/raytrace "$@"
     ;;
   *)
-    echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz" >&2
+    echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz|svd-compare" >&2
     exit 2
     ;;
 esac

@@ -7,6 +7,7 @@
 #include "command.hpp"
 #include "common/btf_files.hpp"
 #include "common/progress_bar.hpp"
+#include "store_commands.hpp"
 
 #include "btflod/factor/any_factorization.hpp"
 
@@ -25,6 +26,8 @@ int run_factor(int argc, char** argv) {
         "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
         "                             [--float] [--basis-per-texel B] [--representatives R]\n"
         "                             [--lobes L] [--quiet]\n"
+        "                             [--profile paper] [--memory SIZE] [--checkpoint FILE]\n"
+        "                             [--block-columns N] [--stop-after-passes K]\n"
         "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
         "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
         "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
@@ -38,10 +41,23 @@ int run_factor(int argc, char** argv) {
         "             is still improving (up to QMAX, default 6; QMAX <= Q: exactly Q), stopping when the\n"
         "             predicted excess over the optimum of the squared error is <= T (default 0.005), P oversampling\n"
         "             (default 50), Z nonzeros per row of the sparse sketch (default 8, 0 = Gaussian)\n"
-        "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.");
+        "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.\n"
+        "  IN ending in .btfstore (btflod-convert synth -o X.btfstore) is factorised out of core (fmf only):\n"
+        "             read in column blocks with peak memory under --memory (default 4G; e.g. 512M, 1.5G),\n"
+        "             a progress line per pass, a checkpoint after every pass (default OUT.checkpoint) that\n"
+        "             the same command resumes; --stop-after-passes K stops after K passes (e.g. to fit a\n"
+        "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.");
     return convert::kExitOk;
   }
   const std::string method = opt.string("method", "fmf");
+  const std::string profile = opt.string("profile", "");
+  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
+  const std::string memory_text = opt.string("memory", "4G");
+  const auto memory = convert::parse_byte_size(memory_text);
+  if (!memory) opt.error("--memory " + memory_text + ": expected a size such as 4G, 512M or 1500000000");
+  const std::string checkpoint = opt.string("checkpoint", "");
+  const int stop_after = static_cast<int>(opt.integer("stop-after-passes", 0, 0, 100));
+  const auto block_columns = static_cast<size_t>(opt.integer("block-columns", 256, 1, 1 << 20));
   const auto components_text = opt.value("components");
   const int k = static_cast<int>(opt.integer("k", 3, 0, 1 << 16));
   const int clusters = static_cast<int>(opt.integer("clusters", method == "spmm" ? 4 : 8, 1, 65535));
@@ -64,7 +80,7 @@ int run_factor(int argc, char** argv) {
     opt.error("--method " + method + ": expected fmf, pca-k, laplacian, lpca or spmm");
   if (svd != "auto" && svd != "exact" && svd != "randomized")
     opt.error("--svd " + svd + ": expected auto, exact or randomized");
-  int components = method == "fmf" ? 16 : (method == "lpca" || method == "spmm") ? 4 : 8;
+  int components = method == "fmf" ? (profile == "paper" ? 100 : 16) : (method == "lpca" || method == "spmm") ? 4 : 8;
   if (components_text) {
     char* end = nullptr;
     const long c = std::strtol(components_text->c_str(), &end, 10);
@@ -86,6 +102,27 @@ int run_factor(int argc, char** argv) {
     return convert::kExitUsage;
   }
   const std::string in = opt.positional()[0], out = opt.positional()[1];
+  if (convert::is_store_path(in)) {
+    if (method != "fmf") {
+      std::fprintf(stderr, "btflod-convert factor: a .btfstore is factorised with --method fmf only\n");
+      return convert::kExitUsage;
+    }
+    convert::StoreFactorArgs a;
+    a.in = in;
+    a.out = out;
+    a.components = components;
+    a.svd.power_iterations = power;
+    a.svd.max_power_iterations = max_power;
+    a.svd.power_tolerance = tolerance;
+    a.svd.oversampling = oversampling;
+    a.svd.sketch_nonzeros = sketch_nonzeros;
+    a.svd.block_columns = block_columns;
+    a.memory_budget = *memory;
+    a.checkpoint = checkpoint;
+    a.stop_after_passes = stop_after;
+    a.quiet = quiet;
+    return convert::run_factor_store(a);
+  }
 
   auto btf = samples::load_btf(in);
   if (!btf) {

@@ -7,6 +7,7 @@
 #include "command.hpp"
 #include "common/btf_files.hpp"
 #include "common/progress_bar.hpp"
+#include "store_commands.hpp"
 
 #include "btflod/btf/merl_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
@@ -22,18 +23,29 @@ int run_synth(int argc, char** argv) {
         "usage: btflod-convert synth -o OUT [--material cloth|stone|leather|tiles] [--size N]\n"
         "                            [--dirs ubo2003|ubo2014] [--seed N] [--brdf FILE.mbsdf|FILE.binary]\n"
         "                            [--interreflection] [--depth X] [--components K] [--quiet]\n"
+        "                            [--profile paper] [--store-type half|float] [--block-texels B]\n"
         "  Synthesises a tileable BTF: a height-field mesostructure rendered for every (view, light)\n"
         "  pair with ray-marched masking and self-shadowing, Lambert+GGX base reflectance (or the\n"
         "  measured BRDF given with --brdf: NVIDIA MBSDF, or MERL .binary resampled to 90 x 90 x 180).\n"
         "  Values are rho*cos(theta_light), linear RGB; a .btf output says so in its cosine flag.\n"
         "  OUT ending in .btf is written as a Bonn DFMF file (K components per channel, default 16);\n"
         "  any other OUT as a UBO2003-style PNG image folder.\n"
+        "  OUT ending in .btfstore is a BTF store for out-of-core factorisation (btf/btf_store.hpp),\n"
+        "  written view by view (the BTF is never held whole): halves by default, B texels per block\n"
+        "  (default 256). --profile paper: paper 000's configuration, 151 x 151 directions (ubo2014)\n"
+        "  and 512 x 512 texels unless --dirs/--size say otherwise.\n"
         "  defaults: --material cloth --size 64 --dirs ubo2003 --seed 1 --depth 1");
     return convert::kExitOk;
   }
   const std::string material_text = opt.string("material", "cloth");
-  const int size = static_cast<int>(opt.integer("size", 64, 1, 4096));
-  const std::string dirs = opt.string("dirs", "ubo2003");
+  const std::string profile = opt.string("profile", "");
+  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
+  const bool paper = profile == "paper";
+  const int size = static_cast<int>(opt.integer("size", paper ? 512 : 64, 1, 4096));
+  const std::string dirs = opt.string("dirs", paper ? "ubo2014" : "ubo2003");
+  const std::string store_type = opt.string("store-type", "half");
+  if (store_type != "half" && store_type != "float") opt.error("--store-type " + store_type + ": expected half or float");
+  const auto block_texels = static_cast<uint32_t>(opt.integer("block-texels", 256, 1, 1 << 20));
   const unsigned long long seed = opt.unsigned_integer("seed", 1);
   const auto brdf_path = opt.value("brdf");
   const bool interreflection = opt.flag("interreflection");
@@ -85,6 +97,10 @@ int run_synth(int argc, char** argv) {
     std::fprintf(stderr, "btflod-convert synth: %s\n", meso.message().c_str());
     return convert::kExitFailure;
   }
+  if (convert::is_store_path(*out))
+    return convert::synthesize_to_store(
+        *meso, so, *out, store_type == "float" ? BtfStoreValueType::float32 : BtfStoreValueType::float16, block_texels,
+        quiet);
   samples::ProgressBar bar("synth", stderr, !quiet);
   so.progress = bar.callback();
   const auto t0 = std::chrono::steady_clock::now();

@@ -337,7 +337,8 @@ uint64_t out_of_core_svd_peak_bytes(size_t m, size_t n, size_t local_columns, in
   // result: the Householder bases P (n × k), Qm (m × k), U, V.
   const uint64_t matrices = 4 * ((stripes + 5) * mm * k + 4 * nl * k + nl * c + mm * c) + 8 * 12 * k * k +
                             4 * static_cast<uint64_t>(ranks) * k * k * 2;
-  const uint64_t buffers = threads * (mm * block_columns * 4 + scratch_bytes_per_thread);
+  const uint64_t active = std::min<uint64_t>(threads, stripes);  // one stripe per thread at a time
+  const uint64_t buffers = active * (mm * block_columns * 4 + scratch_bytes_per_thread);
   return matrices + omega + buffers + (uint64_t{8} << 20);  // + 8 MiB for stacks and small objects
 }
 
@@ -418,7 +419,7 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
 
   // Block size: the requested one (or the checkpoint's), lowered to fit the budget.
   const size_t threads = pool.thread_count() + 1;
-  auto scratch_for = [&](size_t bc) { return m * (bc + align) * 4; };  // reader scratch upper bound
+  auto scratch_for = [&](size_t) { return m * align * 4; };  // a reader reads one aligned block at a time
   auto peak_for = [&](size_t bc) {
     return out_of_core_svd_peak_bytes(m, n, nl, rank, so, bc, threads, scratch_for(bc), comm.size());
   };

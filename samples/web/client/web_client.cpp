@@ -57,13 +57,13 @@ struct ClientMaterial {
   std::vector<float> u_rgba;  ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
   std::vector<float> u;       ///< U row-major (row · C + c), for the CPU side
   uint32_t set_index = 0;
-  uint32_t packets_loaded = 0;           ///< U' packets delivered (in order)
+  uint32_t packets_loaded = 0;  ///< U' packets delivered (in order)
   /// Per (flat tile · K + local texture): arena slot of the decoded tile, or kNotDecoded.
   std::vector<uint32_t> decoded_slot;
   /// Per (flat tile · K + local texture): the verified payload (compressed, ~1/10 of the decoded
   /// size), kept to decode the tile again when a child needs it after the arena evicted it.
   std::vector<std::vector<uint8_t>> payloads;
-  std::vector<uint8_t> delivered;        ///< per (local texture, flat tile): delivered at least once
+  std::vector<uint8_t> delivered;  ///< per (local texture, flat tile): delivered at least once
   double weight_total = 0, weight_delivered = 0;
 };
 
@@ -113,9 +113,9 @@ class Client {
   // decoded again from its kept payload when a child needs it (redecodes).
   std::vector<float> arena;
   uint32_t decoded_capacity = 256;
-  std::vector<uint64_t> arena_stamp;                       // last use; 0 = free
+  std::vector<uint64_t> arena_stamp;                              // last use; 0 = free
   std::vector<std::pair<ClientMaterial*, uint32_t>> arena_owner;  // (material, tile entry)
-  std::vector<uint8_t> arena_pinned;                       // roots
+  std::vector<uint8_t> arena_pinned;                              // roots
   uint64_t arena_clock = 0;
   uint64_t evictions = 0, redecodes = 0;
   std::vector<uint16_t> staging;      // half texels per request id (+ roots at the end)

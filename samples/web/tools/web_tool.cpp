@@ -291,8 +291,8 @@ int cmd_pcak(const Args& a) {
   const PcaViewsMaterialData& info = packed->info;
   const uint32_t C = info.components, groups = static_cast<uint32_t>(pca->groups.size());
   const uint32_t layers = (C + 4) / 4;  // L layers per group: components 0..C in RGBA texels
-  const size_t n = static_cast<size_t>(info.width) * info.height, rows = static_cast<size_t>(info.light_count) *
-                                                                            info.view_count;
+  const size_t n = static_cast<size_t>(info.width) * info.height,
+               rows = static_cast<size_t>(info.light_count) * info.view_count;
   std::vector<std::vector<uint8_t>> chunks(C + 1);
   const auto append = [](std::vector<uint8_t>& to, const void* p, size_t bytes) {
     const auto* b = static_cast<const uint8_t*>(p);
@@ -319,9 +319,22 @@ int cmd_pcak(const Args& a) {
   }
   const uint32_t table_crc =
       crc32_of(std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(table.data()), table.size() * 4));
-  const uint32_t header[16] = {0x4b414350u, 2, C, info.views_per_group, info.light_count, info.view_count,
-                               info.width, info.height, groups, C + 1, static_cast<uint32_t>(sizeof(RingSearchBlock)),
-                               0, 0, 0, table_crc, 0};
+  const uint32_t header[16] = {0x4b414350u,
+                               2,
+                               C,
+                               info.views_per_group,
+                               info.light_count,
+                               info.view_count,
+                               info.width,
+                               info.height,
+                               groups,
+                               C + 1,
+                               static_cast<uint32_t>(sizeof(RingSearchBlock)),
+                               0,
+                               0,
+                               0,
+                               table_crc,
+                               0};
   std::vector<uint8_t> file;
   append(file, header, sizeof header);
   append(file, table.data(), table.size() * 4);

@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "btflod/angular/interpolators.hpp"
@@ -404,6 +407,79 @@ TEST(FactorSpmm, RejectsHostileFiles) {
   auto lp = factorize_local_pca(two_material_btf(4, 2), lo);
   ASSERT_TRUE(lp.ok());
   EXPECT_FALSE(Spmm::deserialize(lp->serialize()).ok());
+}
+
+// The section-level failure classes of the kind-5 reader that a serialised Spmm cannot produce:
+// META counts, DICT sizes and counts, unused κ entries, missing sections, counts that need more
+// bytes than the file has. Each file is framed with correct CRCs (so the section check, not the
+// container, must reject it); the message names the section or quantity.
+TEST(FactorSpmm, RejectsInconsistentSections) {
+  const Spmm base = hand_spmm();
+  // Re-frames base's sections, replacing (or dropping, with an empty optional) one of them.
+  auto file_with = [&](const char* tag, std::optional<std::vector<uint8_t>> payload) {
+    auto parsed = FactorFile::parse(base.serialize());
+    EXPECT_TRUE(parsed.ok());
+    FactorFileWriter w(FactorKind::spmm);
+    const struct {
+      const char* name;
+      uint32_t tag;
+    } sections[] = {{"SHAP", factor_tag("SHAP")}, {"META", factor_tag("META")}, {"DICT", factor_tag("DICT")},
+                    {"CLID", factor_tag("CLID")}, {"SIDX", factor_tag("SIDX")}, {"SWGT", factor_tag("SWGT")},
+                    {"RMEA", factor_tag("RMEA")}, {"RBAS", factor_tag("RBAS")}, {"RCOF", factor_tag("RCOF")}};
+    for (const auto& t : sections) {
+      if (std::string(t.name) == tag) {
+        if (payload) w.add(t.tag, *payload);
+        continue;
+      }
+      auto sec = parsed->section(t.tag);
+      EXPECT_TRUE(sec.ok()) << t.name;
+      w.add(t.tag, std::vector<uint8_t>(sec->begin(), sec->end()));
+    }
+    return w.finish();
+  };
+  auto meta = [](uint32_t k, uint32_t s, uint32_t pc, uint32_t total) {
+    ByteWriter b;
+    b.u32(k);
+    b.u32(s);
+    b.u32(pc);
+    b.u32(total);
+    return b.take();
+  };
+  auto rejected = [](const std::vector<uint8_t>& bytes, const char* word) {
+    auto r = Spmm::deserialize(bytes);
+    ASSERT_FALSE(r.ok()) << word;
+    EXPECT_TRUE(r.status() == Status::bad_data || r.status() == Status::short_output) << r.message();
+    EXPECT_NE(r.message().find(word), std::string::npos) << word << ": " << r.message();
+  };
+  ASSERT_TRUE(Spmm::deserialize(file_with("", std::nullopt)).ok()) << "the re-framed file itself is valid";
+  rejected(file_with("META", meta(0, 2, 0, 2)), "META");        // K = 0
+  rejected(file_with("META", meta(1, 65, 0, 2)), "slots=65");   // more than 64 slots
+  rejected(file_with("META", meta(1, 2, 999, 2)), "N_PCA=999");  // N_PCA > d
+  rejected(file_with("META", meta(1, 2, 0, 1)), "DICT has");    // fewer bases than DICT holds
+  rejected(file_with("META", meta(3, 2, 0, 2)), "META");        // K > texels
+  {
+    std::vector<uint8_t> m = meta(1, 2, 0, 2);
+    m.push_back(0);
+    rejected(file_with("META", m), "META");  // trailing byte
+  }
+  rejected(file_with("META", std::nullopt), "META");  // missing section
+  rejected(file_with("DICT", std::nullopt), "DICT");
+  rejected(file_with("RMEA", std::nullopt), "RMEA");
+  {
+    auto parsed = FactorFile::parse(base.serialize());
+    const auto dict = *parsed->section(factor_tag("DICT"));
+    std::vector<uint8_t> d(dict.begin(), dict.end());
+    rejected(file_with("DICT", std::vector<uint8_t>(d.begin(), d.end() - 1)), "DICT has");  // size
+    std::vector<uint8_t> zero = d;
+    zero[0] = 0;  // cluster 0 has 0 bases (and the sum no longer matches META)
+    rejected(file_with("DICT", zero), "basis functions");
+    std::vector<uint8_t> unused = d;
+    const float k = 0.5f;
+    std::memcpy(unused.data() + 4 + 4, &k, 4);  // κ0 of the Lambert basis (it has no parameters)
+    rejected(file_with("DICT", unused), "parameter 0");
+  }
+  // Counts that need more bytes than the file holds: refused before any allocation.
+  rejected(file_with("META", meta(1, 64, 0, 60000)), "need more than");
 }
 
 }  // namespace

@@ -452,11 +452,11 @@ TEST(FactorSpmm, RejectsInconsistentSections) {
     EXPECT_NE(r.message().find(word), std::string::npos) << word << ": " << r.message();
   };
   ASSERT_TRUE(Spmm::deserialize(file_with("", std::nullopt)).ok()) << "the re-framed file itself is valid";
-  rejected(file_with("META", meta(0, 2, 0, 2)), "META");        // K = 0
-  rejected(file_with("META", meta(1, 65, 0, 2)), "slots=65");   // more than 64 slots
+  rejected(file_with("META", meta(0, 2, 0, 2)), "META");         // K = 0
+  rejected(file_with("META", meta(1, 65, 0, 2)), "slots=65");    // more than 64 slots
   rejected(file_with("META", meta(1, 2, 999, 2)), "N_PCA=999");  // N_PCA > d
-  rejected(file_with("META", meta(1, 2, 0, 1)), "DICT has");    // fewer bases than DICT holds
-  rejected(file_with("META", meta(3, 2, 0, 2)), "META");        // K > texels
+  rejected(file_with("META", meta(1, 2, 0, 1)), "DICT has");     // fewer bases than DICT holds
+  rejected(file_with("META", meta(3, 2, 0, 2)), "META");         // K > texels
   {
     std::vector<uint8_t> m = meta(1, 2, 0, 2);
     m.push_back(0);

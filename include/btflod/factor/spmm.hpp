@@ -376,7 +376,7 @@ struct Spmm {
   /// Parses a serialised SPMM. Safe for untrusted input: counts are checked against the shape
   /// and the file size before allocation, every model id is known and every κ and normal in
   /// range (validate_analytic_basis), every cluster id < K, every slot index < its cluster's
-  /// dictionary size, weights finite and ≥ 0.
+  /// dictionary size, weights finite and ≥ 0 (every float section is checked finite).
   static Result<Spmm> deserialize(std::span<const uint8_t> bytes) {
     auto file = FactorFile::parse(bytes);
     if (!file) return file.error();

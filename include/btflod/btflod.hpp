@@ -37,6 +37,7 @@
 
 // btf
 #include "btflod/btf/bonn_btf.hpp"
+#include "btflod/btf/btf_store.hpp"
 #include "btflod/btf/directions.hpp"
 #include "btflod/btf/heightfield.hpp"
 #include "btflod/btf/measured_brdf.hpp"
@@ -59,10 +60,12 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
+#include "btflod/factor/fmf_out_of_core.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
 #include "btflod/factor/levenberg_marquardt.hpp"
 #include "btflod/factor/local_pca.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/factor/out_of_core_svd.hpp"
 #include "btflod/factor/pca_views.hpp"
 #include "btflod/factor/spmm.hpp"
 #include "btflod/factor/truncated_svd.hpp"

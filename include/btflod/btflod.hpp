@@ -34,6 +34,7 @@
 #include "btflod/core/simd.hpp"
 #include "btflod/core/thin_svd.hpp"
 #include "btflod/core/thread_pool.hpp"
+#include "btflod/core/unique_handle.hpp"
 
 // btf
 #include "btflod/btf/bonn_btf.hpp"
@@ -108,6 +109,7 @@
 // shader
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
+#include "btflod/shader/std140.hpp"
 
 // backend
 #include "btflod/backend/backend.hpp"

@@ -125,3 +125,10 @@ TEST(ShaderStd140, DirectionMapTwinIsBitIdenticalToTheGlmFormula) {
     EXPECT_EQ(glm::vec2(shader_direction_to_unit_square(p, Float3(0, 0, 0))), glm::vec2(0.5f));
   }
 }
+
+TEST(ShaderStd140, NoTruncatingConversionFromOtherComponentTypes) {
+  static_assert(std::is_convertible_v<glm::ivec2, Int2> && !std::is_convertible_v<glm::vec2, Int2>);
+  static_assert(std::is_convertible_v<glm::uvec4, UInt4> && !std::is_convertible_v<glm::vec4, UInt4>);
+  static_assert(!std::is_convertible_v<glm::ivec4, Float4>);
+  SUCCEED();
+}

@@ -17,32 +17,41 @@
 
 namespace btflod {
 
-struct Float2;
-struct Int2;
+template <class T>
+struct Vec2;
+template <class T>
+struct Vec4;
 struct Float3;
-struct Float4;
-struct UInt4;
 struct Float4x4;
 
 namespace detail {
+template <class V>
+inline constexpr bool kIsStd140 = false;
+template <class T>
+inline constexpr bool kIsStd140<Vec2<T>> = true;
+template <class T>
+inline constexpr bool kIsStd140<Vec4<T>> = true;
+template <>
+inline constexpr bool kIsStd140<Float3> = true;
+template <>
+inline constexpr bool kIsStd140<Float4x4> = true;
 /// A type other than the std140 types of this header: conversions go to and from the engine's
 /// math types only, never silently between Float4 and UInt4 (or Float2 and Int2).
 template <class V>
-concept Foreign = !std::same_as<V, Float2> && !std::same_as<V, Int2> && !std::same_as<V, Float3> &&
-                  !std::same_as<V, Float4> && !std::same_as<V, UInt4> && !std::same_as<V, Float4x4>;
+concept Foreign = !kIsStd140<V>;
+// Members of exactly the component type: a glm::vec2 never becomes an Int2 by truncation.
 template <class V, class T>
 concept HasXy = requires(const V& v) {
-  { v.x } -> std::convertible_to<T>;
-  { v.y } -> std::convertible_to<T>;
+  { v.x } -> std::same_as<const T&>;
+  { v.y } -> std::same_as<const T&>;
 };
 template <class V, class T>
 concept HasXyz = HasXy<V, T> && requires(const V& v) {
-  { v.z } -> std::convertible_to<T>;
+  { v.z } -> std::same_as<const T&>;
 };
 template <class V, class T>
-concept HasXyzw = HasXy<V, T> && requires(const V& v) {
-  { v.z } -> std::convertible_to<T>;
-  { v.w } -> std::convertible_to<T>;
+concept HasXyzw = HasXyz<V, T> && requires(const V& v) {
+  { v.w } -> std::same_as<const T&>;
 };
 template <class M>
 concept ColumnMajor4x4 = requires(const M& m) {
@@ -50,46 +59,31 @@ concept ColumnMajor4x4 = requires(const M& m) {
 };
 }  // namespace detail
 
-/// GLSL vec2 (8 bytes, std140 alignment 8). Converts from and to other 2-vectors (see above).
-struct alignas(8) Float2 {
-  float x = 0.0f, y = 0.0f;
+/// GLSL vec2 / ivec2 (T = float / int32_t: 8 bytes, std140 alignment 8). Converts from any type
+/// with members x and y (glm::vec2) and to any type constructible from two T.
+template <class T>
+struct alignas(8) Vec2 {
+  T x{}, y{};
 
-  constexpr Float2() noexcept = default;
-  constexpr Float2(float x_, float y_) noexcept : x(x_), y(y_) {}
-  /// From any type with members x and y (glm::vec2).
+  constexpr Vec2() noexcept = default;
+  constexpr Vec2(T x_, T y_) noexcept : x(x_), y(y_) {}
+  /// From any type with members x and y (glm::vec2, glm::ivec2).
   template <class V>
-    requires(detail::Foreign<V> && detail::HasXy<V, float>)
-  constexpr Float2(const V& v) noexcept : x(static_cast<float>(v.x)), y(static_cast<float>(v.y)) {}  // NOLINT: implicit
-  /// To any type constructible from two floats (glm::vec2).
+    requires(detail::Foreign<V> && detail::HasXy<V, T>)
+  constexpr Vec2(const V& v) noexcept : x(static_cast<T>(v.x)), y(static_cast<T>(v.y)) {}  // NOLINT: implicit
+  /// To any type constructible from two T (glm::vec2, glm::ivec2).
   template <class V>
-    requires(detail::Foreign<V> && std::constructible_from<V, float, float>)
+    requires(detail::Foreign<V> && std::constructible_from<V, T, T>)
   constexpr operator V() const noexcept {  // NOLINT: implicit
     return V(x, y);
   }
-  friend constexpr bool operator==(const Float2&, const Float2&) noexcept = default;
+  friend constexpr bool operator==(const Vec2&, const Vec2&) noexcept = default;
 };
-
-/// GLSL ivec2 (8 bytes). Converts like Float2.
-struct alignas(8) Int2 {
-  int32_t x = 0, y = 0;
-
-  constexpr Int2() noexcept = default;
-  constexpr Int2(int32_t x_, int32_t y_) noexcept : x(x_), y(y_) {}
-  /// From any type with integer members x and y (glm::ivec2).
-  template <class V>
-    requires(detail::Foreign<V> && detail::HasXy<V, int32_t>)
-  constexpr Int2(const V& v) noexcept : x(static_cast<int32_t>(v.x)), y(static_cast<int32_t>(v.y)) {}  // NOLINT
-  /// To any type constructible from two ints (glm::ivec2).
-  template <class V>
-    requires(detail::Foreign<V> && std::constructible_from<V, int32_t, int32_t>)
-  constexpr operator V() const noexcept {  // NOLINT: implicit
-    return V(x, y);
-  }
-  friend constexpr bool operator==(const Int2&, const Int2&) noexcept = default;
-};
+using Float2 = Vec2<float>;   ///< GLSL vec2
+using Int2 = Vec2<int32_t>;   ///< GLSL ivec2
 
 /// Three floats, e.g. a direction for the CPU twins of the shaders' lookups (12 bytes: not a
-/// uniform-block member type, std140 aligns vec3 to 16). Converts like Float2 with three members.
+/// uniform-block member type, std140 aligns vec3 to 16). Converts like Vec2 with three members.
 struct Float3 {
   float x = 0.0f, y = 0.0f, z = 0.0f;
 
@@ -109,56 +103,37 @@ struct Float3 {
   friend constexpr bool operator==(const Float3&, const Float3&) noexcept = default;
 };
 
-/// GLSL vec4 (16 bytes, std140 alignment 16). Converts like Float2 with four members.
-struct alignas(16) Float4 {
-  float x = 0.0f, y = 0.0f, z = 0.0f, w = 0.0f;
+/// GLSL vec4 / uvec4 (T = float / uint32_t: 16 bytes, std140 alignment 16). Converts from any
+/// type with members x, y, z and w (glm::vec4, glm::uvec4), to any type constructible from four
+/// T, and explicitly to one constructible from three (xyz: glm::vec3(params.light), as GLM's own
+/// vec3(vec4) is explicit).
+template <class T>
+struct alignas(16) Vec4 {
+  T x{}, y{}, z{}, w{};
 
-  constexpr Float4() noexcept = default;
-  constexpr Float4(float x_, float y_, float z_, float w_) noexcept : x(x_), y(y_), z(z_), w(w_) {}
-  /// From any type with members x, y, z and w (glm::vec4).
+  constexpr Vec4() noexcept = default;
+  constexpr Vec4(T x_, T y_, T z_, T w_) noexcept : x(x_), y(y_), z(z_), w(w_) {}
+  /// From any type with members x, y, z and w.
   template <class V>
-    requires(detail::Foreign<V> && detail::HasXyzw<V, float>)
-  constexpr Float4(const V& v) noexcept  // NOLINT: implicit
-      : x(static_cast<float>(v.x)), y(static_cast<float>(v.y)), z(static_cast<float>(v.z)), w(static_cast<float>(v.w)) {}
-  /// To any type constructible from four floats (glm::vec4).
+    requires(detail::Foreign<V> && detail::HasXyzw<V, T>)
+  constexpr Vec4(const V& v) noexcept  // NOLINT: implicit
+      : x(static_cast<T>(v.x)), y(static_cast<T>(v.y)), z(static_cast<T>(v.z)), w(static_cast<T>(v.w)) {}
+  /// To any type constructible from four T.
   template <class V>
-    requires(detail::Foreign<V> && std::constructible_from<V, float, float, float, float>)
+    requires(detail::Foreign<V> && std::constructible_from<V, T, T, T, T>)
   constexpr operator V() const noexcept {  // NOLINT: implicit
     return V(x, y, z, w);
   }
-  /// Explicitly to a type constructible from three floats (xyz; glm::vec3(params.light)), as
-  /// GLM's own vec3(vec4) is explicit.
+  /// Explicitly to a type constructible from three T but not four (xyz).
   template <class V>
-    requires(detail::Foreign<V> && !std::constructible_from<V, float, float, float, float> &&
-             std::constructible_from<V, float, float, float>)
+    requires(detail::Foreign<V> && !std::constructible_from<V, T, T, T, T> && std::constructible_from<V, T, T, T>)
   explicit constexpr operator V() const noexcept {
     return V(x, y, z);
   }
-  friend constexpr bool operator==(const Float4&, const Float4&) noexcept = default;
+  friend constexpr bool operator==(const Vec4&, const Vec4&) noexcept = default;
 };
-
-/// GLSL uvec4 (16 bytes, std140 alignment 16). Converts like Float4.
-struct alignas(16) UInt4 {
-  uint32_t x = 0, y = 0, z = 0, w = 0;
-
-  constexpr UInt4() noexcept = default;
-  constexpr UInt4(uint32_t x_, uint32_t y_, uint32_t z_, uint32_t w_) noexcept : x(x_), y(y_), z(z_), w(w_) {}
-  /// From any type with unsigned members x, y, z and w (glm::uvec4).
-  template <class V>
-    requires(detail::Foreign<V> && detail::HasXyzw<V, uint32_t>)
-  constexpr UInt4(const V& v) noexcept  // NOLINT: implicit
-      : x(static_cast<uint32_t>(v.x)),
-        y(static_cast<uint32_t>(v.y)),
-        z(static_cast<uint32_t>(v.z)),
-        w(static_cast<uint32_t>(v.w)) {}
-  /// To any type constructible from four uint32_t (glm::uvec4).
-  template <class V>
-    requires(detail::Foreign<V> && std::constructible_from<V, uint32_t, uint32_t, uint32_t, uint32_t>)
-  constexpr operator V() const noexcept {  // NOLINT: implicit
-    return V(x, y, z, w);
-  }
-  friend constexpr bool operator==(const UInt4&, const UInt4&) noexcept = default;
-};
+using Float4 = Vec4<float>;    ///< GLSL vec4
+using UInt4 = Vec4<uint32_t>;  ///< GLSL uvec4
 
 /// GLSL mat4 (64 bytes: four vec4 columns, std140 stride 16): m[4·column + row], column-major.
 /// Converts from any matrix indexed a[column][row] (glm::mat4) and to any type constructible

@@ -109,14 +109,11 @@ class [[nodiscard]] Result {
     else
       ::new (static_cast<void*>(&error_)) Error(std::move(other.error_));
   }
+  /// Copies first, then moves the copy in: a copy that throws leaves *this unchanged.
   Result& operator=(const Result& other) requires std::is_copy_constructible_v<T> {
     if (this != &other) {
-      destroy();
-      ok_ = other.ok_;
-      if (ok_)
-        ::new (static_cast<void*>(&value_)) T(other.value_);
-      else
-        ::new (static_cast<void*>(&error_)) Error(other.error_);
+      Result copy(other);
+      *this = std::move(copy);
     }
     return *this;
   }

@@ -6,6 +6,7 @@
 
 #include <malloc.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -213,6 +214,22 @@ TEST(OutOfCoreSvd, ReaderErrorsStopTheRunWithTheirMessage) {
   ASSERT_FALSE(r);
   EXPECT_EQ(r.status(), Status::bad_data);
   EXPECT_NE(r.message().find("is bad"), std::string::npos);
+}
+
+TEST(OutOfCoreSvd, NanInTheMatrixIsRefusedNotFactorised) {
+  OutOfCoreSvdOptions o;
+  o.svd = algorithm();
+  auto r = out_of_core_svd(
+      50, 300, 5,
+      [](size_t col0, size_t count, Eigen::MatrixXf& out, std::vector<uint8_t>&) -> VoidResult {
+        out.setConstant(0.5f);
+        if (col0 <= 137 && 137 < col0 + count) out(7, static_cast<Eigen::Index>(137 - col0)) = std::nanf("");
+        return {};
+      },
+      o);
+  ASSERT_FALSE(r);
+  EXPECT_EQ(r.status(), Status::bad_data);
+  EXPECT_NE(r.message().find("NaN or infinite"), std::string::npos) << r.message();
 }
 
 namespace {

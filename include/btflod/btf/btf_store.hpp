@@ -343,6 +343,7 @@ class BtfStoreWriter {
     return w;
   }
 
+  /// The header being written (shape, directions, layout). Thread-safe (const).
   const BtfStoreInfo& info() const noexcept { return info_; }
 
   /// Writes view `view`: `block` holds n_light × H × W × 3 floats in the TabulatedBtf layout of
@@ -460,9 +461,13 @@ class BtfStore {
     return s;
   }
 
+  /// The validated header: shape, directions, value type, block layout. Thread-safe (const).
   const BtfStoreInfo& info() const noexcept { return info_; }
+  /// The path the store was opened from.
   const std::string& path() const noexcept { return path_; }
+  /// Rows of the FMF matrix (n_view · n_light · 3).
   size_t rows() const noexcept { return info_.rows(); }
+  /// Columns of the FMF matrix (texels).
   size_t columns() const noexcept { return info_.columns(); }
   /// A 64-bit identity of the contents (header CRC and checksum table CRC): checkpoints use it
   /// to refuse resuming against another store.

@@ -141,10 +141,10 @@ uint64_t out_of_core_svd_peak_bytes(size_t m, size_t n, size_t local_columns, in
 /// factors (see OutOfCoreSvd), or: invalid_argument for empty shapes, rank < 1, no power
 /// iteration allowed, more processes than column blocks; insufficient_space when the budget is
 /// below the minimum (message names it); bad_data for an unreadable checkpoint or one of another
-/// problem; cancelled when `progress` returns false or after stop_after_passes passes; the
-/// reader's error. Progress: stage "pass i: sketch" / "pass i: power iteration j", fraction of
-/// the current pass in [0, 1]. Threading: runs on options.svd.pool; with a communicator, every
-/// process must call this with the same m, n, rank and options. Not for untrusted sizes.
+/// problem or a matrix holding NaN/infinity; cancelled when `progress` returns false or after
+/// stop_after_passes passes; the reader's error. Progress: stage "pass i: sketch" / "pass i: power iteration j",
+/// fraction of the current pass in [0, 1]. Threading: runs on options.svd.pool; with a communicator, every process must
+/// call this with the same m, n, rank and options. Not for untrusted sizes.
 Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColumnReader& reader,
                                      const OutOfCoreSvdOptions& options = {}, const ProgressCallback& progress = {});
 
@@ -573,6 +573,11 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
       if (auto s = comm.sum(v); !s) return s.error();
       norm2 = v[0];
     }
+    // A NaN or infinity anywhere in A reaches ‖A‖²_F (and Y): refuse it here rather than return
+    // factors of NaN (a store's halves may hold them; its checksums only prove they were written).
+    if (!std::isfinite(norm2))
+      return make_error(Status::bad_data, "out_of_core_svd: the matrix holds NaN or infinite values (|A|^2 = %g)",
+                        norm2);
     st.norm2 = norm2;
     st.q = detail::orthonormal_basis(*y);
     st.passes_done = 1;

@@ -599,3 +599,46 @@ TEST(RuntimeStreamer, DecodedAncestorCacheGivesTheSameOutputsWithFewerReads) {
               static_cast<unsigned long long>(runs[1]->s.decoded_levels_skipped()),
               static_cast<unsigned long long>(runs[2]->s.bytes_read()));
 }
+
+// core/allocator.hpp's CallbackAllocator: the vote counter (with an accumulation window, so
+// every array exists) allocates only through the callbacks — no global operator new while it
+// is built — nothing while it counts, and returns every byte when it goes; a copy and a move
+// keep using the callbacks.
+TEST(RuntimeStreamer, VoteCounterAllocatesOnlyThroughTheCallbacks) {
+  struct Counter {
+    int64_t live = 0;
+    uint64_t calls = 0;
+  } counter;
+  RuntimeAllocator callbacks;
+  callbacks.user = &counter;
+  callbacks.allocate = [](void* u, size_t n, size_t a) -> void* {
+    auto* c = static_cast<Counter*>(u);
+    c->live += static_cast<int64_t>(n);
+    ++c->calls;
+    return ::operator new(n, std::align_val_t(a), std::nothrow);
+  };
+  callbacks.deallocate = [](void* u, void* p, size_t n, size_t a) {
+    static_cast<Counter*>(u)->live -= static_cast<int64_t>(n);
+    ::operator delete(p, std::align_val_t(a), std::nothrow);
+  };
+  const std::vector<VoteLayout> layouts = {{5, 32, 32}, {3, 8, 8}};
+  std::vector<uint32_t> words;
+  for (uint32_t i = 0; i < 5000; ++i) words.push_back(pack_feedback(FeedbackTile{i % 2, 3, (i / 7) % 8, (i / 61) % 8}));
+  {
+    const uint64_t global_before = btflod_test::global_news();
+    VoteCounter votes(layouts, VoteWindowConfig{16, 0}, callbacks);
+    EXPECT_EQ(btflod_test::global_news(), global_before) << "the vote counter used operator new";
+    EXPECT_GE(counter.calls, 11u);
+    EXPECT_GT(counter.live, 0);
+    const uint64_t calls = counter.calls;
+    for (int f = 0; f < 40; ++f) votes.accumulate(std::span<const uint32_t>(words).subspan(f * 100, 1000));
+    EXPECT_EQ(counter.calls, calls) << "counting allocated";
+    EXPECT_EQ(btflod_test::global_news(), global_before);
+    VoteCounter copy = votes;
+    EXPECT_GT(counter.calls, calls);
+    VoteCounter moved = std::move(copy);
+    EXPECT_EQ(moved.votes(0, 0, 0, 0), votes.votes(0, 0, 0, 0));
+    EXPECT_EQ(btflod_test::global_news(), global_before);
+  }
+  EXPECT_EQ(counter.live, 0);
+}

@@ -20,6 +20,7 @@
 #pragma once
 
 // core
+#include "btflod/core/allocator.hpp"
 #include "btflod/core/bit_cast.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/color.hpp"

@@ -28,7 +28,7 @@ file(GLOB runtime_headers RELATIVE ${inc}
 list(APPEND runtime_headers
      btflod/codec/tile_codec.hpp btflod/codec/dct.hpp btflod/codec/quantize.hpp btflod/codec/container.hpp
      btflod/backend/backend.hpp btflod/backend/page_table_writes.hpp btflod/backend/streamer_outputs.hpp
-     btflod/core/bit_cast.hpp btflod/core/bytes.hpp btflod/core/half.hpp btflod/core/result.hpp
+     btflod/core/allocator.hpp btflod/core/bit_cast.hpp btflod/core/bytes.hpp btflod/core/half.hpp btflod/core/result.hpp
      btflod/core/simd.hpp)
 # Known exceptions, each with the reason. A header listed here is skipped by all three checks.
 set(exceptions

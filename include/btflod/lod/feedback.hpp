@@ -47,6 +47,8 @@
 #include <span>
 #include <vector>
 
+#include "btflod/core/allocator.hpp"
+
 namespace btflod {
 
 inline constexpr uint32_t kFeedbackNone = 0xffffffffu;
@@ -133,8 +135,23 @@ class VoteCounter {
  public:
   VoteCounter() = default;
   /// One entry per material, in material order. Precondition: finest_level ≤ 15.
-  /// `window` sets accumulate()'s window (frames = 0 is taken as 1).
-  explicit VoteCounter(std::span<const VoteLayout> materials, VoteWindowConfig window = {}) {
+  /// `window` sets accumulate()'s window (frames = 0 is taken as 1). Every array is allocated
+  /// here through `allocator` (core/allocator.hpp; default: operator new), none later; a
+  /// failing callback aborts (set-up memory is not optional).
+  explicit VoteCounter(std::span<const VoteLayout> materials, VoteWindowConfig window = {},
+                       const RuntimeAllocator& allocator = {})
+      : materials_(Alloc<Material>(allocator)),
+        votes_(Alloc<uint32_t>(allocator)),
+        direct_(Alloc<uint32_t>(allocator)),
+        touched_(Alloc<uint32_t>(allocator)),
+        touched_words_(Alloc<uint32_t>(allocator)),
+        ring_(Alloc<WindowEntry>(allocator)),
+        ring_size_(Alloc<uint32_t>(allocator)),
+        window_(Alloc<uint32_t>(allocator)),
+        in_live_(Alloc<uint8_t>(allocator)),
+        live_(Alloc<uint32_t>(allocator)),
+        live_words_(Alloc<uint32_t>(allocator)) {
+    materials_.reserve(materials.size());
     uint32_t total = 0;
     for (const VoteLayout& m : materials) {
       Material mm;
@@ -346,6 +363,11 @@ class VoteCounter {
   uint32_t finest_level(uint32_t material) const noexcept { return materials_[material].finest_level; }
 
  private:
+  template <class T>
+  using Alloc = CallbackAllocator<T>;
+  template <class T>
+  using Vector = std::vector<T, Alloc<T>>;
+
   struct Material {
     uint32_t finest_level = 0;
     uint32_t base = 0;
@@ -419,11 +441,11 @@ class VoteCounter {
     return m.base + m.offset[t.level] + t.y * m.tiles_x[t.level] + t.x;
   }
 
-  std::vector<Material> materials_;
-  std::vector<uint32_t> votes_;
-  std::vector<uint32_t> direct_;
-  std::vector<uint32_t> touched_;        // flat indices with v > 0 (for clearing)
-  std::vector<uint32_t> touched_words_;  // the same tiles as feedback words
+  Vector<Material> materials_;
+  Vector<uint32_t> votes_;
+  Vector<uint32_t> direct_;
+  Vector<uint32_t> touched_;        // flat indices with v > 0 (for clearing)
+  Vector<uint32_t> touched_words_;  // the same tiles as feedback words
   size_t direct_tiles_ = 0;              // leading entries of touched_ voted directly
   uint64_t rejected_ = 0;
   // accumulate()'s sliding window: ring of the last N frames' direct (tile, count) entries.
@@ -435,12 +457,12 @@ class VoteCounter {
   uint32_t ring_cap_ = 0;             // entries per frame
   uint32_t head_ = 0;                 // ring slot of the next frame
   uint32_t filled_ = 0;               // frames in the window so far (≤ N)
-  std::vector<WindowEntry> ring_;     // N × ring_cap_
-  std::vector<uint32_t> ring_size_;   // entries used per ring slot
-  std::vector<uint32_t> window_;      // Σ direct votes over the window, per flat tile
-  std::vector<uint8_t> in_live_;      // tile is in live_
-  std::vector<uint32_t> live_;        // tiles with window_ > 0, first-seen order
-  std::vector<uint32_t> live_words_;  // the same tiles as feedback words
+  Vector<WindowEntry> ring_;     // N × ring_cap_
+  Vector<uint32_t> ring_size_;   // entries used per ring slot
+  Vector<uint32_t> window_;      // Σ direct votes over the window, per flat tile
+  Vector<uint8_t> in_live_;      // tile is in live_
+  Vector<uint32_t> live_;        // tiles with window_ > 0, first-seen order
+  Vector<uint32_t> live_words_;  // the same tiles as feedback words
   uint64_t window_overflow_ = 0;
   MemoEntry memo_[kMemoSize];
 };

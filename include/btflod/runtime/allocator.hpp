@@ -1,6 +1,7 @@
-// btflod — allocator callbacks for the runtime (what libdeflate's
-// libdeflate_set_memory_allocator and VMA's VkAllocationCallbacks give an engine): every buffer
-// a runtime object allocates at creation goes through them, nothing allocates afterwards.
+// btflod — allocator callbacks for the runtime (RuntimeAllocator, core/allocator.hpp; what
+// libdeflate's libdeflate_set_memory_allocator and VMA's VkAllocationCallbacks give an engine):
+// every buffer a runtime object allocates at creation goes through them, nothing allocates
+// afterwards.
 #pragma once
 
 #include <cstddef>
@@ -10,31 +11,9 @@
 #include <type_traits>
 #include <utility>
 
+#include "btflod/core/allocator.hpp"
+
 namespace btflod {
-
-/// Allocation callbacks given at creation. Both null: global operator new / delete (aligned).
-/// allocate returns memory of at least `bytes` bytes aligned to `alignment` (a power of two ≤
-/// 64), or null on failure; deallocate receives the same size and alignment. Called only from
-/// the thread that creates or destroys the runtime object.
-struct RuntimeAllocator {
-  void* (*allocate)(void* user, size_t bytes, size_t alignment) = nullptr;
-  void (*deallocate)(void* user, void* pointer, size_t bytes, size_t alignment) = nullptr;
-  void* user = nullptr;
-
-  /// Allocates through the callbacks (or operator new). Returns null on failure. noexcept.
-  void* allocate_bytes(size_t bytes, size_t alignment) const noexcept {
-    if (bytes == 0) bytes = 1;
-    if (allocate != nullptr) return allocate(user, bytes, alignment);
-    return ::operator new(bytes, std::align_val_t(alignment), std::nothrow);
-  }
-  /// Releases memory from allocate_bytes() with the same size and alignment. noexcept.
-  void deallocate_bytes(void* p, size_t bytes, size_t alignment) const noexcept {
-    if (p == nullptr) return;
-    if (bytes == 0) bytes = 1;
-    if (deallocate != nullptr) return deallocate(user, p, bytes, alignment);
-    ::operator delete(p, std::align_val_t(alignment), std::nothrow);
-  }
-};
 
 /// A fixed-size array allocated once through a RuntimeAllocator (no growth, no copies): the
 /// storage of the runtime's per-frame buffers. Elements are value-initialised; movable only.

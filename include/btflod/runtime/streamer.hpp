@@ -26,7 +26,8 @@
 //    or an AsyncTileSource is asked for them in update() and complete_read() reports them.
 //  * Every buffer is allocated in create() through StreamerConfig::allocator (or operator new);
 //    update(), the jobs and the completions allocate nothing (tests count it). The vote counter
-//    and the tile cache's own arrays use the global allocator at creation (lod/, vt/).
+//    allocates through the same callbacks; the tile cache's, scheduler's and payload cache's
+//    own arrays still use the global allocator at creation (vt/, stream/).
 //  * Headers used here include no thread, POSIX or GPU header; the runtime builds with
 //    -fno-exceptions -fno-rtti.
 //
@@ -899,7 +900,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
         sched->set_tile_bytes(vm.first_texture + k, i, materials[m].directory->find(vm.levels.tile(k, i))->size);
     sched->set_u_packet_bytes(m, materials[m].directory->packets.empty() ? 0 : materials[m].directory->packets[0].size);
   }
-  VoteCounter votes(vote_layouts(set), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0});
+  VoteCounter votes(vote_layouts(set), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, config.allocator);
 
   const RuntimeAllocator& al = config.allocator;
   void* mem = al.allocate_bytes(sizeof(Impl), alignof(Impl));

@@ -1,0 +1,77 @@
+// btflod — allocation callbacks (what libdeflate's libdeflate_set_memory_allocator and VMA's
+// VkAllocationCallbacks give an engine), and a standard-library allocator over them so that the
+// containers of the per-frame objects (lod/, vt/) allocate through the engine's callbacks at
+// set-up. runtime/allocator.hpp adds the fixed arrays of the runtime.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <type_traits>
+
+namespace btflod {
+
+/// Allocation callbacks given at creation. Both null: global operator new / delete (aligned).
+/// allocate returns memory of at least `bytes` bytes aligned to `alignment` (a power of two ≤
+/// 64), or null on failure; deallocate receives the same size and alignment. Called only from
+/// the thread that creates or destroys the runtime object.
+struct RuntimeAllocator {
+  void* (*allocate)(void* user, size_t bytes, size_t alignment) = nullptr;
+  void (*deallocate)(void* user, void* pointer, size_t bytes, size_t alignment) = nullptr;
+  void* user = nullptr;
+
+  /// Allocates through the callbacks (or operator new). Returns null on failure. noexcept.
+  void* allocate_bytes(size_t bytes, size_t alignment) const noexcept {
+    if (bytes == 0) bytes = 1;
+    if (allocate != nullptr) return allocate(user, bytes, alignment);
+    return ::operator new(bytes, std::align_val_t(alignment), std::nothrow);
+  }
+  /// Releases memory from allocate_bytes() with the same size and alignment. noexcept.
+  void deallocate_bytes(void* p, size_t bytes, size_t alignment) const noexcept {
+    if (p == nullptr) return;
+    if (bytes == 0) bytes = 1;
+    if (deallocate != nullptr) return deallocate(user, p, bytes, alignment);
+    ::operator delete(p, std::align_val_t(alignment), std::nothrow);
+  }
+};
+
+/// A standard allocator (for std::vector) that allocates through a RuntimeAllocator. Used by
+/// the per-frame objects only while they are set up (their containers never grow afterwards).
+/// When the callback fails the program aborts, as std::allocator does without exceptions:
+/// set-up memory is not optional. Equal when their callbacks and user pointers are.
+template <class T>
+struct CallbackAllocator {
+  using value_type = T;
+  // The callbacks travel with the container's memory on moves, copies and swaps.
+  using propagate_on_container_move_assignment = std::true_type;
+  using propagate_on_container_copy_assignment = std::true_type;
+  using propagate_on_container_swap = std::true_type;
+  RuntimeAllocator callbacks;
+
+  CallbackAllocator() noexcept = default;
+  explicit CallbackAllocator(const RuntimeAllocator& c) noexcept : callbacks(c) {}
+  template <class U>
+  CallbackAllocator(const CallbackAllocator<U>& o) noexcept : callbacks(o.callbacks) {}
+
+  /// n objects' memory. Aborts when the callback fails or n is too large.
+  T* allocate(size_t n) {
+    if (n > SIZE_MAX / sizeof(T)) std::abort();
+    void* p = callbacks.allocate_bytes(n * sizeof(T), alignment());
+    if (p == nullptr) std::abort();
+    return static_cast<T*>(p);
+  }
+  /// Returns memory from allocate(n).
+  void deallocate(T* p, size_t n) noexcept { callbacks.deallocate_bytes(p, n * sizeof(T), alignment()); }
+
+  template <class U>
+  friend bool operator==(const CallbackAllocator& a, const CallbackAllocator<U>& b) noexcept {
+    return a.callbacks.allocate == b.callbacks.allocate && a.callbacks.deallocate == b.callbacks.deallocate &&
+           a.callbacks.user == b.callbacks.user;
+  }
+
+ private:
+  static constexpr size_t alignment() noexcept { return alignof(T) < 16 ? 16 : alignof(T); }
+};
+
+}  // namespace btflod

@@ -1,9 +1,11 @@
-// libFuzzer target: the BTF store reader (btf/btf_store.hpp) on hostile bytes. The header parser
-// runs on the input as a whole file; an input it accepts is also opened as a file (memfd) and
-// read column block by column block, so the checksum table, the block offsets and the half/float
-// conversion are exercised on every accepted layout (ASan checks every access).
+// libFuzzer target: the BTF store reader (btf/btf_store.hpp) on hostile bytes, as given and
+// with its two CRCs recomputed (to get past them). The header parser runs on the input as a
+// whole file; an input it accepts is also opened as a file (memfd) and read column block by
+// column block, so the checksum table, the block offsets and the half/float conversion are
+// exercised on every accepted layout (ASan checks every access).
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 #include <string>
 #include <vector>
@@ -13,13 +15,15 @@
 
 #include "btflod/btf/btf_store.hpp"
 
-extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+namespace {
+
+void parse_and_read(const uint8_t* data, size_t size) {
   const std::span<const uint8_t> bytes(data, size);
   auto info = btflod::parse_btf_store_header(bytes, size);
-  if (!info) return 0;
+  if (!info) return;
   // parse_btf_store_header checked the file size, so rows · columns is bounded by the input.
   const int fd = ::memfd_create("fuzz_btf_store", 0);
-  if (fd < 0) return 0;
+  if (fd < 0) return;
   size_t off = 0;
   while (off < size) {
     const ssize_t put = ::write(fd, data + off, size - off);
@@ -37,5 +41,27 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   }
   ::close(fd);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  parse_and_read(data, size);
+  // The same bytes with the header CRC and the checksum table's CRC recomputed, so that
+  // mutations of the fields reach the validation and reading code behind the checksums.
+  uint32_t header_bytes = 0;
+  if (size < 16) return 0;
+  std::memcpy(&header_bytes, data + 12, 4);
+  if (header_bytes < 8 || header_bytes > size) return 0;
+  std::vector<uint8_t> fixed(data, data + size);
+  const uint32_t crc = btflod::crc32_of(std::span<const uint8_t>(fixed.data(), header_bytes - 4));
+  std::memcpy(fixed.data() + header_bytes - 4, &crc, 4);
+  auto info = btflod::parse_btf_store_header(fixed, fixed.size());
+  if (info && info->checksum_bytes() <= fixed.size()) {
+    const size_t table = static_cast<size_t>(info->checksum_bytes());
+    const uint32_t tcrc = btflod::crc32_of(std::span<const uint8_t>(fixed.data() + size - table, table - 4));
+    std::memcpy(fixed.data() + size - 4, &tcrc, 4);
+  }
+  parse_and_read(fixed.data(), fixed.size());
   return 0;
 }

@@ -44,7 +44,8 @@ int run_synth(int argc, char** argv) {
   const int size = static_cast<int>(opt.integer("size", paper ? 512 : 64, 1, 4096));
   const std::string dirs = opt.string("dirs", paper ? "ubo2014" : "ubo2003");
   const std::string store_type = opt.string("store-type", "half");
-  if (store_type != "half" && store_type != "float") opt.error("--store-type " + store_type + ": expected half or float");
+  if (store_type != "half" && store_type != "float")
+    opt.error("--store-type " + store_type + ": expected half or float");
   const auto block_texels = static_cast<uint32_t>(opt.integer("block-texels", 256, 1, 1 << 20));
   const unsigned long long seed = opt.unsigned_integer("seed", 1);
   const auto brdf_path = opt.value("brdf");
@@ -98,9 +99,9 @@ int run_synth(int argc, char** argv) {
     return convert::kExitFailure;
   }
   if (convert::is_store_path(*out))
-    return convert::synthesize_to_store(
-        *meso, so, *out, store_type == "float" ? BtfStoreValueType::float32 : BtfStoreValueType::float16, block_texels,
-        quiet);
+    return convert::synthesize_to_store(*meso, so, *out,
+                                        store_type == "float" ? BtfStoreValueType::float32 : BtfStoreValueType::float16,
+                                        block_texels, quiet);
   samples::ProgressBar bar("synth", stderr, !quiet);
   so.progress = bar.callback();
   const auto t0 = std::chrono::steady_clock::now();

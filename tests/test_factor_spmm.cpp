@@ -417,7 +417,8 @@ TEST(FactorSpmm, RejectsInconsistentSections) {
   const Spmm base = hand_spmm();
   // Re-frames base's sections, replacing (or dropping, with an empty optional) one of them.
   auto file_with = [&](const char* tag, std::optional<std::vector<uint8_t>> payload) {
-    auto parsed = FactorFile::parse(base.serialize());
+    const auto bytes = base.serialize();  // parse() keeps views into these bytes
+    auto parsed = FactorFile::parse(bytes);
     EXPECT_TRUE(parsed.ok());
     FactorFileWriter w(FactorKind::spmm);
     const struct {
@@ -466,7 +467,8 @@ TEST(FactorSpmm, RejectsInconsistentSections) {
   rejected(file_with("DICT", std::nullopt), "DICT");
   rejected(file_with("RMEA", std::nullopt), "RMEA");
   {
-    auto parsed = FactorFile::parse(base.serialize());
+    const auto bytes = base.serialize();  // parse() keeps views into these bytes
+    auto parsed = FactorFile::parse(bytes);
     const auto dict = *parsed->section(factor_tag("DICT"));
     std::vector<uint8_t> d(dict.begin(), dict.end());
     rejected(file_with("DICT", std::vector<uint8_t>(d.begin(), d.end() - 1)), "DICT has");  // size

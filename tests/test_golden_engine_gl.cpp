@@ -21,25 +21,13 @@
 #include "btflod/shader/glsl_generator.hpp"
 #include "gl_backend.hpp"
 #include "gl_util.hpp"
+#include "test_golden_engine_blocks.hpp"
 #include "test_golden_scene.hpp"
 
 namespace {
 
 using namespace btflod;
 using namespace btflod::golden;
-
-// The engine's uniform blocks (std140 mirrors).
-struct EngineCamera {
-  glm::mat4 view_proj;
-  glm::vec4 eye;
-};
-struct EngineSurface {
-  glm::vec4 sun_direction;
-  glm::vec4 sun_radiance;
-  glm::vec4 vt_extent;  // M, N, L
-  glm::uvec4 layers;    // x: first page-table layer, y: 0 = fmf, 1 = bsvtf
-  glm::vec4 lod;        // x: LOD bias
-};
 
 constexpr GLuint kCameraBinding = 3, kSurfaceBinding = 5, kEngineCacheBinding = 15;
 

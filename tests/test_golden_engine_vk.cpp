@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "btflod/shader/glsl_generator.hpp"
+#include "test_golden_engine_blocks.hpp"
 #include "test_golden_scene.hpp"
 #include "vk_internal.hpp"
 
@@ -31,19 +32,6 @@ namespace {
 
 using namespace btflod;
 using namespace btflod::golden;
-
-// The engine's uniform blocks (std140 mirrors).
-struct EngineCamera {
-  glm::mat4 view_proj;
-  glm::vec4 eye;
-};
-struct EngineSurface {
-  glm::vec4 sun_direction;
-  glm::vec4 sun_radiance;
-  glm::vec4 vt_extent;  // M, N, L
-  glm::uvec4 layers;    // x: first page-table layer, y: 0 = fmf, 1 = bsvtf
-  glm::vec4 lod;        // x: LOD bias
-};
 
 constexpr uint32_t kEngineSet = 0, kCameraBinding = 0, kSurfaceBinding = 1;
 constexpr uint32_t kMaterialSet = 1, kEngineCacheBinding = 9;

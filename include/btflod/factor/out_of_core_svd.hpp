@@ -546,24 +546,7 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
     auto y = pass([&](const MatrixXf& a, Index col0, Index cnt, size_t s) {
       MatrixXf& acc = partial[s];
       norm2_partial[s] += a.colwise().squaredNorm().template cast<double>().sum();
-      if (zeta == 0) {
-        acc.noalias() += a * omega.middleRows(col0, cnt);
-        return;
-      }
-      constexpr Index kRowChunk = 512;
-      for (Index r0 = 0; r0 < a.rows(); r0 += kRowChunk) {
-        const Index rn = std::min<Index>(kRowChunk, a.rows() - r0);
-        for (Index t = 0; t < cnt; ++t) {
-          const int32_t* row = sparse_omega.data() + static_cast<size_t>(col0 + t) * static_cast<size_t>(zeta);
-          const auto src = a.col(t).segment(r0, rn);
-          for (Index e = 0; e < zeta; ++e) {
-            if (row[e] > 0)
-              acc.col(row[e] - 1).segment(r0, rn) += src;
-            else
-              acc.col(-row[e] - 1).segment(r0, rn) -= src;
-          }
-        }
-      }
+      detail::accumulate_sketch(acc, a, omega, sparse_omega, zeta, col0, cnt);
     });
     if (!y) return y.error();
     double norm2 = 0.0;

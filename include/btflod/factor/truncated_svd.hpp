@@ -102,6 +102,35 @@ struct TruncatedSvd {
 
 namespace detail {
 
+/// Y += A·Ω over one column block: `a` holds columns [col0, col0 + cnt) of A and `acc` is Y.
+/// Ω is dense (`omega`, zeta == 0) or sparse: `sparse_omega` holds zeta entries per row of Ω
+/// (column + 1, negated for −1), and Y(:, j) ± A(:, t) runs over row chunks of 512 so that the
+/// touched part of Y (512 × k) stays in cache. Shared by truncated_svd and out_of_core_svd,
+/// which must give identical bits.
+inline void accumulate_sketch(Eigen::MatrixXf& acc, const Eigen::MatrixXf& a, const Eigen::MatrixXf& omega,
+                              const std::vector<int32_t>& sparse_omega, Eigen::Index zeta, Eigen::Index col0,
+                              Eigen::Index cnt) {
+  using Eigen::Index;
+  if (zeta == 0) {
+    acc.noalias() += a * omega.middleRows(col0, cnt);
+    return;
+  }
+  constexpr Index kRowChunk = 512;
+  for (Index r0 = 0; r0 < a.rows(); r0 += kRowChunk) {
+    const Index rn = std::min<Index>(kRowChunk, a.rows() - r0);
+    for (Index t = 0; t < cnt; ++t) {
+      const int32_t* row = sparse_omega.data() + static_cast<size_t>(col0 + t) * static_cast<size_t>(zeta);
+      const auto src = a.col(t).segment(r0, rn);
+      for (Index e = 0; e < zeta; ++e) {
+        if (row[e] > 0)
+          acc.col(row[e] - 1).segment(r0, rn) += src;
+        else
+          acc.col(-row[e] - 1).segment(r0, rn) -= src;
+      }
+    }
+  }
+}
+
 /// SplitMix64: 64 random bits per call. Deterministic on every platform.
 class SplitMix64 {
  public:
@@ -344,26 +373,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   MatrixXf q = detail::orthonormal_basis(pass([&](const MatrixXf& a, Index col0, Index cnt, size_t s) {
     MatrixXf& acc = partial[s];
     norm2_partial[s] += a.colwise().squaredNorm().template cast<double>().sum();
-    if (zeta == 0) {
-      acc.noalias() += a * omega.middleRows(col0, cnt);
-      return;
-    }
-    // Y(:, j) ± A(:, t) for the ζ entries of row t of Ω, over row chunks of 512 so that the
-    // touched part of Y (512 × k) stays in cache.
-    constexpr Index kRowChunk = 512;
-    for (Index r0 = 0; r0 < a.rows(); r0 += kRowChunk) {
-      const Index rn = std::min<Index>(kRowChunk, a.rows() - r0);
-      for (Index t = 0; t < cnt; ++t) {
-        const int32_t* row = sparse_omega.data() + static_cast<size_t>(col0 + t) * static_cast<size_t>(zeta);
-        const auto src = a.col(t).segment(r0, rn);
-        for (Index e = 0; e < zeta; ++e) {
-          if (row[e] > 0)
-            acc.col(row[e] - 1).segment(r0, rn) += src;
-          else
-            acc.col(-row[e] - 1).segment(r0, rn) -= src;
-        }
-      }
-    }
+    detail::accumulate_sketch(acc, a, omega, sparse_omega, zeta, col0, cnt);
   }));
   omega.resize(0, 0);
   sparse_omega = {};

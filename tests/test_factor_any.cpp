@@ -36,6 +36,13 @@ std::vector<AnyFactorization> all_kinds(const BtfFloat& btf) {
   return out;
 }
 
+// FactorFile keeps views into the parsed bytes, so parsing a temporary buffer must not compile
+// (it left the section views dangling: a heap-use-after-free found under ASan).
+template <class Bytes>
+concept ParsesAsFactorFile = requires { FactorFile::parse(Bytes{}); };
+static_assert(!ParsesAsFactorFile<std::vector<uint8_t>>, "parsing a temporary vector must be refused");
+static_assert(ParsesAsFactorFile<std::span<const uint8_t>>, "parsing caller-owned bytes must work");
+
 TEST(FactorAny, ParsesEveryKindAndWritesSeeds) {
   const auto btf = tiny_btf();
   const std::string dir = std::string(BTFLOD_TEST_TMP_DIR) + "/factor_seeds";

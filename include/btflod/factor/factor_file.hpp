@@ -128,6 +128,10 @@ class FactorFile {
  public:
   FactorKind kind = FactorKind::fmf;
 
+  /// Refused at compile time: the section views would point into a buffer destroyed at the end of
+  /// the full expression. Keep the bytes alive in a named variable and parse that.
+  static Result<FactorFile> parse(std::vector<uint8_t>&& temporary_bytes) = delete;
+
   /// Parses and validates the container (magic, version, section lengths and CRCs, no
   /// trailing bytes, no duplicate tags). Safe for untrusted input; does not copy payloads.
   static Result<FactorFile> parse(std::span<const uint8_t> bytes) {

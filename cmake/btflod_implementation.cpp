@@ -16,6 +16,7 @@
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
+#include "btflod/core/simd_kernels.hpp"
 #include "btflod/core/thin_svd.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
 #include "btflod/factor/local_pca.hpp"

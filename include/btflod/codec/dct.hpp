@@ -7,12 +7,11 @@
 // Orthonormality matters for the quantiser: a coefficient error e_k maps to a spatial error of
 // the same energy (Parseval), which is what lets codec/quantize.hpp bound the block RMS error.
 //
-// Templated on block size N and scalar type S (scalar path). For N = 8 and float there is an
-// AVX2/FMA path selected at run time (cpu_has_avx2_fma, core/simd.hpp), defined in the
-// implementation TU (BTFLOD_IMPLEMENTATION) and compiled for AVX2 + FMA there; this header
-// includes no <immintrin.h>. The scalar twin is always available; set BTFLOD_DISABLE_SIMD=1 to
-// force it. Both produce the same result up
-// to float rounding (the tests bound the difference).
+// Templated on block size N and scalar type S (scalar path). For N = 8 and float the transform is
+// one of the SIMD kernels of core/simd.hpp (written once, compiled per ISA in the implementation
+// TU, chosen once at run time); every ISA build returns the scalar twin's bits. This header
+// includes no <immintrin.h>. The tile decoder's inverse DCT (TileCoefBlock, tile_idct_add,
+// tile_idct_add4) is a kernel of the same table.
 //
 // Layout: blocks are row-major, element (row y, column x) at y * stride + x; coefficient
 // (v, u) — v the vertical and u the horizontal frequency — at v * N + u.
@@ -24,7 +23,7 @@
 #include <numbers>
 #include <type_traits>
 
-#include "btflod/core/simd.hpp"  // BTFLOD_HAS_X86_DISPATCH, cpu_has_avx2_fma
+#include "btflod/core/simd.hpp"
 
 namespace btflod {
 
@@ -91,98 +90,63 @@ inline void dct_inverse_scalar(const S* in, S* out, size_t out_stride) noexcept 
   }
 }
 
+/// One 8×8 block of dequantised coefficients (natural order, (v, u) at v*8 + u) and the extent
+/// of its non-zero coefficients: rows v < rows and columns u < cols may be non-zero, the rest are
+/// 0 (rows = 0: the block is all zero). The tile decoder's inverse-DCT input.
+struct TileCoefBlock {
+  alignas(32) float coef[64];
+  uint32_t rows = 0;
+  uint32_t cols = 0;
+};
+
 #if BTFLOD_HAS_X86_DISPATCH
-/// Forward 8×8 DCT, AVX2/FMA kernel (implementation TU). Precondition: cpu_has_avx2_fma();
-/// same contract as dct_forward_scalar<8, float>.
+/// Forward 8×8 DCT of the AVX2 build (simd_kernels_for(SimdIsa::avx2)->dct8_forward).
+/// Precondition: simd_isa_available(SimdIsa::avx2); same contract as dct_forward<8, float>.
 void dct8_forward_avx2(const float* in, size_t in_stride, float* out) noexcept;
 
-/// Inverse 8×8 DCT, AVX2/FMA kernel (implementation TU). Precondition: cpu_has_avx2_fma();
-/// same contract as dct_inverse_scalar<8, float>.
+/// Inverse 8×8 DCT of the AVX2 build. Precondition: simd_isa_available(SimdIsa::avx2); same
+/// contract as dct_inverse<8, float>.
 void dct8_inverse_avx2(const float* in, float* out, size_t out_stride) noexcept;
 #endif
 
-/// Forward 2-D DCT with run-time dispatch: the AVX2/FMA path for N = 8 floats when available,
-/// otherwise the scalar twin. Thread-safe, no allocation.
+/// Forward 2-D DCT with run-time dispatch: for N = 8 floats the kernel of the ISA build in use
+/// (simd_kernels(), bit-identical in every build), otherwise dct_forward_scalar. Thread-safe, no
+/// allocation.
 template <int N, class S>
 inline void dct_forward(const S* in, size_t in_stride, S* out) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
   if constexpr (N == 8 && std::is_same_v<S, float>) {
-    if (cpu_has_avx2_fma()) return dct8_forward_avx2(in, in_stride, out);
+    simd_kernels().dct8_forward(in, in_stride, out);
+  } else {
+    dct_forward_scalar<N, S>(in, in_stride, out);
   }
-#endif
-  dct_forward_scalar<N, S>(in, in_stride, out);
 }
 
 /// Inverse 2-D DCT with run-time dispatch (see dct_forward). Thread-safe, no allocation.
 template <int N, class S>
 inline void dct_inverse(const S* in, S* out, size_t out_stride) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
   if constexpr (N == 8 && std::is_same_v<S, float>) {
-    if (cpu_has_avx2_fma()) return dct8_inverse_avx2(in, out, out_stride);
+    simd_kernels().dct8_inverse(in, out, out_stride);
+  } else {
+    dct_inverse_scalar<N, S>(in, out, out_stride);
   }
-#endif
-  dct_inverse_scalar<N, S>(in, out, out_stride);
+}
+
+/// Adds the inverse DCT of `b` to an 8×8 block of channel samples at `dst` (row stride
+/// `row_stride`, column stride `step` floats) with the ISA build in use (SimdKernels::
+/// tile_idct_add). Thread-safe, no allocation.
+inline void tile_idct_add(const TileCoefBlock& b, float* dst, size_t row_stride, size_t step) noexcept {
+  simd_kernels().tile_idct_add(b, dst, row_stride, step);
+}
+
+/// The four channel blocks of one block position of a 4-channel tile, added interleaved at
+/// `dst` (SimdKernels::tile_idct_add4). Thread-safe, no allocation.
+inline void tile_idct_add4(const TileCoefBlock* b, float* dst, size_t row_stride) noexcept {
+  simd_kernels().tile_idct_add4(b, dst, row_stride);
 }
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION) && BTFLOD_HAS_X86_DISPATCH
-#include <immintrin.h>
-
-namespace btflod {
-namespace detail {
-// rows_out[k] = Σ_n a[k*8 + n] · rows[n]: an 8×8 scalar matrix times 8 row vectors.
-BTFLOD_TARGET_AVX2_FMA inline void dct8_mul_avx2(const float* a, const __m256* rows, __m256* rows_out) noexcept {
-  for (int k = 0; k < 8; ++k) {
-    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(a + k * 8), rows[0]);
-    for (int n = 1; n < 8; ++n) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(a + k * 8 + n), rows[n], acc);
-    rows_out[k] = acc;
-  }
-}
-
-// Basis rows of C and of Cᵀ as 8 vectors each, plus C and Cᵀ as scalar tables.
-struct Dct8Tables {
-  alignas(32) float c[64];
-  alignas(32) float ct[64];
-};
-inline const Dct8Tables& dct8_tables() noexcept {
-  static const Dct8Tables tables = [] {
-    Dct8Tables t{};
-    const auto& c = dct_basis<8, float>();
-    for (int i = 0; i < 8; ++i)
-      for (int j = 0; j < 8; ++j) {
-        t.c[i * 8 + j] = c[i * 8 + j];
-        t.ct[i * 8 + j] = c[j * 8 + i];
-      }
-    return t;
-  }();
-  return tables;
-}
-}  // namespace detail
-
-BTFLOD_TARGET_AVX2_FMA void dct8_forward_avx2(const float* in, size_t in_stride, float* out) noexcept {
-  const auto& t = detail::dct8_tables();
-  __m256 rows[8], tmp[8], basis[8];
-  for (int n = 0; n < 8; ++n) rows[n] = _mm256_loadu_ps(in + n * in_stride);
-  detail::dct8_mul_avx2(t.c, rows, tmp);  // tmp = C · X
-  alignas(32) float tmp_s[64];
-  for (int k = 0; k < 8; ++k) _mm256_store_ps(tmp_s + k * 8, tmp[k]);
-  for (int n = 0; n < 8; ++n) basis[n] = _mm256_load_ps(t.ct + n * 8);
-  detail::dct8_mul_avx2(tmp_s, basis, rows);  // out = tmp · Cᵀ
-  for (int k = 0; k < 8; ++k) _mm256_storeu_ps(out + k * 8, rows[k]);
-}
-
-BTFLOD_TARGET_AVX2_FMA void dct8_inverse_avx2(const float* in, float* out, size_t out_stride) noexcept {
-  const auto& t = detail::dct8_tables();
-  __m256 rows[8], tmp[8], basis[8];
-  for (int n = 0; n < 8; ++n) rows[n] = _mm256_loadu_ps(in + n * 8);
-  detail::dct8_mul_avx2(t.ct, rows, tmp);  // tmp = Cᵀ · Y
-  alignas(32) float tmp_s[64];
-  for (int k = 0; k < 8; ++k) _mm256_store_ps(tmp_s + k * 8, tmp[k]);
-  for (int n = 0; n < 8; ++n) basis[n] = _mm256_load_ps(t.c + n * 8);
-  detail::dct8_mul_avx2(tmp_s, basis, rows);  // out = tmp · C
-  for (int k = 0; k < 8; ++k) _mm256_storeu_ps(out + k * out_stride, rows[k]);
-}
-
-}  // namespace btflod
+#if defined(BTFLOD_IMPLEMENTATION)
+// The kernels, their tables and dct8_forward_avx2 / dct8_inverse_avx2.
+#include "btflod/core/simd_kernels.hpp"
 #endif  // BTFLOD_IMPLEMENTATION

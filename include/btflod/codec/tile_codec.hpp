@@ -47,12 +47,11 @@
 // (InflateBackend, default_inflate_backend(), inflate_backend_available()); a libdeflate request
 // without libdeflate compiled in falls back to zlib. The format is the same raw deflate either way.
 //
-// SIMD: for C = 4 the inverse DCT of the four channels of a block position and the interleaved
-// add into the output have an AVX2/FMA kernel (implementation TU, core/simd.hpp) selected at run
-// time (cpu_has_avx2_fma); the scalar twin is always available (TileDecoder::set_simd(false)). The two
-// differ only by float rounding (FMA), which the tests bound; the encoder's closed loop uses the
-// same decoder, so a client on the same kind of CPU reproduces the encoder's reconstruction bit
-// for bit.
+// SIMD: the inverse DCT of each block (for C = 4 the four channels of a block position at once,
+// added interleaved) is a kernel of core/simd.hpp (tile_idct_add / tile_idct_add4, codec/dct.hpp),
+// compiled per ISA and chosen once at run time; every build returns the scalar twin's bits, so
+// the encoder's closed loop and any client reproduce the same reconstruction on every CPU
+// (TileDecoder::set_simd(false) runs the scalar twin).
 #pragma once
 
 #include <algorithm>
@@ -178,48 +177,6 @@ inline void upsample_parent(const TileLayout& layout, const float* parent, uint3
       return detail::upsample_parent_rows<4>(s, base_x, base_y, parent, out);
   }
 }
-
-/// One 8×8 block of dequantised coefficients (natural order, (v, u) at v*8 + u) and the extent
-/// of its non-zero coefficients: rows v < rows and columns u < cols may be non-zero, the rest are
-/// 0 (rows = 0: the block is all zero).
-struct TileCoefBlock {
-  alignas(32) float coef[64];
-  uint32_t rows = 0;
-  uint32_t cols = 0;
-};
-
-/// Inverse 8×8 DCT of `b` added to an 8×8 block of channel samples at `dst` (row stride
-/// `row_stride` floats, column stride `step` floats), scalar path: only rows < b.rows and
-/// columns < b.cols of the coefficients are read (X = Cᵀ · Y · C, evaluated as (Y · C) first).
-/// Thread-safe, no allocation.
-inline void tile_idct_add_scalar(const TileCoefBlock& b, float* dst, size_t row_stride, size_t step) noexcept {
-  if (b.rows == 0) return;
-  const auto& c = dct_basis<8, float>();
-  float z[64];  // z = Y · C over the non-zero rows
-  for (uint32_t k = 0; k < b.rows; ++k)
-    for (int x = 0; x < 8; ++x) {
-      float acc = 0;
-      for (uint32_t u = 0; u < b.cols; ++u) acc += b.coef[k * 8 + u] * c[u * 8 + x];
-      z[k * 8 + x] = acc;
-    }
-  for (int y = 0; y < 8; ++y) {
-    float* row = dst + size_t(y) * row_stride;
-    for (int x = 0; x < 8; ++x) {
-      float acc = 0;
-      for (uint32_t k = 0; k < b.rows; ++k) acc += c[k * 8 + y] * z[k * 8 + x];
-      row[size_t(x) * step] += acc;
-    }
-  }
-}
-
-#if BTFLOD_HAS_X86_DISPATCH
-/// AVX2/FMA twin of four tile_idct_add_scalar calls for the four channels of one block position
-/// of a 4-channel tile: `dst` is the block's first texel, `row_stride` floats between texel
-/// rows; the four channel results are interleaved (transposed) and added to the texels.
-/// Defined in the implementation TU. Precondition: cpu_has_avx2_fma(). Thread-safe, no
-/// allocation.
-void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst, size_t row_stride) noexcept;
-#endif
 
 /// What a payload header says, without decoding (tile_peek_header).
 struct TileHeaderInfo {
@@ -439,11 +396,12 @@ class TileDecoder {
 
   const TileLayout& layout() const noexcept { return layout_; }
 
-  /// Allows (default) or forbids the AVX2/FMA inverse-DCT path; with false the scalar twin runs
-  /// even on an AVX2 CPU (tests and benchmarks compare the two). Not thread-safe on this object.
+  /// Allows (default) or forbids the SIMD inverse-DCT builds; with false the scalar twin runs
+  /// (same bits; benchmarks compare the two). Not thread-safe on this object.
   void set_simd(bool allowed) noexcept { simd_allowed_ = allowed; }
-  /// True when decode() uses the AVX2/FMA path (allowed, CPU support, 4 channels).
-  bool uses_simd() const noexcept { return simd_allowed_ && layout_.channels == 4 && cpu_has_avx2_fma(); }
+  /// True when decode() uses a SIMD build of the inverse DCT (allowed, simd_active_isa() is not
+  /// scalar).
+  bool uses_simd() const noexcept { return simd_allowed_ && simd_active_isa() != SimdIsa::scalar; }
 
   /// Decodes one payload into `out` (layout().sample_count() floats, texel-interleaved).
   /// `parent` is the parent's decoded tile (same layout) when the payload is a residual (see
@@ -588,7 +546,7 @@ class TileDecoder {
     } else {
       std::fill(dst, dst + layout_.sample_count(), 0.0f);
     }
-    const bool simd = uses_simd();
+    const SimdKernels& kernels = simd_allowed_ ? simd_kernels() : *simd_kernels_for(SimdIsa::scalar);
     const detail::TileTokenTable& tokens = detail::tile_token_table();
     const uint8_t* p = symbols_.data();
     const uint8_t* const end = p + info.symbol_bytes;
@@ -611,16 +569,12 @@ class TileDecoder {
           }
         }
         float* first = dst + (size_t{by} * kTileBlock * s + size_t{bx} * kTileBlock) * ch;
-#if BTFLOD_HAS_X86_DISPATCH
-        if (simd) {
+        if (ch == 4) {
           if (blocks_[0].rows | blocks_[1].rows | blocks_[2].rows | blocks_[3].rows)
-            tile_idct_add4_avx2(blocks_, first, row_stride);
+            kernels.tile_idct_add4(blocks_, first, row_stride);
           continue;
         }
-#else
-        (void)simd;
-#endif
-        for (uint32_t c = 0; c < ch; ++c) tile_idct_add_scalar(blocks_[c], first + c, row_stride, ch);
+        for (uint32_t c = 0; c < ch; ++c) kernels.tile_idct_add(blocks_[c], first + c, row_stride, ch);
       }
     if (p != end) return fail(Status::bad_data, "symbol stream longer than the tile");
     message_ = "";
@@ -820,9 +774,6 @@ class TileEncoder {
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
 #include <libdeflate.h>
 #endif
-#if BTFLOD_HAS_X86_DISPATCH
-#include <immintrin.h>
-#endif
 
 namespace btflod {
 
@@ -969,52 +920,6 @@ Status RawDeflater::deflate(std::span<const uint8_t> in, std::span<uint8_t> out,
   return Status::success;
 }
 
-#if BTFLOD_HAS_X86_DISPATCH
-namespace detail {
-// X = Cᵀ · (Y · C) of one channel block as 8 row vectors.
-BTFLOD_TARGET_AVX2_FMA inline void tile_idct8_avx2(const TileCoefBlock& b, __m256* rows) noexcept {
-  const auto& t = detail::dct8_tables();  // t.c: row k = basis vector k
-  if (b.rows == 0) {
-    for (int y = 0; y < 8; ++y) rows[y] = _mm256_setzero_ps();
-    return;
-  }
-  __m256 z[8];
-  for (uint32_t k = 0; k < b.rows; ++k) {
-    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(b.coef + k * 8), _mm256_load_ps(t.c));
-    for (uint32_t u = 1; u < b.cols; ++u)
-      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(b.coef + k * 8 + u), _mm256_load_ps(t.c + u * 8), acc);
-    z[k] = acc;
-  }
-  for (int y = 0; y < 8; ++y) {
-    __m256 acc = _mm256_mul_ps(_mm256_broadcast_ss(t.ct + y * 8), z[0]);  // t.ct[y*8 + k] = C[k][y]
-    for (uint32_t k = 1; k < b.rows; ++k) acc = _mm256_fmadd_ps(_mm256_broadcast_ss(t.ct + y * 8 + k), z[k], acc);
-    rows[y] = acc;
-  }
-}
-}  // namespace detail
-
-BTFLOD_TARGET_AVX2_FMA void tile_idct_add4_avx2(const TileCoefBlock* b, float* dst, size_t row_stride) noexcept {
-  __m256 r0[8], r1[8], r2[8], r3[8];
-  detail::tile_idct8_avx2(b[0], r0);
-  detail::tile_idct8_avx2(b[1], r1);
-  detail::tile_idct8_avx2(b[2], r2);
-  detail::tile_idct8_avx2(b[3], r3);
-  for (int y = 0; y < 8; ++y) {
-    // Transpose 4 channel rows of 8 texels into 8 texels of 4 channels.
-    const __m256 t0 = _mm256_unpacklo_ps(r0[y], r1[y]), t1 = _mm256_unpackhi_ps(r0[y], r1[y]);
-    const __m256 t2 = _mm256_unpacklo_ps(r2[y], r3[y]), t3 = _mm256_unpackhi_ps(r2[y], r3[y]);
-    const __m256 u0 = _mm256_shuffle_ps(t0, t2, 0x44), u1 = _mm256_shuffle_ps(t0, t2, 0xEE);
-    const __m256 u2 = _mm256_shuffle_ps(t1, t3, 0x44), u3 = _mm256_shuffle_ps(t1, t3, 0xEE);
-    float* row = dst + size_t(y) * row_stride;
-    const __m256 x01 = _mm256_permute2f128_ps(u0, u1, 0x20), x23 = _mm256_permute2f128_ps(u2, u3, 0x20);
-    const __m256 x45 = _mm256_permute2f128_ps(u0, u1, 0x31), x67 = _mm256_permute2f128_ps(u2, u3, 0x31);
-    _mm256_storeu_ps(row, _mm256_add_ps(_mm256_loadu_ps(row), x01));
-    _mm256_storeu_ps(row + 8, _mm256_add_ps(_mm256_loadu_ps(row + 8), x23));
-    _mm256_storeu_ps(row + 16, _mm256_add_ps(_mm256_loadu_ps(row + 16), x45));
-    _mm256_storeu_ps(row + 24, _mm256_add_ps(_mm256_loadu_ps(row + 24), x67));
-  }
-}
-#endif
 
 }  // namespace btflod
 #endif  // BTFLOD_IMPLEMENTATION

@@ -1,12 +1,11 @@
 // btflod — IEEE 754 binary16 ("half") conversion.
 //
 // Scalar conversions are exact (half → float) and round to nearest, ties to even
-// (float → half), with correct zeros, subnormals, infinities and NaN. The bulk converters
-// dispatch at run time to an F16C path on x86 CPUs that have it; the scalar twin produces
-// bit-identical results (NaN included: a NaN keeps its sign and top payload bits and is quieted,
-// as F16C does). Set BTFLOD_DISABLE_SIMD=1 in the environment to force the scalar twins. The
-// F16C kernels and the dispatching bulk converters are defined in the implementation TU
-// (BTFLOD_IMPLEMENTATION, core/simd.hpp): this header includes no <immintrin.h>.
+// (float → half), with correct zeros, subnormals, infinities and NaN. The bulk converters are
+// SIMD kernels of core/simd.hpp (F16C in the AVX2 build, 16 lanes in the AVX-512 build, chosen
+// once at run time); every build returns the scalar twin's bits, NaN included (a NaN keeps its
+// sign and top payload bits and is quieted, as F16C does). BTFLOD_FORCE_ISA=scalar forces the
+// scalar twin. This header includes no <immintrin.h>.
 #pragma once
 
 #include <cstddef>
@@ -85,77 +84,43 @@ struct Half {
 };
 static_assert(sizeof(Half) == 2);
 
-/// Portable scalar bulk conversion. Preconditions: out.size() >= in.size().
+/// Portable scalar bulk conversion (the scalar build's kernel). Preconditions: out.size() >=
+/// in.size(). Thread-safe, no allocation.
 inline void float_to_half_scalar(std::span<const float> in, std::span<uint16_t> out) noexcept {
   for (size_t i = 0; i < in.size(); ++i) out[i] = float_to_half_bits(in[i]);
 }
 
-/// Portable scalar bulk conversion. Preconditions: out.size() >= in.size().
+/// Portable scalar bulk conversion. Preconditions: out.size() >= in.size(). Thread-safe.
 inline void half_to_float_scalar(std::span<const uint16_t> in, std::span<float> out) noexcept {
   for (size_t i = 0; i < in.size(); ++i) out[i] = half_bits_to_float(in[i]);
 }
 
 #if BTFLOD_HAS_X86_DISPATCH
-/// F16C bulk conversion (defined in the implementation TU, compiled for F16C).
-/// Precondition: cpu_has_f16c() (core/simd.hpp), out.size() >= in.size(). Thread-safe.
+/// Bulk conversion of the AVX2 (F16C) build, simd_kernels_for(SimdIsa::avx2)->float_to_half.
+/// Precondition: simd_isa_available(SimdIsa::avx2), out.size() >= in.size(). Thread-safe.
 void float_to_half_f16c(std::span<const float> in, std::span<uint16_t> out) noexcept;
 
-/// F16C bulk conversion (defined in the implementation TU, compiled for F16C).
-/// Precondition: cpu_has_f16c() (core/simd.hpp), out.size() >= in.size(). Thread-safe.
+/// Bulk conversion of the AVX2 (F16C) build, simd_kernels_for(SimdIsa::avx2)->half_to_float.
+/// Precondition: simd_isa_available(SimdIsa::avx2), out.size() >= in.size(). Thread-safe.
 void half_to_float_f16c(std::span<const uint16_t> in, std::span<float> out) noexcept;
 #endif
 
-/// Converts floats to half bits: the F16C kernel when the CPU has it (resolved once), else the
-/// scalar twin; bit-identical results. Precondition: out.size() >= in.size(). Thread-safe.
-void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept;
+/// Converts floats to half bits with the ISA build in use (simd_kernels()); bit-identical in
+/// every build. Precondition: out.size() >= in.size(). Thread-safe, no allocation.
+inline void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept {
+  simd_kernels().float_to_half(in.data(), out.data(), in.size());
+}
 
-/// Converts half bits to floats: the F16C kernel when the CPU has it (resolved once), else the
-/// scalar twin; bit-identical results. Precondition: out.size() >= in.size(). Thread-safe.
-void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept;
+/// Converts half bits to floats with the ISA build in use (simd_kernels()); bit-identical in
+/// every build. Precondition: out.size() >= in.size(). Thread-safe, no allocation.
+inline void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept {
+  simd_kernels().half_to_float(in.data(), out.data(), in.size());
+}
 
 }  // namespace btflod
 
 #if defined(BTFLOD_IMPLEMENTATION)
-#if BTFLOD_HAS_X86_DISPATCH
-#include <immintrin.h>
-#endif
-
-namespace btflod {
-
-#if BTFLOD_HAS_X86_DISPATCH
-BTFLOD_TARGET_F16C void float_to_half_f16c(std::span<const float> in, std::span<uint16_t> out) noexcept {
-  size_t i = 0;
-  for (; i + 8 <= in.size(); i += 8) {
-    const __m256 v = _mm256_loadu_ps(in.data() + i);
-    const __m128i h = _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(out.data() + i), h);
-  }
-  for (; i < in.size(); ++i) out[i] = float_to_half_bits(in[i]);
-}
-
-BTFLOD_TARGET_F16C void half_to_float_f16c(std::span<const uint16_t> in, std::span<float> out) noexcept {
-  size_t i = 0;
-  for (; i + 8 <= in.size(); i += 8) {
-    const __m128i h = _mm_loadu_si128(reinterpret_cast<const __m128i*>(in.data() + i));
-    _mm256_storeu_ps(out.data() + i, _mm256_cvtph_ps(h));
-  }
-  for (; i < in.size(); ++i) out[i] = half_bits_to_float(in[i]);
-}
-#endif
-
-void float_to_half(std::span<const float> in, std::span<uint16_t> out) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
-  if (cpu_has_f16c()) return float_to_half_f16c(in, out);
-#endif
-  float_to_half_scalar(in, out);
-}
-
-void half_to_float(std::span<const uint16_t> in, std::span<float> out) noexcept {
-#if BTFLOD_HAS_X86_DISPATCH
-  if (cpu_has_f16c()) return half_to_float_f16c(in, out);
-#endif
-  half_to_float_scalar(in, out);
-}
-
-}  // namespace btflod
+// The kernels and float_to_half_f16c / half_to_float_f16c are defined in core/simd_kernels.hpp,
+// which codec/dct.hpp's implementation section includes.
+#include "btflod/codec/dct.hpp"
 #endif  // BTFLOD_IMPLEMENTATION

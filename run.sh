@@ -20,7 +20,7 @@ cd "$(dirname "$0")"
 
 # The Debian packages btflod needs; DEVELOPERS.md explains each one.
 PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-dev libgtest-dev
-  libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libegl-dev libopengl-dev
+  libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libjpeg62-turbo-dev libegl-dev libopengl-dev
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
   libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev libembree-dev emscripten
   chromium nodejs npm libopenmpi-dev openmpi-bin)

@@ -7,7 +7,7 @@
 #
 # Optional libraries found here and usable in btflod-link lines:
 #   CURL::libcurl, PkgConfig::BTFLOD_TURBOJPEG, PkgConfig::BTFLOD_LIBDEFLATE,
-#   PkgConfig::BTFLOD_ZSTD, OpenGL::EGL, OpenGL::OpenGL, Vulkan::Vulkan, and any target that
+#   PkgConfig::BTFLOD_ZSTD, PkgConfig::BTFLOD_JPEG, OpenGL::EGL, OpenGL::OpenGL, Vulkan::Vulkan, and any target that
 #   samples/ defines (samples are added before tests and benchmarks).
 find_package(CURL QUIET)
 find_package(OpenGL QUIET COMPONENTS EGL OpenGL)
@@ -15,6 +15,8 @@ find_package(Vulkan QUIET)
 pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
 # PkgConfig::BTFLOD_LIBDEFLATE comes from BtflodDependencies.cmake (BTFLOD_WITH_LIBDEFLATE).
 pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
+# libjpeg (Debian libjpeg62-turbo-dev): the coefficient API, for bench_codec_entropy's JPEG Huffman row.
+pkg_check_modules(BTFLOD_JPEG QUIET IMPORTED_TARGET GLOBAL libjpeg)
 # MPI (Debian: libopenmpi-dev, openmpi-bin): the distributed factorisation (factor/mpi_svd.hpp).
 # ON defines the target btflod_mpi (MPI::MPI_CXX), usable in btflod-link lines; OFF leaves the
 # MPI command, tests and benchmarks out.

@@ -526,6 +526,63 @@ class BtfStore {
     return {};
   }
 
+  /// Copies the images of view `view` and lights [l0, l1) into `out`, image after image, each
+  /// H × W × 3 floats in the TabulatedBtf image layout: out[((l − l0)·H·W + t)·3 + c], t = y·W + x.
+  /// Reads the view's chunk of every block (n_light · bt · 3 values, one pread each, in file
+  /// order) into `scratch` and checks its CRC, so memory is one chunk plus `out`. Returns
+  /// invalid_argument for an out-of-range view or light range or a wrong `out` size, bad_data on
+  /// a checksum mismatch (naming block and view), io_error/short_output on a failed read.
+  /// Thread-safe for concurrent calls with distinct outputs and scratch.
+  VoidResult read_view_images(size_t view, size_t l0, size_t l1, std::span<float> out, std::vector<uint8_t>& scratch,
+                              bool verify = true) const {
+    const size_t nv = info_.views.size(), nl = info_.lights.size(), n = columns(), vs = info_.value_size();
+    if (view >= nv || l0 >= l1 || l1 > nl)
+      return make_error(Status::invalid_argument, "%s: view %zu, lights [%zu, %zu) of %zu x %zu", path_.c_str(), view,
+                        l0, l1, nv, nl);
+    if (out.size() != (l1 - l0) * n * 3)
+      return make_error(Status::invalid_argument, "%s: %zu output values for %zu images of %zu texels", path_.c_str(),
+                        out.size(), l1 - l0, n);
+    for (size_t b = 0; b < info_.block_count(); ++b) {
+      const size_t bt = info_.block_width(b), base = b * info_.block_texels;
+      const size_t chunk = nl * bt * 3 * vs;
+      scratch.resize(chunk);
+      const uint64_t offset = info_.block_offset(b) + static_cast<uint64_t>(view) * chunk;
+      if (auto s = detail::pread_exact(fd_.get(), scratch.data(), chunk, offset, path_); !s) return s;
+      if (verify && crc32_of(std::span<const uint8_t>(scratch.data(), chunk)) != crcs_[b * nv + view])
+        return make_error(Status::bad_data, "%s: block %zu (texels %zu..%zu), view %zu: CRC-32 mismatch", path_.c_str(),
+                          b, base, base + bt - 1, view);
+      for (size_t l = l0; l < l1; ++l) {
+        float* dst = out.data() + ((l - l0) * n + base) * 3;
+        if (info_.value_type == BtfStoreValueType::float32) {
+          std::memcpy(dst, scratch.data() + l * bt * 3 * 4, bt * 3 * 4);
+        } else {
+          half_to_float(
+              std::span<const uint16_t>(reinterpret_cast<const uint16_t*>(scratch.data()) + l * bt * 3, bt * 3),
+              std::span<float>(dst, bt * 3));
+        }
+      }
+    }
+    return {};
+  }
+
+  /// The largest value in the store (one sequential pass over every block, CRCs checked), the
+  /// data range compare_btfs() takes from btf_peak(): 1 for an all-zero or negative store.
+  /// Memory: one block. Errors as read_columns().
+  Result<double> peak(bool verify = true) const {
+    std::vector<float> cols;
+    std::vector<uint8_t> scratch;
+    float m = 0.0f;
+    const size_t rows_ = rows(), n = columns();
+    for (size_t t0 = 0; t0 < n; t0 += info_.block_texels) {
+      const size_t cnt = std::min<size_t>(info_.block_texels, n - t0);
+      cols.resize(rows_ * cnt);
+      if (auto s = read_columns(t0, cnt, cols.data(), rows_, scratch, verify); !s) return s.error();
+      for (float v : cols)
+        if (v > m) m = v;
+    }
+    return m > 0.0f ? static_cast<double>(m) : 1.0;
+  }
+
   /// Loads the whole store as a BTF (for small stores, tests and evaluation). Returns the errors
   /// of read_columns() and insufficient_space above `max_samples`. Allocates the whole BTF.
   Result<BtfFloat> read_all(uint64_t max_samples = uint64_t{1} << 31) const {

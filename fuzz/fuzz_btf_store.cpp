@@ -39,6 +39,13 @@ void parse_and_read(const uint8_t* data, size_t size) {
       const size_t cnt = std::min<size_t>(store->info().block_texels, n - t0);
       if (!store->read_columns(t0, cnt, out.data(), m, scratch)) break;
     }
+    // The evaluation's reader: every view's chunks, lights [0, min(n_light, 2)) (bounded output).
+    const size_t nl = std::min<size_t>(store->info().lights.size(), 2);
+    if (n * nl * 3 <= (size_t{1} << 22)) {
+      std::vector<float> images(n * nl * 3);
+      for (size_t v = 0; v < store->info().views.size(); ++v)
+        if (!store->read_view_images(v, 0, nl, images, scratch)) break;
+    }
   }
   ::close(fd);
 }

@@ -19,6 +19,17 @@ if(BTFLOD_WITH_LIBDEFLATE AND NOT TARGET PkgConfig::BTFLOD_LIBDEFLATE)
   message(FATAL_ERROR "BTFLOD_WITH_LIBDEFLATE is ON but pkg-config does not find libdeflate (Debian: libdeflate-dev); "
                       "install it or configure with -DBTFLOD_WITH_LIBDEFLATE=OFF")
 endif()
+# zstd: the tile codec's optional zstd entropy coder (tile format 3; codec/tile_codec.hpp,
+# docs/bsvtf_format.md "Entropy stage"). ON puts BTFLOD_TILE_CODEC_ZSTD=1 and libzstd on the
+# btflod INTERFACE target (read by the implementation TU only; it changes no type). OFF: decoders
+# reject zstd-coded tiles with a clear error and encoders write deflate (format 2) only.
+pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
+option(BTFLOD_WITH_ZSTD "zstd entropy coder for tiles (default ON when pkg-config finds libzstd)" ${BTFLOD_ZSTD_FOUND})
+if(BTFLOD_WITH_ZSTD AND NOT TARGET PkgConfig::BTFLOD_ZSTD)
+  message(FATAL_ERROR "BTFLOD_WITH_ZSTD is ON but pkg-config does not find libzstd (Debian: libzstd-dev); "
+                      "install it or configure with -DBTFLOD_WITH_ZSTD=OFF")
+endif()
+message(STATUS "btflod: tile zstd coder: ${BTFLOD_WITH_ZSTD}")
 # OpenEXR (Debian libopenexr-dev 3.1, CMake configs): btf/openexr_image_set.hpp reads and writes
 # BTFs stored as OpenEXR image sets (Bonn btflib's format for measured images). ON puts
 # BTFLOD_WITH_OPENEXR=1 and OpenEXR::OpenEXR on the btflod INTERFACE target; no other header

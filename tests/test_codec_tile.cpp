@@ -328,7 +328,7 @@ TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
     return dec_.decode(b, parent_, 0, 1, out());
   };
   EXPECT_EQ(mutate(0, 1), Status::bad_data);     // version 1 is no longer read
-  EXPECT_EQ(mutate(0, 3), Status::bad_data);     // unknown version
+  EXPECT_EQ(mutate(0, 4), Status::bad_data);     // unknown version (3: test_codec_tile_zstd)
   EXPECT_EQ(mutate(1, 16), Status::bad_data);    // block size
   EXPECT_EQ(mutate(2, 5), Status::bad_data);     // channels
   EXPECT_EQ(mutate(3, 0x81), Status::bad_data);  // unknown flag

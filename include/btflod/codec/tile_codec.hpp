@@ -36,6 +36,13 @@
 // the inverse DCT only over the rows and columns that hold non-zero coefficients.
 // (Version 1 wrote one byte per coefficient grouped by frequency; it is no longer read.)
 //
+// Tile format version 3: the same header and symbol stream, with the entropy coder in flags
+// bits 4–5 (TileEntropyCoder): 0 = raw deflate as in version 2; 1 = one zstd frame (RFC 8878,
+// with its content size, no dictionary) of the symbol stream; 2–3 and bits 6–7 are invalid. The
+// encoder writes version 2 for deflate (byte for byte what earlier versions wrote, readable by
+// every decoder) and version 3 only for zstd; decoders read both. bench/bench_codec_entropy.cpp
+// has the table the coders were chosen from (docs/bsvtf_format.md, "Entropy stage").
+//
 // Entropy backend: RawInflater / RawDeflater below, an opaque handle of fixed size whose state
 // lives in the implementation TU (BTFLOD_IMPLEMENTATION, see btflod.hpp): this header includes
 // neither zlib nor libdeflate, and no build option changes the layout of any type here. zlib's
@@ -46,6 +53,11 @@
 // finds libdeflate) and is then the decoders' default. The choice is a run-time value
 // (InflateBackend, default_inflate_backend(), inflate_backend_available()); a libdeflate request
 // without libdeflate compiled in falls back to zlib. The format is the same raw deflate either way.
+// zstd (format 3, coder 1) is compiled in when the implementation TU sees BTFLOD_TILE_CODEC_ZSTD
+// (CMake BTFLOD_WITH_ZSTD, default ON when pkg-config finds libzstd); without it, decoders reject
+// zstd tiles with bad_data ("built without zstd") and encoders cannot select it
+// (tile_entropy_coder_available). Both zstd contexts are static (ZSTD_initStatic*CCtx/DCtx over a
+// workspace allocated at set-up), so neither encode() nor decode() allocates.
 //
 // SIMD: the inverse DCT of each block (for C = 4 the four channels of a block position at once,
 // added interleaved) is a kernel of core/simd.hpp (tile_idct_add / tile_idct_add4, codec/dct.hpp),
@@ -88,6 +100,17 @@ struct TileLayout {
 };
 
 inline constexpr uint8_t kTileFormatVersion = 2;
+/// Tile format version whose flags carry the entropy coder (see the file comment).
+inline constexpr uint8_t kTileFormatVersionCoder = 3;
+
+/// Entropy coder of a tile's symbol stream (flags bits 4–5 of a version-3 header).
+enum class TileEntropyCoder : uint8_t {
+  deflate = 0,  ///< raw deflate (RFC 1951); written as tile format 2
+  zstd = 1,     ///< one zstd frame (RFC 8878) with its content size; tile format 3
+};
+/// True when the implementation TU can code `coder` (deflate always; zstd with
+/// BTFLOD_TILE_CODEC_ZSTD). Thread-safe.
+bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept;
 inline constexpr int kTileBlock = 8;
 inline constexpr uint32_t kTileMaxChannels = 4;
 /// Largest magnitude of a quantised coefficient, in quantisation steps (encoder and decoder).
@@ -186,11 +209,14 @@ struct TileHeaderInfo {
   uint32_t weight_quarters = kJpegWeightQuarters;  ///< frequency-weighting exponent γ · 4 (quant_step_factors)
   float tolerance[kTileMaxChannels] = {};
   uint32_t symbol_bytes = 0;
+  uint32_t version = kTileFormatVersion;               ///< 2 or 3
+  TileEntropyCoder coder = TileEntropyCoder::deflate;  ///< deflate for version 2
 };
 
-/// Parses and validates a payload header. Returns success, short_output (fewer bytes than a
-/// header) or bad_data (wrong version or block size, sizes out of range, tolerance not finite
-/// and positive, symbol byte count outside [2, 383] bytes per channel block). Safe on untrusted
+/// Parses and validates a payload header (format 2 or 3). Returns success, short_output (fewer
+/// bytes than a header) or bad_data (unknown version, block size or entropy coder, flags with
+/// unknown bits, sizes out of range, tolerance not finite and positive, symbol byte count outside
+/// [2, 383] bytes per channel block). It does not check that the coder is compiled in. Safe on untrusted
 /// input; thread-safe, no allocation.
 inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo& info,
                                const char** why = nullptr) noexcept {
@@ -199,11 +225,17 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
     return s;
   };
   if (payload.size() < 4) return fail(Status::short_output, "tile payload shorter than its header");
-  if (payload[0] != kTileFormatVersion) return fail(Status::bad_data, "tile format version is not 2");
+  if (payload[0] != kTileFormatVersion && payload[0] != kTileFormatVersionCoder)
+    return fail(Status::bad_data, "tile format version is not 2 or 3");
+  const uint32_t version = payload[0];
   if (payload[1] != kTileBlock) return fail(Status::bad_data, "tile block size is not 8");
   const uint32_t channels = payload[2];
   if (channels < 1 || channels > kTileMaxChannels) return fail(Status::bad_data, "tile channel count not in 1..4");
-  if ((payload[3] & ~0x0Fu) != 0) return fail(Status::bad_data, "tile flags have unknown bits set");
+  if ((payload[3] & (version == kTileFormatVersion ? ~0x0Fu : ~0x3Fu)) != 0)
+    return fail(Status::bad_data, "tile flags have unknown bits set");
+  const uint32_t coder = (payload[3] >> 4) & 3u;
+  if (coder > static_cast<uint32_t>(TileEntropyCoder::zstd))
+    return fail(Status::bad_data, "tile entropy coder not deflate (0) or zstd (1)");
   const uint32_t softening = (payload[3] >> 1) & 7u;
   if (softening > kJpegWeightQuarters) return fail(Status::bad_data, "tile frequency weighting code not in 0..4");
   if (payload.size() < tile_header_size(channels))
@@ -216,6 +248,8 @@ inline Status tile_peek_header(std::span<const uint8_t> payload, TileHeaderInfo&
   info.channels = channels;
   info.stored_size = w;
   info.residual = (payload[3] & 1u) != 0;
+  info.version = version;
+  info.coder = static_cast<TileEntropyCoder>(coder);
   info.weight_quarters = kJpegWeightQuarters - softening;
   for (uint32_t c = 0; c < channels; ++c) {
     float t = 0;
@@ -289,6 +323,54 @@ class RawDeflater {
   /// success, insufficient_space (out too small) or invalid_argument (not created). No
   /// allocation; not thread-safe on one object.
   Status deflate(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept;
+
+ private:
+  struct State;
+  State* state_ = nullptr;
+};
+
+/// zstd decompression context behind an opaque handle (a static ZSTD_DCtx in a workspace
+/// allocated by create(); the state lives in the implementation TU). One object per thread.
+class ZstdDecompressor {
+ public:
+  ZstdDecompressor() noexcept = default;
+  ZstdDecompressor(const ZstdDecompressor&) = delete;
+  ZstdDecompressor& operator=(const ZstdDecompressor&) = delete;
+  ~ZstdDecompressor();
+
+  /// Allocates the context. False when zstd is not compiled in or allocation fails. Set-up only.
+  bool create() noexcept;
+  bool ready() const noexcept { return state_ != nullptr; }
+
+  /// Decompresses `in`, which must be exactly one zstd frame declaring a content size of
+  /// out.size(), into `out`. Returns success; bad_data (not a zstd frame, more than one frame or
+  /// trailing bytes, other content size, corrupt); short_output (truncated frame);
+  /// invalid_argument (not created). `*why` names the failure (static string). Safe on untrusted
+  /// input; no allocation; not thread-safe on one object.
+  Status decompress(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept;
+
+ private:
+  struct State;
+  State* state_ = nullptr;
+};
+
+/// zstd compression context behind an opaque handle (a static ZSTD_CCtx sized for `level` at
+/// create()). Offline code; compress() does not allocate. One object per thread.
+class ZstdCompressor {
+ public:
+  ZstdCompressor() noexcept = default;
+  ZstdCompressor(const ZstdCompressor&) = delete;
+  ZstdCompressor& operator=(const ZstdCompressor&) = delete;
+  ~ZstdCompressor();
+
+  /// Allocates a context for `level` (clamped to 1..22), replacing any earlier one. False when
+  /// zstd is not compiled in or allocation fails (the object is then not ready). Set-up only.
+  bool create(int level) noexcept;
+  bool ready() const noexcept { return state_ != nullptr; }
+
+  /// Compresses all of `in` into `out` as one frame with its content size. Returns success,
+  /// insufficient_space (out too small) or invalid_argument (not created).
+  Status compress(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept;
 
  private:
   struct State;
@@ -387,6 +469,7 @@ class TileDecoder {
   explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = default_inflate_backend()) : layout_(layout) {
     if (layout_.valid()) symbols_.resize(tile_symbol_bound(layout_));
     ready_ = layout_.valid() && inflater_.create(backend);
+    if (ready_ && tile_entropy_coder_available(TileEntropyCoder::zstd)) zstd_.create();  // else zstd tiles fail
   }
   TileDecoder(const TileDecoder&) = delete;
   TileDecoder& operator=(const TileDecoder&) = delete;
@@ -439,10 +522,16 @@ class TileDecoder {
     // to more is rejected when the buffer fills (this is the decompression-bomb guard).
     const size_t header = tile_header_size(info.channels);
     const char* inflate_why = nullptr;
-    if (Status z = inflater_.inflate(payload.subspan(header), std::span<uint8_t>(symbols_.data(), info.symbol_bytes),
-                                     &inflate_why);
-        z != Status::success)
-      return fail(z, inflate_why);
+    const std::span<uint8_t> symbols(symbols_.data(), info.symbol_bytes);
+    Status z;
+    if (info.coder == TileEntropyCoder::zstd) {
+      if (!zstd_.ready())
+        return fail(Status::bad_data, "zstd-coded tile, but zstd is not compiled in or its context failed");
+      z = zstd_.decompress(payload.subspan(header), symbols, &inflate_why);
+    } else {
+      z = inflater_.inflate(payload.subspan(header), symbols, &inflate_why);
+    }
+    if (z != Status::success) return fail(z, inflate_why);
     return Status::success;
   }
 
@@ -586,6 +675,7 @@ class TileDecoder {
   TileCoefBlock blocks_[kTileMaxChannels] = {};
   TileHeaderInfo info_;
   RawInflater inflater_;
+  ZstdDecompressor zstd_;
   bool ready_ = false;
   bool simd_allowed_ = true;
   const char* message_ = "";
@@ -608,6 +698,26 @@ class TileEncoder {
   TileEncoder& operator=(const TileEncoder&) = delete;
 
   const TileLayout& layout() const noexcept { return layout_; }
+
+  /// Entropy coder of the following encodes (default deflate, tile format 2). zstd (format 3)
+  /// allocates its compression context here, for `zstd_level` (1..22; default 19). Returns false,
+  /// leaving the coder unchanged, when the coder is not compiled in
+  /// (tile_entropy_coder_available) or the context cannot be allocated. A zstd frame larger than
+  /// the output buffer falls back to deflate for that tile (bound() stays deflate's bound). Set-up
+  /// only (allocates); not thread-safe on this object.
+  bool set_entropy_coder(TileEntropyCoder coder, int zstd_level = 19) noexcept {
+    if (coder == TileEntropyCoder::zstd) {
+      if (!tile_entropy_coder_available(coder)) return false;
+      if (!zstd_.ready() || zstd_level != zstd_level_) {
+        if (!zstd_.create(zstd_level)) return false;
+        zstd_level_ = zstd_level;
+      }
+    }
+    coder_ = coder;
+    return true;
+  }
+  TileEntropyCoder entropy_coder() const noexcept { return coder_; }
+
   /// Frequency weighting of the following encodes: JPEG's table to the power quarters / 4
   /// (codec/quantize.hpp quant_step_factors; stored in the tile header, so decoders need
   /// nothing). Values above 4 are treated as 4 (JPEG's table, the default and the bytes of
@@ -718,7 +828,7 @@ class TileEncoder {
       }
     const uint32_t symbol_bytes = static_cast<uint32_t>(sym - symbols_.data());
 
-    // Header.
+    // Header (version and coder byte patched below when zstd is used).
     uint8_t* o = out.data();
     o[0] = kTileFormatVersion;
     o[1] = kTileBlock;
@@ -731,11 +841,15 @@ class TileEncoder {
     std::memcpy(o + 8 + 4 * ch, &symbol_bytes, 4);
 
     // Entropy stage.
-    size_t deflated = 0;
-    if (deflater_.deflate(std::span<const uint8_t>(symbols_.data(), symbol_bytes), out.subspan(header), deflated) !=
-        Status::success)
+    const std::span<const uint8_t> symbols(symbols_.data(), symbol_bytes);
+    size_t coded = 0;
+    if (coder_ == TileEntropyCoder::zstd && zstd_.compress(symbols, out.subspan(header), coded) == Status::success) {
+      o[0] = kTileFormatVersionCoder;
+      o[3] = static_cast<uint8_t>(o[3] | static_cast<uint32_t>(TileEntropyCoder::zstd) << 4);
+    } else if (deflater_.deflate(symbols, out.subspan(header), coded) != Status::success) {
       return fail(Status::insufficient_space, "output buffer smaller than the compressed tile");
-    written = header + deflated;
+    }
+    written = header + coded;
 
     if (!reconstruction.empty()) {  // closed loop: exactly what a client decodes
       const Status d = decoder_.decode(out.first(written), parent, qx, qy, reconstruction);
@@ -760,6 +874,9 @@ class TileEncoder {
   std::vector<int32_t> quantised_;
   std::vector<uint8_t> symbols_;
   RawDeflater deflater_;
+  ZstdCompressor zstd_;
+  int zstd_level_ = 0;
+  TileEntropyCoder coder_ = TileEntropyCoder::deflate;
   bool ready_ = false;
   uint32_t weight_quarters_ = kJpegWeightQuarters;
   const char* message_ = "";
@@ -773,6 +890,11 @@ class TileEncoder {
 #include <zlib.h>
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
 #include <libdeflate.h>
+#endif
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+#define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx / DCtx, ZSTD_estimate*Size (exported by libzstd.so)
+#include <zstd.h>
+#include <zstd_errors.h>
 #endif
 
 namespace btflod {
@@ -884,6 +1006,130 @@ Status RawInflater::inflate(std::span<const uint8_t> in, std::span<uint8_t> out,
   return Status::success;
 }
 
+bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept {
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  return coder == TileEntropyCoder::deflate || coder == TileEntropyCoder::zstd;
+#else
+  return coder == TileEntropyCoder::deflate;
+#endif
+}
+
+// Both zstd contexts live in a workspace owned here (ZSTD_initStatic*: the context never
+// allocates, so decompress() and compress() do not either).
+struct ZstdDecompressor::State {
+  unsigned char* workspace = nullptr;
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  ZSTD_DCtx* dctx = nullptr;
+#endif
+};
+
+ZstdDecompressor::~ZstdDecompressor() {
+  if (state_ == nullptr) return;
+  delete[] state_->workspace;
+  delete state_;
+}
+
+bool ZstdDecompressor::create() noexcept {
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  if (state_ != nullptr) return true;
+  State* st = new (std::nothrow) State;
+  if (st == nullptr) return false;
+  const size_t size = ZSTD_estimateDCtxSize();
+  st->workspace = new (std::nothrow) unsigned char[size];  // operator new[]: aligned for any scalar (zstd needs 8)
+  if (st->workspace != nullptr) st->dctx = ZSTD_initStaticDCtx(st->workspace, size);
+  if (st->dctx == nullptr) {
+    delete[] st->workspace;
+    delete st;
+    return false;
+  }
+  state_ = st;
+  return true;
+#else
+  return false;
+#endif
+}
+
+Status ZstdDecompressor::decompress(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept {
+  auto fail = [&](Status s, const char* m) {
+    if (why) *why = m;
+    return s;
+  };
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  if (state_ == nullptr) return fail(Status::invalid_argument, "zstd state not created");
+  // Exactly one frame: no trailing bytes, no second (or skippable) frame.
+  const size_t frame = ZSTD_findFrameCompressedSize(in.data(), in.size());
+  if (ZSTD_isError(frame))
+    return ZSTD_getErrorCode(frame) == ZSTD_error_srcSize_wrong && in.size() >= 4
+               ? fail(Status::short_output, "zstd frame truncated")
+               : fail(Status::bad_data, "not a zstd frame");
+  if (frame != in.size()) return fail(Status::bad_data, "trailing bytes after the zstd frame");
+  const unsigned long long content = ZSTD_getFrameContentSize(in.data(), in.size());
+  if (content != out.size()) return fail(Status::bad_data, "zstd frame content size differs from the declared size");
+  const size_t got = ZSTD_decompressDCtx(state_->dctx, out.data(), out.size(), in.data(), in.size());
+  if (ZSTD_isError(got) || got != out.size()) return fail(Status::bad_data, "zstd frame is corrupt");
+  return Status::success;
+#else
+  (void)in;
+  (void)out;
+  return fail(Status::invalid_argument, "zstd not compiled in");
+#endif
+}
+
+struct ZstdCompressor::State {
+  unsigned char* workspace = nullptr;
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  ZSTD_CCtx* cctx = nullptr;
+  int level = 19;
+#endif
+};
+
+ZstdCompressor::~ZstdCompressor() {
+  if (state_ == nullptr) return;
+  delete[] state_->workspace;
+  delete state_;
+}
+
+bool ZstdCompressor::create(int level) noexcept {
+  if (state_ != nullptr) {
+    delete[] state_->workspace;
+    delete state_;
+    state_ = nullptr;
+  }
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  State* st = new (std::nothrow) State;
+  if (st == nullptr) return false;
+  st->level = std::clamp(level, 1, 22);
+  const size_t size = ZSTD_estimateCCtxSize(st->level);  // the largest over every source size
+  st->workspace = new (std::nothrow) unsigned char[size];
+  if (st->workspace != nullptr) st->cctx = ZSTD_initStaticCCtx(st->workspace, size);
+  if (st->cctx == nullptr) {
+    delete[] st->workspace;
+    delete st;
+    return false;
+  }
+  state_ = st;
+  return true;
+#else
+  (void)level;
+  return false;
+#endif
+}
+
+Status ZstdCompressor::compress(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept {
+  written = 0;
+#if defined(BTFLOD_TILE_CODEC_ZSTD)
+  if (state_ == nullptr) return Status::invalid_argument;
+  const size_t n = ZSTD_compressCCtx(state_->cctx, out.data(), out.size(), in.data(), in.size(), state_->level);
+  if (ZSTD_isError(n)) return Status::insufficient_space;
+  written = n;
+  return Status::success;
+#else
+  (void)in;
+  (void)out;
+  return Status::invalid_argument;
+#endif
+}
+
 struct RawDeflater::State {
   z_stream stream{};
 };
@@ -919,7 +1165,6 @@ Status RawDeflater::deflate(std::span<const uint8_t> in, std::span<uint8_t> out,
   written = zs.total_out;
   return Status::success;
 }
-
 
 }  // namespace btflod
 #endif  // BTFLOD_IMPLEMENTATION

@@ -6,9 +6,10 @@
 // btflod target does not, which is why btflod.hpp does not include this header.
 //
 // Every read is one `GET` with `Range: bytes=a-b`; the answer must be `206 Partial Content`
-// whose Content-Range starts at `a`, with exactly b − a + 1 bytes. Anything else is an error
-// with a message: a server that ignores Range (200), sends more or fewer bytes, closes the
-// connection mid-transfer (short_output) or times out. Reads are cancellable through the
+// whose Content-Range is `bytes a-b/<size or *>`, with exactly b − a + 1 bytes. Anything
+// else is an error with a message: a server that ignores Range (200), a 206 without that exact
+// Content-Range (bad_data), a server that sends more or fewer bytes, closes the connection
+// mid-transfer (short_output) or times out. Reads are cancellable through the
 // pipeline's cancel flag (libcurl's progress callback polls it). Curl handles are pooled so
 // that keep-alive connections are reused; read() is thread-safe.
 #pragma once
@@ -38,6 +39,13 @@ struct HttpSourceOptions {
   long timeout_ms = 60000;         ///< whole request
   long low_speed_bytes = 1;        ///< abort when slower than this many bytes/s …
   long low_speed_seconds = 20;     ///< … for this long (a stalled server)
+  /// Called on every curl handle after btflod's own options are set, right before the transfer
+  /// (nullptr: not called). A seam for tests and fuzz targets, e.g. CURLOPT_CONNECT_TO to send
+  /// every connection (redirects included) to an in-process server, or CURLOPT_PROTOCOLS_STR.
+  /// It must not replace the write, header or progress callbacks or their data pointers. Runs
+  /// on the thread calling size() or read(), possibly on several threads at once.
+  void (*customize_handle)(CURL* handle, void* user) = nullptr;
+  void* customize_user = nullptr;  ///< passed to customize_handle
 };
 
 class HttpSource final : public TileSource {
@@ -87,7 +95,7 @@ class HttpSource final : public TileSource {
     CURL* h = acquire();
     if (!h) return make_error(Status::io_error, "%s: curl_easy_init failed", url_.c_str());
     char error[CURL_ERROR_SIZE] = {};
-    Transfer t{out.data(), out.size(), 0, false, -1, cancel};
+    Transfer t{out.data(), out.size(), 0, false, false, 0, 0, cancel};
     configure(h, error, &t);
     char range[64];
     std::snprintf(range, sizeof range, "%llu-%llu", static_cast<unsigned long long>(offset),
@@ -114,8 +122,16 @@ class HttpSource final : public TileSource {
     if (code == 200)
       return make_error(Status::unsupported, "%s: server ignored the Range header (HTTP 200 instead of 206)", url_.c_str());
     if (code != 206) return make_error(Status::io_error, "%s: range %s answered HTTP %ld, expected 206", url_.c_str(), range, code);
-    if (t.range_start >= 0 && static_cast<uint64_t>(t.range_start) != offset)
-      return make_error(Status::bad_data, "%s: Content-Range starts at %lld, requested %llu", url_.c_str(), t.range_start, at);
+    if (!t.range_valid)
+      return make_error(Status::bad_data, "%s: range %s: 206 without a Content-Range of the form \"bytes first-last/size\"",
+                        url_.c_str(), range);
+    if (t.range_first != offset)
+      return make_error(Status::bad_data, "%s: Content-Range starts at %llu, requested %llu", url_.c_str(),
+                        static_cast<unsigned long long>(t.range_first), at);
+    if (t.range_last != offset + out.size() - 1)
+      return make_error(Status::bad_data, "%s: Content-Range ends at %llu, requested %llu", url_.c_str(),
+                        static_cast<unsigned long long>(t.range_last),
+                        static_cast<unsigned long long>(offset + out.size() - 1));
     if (t.got != out.size())
       return make_error(Status::short_output, "%s: range %s: received %zu of %zu bytes", url_.c_str(), range, t.got, out.size());
     return {};
@@ -129,9 +145,42 @@ class HttpSource final : public TileSource {
     size_t capacity;
     size_t got;
     bool overflow;
-    long long range_start;  // from Content-Range, −1 when absent
+    bool range_valid;       // a well-formed "bytes first-last/…" Content-Range was received
+    uint64_t range_first;   // its first and last byte (valid when range_valid)
+    uint64_t range_last;
     const std::atomic<bool>* cancel;
   };
+
+  /// Parses a Content-Range value `bytes first-last/size` (or `/*`), surrounding blanks and the
+  /// unit's case ignored. False for anything else: another unit, `*/size`, signs, missing or
+  /// non-digit fields, last < first, values beyond 2^63, trailing garbage. Untrusted input.
+  static bool parse_content_range(const char* p, const char* end, uint64_t& first, uint64_t& last) noexcept {
+    auto blanks = [&] {
+      while (p < end && (*p == ' ' || *p == '\t')) ++p;
+    };
+    auto number = [&](uint64_t& v) {
+      const char* start = p;
+      v = 0;
+      while (p < end && *p >= '0' && *p <= '9') {
+        if (v > (uint64_t{1} << 59)) return false;  // > 2^63 after the next digit: not a file offset
+        v = v * 10 + static_cast<uint64_t>(*p++ - '0');
+      }
+      return p != start;
+    };
+    blanks();
+    static constexpr char kUnit[] = "bytes";
+    for (size_t i = 0; i < 5; ++i, ++p)
+      if (p >= end || std::tolower(static_cast<unsigned char>(*p)) != kUnit[i]) return false;
+    if (p >= end || (*p != ' ' && *p != '\t')) return false;
+    blanks();
+    if (!number(first) || p >= end || *p++ != '-' || !number(last) || last < first) return false;
+    if (p >= end || *p++ != '/') return false;
+    uint64_t size = 0;
+    if (p < end && *p == '*') ++p;
+    else if (!number(size) || size <= last) return false;
+    while (p < end && (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')) ++p;
+    return p == end;
+  }
 
   static size_t on_write(char* data, size_t size, size_t count, void* user) {
     auto* t = static_cast<Transfer*>(user);
@@ -152,13 +201,9 @@ class HttpSource final : public TileSource {
     if (n > kLen) {
       bool match = true;
       for (size_t i = 0; i < kLen && match; ++i) match = std::tolower(static_cast<unsigned char>(data[i])) == kName[i];
-      if (match) {
-        std::string value(data + kLen, n - kLen);  // " bytes a-b/total\r\n"
-        const size_t p = value.find("bytes");
-        if (p != std::string::npos) t->range_start = std::strtoll(value.c_str() + p + 5, nullptr, 10);
-      }
+      if (match) t->range_valid = parse_content_range(data + kLen, data + n, t->range_first, t->range_last);
     } else if (n >= 5 && std::strncmp(data, "HTTP/", 5) == 0) {
-      t->range_start = -1;  // a new response (redirect): forget the previous one's headers
+      t->range_valid = false;  // a new response (redirect, 1xx): forget the previous one's headers
     }
     return n;
   }
@@ -187,6 +232,7 @@ class HttpSource final : public TileSource {
       curl_easy_setopt(h, CURLOPT_XFERINFODATA, t);
       curl_easy_setopt(h, CURLOPT_NOPROGRESS, 0L);
     }
+    if (options_.customize_handle) options_.customize_handle(h, options_.customize_user);
   }
   CURL* acquire() {
     {

@@ -1,0 +1,159 @@
+// btflod-link: CURL::libcurl
+// Regression tests for stream/http_source.hpp, failure class "a 206 whose Content-Range does
+// not describe the requested range": found by fuzz_http_source (each response below is what
+// the fuzzer's fake server sent). A range read must only succeed when the answer is a 206 with
+// "Content-Range: bytes a-b/…" for exactly the requested a and b and b − a + 1 body bytes;
+// before, a 206 without Content-Range, with another unit, with the wrong last byte, with a
+// negative first byte or with the unsatisfied-range form "*/size" was accepted.
+// The responses come from a one-connection-at-a-time server thread on 127.0.0.1; every
+// connection is pointed at it through HttpSourceOptions::customize_handle.
+#include <gtest/gtest.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "btflod/stream/http_source.hpp"
+
+namespace {
+
+using namespace btflod;
+
+// Answers every connection with `response`, then closes it.
+class CannedServer {
+ public:
+  explicit CannedServer(std::string response) : response_(std::move(response)) {
+    listener_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    int one = 1;
+    ::setsockopt(listener_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ::bind(listener_, reinterpret_cast<sockaddr*>(&a), sizeof a);
+    socklen_t len = sizeof a;
+    ::getsockname(listener_, reinterpret_cast<sockaddr*>(&a), &len);
+    port_ = ntohs(a.sin_port);
+    ::listen(listener_, 8);
+    connect_to_ = "::127.0.0.1:" + std::to_string(port_);
+    thread_ = std::thread([this] { serve(); });
+  }
+  ~CannedServer() {
+    stop_ = true;
+    ::shutdown(listener_, SHUT_RDWR);
+    ::close(listener_);
+    thread_.join();
+    curl_slist_free_all(list_);
+  }
+  std::string url() const { return "http://127.0.0.1:" + std::to_string(port_) + "/material.bsvtf"; }
+  HttpSourceOptions options() {
+    HttpSourceOptions o;
+    o.timeout_ms = 5000;
+    if (!list_) list_ = curl_slist_append(nullptr, connect_to_.c_str());
+    o.customize_handle = [](CURL* h, void* user) {
+      curl_easy_setopt(h, CURLOPT_CONNECT_TO, static_cast<curl_slist*>(user));
+    };
+    o.customize_user = list_;
+    return o;
+  }
+
+ private:
+  void serve() {
+    while (!stop_) {
+      const int c = ::accept(listener_, nullptr, nullptr);
+      if (c < 0) return;
+      timeval tv{1, 0};
+      ::setsockopt(c, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+      std::string request;
+      char buf[4096];
+      while (request.find("\r\n\r\n") == std::string::npos) {
+        const ssize_t n = ::recv(c, buf, sizeof buf, 0);
+        if (n <= 0) break;
+        request.append(buf, static_cast<size_t>(n));
+      }
+      ::send(c, response_.data(), response_.size(), MSG_NOSIGNAL);
+      ::shutdown(c, SHUT_WR);
+      ::close(c);
+    }
+  }
+  std::string response_;
+  std::string connect_to_;
+  curl_slist* list_ = nullptr;
+  int listener_ = -1;
+  int port_ = 0;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+// Reads 4 bytes at offset 10 from a server that answers `response`.
+VoidResult read_four_at_ten(const std::string& response, std::vector<uint8_t>& out) {
+  CannedServer server(response);
+  HttpSource http(server.url(), server.options());
+  out.assign(4, 0);
+  return http.read(10, out);
+}
+
+TEST(StreamHttpContentRange, PartialContentWithoutContentRangeIsRejected) {
+  std::vector<uint8_t> out;
+  auto r = read_four_at_ten("HTTP/1.1 206 Partial Content\r\nContent-Length: 4\r\n\r\nabcd", out);
+  EXPECT_EQ(r.status(), Status::bad_data) << r.message();
+  EXPECT_NE(r.message().find("Content-Range"), std::string::npos) << r.message();
+}
+
+TEST(StreamHttpContentRange, ContentRangeInAnotherUnitIsRejected) {
+  std::vector<uint8_t> out;
+  auto r = read_four_at_ten(
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: items 10-13/100\r\nContent-Length: 4\r\n\r\nabcd", out);
+  EXPECT_EQ(r.status(), Status::bad_data) << r.message();
+}
+
+TEST(StreamHttpContentRange, ContentRangeWithTheWrongLastByteIsRejected) {
+  std::vector<uint8_t> out;
+  auto r = read_four_at_ten(
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes 10-20/100\r\nContent-Length: 4\r\n\r\nabcd", out);
+  EXPECT_EQ(r.status(), Status::bad_data) << r.message();
+  EXPECT_NE(r.message().find("20"), std::string::npos) << r.message();
+}
+
+TEST(StreamHttpContentRange, ContentRangeWithANegativeFirstByteIsRejected) {
+  std::vector<uint8_t> out;
+  auto r = read_four_at_ten(
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes -3-13/100\r\nContent-Length: 4\r\n\r\nabcd", out);
+  EXPECT_EQ(r.status(), Status::bad_data) << r.message();
+}
+
+TEST(StreamHttpContentRange, UnsatisfiedRangeFormInAPartialContentAnswerIsRejected) {
+  // "*/size" belongs to a 416; in a 206 it names no bytes (it used to parse as first byte 0).
+  CannedServer server("HTTP/1.1 206 Partial Content\r\nContent-Range: bytes */100\r\nContent-Length: 4\r\n\r\nabcd");
+  HttpSource http(server.url(), server.options());
+  std::vector<uint8_t> out(4);
+  auto r = http.read(0, out);
+  EXPECT_EQ(r.status(), Status::bad_data) << r.message();
+}
+
+TEST(StreamHttpContentRange, CorrectAnswersAreStillAccepted) {
+  const char* answers[] = {
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes 10-13/100\r\nContent-Length: 4\r\n\r\nabcd",
+      "HTTP/1.1 206 Partial Content\r\ncontent-RANGE:   Bytes 10-13/*\r\nContent-Length: 4\r\n\r\nabcd",
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes 10-13/100\r\n\r\nabcd",  // ends at close
+      "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes 10-13/100\r\nTransfer-Encoding: chunked\r\n\r\n"
+      "3\r\nabc\r\n1\r\nd\r\n0\r\n\r\n",
+      "HTTP/1.1 100 Continue\r\n\r\nHTTP/1.1 206 Partial Content\r\nContent-Range: bytes 10-13/14\r\nContent-Length: "
+      "4\r\n\r\nabcd",
+  };
+  for (const char* a : answers) {
+    std::vector<uint8_t> out;
+    auto r = read_four_at_ten(a, out);
+    ASSERT_TRUE(r.ok()) << a << "\n" << r.message();
+    EXPECT_EQ(std::string(out.begin(), out.end()), "abcd") << a;
+  }
+}
+
+}  // namespace

@@ -27,6 +27,9 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 }  // namespace
 
 TEST(GoldenGl, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
+TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) {
+  btflod::golden::golden_fmf_u_packets(make_backend);
+}
 TEST(GoldenGl, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
 TEST(GoldenGl, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
 TEST(GoldenGl, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }

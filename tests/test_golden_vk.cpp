@@ -27,6 +27,9 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 }  // namespace
 
 TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
+TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) {
+  btflod::golden::golden_fmf_u_packets(make_backend);
+}
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
 TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
 TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }

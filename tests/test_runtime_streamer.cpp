@@ -642,3 +642,179 @@ TEST(RuntimeStreamer, VoteCounterAllocatesOnlyThroughTheCallbacks) {
   }
   EXPECT_EQ(counter.live, 0);
 }
+
+namespace {
+
+// A renderer on the CPU reference path: FMF materials hold U′ in FmfMaterialData's layout and
+// take packets through write_u_packet (backend/backend.hpp); tiles and page-table texels are
+// kept like Engine does. Everything else is a no-op.
+class RecordingBackend final : public Backend {
+ public:
+  struct Mat {
+    uint32_t lights = 0, views = 0, components = 0;
+    std::vector<float> u;
+    uint32_t packets = 0;
+  };
+  std::vector<Mat> materials;
+  std::vector<std::vector<uint16_t>> slots;
+  std::vector<PageTableWrite> writes;
+  std::vector<char> order;  // 't' tiles, 'u' packets, 'p' page table
+  const char* name() const noexcept override { return "recording CPU backend"; }
+  VoidResult init(const ShaderConfig& c, uint32_t) override {
+    slots.resize(c.vt.slot_count());
+    return {};
+  }
+  Result<MeshHandle> create_mesh(const MeshData&) override { return MeshHandle{1}; }
+  Result<MaterialHandle> create_material(const FmfMaterialData& d) override {
+    materials.push_back(Mat{d.light_count, d.view_count, d.components,
+                            std::vector<float>(d.eigen_abrdfs.begin(), d.eigen_abrdfs.end()), 0});
+    return MaterialHandle{static_cast<uint32_t>(materials.size())};
+  }
+  Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
+    for (const TileUpload& t : tiles) slots[t.slot].assign(t.texels.begin(), t.texels.end());
+    order.push_back('t');
+    return Status::success;
+  }
+  Status upload_u_packets(MaterialHandle h, std::span<const UPacketUpload> packets) noexcept override {
+    if (h.id == 0 || h.id > materials.size()) return Status::invalid_argument;
+    Mat& m = materials[h.id - 1];
+    for (const UPacketUpload& p : packets)
+      if (check_u_packet(p, m.lights, m.views, m.components) != Status::success) return Status::invalid_argument;
+    for (const UPacketUpload& p : packets) {
+      EXPECT_EQ(write_u_packet(p, m.lights, m.views, m.components, m.u), Status::success);
+      ++m.packets;
+    }
+    order.push_back('u');
+    return Status::success;
+  }
+  Status apply_page_table_writes(std::span<const PageTableWrite> w) noexcept override {
+    writes.insert(writes.end(), w.begin(), w.end());
+    order.push_back('p');
+    return Status::success;
+  }
+  Status begin_frame(const FrameDesc&) noexcept override { return Status::success; }
+  Status draw(ShaderProgram, MeshHandle, MaterialHandle, const ShaderParams&) noexcept override {
+    return Status::success;
+  }
+  Status draw_feedback(MeshHandle, const ShaderParams&) noexcept override { return Status::success; }
+  Status end_frame() noexcept override { return Status::success; }
+  bool poll_feedback(FeedbackFrame&) noexcept override { return false; }
+  uint32_t feedback_ring_size() const noexcept override { return 1; }
+  uint64_t dropped_feedback() const noexcept override { return 0; }
+  Status read_color(ImageView<float>) noexcept override { return Status::success; }
+  Status wait_idle() noexcept override { return Status::success; }
+};
+
+// U′ of e (light-major, FmfMaterialData's layout) rounded to half, as the packets carry it.
+std::vector<float> half_rounded(const std::vector<float>& u) {
+  std::vector<float> out(u.size());
+  for (size_t i = 0; i < u.size(); ++i) out[i] = half_bits_to_float(float_to_half_bits(u[i]));
+  return out;
+}
+
+}  // namespace
+
+// apply_streamer_outputs(Backend&, outputs, handles): every U′ packet reaches the backend
+// material of its Streamer material through Backend::upload_u_packets, in the backend's
+// light-major layout, also from a view-major container; materials created with U′ = 0 end up
+// with exactly the container's U′ (as halves), each packet once. Tiles go first, page-table
+// texels last. A packet whose material has no handle is refused.
+TEST(RuntimeStreamer, ApplyToBackendUploadsEveryPacketIntoItsMaterial) {
+  const EigenTextures e0 = make_eigen(64, 6, 3), e1 = make_eigen(64, 9, 4), e2 = make_eigen(64, 6, 8);
+  World w;
+  w.add(build(e0));
+  w.add(build(e1, AngularRowOrder::view_major));
+  w.add(build(e2));
+  w.finish();
+  Streamer s = std::move(Streamer::create(w.materials, small_config()).value());
+  RecordingBackend be;
+  ShaderConfig sc;
+  sc.vt.slots_x = 8;
+  sc.vt.slots_y = 8;
+  ASSERT_TRUE(be.init(sc, s.cache().set().texture_count()).ok());
+  std::vector<MaterialHandle> handles;
+  const EigenTextures* es[3] = {&e0, &e1, &e2};
+  // Created in reverse, so handle i + 1 is not Streamer material i: the mapping is used.
+  std::vector<std::vector<float>> zeros;
+  for (int m = 2; m >= 0; --m) {
+    zeros.emplace_back(es[m]->angular.size(), 0.0f);
+    FmfMaterialData d;
+    d.components = es[m]->components();
+    d.light_count = kLights;
+    d.view_count = kViews;
+    d.eigen_abrdfs = zeros.back();
+    handles.insert(handles.begin(), be.create_material(d).value());
+  }
+  Engine e(s);
+  const auto fb = full_feedback(s);
+  for (int f = 0; f < 30; ++f) {
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    be.order.clear();
+    ASSERT_EQ(apply_streamer_outputs(be, o, handles), Status::success);
+    if (o.packet_upload_count > 0 && o.tile_upload_count > 0) {
+      // tiles, then packets, then page-table texels
+      EXPECT_EQ(be.order.front(), 't');
+      EXPECT_EQ(be.order.back(), o.page_table_write_count > 0 ? 'p' : 'u');
+    }
+    e.apply(s, o);
+    if (o.packet_upload_count > 0) {  // the same outputs without a handle for a material: refused
+      const std::vector<MaterialHandle> few(handles.begin(), handles.begin() + o.packet_uploads[0].material);
+      RecordingBackend other;
+      ASSERT_TRUE(other.init(sc, 1).ok());
+      EXPECT_EQ(apply_streamer_outputs(other, o, few), Status::invalid_argument);
+    }
+    s.pump();
+  }
+  for (uint32_t m = 0; m < 3; ++m) {
+    ASSERT_TRUE(s.material_ready(m));
+    const RecordingBackend::Mat& bm = be.materials[handles[m].id - 1];
+    EXPECT_EQ(bm.packets, s.texture_count(m)) << "material " << m;
+    EXPECT_EQ(bm.u, half_rounded(es[m]->angular)) << "material " << m;
+  }
+  EXPECT_NE(be.materials[handles[0].id - 1].u, be.materials[handles[2].id - 1].u);
+}
+
+// The two CPU twins of a U′ upload agree with the material packing: write_u_packet builds
+// FmfMaterialData's U′ and u_packet_to_rgba_layers the eigen_abrdfs texture layers exactly as
+// pack_eigen_abrdfs_rgba packs that U′ (C = 6: the second packet is partial); bad packets are
+// refused without writing.
+TEST(RuntimeStreamer, UPacketTwinsMatchTheMaterialPacking) {
+  const uint32_t C = 6, L = 3, V = 5, rows = L * V * 3;
+  std::vector<float> u(size_t{rows} * C);
+  for (size_t i = 0; i < u.size(); ++i)
+    u[i] = half_bits_to_float(float_to_half_bits(0.01f * static_cast<float>(i) - 1.0f));
+  std::vector<std::vector<uint16_t>> packets(2, std::vector<uint16_t>(size_t{rows} * 4, 0));
+  for (uint32_t r = 0; r < rows; ++r)
+    for (uint32_t c = 0; c < C; ++c) packets[c / 4][size_t{r} * 4 + c % 4] = float_to_half_bits(u[size_t{r} * C + c]);
+  std::vector<float> built(u.size(), 0.0f);
+  FmfMaterialData d;
+  d.components = C;
+  d.light_count = L;
+  d.view_count = V;
+  d.eigen_abrdfs = u;
+  const std::vector<float> rgba = pack_eigen_abrdfs_rgba(d);
+  const size_t plane = size_t{L} * V * 4;
+  for (uint32_t g = 0; g < 2; ++g) {
+    const UPacketUpload p{g, rows, packets[g]};
+    ASSERT_EQ(write_u_packet(p, L, V, C, built), Status::success);
+    std::vector<float> layers(plane * 4, -1.0f);
+    const uint32_t n = u_packet_to_rgba_layers(p, L, V, C, layers);
+    ASSERT_EQ(n, g == 0 ? 4u : 2u);
+    for (size_t i = 0; i < plane * n; ++i)
+      ASSERT_EQ(layers[i], rgba[4 * g * plane + i]) << "packet " << g << " float " << i;
+  }
+  EXPECT_EQ(built, u);
+  const std::vector<float> before = built;
+  const UPacketUpload bad[3] = {{2, rows, packets[0]},
+                                {0, rows - 3, std::span<const uint16_t>(packets[0]).first((rows - 3) * 4)},
+                                {0, rows, std::span<const uint16_t>(packets[0]).first(4)}};
+  for (const UPacketUpload& p : bad) {
+    EXPECT_EQ(write_u_packet(p, L, V, C, built), Status::invalid_argument);
+    std::vector<float> layers(plane * 4);
+    EXPECT_EQ(u_packet_to_rgba_layers(p, L, V, C, layers), 0u);
+  }
+  std::vector<float> small(plane);
+  EXPECT_EQ(u_packet_to_rgba_layers(UPacketUpload{0, rows, packets[0]}, L, V, C, small), 0u);
+  EXPECT_EQ(built, before);
+}

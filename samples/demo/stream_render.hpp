@@ -137,7 +137,7 @@ class GpuFrameRenderer final : public FrameRenderer {
     }
     return {};
   }
-  Status apply(const StreamerOutputs& out) override { return apply_streamer_outputs(be_, out); }
+  Status apply(const StreamerOutputs& out) override { return apply_streamer_outputs(be_, out, bsvtf_mats_); }
   Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
   bool renders_page_table() const override { return true; }
   /// Called after each BSVTF colour pass, outside both timings, while its image is the

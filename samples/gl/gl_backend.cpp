@@ -27,6 +27,8 @@ struct GlMesh {
 struct GlMaterial {
   GLuint eigen_abrdfs = 0, angular_index = 0, angular_weight = 0, eigen_textures = 0;
   int representation = -1;  ///< index into reps_ for a laplacian / lpca / pca_views material
+  uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
+  std::vector<float> packet_layers;  // upload_u_packets staging (4 layers of U′)
 };
 
 struct FeedbackSlot {
@@ -182,6 +184,10 @@ class GlBackend final : public Backend {
                         static_cast<GLsizei>(data.view_count), static_cast<GLsizei>(data.components), GL_RGBA, GL_FLOAT,
                         u.data());
     set_gl_sampling(m.eigen_abrdfs, GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
+    m.light_count = data.light_count;
+    m.view_count = data.view_count;
+    m.components = data.components;
+    m.packet_layers.assign(size_t{data.light_count} * data.view_count * 4 * std::min(4u, data.components), 0.0f);
     const GlAngularTables tables = create_gl_angular_tables(data.angular);
     m.angular_index = tables.index;
     m.angular_weight = tables.weight;
@@ -203,7 +209,7 @@ class GlBackend final : public Backend {
     }
     if (GLenum e = glGetError(); e != GL_NO_ERROR)
       return make_error(Status::unsupported, "GL: error 0x%04x while creating a material", e);
-    materials_.push_back(m);
+    materials_.push_back(std::move(m));
     return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
@@ -228,6 +234,24 @@ class GlBackend final : public Backend {
       glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
                           static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA, GL_HALF_FLOAT,
                           t.texels.data());
+    }
+    return Status::success;
+  }
+
+  Status upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept override {
+    make_current();
+    if (!initialised_ || material.id == 0 || material.id > materials_.size()) return Status::invalid_argument;
+    GlMaterial& m = materials_[material.id - 1];
+    if (m.representation >= 0 || m.components == 0) return Status::invalid_argument;
+    for (const UPacketUpload& p : packets)
+      if (check_u_packet(p, m.light_count, m.view_count, m.components) != Status::success)
+        return Status::invalid_argument;
+    for (const UPacketUpload& p : packets) {
+      // Client memory is copied by glTextureSubImage3D before it returns: one staging buffer.
+      const uint32_t n = u_packet_to_rgba_layers(p, m.light_count, m.view_count, m.components, m.packet_layers);
+      glTextureSubImage3D(m.eigen_abrdfs, 0, 0, 0, static_cast<GLint>(4 * p.packet),
+                          static_cast<GLsizei>(m.light_count), static_cast<GLsizei>(m.view_count),
+                          static_cast<GLsizei>(n), GL_RGBA, GL_FLOAT, m.packet_layers.data());
     }
     return Status::success;
   }

@@ -107,7 +107,7 @@ int main() {
     StreamerOutputs out{tiles, packets, writes, events};
     if (const Status st = streamer.update(feedback, out); st != Status::success) return st;
     // Tiles first, then U′, then the page-table texels (backend/streamer_outputs.hpp; with a
-    // btflod::Backend this is apply_streamer_outputs(backend, out)).
+    // btflod::Backend this is apply_streamer_outputs(backend, out, material_handles)).
     const Status applied = forward_streamer_outputs(
         out,
         [&](std::span<const TileUpload> batch) noexcept {  // glTexSubImage3D / vkCmdCopyBufferToImage

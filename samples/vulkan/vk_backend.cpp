@@ -182,6 +182,9 @@ Result<MaterialHandle> VkBackend::create_material(const FmfMaterialData& data) {
   if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_material before init");
   if (VoidResult v = validate_material(data, config_); !v) return v.error();
   VkMaterial m;
+  m.light_count = data.light_count;
+  m.view_count = data.view_count;
+  m.components = data.components;
   const std::vector<float> u = pack_eigen_abrdfs_rgba(data);
   std::vector<uint32_t> index;
   std::vector<float> weight;
@@ -261,6 +264,38 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
     region.imageExtent = {static_cast<uint32_t>(padded), static_cast<uint32_t>(padded), 1};
     vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, cache_.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
     c.staging_offset += bytes;
+  }
+  full_barrier(c.cmd);
+  return Status::success;
+}
+
+Status VkBackend::upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept {
+  if (!initialised_ || material.id == 0 || material.id > materials_.size()) return Status::invalid_argument;
+  const VkMaterial& m = materials_[material.id - 1];
+  if (m.program != ShaderProgram::fmf || m.components == 0) return Status::invalid_argument;
+  const size_t plane = size_t{m.light_count} * m.view_count * 4 * sizeof(float);
+  size_t need = 0;
+  for (const UPacketUpload& p : packets) {
+    if (check_u_packet(p, m.light_count, m.view_count, m.components) != Status::success)
+      return Status::invalid_argument;
+    need += plane * std::min(4u, m.components - 4 * p.packet);
+  }
+  FrameContext& c = open_context();
+  const VkDeviceSize start = (c.staging_offset + 15) & ~VkDeviceSize{15};
+  if (start + need > c.staging.size) return Status::insufficient_space;
+  c.staging_offset = start;
+  for (const UPacketUpload& p : packets) {
+    // Converted straight into the frame's staging memory (eigen_abrdfs is RGBA32F).
+    const size_t room = static_cast<size_t>(c.staging.size - c.staging_offset) / sizeof(float);
+    float* dst = reinterpret_cast<float*>(static_cast<char*>(c.staging.mapped) + c.staging_offset);
+    const uint32_t n =
+        u_packet_to_rgba_layers(p, m.light_count, m.view_count, m.components, std::span<float>(dst, room));
+    VkBufferImageCopy region{};
+    region.bufferOffset = c.staging_offset;
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 4 * p.packet, n};
+    region.imageExtent = {m.light_count, m.view_count, 1};
+    vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, m.eigen_abrdfs.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+    c.staging_offset += plane * n;
   }
   full_barrier(c.cmd);
   return Status::success;

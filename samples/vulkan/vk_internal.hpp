@@ -53,6 +53,7 @@ struct VkMaterial {
   /// laplacian / lpca / pca_views materials: their program (fmf = an FMF material), textures
   /// and pipeline (generated with representation_config()).
   ShaderProgram program = ShaderProgram::fmf;
+  uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
   Texture rep[6];
   VkPipeline pipeline = VK_NULL_HANDLE;
 };
@@ -116,6 +117,7 @@ class VkBackend final : public Backend {
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override;
   Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& d) override;
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override;
+  Status upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept override;
   Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override;
   Status begin_frame(const FrameDesc& frame) noexcept override;
   Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,

@@ -8,7 +8,7 @@
 // the uniform block (ShaderParams). docs/shaders.md walks through a frame.
 //
 // Threading: a backend object is used from one thread (the one that created it). Calls that run
-// per frame (upload_tiles, apply_page_table_writes, begin_frame, draw, draw_feedback, end_frame,
+// per frame (upload_tiles, upload_u_packets, apply_page_table_writes, begin_frame, draw, draw_feedback, end_frame,
 // poll_feedback) do not allocate after set-up, never block on the GPU and return a Status.
 #pragma once
 
@@ -18,12 +18,13 @@
 #include <span>
 #include <vector>
 
+#include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
-#include "btflod/vt/tile_id.hpp"
 #include "btflod/vt/tile_cache.hpp"
+#include "btflod/vt/tile_id.hpp"
 
 namespace btflod {
 
@@ -136,6 +137,67 @@ inline VoidResult validate_material(const FmfMaterialData& m, const ShaderConfig
       return make_error(Status::invalid_argument, "material: angular weight %zu is not finite", i);
   }
   return {};
+}
+
+/// One U′ packet (paper 000 §6): components 4g … 4g+3 of an FMF material's U′, as the runtime
+/// hands it out (runtime/streamer.hpp StreamerPacketUpload): `rows` = light_count · view_count ·
+/// 3 rows in light-major order (row = (light · view_count + view) · 3 + colour, the order of
+/// FmfMaterialData::eigen_abrdfs), 4 half-float bits per row (component 4g + i in column i;
+/// columns past C are ignored).
+struct UPacketUpload {
+  uint32_t packet = 0;               ///< g: components 4g … 4g+3
+  uint32_t rows = 0;                 ///< light_count · view_count · 3
+  std::span<const uint16_t> halves;  ///< rows · 4 half bits
+};
+
+/// Checks a U′ packet against a material of `light_count` × `view_count` directions and C =
+/// `components`: packet g < ⌈C/4⌉, rows = lights · views · 3, halves = rows · 4. Returns
+/// invalid_argument or success. noexcept; safe for untrusted values (sizes only: the half
+/// values are not inspected).
+inline Status check_u_packet(const UPacketUpload& p, uint32_t light_count, uint32_t view_count,
+                             uint32_t components) noexcept {
+  const uint64_t rows = uint64_t{light_count} * view_count * 3;
+  if (components == 0 || p.packet >= (components + 3) / 4 || p.rows != rows || p.halves.size() != rows * 4)
+    return Status::invalid_argument;
+  return Status::success;
+}
+
+/// The CPU reference of a U′ upload: writes packet p into `eigen_abrdfs`, a material's U′ in
+/// FmfMaterialData's layout (u[((light · views + view) · 3 + colour) · C + c], light-major),
+/// i.e. columns 4g … min(4g+3, C−1) of every row. Returns invalid_argument (writing nothing)
+/// when check_u_packet() fails or eigen_abrdfs has not lights · views · 3 · C floats.
+/// noexcept, no allocation.
+inline Status write_u_packet(const UPacketUpload& p, uint32_t light_count, uint32_t view_count, uint32_t components,
+                             std::span<float> eigen_abrdfs) noexcept {
+  if (check_u_packet(p, light_count, view_count, components) != Status::success ||
+      eigen_abrdfs.size() != size_t{p.rows} * components)
+    return Status::invalid_argument;
+  const uint32_t first = 4 * p.packet, n = std::min(4u, components - first);
+  for (size_t r = 0; r < p.rows; ++r)
+    for (uint32_t i = 0; i < n; ++i)
+      eigen_abrdfs[r * components + first + i] = Half::from_bits(p.halves[r * 4 + i]).to_float();
+  return Status::success;
+}
+
+/// A U′ packet as the layers 4g … 4g+n−1 (n = min(4, C − 4g)) of the eigen_abrdfs texture
+/// (pack_eigen_abrdfs_rgba's layout: RGBA32F, texel (light, view), rgb = colour, a = 0): writes
+/// n · views · lights · 4 floats into `layers` and returns n, or 0 when check_u_packet() fails
+/// or `layers` is smaller. What the GPU backends upload. noexcept, no allocation.
+inline uint32_t u_packet_to_rgba_layers(const UPacketUpload& p, uint32_t light_count, uint32_t view_count,
+                                        uint32_t components, std::span<float> layers) noexcept {
+  if (check_u_packet(p, light_count, view_count, components) != Status::success) return 0;
+  const uint32_t first = 4 * p.packet, n = std::min(4u, components - first);
+  const size_t plane = size_t{light_count} * view_count * 4;
+  if (layers.size() < plane * n) return 0;
+  for (uint32_t i = 0; i < n; ++i)
+    for (uint32_t v = 0; v < view_count; ++v)
+      for (uint32_t l = 0; l < light_count; ++l) {
+        float* texel = &layers[i * plane + (size_t{v} * light_count + l) * 4];
+        const size_t row = (size_t{l} * view_count + v) * 3;
+        for (uint32_t k = 0; k < 3; ++k) texel[k] = Half::from_bits(p.halves[(row + k) * 4 + i]).to_float();
+        texel[3] = 0.0f;
+      }
+  return n;
 }
 
 /// U' as the eigen_abrdfs texture wants it: RGBA32F 2D array, texel (light, view), layer c,
@@ -384,9 +446,9 @@ inline VoidResult validate_material(const PcaViewsMaterialData& m, const ShaderC
 inline VoidResult validate_material(const SpmmMaterialData& m, const ShaderConfig& config) {
   const uint64_t layers = static_cast<uint64_t>(m.clusters) * (m.residual_components + 1ull);
   const uint64_t rows = (m.bases + static_cast<uint64_t>(kSpmmBasesPerRow) - 1) / kSpmmBasesPerRow;
-  if (m.slots == 0 || m.slots > 64 || m.residual_components > 64 || m.clusters == 0 || layers > 2048 ||
-      m.bases == 0 || rows > 16384 || m.light_count == 0 || m.view_count == 0 || m.light_count > 16384 ||
-      m.view_count > 16384 || m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
+  if (m.slots == 0 || m.slots > 64 || m.residual_components > 64 || m.clusters == 0 || layers > 2048 || m.bases == 0 ||
+      rows > 16384 || m.light_count == 0 || m.view_count == 0 || m.light_count > 16384 || m.view_count > 16384 ||
+      m.width == 0 || m.height == 0 || m.width > 16384 || m.height > 16384)
     return make_error(Status::invalid_argument,
                       "spmm material: S = %u, P = %u, K = %u, %u bases, %u lights × %u views, %u×%u (expected S "
                       "1..64, P 0..64, K·(P+1) ≤ 2048, sizes 1..16384)",
@@ -419,8 +481,9 @@ inline VoidResult validate_material(const SpmmMaterialData& m, const ShaderConfi
       for (size_t i = 0; i < 4; ++i) {
         const uint32_t v = m.texels[first + (g * n + t) * 4 + i];
         if (g == 0 && i == 0 ? v >= m.clusters : !bits_finite(v))
-          return make_error(Status::invalid_argument, "spmm material: texel %zu: cluster %u of %u or a non-finite coefficient",
-                            t, m.texels[first + t * 4], m.clusters);
+          return make_error(Status::invalid_argument,
+                            "spmm material: texel %zu: cluster %u of %u or a non-finite coefficient", t,
+                            m.texels[first + t * 4], m.clusters);
       }
   }
   for (size_t g = 0; g < m.bases; ++g) {
@@ -428,7 +491,9 @@ inline VoidResult validate_material(const SpmmMaterialData& m, const ShaderConfi
     const float* p = &m.dictionary[(row * 2 * kSpmmBasesPerRow + col) * 4];
     bool ok = p[0] >= 0.0f && p[0] <= 6.0f && p[0] == std::floor(p[0]) && p[6] > 0.0f;
     for (int i = 0; i < 8; ++i) ok = ok && std::isfinite(p[i]);
-    if (!ok) return make_error(Status::invalid_argument, "spmm material: basis %zu has model %g, a non-finite κ or n.z ≤ 0", g, static_cast<double>(p[0]));
+    if (!ok)
+      return make_error(Status::invalid_argument, "spmm material: basis %zu has model %g, a non-finite κ or n.z ≤ 0", g,
+                        static_cast<double>(p[0]));
   }
   for (float v : m.residual)
     if (!std::isfinite(v)) return make_error(Status::invalid_argument, "spmm material: a residual value is not finite");
@@ -557,6 +622,14 @@ class Backend {
   /// Overwrites page-table texels. Returns invalid_argument (and applies nothing) when a write
   /// names a layer, mip or texel outside the page table.
   virtual Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept = 0;
+  /// Overwrites components 4g … 4g+3 of an FMF material's U′ (its eigen_abrdfs texture, read
+  /// by the fmf and bsvtf programs) with U′ packets, e.g. the runtime's
+  /// StreamerOutputs::packet_uploads (backend/streamer_outputs.hpp forwards them). Packets apply
+  /// in order; a material created with any U′ (zeros while streaming, paper 000 §6) shades with
+  /// what has arrived. Returns invalid_argument (and uploads nothing) when the handle names no
+  /// FMF material or a packet fails check_u_packet() for it; insufficient_space when the frame's
+  /// staging memory is exhausted (Vulkan). No allocation, no GPU wait.
+  virtual Status upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept = 0;
 
   // --- frame (per frame) -------------------------------------------------------------------
   /// Starts a frame: clears the colour target and the feedback target (to the config's

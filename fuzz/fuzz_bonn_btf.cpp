@@ -1,6 +1,6 @@
-// libFuzzer target for btf/bonn_btf.hpp: parses arbitrary bytes as a Bonn .btf file. Accepted
-// files are reconstructed when small, and re-encoded: encode(read(encode(read(x)))) must equal
-// encode(read(x)) byte for byte (a round-trip check that traps on mismatch).
+// libFuzzer target for btf/bonn_btf.hpp: parses arbitrary bytes as a Bonn .btf file; every
+// rejection explains itself, and accepted files are reconstructed (at most 2^16 samples). The
+// encode → read → encode round trip is its own target (fuzz_bonn_btf_round_trip).
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -20,11 +20,5 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ro.pool = &pool;
   auto btf = reconstruct_bonn_btf(*f, ro);
   (void)btf;
-  auto a = encode_bonn_btf(*f);
-  if (!a) return 0;  // e.g. a meta block version > 4 that the writer does not produce
-  auto again = read_bonn_btf(std::span<const uint8_t>(*a));
-  if (!again) __builtin_trap();
-  auto b = encode_bonn_btf(*again);
-  if (!b || *a != *b) __builtin_trap();
   return 0;
 }

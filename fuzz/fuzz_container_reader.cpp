@@ -1,29 +1,58 @@
 // libFuzzer target for codec/container.hpp: parse a whole `.bsvtf` file from the input; when
 // the directory is accepted, verify every payload and decode up to 64 tiles down the hierarchy
 // (parents first) and every U packet, as a client would. Nothing may crash, hang or read
-// outside the input.
+// outside the input; every rejection explains itself.
+//
+// Speed: tile decoders are kept per layout (at most 8 layouts, then the cache starts over) and
+// the decoded-tile and U buffers are reused, so an input allocates only what read_bsvtf itself
+// allocates (the directory).
+//
+// Mutation: structure-aware (structure_mutators.hpp: mutate_bsvtf, cross_over_bsvtf), so that
+// mutated tiles, U packets and sections get past their CRCs; with BTFLOD_FUZZ_BYTES=1 in the
+// environment libFuzzer's plain byte-level mutation and a plain splice cross-over are used.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <unordered_map>
+#include <cstdlib>
+#include <memory>
+#include <utility>
 #include <vector>
 
 #include "btflod/codec/container.hpp"
+#include "structure_mutators.hpp"
+
+namespace {
+using namespace btflod;
+
+TileDecoder& decoder_for(const TileLayout& layout) {
+  static std::vector<std::pair<TileLayout, std::unique_ptr<TileDecoder>>> decoders;
+  for (auto& [l, d] : decoders)
+    if (l == layout) return *d;
+  if (decoders.size() >= 8) decoders.clear();
+  decoders.emplace_back(layout, std::make_unique<TileDecoder>(layout));
+  return *decoders.back().second;
+}
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  using namespace btflod;
   const std::span<const uint8_t> file(data, size);
   auto dir = read_bsvtf(file);
-  if (!dir) return 0;
+  if (!dir) {
+    if (dir.message().empty()) std::abort();
+    return 0;
+  }
+  static std::vector<float> u;
   for (const auto& p : dir->packets) {
     const auto bytes = file.subspan(p.offset, p.size);
     if (verify_bsvtf_payload(p.size, p.crc, bytes) != Status::success) continue;
-    std::vector<float> u(bytes.size() / 2);
+    u.resize(std::max(u.size(), bytes.size() / 2));
     unpack_bsvtf_packet(bytes, u);
   }
   const TileLayout layout = dir->metadata.layout();
-  TileDecoder decoder(layout);
-  std::unordered_map<uint64_t, std::vector<float>> decoded;
-  size_t budget = 64;
+  TileDecoder& decoder = decoder_for(layout);
+  static std::vector<float> pool[64];  // decoded tiles, grown once per layout size
+  std::pair<uint64_t, size_t> decoded[64];
+  size_t decoded_count = 0, budget = 64;
   for (uint32_t level = 0; level < dir->metadata.level_count && budget > 0; ++level) {
     for (const auto& e : dir->tiles) {
       if (e.id.level != level || budget == 0) continue;
@@ -32,13 +61,31 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (verify_bsvtf_payload(e.size, e.crc, bytes) != Status::success) continue;
       std::span<const float> parent;
       if (level > 0) {
-        auto it = decoded.find(e.id.parent().key());
-        if (it == decoded.end()) continue;
-        parent = it->second;
+        const uint64_t pk = e.id.parent().key();
+        const auto* it = std::find_if(decoded, decoded + decoded_count, [&](const auto& d) { return d.first == pk; });
+        if (it == decoded + decoded_count) continue;
+        parent = std::span<const float>(pool[it->second].data(), layout.sample_count());
       }
-      std::vector<float> out(layout.sample_count());
-      if (decoder.decode(bytes, parent, e.id.x & 1, e.id.y & 1, out) == Status::success) decoded[e.id.key()] = std::move(out);
+      std::vector<float>& out = pool[decoded_count];
+      if (out.size() < layout.sample_count()) out.resize(layout.sample_count());
+      if (decoder.decode(bytes, parent, e.id.x & 1, e.id.y & 1, std::span<float>(out).first(layout.sample_count())) ==
+          Status::success) {
+        decoded[decoded_count] = {e.id.key(), decoded_count};
+        ++decoded_count;
+      }
     }
   }
   return 0;
+}
+
+extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned int seed) {
+  if (btflod_fuzz::byte_mode()) return LLVMFuzzerMutate(data, size, max_size);
+  return btflod_fuzz::mutate_bsvtf(data, size, max_size, seed);
+}
+
+extern "C" size_t LLVMFuzzerCustomCrossOver(const uint8_t* a, size_t a_size, const uint8_t* b, size_t b_size,
+                                            uint8_t* out, size_t max_size, unsigned int seed) {
+  if (!btflod_fuzz::byte_mode())
+    if (const size_t n = btflod_fuzz::cross_over_bsvtf(a, a_size, b, b_size, out, max_size, seed)) return n;
+  return btflod_fuzz::splice(a, a_size, b, b_size, out, max_size, seed);
 }

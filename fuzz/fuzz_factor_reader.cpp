@@ -1,11 +1,17 @@
 // libFuzzer target: the factor file reader (factor/any_factorization.hpp) on hostile bytes.
 // Every accepted file must be evaluable at its first and last texel and direction without
 // reading out of range (ASan checks), and must serialise again.
+//
+// Mutation: structure-aware (structure_mutators.hpp: mutate_factor_file, cross_over_factor_file),
+// so mutated section payloads keep valid lengths and CRCs and reach the representation readers;
+// with BTFLOD_FUZZ_BYTES=1 in the environment libFuzzer's plain byte-level mutation and a plain
+// splice cross-over are used.
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
 #include "btflod/factor/any_factorization.hpp"
+#include "structure_mutators.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto f = btflod::parse_factorization(std::span<const uint8_t>(data, size));
@@ -28,4 +34,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   volatile float keep = sink;
   (void)keep;
   return 0;
+}
+
+extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned int seed) {
+  if (btflod_fuzz::byte_mode()) return LLVMFuzzerMutate(data, size, max_size);
+  return btflod_fuzz::mutate_factor_file(data, size, max_size, seed);
+}
+
+extern "C" size_t LLVMFuzzerCustomCrossOver(const uint8_t* a, size_t a_size, const uint8_t* b, size_t b_size,
+                                            uint8_t* out, size_t max_size, unsigned int seed) {
+  if (!btflod_fuzz::byte_mode())
+    if (const size_t n = btflod_fuzz::cross_over_factor_file(a, a_size, b, b_size, out, max_size, seed)) return n;
+  return btflod_fuzz::splice(a, a_size, b, b_size, out, max_size, seed);
 }

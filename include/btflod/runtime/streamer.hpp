@@ -24,10 +24,11 @@
 //    pump() on the calling thread). stream/thread_executor.hpp is a ready-made thread pool for
 //    those who do not care. A job reads its bytes from a blocking TileSource inside run_job(),
 //    or an AsyncTileSource is asked for them in update() and complete_read() reports them.
-//  * Every buffer is allocated in create() through StreamerConfig::allocator (or operator new);
-//    update(), the jobs and the completions allocate nothing (tests count it). The vote counter
-//    allocates through the same callbacks; the tile cache's, scheduler's and payload cache's
-//    own arrays still use the global allocator at creation (vt/, stream/).
+//  * Every buffer is allocated in create() through StreamerConfig::allocator (or operator new):
+//    the Streamer's own arrays, the tile cache, scheduler, vote counter and payload cache and
+//    the temporaries of create() itself — with callbacks set, create() makes no global
+//    operator new call (tests count it); update(), the jobs and the completions allocate
+//    nothing.
 //  * Headers used here include no thread, POSIX or GPU header; the runtime builds with
 //    -fno-exceptions -fno-rtti.
 //
@@ -201,12 +202,12 @@ struct StreamerJob {
   TileId chain_tile[kMaxTileLevel + 1];
   uint32_t chain_offset[kMaxTileLevel + 1] = {};  // offset into bytes
   uint8_t chain_cached[kMaxTileLevel + 1] = {};   // bytes came from the payload cache
-  uint32_t chain_start = 0;       // first chain level decoded (those above come from `base`)
-  const float* base = nullptr;    // decoded ancestor chain_start − 1 (a pinned cache entry)
-  uint32_t pinned = 0xffffffffu;  // decoded-cache entry pinned for `base`
-  uint8_t result_in_out = 0;      // the decoded tile is in `out` (1) or `parent` (0)
-  uint8_t parent_decoded = 0;     // the other buffer holds the decoded parent of the tile
-  uint8_t decoded_kept = 0;       // the completion was handled (buffers offered, pin released)
+  uint32_t chain_start = 0;                       // first chain level decoded (those above come from `base`)
+  const float* base = nullptr;                    // decoded ancestor chain_start − 1 (a pinned cache entry)
+  uint32_t pinned = 0xffffffffu;                  // decoded-cache entry pinned for `base`
+  uint8_t result_in_out = 0;                      // the decoded tile is in `out` (1) or `parent` (0)
+  uint8_t parent_decoded = 0;                     // the other buffer holds the decoded parent of the tile
+  uint8_t decoded_kept = 0;                       // the completion was handled (buffers offered, pin released)
   Status status = Status::success;
   uint8_t* bytes = nullptr;
   float* parent = nullptr;
@@ -514,7 +515,7 @@ struct Streamer::Impl final : StreamerJobQueue {
   }
 
   static uint64_t decoded_key(uint32_t material, uint32_t local_texture, const TileId& t) noexcept {
-    return (static_cast<uint64_t>(material) << 48) ^ TileId{local_texture, t.level, t.x, t.y}.key();
+    return (static_cast<uint64_t>(material) << 48) ^ TileId { local_texture, t.level, t.x, t.y }.key();
   }
   uint32_t find_decoded(uint64_t key) const noexcept {
     for (uint32_t e = 0; e < decoded.size(); ++e)
@@ -840,7 +841,8 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   if (config.packet_jobs == 0 || config.root_jobs == 0 || config.u_row_order == AngularRowOrder::unspecified)
     return make_error(Status::invalid_argument,
                       "streamer: packet_jobs and root_jobs must be > 0 and u_row_order specified");
-  VtSet set;
+  const RuntimeAllocator& al = config.allocator;
+  VtSet set(al);
   uint32_t total_tiles = 0, max_levels = 0, max_payload = 0, max_packet = 0, max_rows = 0, max_texture_count = 0;
   for (size_t m = 0; m < materials.size(); ++m) {
     const StreamerMaterial& sm = materials[m];
@@ -887,10 +889,10 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     max_rows = std::max(max_rows, md.u_rows);
     max_texture_count = std::max(max_texture_count, vm.texture_count);
   }
-  auto cache = TileCache::create(set, config.cache);
+  auto cache = TileCache::create(set, config.cache, al);
   if (!cache) return cache.error();
   SchedulerConfig sc = config.scheduler;
-  auto sched = Scheduler::create(cache.value(), sc);
+  auto sched = Scheduler::create(cache.value(), sc, al);
   if (!sched) return sched.error();
   // Real payload sizes for the byte budgets.
   for (uint32_t m = 0; m < set.material_count(); ++m) {
@@ -900,9 +902,15 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
         sched->set_tile_bytes(vm.first_texture + k, i, materials[m].directory->find(vm.levels.tile(k, i))->size);
     sched->set_u_packet_bytes(m, materials[m].directory->packets.empty() ? 0 : materials[m].directory->packets[0].size);
   }
-  VoteCounter votes(vote_layouts(set), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, config.allocator);
+  RuntimeArray<VoteLayout> layouts;
+  if (!layouts.allocate(al, set.material_count()))
+    return make_error(Status::insufficient_space, "streamer: allocator failed");
+  for (uint32_t m = 0; m < set.material_count(); ++m) {
+    const VtLevelTable& lv = set.material(m).levels;
+    layouts[m] = VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]};
+  }
+  VoteCounter votes(layouts.span(), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, al);
 
-  const RuntimeAllocator& al = config.allocator;
   void* mem = al.allocate_bytes(sizeof(Impl), alignof(Impl));
   if (mem == nullptr) return make_error(Status::insufficient_space, "streamer: allocator failed");
   Impl* im = ::new (mem) Impl(std::move(cache.value()), std::move(sched.value()), std::move(votes));
@@ -911,7 +919,9 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   im->allocator = al;
   im->config = config;
   im->layout = TileLayout{config.cache.tile_size, config.cache.border, 4};
-  im->payloads = PayloadCache(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512});
+  im->payloads = PayloadCache(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512}, al);
+  if (im->payloads.allocation_failed())
+    return make_error(Status::insufficient_space, "streamer: allocating the payload cache failed");
   const auto fail = [&](const char* what) {
     return make_error(Status::insufficient_space, "streamer: allocating %s failed", what);
   };
@@ -990,7 +1000,8 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   if (!im->decoded.allocate(al, config.decoded_cache_tiles) ||
       !im->decoded_floats.allocate(al, size_t{config.decoded_cache_tiles} * samples))
     return fail("decoded cache");
-  for (uint32_t e = 0; e < config.decoded_cache_tiles; ++e) im->decoded[e].samples = im->decoded_floats.data() + size_t{e} * samples;
+  for (uint32_t e = 0; e < config.decoded_cache_tiles; ++e)
+    im->decoded[e].samples = im->decoded_floats.data() + size_t{e} * samples;
   // Start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
   const uint32_t textures = set.texture_count();
   const uint32_t startup = textures + (config.scheduler.stream_u_columns ? 0 : textures);

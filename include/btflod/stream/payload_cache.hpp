@@ -3,7 +3,8 @@
 // tiles that have been received as possible"). stream/pipeline.hpp keeps its verified payloads
 // here; get() and put() never allocate, so worker threads insert without touching the heap.
 //
-// Storage, all allocated by the constructor from the configuration:
+// Storage, all allocated by the constructor from the configuration, through the RuntimeAllocator
+// it is given (core/allocator.hpp; operator new by default):
 //   - a byte arena of ⌊byte_budget / chunk_bytes⌋ chunks; a payload occupies ⌈size / chunk⌉
 //     chunks chained by a next-chunk array (no fragmentation: any free chunk fits any payload,
 //     the cost is < 1 chunk of slack per entry); the memory held never exceeds byte_budget;
@@ -20,7 +21,7 @@
 #include <cstring>
 #include <span>
 
-#include "btflod/core/unique_handle.hpp"
+#include "btflod/core/allocator.hpp"
 
 namespace btflod {
 
@@ -38,10 +39,11 @@ class PayloadCache {
  public:
   /// An empty cache that holds nothing (every put() is rejected).
   PayloadCache() = default;
-  /// Allocates the arena, the entry records and the index for `config` (chunk_bytes is raised
-  /// to at least 16; a budget below one chunk or max_entries 0 make a cache that holds nothing).
-  /// May throw std::bad_alloc (set-up only).
-  explicit PayloadCache(const PayloadCacheConfig& config)
+  /// Allocates the arena, the entry records and the index for `config` through `allocator`
+  /// (chunk_bytes is raised to at least 16; a budget below one chunk or max_entries 0 make a
+  /// cache that holds nothing). When an allocation fails the cache holds nothing and
+  /// allocation_failed() is true. Set-up only; noexcept.
+  explicit PayloadCache(const PayloadCacheConfig& config, const RuntimeAllocator& allocator = {}) noexcept
       : chunk_(std::max<size_t>(config.chunk_bytes, 16)),
         chunks_(std::min<size_t>(config.byte_budget / std::max<size_t>(config.chunk_bytes, 16), kNone - 1)),
         max_entries_(std::min(config.max_entries, chunks_)) {
@@ -49,19 +51,26 @@ class PayloadCache {
       chunks_ = max_entries_ = 0;
       return;
     }
-    arena_ = make_unique_array_for_overwrite<uint8_t>(chunks_ * chunk_);  // uninitialised on purpose
-    next_chunk_ = make_unique_array<uint32_t>(chunks_);
+    size_t index_size = 4;
+    while (index_size < 2 * max_entries_) index_size *= 2;
+    if (!arena_.allocate(allocator, chunks_ * chunk_) || !next_chunk_.allocate(allocator, chunks_) ||
+        !entries_.allocate(allocator, max_entries_) || !index_.allocate(allocator, index_size)) {
+      arena_.reset();
+      next_chunk_.reset();
+      entries_.reset();
+      index_.reset();
+      chunks_ = max_entries_ = 0;
+      allocation_failed_ = true;
+      return;
+    }
     for (size_t i = 0; i < chunks_; ++i) next_chunk_[i] = i + 1 < chunks_ ? static_cast<uint32_t>(i + 1) : kNone;
     free_chunk_ = 0;
     free_chunks_ = chunks_;
-    entries_ = make_unique_array<Entry>(max_entries_);
     for (size_t i = 0; i < max_entries_; ++i)
       entries_[i].next = i + 1 < max_entries_ ? static_cast<uint32_t>(i + 1) : kNone;
     free_entry_ = 0;
-    index_size_ = 4;
-    while (index_size_ < 2 * max_entries_) index_size_ *= 2;
-    index_ = make_unique_array<uint32_t>(index_size_);
-    std::fill_n(index_.get(), index_size_, kNone);
+    index_size_ = index_size;
+    std::fill_n(index_.data(), index_size_, kNone);
   }
 
   PayloadCache(PayloadCache&&) noexcept = default;
@@ -109,7 +118,7 @@ class PayloadCache {
     size_t done = 0;
     for (uint32_t c = en.first_chunk; c != kNone; c = next_chunk_[c]) {
       const size_t n = std::min(chunk_, bytes.size() - done);
-      std::memcpy(arena_.get() + static_cast<size_t>(c) * chunk_, bytes.data() + done, n);
+      std::memcpy(arena_.data() + static_cast<size_t>(c) * chunk_, bytes.data() + done, n);
       done += n;
     }
     insert_index(e);
@@ -140,6 +149,8 @@ class PayloadCache {
   size_t entries() const noexcept { return count_; }
   size_t max_entries() const noexcept { return max_entries_; }
   uint64_t evictions() const noexcept { return evictions_; }  ///< entries evicted to make room
+  /// True when the constructor's allocator failed (the cache then holds nothing).
+  bool allocation_failed() const noexcept { return allocation_failed_; }
 
  private:
   static constexpr uint32_t kNone = 0xffffffffu;
@@ -201,7 +212,7 @@ class PayloadCache {
     size_t done = 0;
     for (uint32_t c = en.first_chunk; c != kNone; c = next_chunk_[c]) {
       const size_t n = std::min<size_t>(chunk_, en.size - done);
-      std::memcpy(out + done, arena_.get() + static_cast<size_t>(c) * chunk_, n);
+      std::memcpy(out + done, arena_.data() + static_cast<size_t>(c) * chunk_, n);
       done += n;
     }
   }
@@ -228,10 +239,11 @@ class PayloadCache {
   }
 
   size_t chunk_ = 512, chunks_ = 0, max_entries_ = 0, index_size_ = 0;
-  UniqueArray<uint8_t> arena_;
-  UniqueArray<uint32_t> next_chunk_;
-  UniqueArray<Entry> entries_;
-  UniqueArray<uint32_t> index_;
+  RuntimeArray<uint8_t> arena_;
+  RuntimeArray<uint32_t> next_chunk_;
+  RuntimeArray<Entry> entries_;
+  RuntimeArray<uint32_t> index_;
+  bool allocation_failed_ = false;
   uint32_t free_chunk_ = kNone, free_entry_ = kNone, head_ = kNone, tail_ = kNone;
   size_t free_chunks_ = 0, bytes_ = 0, count_ = 0;
   uint64_t evictions_ = 0;

@@ -39,6 +39,7 @@
 #include <span>
 #include <vector>
 
+#include "btflod/core/allocator.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/vt/tile_cache.hpp"
@@ -78,7 +79,7 @@ struct SchedulerConfig {
   uint32_t calm_frames = 30;              ///< consecutive calm frames before it falls one level
   uint32_t max_lod_bias = 2;
   // Paper 000 §6.
-  bool stream_u_columns = false;           ///< false: every U' packet is loaded from the start
+  bool stream_u_columns = false;  ///< false: every U' packet is loaded from the start
   /// Four U' columns as the container stores them (codec/container.hpp: u_rows × 4 halves): for
   /// UBO2014, u_rows = 151² direction pairs × RGB, so 151² · 3 · 4 · 2 = 547,224 bytes (the
   /// paper's "534 KB" rounded it). set_u_packet_bytes() replaces it per material.
@@ -87,14 +88,14 @@ struct SchedulerConfig {
 
 /// Counters of one frame (frame()) and since creation (total()).
 struct SchedulerCounters {
-  uint64_t adds = 0;                   ///< add operations issued
-  uint64_t swaps = 0;                  ///< swap operations performed
-  uint64_t ancestors_removed = 0;      ///< post-condition removals of covered ancestors
-  uint64_t requests = 0;               ///< tile requests issued
-  uint64_t u_requests = 0;             ///< U' packet requests issued
+  uint64_t adds = 0;               ///< add operations issued
+  uint64_t swaps = 0;              ///< swap operations performed
+  uint64_t ancestors_removed = 0;  ///< post-condition removals of covered ancestors
+  uint64_t requests = 0;           ///< tile requests issued
+  uint64_t u_requests = 0;         ///< U' packet requests issued
   uint64_t bytes_requested = 0;
-  uint64_t uploads = 0;                ///< tiles written into the cache
-  uint64_t visible_missing = 0;        ///< (texture, tile) pairs voted for directly but not resident
+  uint64_t uploads = 0;          ///< tiles written into the cache
+  uint64_t visible_missing = 0;  ///< (texture, tile) pairs voted for directly but not resident
   uint64_t upload_budget_hits = 0;
   uint64_t decoding_budget_hits = 0;
   uint64_t request_budget_hits = 0;
@@ -124,14 +125,20 @@ struct TileRequest {
 
 class Scheduler {
  public:
+  /// An empty scheduler (assign the result of create()).
+  Scheduler() = default;
+
   /// Allocates every per-frame array for the cache's VtSet and slot count and reads the tile
   /// weights w and energies from the set. Keeps no reference to `cache`: pass the same cache
-  /// to every later call. invalid_argument when a budget is zero.
-  static Result<Scheduler> create(const TileCache& cache, const SchedulerConfig& config = {}) {
+  /// to every later call. Every array is allocated through `allocator` (its callbacks, or
+  /// operator new), here and only here; a failing callback aborts (set-up memory is not
+  /// optional, core/allocator.hpp). invalid_argument when a budget is zero.
+  static Result<Scheduler> create(const TileCache& cache, const SchedulerConfig& config = {},
+                                  const RuntimeAllocator& allocator = {}) {
     const SchedulerBudgets& b = config.budgets;
     if (b.uploads_per_frame == 0 || b.tiles_decoding == 0 || b.requests_in_flight == 0 || b.bytes_in_flight == 0)
       return make_error(Status::invalid_argument, "scheduler: every budget must be > 0");
-    Scheduler s;
+    Scheduler s{CallbackAllocator<char>(allocator)};
     s.config_ = config;
     const VtSet& set = cache.set();
     s.pending_.assign(b.requests_in_flight, Pending{});
@@ -141,7 +148,8 @@ class Scheduler {
     // cache's slot table, so one material tile's K virtual textures share a cache line.
     s.material_base_.assign(set.material_count() + 1, 0);
     for (uint32_t m = 0; m < set.material_count(); ++m)
-      s.material_base_[m + 1] = s.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+      s.material_base_[m + 1] =
+          s.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
     s.texture_base_.assign(set.texture_count(), 0);
     s.texture_stride_.assign(set.texture_count(), 1);
     for (uint32_t t = 0; t < set.texture_count(); ++t) {
@@ -153,7 +161,8 @@ class Scheduler {
     s.set_weights_.assign(s.material_base_.back(), 1.0f);
     s.weights_.assign(s.material_base_.back(), 1.0f);
     s.energies_.assign(s.material_base_.back(), 0.0f);
-    s.tile_bytes_.assign(s.material_base_.back(), static_cast<uint32_t>(std::min<uint64_t>(config.tile_bytes, UINT32_MAX)));
+    s.tile_bytes_.assign(s.material_base_.back(),
+                         static_cast<uint32_t>(std::min<uint64_t>(config.tile_bytes, UINT32_MAX)));
     s.u_packet_bytes_.assign(set.material_count(), config.u_packet_bytes);
     for (uint32_t t = 0; t < set.texture_count(); ++t) {
       const std::span<const Half> w = set.weights(t);
@@ -266,7 +275,8 @@ class Scheduler {
     if (id >= pending_.size() || pending_[id].state == State::idle) return;
     Pending& p = pending_[id];
     if (p.state == State::decoding) --decoding_;
-    if (p.u_packet) u_requested_[cache.set().material_of(p.tile.texture)] = 0;
+    if (p.u_packet)
+      u_requested_[cache.set().material_of(p.tile.texture)] = 0;
     else {
       cache.release_slot(p.slot);
       requested_[index(p.tile.texture, cache.set().levels_of(p.tile.texture).index(p.tile))] = 0;
@@ -330,6 +340,32 @@ class Scheduler {
   }
 
  private:
+  template <class T>
+  using Vec = std::vector<T, CallbackAllocator<T>>;  // every array through the creator's callbacks
+
+  explicit Scheduler(const CallbackAllocator<char>& a)
+      : pending_(a),
+        free_requests_(a),
+        material_base_(a),
+        requested_(a),
+        texture_base_(a),
+        texture_stride_(a),
+        set_weights_(a),
+        weights_(a),
+        energies_(a),
+        tile_bytes_(a),
+        u_packet_bytes_(a),
+        u_loaded_(a),
+        u_requested_(a),
+        u_priority_(a),
+        adds_(a),
+        leaves_(a),
+        leaf_count_(a),
+        leaf_textures_(a),
+        pairs_(a),
+        requests_out_(a),
+        protected_stamp_(a) {}
+
   static constexpr uint32_t kLeavesPerTexture = 4;
   static constexpr uint32_t kNoRequest = 0xffffffffu;
   enum class State : uint8_t { idle, requested, decoding, ready };
@@ -447,8 +483,8 @@ class Scheduler {
       Leaf* list = &leaves_[static_cast<size_t>(tex) * kLeavesPerTexture];
       // Keep the kLeavesPerTexture cheapest, ascending by (cost, flat index).
       uint32_t pos = n;
-      while (pos > 0 && (leaf.cost < list[pos - 1].cost ||
-                         (leaf.cost == list[pos - 1].cost && leaf.flat < list[pos - 1].flat)))
+      while (pos > 0 &&
+             (leaf.cost < list[pos - 1].cost || (leaf.cost == list[pos - 1].cost && leaf.flat < list[pos - 1].flat)))
         --pos;
       if (pos >= kLeavesPerTexture) continue;
       for (uint32_t i = std::min(n, kLeavesPerTexture - 1); i > pos; --i) list[i] = list[i - 1];
@@ -501,7 +537,8 @@ class Scheduler {
     for (const uint32_t i : {p.a, p.b}) {
       const uint32_t s = list[i].slot;
       const SlotInfo& si = cache.slot(s);
-      if (si.state != SlotInfo::State::used || si.tile.texture != p.texture || si.flat_index != list[i].flat) return false;
+      if (si.state != SlotInfo::State::used || si.tile.texture != p.texture || si.flat_index != list[i].flat)
+        return false;
       if (protected_stamp_[s] == frame_ + 1) return false;  // parent of an add issued this frame
       if (cache.resident_below_at(p.texture, list[i].flat) != 0) return false;
     }
@@ -598,7 +635,9 @@ class Scheduler {
         const TileId a = lv.tile(p.texture, list[p.a].flat), b = lv.tile(p.texture, list[p.b].flat);
         const TileId anc = TileCache::common_ancestor(a, b);
         const bool insert_anc = !cache.resident(anc) && !requested_[index(p.texture, lv.index(anc))];
-        if (insert_anc && !can_request(uint64_t{tile_bytes_[index(c.texture, c.flat)]} + tile_bytes_[index(p.texture, lv.index(anc))], 2))
+        if (insert_anc &&
+            !can_request(uint64_t{tile_bytes_[index(c.texture, c.flat)]} + tile_bytes_[index(p.texture, lv.index(anc))],
+                         2))
           return false;
         TileId ancestor;
         if (cache.swap_remove(a, b, ancestor) != Status::success) continue;
@@ -639,27 +678,27 @@ class Scheduler {
   uint64_t sequence_ = 0;
   SchedulerCounters frame_counters_;
   SchedulerCounters total_counters_;
-  std::vector<Pending> pending_;
-  std::vector<uint32_t> free_requests_;
-  std::vector<uint32_t> material_base_;  // per material (+ total), tile-major arrays below
-  std::vector<uint8_t> requested_;       // a request for (texture, tile) is pending
-  std::vector<uint32_t> texture_base_;    // per texture: index of its flat tile 0
-  std::vector<uint32_t> texture_stride_;  // per texture: virtual textures of its material
-  std::vector<float> set_weights_;        // w(i, l, l−1) as given
-  std::vector<float> weights_;            // w as used (1 in votes_only mode)
-  std::vector<float> energies_;           // ‖T‖²_F / T² (§6)
-  std::vector<uint32_t> tile_bytes_;      // bytes a request counts
-  std::vector<uint64_t> u_packet_bytes_;  // per material
-  std::vector<uint32_t> u_loaded_;
-  std::vector<uint8_t> u_requested_;
-  std::vector<double> u_priority_;
-  std::vector<AddCandidate> adds_;
-  std::vector<Leaf> leaves_;
-  std::vector<uint32_t> leaf_count_;
-  std::vector<uint32_t> leaf_textures_;
-  std::vector<Pair> pairs_;
-  std::vector<TileRequest> requests_out_;
-  std::vector<uint64_t> protected_stamp_;
+  Vec<Pending> pending_;
+  Vec<uint32_t> free_requests_;
+  Vec<uint32_t> material_base_;   // per material (+ total), tile-major arrays below
+  Vec<uint8_t> requested_;        // a request for (texture, tile) is pending
+  Vec<uint32_t> texture_base_;    // per texture: index of its flat tile 0
+  Vec<uint32_t> texture_stride_;  // per texture: virtual textures of its material
+  Vec<float> set_weights_;        // w(i, l, l−1) as given
+  Vec<float> weights_;            // w as used (1 in votes_only mode)
+  Vec<float> energies_;           // ‖T‖²_F / T² (§6)
+  Vec<uint32_t> tile_bytes_;      // bytes a request counts
+  Vec<uint64_t> u_packet_bytes_;  // per material
+  Vec<uint32_t> u_loaded_;
+  Vec<uint8_t> u_requested_;
+  Vec<double> u_priority_;
+  Vec<AddCandidate> adds_;
+  Vec<Leaf> leaves_;
+  Vec<uint32_t> leaf_count_;
+  Vec<uint32_t> leaf_textures_;
+  Vec<Pair> pairs_;
+  Vec<TileRequest> requests_out_;
+  Vec<uint64_t> protected_stamp_;
   size_t next_pair_ = 0;
   uint32_t pairs_sorted_ = 0;
   uint32_t in_flight_ = 0;

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "btflod/core/allocator.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/vt/cache_config.hpp"
 #include "btflod/vt/tile_id.hpp"
@@ -38,7 +39,9 @@ namespace btflod {
 inline constexpr uint32_t kNoSlot = 0xffffffffu;
 
 /// Page-table entry: (level << 24) | slot. Level is paper 000's (0 = coarsest).
-constexpr uint32_t make_page_entry(uint32_t level, uint32_t slot) noexcept { return (level << 24) | (slot & 0xffffffu); }
+constexpr uint32_t make_page_entry(uint32_t level, uint32_t slot) noexcept {
+  return (level << 24) | (slot & 0xffffffu);
+}
 constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> 24; }
 constexpr uint32_t page_entry_slot(uint32_t entry) noexcept { return entry & 0xffffffu; }
 
@@ -78,13 +81,19 @@ struct SlotInfo {
 
 class TileCache {
  public:
+  /// An empty cache (assign the result of create()).
+  TileCache() = default;
+
   /// Builds the bookkeeping for every virtual texture of `set` and makes every root tile
   /// resident (pinned) in slots 0 … (textures − 1). The slot grid is config.slots_x × slots_y ×
   /// cache_layers; the tile size and border are the set's (config() reports them), so every
   /// material must share one tile size and border. Returns insufficient_space when the cache
   /// has fewer slots than virtual textures, invalid_argument for an empty set, ≥ 2^24 slots or
-  /// materials with different tile sizes or borders. Allocates; copies `set` (no pointer kept).
-  static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {}) {
+  /// materials with different tile sizes or borders. Allocates, here and only here, through
+  /// `allocator` (its callbacks, or operator new; a failing callback aborts: set-up memory is
+  /// not optional, core/allocator.hpp); copies `set` (no pointer kept) with the same allocator.
+  static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {},
+                                  const RuntimeAllocator& allocator = {}) {
     const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
     if (set.texture_count() == 0 || slots == 0 || slots >= (1u << 24))
       return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
@@ -102,8 +111,7 @@ class TileCache {
                           "(one cache holds one tile size)",
                           m, g.tile_size, g.border, g0.tile_size, g0.border);
     }
-    TileCache c;
-    c.set_ = set;
+    TileCache c{allocator, set};
     c.config_ = config;
     c.config_.tile_size = g0.tile_size;
     c.config_.border = g0.border;
@@ -111,10 +119,12 @@ class TileCache {
     c.visible_.assign(slots, 0);
     c.free_.reserve(slots);
     for (uint64_t s = slots; s-- > 0;) c.free_.push_back(static_cast<uint32_t>(s));  // lowest slot on top
-    c.textures_.resize(set.texture_count());
+    c.textures_.reserve(set.texture_count());
+    for (uint32_t t = 0; t < set.texture_count(); ++t) c.textures_.emplace_back(CallbackAllocator<uint32_t>(allocator));
     c.material_base_.resize(set.material_count() + 1, 0);
     for (uint32_t m = 0; m < set.material_count(); ++m)
-      c.material_base_[m + 1] = c.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+      c.material_base_[m + 1] =
+          c.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
     c.slot_of_.assign(c.material_base_.back(), kNoSlot);
     for (uint32_t t = 0; t < set.texture_count(); ++t) {
       const VtLevelTable& lv = set.levels_of(t);
@@ -138,8 +148,8 @@ class TileCache {
       ++c.used_;
       std::fill(tx.page_table.begin(), tx.page_table.end(), make_page_entry(0, slot));
       c.visible_[slot] = static_cast<uint32_t>(tx.page_table.size());
-      c.push_delta(PageTableDelta{t, 0, 0, set.levels_of(t).tiles_x[L], set.levels_of(t).tiles_y[L],
-                                  make_page_entry(0, slot)});
+      c.push_delta(
+          PageTableDelta{t, 0, 0, set.levels_of(t).tiles_x[L], set.levels_of(t).tiles_y[L], make_page_entry(0, slot)});
     }
     return c;
   }
@@ -183,7 +193,8 @@ class TileCache {
   /// (kNoSlot where not resident), contiguous, so the scheduler reads them in one cache line.
   /// Precondition: material and index in range.
   const uint32_t* material_slots(uint32_t material, uint32_t flat_index) const noexcept {
-    return slot_of_.data() + material_base_[material] + static_cast<size_t>(flat_index) * set_.material(material).texture_count;
+    return slot_of_.data() + material_base_[material] +
+           static_cast<size_t>(flat_index) * set_.material(material).texture_count;
   }
   /// True when t is in the cache (false for ids outside the hierarchy).
   bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
@@ -374,8 +385,8 @@ class TileCache {
           if (want == kNoSlot) return fail(format_message("texture %u finest tile (%u,%u) uncovered", t, x, y));
           const uint32_t e = tx.page_table[static_cast<size_t>(y) * lv.tiles_x[L] + x];
           if (e != make_page_entry(want_level, want))
-            return fail(format_message("texture %u entry (%u,%u) = level %u slot %u, expected level %u slot %u", t, x, y,
-                                       page_entry_level(e), page_entry_slot(e), want_level, want));
+            return fail(format_message("texture %u entry (%u,%u) = level %u slot %u, expected level %u slot %u", t, x,
+                                       y, page_entry_level(e), page_entry_slot(e), want_level, want));
           ++visible[want];
         }
     }
@@ -386,12 +397,27 @@ class TileCache {
   }
 
  private:
+  template <class T>
+  using Vec = std::vector<T, CallbackAllocator<T>>;  // every array through the creator's callbacks
+
   struct Texture {
-    uint32_t base = 0;                     // slot_of_[base + flat · stride]
-    uint32_t stride = 1;                   // virtual textures of the material (tile-major layout)
-    std::vector<uint32_t> resident_below;  // per tile: resident strict descendants
-    std::vector<uint32_t> page_table;      // per finest tile
+    explicit Texture(const CallbackAllocator<uint32_t>& a) : resident_below(a), page_table(a) {}
+    uint32_t base = 0;             // slot_of_[base + flat · stride]
+    uint32_t stride = 1;           // virtual textures of the material (tile-major layout)
+    Vec<uint32_t> resident_below;  // per tile: resident strict descendants
+    Vec<uint32_t> page_table;      // per finest tile
   };
+
+  TileCache(const RuntimeAllocator& al, const VtSet& set)
+      : set_(set, al),
+        slot_of_(CallbackAllocator<uint32_t>(al)),
+        material_base_(CallbackAllocator<uint32_t>(al)),
+        slots_(CallbackAllocator<SlotInfo>(al)),
+        visible_(CallbackAllocator<uint32_t>(al)),
+        free_(CallbackAllocator<uint32_t>(al)),
+        textures_(CallbackAllocator<Texture>(al)),
+        deltas_(CallbackAllocator<PageTableDelta>(al)),
+        touched_(CallbackAllocator<TileId>(al)) {}
 
   void free_slot(uint32_t s) noexcept {
     slots_[s] = SlotInfo{};
@@ -402,12 +428,16 @@ class TileCache {
   }
 
   void push_delta(const PageTableDelta& d) noexcept {
-    if (deltas_.size() < config_.delta_capacity) deltas_.push_back(d);
-    else deltas_overflowed_ = true;
+    if (deltas_.size() < config_.delta_capacity)
+      deltas_.push_back(d);
+    else
+      deltas_overflowed_ = true;
   }
   void push_touched(const TileId& t) noexcept {
-    if (touched_.size() < config_.delta_capacity) touched_.push_back(t);
-    else deltas_overflowed_ = true;
+    if (touched_.size() < config_.delta_capacity)
+      touched_.push_back(t);
+    else
+      deltas_overflowed_ = true;
   }
 
   // Rewrites the page-table entries under tile t: below t, `best` applies unless a deeper
@@ -449,15 +479,15 @@ class TileCache {
   uint32_t c_slot(const Texture& tx, uint32_t flat) const noexcept { return slot_of_[tx.base + flat * tx.stride]; }
 
   VtSet set_;
-  std::vector<uint32_t> slot_of_;        // tile-major per material: [material base + flat · K + k]
-  std::vector<uint32_t> material_base_;  // per material, + total
+  Vec<uint32_t> slot_of_;        // tile-major per material: [material base + flat · K + k]
+  Vec<uint32_t> material_base_;  // per material, + total
   TileCacheConfig config_;
-  std::vector<SlotInfo> slots_;
-  std::vector<uint32_t> visible_;
-  std::vector<uint32_t> free_;  // sorted descending; back() is the lowest free slot
-  std::vector<Texture> textures_;
-  std::vector<PageTableDelta> deltas_;
-  std::vector<TileId> touched_;
+  Vec<SlotInfo> slots_;
+  Vec<uint32_t> visible_;
+  Vec<uint32_t> free_;  // sorted descending; back() is the lowest free slot
+  Vec<Texture> textures_;
+  Vec<PageTableDelta> deltas_;
+  Vec<TileId> touched_;
   bool deltas_overflowed_ = false;
   uint32_t used_ = 0;
 };

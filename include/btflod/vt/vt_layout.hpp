@@ -21,6 +21,7 @@
 #include <span>
 #include <vector>
 
+#include "btflod/core/allocator.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
 #include "btflod/lod/feedback.hpp"
@@ -115,7 +116,9 @@ struct VtLevelTable {
   /// Tiles over all levels.
   uint32_t tile_count() const noexcept { return offset[geometry.finest_level + 1]; }
   /// Flat index of tile (level, x, y). Precondition: the tile exists.
-  uint32_t index(uint32_t level, uint32_t x, uint32_t y) const noexcept { return offset[level] + y * tiles_x[level] + x; }
+  uint32_t index(uint32_t level, uint32_t x, uint32_t y) const noexcept {
+    return offset[level] + y * tiles_x[level] + x;
+  }
   /// Flat index of t (texture field ignored). Precondition: the tile exists.
   uint32_t index(const TileId& t) const noexcept { return index(t.level, t.x, t.y); }
   /// Inverse of index(): the tile with flat index i of virtual texture `texture`.
@@ -165,11 +168,31 @@ struct VtMaterial {
 /// Every virtual texture that shares one tile cache, grouped by material, with the per-tile
 /// values the scheduler needs (no texel data): w(i, l, l−1) of paper 000 eq. 8 and the mean
 /// squared norm of the tile ‖T‖²_F / T² (§6), both stored as half as in §7.
-/// Built at set-up (allocates); read-only and thread-safe afterwards.
+/// Built at set-up (allocates, through the RuntimeAllocator given at construction or operator
+/// new); read-only and thread-safe afterwards.
 class VtSet {
  public:
+  /// An empty set allocating through operator new.
+  VtSet() = default;
+  /// An empty set allocating through `allocator`'s callbacks (a failing callback aborts).
+  explicit VtSet(const RuntimeAllocator& allocator)
+      : materials_(CallbackAllocator<VtMaterial>(allocator)),
+        texture_material_(CallbackAllocator<uint32_t>(allocator)),
+        texture_offset_(CallbackAllocator<uint32_t>(allocator)),
+        weights_(CallbackAllocator<Half>(allocator)),
+        energies_(CallbackAllocator<Half>(allocator)) {}
+  /// A copy of `other` allocating through `allocator`.
+  VtSet(const VtSet& other, const RuntimeAllocator& allocator) : VtSet(allocator) {
+    materials_.assign(other.materials_.begin(), other.materials_.end());
+    texture_material_.assign(other.texture_material_.begin(), other.texture_material_.end());
+    texture_offset_.assign(other.texture_offset_.begin(), other.texture_offset_.end());
+    weights_.assign(other.weights_.begin(), other.weights_.end());
+    energies_.assign(other.energies_.begin(), other.energies_.end());
+  }
+
   /// Adds a material of `texture_count` virtual textures; weights start at 1 and energies at 0.
   /// Returns the material index. Precondition: geometry.valid(), texture_count > 0.
+  /// Spans from weights() / energies() taken before this call are invalidated.
   uint32_t add_material(const VtGeometry& geometry, uint32_t texture_count) {
     VtMaterial m;
     m.levels = VtLevelTable(geometry);
@@ -177,8 +200,9 @@ class VtSet {
     m.texture_count = texture_count;
     for (uint32_t k = 0; k < texture_count; ++k) {
       texture_material_.push_back(static_cast<uint32_t>(materials_.size()));
-      weights_.emplace_back(m.levels.tile_count(), Half(1.0f));
-      energies_.emplace_back(m.levels.tile_count(), Half(0.0f));
+      texture_offset_.push_back(static_cast<uint32_t>(weights_.size()));
+      weights_.insert(weights_.end(), m.levels.tile_count(), Half(1.0f));
+      energies_.insert(energies_.end(), m.levels.tile_count(), Half(0.0f));
     }
     materials_.push_back(m);
     return static_cast<uint32_t>(materials_.size() - 1);
@@ -192,21 +216,33 @@ class VtSet {
   /// Material owning a virtual texture. Precondition: texture < texture_count().
   uint32_t material_of(uint32_t texture) const noexcept { return texture_material_[texture]; }
   /// Hierarchy of a virtual texture (its material's). Precondition: texture in range.
-  const VtLevelTable& levels_of(uint32_t texture) const noexcept { return materials_[texture_material_[texture]].levels; }
+  const VtLevelTable& levels_of(uint32_t texture) const noexcept {
+    return materials_[texture_material_[texture]].levels;
+  }
   /// w(i, l, l−1) per tile (flat index), paper 000 eq. 8. For the root: mean squared norm.
-  std::span<Half> weights(uint32_t texture) noexcept { return weights_[texture]; }
+  std::span<Half> weights(uint32_t texture) noexcept {
+    return {weights_.data() + texture_offset_[texture], tiles(texture)};
+  }
   /// Read-only w per tile. Precondition: texture in range.
-  std::span<const Half> weights(uint32_t texture) const noexcept { return weights_[texture]; }
+  std::span<const Half> weights(uint32_t texture) const noexcept {
+    return {weights_.data() + texture_offset_[texture], tiles(texture)};
+  }
   /// ‖T‖²_F / T² per tile (flat index), paper 000 §6.
-  std::span<Half> energies(uint32_t texture) noexcept { return energies_[texture]; }
+  std::span<Half> energies(uint32_t texture) noexcept {
+    return {energies_.data() + texture_offset_[texture], tiles(texture)};
+  }
   /// Read-only ‖T‖²_F / T² per tile. Precondition: texture in range.
-  std::span<const Half> energies(uint32_t texture) const noexcept { return energies_[texture]; }
+  std::span<const Half> energies(uint32_t texture) const noexcept {
+    return {energies_.data() + texture_offset_[texture], tiles(texture)};
+  }
 
  private:
-  std::vector<VtMaterial> materials_;
-  std::vector<uint32_t> texture_material_;
-  std::vector<std::vector<Half>> weights_;
-  std::vector<std::vector<Half>> energies_;
+  size_t tiles(uint32_t texture) const noexcept { return levels_of(texture).tile_count(); }
+  std::vector<VtMaterial, CallbackAllocator<VtMaterial>> materials_;
+  std::vector<uint32_t, CallbackAllocator<uint32_t>> texture_material_;
+  std::vector<uint32_t, CallbackAllocator<uint32_t>> texture_offset_;  // per texture: first tile in weights_
+  std::vector<Half, CallbackAllocator<Half>> weights_;                 // every texture's tiles, in order
+  std::vector<Half, CallbackAllocator<Half>> energies_;
 };
 
 /// The shape a VoteCounter needs for one material, one entry per material of the set, in order.

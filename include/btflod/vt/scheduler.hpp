@@ -170,6 +170,12 @@ class Scheduler {
       for (uint32_t i = 0; i < w.size(); ++i) s.set_weights_[s.index(t, i)] = w[i].to_float();
       for (uint32_t i = 0; i < e.size(); ++i) s.energies_[s.index(t, i)] = e[i].to_float();
     }
+    s.texture_material_.assign(set.texture_count(), 0);
+    for (uint32_t t = 0; t < set.texture_count(); ++t) s.texture_material_[t] = set.material_of(t);
+    s.tile_base_.assign(set.material_count() + 1, 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      s.tile_base_[m + 1] = s.tile_base_[m] + set.material(m).levels.tile_count();
+    s.max_weights_.assign(s.tile_base_.back(), 0.0f);
     s.apply_mode();
     s.u_loaded_.assign(set.material_count(), 0);
     s.u_requested_.assign(set.material_count(), 0);
@@ -195,6 +201,7 @@ class Scheduler {
     if (i >= set_weights_.size()) return;
     set_weights_[i] = w;
     weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : w;
+    update_max_weight(texture_material_[texture], flat);
   }
   /// Sets ‖T‖²_F / T² of a tile (paper 000 §6's U'-packet priority). Out-of-range ids ignored.
   void set_energy(uint32_t texture, uint32_t flat, float e) noexcept {
@@ -244,7 +251,12 @@ class Scheduler {
     frame_counters_ = SchedulerCounters{};
     requests_out_.clear();
     collect_adds(cache, votes);
-    collect_leaves(cache, votes);
+    // The swap candidates are needed only once the cache is full and an add wants a slot
+    // (decide_adds collects them then: nothing it does before the first swap changes a used
+    // slot), except for §6's packet priorities, which come from the same pass.
+    leaves_ready_ = 0;
+    pairs_sorted_ = 0;
+    if (config_.stream_u_columns) collect_leaves(cache, votes);
     decide(cache, votes);
     update_bias();
     total_counters_.accumulate(frame_counters_);
@@ -364,7 +376,10 @@ class Scheduler {
         leaf_textures_(a),
         pairs_(a),
         requests_out_(a),
-        protected_stamp_(a) {}
+        protected_stamp_(a),
+        texture_material_(a),
+        tile_base_(a),
+        max_weights_(a) {}
 
   static constexpr uint32_t kLeavesPerTexture = 4;
   static constexpr uint32_t kNoRequest = 0xffffffffu;
@@ -399,6 +414,19 @@ class Scheduler {
   void apply_mode() noexcept {
     for (size_t i = 0; i < weights_.size(); ++i)
       weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : set_weights_[i];
+    for (uint32_t m = 0; m + 1 < tile_base_.size(); ++m)
+      for (uint32_t flat = 0; flat < tile_base_[m + 1] - tile_base_[m]; ++flat) update_max_weight(m, flat);
+  }
+  // The bound collect_adds() uses: no add candidate of this material tile has a priority above
+  // max_weights_ · v (NaN weights are left out: their candidates are never kept once the list
+  // is full either).
+  void update_max_weight(uint32_t material, uint32_t flat) noexcept {
+    const uint32_t K =
+        (material_base_[material + 1] - material_base_[material]) / (tile_base_[material + 1] - tile_base_[material]);
+    const float* w = weights_.data() + material_base_[material] + static_cast<size_t>(flat) * K;
+    float mx = 0.0f;
+    for (uint32_t k = 0; k < K; ++k) mx = std::max(mx, w[k]);
+    max_weights_[tile_base_[material] + flat] = mx;
   }
   float weight(uint32_t texture, uint32_t flat) const noexcept { return weights_[index(texture, flat)]; }
 
@@ -431,6 +459,17 @@ class Scheduler {
       // Branch-light: the tests below combine with | and & (no short circuit), so the loop
       // branches only for tiles that can be added (same decisions as the plain if-chain).
       const bool voted = direct > 0, has_parent = ft.level > 0;
+      // Once the list is full, a tile whose best possible priority is below its last entry adds
+      // nothing (add_before() is false for every candidate): only its missing count matters.
+      if (adds_.size() == keep &&
+          static_cast<double>(max_weights_[tile_base_[ft.material] + flat]) * v < adds_.back().priority) {
+        if (voted) {
+          uint32_t missing = 0;
+          for (uint32_t k = 0; k < usable; ++k) missing += static_cast<uint32_t>(slots[k] == kNoSlot);
+          frame_counters_.visible_missing += missing;
+        }
+        continue;
+      }
       uint32_t missing_count = 0;  // a local: requested (bytes) may alias the counters
       for (uint32_t k = 0; k < usable; ++k) {
         const bool missing = slots[k] == kNoSlot;
@@ -455,6 +494,7 @@ class Scheduler {
     leaf_textures_.clear();
     pairs_.clear();
     pairs_sorted_ = 0;
+    leaves_ready_ = 1;
     std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
     for (uint32_t s = 0; s < cache.slot_count(); ++s) {
       const SlotInfo& si = cache.slot(s);
@@ -470,13 +510,15 @@ class Scheduler {
       if (si.tile.level == 0 || cache.resident_below_at(tex, si.flat_index) != 0) continue;
       if (si.added_frame + config_.hysteresis_frames > frame_) continue;  // hysteresis
       const VtLevelTable& lv = set.levels_of(tex);
-      // Cost of revealing the deepest resident ancestor (eq. 10 with l' = that ancestor).
+      // Cost of revealing the deepest resident ancestor (eq. 10 with l' = that ancestor); 0
+      // without votes, whatever the weights.
       double wsum = 0;
-      for (TileId a = si.tile; a.level > 0;) {
-        wsum += weight(tex, lv.index(a));
-        a = a.parent();
-        if (cache.slot_at(tex, lv.index(a)) != kNoSlot) break;
-      }
+      if (v != 0)
+        for (TileId a = si.tile; a.level > 0;) {
+          wsum += weight(tex, lv.index(a));
+          a = a.parent();
+          if (cache.slot_at(tex, lv.index(a)) != kNoSlot) break;
+        }
       const Leaf leaf{wsum * v, si.flat_index, s};
       uint32_t& n = leaf_count_[tex];
       if (n == 0) leaf_textures_.push_back(tex);
@@ -623,6 +665,7 @@ class Scheduler {
       if (!can_request(tile_bytes_[index(c.texture, c.flat)], 1)) return false;
       if (cache.free_count() == 0) {
         // §5.2: among the three lowest-cost swaps, the cheapest still valid; only if c* < P*.
+        if (!leaves_ready_) collect_leaves(cache, votes);
         if (!pairs_sorted_) build_pairs(cache, votes);
         while (next_pair_ < pairs_.size() && !pair_valid(cache, pairs_[next_pair_])) ++next_pair_;
         if (next_pair_ == pairs_.size() || !(pairs_[next_pair_].cost < c.priority)) {
@@ -699,8 +742,12 @@ class Scheduler {
   Vec<Pair> pairs_;
   Vec<TileRequest> requests_out_;
   Vec<uint64_t> protected_stamp_;
+  Vec<uint32_t> texture_material_;  // per texture: its material
+  Vec<uint32_t> tile_base_;         // per material: index of its flat tile 0 in max_weights_
+  Vec<float> max_weights_;          // per material tile: max(0, max over its textures of w as used)
   size_t next_pair_ = 0;
   uint32_t pairs_sorted_ = 0;
+  uint32_t leaves_ready_ = 0;  // collect_leaves() ran this frame
   uint32_t in_flight_ = 0;
   uint64_t bytes_in_flight_ = 0;
   uint32_t decoding_ = 0;

@@ -17,7 +17,16 @@
 // -march=x86-64-v3 when the build machine runs it); the counter avx2_fma says which build ran.
 // GFLOP/s counts the dense products only: 2·(2q)·m·n·k (sparse sketch: q ≥ 1) or, for the
 // Gaussian sketch (BTFLOD_BENCH_ZETA=0), 2·(2q + 1)·m·n·k; k = rank + p, q = the iterations the
-// adaptive rule ran (counter q_used; BTFLOD_BENCH_Q sets the minimum, BTFLOD_BENCH_QMAX the cap).
+// adaptive rule ran (counter q_used; BTFLOD_BENCH_Q sets the minimum, BTFLOD_BENCH_QMAX the cap;
+// BTFLOD_BENCH_BC the columns per block).
+// Where the time goes (SvdReport timing fields): gather_share / product_share / small_share are
+// the parts of the wall time spent gathering columns, in the block products and outside the
+// passes (QR, small SVDs); gather_GB/s = bytes read per pass (m·n·4, counter GB_per_pass) × passes
+// over the gather time per thread; product_GFLOP/s = GFLOP over the product time per thread ×
+// threads. BM_GemmPeak runs first: the machine's float GEMM rate in the same run (every pool
+// thread multiplies its own 2048 × 512 by 512 × 2048 matrices), through Eigen's GEMM or, when
+// built with -DBTFLOD_WITH_OPENBLAS=ON, OpenBLAS's sgemm (counter openblas); every FMF run
+// reports of_peak = GFLOP/s / that peak.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -27,6 +36,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "btflod/btf/measured_brdf.hpp"
 #include "btflod/btf/synthesizer.hpp"
@@ -78,6 +88,42 @@ double fmf_error(const BtfFloat& btf, const Fmf& f) {
 struct Run {
   double seconds = 0.0, error = 0.0, peak_gb = 0.0;
 };
+double g_peak_gflops = 0.0;
+
+// The float GEMM rate of the machine, now: every pool thread runs C += A·B (2048 × 512 · 512 ×
+// 2048, the packed-panel regime of the SVD's products) until 1.5 s have passed.
+void BM_GemmPeak(benchmark::State& state) {
+  ThreadPool& pool = default_thread_pool();
+  const unsigned threads = std::max(1u, pool.thread_count());
+  constexpr Eigen::Index kM = 2048, kK = 512, kN = 2048;
+  for (auto _ : state) {
+    std::vector<double> flops(threads, 0.0);
+    const auto t0 = std::chrono::steady_clock::now();
+    pool.parallel_for(0, threads, 1, [&](size_t b, size_t e) {
+      for (size_t t = b; t < e; ++t) {
+        const Eigen::MatrixXf a = Eigen::MatrixXf::Random(kM, kK), bm = Eigen::MatrixXf::Random(kK, kN);
+        Eigen::MatrixXf c = Eigen::MatrixXf::Zero(kM, kN);
+        const auto start = std::chrono::steady_clock::now();
+        while (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < 1.5) {
+          c.noalias() += a * bm;
+          flops[t] += 2.0 * kM * kK * kN;
+        }
+        benchmark::DoNotOptimize(c.data());
+      }
+    });
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    double f = 0.0;
+    for (double x : flops) f += x;
+    g_peak_gflops = f / s / 1e9;
+  }
+  state.counters["GFLOP/s"] = g_peak_gflops;
+  state.counters["threads"] = threads;
+#if defined(BTFLOD_WITH_OPENBLAS)
+  state.counters["openblas"] = 1;
+#else
+  state.counters["openblas"] = 0;
+#endif
+}
 Run g_randomized64, g_exact64, g_carpaint_randomized;
 
 Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool measure_error, int rank = 100) {
@@ -91,6 +137,8 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
   if (const char* q = std::getenv("BTFLOD_BENCH_QMAX")) o.svd.max_power_iterations = std::atoi(q);
   if (const char* p = std::getenv("BTFLOD_BENCH_P")) o.svd.oversampling = std::atoi(p);
   if (const char* z = std::getenv("BTFLOD_BENCH_ZETA")) o.svd.sketch_nonzeros = std::atoi(z);
+  if (const char* b = std::getenv("BTFLOD_BENCH_BC")) o.svd.block_columns = static_cast<size_t>(std::atoi(b));
+  state.counters["block_columns"] = static_cast<double>(o.svd.block_columns);
   state.counters["q_min"] = o.svd.power_iterations;
   state.counters["p"] = o.svd.oversampling;
   state.counters["zeta"] = o.svd.sketch_nonzeros;
@@ -124,8 +172,20 @@ Run run_fmf(benchmark::State& state, const BtfFloat& btf, SvdMethod method, bool
     state.counters["error_estimate"] = report.error_estimate;
     state.counters["predicted_ratio"] = report.predicted_ratio;
     const int products = q == 0 ? (o.svd.sketch_nonzeros > 0 ? 1 : 2) : 2 * q + (o.svd.sketch_nonzeros > 0 ? 0 : 1);
-    state.counters["GFLOP"] = 2.0 * products * m * n * k / 1e9;
-    state.counters["GFLOP/s"] = 2.0 * products * m * n * k / 1e9 / r.seconds;
+    const double gflop = 2.0 * products * m * n * k / 1e9;
+    const double threads = std::max(1u, default_thread_pool().thread_count());
+    state.counters["GFLOP"] = gflop;
+    state.counters["GFLOP/s"] = gflop / r.seconds;
+    if (g_peak_gflops > 0.0) state.counters["of_peak"] = gflop / r.seconds / g_peak_gflops;
+    state.counters["passes"] = report.passes;
+    state.counters["GB_per_pass"] = m * n * 4.0 / 1e9;
+    const double wall = std::max(report.total_seconds, 1e-9);
+    state.counters["gather_share"] = report.gather_seconds / threads / wall;
+    state.counters["product_share"] = report.product_seconds / threads / wall;
+    state.counters["small_share"] = (report.total_seconds - report.pass_seconds) / wall;
+    if (report.gather_seconds > 0.0)
+      state.counters["gather_GB/s"] = m * n * 4.0 * report.passes / 1e9 / (report.gather_seconds / threads);
+    if (report.product_seconds > 0.0) state.counters["product_GFLOP/s"] = gflop / (report.product_seconds / threads);
   }
   state.counters["input_GB"] = input_gb;
   state.counters["peak_GB"] = r.peak_gb;
@@ -206,6 +266,7 @@ void BM_Fmf256Randomized(benchmark::State& state) {
   run_fmf(state, big, SvdMethod::randomized, false);
 }
 
+BENCHMARK(BM_GemmPeak)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_Fmf64Randomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_Fmf64ExactBdcsvd)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_Fmf32CarPaintRandomized)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();

@@ -57,6 +57,32 @@ TEST(FactorFmf, GatherMatchesDocumentedRowOrder) {
   EXPECT_EQ(cols((8 * 11 + 10) * 3 + 2, 2), btf.value(7, 0, 8, 10, 2));
 }
 
+// Every element of a gathered range, with 99 images (the copy works on groups of 16 images:
+// 6 full groups and a partial one) and ranges starting mid-row and ending at the last texel.
+TEST(FactorFmf, GatherCopiesEveryElementOfEveryImageGroup) {
+  const auto btf = test_btf(0.01f);
+  const size_t nl = btf.light_count(), m = btf.view_count() * nl * 3, n = btf.texel_count();
+  ASSERT_NE(btf.view_count() * nl % 16, 0u);
+  for (const auto& [t0, count] : {std::pair<size_t, size_t>{0, 1}, {7, 29}, {n - 17, 17}, {0, n}}) {
+    Eigen::MatrixXf cols =
+        Eigen::MatrixXf::Constant(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(count), -1e30f);
+    gather_fmf_columns(btf, t0, count, cols);
+    size_t mismatches = 0;
+    for (size_t j = 0; j < count; ++j) {
+      const size_t t = t0 + j;
+      const int x = static_cast<int>(t % static_cast<size_t>(btf.width())),
+                y = static_cast<int>(t / static_cast<size_t>(btf.width()));
+      for (size_t v = 0; v < btf.view_count(); ++v)
+        for (size_t l = 0; l < nl; ++l)
+          for (int c = 0; c < 3; ++c)
+            mismatches += cols(static_cast<Eigen::Index>((v * nl + l) * 3 + static_cast<size_t>(c)),
+                               static_cast<Eigen::Index>(j)) !=
+                          btf.value(x, y, static_cast<uint32_t>(v), static_cast<uint32_t>(l), c);
+    }
+    EXPECT_EQ(mismatches, 0u) << "columns " << t0 << " + " << count;
+  }
+}
+
 TEST(FactorFmf, ExactSvdReachesEckartYoungOptimum) {
   const auto btf = test_btf(0.02f);
   for (int c : {1, 4, 8}) {

@@ -26,6 +26,7 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -89,6 +90,12 @@ struct SvdReport {
   /// Predicted ratio error / Eckart–Young optimum of the randomised result (1 for exact), from
   /// the geometric extrapolation of the adaptive rule; ≥ 1. A prediction, not a bound.
   double predicted_ratio = 1.0;
+  /// Where the time went (randomised path; timing only, results do not depend on it).
+  int passes = 0;                ///< passes over A (each gathers every column once: m·n·4 bytes)
+  double pass_seconds = 0.0;     ///< wall time of the passes
+  double gather_seconds = 0.0;   ///< time in `gather`, summed over the pool threads
+  double product_seconds = 0.0;  ///< time in the block products (sketch, Aᵀ·Q, A·Z), summed over threads
+  double total_seconds = 0.0;    ///< wall time of the whole call; minus pass_seconds = QR and small SVDs
 };
 
 /// A rank-C truncated SVD A ≈ U·diag(s)·Vᵀ: u is m × C, v is n × C (orthonormal columns),
@@ -215,6 +222,10 @@ Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const Svd
 }  // namespace btflod
 
 #if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_WITH_OPENBLAS)
+extern "C" void openblas_set_num_threads(int);  // OpenBLAS's own API (cblas.h declares them too)
+extern "C" int openblas_get_num_threads(void);
+#endif
 namespace btflod {
 
 namespace detail {
@@ -270,6 +281,12 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   const size_t stripes =
       std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(std::max(1, options.stripes)), blocks));
   const Index mi = static_cast<Index>(m);
+  using Clock = std::chrono::steady_clock;
+  const auto seconds_since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  const Clock::time_point call_start = Clock::now();
+  std::vector<double> gather_s(stripes, 0.0), product_s(stripes, 0.0);
 
   // Test matrix Ω (n × k): dense Gaussian, or a sparse sign matrix with ζ = sketch_nonzeros
   // entries ±1 per row in distinct random columns (Martinsson & Tropp 2020, §9.2; Tropp et al.
@@ -304,6 +321,13 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   // One pass over the matrix: for every block, body(a_block, col0, cnt, stripe); the body adds
   // into partial[stripe] (and may write rows col0… of an n × k matrix: disjoint, no reduction).
   auto pass = [&](auto&& body) {
+    const Clock::time_point pass_start = Clock::now();
+#if defined(BTFLOD_WITH_OPENBLAS)
+    // The pool runs one product per thread during a pass: OpenBLAS's own threads would
+    // oversubscribe the cores. Between passes (QR, small SVDs on this thread) it keeps them.
+    const int blas_threads = openblas_get_num_threads();
+    if (pool.thread_count() > 1) openblas_set_num_threads(1);
+#endif
     for (auto& p : partial) p.setZero(mi, k);
     pool.parallel_for(0, stripes, 1, [&](size_t s0, size_t s1) {
       MatrixXf buf;
@@ -312,15 +336,32 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
         for (size_t b = first; b < last; ++b) {
           const size_t col0 = b * bc, cnt = std::min(bc, n - col0);
           buf.resize(mi, static_cast<Index>(cnt));
+          Clock::time_point t = Clock::now();
           gather(col0, cnt, buf);
+          gather_s[s] += seconds_since(t);
+          t = Clock::now();
           body(buf, static_cast<Index>(col0), static_cast<Index>(cnt), s);
+          product_s[s] += seconds_since(t);
         }
       }
     });
     MatrixXf sum = std::move(partial[0]);
     for (size_t s = 1; s < stripes; ++s) sum += partial[s];
     for (auto& p : partial) p.resize(0, 0);  // not held during the small SVDs between passes
+#if defined(BTFLOD_WITH_OPENBLAS)
+    openblas_set_num_threads(blas_threads);
+#endif
+    ++out.report.passes;
+    out.report.pass_seconds += seconds_since(pass_start);
     return sum;
+  };
+  // Fills the timing fields of the report (every return of the randomised path).
+  const auto finish_timing = [&] {
+    for (size_t s = 0; s < stripes; ++s) {
+      out.report.gather_seconds += gather_s[s];
+      out.report.product_seconds += product_s[s];
+    }
+    out.report.total_seconds = seconds_since(call_start);
   };
   // Passes over A (each gathers every column block once):
   //   q = 0: Y = A·Ω, Q = orth(Y); Bᵀ = Aᵀ·Q                          2 passes, 2 GEMMs
@@ -386,6 +427,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
       return make_error(Status::cancelled, "truncated_svd cancelled");
     // B = Qᵀ·A (k × n), written column block by column block (disjoint, no reduction needed).
     MatrixXf bt(static_cast<Index>(n), k);  // Bᵀ
+    const Clock::time_point project_start = Clock::now();
     pool.parallel_for(0, blocks, 1, [&](size_t b0, size_t b1) {
       MatrixXf buf;
       for (size_t b = b0; b < b1; ++b) {
@@ -395,6 +437,8 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
         bt.middleRows(static_cast<Index>(col0), static_cast<Index>(cnt)).noalias() = buf.transpose() * q;
       }
     });
+    ++out.report.passes;
+    out.report.pass_seconds += seconds_since(project_start);
     // SVD of B through Bᵀ = Q2·R: B = Rᵀ·Q2ᵀ, Rᵀ = Ur·S·Vrᵀ (small, in double) ⇒
     // U = Q·Ur, V = Q2·Vr.
     Eigen::HouseholderQR<MatrixXf> qr(bt);
@@ -410,6 +454,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
     out.v = q2 * small.matrixV().leftCols(cc).template cast<float>();
     out.report.error_estimate = std::sqrt(std::max(0.0, norm2 - small.singularValues().head(cc).squaredNorm()));
     out.report.predicted_ratio = 0.0;  // no iterations, nothing to extrapolate
+    finish_timing();
     report_progress(progress, "project", 1.0);
     return out;
   }
@@ -451,6 +496,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
       out.v = MatrixXf::Identity(static_cast<Index>(n), c);
       out.report.power_iterations = iterations;
       out.report.error_estimate = out.report.frobenius_norm;
+      finish_timing();
       report_progress(progress, "project", 1.0);
       return out;
     }
@@ -508,6 +554,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   rot.rightCols(pad) = rsvd.matrixU().middleCols(kk, pad).template cast<float>();
   const MatrixXf pz = zqr.householderQ() * MatrixXf::Identity(static_cast<Index>(n), k);
   out.v = pz * rot;
+  finish_timing();
   report_progress(progress, "project", 1.0);
   return out;
 }

@@ -10,10 +10,11 @@
 // 9-tap angular combination) from the tiles and U packets that have arrived. One simulated link
 // carries a fixed number of bytes per frame; "bytes" are compressed tile payload bytes plus U
 // packet bytes exactly as stored in the containers, in every order:
-//   (a) priority  btflod: feedback (eq. 1–2) → votes (eq. 9) → Scheduler::plan with P = w·v
-//                 (§5.2) and U' packets streamed by their §6 priority; requests go onto the
-//                 link in the scheduler's order, arrivals pass begin/finish_decode and
-//                 apply_uploads. The pinned root tiles are the first bytes on the link.
+//   (a) priority  btflod's runtime (btflod::Streamer): feedback (eq. 1–2) → votes (eq. 9) →
+//                 add/swap with P = w·v (§5.2) and U' packets streamed by their §6 priority;
+//                 its asynchronous reads (AsyncTileSource) go onto the link in the order it
+//                 starts them, arrivals complete them, pump() decodes and the next update()
+//                 hands the tiles out. The pinned root tiles are the first bytes on the link.
 //   (b) component paper 004 §5: principal components streamed one by one. btflod packs four
 //                 components into one RGBA virtual texture (as paper 004 does in its PNGs), so
 //                 the unit is the group g = components 4g … 4g+3: for g = 0, 1, …: for every
@@ -40,9 +41,11 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -55,9 +58,9 @@
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/lod_selector.hpp"
 #include "btflod/metrics/image_metrics.hpp"
+#include "btflod/runtime/streamer.hpp"
 #include "btflod/shader/shader_config.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "common/doc_block.hpp"
 #include "materials.hpp"
@@ -105,19 +108,32 @@ bool parse(int argc, char** argv, Options& o) {
       return true;
     };
     bool ok = true;
-    if (a == "--out" && has_value) o.out = argv[++i];
-    else if (a == "--doc" && has_value) o.doc = argv[++i];
-    else if (a == "--svg" && has_value) o.svg = argv[++i];
-    else if (a == "--materials") ok = u32(o.materials, 1, 4);
-    else if (a == "--components") ok = u32(o.components, 1, 32);
-    else if (a == "--size") ok = u32(o.size, 8, 128);
-    else if (a == "--repeat") ok = u32(o.repeat, 1, 32);
-    else if (a == "--width") ok = u32(o.width, 16, 1920);
-    else if (a == "--height") ok = u32(o.height, 16, 1080);
-    else if (a == "--views") ok = u32(o.views, 1, 8);
-    else if (a == "--frames-to-all") ok = u32(o.frames_to_all, 4, 100000);
-    else if (a == "--decimation") ok = u32(o.decimation, 1, 16);
-    else if (a == "--max-frames") ok = u32(o.max_frames, 4, 1000000);
+    if (a == "--out" && has_value)
+      o.out = argv[++i];
+    else if (a == "--doc" && has_value)
+      o.doc = argv[++i];
+    else if (a == "--svg" && has_value)
+      o.svg = argv[++i];
+    else if (a == "--materials")
+      ok = u32(o.materials, 1, 4);
+    else if (a == "--components")
+      ok = u32(o.components, 1, 32);
+    else if (a == "--size")
+      ok = u32(o.size, 8, 128);
+    else if (a == "--repeat")
+      ok = u32(o.repeat, 1, 32);
+    else if (a == "--width")
+      ok = u32(o.width, 16, 1920);
+    else if (a == "--height")
+      ok = u32(o.height, 16, 1080);
+    else if (a == "--views")
+      ok = u32(o.views, 1, 8);
+    else if (a == "--frames-to-all")
+      ok = u32(o.frames_to_all, 4, 100000);
+    else if (a == "--decimation")
+      ok = u32(o.decimation, 1, 16);
+    else if (a == "--max-frames")
+      ok = u32(o.max_frames, 4, 1000000);
     else if (a == "--quality") {
       uint32_t q = 0;
       ok = u32(q, 1, 100);
@@ -126,7 +142,8 @@ bool parse(int argc, char** argv, Options& o) {
       ok = has_value && parse_u64(argv[i + 1], o.bytes_per_frame, 1, 1ull << 40);
       if (!ok) std::fprintf(stderr, "btflod-progressive: --bytes-per-frame needs a positive integer\n");
       ++i;
-    } else if (a == "--check-determinism") o.check_determinism = true;
+    } else if (a == "--check-determinism")
+      o.check_determinism = true;
     else {
       std::fprintf(stderr, "btflod-progressive: unknown or incomplete argument '%s'\n", a.c_str());
       return false;
@@ -147,7 +164,11 @@ struct LinkItem {
   uint32_t material = 0, k = 0, flat = 0;
   bool packet = false;
   uint32_t bytes = 0;
-  uint32_t request = 0xffffffffu;  // scheduler request id (strategy a)
+  // Strategy (a): the Streamer's asynchronous read this item carries (offset in the container,
+  // destination, ticket for Streamer::complete_read).
+  uint64_t offset = 0;
+  uint8_t* destination = nullptr;
+  uint64_t ticket = 0;
 };
 
 // A FIFO over a link that carries `per_frame` bytes per frame; an item arrives when its last
@@ -202,8 +223,8 @@ double frame_ssim(const Image<float>& linear, const Image<float>& converged_disp
 }
 
 uint64_t order_key(const LinkItem& i) {
-  return (static_cast<uint64_t>(i.material) << 48) | (static_cast<uint64_t>(i.k) << 40) | (static_cast<uint64_t>(i.flat) << 1) |
-         (i.packet ? 1u : 0u);
+  return (static_cast<uint64_t>(i.material) << 48) | (static_cast<uint64_t>(i.k) << 40) |
+         (static_cast<uint64_t>(i.flat) << 1) | (i.packet ? 1u : 0u);
 }
 
 // Strategies (b) and (c): a fixed order, pushed onto the link at once.
@@ -218,8 +239,10 @@ Run run_fixed(const World& w, const Camera& cam, const std::vector<Pixel>& px, c
   for (uint32_t f = 0; f < options_of(w).max_frames && !link.idle(); ++f) {
     bool changed = false;
     link.frame([&](const LinkItem& i) {
-      if (i.packet) cs.packet[i.material][i.k] = 1;
-      else cs.tile[i.material][i.k][i.flat] = 1;
+      if (i.packet)
+        cs.packet[i.material][i.k] = 1;
+      else
+        cs.tile[i.material][i.k][i.flat] = 1;
       r.order.push_back(order_key(i));
       changed = true;
     });
@@ -273,28 +296,64 @@ std::vector<LinkItem> level_order(const World& w) {
   return out;
 }
 
-// Strategy (a): the real scheduler driven by the feedback of the rendered view.
+// Strategy (a)'s I/O: the Streamer's reads of one material's container go onto the link as they
+// are started (AsyncTileSource); the link completes them when their last byte is carried.
+class LinkSource final : public AsyncTileSource {
+ public:
+  LinkSource(Link& link, uint32_t material, const Material& m) : link_(link) {
+    const BsvtfMetadata& md = m.dir.metadata;
+    for (const BsvtfTileEntry& e : m.dir.tiles)
+      items_[e.offset] = LinkItem{material, e.id.texture, m.pyramid.levels().index(e.id), false, e.size};
+    for (uint32_t k = 0; k < m.dir.packets.size() && k < md.texture_count(); ++k)
+      items_[m.dir.packets[k].offset] = LinkItem{material, k, 0, true, m.dir.packets[k].size};
+  }
+  bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
+    const auto it = items_.find(offset);
+    if (it == items_.end() || it->second.bytes != out.size()) return false;
+    LinkItem i = it->second;
+    i.offset = offset;
+    i.destination = out.data();
+    i.ticket = ticket;
+    link_.push(i);
+    return true;
+  }
+
+ private:
+  Link& link_;
+  std::map<uint64_t, LinkItem> items_;  // by container offset
+};
+
+// Strategy (a): btflod's runtime (runtime/streamer.hpp) driven by the feedback of the rendered
+// view, its reads served by the link. Per frame: the link completes reads, pump() decodes them,
+// update() takes this frame's feedback, hands out the tiles and U′ packets that became ready
+// (the client now holds them) and plans the next requests, whose reads go onto the link.
 Result<Run> run_priority(const World& w, const Camera& cam, const std::vector<Pixel>& px, const Image<float>& converged,
                          uint64_t per_frame) {
   Run r;
   r.name = "priority";
-  uint32_t tiles = 0;
-  uint32_t max_packet = 1, max_tile = 1;
+  uint32_t tiles = 0, textures = 0;
   uint64_t tile_sum = 0;
   for (const Material& m : w.materials) {
+    textures += static_cast<uint32_t>(m.decoded.size());
     for (const auto& tb : m.tile_bytes)
       for (uint32_t b : tb) {
         ++tiles;
         tile_sum += b;
-        max_tile = std::max(max_tile, b);
       }
-    for (uint32_t b : m.packet_bytes) max_packet = std::max(max_packet, b);
   }
+  Link link(per_frame);
+  std::vector<std::unique_ptr<LinkSource>> sources;
+  std::vector<StreamerMaterial> materials;
+  for (uint32_t mi = 0; mi < w.materials.size(); ++mi) {
+    sources.push_back(std::make_unique<LinkSource>(link, mi, w.materials[mi]));
+    materials.push_back(StreamerMaterial{&w.materials[mi].dir, nullptr, sources.back().get()});
+  }
+  StreamerConfig cfg;
   // Every tile fits: the comparison is about order, not about eviction (docs/progressive.md).
   const uint32_t side = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(tiles)))) + 1;
-  auto cache = TileCache::create(w.set, TileCacheConfig{side, side, 1u << 16});
-  if (!cache) return cache.error();
-  SchedulerConfig sc;
+  const BsvtfMetadata& md0 = w.materials.front().dir.metadata;
+  cfg.cache = CacheConfig{side, side, 1u << 16, md0.tile_size, md0.border, 1};
+  SchedulerConfig& sc = cfg.scheduler;
   sc.mode = PriorityMode::weighted;
   // Requests in flight: about two frames of link bytes, so that priorities decide what goes
   // next instead of a long FIFO (at least 4).
@@ -303,55 +362,58 @@ Result<Run> run_priority(const World& w, const Camera& cam, const std::vector<Pi
   sc.budgets.tiles_decoding = sc.budgets.requests_in_flight;
   sc.budgets.uploads_per_frame = sc.budgets.requests_in_flight;
   sc.budgets.bytes_in_flight = 1ull << 40;
-  sc.tile_bytes = max_tile;
   sc.stream_u_columns = true;  // §6: U' packets are streamed by priority, not loaded up front
-  sc.u_packet_bytes = max_packet;
-  sc.max_lod_bias = 0;  // the link is the limit here; a coarser LOD under overload is another experiment
-  auto sched = Scheduler::create(*cache, sc);
-  if (!sched) return sched.error();
-  VoteCounter votes(vote_layouts(w.set));
-  Link link(per_frame);
-  ClientState cs(w);
-  // The pinned root tiles of every virtual texture are the first bytes on the link.
-  for (uint32_t mi = 0; mi < w.materials.size(); ++mi)
-    for (uint32_t k = 0; k < w.materials[mi].decoded.size(); ++k) link.push({mi, k, 0, false, w.materials[mi].tile_bytes[k][0]});
+  sc.max_lod_bias = 0;         // the link is the limit here; a coarser LOD under overload is another experiment
   const uint32_t d = options_of(w).decimation;
-  std::vector<uint32_t> feedback(static_cast<size_t>((cam.width + d - 1) / d) * ((cam.height + d - 1) / d), kFeedbackNone);
+  cfg.vote_window_frames = 1;  // one frame's feedback, each word standing for its d × d block (eq. 9)
+  cfg.vote_weight = d * d;
+  cfg.root_jobs = textures;  // the pinned root tiles of every virtual texture are the first bytes on the link
+  cfg.payload_cache_bytes = std::max<uint64_t>(w.total_bytes * 2, 1u << 20);  // a parent's payload is never re-read
+  auto created = Streamer::create(materials, cfg);
+  if (!created) return created.error();
+  Streamer streamer = std::move(*created);
+  std::vector<StreamerTileUpload> tile_out(streamer.tile_uploads_bound());
+  std::vector<StreamerPacketUpload> packet_out(streamer.packet_uploads_bound());
+  std::vector<PageTableWrite> writes(1u << 16);
+  std::vector<ResidencyEvent> events(4096);
+  ClientState cs(w);
+  std::vector<uint32_t> feedback(static_cast<size_t>((cam.width + d - 1) / d) * ((cam.height + d - 1) / d),
+                                 kFeedbackNone);
   uint32_t quiet = 0;
   double ssim = frame_ssim(render(w, cam, px, cs), converged);
   for (uint32_t f = 0; f < options_of(w).max_frames; ++f) {
-    bool changed = false;
     link.frame([&](const LinkItem& i) {
       r.order.push_back(order_key(i));
-      if (i.request == 0xffffffffu) {
-        cs.tile[i.material][i.k][i.flat] = 1;  // a root
-        changed = true;
-      } else if (sched->begin_decode(i.request)) {
-        sched->finish_decode(i.request);
-      }
+      const std::vector<uint8_t>& file = w.materials[i.material].demo.bsvtf;
+      std::memcpy(i.destination, file.data() + i.offset, i.bytes);
+      streamer.complete_read(i.ticket, Status::success);
     });
-    sched->apply_uploads(*cache, [&](const TileRequest& q) {
-      const uint32_t m = w.set.material_of(q.tile.texture);
-      const uint32_t k = q.tile.texture - w.set.material(m).first_texture;
-      if (q.u_packet) cs.packet[m][k] = 1;
-      else cs.tile[m][k][w.set.levels_of(q.tile.texture).index(q.tile)] = 1;
+    streamer.pump();
+    // This frame's feedback → votes → uploads of what is decoded, then the next requests.
+    render_feedback(w.scene, cam, w.set, DerivativeLod{}, d, f, feedback);
+    StreamerOutputs out{tile_out, packet_out, writes, events};
+    if (const Status st = streamer.update(feedback, out); st != Status::success)
+      return make_error(st, "progressive: Streamer::update failed");
+    for (size_t i = 0; i < out.event_count; ++i)
+      if (events[i].kind == ResidencyEventKind::tile_failed || events[i].kind == ResidencyEventKind::packet_failed)
+        return make_error(events[i].status, "progressive: a read or decode failed");
+    bool changed = false;
+    for (size_t i = 0; i < out.tile_upload_count; ++i) {
+      const TileId t = tile_out[i].tile;
+      const uint32_t m = w.set.material_of(t.texture);
+      cs.tile[m][t.texture - w.set.material(m).first_texture][w.set.levels_of(t.texture).index(t)] = 1;
       changed = true;
-    });
+    }
+    for (size_t i = 0; i < out.packet_upload_count; ++i) {
+      cs.packet[packet_out[i].material][packet_out[i].packet] = 1;
+      changed = true;
+    }
     if (changed) ssim = frame_ssim(render(w, cam, px, cs), converged);  // same state, same image
     r.samples.push_back({f, link.bytes(), ssim});
-    // Feedback of this frame → votes → plan → requests onto the link.
-    render_feedback(w.scene, cam, w.set, DerivativeLod{}, d, f, feedback);
-    votes.count(feedback, d * d, sched->lod_bias());
-    const auto requests = sched->plan(*cache, votes, f);
-    for (const TileRequest& q : requests) {
-      const uint32_t m = w.set.material_of(q.tile.texture);
-      const uint32_t k = q.tile.texture - w.set.material(m).first_texture;
-      const uint32_t flat = q.u_packet ? 0 : w.set.levels_of(q.tile.texture).index(q.tile);
-      const uint32_t bytes = q.u_packet ? w.materials[m].packet_bytes[k] : w.materials[m].tile_bytes[k][flat];
-      link.push({m, k, flat, q.u_packet, bytes, q.id});
-    }
     // Done when nothing was asked for over a whole rotation of the feedback sample and the link is idle.
-    quiet = (requests.empty() && link.idle() && sched->requests_in_flight() == 0) ? quiet + 1 : 0;
+    const bool idle = streamer.scheduler().frame().requests == 0 && link.idle() &&
+                      streamer.scheduler().requests_in_flight() == 0 && streamer.jobs_in_flight() == 0;
+    quiet = idle ? quiet + 1 : 0;
     if (quiet > d * d + 1) break;
   }
   return r;
@@ -369,11 +431,12 @@ std::string bytes_to_reach(const Run& r, double threshold, uint64_t* out = nullp
       return b;
     }
   char b[96];
-  std::snprintf(b, sizeof b, "not reached (max %.4f)", r.samples.empty() ? 0.0 : [&] {
-    double mx = 0;
-    for (const Sample& s : r.samples) mx = std::max(mx, s.ssim);
-    return mx;
-  }());
+  std::snprintf(
+      b, sizeof b, "not reached (max %.4f)", r.samples.empty() ? 0.0 : [&] {
+        double mx = 0;
+        for (const Sample& s : r.samples) mx = std::max(mx, s.ssim);
+        return mx;
+      }());
   return b;
 }
 
@@ -401,27 +464,34 @@ std::string svg_plot(const std::vector<ViewResult>& views) {
         max_bytes = std::max(max_bytes, smp.bytes);
         if (smp.bytes > 0) min_bytes = std::min(min_bytes, smp.bytes);
       }
-    const double lx0 = std::log10(static_cast<double>(std::min(min_bytes, max_bytes))), lx1 = std::log10(static_cast<double>(max_bytes));
+    const double lx0 = std::log10(static_cast<double>(std::min(min_bytes, max_bytes))),
+                 lx1 = std::log10(static_cast<double>(max_bytes));
     const auto X = [&](uint64_t b) {
       const double l = std::log10(static_cast<double>(std::max<uint64_t>(b, 1)));
       return x0 + std::clamp((l - lx0) / std::max(lx1 - lx0, 1e-9), 0.0, 1.0) * pw;
     };
-    const auto Y = [&](double q) { return y0 + (1.0 - std::clamp(-std::log10(std::max(1.0 - q, 1e-3)), 0.0, top) / top) * ph; };
-    s << "<text x='" << x0 << "' y='" << y0 - 10 << "'>view " << views[v].view << " (" << static_cast<int>(100 * views[v].coverage + 0.5)
-      << "% of pixels textured)</text>\n";
-    s << "<rect x='" << x0 << "' y='" << y0 << "' width='" << pw << "' height='" << ph << "' fill='none' stroke='#888'/>\n";
+    const auto Y = [&](double q) {
+      return y0 + (1.0 - std::clamp(-std::log10(std::max(1.0 - q, 1e-3)), 0.0, top) / top) * ph;
+    };
+    s << "<text x='" << x0 << "' y='" << y0 - 10 << "'>view " << views[v].view << " ("
+      << static_cast<int>(100 * views[v].coverage + 0.5) << "% of pixels textured)</text>\n";
+    s << "<rect x='" << x0 << "' y='" << y0 << "' width='" << pw << "' height='" << ph
+      << "' fill='none' stroke='#888'/>\n";
     for (double t : {0.5, 0.9, 0.95, 0.99, 0.999}) {
       const bool key = t == 0.95 || t == 0.99;
-      s << "<line x1='" << x0 << "' x2='" << x0 + pw << "' y1='" << Y(t) << "' y2='" << Y(t) << "' stroke='" << (key ? "#999" : "#ddd")
-        << "' stroke-dasharray='4 3'/><text x='" << x0 - 4 << "' y='" << Y(t) + 4 << "' text-anchor='end'>" << t << "</text>\n";
+      s << "<line x1='" << x0 << "' x2='" << x0 + pw << "' y1='" << Y(t) << "' y2='" << Y(t) << "' stroke='"
+        << (key ? "#999" : "#ddd") << "' stroke-dasharray='4 3'/><text x='" << x0 - 4 << "' y='" << Y(t) + 4
+        << "' text-anchor='end'>" << t << "</text>\n";
     }
     for (double kib = 1; kib * 1024.0 <= static_cast<double>(max_bytes); kib *= 4) {
       const uint64_t b = static_cast<uint64_t>(kib * 1024.0);
       if (b < min_bytes) continue;
-      s << "<line x1='" << X(b) << "' x2='" << X(b) << "' y1='" << y0 + ph << "' y2='" << y0 + ph + 4 << "' stroke='#888'/><text x='"
-        << X(b) << "' y='" << y0 + ph + 15 << "' text-anchor='middle'>" << kib << "</text>\n";
+      s << "<line x1='" << X(b) << "' x2='" << X(b) << "' y1='" << y0 + ph << "' y2='" << y0 + ph + 4
+        << "' stroke='#888'/><text x='" << X(b) << "' y='" << y0 + ph + 15 << "' text-anchor='middle'>" << kib
+        << "</text>\n";
     }
-    s << "<text x='" << x0 + pw / 2 << "' y='" << y0 + ph + 30 << "' text-anchor='middle'>KiB received (log scale)</text>\n";
+    s << "<text x='" << x0 + pw / 2 << "' y='" << y0 + ph + 30
+      << "' text-anchor='middle'>KiB received (log scale)</text>\n";
     for (size_t i = 0; i < views[v].runs.size(); ++i) {
       s << "<polyline fill='none' stroke-width='1.5' stroke='" << colours[i % 3] << "' points='";
       for (const Sample& smp : views[v].runs[i].samples) s << X(smp.bytes) << ',' << Y(smp.ssim) << ' ';
@@ -429,10 +499,11 @@ std::string svg_plot(const std::vector<ViewResult>& views) {
     }
   }
   for (size_t i = 0; i < views.front().runs.size(); ++i)
-    s << "<rect x='" << gap + ml + static_cast<int>(i) * 220 << "' y='" << H - 20 << "' width='14' height='4' fill='" << colours[i % 3]
-      << "'/><text x='" << gap + ml + static_cast<int>(i) * 220 + 18 << "' y='" << H - 15 << "'>" << views.front().runs[i].name
-      << "</text>\n";
-  s << "<text x='" << W - gap << "' y='" << H - 15 << "' text-anchor='end'>y: SSIM vs converged, axis −log10(1 − SSIM)</text>\n";
+    s << "<rect x='" << gap + ml + static_cast<int>(i) * 220 << "' y='" << H - 20 << "' width='14' height='4' fill='"
+      << colours[i % 3] << "'/><text x='" << gap + ml + static_cast<int>(i) * 220 + 18 << "' y='" << H - 15 << "'>"
+      << views.front().runs[i].name << "</text>\n";
+  s << "<text x='" << W - gap << "' y='" << H - 15
+    << "' text-anchor='end'>y: SSIM vs converged, axis −log10(1 − SSIM)</text>\n";
   s << "</svg>\n";
   return s.str();
 }
@@ -469,17 +540,21 @@ int main(int argc, char** argv) {
       for (uint32_t b : tb) ++tiles, tile_bytes += b;
     for (uint32_t b : m.packet_bytes) ++packets, packet_bytes += b;
   }
-  const uint64_t per_frame = o.bytes_per_frame ? o.bytes_per_frame : (w.total_bytes + o.frames_to_all - 1) / o.frames_to_all;
+  const uint64_t per_frame =
+      o.bytes_per_frame ? o.bytes_per_frame : (w.total_bytes + o.frames_to_all - 1) / o.frames_to_all;
   const Material& m0 = w.materials.front();
-  std::printf("btflod progressive: %u materials, %ux%u texels, C = %u (%zu RGBA virtual textures each), T = %u, B = %u, "
-              "%u levels, quality %.0f\n",
-              o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height, o.components, m0.decoded.size(),
-              m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border, m0.pyramid.geometry().level_count(),
-              static_cast<double>(o.quality));
-  std::printf("  data        %llu tiles, %.1f KiB compressed (raw RGBA16F %.1f KiB); %llu U packets, %.1f KiB; total %.1f KiB\n",
-              static_cast<unsigned long long>(tiles), static_cast<double>(tile_bytes) / 1024.0,
-              static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0, static_cast<unsigned long long>(packets),
-              static_cast<double>(packet_bytes) / 1024.0, static_cast<double>(w.total_bytes) / 1024.0);
+  std::printf(
+      "btflod progressive: %u materials, %ux%u texels, C = %u (%zu RGBA virtual textures each), T = %u, B = %u, "
+      "%u levels, quality %.0f\n",
+      o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height, o.components, m0.decoded.size(),
+      m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border, m0.pyramid.geometry().level_count(),
+      static_cast<double>(o.quality));
+  std::printf(
+      "  data        %llu tiles, %.1f KiB compressed (raw RGBA16F %.1f KiB); %llu U packets, %.1f KiB; total %.1f "
+      "KiB\n",
+      static_cast<unsigned long long>(tiles), static_cast<double>(tile_bytes) / 1024.0,
+      static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0, static_cast<unsigned long long>(packets),
+      static_cast<double>(packet_bytes) / 1024.0, static_cast<double>(w.total_bytes) / 1024.0);
   std::printf("  link        %llu bytes per frame; %ux%u pixels; feedback 1/%u; prepared in %.1f s\n",
               static_cast<unsigned long long>(per_frame), o.width, o.height, o.decimation, seconds());
 
@@ -506,10 +581,12 @@ int main(int argc, char** argv) {
     vr.runs.push_back(run_fixed(w, cam, px, converged, level_order(w), "coarse-to-fine", per_frame));
     if (o.check_determinism) {
       auto again = run_priority(w, cam, px, converged, per_frame);
-      if (!again || again->order != vr.runs[0].order || again->samples.size() != vr.runs[0].samples.size()) deterministic = false;
+      if (!again || again->order != vr.runs[0].order || again->samples.size() != vr.runs[0].samples.size())
+        deterministic = false;
       else
         for (size_t i = 0; i < again->samples.size(); ++i)
-          if (again->samples[i].ssim != vr.runs[0].samples[i].ssim || again->samples[i].bytes != vr.runs[0].samples[i].bytes)
+          if (again->samples[i].ssim != vr.runs[0].samples[i].ssim ||
+              again->samples[i].bytes != vr.runs[0].samples[i].bytes)
             deterministic = false;
     }
     // The priority order must end at (or within SSIM 0.01 of) the converged image: it has every
@@ -522,8 +599,8 @@ int main(int argc, char** argv) {
     for (size_t i = 1; i < vr.runs.size(); ++i) {
       const Run& r = vr.runs[i];
       if (r.samples.empty() || r.samples.back().bytes != w.total_bytes || !(r.samples.back().ssim > 0.999999)) {
-        std::fprintf(stderr, "btflod-progressive: view %u %s ended at %llu of %llu bytes, SSIM %.6f\n", v, r.name.c_str(),
-                     static_cast<unsigned long long>(r.samples.empty() ? 0 : r.samples.back().bytes),
+        std::fprintf(stderr, "btflod-progressive: view %u %s ended at %llu of %llu bytes, SSIM %.6f\n", v,
+                     r.name.c_str(), static_cast<unsigned long long>(r.samples.empty() ? 0 : r.samples.back().bytes),
                      static_cast<unsigned long long>(w.total_bytes), r.samples.empty() ? 0.0 : r.samples.back().ssim);
         converged_ok = false;
       }
@@ -531,8 +608,8 @@ int main(int argc, char** argv) {
     for (const Run& r : vr.runs)
       for (const Sample& s : r.samples) {
         char line[160];
-        std::snprintf(line, sizeof line, "%u,%s,%u,%llu,%.6f\n", v, r.name.c_str(), s.frame, static_cast<unsigned long long>(s.bytes),
-                      s.ssim);
+        std::snprintf(line, sizeof line, "%u,%s,%u,%llu,%.6f\n", v, r.name.c_str(), s.frame,
+                      static_cast<unsigned long long>(s.bytes), s.ssim);
         csv << line;
       }
     std::printf("  view %u      %.0f%% of pixels textured\n", v, 100.0 * vr.coverage);
@@ -553,24 +630,27 @@ int main(int argc, char** argv) {
   // The results block of docs/progressive.md.
   std::ostringstream doc;
   char line[512];
-  std::snprintf(line, sizeof line,
-                "Command: `%s` (%.0f s on this machine).\n\n"
-                "Data: %u materials, %ux%u texels, C = %u → %zu RGBA virtual textures each, T = %u, B = %u, %u levels, "
-                "codec quality %.0f: %llu tiles = %.1f KiB compressed (%.1f KiB as raw RGBA16F) + %llu U packets = %.1f KiB; "
-                "all bytes %.1f KiB. Link: %llu bytes per frame. Image %ux%u, feedback 1/%u.\n\n",
-                command.c_str(), seconds(), o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height,
-                o.components, m0.decoded.size(), m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border,
-                m0.pyramid.geometry().level_count(), static_cast<double>(o.quality), static_cast<unsigned long long>(tiles),
-                static_cast<double>(tile_bytes) / 1024.0, static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0,
-                static_cast<unsigned long long>(packets), static_cast<double>(packet_bytes) / 1024.0,
-                static_cast<double>(w.total_bytes) / 1024.0, static_cast<unsigned long long>(per_frame), o.width, o.height,
-                o.decimation);
+  std::snprintf(
+      line, sizeof line,
+      "Command: `%s` (%.0f s on this machine).\n\n"
+      "Data: %u materials, %ux%u texels, C = %u → %zu RGBA virtual textures each, T = %u, B = %u, %u levels, "
+      "codec quality %.0f: %llu tiles = %.1f KiB compressed (%.1f KiB as raw RGBA16F) + %llu U packets = %.1f KiB; "
+      "all bytes %.1f KiB. Link: %llu bytes per frame. Image %ux%u, feedback 1/%u.\n\n",
+      command.c_str(), seconds(), o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height, o.components,
+      m0.decoded.size(), m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border,
+      m0.pyramid.geometry().level_count(), static_cast<double>(o.quality), static_cast<unsigned long long>(tiles),
+      static_cast<double>(tile_bytes) / 1024.0, static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0,
+      static_cast<unsigned long long>(packets), static_cast<double>(packet_bytes) / 1024.0,
+      static_cast<double>(w.total_bytes) / 1024.0, static_cast<unsigned long long>(per_frame), o.width, o.height,
+      o.decimation);
   doc << line;
-  doc << "| view | strategy | bytes to SSIM 0.95 | bytes to SSIM 0.99 | final SSIM | bytes at the end |\n|---|---|---|---|---|---|\n";
+  doc << "| view | strategy | bytes to SSIM 0.95 | bytes to SSIM 0.99 | final SSIM | bytes at the end "
+         "|\n|---|---|---|---|---|---|\n";
   for (const ViewResult& vr : results)
     for (const Run& r : vr.runs) {
-      std::snprintf(line, sizeof line, "| %u (%.0f%% textured) | %s | %s | %s | %.4f | %.1f KiB |\n", vr.view, 100.0 * vr.coverage,
-                    r.name.c_str(), bytes_to_reach(r, 0.95).c_str(), bytes_to_reach(r, 0.99).c_str(), r.samples.back().ssim,
+      std::snprintf(line, sizeof line, "| %u (%.0f%% textured) | %s | %s | %s | %.4f | %.1f KiB |\n", vr.view,
+                    100.0 * vr.coverage, r.name.c_str(), bytes_to_reach(r, 0.95).c_str(),
+                    bytes_to_reach(r, 0.99).c_str(), r.samples.back().ssim,
                     static_cast<double>(r.samples.back().bytes) / 1024.0);
       doc << line;
     }
@@ -583,9 +663,12 @@ int main(int argc, char** argv) {
       for (size_t i = 1; i < vr.runs.size(); ++i) {
         uint64_t b = 0;
         const bool reached = bytes_to_reach(vr.runs[i], t, &b).find("not") == std::string::npos;
-        if (a > 0 && reached) std::snprintf(line, sizeof line, " %s %.2f× to %.2f%s", vr.runs[i].name.c_str(),
-                                            static_cast<double>(b) / static_cast<double>(a), t, i + 1 < vr.runs.size() ? "," : "");
-        else std::snprintf(line, sizeof line, " %s n/a to %.2f%s", vr.runs[i].name.c_str(), t, i + 1 < vr.runs.size() ? "," : "");
+        if (a > 0 && reached)
+          std::snprintf(line, sizeof line, " %s %.2f× to %.2f%s", vr.runs[i].name.c_str(),
+                        static_cast<double>(b) / static_cast<double>(a), t, i + 1 < vr.runs.size() ? "," : "");
+        else
+          std::snprintf(line, sizeof line, " %s n/a to %.2f%s", vr.runs[i].name.c_str(), t,
+                        i + 1 < vr.runs.size() ? "," : "");
         doc << line;
       }
       doc << (t < 0.99 ? ";" : ".");

@@ -1,10 +1,13 @@
 // btflod-replay — replay harness for the sparse virtual texture path (paper 000 §5).
 //
-// A camera path over a scene of four FMF materials (a plane, a sphere, two tori); per frame the
-// CPU reference renders the feedback buffer (decimated, rotating sample), the votes of eq. 9 are
-// counted, the scheduler issues add/swap operations within its budgets, tiles are uploaded into
-// a CPU copy of the cache, and the ABRDF error E of eq. 7 (against FMF with everything resident)
-// is measured on every pixel. Three strategies run on the same path in one run:
+// A camera path over a scene of four FMF materials (a plane, a sphere, two tori), each encoded
+// into a `.bsvtf` container (vt/bsvtf_build.hpp) served from memory. Per frame the CPU reference
+// renders the feedback buffer (decimated, rotating sample) and hands it to one btflod::Streamer
+// (runtime/streamer.hpp: votes of eq. 9, add/swap within the budgets, decode jobs run by pump());
+// its tile uploads go into a CPU copy of the cache, and the ABRDF error E of eq. 7 (against FMF
+// with everything resident, uncompressed) is measured on every pixel. A tile requested in one
+// update is decoded by pump() and uploaded by the next update. Bytes are the containers' real
+// payload bytes. Three strategies run on the same path in one run:
 //   weighted    paper 000: P = w·v, swap cost eq. 10           (cache of S slots)
 //   votes-only  P = v, cost = v·levels (LibVT/Unreal-style)      (same cache)
 //   distance    range-based mip (paper 001 §3.4), no cache limit (every needed tile loaded)
@@ -26,10 +29,13 @@
 #include <vector>
 
 #include "btflod/backend/cpu_reference.hpp"
+#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/codec/container.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/lod_selector.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/tile_source.hpp"
+#include "btflod/vt/bsvtf_build.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "common/doc_block.hpp"
 
@@ -71,17 +77,28 @@ bool parse(int argc, char** argv, Options& o) {
       return true;
     };
     bool ok = true;
-    if (a == "--frames") ok = next_u32(o.frames);
-    else if (a == "--width") ok = next_u32(o.width);
-    else if (a == "--height") ok = next_u32(o.height);
-    else if (a == "--decimation") ok = next_u32(o.decimation);
-    else if (a == "--texture") ok = next_u32(o.texture);
-    else if (a == "--components") ok = next_u32(o.components);
-    else if (a == "--slots-x") ok = next_u32(o.slots_x);
-    else if (a == "--slots-y") ok = next_u32(o.slots_y);
-    else if (a == "--uploads") ok = next_u32(o.uploads);
-    else if (a == "--check-determinism") o.check_determinism = true;
-    else if (a == "--doc" && i + 1 < argc) o.doc = argv[++i];
+    if (a == "--frames")
+      ok = next_u32(o.frames);
+    else if (a == "--width")
+      ok = next_u32(o.width);
+    else if (a == "--height")
+      ok = next_u32(o.height);
+    else if (a == "--decimation")
+      ok = next_u32(o.decimation);
+    else if (a == "--texture")
+      ok = next_u32(o.texture);
+    else if (a == "--components")
+      ok = next_u32(o.components);
+    else if (a == "--slots-x")
+      ok = next_u32(o.slots_x);
+    else if (a == "--slots-y")
+      ok = next_u32(o.slots_y);
+    else if (a == "--uploads")
+      ok = next_u32(o.uploads);
+    else if (a == "--check-determinism")
+      o.check_determinism = true;
+    else if (a == "--doc" && i + 1 < argc)
+      o.doc = argv[++i];
     else {
       std::fprintf(stderr, "btflod-replay: unknown argument '%s'\n", a.c_str());
       return false;
@@ -110,8 +127,10 @@ float value_noise(uint32_t seed, float x, float y, uint32_t cells) {
   const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
   const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
   const auto lattice = [&](int ix, int iy) {
-    const uint32_t cx = static_cast<uint32_t>((ix % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
-    const uint32_t cy = static_cast<uint32_t>((iy % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
+    const uint32_t cx =
+        static_cast<uint32_t>((ix % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
+    const uint32_t cy =
+        static_cast<uint32_t>((iy % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
     return static_cast<float>(hash32(seed ^ hash32(cx * 73856093u ^ cy * 19349663u)) & 0xffffu) / 32767.5f - 1.0f;
   };
   const float sx = ax * ax * (3 - 2 * ax), sy = ay * ay * (3 - 2 * ay);
@@ -128,17 +147,26 @@ EigenTextures synth_material(uint32_t material, uint32_t size, uint32_t componen
   e.light_count = 1;
   e.view_count = 1;
   e.angular.assign(3 * components, 0.0f);
-  for (uint32_t c = 0; c < components; ++c) e.angular[c] = e.angular[components + c] = e.angular[2 * components + c] = 1.0f;
+  for (uint32_t c = 0; c < components; ++c)
+    e.angular[c] = e.angular[components + c] = e.angular[2 * components + c] = 1.0f;
   for (uint32_t y = 0; y < size; ++y)
     for (uint32_t x = 0; x < size; ++x) {
       const float u = (static_cast<float>(x) + 0.5f) / static_cast<float>(size);
       const float v = (static_cast<float>(y) + 0.5f) / static_cast<float>(size);
       float detail = 1.0f;
       switch (material) {
-        case 0: detail = 0.5f + 0.5f * value_noise(7, u, v, 2); break;              // patchy
-        case 1: detail = u < 0.5f ? 0.05f : 1.0f; break;                          // smooth | detailed
-        case 2: detail = std::pow(0.5f + 0.5f * value_noise(11, u, v, 3), 4.0f); break;  // sparse spots
-        default: detail = 0.3f; break;                                            // uniformly mild
+        case 0:
+          detail = 0.5f + 0.5f * value_noise(7, u, v, 2);
+          break;  // patchy
+        case 1:
+          detail = u < 0.5f ? 0.05f : 1.0f;
+          break;  // smooth | detailed
+        case 2:
+          detail = std::pow(0.5f + 0.5f * value_noise(11, u, v, 3), 4.0f);
+          break;  // sparse spots
+        default:
+          detail = 0.3f;
+          break;  // uniformly mild
       }
       for (uint32_t c = 0; c < components; ++c) {
         const uint32_t seed = material * 1000u + c * 17u + 1u;
@@ -156,16 +184,31 @@ struct World {
   Options opt;
   std::vector<TilePyramid> pyramids;
   VtSet set;
+  // The same materials as `.bsvtf` containers (what the Streamer reads) and their directories.
+  std::vector<std::vector<uint8_t>> files;
+  std::vector<BsvtfDirectory> dirs;
   Scene scene;
   std::vector<float> reference_distance;  // per material: d0 of the range-based LOD
 
   explicit World(const Options& o) : opt(o) {
     for (uint32_t m = 0; m < 4; ++m) {
-      auto p = TilePyramid::build(synth_material(m, o.texture, o.components));
-      if (!p.ok()) {
-        std::fprintf(stderr, "btflod-replay: %s\n", p.error().message.c_str());
+      const EigenTextures e = synth_material(m, o.texture, o.components);
+      auto p = TilePyramid::build(e);
+      BsvtfFromEigenOptions bo;
+      bo.light_directions = {0.0f, 0.0f, 1.0f};
+      bo.view_directions = {0.0f, 0.0f, 1.0f};
+      auto file = build_bsvtf_from_eigen_textures(e, bo);
+      if (!p.ok() || !file.ok()) {
+        std::fprintf(stderr, "btflod-replay: %s\n", (!p.ok() ? p.error() : file.error()).message.c_str());
         std::exit(2);
       }
+      auto dir = read_bsvtf(*file);
+      if (!dir.ok()) {
+        std::fprintf(stderr, "btflod-replay: %s\n", dir.error().message.c_str());
+        std::exit(2);
+      }
+      files.push_back(std::move(*file));
+      dirs.push_back(std::move(*dir));
       pyramids.push_back(std::move(p.value()));
       const uint32_t id = set.add_material(pyramids.back().geometry(), pyramids.back().texture_count());
       pyramids.back().copy_weights_to(set, id);
@@ -255,45 +298,58 @@ struct Result {
   std::vector<uint64_t> schedule;  // request keys in order (for determinism)
 };
 
-// One cache-limited strategy (weighted or votes-only).
+// One cache-limited strategy (weighted or votes-only): a Streamer over the four containers.
 class CachedStrategy {
  public:
   CachedStrategy(const World& w, PriorityMode mode) : w_(w) {
     result_.name = mode == PriorityMode::weighted ? "weighted (paper 000: P = w·v)" : "votes-only (P = v)";
-    cache_ = std::make_unique<TileCache>(std::move(TileCache::create(w.set, {w.opt.slots_x, w.opt.slots_y}).value()));
-    SchedulerConfig cfg;
-    cfg.mode = mode;
-    cfg.budgets.uploads_per_frame = w.opt.uploads;
-    cfg.budgets.requests_in_flight = 2 * w.opt.uploads;
-    sched_ = std::make_unique<Scheduler>(std::move(Scheduler::create(*cache_, cfg).value()));
-    votes_ = std::make_unique<VoteCounter>(vote_layouts(w.set));
-    texture_ = std::make_unique<CpuCacheTexture>(*cache_);
-    for (uint32_t t = 0; t < w.set.texture_count(); ++t) upload(TileId{t, 0, 0, 0}, cache_->slot_of(TileId{t, 0, 0, 0}));
+    for (size_t m = 0; m < w.files.size(); ++m) {
+      sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(w.files[m])));
+      materials_.push_back(StreamerMaterial{&w.dirs[m], sources_.back().get(), nullptr});
+    }
+    StreamerConfig cfg;
+    cfg.cache = CacheConfig{w.opt.slots_x, w.opt.slots_y, 1u << 16, kDefaultTileSize, kDefaultTileBorder, 1};
+    cfg.scheduler.mode = mode;
+    cfg.scheduler.budgets.uploads_per_frame = w.opt.uploads;
+    cfg.scheduler.budgets.requests_in_flight = 2 * w.opt.uploads;
+    // One frame's feedback, each word standing for the d × d pixels of its block (eq. 9).
+    cfg.vote_window_frames = 1;
+    cfg.vote_weight = w.opt.decimation * w.opt.decimation;
+    cfg.root_jobs = w.set.texture_count();
+    auto s = Streamer::create(materials_, cfg);
+    if (!s.ok()) {
+      std::fprintf(stderr, "btflod-replay: %s\n", s.error().message.c_str());
+      std::exit(2);
+    }
+    streamer_ = std::make_unique<Streamer>(std::move(*s));
+    texture_ = std::make_unique<CpuCacheTexture>(streamer_->cache());
+    tiles_.resize(streamer_->tile_uploads_bound());
+    packets_.resize(streamer_->packet_uploads_bound());
+    writes_.resize(4096);
+    events_.resize(64);
+    // Start-up: the pinned roots and the U′ packets load before the first measured frame.
+    for (int i = 0; i < 64 && !all_ready(); ++i) update({});
+    if (!all_ready()) {
+      std::fprintf(stderr, "btflod-replay: the materials did not become ready\n");
+      std::exit(3);
+    }
   }
 
   void frame(const FrameData& fd, uint64_t f) {
-    const uint32_t d = w_.opt.decimation;
-    votes_->count(fd.feedback, d * d, sched_->lod_bias());
-    const auto requests = sched_->plan(*cache_, *votes_, f);
-    for (const TileRequest& r : requests) {
-      result_.schedule.push_back(r.tile.key());
-      if (sched_->begin_decode(r.id)) sched_->finish_decode(r.id);  // immediate source
-    }
-    sched_->apply_uploads(*cache_, [&](const TileRequest& r) {
-      if (!r.u_packet) upload(r.tile, r.slot);
-    });
-    const SchedulerCounters& c = sched_->frame();
+    update(fd.feedback);
+    const SchedulerCounters& c = streamer_->scheduler().frame();
     result_.swaps += c.swaps;
     result_.adds += c.adds;
     result_.budget_hits += c.budget_hits();
     result_.visible_missing += c.visible_missing;
-    result_.bytes = sched_->total().bytes_requested;
-    result_.occupancy.push_back(static_cast<double>(cache_->used_count()) / cache_->slot_count());
+    result_.bytes = streamer_->scheduler().total().bytes_requested;
+    const TileCache& cache = streamer_->cache();
+    result_.occupancy.push_back(static_cast<double>(cache.used_count()) / cache.slot_count());
     result_.error.push_back(frame_error(w_, fd, [&](size_t, const SurfaceHit& h, uint32_t k, float* out) {
-      texture_->sample(*cache_, w_.set.material(h.material).first_texture + k, h.texcoord.x, h.texcoord.y, out);
+      texture_->sample(cache, w_.set.material(h.material).first_texture + k, h.texcoord.x, h.texcoord.y, out);
     }));
     std::string why;
-    if (!cache_->check_invariants(&why)) {
+    if (!cache.check_invariants(&why)) {
       std::fprintf(stderr, "btflod-replay: cache invariant broken at frame %llu: %s\n",
                    static_cast<unsigned long long>(f), why.c_str());
       std::exit(3);
@@ -302,18 +358,49 @@ class CachedStrategy {
   const Result& result() const { return result_; }
 
  private:
-  void upload(const TileId& t, uint32_t slot) {
-    const uint32_t m = w_.set.material_of(t.texture);
-    const uint32_t k = t.texture - w_.set.material(m).first_texture;
-    texture_->upload(*cache_, slot, w_.pyramids[m].tile_texels(k, w_.set.levels_of(t.texture).index(t)));
+  bool all_ready() const {
+    for (uint32_t m = 0; m < streamer_->material_count(); ++m)
+      if (!streamer_->material_ready(m)) return false;
+    return true;
+  }
+  // One update: tiles into the CPU cache texture (the renderer reads the cache's own page
+  // table, so page-table writes and U′ packets need no copy here), then this frame's decode
+  // jobs on this thread.
+  void update(std::span<const uint32_t> feedback) {
+    StreamerOutputs out{tiles_, packets_, writes_, events_};
+    Status st = streamer_->update(feedback, out);
+    if (st == Status::success)
+      st = forward_streamer_outputs(
+          out,
+          [&](std::span<const TileUpload> batch) noexcept {
+            for (const TileUpload& t : batch)
+              if (!texture_->upload(streamer_->cache(), t.slot, t.texels)) return Status::invalid_argument;
+            return Status::success;
+          },
+          [](std::span<const PageTableWrite>) noexcept { return Status::success; });
+    if (st != Status::success) {
+      std::fprintf(stderr, "btflod-replay: update failed: %s\n", status_name(st));
+      std::exit(3);
+    }
+    for (size_t i = 0; i < out.tile_upload_count; ++i) result_.schedule.push_back(tiles_[i].tile.key());
+    for (size_t i = 0; i < out.event_count; ++i)
+      if (events_[i].kind == ResidencyEventKind::tile_failed || events_[i].kind == ResidencyEventKind::packet_failed) {
+        std::fprintf(stderr, "btflod-replay: a read or decode failed: %s\n", status_name(events_[i].status));
+        std::exit(3);
+      }
+    streamer_->pump();
   }
 
   const World& w_;
   Result result_;
-  std::unique_ptr<TileCache> cache_;
-  std::unique_ptr<Scheduler> sched_;
-  std::unique_ptr<VoteCounter> votes_;
+  std::vector<std::unique_ptr<MemorySource>> sources_;
+  std::vector<StreamerMaterial> materials_;
+  std::unique_ptr<Streamer> streamer_;
   std::unique_ptr<CpuCacheTexture> texture_;
+  std::vector<StreamerTileUpload> tiles_;
+  std::vector<StreamerPacketUpload> packets_;
+  std::vector<PageTableWrite> writes_;
+  std::vector<ResidencyEvent> events_;
 };
 
 // Range-based mip selection (paper 001 §3.4), every tile it touches is loaded: no cache limit.
@@ -341,7 +428,7 @@ class DistanceStrategy {
       uint8_t& flag = loaded_[tex][lv.index(level, tx, ty)];
       if (!flag) {
         flag = 1;
-        result_.bytes += p.tile_bytes();
+        result_.bytes += w_.dirs[h.material].find(TileId{k, level, tx, ty})->size;  // payload bytes
       }
     }));
     (void)cam;
@@ -369,14 +456,17 @@ std::string report(const Options& o, const World& w, const Result& a, const Resu
   char line[512];
   uint32_t tiles = 0;
   for (uint32_t t = 0; t < w.set.texture_count(); ++t) tiles += w.set.levels_of(t).tile_count();
-  std::snprintf(line, sizeof line,
-                "Scene: 4 materials (plane, sphere, 2 tori), %u×%u texels, C = %u → %u virtual textures, %u tiles "
-                "in all; cache %u×%u = %u slots; %u frames at %u×%u, feedback 1/%u with rotating sample; %u uploads/frame.\n\n",
-                o.texture, o.texture, o.components, w.set.texture_count(), tiles, o.slots_x, o.slots_y,
-                o.slots_x * o.slots_y, o.frames, o.width, o.height, o.decimation, o.uploads);
+  std::snprintf(
+      line, sizeof line,
+      "Scene: 4 materials (plane, sphere, 2 tori), %u×%u texels, C = %u → %u virtual textures, %u tiles "
+      "in all, streamed from .bsvtf containers through one btflod::Streamer; cache %u×%u = %u slots; %u frames "
+      "at %u×%u, feedback 1/%u with rotating sample; %u uploads/frame.\n\n",
+      o.texture, o.texture, o.components, w.set.texture_count(), tiles, o.slots_x, o.slots_y, o.slots_x * o.slots_y,
+      o.frames, o.width, o.height, o.decimation, o.uploads);
   s << line;
   s << "Command: `" << command << "`\n\n";
-  s << "| strategy | mean E per frame | E, last frame | mean E, 2nd half | MB requested | mean occupancy |\n";
+  s << "| strategy | mean E per frame | E, last frame | mean E, 2nd half | MB requested (payload bytes) | mean "
+       "occupancy |\n";
   s << "|---|---|---|---|---|---|\n";
   for (const Result* r : {&a, &b, &c}) {
     const std::vector<double> second(r->error.begin() + static_cast<ptrdiff_t>(r->error.size() / 2), r->error.end());
@@ -384,15 +474,17 @@ std::string report(const Options& o, const World& w, const Result& a, const Resu
     std::snprintf(line, sizeof line, "| %s | %.5f | %.5f | %.5f | %.2f | %s |\n", r->name.c_str(), mean(r->error),
                   r->error.empty() ? 0.0 : r->error.back(), mean(second), static_cast<double>(r->bytes) / 1048576.0,
                   unlimited ? (std::to_string(static_cast<uint64_t>(r->occupancy.empty() ? 0 : r->occupancy.back())) +
-                               " tiles (no limit)").c_str()
+                               " tiles (no limit)")
+                                  .c_str()
                             : (std::to_string(static_cast<int>(100.0 * mean(r->occupancy) + 0.5)) + " %").c_str());
     s << line;
   }
-  std::snprintf(line, sizeof line,
-                "\nweighted: %llu adds, %llu swaps, %llu budget hits; votes-only: %llu adds, %llu swaps, %llu budget hits.\n",
-                static_cast<unsigned long long>(a.adds), static_cast<unsigned long long>(a.swaps),
-                static_cast<unsigned long long>(a.budget_hits), static_cast<unsigned long long>(b.adds),
-                static_cast<unsigned long long>(b.swaps), static_cast<unsigned long long>(b.budget_hits));
+  std::snprintf(
+      line, sizeof line,
+      "\nweighted: %llu adds, %llu swaps, %llu budget hits; votes-only: %llu adds, %llu swaps, %llu budget hits.\n",
+      static_cast<unsigned long long>(a.adds), static_cast<unsigned long long>(a.swaps),
+      static_cast<unsigned long long>(a.budget_hits), static_cast<unsigned long long>(b.adds),
+      static_cast<unsigned long long>(b.swaps), static_cast<unsigned long long>(b.budget_hits));
   s << line;
   const double ratio = mean(b.error) > 0 ? mean(a.error) / mean(b.error) : 0.0;
   std::snprintf(line, sizeof line, "Weighted / votes-only mean E: %.3f (%s).\n", ratio,
@@ -428,8 +520,8 @@ int main(int argc, char** argv) {
   const std::string text = report(o, w, weighted.result(), votes_only.result(), distance.result(), command);
   std::fputs(text.c_str(), stdout);
   if (again) {
-    const bool same = again->result().error == weighted.result().error &&
-                      again->result().schedule == weighted.result().schedule;
+    const bool same =
+        again->result().error == weighted.result().error && again->result().schedule == weighted.result().schedule;
     std::printf("deterministic: %s (%zu requests replayed)\n", same ? "yes" : "NO", weighted.result().schedule.size());
     if (!same) return 1;
   }

@@ -26,9 +26,10 @@
 //    or an AsyncTileSource is asked for them in update() and complete_read() reports them.
 //  * Every buffer is allocated in create() through StreamerConfig::allocator (or operator new):
 //    the Streamer's own arrays, the tile cache, scheduler, vote counter and payload cache and
-//    the temporaries of create() itself — with callbacks set, create() makes no global
-//    operator new call (tests count it); update(), the jobs and the completions allocate
-//    nothing.
+//    the temporaries of create() itself. The one exception: each tile decoder's symbol buffer
+//    and inflate state (codec/tile_codec.hpp's TileDecoder) still come from operator new /
+//    malloc at creation (tests/test_runtime_allocator.cpp counts that these are the only global
+//    allocations of create()). update(), the jobs and the completions allocate nothing.
 //  * Headers used here include no thread, POSIX or GPU header; the runtime builds with
 //    -fno-exceptions -fno-rtti.
 //
@@ -100,7 +101,8 @@ struct StreamerConfig {
   /// cached ancestor instead of decoding the chain from the root (and reads no payload above
   /// it). 0 disables the cache. The output is the same either way.
   uint32_t decoded_cache_tiles = 16;
-  /// Allocation callbacks for every buffer of the Streamer.
+  /// Allocation callbacks for every buffer of the Streamer (tile cache, scheduler, vote counter,
+  /// payload cache, jobs), except the tile decoders' own scratch (see the file comment).
   RuntimeAllocator allocator;
 };
 

@@ -487,3 +487,48 @@ TEST(CodecContainer, RowOrderAndEnergiesRoundTripAndVersionTwoIsRead) {
   EXPECT_NE(refused.message().find("u_row_order"), std::string::npos);
   EXPECT_EQ(write_bsvtf(d->metadata, m.u, tiles, 4).status(), Status::invalid_argument);
 }
+
+// BsvtfBuildOptions::entropy_coder = zstd: every tile is format 3 / zstd and the container decodes
+// down the hierarchy to the same bits as the deflate container; without zstd the build says so.
+TEST(CodecContainer, ZstdTilesDecodeToTheDeflateContainersBits) {
+  const Material m = make_material();
+  BsvtfBuildOptions o;
+  o.entropy_coder = TileEntropyCoder::zstd;
+  auto z = build_bsvtf(m.metadata, m.u, m.tiles, o);
+  if (!tile_entropy_coder_available(TileEntropyCoder::zstd)) {
+    EXPECT_EQ(z.status(), Status::invalid_argument);
+    GTEST_SKIP() << "built without zstd";
+  }
+  ASSERT_TRUE(z.ok()) << z.message();
+  const std::vector<uint8_t> d = build(m, 50);
+  const auto dz = read_bsvtf(*z).value(), dd = read_bsvtf(d).value();
+  const TileLayout layout = dz.metadata.layout();
+  TileDecoder dec(layout);
+  std::unordered_map<uint64_t, std::vector<float>> from_z, from_d;
+  for (uint32_t level = 0; level < dz.metadata.level_count; ++level)
+    for (const auto& tile : m.tiles) {
+      const TileId id = tile.id;
+      if (id.level != level) continue;
+      const auto* ez = dz.find(id);
+      const auto* ed = dd.find(id);
+      ASSERT_TRUE(ez && ed);
+      const auto bz = std::span<const uint8_t>(*z).subspan(ez->offset, ez->size);
+      const auto bd = std::span<const uint8_t>(d).subspan(ed->offset, ed->size);
+      ASSERT_EQ(verify_bsvtf_payload(ez->size, ez->crc, bz), Status::success);
+      TileHeaderInfo hz, hd;
+      ASSERT_EQ(tile_peek_header(bz, hz), Status::success);
+      ASSERT_EQ(tile_peek_header(bd, hd), Status::success);
+      EXPECT_EQ(hz.version, 3u);
+      EXPECT_EQ(hz.coder, TileEntropyCoder::zstd);
+      EXPECT_EQ(hd.version, 2u);
+      EXPECT_EQ(hd.coder, TileEntropyCoder::deflate);
+      std::vector<float> oz(layout.sample_count()), od(layout.sample_count());
+      std::span<const float> pz, pd;
+      if (level > 0) pz = from_z.at(id.parent().key()), pd = from_d.at(id.parent().key());
+      ASSERT_EQ(dec.decode(bz, pz, id.x & 1, id.y & 1, oz), Status::success) << dec.message();
+      ASSERT_EQ(dec.decode(bd, pd, id.x & 1, id.y & 1, od), Status::success) << dec.message();
+      ASSERT_EQ(std::memcmp(oz.data(), od.data(), oz.size() * sizeof(float)), 0);
+      from_z[id.key()] = std::move(oz);
+      from_d[id.key()] = std::move(od);
+    }
+}

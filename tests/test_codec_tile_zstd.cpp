@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "btflod/codec/tile_codec.hpp"
@@ -213,4 +216,34 @@ TEST_F(TileZstd, EncodeDoesNotAllocateAndSwitchesBack) {
   EXPECT_EQ(std::vector<uint8_t>(buf.begin(), buf.begin() + static_cast<ptrdiff_t>(written)), plain_.bytes);
 }
 
+}  // namespace
+
+namespace {
+// Seeds of fuzz/fuzz_tile_zstd.cpp (mode 0: declared size + frame; mode 1: round trip input):
+// BTFLOD_WRITE_ZSTD_SEEDS=fuzz/corpus/fuzz_tile_zstd test_codec_tile_zstd.
+TEST(TileZstdSeeds, WritesFuzzSeedsWhenAsked) {
+  const char* dir = std::getenv("BTFLOD_WRITE_ZSTD_SEEDS");
+  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_ZSTD_SEEDS not set";
+  if (!btflod::tile_entropy_coder_available(TileEntropyCoder::zstd)) GTEST_SKIP() << "built without zstd";
+  auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
+    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    ASSERT_TRUE(f.good()) << name;
+  };
+  TileEncoder enc(kLayout);
+  ASSERT_TRUE(enc.set_entropy_coder(TileEntropyCoder::zstd));
+  const size_t header = btflod::tile_header_size(4);
+  const size_t blocks = btflod::tile_block_count(kLayout.stored_size(), 4);
+  const uint32_t lo = static_cast<uint32_t>(blocks * btflod::kTileMinBlockCode);
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    const Coded c = encode(enc, make_tile(seed));
+    uint32_t declared = 0;
+    std::memcpy(&declared, c.bytes.data() + header - 4, 4);
+    const uint32_t folded = declared - lo;  // the fuzzer maps bytes 1-2 to lo + value % range
+    std::vector<uint8_t> s{0, static_cast<uint8_t>(folded), static_cast<uint8_t>(folded >> 8)};
+    s.insert(s.end(), c.bytes.begin() + static_cast<ptrdiff_t>(header), c.bytes.end());
+    write("seed_frame_" + std::to_string(seed), s);
+  }
+  write("seed_round_trip", {1, 7, 200, 13, 99, 0, 255, 128, 64, 32, 16, 8});
+}
 }  // namespace

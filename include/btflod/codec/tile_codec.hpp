@@ -55,7 +55,7 @@
 // without libdeflate compiled in falls back to zlib. The format is the same raw deflate either way.
 // zstd (format 3, coder 1) is compiled in when the implementation TU sees BTFLOD_TILE_CODEC_ZSTD
 // (CMake BTFLOD_WITH_ZSTD, default ON when pkg-config finds libzstd); without it, decoders reject
-// zstd tiles with bad_data ("built without zstd") and encoders cannot select it
+// zstd tiles with Status::unsupported and encoders cannot select it
 // (tile_entropy_coder_available). Both zstd contexts are static (ZSTD_initStatic*CCtx/DCtx over a
 // workspace allocated at set-up), so neither encode() nor decode() allocates.
 //
@@ -492,6 +492,7 @@ class TileDecoder {
   /// (x & 1, y & 1). Returns success; bad_data (malformed, wrong layout, inflates to more or
   /// less than declared, trailing bytes, invalid tokens, zero runs past the block, coefficients
   /// beyond ±2^29 steps); short_output (payload truncated); insufficient_space (out too small);
+  /// unsupported (a zstd tile and a build without zstd);
   /// invalid_argument (parent missing or of the wrong size, invalid layout). message() then says
   /// what failed. No allocation, no exceptions.
   Status decode(std::span<const uint8_t> payload, std::span<const float> parent, uint32_t qx, uint32_t qy,
@@ -526,7 +527,8 @@ class TileDecoder {
     Status z;
     if (info.coder == TileEntropyCoder::zstd) {
       if (!zstd_.ready())
-        return fail(Status::bad_data, "zstd-coded tile, but zstd is not compiled in or its context failed");
+        return fail(Status::unsupported,
+                    "zstd-coded tile, but this build has no zstd (BTFLOD_WITH_ZSTD) or no zstd context");
       z = zstd_.decompress(payload.subspan(header), symbols, &inflate_why);
     } else {
       z = inflater_.inflate(payload.subspan(header), symbols, &inflate_why);

@@ -30,7 +30,7 @@
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
 //            [--default-quality] [--per-component-tolerance] [--luminance-tolerance] [--perceptual]
-//            [--weight-quarters Q] [--scene-directions N]
+//            [--weight-quarters Q] [--scene-directions N] [--zstd]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
@@ -53,6 +53,7 @@
 //   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4; default 1 with --perceptual
 //                      as btflod-convert build, else 4; BsvtfBuildOptions::weight_quarters)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
+//   --zstd             entropy-code the tiles with zstd (BsvtfBuildOptions::entropy_coder)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
 #include <chrono>
@@ -91,6 +92,7 @@ struct Options : SceneOptions {
   PerceptualToleranceOptions perceptual_options;
   uint32_t weight_quarters = 99;  // --weight-quarters (JPEG table exponent × 4); 99: 1 with --perceptual, else 4
   uint32_t scene_direction_views = 0;  // > 0: direction weights from that many training views
+  bool zstd = false;                   // --zstd: tiles entropy-coded with zstd (tile format 3)
   bool check = false;
   std::string doc;
   Options() {
@@ -180,6 +182,8 @@ bool parse(int argc, char** argv, Options& o) {
       o.perceptual = true;
     } else if (a == "--weight-quarters")
       ok = u32(o.weight_quarters, 0, 4);
+    else if (a == "--zstd")
+      o.zstd = true;
     else if (a == "--scene-directions")
       ok = u32(o.scene_direction_views, 1, 64), o.perceptual = true;
     else if (a == "--direction-samples")
@@ -467,6 +471,7 @@ int main(int argc, char** argv) {
       bo.quality = q;
       bo.tolerance_reference = o.tolerance;
       bo.weight_quarters = bo_weight_quarters(o);
+      if (o.zstd) bo.entropy_coder = TileEntropyCoder::zstd;
       auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());
@@ -575,7 +580,7 @@ int main(int argc, char** argv) {
                                                                       : "") +
                                ", exposure = the sun's colour; range per material:" + luminance_scales.str() + ")"
                          : std::string())
-        << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)"
+        << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)" << (o.zstd ? ", tiles coded with zstd" : "")
         << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
         << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
         << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size

@@ -1,0 +1,93 @@
+// libFuzzer target for the zstd entropy coder of codec/tile_codec.hpp (tile format 3, coder 1).
+// Byte 0 selects the mode:
+//   even: bytes 1–2 (little-endian) are the declared symbol byte count (folded into the range
+//         tile_peek_header accepts for a 24×24×4 tile), the rest is the zstd frame behind an
+//         otherwise valid format-3 header (bit 1 of byte 0: a residual tile, decoded against a
+//         fixed parent); decode must succeed with finite samples or fail with a message;
+//   odd:  round trip: the rest seeds a 24×24×4 tile; encoded with zstd and with deflate, both
+//         decode to the encoder's reconstruction bit for bit (and to each other).
+// Without zstd in the build (BTFLOD_WITH_ZSTD=OFF) every zstd tile must be rejected.
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <vector>
+
+#include "btflod/codec/tile_codec.hpp"
+
+namespace {
+using namespace btflod;
+
+const TileLayout kLayout{16, 4, 4};
+
+void decode_mode(const uint8_t* data, size_t size, uint8_t selector) {
+  static TileDecoder decoder(kLayout);
+  static const std::vector<float> parent = [] {
+    std::vector<float> p(kLayout.sample_count());
+    for (size_t i = 0; i < p.size(); ++i) p[i] = static_cast<float>(i % 17) * 0.125f;
+    return p;
+  }();
+  const size_t blocks = tile_block_count(kLayout.stored_size(), kLayout.channels);
+  const uint32_t lo = static_cast<uint32_t>(blocks * kTileMinBlockCode);
+  const uint32_t hi = static_cast<uint32_t>(blocks * kTileMaxBlockCode);
+  uint32_t declared = size >= 3 ? uint32_t{data[1]} | uint32_t{data[2]} << 8 : lo;
+  declared = lo + declared % (hi - lo + 1);
+  const size_t header = tile_header_size(kLayout.channels);
+  std::vector<uint8_t> payload(header);
+  payload[0] = kTileFormatVersionCoder;
+  payload[1] = kTileBlock;
+  payload[2] = static_cast<uint8_t>(kLayout.channels);
+  payload[3] = static_cast<uint8_t>((selector >> 1 & 1u) | static_cast<uint32_t>(TileEntropyCoder::zstd) << 4);
+  const uint16_t s = static_cast<uint16_t>(kLayout.stored_size());
+  std::memcpy(payload.data() + 4, &s, 2);
+  std::memcpy(payload.data() + 6, &s, 2);
+  for (uint32_t c = 0; c < kLayout.channels; ++c) {
+    const float t = 0.01f * static_cast<float>(c + 1);
+    std::memcpy(payload.data() + 8 + 4 * c, &t, 4);
+  }
+  std::memcpy(payload.data() + header - 4, &declared, 4);
+  if (size > 3) payload.insert(payload.end(), data + 3, data + size);
+  std::vector<float> out(kLayout.sample_count());
+  const Status st = decoder.decode(payload, parent, selector >> 2 & 1u, selector >> 3 & 1u, out);
+  if (st == Status::success) {
+    if (!tile_entropy_coder_available(TileEntropyCoder::zstd)) std::abort();
+    for (float v : out)
+      if (!std::isfinite(v)) std::abort();
+  } else if (const char* m = decoder.message(); m == nullptr || *m == '\0') {
+    std::abort();
+  }
+}
+
+void round_trip_mode(const uint8_t* data, size_t size) {
+  static TileEncoder packed(kLayout, 1), plain(kLayout, 1);  // fast levels: the fuzzer is after the decoder
+  static const bool have_zstd = packed.set_entropy_coder(TileEntropyCoder::zstd, 3);
+  static TileDecoder decoder(kLayout);
+  if (!have_zstd) return;
+  std::vector<float> tile(kLayout.sample_count());
+  for (size_t i = 0; i < tile.size(); ++i) {
+    const uint8_t b = size ? data[i % size] : 0;
+    tile[i] = (static_cast<float>(b) - 128.0f) * (1.0f + static_cast<float>(i % 5));
+  }
+  const float t = 0.05f + (size ? data[0] : 0) * 0.25f;
+  const float tol[4] = {t, t * 2, t * 0.5f, t};
+  std::vector<uint8_t> a(packed.bound()), b(plain.bound());
+  std::vector<float> ra(kLayout.sample_count()), rb(kLayout.sample_count()), out(kLayout.sample_count());
+  size_t na = 0, nb = 0;
+  if (packed.encode(tile, {}, 0, 0, tol, a, na, ra) != Status::success) std::abort();
+  if (plain.encode(tile, {}, 0, 0, tol, b, nb, rb) != Status::success) std::abort();
+  if (std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(float)) != 0) std::abort();
+  if (decoder.decode(std::span<const uint8_t>(a).first(na), {}, 0, 0, out) != Status::success) std::abort();
+  if (std::memcmp(out.data(), ra.data(), out.size() * sizeof(float)) != 0) std::abort();
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size == 0) return 0;
+  if (data[0] & 1u) {
+    round_trip_mode(data + 1, size - 1);
+  } else {
+    decode_mode(data, size, data[0]);
+  }
+  return 0;
+}

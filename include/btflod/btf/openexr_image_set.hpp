@@ -114,6 +114,41 @@ inline void exr_set_global_limits() {
   });
 }
 
+/// Walks the attribute list of a single-part header (name NUL, type NUL, u32 size, value; an
+/// empty name ends it) without allocating. OpenEXR allocates each attribute's declared size
+/// before reading its value, so without this check a hostile size (up to 4 GiB) is allocated,
+/// and then the read fails. Returns nullptr when every attribute fits in `bytes`, else a static
+/// description; `truncated` then says whether the bytes simply end too early. Untrusted input.
+inline const char* exr_scan_attributes(std::span<const uint8_t> bytes, bool& truncated) noexcept {
+  size_t p = 8;
+  truncated = true;
+  auto skip_string = [&]() -> const char* {  // a NUL-terminated name of at most 255 bytes
+    const size_t start = p;
+    while (p < bytes.size() && bytes[p] != 0) {
+      if (p - start >= 255) {
+        truncated = false;
+        return "an attribute name or type is longer than 255 bytes";
+      }
+      ++p;
+    }
+    if (p >= bytes.size()) return "the header ends inside an attribute name";
+    ++p;
+    return nullptr;
+  };
+  for (;;) {
+    if (p >= bytes.size()) return "the header ends before its terminating byte";
+    if (bytes[p] == 0) return nullptr;  // end of the header
+    if (const char* why = skip_string()) return why;
+    if (const char* why = skip_string()) return why;
+    if (bytes.size() - p < 4) return "the header ends inside an attribute size";
+    uint32_t size = 0;
+    std::memcpy(&size, bytes.data() + p, 4);
+    p += 4;
+    if (size > bytes.size() - p) return "an attribute declares more bytes than the file holds";
+    p += size;
+  }
+}
+
 inline const char* exr_pixel_type_name(Imf::PixelType t) {
   switch (t) {
     case Imf::HALF:
@@ -137,7 +172,8 @@ struct ExrInfo {
 };
 
 /// Reads the header of an OpenEXR file in memory. Returns, with a message naming the problem:
-/// short_output when the bytes end inside the header; bad_data for a file that is not
+/// short_output when the bytes end inside the header (an attribute declaring more bytes than
+/// remain included: checked before OpenEXR allocates it); bad_data for a file that is not
 /// OpenEXR (wrong magic number), a multi-part or deep file, a header OpenEXR rejects, missing R,
 /// G or B channels, channel types other than HALF/FLOAT, or subsampled channels;
 /// insufficient_space when the data window exceeds `limits`. Safe on untrusted bytes (OpenEXR's
@@ -154,6 +190,10 @@ inline Result<ExrInfo> probe_exr(std::span<const uint8_t> bytes, const ImageLimi
   if (Imf::isMultiPart(version) || Imf::isNonImage(version))
     return make_error(Status::bad_data, "exr: multi-part or deep OpenEXR files are not image sets (version flags 0x%x)",
                       static_cast<unsigned>(version) & ~0xffu);
+  bool truncated = false;
+  if (const char* why = detail::exr_scan_attributes(bytes, truncated))
+    return make_error(truncated ? Status::short_output : Status::bad_data, "exr: %s%s", truncated ? "truncated input: " : "",
+                      why);
   detail::ExrMemoryIStream stream(bytes);
   try {
     Imf::Header header;

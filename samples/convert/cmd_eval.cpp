@@ -11,6 +11,7 @@
 #include "command.hpp"
 #include "common/btf_files.hpp"
 #include "common/progress_bar.hpp"
+#include "store_commands.hpp"
 
 #include "btflod/angular/interpolators.hpp"
 #include "btflod/btf/measured_brdf.hpp"
@@ -18,6 +19,7 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
 #include "btflod/metrics/btf_metrics.hpp"
+#include "btflod/metrics/btf_store_metrics.hpp"
 
 // The shared data folder next to the repository (this file is samples/convert/cmd_eval.cpp).
 inline std::string default_shared_dir() {
@@ -39,22 +41,111 @@ const char* kHeader =
     "| material | representation | bytes | ratio | RMSE | PSNR dB | mean SSIM | CIELAB MAE | MSE Y / Cb / Cr | "
     "factorise s |\n|---|---|---:|---:|---:|---:|---:|---:|---|---:|";
 
+struct StoreEvalArgs {
+  double lambda = 0.0, range = 0.0;
+  int pca = -1;
+  bool no_residual = false;
+  uint64_t memory = 0;
+};
+
+// eval against a BTF store: streamed within the budget (metrics/btf_store_metrics.hpp).
+int eval_against_store(const AnyFactorization& f, const std::string& path, const StoreEvalArgs& a) {
+  auto store = BtfStore::open(path);
+  if (!store) {
+    std::fprintf(stderr, "btflod-convert eval: %s\n", store.message().c_str());
+    return convert::kExitFailure;
+  }
+  const auto& shape = factorization_shape(f);
+  const BtfStoreInfo& info = store->info();
+  if (shape.width != info.width || shape.height != info.height || shape.view_count() != info.views.size() ||
+      shape.light_count() != info.lights.size()) {
+    std::fprintf(stderr, "btflod-convert eval: factor file is %dx%d x %zu x %zu, store is %dx%d x %zu x %zu\n",
+                 shape.width, shape.height, shape.view_count(), shape.light_count(), info.width, info.height,
+                 info.views.size(), info.lights.size());
+    return convert::kExitFailure;
+  }
+  BtfStoreEvalOptions o;
+  o.data_range = a.range;
+  o.memory_budget = a.memory;
+  const auto t0 = std::chrono::steady_clock::now();
+  BtfStoreEvalStats st;
+  Result<BtfErrorReport> report = make_error(Status::unsupported, "not evaluated");
+  if (const auto* fmf = std::get_if<Fmf>(&f)) {
+    report = compare_btf_store(
+        *store, [fmf](size_t v, size_t l, std::span<float> out) { return fmf_reconstruct_image(*fmf, v, l, out); }, o,
+        &st);
+  } else {
+    // Other kinds reconstruct the whole BTF: it must fit in the budget next to the streamed images.
+    const uint64_t whole = shape.float_bytes();
+    if (whole + btf_store_eval_min_budget(info) > a.memory) {
+      std::fprintf(stderr,
+                   "btflod-convert eval: a %s file is reconstructed whole (%.1f MiB), more than the --memory budget "
+                   "%.1f MiB allows next to the streamed images; only fmf files are evaluated image by image\n",
+                   factorization_name(f), static_cast<double>(whole) / 1048576.0,
+                   static_cast<double>(a.memory) / 1048576.0);
+      return convert::kExitFailure;
+    }
+    const auto* lp = std::get_if<LaplacianPca>(&f);
+    const auto* sp = std::get_if<Spmm>(&f);
+    const BtfFloat rec = lp   ? lp->reconstruct(static_cast<float>(a.lambda))
+                         : sp ? sp->reconstruct({.residual = !a.no_residual, .pca_components = a.pca})
+                              : reconstruct_factorization(f);
+    o.memory_budget = a.memory - whole;
+    report = compare_btf_store(
+        *store,
+        [&rec](size_t v, size_t l, std::span<float> out) -> VoidResult {
+          const auto img = rec.image(v, l);
+          for (int y = 0; y < img.height(); ++y)
+            for (int x = 0; x < img.width(); ++x)
+              for (int c = 0; c < 3; ++c)
+                out[(static_cast<size_t>(y) * static_cast<size_t>(img.width()) + static_cast<size_t>(x)) * 3 +
+                    static_cast<size_t>(c)] = img.at(x, y, c);
+          return {};
+        },
+        o, &st);
+  }
+  if (!report) {
+    std::fprintf(stderr, "btflod-convert eval: %s\n", report.message().c_str());
+    return convert::kExitFailure;
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::puts(kHeader);
+  print_report_row(path.c_str(), factorization_name(f), factorization_size_bytes(f), factorization_compression_ratio(f),
+                   *report, 0.0);
+  std::printf(
+      "\nstreamed from the store: %zu light groups of %zu images per view, %.1f MiB read, buffers %.1f MiB "
+      "of the %.1f MiB budget, peak RSS %.1f MiB, %.1f s\n",
+      st.groups, st.lights_per_group, static_cast<double>(st.bytes_read) / 1048576.0,
+      static_cast<double>(st.buffer_bytes) / 1048576.0, static_cast<double>(a.memory) / 1048576.0,
+      static_cast<double>(convert::peak_rss_bytes()) / 1048576.0, seconds);
+  return convert::kExitOk;
+}
+
 int run_eval(int argc, char** argv) {
   convert::Options opt(argc, argv);
   if (opt.wants_help()) {
     std::puts(
         "usage: btflod-convert eval FACTOR_FILE SOURCE_BTF [--lambda L] [--range R] [--pca N] [--no-residual]\n"
+        "                           [--memory SIZE]\n"
         "  Reconstructs the factorised BTF (at LOD lambda for laplacian files, default 0 = finest)\n"
         "  and prints RMSE, PSNR, mean SSIM (Wang 2004), CIELAB MAE and YCbCr MSE against the source.\n"
         "  R is the data range for PSNR/SSIM (default: the source's largest value).\n"
         "  spmm files: --pca N evaluates N residual components (default all), --no-residual only the\n"
-        "  analytic part (paper 003 Table 4).");
+        "  analytic part (paper 003 Table 4).\n"
+        "  A SOURCE_BTF ending in .btfstore (btflod-convert synth --out X.btfstore) is streamed from disk\n"
+        "  view by view, never loaded whole: the images held at once stay within --memory (default 1G;\n"
+        "  metrics/btf_store_metrics.hpp), and the figures equal those of the in-memory evaluation.\n"
+        "  fmf files are reconstructed image by image; other kinds are reconstructed whole, which must\n"
+        "  fit in the budget too.");
     return convert::kExitOk;
   }
   const double lambda = opt.number("lambda", 0.0, 0.0, 64.0);
   const double range = opt.number("range", 0.0, 0.0, 1e30);
   const int pca = static_cast<int>(opt.integer("pca", -1, -1, 1 << 20));
   const bool no_residual = opt.flag("no-residual");
+  const std::string memory_text = opt.string("memory", "1G");
+  const auto memory = convert::parse_byte_size(memory_text);
+  if (!memory) opt.error("--memory " + memory_text + ": expected a size such as 512M or 4G");
   if (!opt.finish()) return convert::kExitUsage;
   if (opt.positional().size() != 2) {
     std::fprintf(stderr, "btflod-convert eval: expected FACTOR_FILE and SOURCE_BTF\n");
@@ -65,6 +156,8 @@ int run_eval(int argc, char** argv) {
     std::fprintf(stderr, "btflod-convert eval: %s\n", f.message().c_str());
     return convert::kExitFailure;
   }
+  if (convert::is_store_path(opt.positional()[1]))
+    return eval_against_store(*f, opt.positional()[1], {lambda, range, pca, no_residual, *memory});
   auto src = samples::load_btf(opt.positional()[1]);
   if (!src) {
     std::fprintf(stderr, "btflod-convert eval: %s\n", src.message().c_str());

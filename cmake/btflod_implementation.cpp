@@ -24,3 +24,5 @@
 #include "btflod/factor/out_of_core_svd.hpp"
 #include "btflod/factor/truncated_svd.hpp"
 #include "btflod/lod/feedback_trace.hpp"
+#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/vt/tile_pyramid.hpp"

@@ -4,6 +4,9 @@
 # g++ -std=c++20 -O2 -c. Each TU is compiled REPEAT times (default 5, interleaved with the others
 # so that load changes hit every TU alike) and the median is printed, with its difference to and
 # ratio over the baseline. Usage: [REPEAT=n] [TUS="baseline runtime ..."] measure_compile_times.sh [g++]
+# COMPARE_INCLUDE=<dir> (another revision's include/ folder, e.g. from `git archive`) adds the TU
+# "runtime_before": the same per-frame TU built against those headers, in the same interleaved
+# loop, so that before/after figures come from one run.
 set -eu
 CXX=${1:-g++}
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -13,10 +16,10 @@ INC="-I$ROOT/include -isystem /usr/include/eigen3 -isystem /usr/include/stb"
 
 printf '#include <vector>\nint main() { std::vector<int> v(3); return static_cast<int>(v.size()) - 3; }\n' > "$DIR/baseline.cpp"
 # The per-frame headers: what check_runtime_headers.cmake checks, without the thread-owning
-# conveniences (measured on their own) and the libcurl source.
-{
+# conveniences (measured on their own) and the libcurl source. $1: the include folder.
+per_frame_tu() {
   for d in lod vt stream runtime shader; do
-    for h in "$ROOT"/include/btflod/$d/*.hpp; do
+    for h in "$1"/btflod/$d/*.hpp; do
       [ -e "$h" ] || continue
       case "$h" in */stream/http_source.hpp | */stream/pipeline.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp) continue ;; esac
       echo "#include \"btflod/$d/$(basename "$h")\""
@@ -27,7 +30,11 @@ printf '#include <vector>\nint main() { std::vector<int> v(3); return static_cas
     echo "#include \"btflod/$h\""
   done
   echo 'int main() { return 0; }'
-} > "$DIR/runtime.cpp"
+}
+per_frame_tu "$ROOT/include" > "$DIR/runtime.cpp"
+if [ -n "${COMPARE_INCLUDE:-}" ]; then
+  per_frame_tu "$COMPARE_INCLUDE" > "$DIR/runtime_before.cpp"
+fi
 printf '#include "btflod/stream/pipeline.hpp"\n#include "btflod/stream/thread_executor.hpp"\n#include "btflod/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
 for h in runtime/streamer stream/payload_cache codec/container shader/glsl_generator backend/backend vt/scheduler; do
   printf '#include "btflod/%s.hpp"\nint main() { return 0; }\n' "$h" > "$DIR/$(basename "$h").cpp"
@@ -37,8 +44,11 @@ printf '#include "btflod/factor/truncated_svd.hpp"\nint main() { return 0; }\n' 
 printf '#define BTFLOD_IMPLEMENTATION\n#include "btflod/btflod.hpp"\n' > "$DIR/implementation.cpp"
 
 # One compile: appends "cpu_seconds rss_kb" to $DIR/<tu>.runs.
+inc_for() {  # include flags of a TU
+  case "$1" in *_before) echo "-I$COMPARE_INCLUDE -isystem /usr/include/eigen3 -isystem /usr/include/stb" ;; *) echo "$INC" ;; esac
+}
 compile_once() {
-  /usr/bin/time -v "$CXX" -std=c++20 -O2 $INC -c "$DIR/$1.cpp" -o "$DIR/$1.o" 2> "$DIR/$1.time"
+  /usr/bin/time -v "$CXX" -std=c++20 -O2 $(inc_for "$1") -c "$DIR/$1.cpp" -o "$DIR/$1.o" 2> "$DIR/$1.time"
   user=$(sed -n 's/.*User time (seconds): //p' "$DIR/$1.time")
   sys=$(sed -n 's/.*System time (seconds): //p' "$DIR/$1.time")
   rss=$(sed -n 's/.*Maximum resident set size (kbytes): //p' "$DIR/$1.time")
@@ -47,7 +57,7 @@ compile_once() {
 # Median CPU seconds of $DIR/<tu>.runs.
 median() { sort -n "$DIR/$1.runs" | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
 REPEAT=${REPEAT:-5}
-TUS=${TUS:-"baseline runtime conveniences streamer payload_cache container glsl_generator backend scheduler truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}"}
+TUS=${TUS:-"baseline runtime ${COMPARE_INCLUDE:+runtime_before} conveniences streamer payload_cache container glsl_generator backend scheduler truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}"}
 echo "$CXX -std=c++20 -O2 -c, median of $REPEAT, $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)"
 i=0
 while [ "$i" -lt "$REPEAT" ]; do
@@ -58,7 +68,7 @@ base=$(median baseline)
 for tu in $TUS; do
   m=$(median "$tu")
   rss=$(sort -n -k2 "$DIR/$tu.runs" | tail -n 1 | cut -d' ' -f2)
-  lines=$("$CXX" -std=c++20 $INC -E "$DIR/$tu.cpp" | wc -l)
+  lines=$("$CXX" -std=c++20 $(inc_for "$tu") -E "$DIR/$tu.cpp" | wc -l)
   runs=$(cut -d' ' -f1 "$DIR/$tu.runs" | tr '\n' ' ')
   awk -v n="$tu" -v m="$m" -v b="$base" -v r="$rss" -v l="$lines" -v runs="$runs" \
     'BEGIN { printf "%-15s %6.2f s CPU  %+6.2f s  x%5.1f  %5.0f MB RSS  %7d lines  (runs: %s)\n", n, m, m - b, m / b, r / 1024, l, runs }'

@@ -41,6 +41,10 @@
 //
 // The generated text is deterministic (same inputs → same bytes). docs/shaders.md describes the
 // texture layouts each piece expects and has an example of an engine shader.
+//
+// generate_functions() and generate_program() are set-up code: they and the pieces' emitters are
+// defined in the implementation TU (BTFLOD_IMPLEMENTATION), so including this header instantiates
+// none of their string building.
 #pragma once
 
 #include <array>
@@ -62,7 +66,7 @@ enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca
 
 inline constexpr ShaderProgram kAllShaderPrograms[] = {
     ShaderProgram::fmf,  ShaderProgram::bsvtf,     ShaderProgram::feedback, ShaderProgram::laplacian,
-    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm, ShaderProgram::pca_rings};
+    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm,     ShaderProgram::pca_rings};
 /// Rings and directions per table (light, view) of the ring search's uniform block (UBO2014:
 /// 10 rings, 151 directions). backend/ring_search_block.hpp packs the block.
 inline constexpr uint32_t kRingSearchMaxRings = 16;
@@ -307,6 +311,48 @@ struct GlslFunctionSource {
   std::string code;                      ///< declarations and functions, no #version, no main()
   std::vector<GlslSamplerUse> samplers;  ///< every sampler `code` reads, in declaration order
 };
+
+namespace detail {
+using GlslPieceSet = uint32_t;  ///< bits of GlslPiece values
+constexpr GlslPieceSet piece_bit(GlslPiece p) noexcept { return 1u << static_cast<uint32_t>(p); }
+}  // namespace detail
+
+/// Set of pieces for generate_functions(), e.g. `glsl_pieces({GlslPiece::bsvtf, GlslPiece::feedback})`.
+constexpr uint32_t glsl_pieces(std::initializer_list<GlslPiece> pieces) noexcept {
+  uint32_t s = 0;
+  for (GlslPiece p : pieces) s |= detail::piece_bit(p);
+  return s;
+}
+
+/// Generates the functions of `pieces` (a glsl_pieces() set; the pieces they call are added) for
+/// `target`, to paste into a host shader after its `#version` line (ES: after its precision
+/// statements; every sampler is declared `highp`). The host declares nothing the functions
+/// need except what it chose to declare itself (GlslResource::declare = false) and whatever the
+/// uniform-source expressions name. `out.samplers` lists every sampler the code reads with its
+/// binding and set (an ES host sets each unit by name). Functions using derivatives (the
+/// page_table λ, bsvtf, feedback) must be called in uniform control flow of a fragment shader;
+/// the others work in any stage.
+/// Returns invalid_argument (naming the field) for a config failing validate_shader_config(), an
+/// empty or unknown piece set, a prefix that is no GLSL identifier start, sampler names or
+/// uniform sources that are no identifier / one-line expression, or two declared samplers on
+/// one name or binding (set). Deterministic. Allocates (set-up time). Thread-safe. Options are
+/// checked, so untrusted option text cannot inject statements, but the expressions are pasted
+/// verbatim: a wrong expression fails in the host's GLSL compiler.
+Result<GlslFunctionSource> generate_functions(uint32_t pieces, GlslTarget target, const ShaderConfig& config,
+                                              const GlslFunctionOptions& options = {});
+
+/// Generates the vertex and fragment shader of `program` for `target`: the shared vertex
+/// shader, and a fragment shader of the BtflodParams block, the varyings, the functions of
+/// generate_functions() with the default options and a main() calling them.
+/// Returns invalid_argument when the config fails validate_shader_config(). The source is
+/// deterministic. Allocates (set-up time only). Thread-safe (no shared state).
+Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTarget target, const ShaderConfig& config);
+
+}  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+// The generator: string building at set-up time, compiled once in the implementation TU.
+namespace btflod {
 
 namespace detail {
 
@@ -912,7 +958,8 @@ inline void piece_spmm(GlslEmitter& e) {
       "  if (model == 6) {  // Ashikhmin-Shirley, anisotropic specular term\n"
       "    vec3 h = normalize(wi + wo);\n"
       "    float sin2 = h.x * h.x + h.y * h.y;\n"
-      "    float expo = sin2 > 1e-12 ? (kappa.x * h.x * h.x + kappa.y * h.y * h.y) / sin2 : 0.5 * (kappa.x + kappa.y);\n"
+      "    float expo = sin2 > 1e-12 ? (kappa.x * h.x * h.x + kappa.y * h.y * h.y) / sin2 : 0.5 * (kappa.x + "
+      "kappa.y);\n"
       "    float hk = max(dot(h, wi), 1e-6);\n"
       "    float q = 1.0 - min(hk, 1.0);\n"
       "    float f = kappa.z + (1.0 - kappa.z) * (q * q * q * q * q);\n"
@@ -1077,9 +1124,6 @@ inline void piece_pca_rings(GlslEmitter& e) {
   pca_views_function(e, "pca_rings", "@ring_search", "3");
 }
 
-using GlslPieceSet = uint32_t;
-constexpr GlslPieceSet piece_bit(GlslPiece p) noexcept { return 1u << static_cast<uint32_t>(p); }
-
 /// One row per piece: the pieces it calls (emitted before it) and its emitter.
 struct GlslPieceRecipe {
   GlslPiece piece;
@@ -1202,29 +1246,8 @@ inline VoidResult check_sampler_uses(GlslTarget target, const std::vector<GlslSa
 
 }  // namespace detail
 
-/// Set of pieces for generate_functions(), e.g. `glsl_pieces({GlslPiece::bsvtf, GlslPiece::feedback})`.
-constexpr uint32_t glsl_pieces(std::initializer_list<GlslPiece> pieces) noexcept {
-  uint32_t s = 0;
-  for (GlslPiece p : pieces) s |= detail::piece_bit(p);
-  return s;
-}
-
-/// Generates the functions of `pieces` (a glsl_pieces() set; the pieces they call are added) for
-/// `target`, to paste into a host shader after its `#version` line (ES: after its precision
-/// statements; every sampler is declared `highp`). The host declares nothing the functions
-/// need except what it chose to declare itself (GlslResource::declare = false) and whatever the
-/// uniform-source expressions name. `out.samplers` lists every sampler the code reads with its
-/// binding and set (an ES host sets each unit by name). Functions using derivatives (the
-/// page_table λ, bsvtf, feedback) must be called in uniform control flow of a fragment shader;
-/// the others work in any stage.
-/// Returns invalid_argument (naming the field) for a config failing validate_shader_config(), an
-/// empty or unknown piece set, a prefix that is no GLSL identifier start, sampler names or
-/// uniform sources that are no identifier / one-line expression, or two declared samplers on
-/// one name or binding (set). Deterministic. Allocates (set-up time). Thread-safe. Options are
-/// checked, so untrusted option text cannot inject statements, but the expressions are pasted
-/// verbatim: a wrong expression fails in the host's GLSL compiler.
-inline Result<GlslFunctionSource> generate_functions(uint32_t pieces, GlslTarget target, const ShaderConfig& config,
-                                                     const GlslFunctionOptions& options = {}) {
+Result<GlslFunctionSource> generate_functions(uint32_t pieces, GlslTarget target, const ShaderConfig& config,
+                                              const GlslFunctionOptions& options) {
   if (VoidResult v = validate_shader_config(config); !v) return v.error();
   if (pieces == 0 || (pieces >> kGlslPieceCount) != 0)
     return make_error(Status::invalid_argument,
@@ -1294,13 +1317,7 @@ inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, Gls
 
 }  // namespace detail
 
-/// Generates the vertex and fragment shader of `program` for `target`: the shared vertex
-/// shader, and a fragment shader of the BtflodParams block, the varyings, the functions of
-/// generate_functions() with the default options and a main() calling them.
-/// Returns invalid_argument when the config fails validate_shader_config(). The source is
-/// deterministic. Allocates (set-up time only). Thread-safe (no shared state).
-inline Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTarget target,
-                                                  const ShaderConfig& config) {
+Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTarget target, const ShaderConfig& config) {
   if (VoidResult v = validate_shader_config(config); !v) return v.error();
   for (const detail::GlslProgramRecipe& r : detail::kProgramRecipes) {
     if (r.program != program) continue;
@@ -1315,3 +1332,4 @@ inline Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTar
 }
 
 }  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

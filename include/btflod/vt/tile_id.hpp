@@ -12,8 +12,9 @@
 // so sorting keys sorts by texture, then coarse-to-fine, then row-major.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
-#include <functional>
+#include <string_view>  // declares std::hash (as <functional> does) without <functional>'s weight
 
 namespace btflod {
 
@@ -63,7 +64,11 @@ constexpr uint32_t level_from_mip(uint32_t mip, uint32_t finest_level) noexcept 
 
 }  // namespace btflod
 
+/// Hash of a tile id (its key, mixed): TileId can key unordered containers.
 template <>
 struct std::hash<btflod::TileId> {
-  size_t operator()(const btflod::TileId& t) const noexcept { return std::hash<uint64_t>{}(t.key()); }
+  size_t operator()(const btflod::TileId& t) const noexcept {
+    const uint64_t k = t.key() * 0x9e3779b97f4a7c15ull;
+    return static_cast<size_t>(k ^ (k >> 32));
+  }
 };

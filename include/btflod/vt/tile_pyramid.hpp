@@ -57,108 +57,10 @@ class TilePyramid {
  public:
   /// Builds every level and tile, with outer borders as `edge` says. Returns invalid_argument
   /// when the input is inconsistent (empty texture, U' of the wrong size) or the hierarchy
-  /// exceeds the tile-id bit budget.
+  /// exceeds the tile-id bit budget. Allocates every level image and tile. Defined in the
+  /// implementation TU (offline code: its loops and containers are compiled once there).
   static Result<TilePyramid> build(const EigenTextures& input, uint32_t tile_size = kDefaultTileSize,
-                                   uint32_t border = kDefaultTileBorder, TileEdge edge = TileEdge::clamp) {
-    if (!input.valid())
-      return make_error(Status::invalid_argument,
-                        "tile pyramid: eigen-textures invalid (texture %dx%dx%d, U' has %zu entries, expected %u)",
-                        input.textures.width(), input.textures.height(), input.textures.channels(),
-                        input.angular.size(), input.light_count * input.view_count * 3 * input.components());
-    const VtGeometry g = VtGeometry::make(static_cast<uint32_t>(input.textures.width()),
-                                          static_cast<uint32_t>(input.textures.height()), tile_size, border);
-    if (!g.valid() || border == 0)
-      return make_error(Status::invalid_argument,
-                        "tile pyramid: %ux%u texels with T=%u B=%u exceeds the hierarchy limits (L <= %u, 0 < B < T)",
-                        g.width, g.height, tile_size, border, kMaxTileLevel);
-    TilePyramid p;
-    p.geometry_ = g;
-    p.levels_ = VtLevelTable(g);
-    const uint32_t vts = input.virtual_texture_count();
-    const uint32_t comps = input.components();
-    p.level_images_.resize(vts);
-    p.tiles_.resize(vts);
-    p.weights_.resize(vts);
-    p.energies_.resize(vts);
-    const uint32_t L = g.finest_level;
-    for (uint32_t k = 0; k < vts; ++k) {
-      auto& levels = p.level_images_[k];
-      levels.resize(L + 1);
-      // Finest level: components 4k … 4k+3, zero-padded past C.
-      Image<float>& finest = levels[L];
-      finest.resize(static_cast<int>(g.width), static_cast<int>(g.height), 4);
-      for (uint32_t y = 0; y < g.height; ++y)
-        for (uint32_t x = 0; x < g.width; ++x)
-          for (uint32_t c = 0; c < 4; ++c) {
-            const uint32_t comp = 4 * k + c;
-            finest.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
-                comp < comps ? input.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(comp))
-                             : 0.0f;
-          }
-      // Box filter 2×2 (clamp at odd edges) down to level 0.
-      for (uint32_t l = L; l > 0; --l) {
-        const Image<float>& src = levels[l];
-        Image<float>& dst = levels[l - 1];
-        dst.resize(static_cast<int>(g.level_width(l - 1)), static_cast<int>(g.level_height(l - 1)), 4);
-        for (int y = 0; y < dst.height(); ++y)
-          for (int x = 0; x < dst.width(); ++x) {
-            const int xa = std::min(2 * x, src.width() - 1), xb = std::min(2 * x + 1, src.width() - 1);
-            const int ya = std::min(2 * y, src.height() - 1), yb = std::min(2 * y + 1, src.height() - 1);
-            for (int c = 0; c < 4; ++c)
-              dst.at(x, y, c) = 0.25f * (src.at(xa, ya, c) + src.at(xb, ya, c) + src.at(xa, yb, c) + src.at(xb, yb, c));
-          }
-      }
-      // Tiles with borders, weights, energies.
-      const uint32_t stored = g.stored_size();
-      const size_t tile_elems = static_cast<size_t>(stored) * stored * 4;
-      p.tiles_[k].assign(tile_elems * p.levels_.tile_count(), 0);
-      p.weights_[k].assign(p.levels_.tile_count(), Half(0.0f));
-      p.energies_[k].assign(p.levels_.tile_count(), Half(0.0f));
-      for (uint32_t l = 0; l <= L; ++l) {
-        const Image<float>& img = levels[l];
-        for (uint32_t ty = 0; ty < p.levels_.tiles_y[l]; ++ty)
-          for (uint32_t tx = 0; tx < p.levels_.tiles_x[l]; ++tx) {
-            const uint32_t index = p.levels_.index(l, tx, ty);
-            uint16_t* dst = p.tiles_[k].data() + tile_elems * index;
-            for (uint32_t y = 0; y < stored; ++y)
-              for (uint32_t x = 0; x < stored; ++x) {
-                // Borders come from the neighbouring texels of the same level (seamless bilinear).
-                const int ux = static_cast<int>(tx * tile_size + x) - static_cast<int>(border);
-                const int uy = static_cast<int>(ty * tile_size + y) - static_cast<int>(border);
-                const int gx = edge == TileEdge::wrap ? ((ux % img.width()) + img.width()) % img.width()
-                                                      : std::clamp(ux, 0, img.width() - 1);
-                const int gy = edge == TileEdge::wrap ? ((uy % img.height()) + img.height()) % img.height()
-                                                      : std::clamp(uy, 0, img.height() - 1);
-                for (int c = 0; c < 4; ++c)
-                  dst[(static_cast<size_t>(y) * stored + x) * 4 + static_cast<size_t>(c)] =
-                      float_to_half_bits(img.at(gx, gy, c));
-              }
-            // Paper 000 eq. 8 with l' = l − 1: mean over the T² texels of the squared distance
-            // (summed over the 4 packed components) to the bilinearly up-sampled parent, i.e. to
-            // what the renderer shows when the parent is used instead. §6: mean squared norm.
-            double w = 0.0, energy = 0.0;
-            for (uint32_t y = 0; y < tile_size; ++y)
-              for (uint32_t x = 0; x < tile_size; ++x) {
-                const int gx = std::min(static_cast<int>(tx * tile_size + x), img.width() - 1);
-                const int gy = std::min(static_cast<int>(ty * tile_size + y), img.height() - 1);
-                float parent[4] = {0, 0, 0, 0};
-                if (l > 0)
-                  sample_bilinear_clamped(levels[l - 1], (static_cast<float>(gx) + 0.5f) * 0.5f,
-                                          (static_cast<float>(gy) + 0.5f) * 0.5f, parent);
-                for (int c = 0; c < 4; ++c) {
-                  const double v = img.at(gx, gy, c);
-                  w += (v - parent[c]) * (v - parent[c]);
-                  energy += v * v;
-                }
-              }
-            const double inv = 1.0 / (static_cast<double>(tile_size) * tile_size);
-            p.weights_[k][index] = Half(static_cast<float>(w * inv));
-            p.energies_[k][index] = Half(static_cast<float>(energy * inv));
-          }
-      }
-    }
-    return p;
-  }
+                                   uint32_t border = kDefaultTileBorder, TileEdge edge = TileEdge::clamp);
 
   /// Hierarchy shape shared by the material's virtual textures.
   const VtGeometry& geometry() const noexcept { return geometry_; }
@@ -212,3 +114,109 @@ class TilePyramid {
 };
 
 }  // namespace btflod
+
+#if defined(BTFLOD_IMPLEMENTATION)
+namespace btflod {
+
+Result<TilePyramid> TilePyramid::build(const EigenTextures& input, uint32_t tile_size, uint32_t border, TileEdge edge) {
+  if (!input.valid())
+    return make_error(Status::invalid_argument,
+                      "tile pyramid: eigen-textures invalid (texture %dx%dx%d, U' has %zu entries, expected %u)",
+                      input.textures.width(), input.textures.height(), input.textures.channels(), input.angular.size(),
+                      input.light_count * input.view_count * 3 * input.components());
+  const VtGeometry g = VtGeometry::make(static_cast<uint32_t>(input.textures.width()),
+                                        static_cast<uint32_t>(input.textures.height()), tile_size, border);
+  if (!g.valid() || border == 0)
+    return make_error(Status::invalid_argument,
+                      "tile pyramid: %ux%u texels with T=%u B=%u exceeds the hierarchy limits (L <= %u, 0 < B < T)",
+                      g.width, g.height, tile_size, border, kMaxTileLevel);
+  TilePyramid p;
+  p.geometry_ = g;
+  p.levels_ = VtLevelTable(g);
+  const uint32_t vts = input.virtual_texture_count();
+  const uint32_t comps = input.components();
+  p.level_images_.resize(vts);
+  p.tiles_.resize(vts);
+  p.weights_.resize(vts);
+  p.energies_.resize(vts);
+  const uint32_t L = g.finest_level;
+  for (uint32_t k = 0; k < vts; ++k) {
+    auto& levels = p.level_images_[k];
+    levels.resize(L + 1);
+    // Finest level: components 4k … 4k+3, zero-padded past C.
+    Image<float>& finest = levels[L];
+    finest.resize(static_cast<int>(g.width), static_cast<int>(g.height), 4);
+    for (uint32_t y = 0; y < g.height; ++y)
+      for (uint32_t x = 0; x < g.width; ++x)
+        for (uint32_t c = 0; c < 4; ++c) {
+          const uint32_t comp = 4 * k + c;
+          finest.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
+              comp < comps ? input.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(comp)) : 0.0f;
+        }
+    // Box filter 2×2 (clamp at odd edges) down to level 0.
+    for (uint32_t l = L; l > 0; --l) {
+      const Image<float>& src = levels[l];
+      Image<float>& dst = levels[l - 1];
+      dst.resize(static_cast<int>(g.level_width(l - 1)), static_cast<int>(g.level_height(l - 1)), 4);
+      for (int y = 0; y < dst.height(); ++y)
+        for (int x = 0; x < dst.width(); ++x) {
+          const int xa = std::min(2 * x, src.width() - 1), xb = std::min(2 * x + 1, src.width() - 1);
+          const int ya = std::min(2 * y, src.height() - 1), yb = std::min(2 * y + 1, src.height() - 1);
+          for (int c = 0; c < 4; ++c)
+            dst.at(x, y, c) = 0.25f * (src.at(xa, ya, c) + src.at(xb, ya, c) + src.at(xa, yb, c) + src.at(xb, yb, c));
+        }
+    }
+    // Tiles with borders, weights, energies.
+    const uint32_t stored = g.stored_size();
+    const size_t tile_elems = static_cast<size_t>(stored) * stored * 4;
+    p.tiles_[k].assign(tile_elems * p.levels_.tile_count(), 0);
+    p.weights_[k].assign(p.levels_.tile_count(), Half(0.0f));
+    p.energies_[k].assign(p.levels_.tile_count(), Half(0.0f));
+    for (uint32_t l = 0; l <= L; ++l) {
+      const Image<float>& img = levels[l];
+      for (uint32_t ty = 0; ty < p.levels_.tiles_y[l]; ++ty)
+        for (uint32_t tx = 0; tx < p.levels_.tiles_x[l]; ++tx) {
+          const uint32_t index = p.levels_.index(l, tx, ty);
+          uint16_t* dst = p.tiles_[k].data() + tile_elems * index;
+          for (uint32_t y = 0; y < stored; ++y)
+            for (uint32_t x = 0; x < stored; ++x) {
+              // Borders come from the neighbouring texels of the same level (seamless bilinear).
+              const int ux = static_cast<int>(tx * tile_size + x) - static_cast<int>(border);
+              const int uy = static_cast<int>(ty * tile_size + y) - static_cast<int>(border);
+              const int gx = edge == TileEdge::wrap ? ((ux % img.width()) + img.width()) % img.width()
+                                                    : std::clamp(ux, 0, img.width() - 1);
+              const int gy = edge == TileEdge::wrap ? ((uy % img.height()) + img.height()) % img.height()
+                                                    : std::clamp(uy, 0, img.height() - 1);
+              for (int c = 0; c < 4; ++c)
+                dst[(static_cast<size_t>(y) * stored + x) * 4 + static_cast<size_t>(c)] =
+                    float_to_half_bits(img.at(gx, gy, c));
+            }
+          // Paper 000 eq. 8 with l' = l − 1: mean over the T² texels of the squared distance
+          // (summed over the 4 packed components) to the bilinearly up-sampled parent, i.e. to
+          // what the renderer shows when the parent is used instead. §6: mean squared norm.
+          double w = 0.0, energy = 0.0;
+          for (uint32_t y = 0; y < tile_size; ++y)
+            for (uint32_t x = 0; x < tile_size; ++x) {
+              const int gx = std::min(static_cast<int>(tx * tile_size + x), img.width() - 1);
+              const int gy = std::min(static_cast<int>(ty * tile_size + y), img.height() - 1);
+              float parent[4] = {0, 0, 0, 0};
+              if (l > 0)
+                sample_bilinear_clamped(levels[l - 1], (static_cast<float>(gx) + 0.5f) * 0.5f,
+                                        (static_cast<float>(gy) + 0.5f) * 0.5f, parent);
+              for (int c = 0; c < 4; ++c) {
+                const double v = img.at(gx, gy, c);
+                w += (v - parent[c]) * (v - parent[c]);
+                energy += v * v;
+              }
+            }
+          const double inv = 1.0 / (static_cast<double>(tile_size) * tile_size);
+          p.weights_[k][index] = Half(static_cast<float>(w * inv));
+          p.energies_[k][index] = Half(static_cast<float>(energy * inv));
+        }
+    }
+  }
+  return p;
+}
+
+}  // namespace btflod
+#endif  // BTFLOD_IMPLEMENTATION

@@ -11,9 +11,11 @@
 // Readers never trust a size: every count, offset and size is checked against the section that
 // holds it and against the file size before use; each section and payload has a CRC-32.
 //
-// Reading is runtime code and stays cheap to include; build_bsvtf (the multi-threaded encoder)
-// is defined in the implementation TU (BTFLOD_IMPLEMENTATION), so this header includes no
-// <thread>, <future> or <mutex>.
+// Reading is runtime code and stays cheap to include: the directory parser, the writers
+// (write_bsvtf, build_bsvtf — the multi-threaded encoder) and bsvtf_component_ranges are defined in
+// the implementation TU (BTFLOD_IMPLEMENTATION), so this header includes no <thread>, <future> or
+// <mutex> and instantiates none of their containers and sorts; verify_bsvtf_payload and
+// unpack_bsvtf_packet, called per payload, stay inline.
 #pragma once
 
 #include <algorithm>
@@ -58,7 +60,9 @@ enum class AngularRowOrder : uint8_t {
 
 /// Stable name of a row order ("light_major", "view_major", "unspecified").
 constexpr const char* angular_row_order_name(AngularRowOrder o) noexcept {
-  return o == AngularRowOrder::light_major ? "light_major" : o == AngularRowOrder::view_major ? "view_major" : "unspecified";
+  return o == AngularRowOrder::light_major  ? "light_major"
+         : o == AngularRowOrder::view_major ? "view_major"
+                                            : "unspecified";
 }
 
 /// How the colour channels of U are to be interpreted.
@@ -75,10 +79,10 @@ struct BsvtfMetadata {
   uint32_t component_count = 0;  ///< C eigen-textures; virtual texture g holds components 4g … 4g+3
   uint32_t color_channels = 3;
   ColorMode color_mode = ColorMode::linear_rgb;
-  uint32_t u_rows = 0;           ///< rows of U: lights × views × colour channels, in u_row_order
+  uint32_t u_rows = 0;  ///< rows of U: lights × views × colour channels, in u_row_order
   /// Order of U's rows (stored since version 3). Writers must say which order U is in.
   AngularRowOrder u_row_order = AngularRowOrder::light_major;
-  std::string light_set;         ///< name of the light direction set (e.g. "UBO2014-151")
+  std::string light_set;  ///< name of the light direction set (e.g. "UBO2014-151")
   std::string view_set;
   std::vector<float> light_directions;  ///< xyz triples, local frame
   std::vector<float> view_directions;   ///< xyz triples, local frame
@@ -156,281 +160,21 @@ struct BsvtfEncodedTile {
   float energy = 0.0f;  ///< ‖T‖²_F / T² (paper 000 §6)
 };
 
-namespace detail {
-inline void bsvtf_write_string(ByteWriter& w, const std::string& s) {
-  w.u32(static_cast<uint32_t>(s.size()));
-  w.text(s);
-}
-
-inline VoidResult bsvtf_check_metadata(const BsvtfMetadata& m) {
-  if (!m.layout().valid())
-    return make_error(Status::invalid_argument, "bsvtf metadata: tile size %u with border %u is not a valid tile layout",
-                      m.tile_size, m.border);
-  if (m.level_count < 1 || m.level_count > kMaxTileLevel + 1)
-    return make_error(Status::invalid_argument, "bsvtf metadata: level count %u not in 1..%u", m.level_count, kMaxTileLevel + 1);
-  const uint64_t side = uint64_t{m.tile_size} << (m.level_count - 1);
-  if (m.width < 1 || m.height < 1 || m.width > side || m.height > side)
-    return make_error(Status::invalid_argument, "bsvtf metadata: texture %ux%u does not fit %u levels of %u-texel tiles (max %llu)",
-                      m.width, m.height, m.level_count, m.tile_size, static_cast<unsigned long long>(side));
-  if (m.component_count < 1 || m.component_count > kBsvtfMaxComponents)
-    return make_error(Status::invalid_argument, "bsvtf metadata: component count %u not in 1..%u", m.component_count, kBsvtfMaxComponents);
-  if (m.color_channels < 1 || m.color_channels > 4)
-    return make_error(Status::invalid_argument, "bsvtf metadata: colour channel count %u not in 1..4", m.color_channels);
-  if (static_cast<uint32_t>(m.color_mode) > 2)
-    return make_error(Status::invalid_argument, "bsvtf metadata: colour mode %u unknown", static_cast<uint32_t>(m.color_mode));
-  if (m.u_rows > (1u << 28)) return make_error(Status::invalid_argument, "bsvtf metadata: %u rows of U exceed 2^28", m.u_rows);
-  if (static_cast<uint32_t>(m.u_row_order) > 2)
-    return make_error(Status::invalid_argument, "bsvtf metadata: row order %u unknown", static_cast<uint32_t>(m.u_row_order));
-  if (m.light_directions.size() % 3 || m.view_directions.size() % 3)
-    return make_error(Status::invalid_argument, "bsvtf metadata: direction arrays must hold xyz triples");
-  if (m.component_ranges.size() != m.component_count || m.component_scales.size() != m.component_count)
-    return make_error(Status::invalid_argument, "bsvtf metadata: %zu ranges and %zu scales for %u components",
-                      m.component_ranges.size(), m.component_scales.size(), m.component_count);
-  if (m.material_name.size() > kBsvtfMaxStringBytes || m.light_set.size() > kBsvtfMaxStringBytes ||
-      m.view_set.size() > kBsvtfMaxStringBytes)
-    return make_error(Status::invalid_argument, "bsvtf metadata: a name is longer than %u bytes", kBsvtfMaxStringBytes);
-  return {};
-}
-
-inline std::vector<uint8_t> bsvtf_serialise_metadata(const BsvtfMetadata& m, uint32_t version) {
-  ByteWriter w;
-  for (uint32_t v : {m.width, m.height, m.tile_size, m.border, m.level_count, m.component_count, m.color_channels,
-                     static_cast<uint32_t>(m.color_mode), m.u_rows, static_cast<uint32_t>(m.light_directions.size() / 3),
-                     static_cast<uint32_t>(m.view_directions.size() / 3)})
-    w.u32(v);
-  w.f32(m.quality);
-  if (version >= 3) w.u32(static_cast<uint32_t>(m.u_row_order));
-  bsvtf_write_string(w, m.material_name);
-  bsvtf_write_string(w, m.light_set);
-  bsvtf_write_string(w, m.view_set);
-  for (float f : m.light_directions) w.f32(f);
-  for (float f : m.view_directions) w.f32(f);
-  for (float f : m.component_ranges) w.f32(f);
-  for (float f : m.component_scales) w.f32(f);
-  return w.take();
-}
-
-inline bool bsvtf_read_string(ByteReader& r, std::string& out) {
-  const uint32_t n = r.u32();
-  if (!r.ok() || n > kBsvtfMaxStringBytes || n > r.remaining()) return false;
-  out = r.fixed_string(n);
-  return r.ok();
-}
-}  // namespace detail
-
 /// Writes a container from already encoded tiles. `u` is U row-major, metadata.u_rows ×
 /// metadata.component_count floats (stored as halves, 4 components per packet, the last packet
 /// zero-padded). Every tile id must be valid, unique, of a texture < texture_count() and a level
 /// < level_count, and every tile of level > 0 must have its parent in the list.
 /// Returns the file bytes or invalid_argument with a message. Thread-safe (no shared state).
 /// `version` is kBsvtfVersion; kBsvtfOldestReadableVersion writes the older layout (no row
-/// order, no energies) for compatibility tests of readers.
-inline Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::span<const float> u,
-                                                std::span<const BsvtfEncodedTile> tiles, uint32_t version = kBsvtfVersion) {
-  if (auto ok = detail::bsvtf_check_metadata(metadata); !ok) return ok.error();
-  if (version < kBsvtfOldestReadableVersion || version > kBsvtfVersion)
-    return make_error(Status::invalid_argument, "write_bsvtf: cannot write version %u", version);
-  const uint32_t textures = metadata.texture_count();
-  if (u.size() != size_t{metadata.u_rows} * metadata.component_count)
-    return make_error(Status::invalid_argument, "write_bsvtf: U has %zu floats, expected %u rows x %u components", u.size(),
-                      metadata.u_rows, metadata.component_count);
-  // Sort tile references by key; check ids, duplicates and parents.
-  std::vector<const BsvtfEncodedTile*> by_key;
-  by_key.reserve(tiles.size());
-  for (const auto& t : tiles) {
-    if (!t.id.valid() || t.id.texture >= textures || t.id.level >= metadata.level_count)
-      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) outside the material",
-                        t.id.texture, t.id.level, t.id.x, t.id.y);
-    if (t.payload.empty() || t.payload.size() > UINT32_MAX)
-      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has a payload of %zu bytes",
-                        t.id.texture, t.id.level, t.id.x, t.id.y, t.payload.size());
-    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
-      return make_error(Status::invalid_argument, "write_bsvtf: tile weight and energy must be finite and >= 0");
-    if (metadata.u_row_order == AngularRowOrder::unspecified && version >= 3)
-      return make_error(Status::invalid_argument, "write_bsvtf: metadata.u_row_order must say how U's rows are ordered");
-    by_key.push_back(&t);
-  }
-  std::sort(by_key.begin(), by_key.end(), [](auto* a, auto* b) { return a->id.key() < b->id.key(); });
-  for (size_t i = 1; i < by_key.size(); ++i)
-    if (by_key[i]->id.key() == by_key[i - 1]->id.key())
-      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) appears twice", by_key[i]->id.texture,
-                        by_key[i]->id.level, by_key[i]->id.x, by_key[i]->id.y);
-  std::vector<uint64_t> keys;
-  keys.reserve(by_key.size());
-  for (const auto* t : by_key) keys.push_back(t->id.key());
-  auto has = [&](const TileId& id) { return std::binary_search(keys.begin(), keys.end(), id.key()); };
-  for (const auto* t : by_key)
-    if (t->id.level > 0 && !has(t->id.parent()))
-      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has no parent", t->id.texture,
-                        t->id.level, t->id.x, t->id.y);
-
-  const std::vector<uint8_t> meta = detail::bsvtf_serialise_metadata(metadata, version);
-  BsvtfHeader h;
-  h.version = version;
-  h.metadata_offset = kBsvtfHeaderSize;
-  h.metadata_size = static_cast<uint32_t>(meta.size());
-  h.metadata_crc = crc32_of(meta);
-  h.packet_table_offset = h.metadata_offset + h.metadata_size;
-  h.packet_count = textures;
-  h.tile_index_offset = h.packet_table_offset + uint64_t{textures} * kBsvtfPacketEntrySize;
-  h.tile_count = static_cast<uint32_t>(by_key.size());
-  h.directory_size = h.tile_index_offset + uint64_t{h.tile_count} * kBsvtfTileEntrySize;
-  h.payload_offset = h.directory_size;
-
-  // U packets as halves: packet g row r = components 4g..4g+3 of row r.
-  std::vector<std::vector<uint8_t>> packets(textures);
-  for (uint32_t g = 0; g < textures; ++g) {
-    std::vector<uint16_t> halves(size_t{metadata.u_rows} * 4, 0);
-    for (uint32_t r = 0; r < metadata.u_rows; ++r)
-      for (uint32_t k = 0; k < 4; ++k) {
-        const uint32_t c = 4 * g + k;
-        if (c < metadata.component_count) halves[size_t{r} * 4 + k] = float_to_half_bits(u[size_t{r} * metadata.component_count + c]);
-      }
-    packets[g].resize(halves.size() * 2);
-    if (!halves.empty()) std::memcpy(packets[g].data(), halves.data(), packets[g].size());
-  }
-
-  // Payload order: for each texture its U packet then its root tile; then levels 1, 2, … in key order.
-  std::vector<BsvtfPacketEntry> packet_entries(textures);
-  std::vector<BsvtfTileEntry> tile_entries(by_key.size());
-  std::vector<const uint8_t*> order_data;
-  std::vector<size_t> order_size;
-  uint64_t cursor = h.payload_offset;
-  auto place_tile = [&](size_t i) {
-    const auto* t = by_key[i];
-    tile_entries[i] = BsvtfTileEntry{t->id, cursor, static_cast<uint32_t>(t->payload.size()), crc32_of(t->payload), t->weight,
-                                     t->energy};
-    order_data.push_back(t->payload.data());
-    order_size.push_back(t->payload.size());
-    cursor += t->payload.size();
-  };
-  for (uint32_t g = 0; g < textures; ++g) {
-    packet_entries[g] = BsvtfPacketEntry{g, cursor, static_cast<uint32_t>(packets[g].size()), crc32_of(packets[g])};
-    order_data.push_back(packets[g].data());
-    order_size.push_back(packets[g].size());
-    cursor += packets[g].size();
-    for (size_t i = 0; i < by_key.size(); ++i)
-      if (by_key[i]->id.texture == g && by_key[i]->id.level == 0) place_tile(i);
-  }
-  for (uint32_t level = 1; level < metadata.level_count; ++level)
-    for (size_t i = 0; i < by_key.size(); ++i)
-      if (by_key[i]->id.level == level) place_tile(i);
-  h.payload_size = cursor - h.payload_offset;
-  h.file_size = cursor;
-
-  ByteWriter table;
-  for (const auto& p : packet_entries) {
-    table.u32(p.index);
-    table.u32(0);
-    table.u64(p.offset);
-    table.u32(p.size);
-    table.u32(p.crc);
-  }
-  const std::vector<uint8_t> packet_table = table.take();
-  ByteWriter index;
-  for (const auto& t : tile_entries) {
-    index.u64(t.id.key());
-    index.u64(t.offset);
-    index.u32(t.size);
-    index.u32(t.crc);
-    index.f32(t.weight);
-    if (version >= 3) index.f32(t.energy);
-    else index.u32(0);  // reserved in version 2
-  }
-  const std::vector<uint8_t> tile_index = index.take();
-  h.packet_table_crc = crc32_of(packet_table);
-  h.tile_index_crc = crc32_of(tile_index);
-
-  ByteWriter w;
-  w.raw(kBsvtfMagic, 8);
-  w.u32(h.version);
-  w.u32(static_cast<uint32_t>(kBsvtfHeaderSize));
-  w.u64(h.file_size);
-  w.u64(h.directory_size);
-  w.u64(h.metadata_offset);
-  w.u32(h.metadata_size);
-  w.u32(h.metadata_crc);
-  w.u64(h.packet_table_offset);
-  w.u32(h.packet_count);
-  w.u32(h.packet_table_crc);
-  w.u64(h.tile_index_offset);
-  w.u32(h.tile_count);
-  w.u32(h.tile_index_crc);
-  w.u64(h.payload_offset);
-  w.u64(h.payload_size);
-  while (w.size() < kBsvtfHeaderSize - 4) w.u8(0);
-  w.u32(crc32_of(std::span<const uint8_t>(w.bytes().data(), kBsvtfHeaderSize - 4)));
-  w.bytes().reserve(h.file_size);
-  w.raw(meta);
-  w.raw(packet_table);
-  w.raw(tile_index);
-  for (size_t i = 0; i < order_data.size(); ++i) w.raw(order_data[i], order_size[i]);
-  return w.take();
-}
+/// order, no energies) for compatibility tests of readers. Defined in the implementation TU.
+Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::span<const float> u,
+                                         std::span<const BsvtfEncodedTile> tiles, uint32_t version = kBsvtfVersion);
 
 /// Parses and validates the fixed header (the first kBsvtfHeaderSize bytes of a file whose
 /// total size is `file_size`). Returns short_output when fewer bytes are given, bad_data for a
 /// wrong signature, checksum or inconsistent section table, unsupported for another major
-/// version. Safe on untrusted input; thread-safe.
-inline Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, uint64_t file_size) {
-  if (bytes.size() < kBsvtfHeaderSize)
-    return make_error(Status::short_output, "bsvtf header: %zu bytes, expected at least %zu", bytes.size(), kBsvtfHeaderSize);
-  ByteReader r(bytes.first(kBsvtfHeaderSize));
-  if (!r.match(std::string_view(reinterpret_cast<const char*>(kBsvtfMagic), 8)))
-    return make_error(Status::bad_data, "bsvtf header: signature is not BSVTF\\r\\n\\x1a");
-  const uint32_t stored_crc = [&] {
-    uint32_t c = 0;
-    std::memcpy(&c, bytes.data() + kBsvtfHeaderSize - 4, 4);
-    return c;
-  }();
-  const uint32_t crc = crc32_of(bytes.first(kBsvtfHeaderSize - 4));
-  BsvtfHeader h;
-  h.version = r.u32();
-  if (h.version < kBsvtfOldestReadableVersion || h.version > kBsvtfVersion)
-    return make_error(Status::unsupported, "bsvtf header: version %u, this reader handles versions %u to %u%s", h.version,
-                      kBsvtfOldestReadableVersion, kBsvtfVersion,
-                      h.version > kBsvtfVersion ? " (a newer writer made this file: update btflod)" : " (rebuild the file)");
-  if (crc != stored_crc) return make_error(Status::bad_data, "bsvtf header: checksum %08x, stored %08x", crc, stored_crc);
-  const uint32_t header_size = r.u32();
-  if (header_size != kBsvtfHeaderSize)
-    return make_error(Status::bad_data, "bsvtf header: header size %u, expected %zu", header_size, kBsvtfHeaderSize);
-  h.file_size = r.u64();
-  h.directory_size = r.u64();
-  h.metadata_offset = r.u64();
-  h.metadata_size = r.u32();
-  h.metadata_crc = r.u32();
-  h.packet_table_offset = r.u64();
-  h.packet_count = r.u32();
-  h.packet_table_crc = r.u32();
-  h.tile_index_offset = r.u64();
-  h.tile_count = r.u32();
-  h.tile_index_crc = r.u32();
-  h.payload_offset = r.u64();
-  h.payload_size = r.u64();
-  const auto reserved = r.take(kBsvtfHeaderSize - 4 - 96);
-  if (std::any_of(reserved.begin(), reserved.end(), [](uint8_t b) { return b != 0; }))
-    return make_error(Status::bad_data, "bsvtf header: reserved bytes 96..123 are not zero");
-  if (h.file_size != file_size) {
-    return make_error(file_size < h.file_size ? Status::short_output : Status::bad_data,
-                      "bsvtf header: file has %llu bytes, header declares %llu%s", static_cast<unsigned long long>(file_size),
-                      static_cast<unsigned long long>(h.file_size), file_size > h.file_size ? " (trailing bytes)" : " (truncated)");
-  }
-  // The sections follow each other exactly: header, metadata, packet table, tile index, payloads.
-  const uint64_t packet_table_size = uint64_t{h.packet_count} * kBsvtfPacketEntrySize;
-  const uint64_t tile_index_size = uint64_t{h.tile_count} * kBsvtfTileEntrySize;
-  if (h.metadata_offset != kBsvtfHeaderSize || h.packet_table_offset != h.metadata_offset + h.metadata_size ||
-      h.tile_index_offset != h.packet_table_offset + packet_table_size ||
-      h.directory_size != h.tile_index_offset + tile_index_size || h.payload_offset != h.directory_size)
-    return make_error(Status::bad_data, "bsvtf header: section table is not contiguous (metadata %llu+%u, packets %llu, index %llu, directory %llu)",
-                      static_cast<unsigned long long>(h.metadata_offset), h.metadata_size,
-                      static_cast<unsigned long long>(h.packet_table_offset), static_cast<unsigned long long>(h.tile_index_offset),
-                      static_cast<unsigned long long>(h.directory_size));
-  if (h.directory_size > file_size || h.payload_size != file_size - h.payload_offset)
-    return make_error(Status::bad_data, "bsvtf header: directory of %llu bytes and payload of %llu bytes do not add up to the file size %llu",
-                      static_cast<unsigned long long>(h.directory_size), static_cast<unsigned long long>(h.payload_size),
-                      static_cast<unsigned long long>(file_size));
-  return h;
-}
+/// version. Safe on untrusted input; thread-safe. Defined in the implementation TU.
+Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, uint64_t file_size);
 
 /// Parses and validates the directory. `prefix` holds at least the first directory_size bytes
 /// of a file of `file_size` bytes (more is fine: e.g. the whole file). Validates the header,
@@ -439,147 +183,19 @@ inline Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, ui
 /// the layout, ids valid, keys strictly ascending, parents present). Payload checksums are
 /// verified when payloads are fetched (verify_bsvtf_payload). Returns short_output with the
 /// number of bytes needed when `prefix` is too short. Safe on untrusted input; thread-safe.
-inline Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> prefix, uint64_t file_size) {
-  auto header = parse_bsvtf_header(prefix, file_size);
-  if (!header) return header.error();
-  BsvtfDirectory d;
-  d.header = header.value();
-  const BsvtfHeader& h = d.header;
-  if (prefix.size() < h.directory_size)
-    return make_error(Status::short_output, "bsvtf directory: %zu bytes given, the directory needs %llu", prefix.size(),
-                      static_cast<unsigned long long>(h.directory_size));
-
-  // Metadata.
-  const auto meta_bytes = prefix.subspan(h.metadata_offset, h.metadata_size);
-  if (const uint32_t c = crc32_of(meta_bytes); c != h.metadata_crc)
-    return make_error(Status::bad_data, "bsvtf metadata: checksum %08x, stored %08x", c, h.metadata_crc);
-  ByteReader r(meta_bytes);
-  BsvtfMetadata& m = d.metadata;
-  m.width = r.u32();
-  m.height = r.u32();
-  m.tile_size = r.u32();
-  m.border = r.u32();
-  m.level_count = r.u32();
-  m.component_count = r.u32();
-  m.color_channels = r.u32();
-  m.color_mode = static_cast<ColorMode>(r.u32());
-  m.u_rows = r.u32();
-  const uint32_t light_count = r.u32();
-  const uint32_t view_count = r.u32();
-  m.quality = r.f32();
-  m.u_row_order = AngularRowOrder::unspecified;
-  if (h.version >= 3) {
-    const uint32_t order = r.u32();
-    if (r.ok() && order > 1)
-      return make_error(Status::bad_data, "bsvtf metadata: row order %u is neither light-major (0) nor view-major (1)", order);
-    m.u_row_order = static_cast<AngularRowOrder>(order);
-  }
-  if (!r.ok()) return make_error(Status::bad_data, "bsvtf metadata: %u bytes, too short for the fixed fields", h.metadata_size);
-  if (!detail::bsvtf_read_string(r, m.material_name) || !detail::bsvtf_read_string(r, m.light_set) ||
-      !detail::bsvtf_read_string(r, m.view_set))
-    return make_error(Status::bad_data, "bsvtf metadata: a name is truncated or longer than %u bytes", kBsvtfMaxStringBytes);
-  auto read_floats = [&](std::vector<float>& out, uint64_t count, const char* what) -> VoidResult {
-    if (!r.can_hold(count, 4))
-      return make_error(Status::bad_data, "bsvtf metadata: %llu %s need %llu bytes, %zu remain", static_cast<unsigned long long>(count),
-                        what, static_cast<unsigned long long>(count * 4), r.remaining());
-    out.resize(static_cast<size_t>(count));
-    r.copy_to(out.data(), out.size() * 4);
-    for (float f : out)
-      if (!std::isfinite(f)) return make_error(Status::bad_data, "bsvtf metadata: %s contain a non-finite value", what);
-    return {};
-  };
-  if (auto ok = read_floats(m.light_directions, uint64_t{light_count} * 3, "light direction floats"); !ok) return ok.error();
-  if (auto ok = read_floats(m.view_directions, uint64_t{view_count} * 3, "view direction floats"); !ok) return ok.error();
-  if (auto ok = read_floats(m.component_ranges, m.component_count, "component ranges"); !ok) return ok.error();
-  if (auto ok = read_floats(m.component_scales, m.component_count, "component scales"); !ok) return ok.error();
-  if (r.remaining() != 0) return make_error(Status::bad_data, "bsvtf metadata: %zu trailing bytes", r.remaining());
-  if (auto ok = detail::bsvtf_check_metadata(m); !ok) return make_error(Status::bad_data, "%s", ok.message().c_str());
-  if (!std::isfinite(m.quality)) return make_error(Status::bad_data, "bsvtf metadata: quality is not finite");
-
-  const uint64_t payload_begin = h.payload_offset;
-  const uint64_t payload_end = h.payload_offset + h.payload_size;  // == file_size, checked by the header parser
-  auto in_payload = [&](uint64_t offset, uint32_t size) {
-    return offset >= payload_begin && offset <= payload_end && size <= payload_end - offset;
-  };
-
-  // U packets.
-  if (h.packet_count != m.texture_count())
-    return make_error(Status::bad_data, "bsvtf packet table: %u packets, expected %u for %u components", h.packet_count,
-                      m.texture_count(), m.component_count);
-  const auto packet_bytes = prefix.subspan(h.packet_table_offset, size_t{h.packet_count} * kBsvtfPacketEntrySize);
-  if (const uint32_t c = crc32_of(packet_bytes); c != h.packet_table_crc)
-    return make_error(Status::bad_data, "bsvtf packet table: checksum %08x, stored %08x", c, h.packet_table_crc);
-  ByteReader pr(packet_bytes);
-  const uint64_t packet_size = uint64_t{m.u_rows} * 4 * 2;
-  d.packets.resize(h.packet_count);
-  for (uint32_t i = 0; i < h.packet_count; ++i) {
-    BsvtfPacketEntry& p = d.packets[i];
-    p.index = pr.u32();
-    pr.u32();
-    p.offset = pr.u64();
-    p.size = pr.u32();
-    p.crc = pr.u32();
-    if (p.index != i || p.size != packet_size || !in_payload(p.offset, p.size))
-      return make_error(Status::bad_data, "bsvtf packet %u: index %u, %u bytes at %llu; expected %llu bytes inside [%llu, %llu)", i,
-                        p.index, p.size, static_cast<unsigned long long>(p.offset), static_cast<unsigned long long>(packet_size),
-                        static_cast<unsigned long long>(payload_begin), static_cast<unsigned long long>(payload_end));
-  }
-
-  // Tile index.
-  const auto index_bytes = prefix.subspan(h.tile_index_offset, size_t{h.tile_count} * kBsvtfTileEntrySize);
-  if (const uint32_t c = crc32_of(index_bytes); c != h.tile_index_crc)
-    return make_error(Status::bad_data, "bsvtf tile index: checksum %08x, stored %08x", c, h.tile_index_crc);
-  const TileLayout layout = m.layout();
-  const uint64_t max_tile = tile_encode_bound(layout);
-  const uint64_t min_tile = tile_header_size(layout.channels) + 1;
-  ByteReader ir(index_bytes);
-  d.tiles.resize(h.tile_count);
-  for (uint32_t i = 0; i < h.tile_count; ++i) {
-    BsvtfTileEntry& t = d.tiles[i];
-    const uint64_t key = ir.u64();
-    t.id = TileId::from_key(key);
-    t.offset = ir.u64();
-    t.size = ir.u32();
-    t.crc = ir.u32();
-    t.weight = ir.f32();
-    t.energy = h.version >= 3 ? ir.f32() : (ir.u32(), 0.0f);
-    if (t.id.key() != key || !t.id.valid() || t.id.texture >= m.texture_count() || t.id.level >= m.level_count)
-      return make_error(Status::bad_data, "bsvtf tile entry %u: key %016llx is not a tile of this material", i,
-                        static_cast<unsigned long long>(key));
-    if (i > 0 && key <= d.tiles[i - 1].id.key())
-      return make_error(Status::bad_data, "bsvtf tile entry %u: keys not strictly ascending", i);
-    if (t.size < min_tile || t.size > max_tile || !in_payload(t.offset, t.size))
-      return make_error(Status::bad_data, "bsvtf tile entry %u: %u bytes at %llu; expected %llu..%llu bytes inside [%llu, %llu)", i,
-                        t.size, static_cast<unsigned long long>(t.offset), static_cast<unsigned long long>(min_tile),
-                        static_cast<unsigned long long>(max_tile), static_cast<unsigned long long>(payload_begin),
-                        static_cast<unsigned long long>(payload_end));
-    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
-      return make_error(Status::bad_data, "bsvtf tile entry %u: weight or energy not finite and >= 0", i);
-  }
-  for (uint32_t i = 0; i < h.tile_count; ++i)
-    if (d.tiles[i].id.level > 0 && d.find(d.tiles[i].id.parent()) == nullptr)
-      return make_error(Status::bad_data, "bsvtf tile entry %u: parent tile missing", i);
-
-  // No two payloads overlap.
-  std::vector<std::pair<uint64_t, uint64_t>> spans;
-  spans.reserve(d.tiles.size() + d.packets.size());
-  for (const auto& p : d.packets) spans.emplace_back(p.offset, p.size);
-  for (const auto& t : d.tiles) spans.emplace_back(t.offset, t.size);
-  std::sort(spans.begin(), spans.end());
-  for (size_t i = 1; i < spans.size(); ++i)
-    if (spans[i - 1].first + spans[i - 1].second > spans[i].first)
-      return make_error(Status::bad_data, "bsvtf: payloads at %llu and %llu overlap", static_cast<unsigned long long>(spans[i - 1].first),
-                        static_cast<unsigned long long>(spans[i].first));
-  return d;
-}
+/// Defined in the implementation TU (allocates the directory's arrays).
+Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> prefix, uint64_t file_size);
 
 /// Parses a whole container held in memory (parse_bsvtf_directory with the file size taken from
 /// the span). Safe on untrusted input; thread-safe.
-inline Result<BsvtfDirectory> read_bsvtf(std::span<const uint8_t> file) { return parse_bsvtf_directory(file, file.size()); }
+inline Result<BsvtfDirectory> read_bsvtf(std::span<const uint8_t> file) {
+  return parse_bsvtf_directory(file, file.size());
+}
 
 /// Checks fetched payload bytes against their index entry: success, short_output (fewer bytes)
 /// or bad_data (more bytes, or CRC-32 mismatch). No allocation; thread-safe.
-inline Status verify_bsvtf_payload(uint32_t expected_size, uint32_t expected_crc, std::span<const uint8_t> bytes) noexcept {
+inline Status verify_bsvtf_payload(uint32_t expected_size, uint32_t expected_crc,
+                                   std::span<const uint8_t> bytes) noexcept {
   if (bytes.size() < expected_size) return Status::short_output;
   if (bytes.size() > expected_size) return Status::bad_data;
   return crc32_of(bytes) == expected_crc ? Status::success : Status::bad_data;
@@ -632,38 +248,20 @@ enum class ToleranceReference : uint8_t {
 
 /// Options for build_bsvtf.
 struct BsvtfBuildOptions {
-  float quality = 50.0f;      ///< 1..100, see tolerance_for_quality
+  float quality = 50.0f;  ///< 1..100, see tolerance_for_quality
   ToleranceReference tolerance_reference = ToleranceReference::shared_max;
-  int deflate_level = 6;      ///< zlib level 0..9
+  int deflate_level = 6;  ///< zlib level 0..9
   /// Frequency weighting: JPEG's table to the power weight_quarters / 4 (0..4; 4 = JPEG's table,
   /// the bytes of earlier versions; codec/quantize.hpp quant_step_factors). Stored per tile.
   uint32_t weight_quarters = kJpegWeightQuarters;
-  /// Entropy coder of every tile: deflate (tile format 2, every reader) or zstd (tile format 3,
-  /// readers built with BTFLOD_WITH_ZSTD; codec/tile_codec.hpp) at zstd_level (1..22).
-  TileEntropyCoder entropy_coder = TileEntropyCoder::deflate;
-  int zstd_level = 19;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
-  ProgressCallback progress;  ///< stage "encode tiles", fraction of tiles done; false cancels
+  ProgressCallback progress;   ///< stage "encode tiles", fraction of tiles done; false cancels
 };
 
 /// max − min of each of the `component_count` eigen-texture components over `tiles` (4
 /// channels per tile: component 4·texture + channel; components no tile holds get 0): what
 /// build_bsvtf() fills metadata.component_ranges with when it is empty. Allocates the result.
-inline std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput> tiles, uint32_t component_count) {
-  std::vector<float> lo(component_count, INFINITY), hi(component_count, -INFINITY);
-  for (const auto& t : tiles)
-    for (uint32_t k = 0; k < 4; ++k) {
-      const uint64_t c = uint64_t{t.id.texture} * 4 + k;
-      if (c >= component_count) continue;
-      for (size_t i = k; i < t.samples.size(); i += 4) {
-        lo[c] = std::min(lo[c], t.samples[i]);
-        hi[c] = std::max(hi[c], t.samples[i]);
-      }
-    }
-  std::vector<float> ranges(component_count);
-  for (uint32_t c = 0; c < component_count; ++c) ranges[c] = hi[c] >= lo[c] ? hi[c] - lo[c] : 0.0f;
-  return ranges;
-}
+std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput> tiles, uint32_t component_count);
 
 /// Encodes tiles coarse to fine with the closed-loop residual codec and writes the container.
 /// Tolerances come from options.quality and options.tolerance_reference, times each tile's
@@ -689,6 +287,452 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
 
 namespace btflod {
 
+// The container writer and reader (declared above): compiled once, here.
+namespace detail {
+void bsvtf_write_string(ByteWriter& w, const std::string& s) {
+  w.u32(static_cast<uint32_t>(s.size()));
+  w.text(s);
+}
+
+VoidResult bsvtf_check_metadata(const BsvtfMetadata& m) {
+  if (!m.layout().valid())
+    return make_error(Status::invalid_argument,
+                      "bsvtf metadata: tile size %u with border %u is not a valid tile layout", m.tile_size, m.border);
+  if (m.level_count < 1 || m.level_count > kMaxTileLevel + 1)
+    return make_error(Status::invalid_argument, "bsvtf metadata: level count %u not in 1..%u", m.level_count,
+                      kMaxTileLevel + 1);
+  const uint64_t side = uint64_t{m.tile_size} << (m.level_count - 1);
+  if (m.width < 1 || m.height < 1 || m.width > side || m.height > side)
+    return make_error(Status::invalid_argument,
+                      "bsvtf metadata: texture %ux%u does not fit %u levels of %u-texel tiles (max %llu)", m.width,
+                      m.height, m.level_count, m.tile_size, static_cast<unsigned long long>(side));
+  if (m.component_count < 1 || m.component_count > kBsvtfMaxComponents)
+    return make_error(Status::invalid_argument, "bsvtf metadata: component count %u not in 1..%u", m.component_count,
+                      kBsvtfMaxComponents);
+  if (m.color_channels < 1 || m.color_channels > 4)
+    return make_error(Status::invalid_argument, "bsvtf metadata: colour channel count %u not in 1..4",
+                      m.color_channels);
+  if (static_cast<uint32_t>(m.color_mode) > 2)
+    return make_error(Status::invalid_argument, "bsvtf metadata: colour mode %u unknown",
+                      static_cast<uint32_t>(m.color_mode));
+  if (m.u_rows > (1u << 28))
+    return make_error(Status::invalid_argument, "bsvtf metadata: %u rows of U exceed 2^28", m.u_rows);
+  if (static_cast<uint32_t>(m.u_row_order) > 2)
+    return make_error(Status::invalid_argument, "bsvtf metadata: row order %u unknown",
+                      static_cast<uint32_t>(m.u_row_order));
+  if (m.light_directions.size() % 3 || m.view_directions.size() % 3)
+    return make_error(Status::invalid_argument, "bsvtf metadata: direction arrays must hold xyz triples");
+  if (m.component_ranges.size() != m.component_count || m.component_scales.size() != m.component_count)
+    return make_error(Status::invalid_argument, "bsvtf metadata: %zu ranges and %zu scales for %u components",
+                      m.component_ranges.size(), m.component_scales.size(), m.component_count);
+  if (m.material_name.size() > kBsvtfMaxStringBytes || m.light_set.size() > kBsvtfMaxStringBytes ||
+      m.view_set.size() > kBsvtfMaxStringBytes)
+    return make_error(Status::invalid_argument, "bsvtf metadata: a name is longer than %u bytes", kBsvtfMaxStringBytes);
+  return {};
+}
+
+std::vector<uint8_t> bsvtf_serialise_metadata(const BsvtfMetadata& m, uint32_t version) {
+  ByteWriter w;
+  for (uint32_t v :
+       {m.width, m.height, m.tile_size, m.border, m.level_count, m.component_count, m.color_channels,
+        static_cast<uint32_t>(m.color_mode), m.u_rows, static_cast<uint32_t>(m.light_directions.size() / 3),
+        static_cast<uint32_t>(m.view_directions.size() / 3)})
+    w.u32(v);
+  w.f32(m.quality);
+  if (version >= 3) w.u32(static_cast<uint32_t>(m.u_row_order));
+  bsvtf_write_string(w, m.material_name);
+  bsvtf_write_string(w, m.light_set);
+  bsvtf_write_string(w, m.view_set);
+  for (float f : m.light_directions) w.f32(f);
+  for (float f : m.view_directions) w.f32(f);
+  for (float f : m.component_ranges) w.f32(f);
+  for (float f : m.component_scales) w.f32(f);
+  return w.take();
+}
+
+bool bsvtf_read_string(ByteReader& r, std::string& out) {
+  const uint32_t n = r.u32();
+  if (!r.ok() || n > kBsvtfMaxStringBytes || n > r.remaining()) return false;
+  out = r.fixed_string(n);
+  return r.ok();
+}
+
+}  // namespace detail
+
+Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::span<const float> u,
+                                         std::span<const BsvtfEncodedTile> tiles, uint32_t version) {
+  if (auto ok = detail::bsvtf_check_metadata(metadata); !ok) return ok.error();
+  if (version < kBsvtfOldestReadableVersion || version > kBsvtfVersion)
+    return make_error(Status::invalid_argument, "write_bsvtf: cannot write version %u", version);
+  const uint32_t textures = metadata.texture_count();
+  if (u.size() != size_t{metadata.u_rows} * metadata.component_count)
+    return make_error(Status::invalid_argument, "write_bsvtf: U has %zu floats, expected %u rows x %u components",
+                      u.size(), metadata.u_rows, metadata.component_count);
+  // Sort tile references by key; check ids, duplicates and parents.
+  std::vector<const BsvtfEncodedTile*> by_key;
+  by_key.reserve(tiles.size());
+  for (const auto& t : tiles) {
+    if (!t.id.valid() || t.id.texture >= textures || t.id.level >= metadata.level_count)
+      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) outside the material",
+                        t.id.texture, t.id.level, t.id.x, t.id.y);
+    if (t.payload.empty() || t.payload.size() > UINT32_MAX)
+      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has a payload of %zu bytes",
+                        t.id.texture, t.id.level, t.id.x, t.id.y, t.payload.size());
+    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
+      return make_error(Status::invalid_argument, "write_bsvtf: tile weight and energy must be finite and >= 0");
+    if (metadata.u_row_order == AngularRowOrder::unspecified && version >= 3)
+      return make_error(Status::invalid_argument,
+                        "write_bsvtf: metadata.u_row_order must say how U's rows are ordered");
+    by_key.push_back(&t);
+  }
+  std::sort(by_key.begin(), by_key.end(), [](auto* a, auto* b) { return a->id.key() < b->id.key(); });
+  for (size_t i = 1; i < by_key.size(); ++i)
+    if (by_key[i]->id.key() == by_key[i - 1]->id.key())
+      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) appears twice",
+                        by_key[i]->id.texture, by_key[i]->id.level, by_key[i]->id.x, by_key[i]->id.y);
+  std::vector<uint64_t> keys;
+  keys.reserve(by_key.size());
+  for (const auto* t : by_key) keys.push_back(t->id.key());
+  auto has = [&](const TileId& id) { return std::binary_search(keys.begin(), keys.end(), id.key()); };
+  for (const auto* t : by_key)
+    if (t->id.level > 0 && !has(t->id.parent()))
+      return make_error(Status::invalid_argument, "write_bsvtf: tile (%u, level %u, %u, %u) has no parent",
+                        t->id.texture, t->id.level, t->id.x, t->id.y);
+
+  const std::vector<uint8_t> meta = detail::bsvtf_serialise_metadata(metadata, version);
+  BsvtfHeader h;
+  h.version = version;
+  h.metadata_offset = kBsvtfHeaderSize;
+  h.metadata_size = static_cast<uint32_t>(meta.size());
+  h.metadata_crc = crc32_of(meta);
+  h.packet_table_offset = h.metadata_offset + h.metadata_size;
+  h.packet_count = textures;
+  h.tile_index_offset = h.packet_table_offset + uint64_t{textures} * kBsvtfPacketEntrySize;
+  h.tile_count = static_cast<uint32_t>(by_key.size());
+  h.directory_size = h.tile_index_offset + uint64_t{h.tile_count} * kBsvtfTileEntrySize;
+  h.payload_offset = h.directory_size;
+
+  // U packets as halves: packet g row r = components 4g..4g+3 of row r.
+  std::vector<std::vector<uint8_t>> packets(textures);
+  for (uint32_t g = 0; g < textures; ++g) {
+    std::vector<uint16_t> halves(size_t{metadata.u_rows} * 4, 0);
+    for (uint32_t r = 0; r < metadata.u_rows; ++r)
+      for (uint32_t k = 0; k < 4; ++k) {
+        const uint32_t c = 4 * g + k;
+        if (c < metadata.component_count)
+          halves[size_t{r} * 4 + k] = float_to_half_bits(u[size_t{r} * metadata.component_count + c]);
+      }
+    packets[g].resize(halves.size() * 2);
+    if (!halves.empty()) std::memcpy(packets[g].data(), halves.data(), packets[g].size());
+  }
+
+  // Payload order: for each texture its U packet then its root tile; then levels 1, 2, … in key order.
+  std::vector<BsvtfPacketEntry> packet_entries(textures);
+  std::vector<BsvtfTileEntry> tile_entries(by_key.size());
+  std::vector<const uint8_t*> order_data;
+  std::vector<size_t> order_size;
+  uint64_t cursor = h.payload_offset;
+  auto place_tile = [&](size_t i) {
+    const auto* t = by_key[i];
+    tile_entries[i] = BsvtfTileEntry{
+        t->id, cursor, static_cast<uint32_t>(t->payload.size()), crc32_of(t->payload), t->weight, t->energy};
+    order_data.push_back(t->payload.data());
+    order_size.push_back(t->payload.size());
+    cursor += t->payload.size();
+  };
+  for (uint32_t g = 0; g < textures; ++g) {
+    packet_entries[g] = BsvtfPacketEntry{g, cursor, static_cast<uint32_t>(packets[g].size()), crc32_of(packets[g])};
+    order_data.push_back(packets[g].data());
+    order_size.push_back(packets[g].size());
+    cursor += packets[g].size();
+    for (size_t i = 0; i < by_key.size(); ++i)
+      if (by_key[i]->id.texture == g && by_key[i]->id.level == 0) place_tile(i);
+  }
+  for (uint32_t level = 1; level < metadata.level_count; ++level)
+    for (size_t i = 0; i < by_key.size(); ++i)
+      if (by_key[i]->id.level == level) place_tile(i);
+  h.payload_size = cursor - h.payload_offset;
+  h.file_size = cursor;
+
+  ByteWriter table;
+  for (const auto& p : packet_entries) {
+    table.u32(p.index);
+    table.u32(0);
+    table.u64(p.offset);
+    table.u32(p.size);
+    table.u32(p.crc);
+  }
+  const std::vector<uint8_t> packet_table = table.take();
+  ByteWriter index;
+  for (const auto& t : tile_entries) {
+    index.u64(t.id.key());
+    index.u64(t.offset);
+    index.u32(t.size);
+    index.u32(t.crc);
+    index.f32(t.weight);
+    if (version >= 3)
+      index.f32(t.energy);
+    else
+      index.u32(0);  // reserved in version 2
+  }
+  const std::vector<uint8_t> tile_index = index.take();
+  h.packet_table_crc = crc32_of(packet_table);
+  h.tile_index_crc = crc32_of(tile_index);
+
+  ByteWriter w;
+  w.raw(kBsvtfMagic, 8);
+  w.u32(h.version);
+  w.u32(static_cast<uint32_t>(kBsvtfHeaderSize));
+  w.u64(h.file_size);
+  w.u64(h.directory_size);
+  w.u64(h.metadata_offset);
+  w.u32(h.metadata_size);
+  w.u32(h.metadata_crc);
+  w.u64(h.packet_table_offset);
+  w.u32(h.packet_count);
+  w.u32(h.packet_table_crc);
+  w.u64(h.tile_index_offset);
+  w.u32(h.tile_count);
+  w.u32(h.tile_index_crc);
+  w.u64(h.payload_offset);
+  w.u64(h.payload_size);
+  while (w.size() < kBsvtfHeaderSize - 4) w.u8(0);
+  w.u32(crc32_of(std::span<const uint8_t>(w.bytes().data(), kBsvtfHeaderSize - 4)));
+  w.bytes().reserve(h.file_size);
+  w.raw(meta);
+  w.raw(packet_table);
+  w.raw(tile_index);
+  for (size_t i = 0; i < order_data.size(); ++i) w.raw(order_data[i], order_size[i]);
+  return w.take();
+}
+
+Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, uint64_t file_size) {
+  if (bytes.size() < kBsvtfHeaderSize)
+    return make_error(Status::short_output, "bsvtf header: %zu bytes, expected at least %zu", bytes.size(),
+                      kBsvtfHeaderSize);
+  ByteReader r(bytes.first(kBsvtfHeaderSize));
+  if (!r.match(std::string_view(reinterpret_cast<const char*>(kBsvtfMagic), 8)))
+    return make_error(Status::bad_data, "bsvtf header: signature is not BSVTF\\r\\n\\x1a");
+  const uint32_t stored_crc = [&] {
+    uint32_t c = 0;
+    std::memcpy(&c, bytes.data() + kBsvtfHeaderSize - 4, 4);
+    return c;
+  }();
+  const uint32_t crc = crc32_of(bytes.first(kBsvtfHeaderSize - 4));
+  BsvtfHeader h;
+  h.version = r.u32();
+  if (h.version < kBsvtfOldestReadableVersion || h.version > kBsvtfVersion)
+    return make_error(
+        Status::unsupported, "bsvtf header: version %u, this reader handles versions %u to %u%s", h.version,
+        kBsvtfOldestReadableVersion, kBsvtfVersion,
+        h.version > kBsvtfVersion ? " (a newer writer made this file: update btflod)" : " (rebuild the file)");
+  if (crc != stored_crc)
+    return make_error(Status::bad_data, "bsvtf header: checksum %08x, stored %08x", crc, stored_crc);
+  const uint32_t header_size = r.u32();
+  if (header_size != kBsvtfHeaderSize)
+    return make_error(Status::bad_data, "bsvtf header: header size %u, expected %zu", header_size, kBsvtfHeaderSize);
+  h.file_size = r.u64();
+  h.directory_size = r.u64();
+  h.metadata_offset = r.u64();
+  h.metadata_size = r.u32();
+  h.metadata_crc = r.u32();
+  h.packet_table_offset = r.u64();
+  h.packet_count = r.u32();
+  h.packet_table_crc = r.u32();
+  h.tile_index_offset = r.u64();
+  h.tile_count = r.u32();
+  h.tile_index_crc = r.u32();
+  h.payload_offset = r.u64();
+  h.payload_size = r.u64();
+  const auto reserved = r.take(kBsvtfHeaderSize - 4 - 96);
+  if (std::any_of(reserved.begin(), reserved.end(), [](uint8_t b) { return b != 0; }))
+    return make_error(Status::bad_data, "bsvtf header: reserved bytes 96..123 are not zero");
+  if (h.file_size != file_size) {
+    return make_error(file_size < h.file_size ? Status::short_output : Status::bad_data,
+                      "bsvtf header: file has %llu bytes, header declares %llu%s",
+                      static_cast<unsigned long long>(file_size), static_cast<unsigned long long>(h.file_size),
+                      file_size > h.file_size ? " (trailing bytes)" : " (truncated)");
+  }
+  // The sections follow each other exactly: header, metadata, packet table, tile index, payloads.
+  const uint64_t packet_table_size = uint64_t{h.packet_count} * kBsvtfPacketEntrySize;
+  const uint64_t tile_index_size = uint64_t{h.tile_count} * kBsvtfTileEntrySize;
+  if (h.metadata_offset != kBsvtfHeaderSize || h.packet_table_offset != h.metadata_offset + h.metadata_size ||
+      h.tile_index_offset != h.packet_table_offset + packet_table_size ||
+      h.directory_size != h.tile_index_offset + tile_index_size || h.payload_offset != h.directory_size)
+    return make_error(
+        Status::bad_data,
+        "bsvtf header: section table is not contiguous (metadata %llu+%u, packets %llu, index %llu, directory %llu)",
+        static_cast<unsigned long long>(h.metadata_offset), h.metadata_size,
+        static_cast<unsigned long long>(h.packet_table_offset), static_cast<unsigned long long>(h.tile_index_offset),
+        static_cast<unsigned long long>(h.directory_size));
+  if (h.directory_size > file_size || h.payload_size != file_size - h.payload_offset)
+    return make_error(
+        Status::bad_data,
+        "bsvtf header: directory of %llu bytes and payload of %llu bytes do not add up to the file size %llu",
+        static_cast<unsigned long long>(h.directory_size), static_cast<unsigned long long>(h.payload_size),
+        static_cast<unsigned long long>(file_size));
+  return h;
+}
+
+Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> prefix, uint64_t file_size) {
+  auto header = parse_bsvtf_header(prefix, file_size);
+  if (!header) return header.error();
+  BsvtfDirectory d;
+  d.header = header.value();
+  const BsvtfHeader& h = d.header;
+  if (prefix.size() < h.directory_size)
+    return make_error(Status::short_output, "bsvtf directory: %zu bytes given, the directory needs %llu", prefix.size(),
+                      static_cast<unsigned long long>(h.directory_size));
+
+  // Metadata.
+  const auto meta_bytes = prefix.subspan(h.metadata_offset, h.metadata_size);
+  if (const uint32_t c = crc32_of(meta_bytes); c != h.metadata_crc)
+    return make_error(Status::bad_data, "bsvtf metadata: checksum %08x, stored %08x", c, h.metadata_crc);
+  ByteReader r(meta_bytes);
+  BsvtfMetadata& m = d.metadata;
+  m.width = r.u32();
+  m.height = r.u32();
+  m.tile_size = r.u32();
+  m.border = r.u32();
+  m.level_count = r.u32();
+  m.component_count = r.u32();
+  m.color_channels = r.u32();
+  m.color_mode = static_cast<ColorMode>(r.u32());
+  m.u_rows = r.u32();
+  const uint32_t light_count = r.u32();
+  const uint32_t view_count = r.u32();
+  m.quality = r.f32();
+  m.u_row_order = AngularRowOrder::unspecified;
+  if (h.version >= 3) {
+    const uint32_t order = r.u32();
+    if (r.ok() && order > 1)
+      return make_error(Status::bad_data, "bsvtf metadata: row order %u is neither light-major (0) nor view-major (1)",
+                        order);
+    m.u_row_order = static_cast<AngularRowOrder>(order);
+  }
+  if (!r.ok())
+    return make_error(Status::bad_data, "bsvtf metadata: %u bytes, too short for the fixed fields", h.metadata_size);
+  if (!detail::bsvtf_read_string(r, m.material_name) || !detail::bsvtf_read_string(r, m.light_set) ||
+      !detail::bsvtf_read_string(r, m.view_set))
+    return make_error(Status::bad_data, "bsvtf metadata: a name is truncated or longer than %u bytes",
+                      kBsvtfMaxStringBytes);
+  auto read_floats = [&](std::vector<float>& out, uint64_t count, const char* what) -> VoidResult {
+    if (!r.can_hold(count, 4))
+      return make_error(Status::bad_data, "bsvtf metadata: %llu %s need %llu bytes, %zu remain",
+                        static_cast<unsigned long long>(count), what, static_cast<unsigned long long>(count * 4),
+                        r.remaining());
+    out.resize(static_cast<size_t>(count));
+    r.copy_to(out.data(), out.size() * 4);
+    for (float f : out)
+      if (!std::isfinite(f)) return make_error(Status::bad_data, "bsvtf metadata: %s contain a non-finite value", what);
+    return {};
+  };
+  if (auto ok = read_floats(m.light_directions, uint64_t{light_count} * 3, "light direction floats"); !ok)
+    return ok.error();
+  if (auto ok = read_floats(m.view_directions, uint64_t{view_count} * 3, "view direction floats"); !ok)
+    return ok.error();
+  if (auto ok = read_floats(m.component_ranges, m.component_count, "component ranges"); !ok) return ok.error();
+  if (auto ok = read_floats(m.component_scales, m.component_count, "component scales"); !ok) return ok.error();
+  if (r.remaining() != 0) return make_error(Status::bad_data, "bsvtf metadata: %zu trailing bytes", r.remaining());
+  if (auto ok = detail::bsvtf_check_metadata(m); !ok) return make_error(Status::bad_data, "%s", ok.message().c_str());
+  if (!std::isfinite(m.quality)) return make_error(Status::bad_data, "bsvtf metadata: quality is not finite");
+
+  const uint64_t payload_begin = h.payload_offset;
+  const uint64_t payload_end = h.payload_offset + h.payload_size;  // == file_size, checked by the header parser
+  auto in_payload = [&](uint64_t offset, uint32_t size) {
+    return offset >= payload_begin && offset <= payload_end && size <= payload_end - offset;
+  };
+
+  // U packets.
+  if (h.packet_count != m.texture_count())
+    return make_error(Status::bad_data, "bsvtf packet table: %u packets, expected %u for %u components", h.packet_count,
+                      m.texture_count(), m.component_count);
+  const auto packet_bytes = prefix.subspan(h.packet_table_offset, size_t{h.packet_count} * kBsvtfPacketEntrySize);
+  if (const uint32_t c = crc32_of(packet_bytes); c != h.packet_table_crc)
+    return make_error(Status::bad_data, "bsvtf packet table: checksum %08x, stored %08x", c, h.packet_table_crc);
+  ByteReader pr(packet_bytes);
+  const uint64_t packet_size = uint64_t{m.u_rows} * 4 * 2;
+  d.packets.resize(h.packet_count);
+  for (uint32_t i = 0; i < h.packet_count; ++i) {
+    BsvtfPacketEntry& p = d.packets[i];
+    p.index = pr.u32();
+    pr.u32();
+    p.offset = pr.u64();
+    p.size = pr.u32();
+    p.crc = pr.u32();
+    if (p.index != i || p.size != packet_size || !in_payload(p.offset, p.size))
+      return make_error(
+          Status::bad_data, "bsvtf packet %u: index %u, %u bytes at %llu; expected %llu bytes inside [%llu, %llu)", i,
+          p.index, p.size, static_cast<unsigned long long>(p.offset), static_cast<unsigned long long>(packet_size),
+          static_cast<unsigned long long>(payload_begin), static_cast<unsigned long long>(payload_end));
+  }
+
+  // Tile index.
+  const auto index_bytes = prefix.subspan(h.tile_index_offset, size_t{h.tile_count} * kBsvtfTileEntrySize);
+  if (const uint32_t c = crc32_of(index_bytes); c != h.tile_index_crc)
+    return make_error(Status::bad_data, "bsvtf tile index: checksum %08x, stored %08x", c, h.tile_index_crc);
+  const TileLayout layout = m.layout();
+  const uint64_t max_tile = tile_encode_bound(layout);
+  const uint64_t min_tile = tile_header_size(layout.channels) + 1;
+  ByteReader ir(index_bytes);
+  d.tiles.resize(h.tile_count);
+  for (uint32_t i = 0; i < h.tile_count; ++i) {
+    BsvtfTileEntry& t = d.tiles[i];
+    const uint64_t key = ir.u64();
+    t.id = TileId::from_key(key);
+    t.offset = ir.u64();
+    t.size = ir.u32();
+    t.crc = ir.u32();
+    t.weight = ir.f32();
+    t.energy = h.version >= 3 ? ir.f32() : (ir.u32(), 0.0f);
+    if (t.id.key() != key || !t.id.valid() || t.id.texture >= m.texture_count() || t.id.level >= m.level_count)
+      return make_error(Status::bad_data, "bsvtf tile entry %u: key %016llx is not a tile of this material", i,
+                        static_cast<unsigned long long>(key));
+    if (i > 0 && key <= d.tiles[i - 1].id.key())
+      return make_error(Status::bad_data, "bsvtf tile entry %u: keys not strictly ascending", i);
+    if (t.size < min_tile || t.size > max_tile || !in_payload(t.offset, t.size))
+      return make_error(Status::bad_data,
+                        "bsvtf tile entry %u: %u bytes at %llu; expected %llu..%llu bytes inside [%llu, %llu)", i,
+                        t.size, static_cast<unsigned long long>(t.offset), static_cast<unsigned long long>(min_tile),
+                        static_cast<unsigned long long>(max_tile), static_cast<unsigned long long>(payload_begin),
+                        static_cast<unsigned long long>(payload_end));
+    if (!std::isfinite(t.weight) || t.weight < 0 || !std::isfinite(t.energy) || t.energy < 0)
+      return make_error(Status::bad_data, "bsvtf tile entry %u: weight or energy not finite and >= 0", i);
+  }
+  for (uint32_t i = 0; i < h.tile_count; ++i)
+    if (d.tiles[i].id.level > 0 && d.find(d.tiles[i].id.parent()) == nullptr)
+      return make_error(Status::bad_data, "bsvtf tile entry %u: parent tile missing", i);
+
+  // No two payloads overlap.
+  std::vector<std::pair<uint64_t, uint64_t>> spans;
+  spans.reserve(d.tiles.size() + d.packets.size());
+  for (const auto& p : d.packets) spans.emplace_back(p.offset, p.size);
+  for (const auto& t : d.tiles) spans.emplace_back(t.offset, t.size);
+  std::sort(spans.begin(), spans.end());
+  for (size_t i = 1; i < spans.size(); ++i)
+    if (spans[i - 1].first + spans[i - 1].second > spans[i].first)
+      return make_error(Status::bad_data, "bsvtf: payloads at %llu and %llu overlap",
+                        static_cast<unsigned long long>(spans[i - 1].first),
+                        static_cast<unsigned long long>(spans[i].first));
+  return d;
+}
+
+std::vector<float> bsvtf_component_ranges(std::span<const BsvtfTileInput> tiles, uint32_t component_count) {
+  std::vector<float> lo(component_count, INFINITY), hi(component_count, -INFINITY);
+  for (const auto& t : tiles)
+    for (uint32_t k = 0; k < 4; ++k) {
+      const uint64_t c = uint64_t{t.id.texture} * 4 + k;
+      if (c >= component_count) continue;
+      for (size_t i = k; i < t.samples.size(); i += 4) {
+        lo[c] = std::min(lo[c], t.samples[i]);
+        hi[c] = std::max(hi[c], t.samples[i]);
+      }
+    }
+  std::vector<float> ranges(component_count);
+  for (uint32_t c = 0; c < component_count; ++c) ranges[c] = hi[c] >= lo[c] ? hi[c] - lo[c] : 0.0f;
+  return ranges;
+}
+
 Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const float> u,
                                          std::span<const BsvtfTileInput> tiles, const BsvtfBuildOptions& options) {
   metadata.quality = options.quality;
@@ -700,12 +744,14 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
     if (!(t.tolerance_scale > 0.0f) || !(t.tolerance_scale < 1e6f) || !(t.tolerance_min_scale >= 0.0f) ||
         !(t.tolerance_min_scale < 1e6f) ||
         std::any_of(t.channel_scale.begin(), t.channel_scale.end(), [](float x) { return !(x > 0.0f) || !(x < 1e6f); }))
-      return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) tolerance scale %g not in (0, 1e6)",
-                        t.id.texture, t.id.level, t.id.x, t.id.y, static_cast<double>(t.tolerance_scale));
+      return make_error(Status::invalid_argument,
+                        "build_bsvtf: tile (%u, level %u, %u, %u) tolerance scale %g not in (0, 1e6)", t.id.texture,
+                        t.id.level, t.id.x, t.id.y, static_cast<double>(t.tolerance_scale));
   for (const auto& t : tiles)
     if (t.samples.size() != layout.sample_count())
-      return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) has %zu samples, expected %zu",
-                        t.id.texture, t.id.level, t.id.x, t.id.y, t.samples.size(), layout.sample_count());
+      return make_error(Status::invalid_argument,
+                        "build_bsvtf: tile (%u, level %u, %u, %u) has %zu samples, expected %zu", t.id.texture,
+                        t.id.level, t.id.x, t.id.y, t.samples.size(), layout.sample_count());
   if (metadata.component_ranges.empty())
     metadata.component_ranges = bsvtf_component_ranges(tiles, metadata.component_count);
   if (metadata.component_scales.empty()) metadata.component_scales.assign(metadata.component_count, 1.0f);
@@ -718,12 +764,10 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
   for (size_t i = 0; i < tiles.size(); ++i) {
     const auto& id = tiles[i].id;
     if (!id.valid() || id.level >= metadata.level_count || id.texture >= metadata.texture_count())
-      return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) outside the material", id.texture,
-                        id.level, id.x, id.y);
+      return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) outside the material",
+                        id.texture, id.level, id.x, id.y);
     by_level[id.level].push_back(i);
   }
-  if (!tile_entropy_coder_available(options.entropy_coder))
-    return make_error(Status::invalid_argument, "build_bsvtf: zstd tiles need a build with zstd (BTFLOD_WITH_ZSTD)");
   ThreadPool& pool = options.pool ? *options.pool : default_thread_pool();
   std::vector<BsvtfEncodedTile> encoded(tiles.size());
   std::unordered_map<uint64_t, std::vector<float>> parents, current;
@@ -739,12 +783,6 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
     pool.parallel_for(0, list.size(), 4, [&](size_t begin, size_t end) {
       TileEncoder encoder(layout, options.deflate_level);
       encoder.set_weight_quarters(options.weight_quarters);
-      if (!encoder.set_entropy_coder(options.entropy_coder, options.zstd_level)) {
-        std::lock_guard lock(mutex);
-        failure_status = Status::insufficient_space;
-        failure = "build_bsvtf: the zstd compression context could not be allocated";
-        return;
-      }
       std::vector<uint8_t> buffer(encoder.bound());
       for (size_t j = begin; j < end; ++j) {
         const BsvtfTileInput& t = tiles[list[j]];
@@ -754,7 +792,8 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
           if (it == parents.end()) {
             std::lock_guard lock(mutex);
             failure_status = Status::invalid_argument;
-            failure = format_message("build_bsvtf: tile (%u, level %u, %u, %u) has no parent", t.id.texture, t.id.level, t.id.x, t.id.y);
+            failure = format_message("build_bsvtf: tile (%u, level %u, %u, %u) has no parent", t.id.texture, t.id.level,
+                                     t.id.x, t.id.y);
             return;
           }
           parent = it->second;
@@ -763,12 +802,14 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
         for (uint32_t k = 0; k < 4; ++k) {
           const uint64_t c = uint64_t{t.id.texture} * 4 + k;
           const float range = c >= metadata.component_count ? 0.0f
-                              : options.tolerance_reference == ToleranceReference::shared_max ? max_range
-                                                                                              : metadata.component_ranges[c];
+                              : options.tolerance_reference == ToleranceReference::shared_max
+                                  ? max_range
+                                  : metadata.component_ranges[c];
           tolerance[k] = tolerance_for_quality(options.quality, range);
           tolerance[k] *= t.tolerance_scale * t.channel_scale[k];  // × 1 is exact: default inputs keep their bytes
           if (t.tolerance_min_scale > 0.0f)
-            tolerance[k] = std::max(tolerance[k], tolerance_for_quality(options.quality, max_range) * t.tolerance_min_scale);
+            tolerance[k] =
+                std::max(tolerance[k], tolerance_for_quality(options.quality, max_range) * t.tolerance_min_scale);
         }
         std::vector<float>& recon = current.find(t.id.key())->second;
         recon.resize(layout.sample_count());
@@ -777,8 +818,8 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
         std::lock_guard lock(mutex);
         if (s != Status::success) {
           failure_status = s;
-          failure = format_message("build_bsvtf: tile (%u, level %u, %u, %u): %s", t.id.texture, t.id.level, t.id.x, t.id.y,
-                                   encoder.message());
+          failure = format_message("build_bsvtf: tile (%u, level %u, %u, %u): %s", t.id.texture, t.id.level, t.id.x,
+                                   t.id.y, encoder.message());
           return;
         }
         encoded[list[j]] =
@@ -789,7 +830,8 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
       }
     });
     if (failure_status != Status::success) return Error{failure_status, failure};
-    if (cancelled) return make_error(Status::cancelled, "build_bsvtf: cancelled after %zu of %zu tiles", done, tiles.size());
+    if (cancelled)
+      return make_error(Status::cancelled, "build_bsvtf: cancelled after %zu of %zu tiles", done, tiles.size());
     parents.swap(current);
   }
   return write_bsvtf(metadata, u, encoded);

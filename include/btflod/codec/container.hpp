@@ -254,6 +254,10 @@ struct BsvtfBuildOptions {
   /// Frequency weighting: JPEG's table to the power weight_quarters / 4 (0..4; 4 = JPEG's table,
   /// the bytes of earlier versions; codec/quantize.hpp quant_step_factors). Stored per tile.
   uint32_t weight_quarters = kJpegWeightQuarters;
+  /// Entropy coder of every tile: deflate (tile format 2, every reader) or zstd (tile format 3,
+  /// readers built with BTFLOD_WITH_ZSTD; codec/tile_codec.hpp) at zstd_level (1..22).
+  TileEntropyCoder entropy_coder = TileEntropyCoder::deflate;
+  int zstd_level = 19;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
   ProgressCallback progress;   ///< stage "encode tiles", fraction of tiles done; false cancels
 };
@@ -768,6 +772,8 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
                         id.texture, id.level, id.x, id.y);
     by_level[id.level].push_back(i);
   }
+  if (!tile_entropy_coder_available(options.entropy_coder))
+    return make_error(Status::invalid_argument, "build_bsvtf: zstd tiles need a build with zstd (BTFLOD_WITH_ZSTD)");
   ThreadPool& pool = options.pool ? *options.pool : default_thread_pool();
   std::vector<BsvtfEncodedTile> encoded(tiles.size());
   std::unordered_map<uint64_t, std::vector<float>> parents, current;
@@ -783,6 +789,12 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
     pool.parallel_for(0, list.size(), 4, [&](size_t begin, size_t end) {
       TileEncoder encoder(layout, options.deflate_level);
       encoder.set_weight_quarters(options.weight_quarters);
+      if (!encoder.set_entropy_coder(options.entropy_coder, options.zstd_level)) {
+        std::lock_guard lock(mutex);
+        failure_status = Status::insufficient_space;
+        failure = "build_bsvtf: the zstd compression context could not be allocated";
+        return;
+      }
       std::vector<uint8_t> buffer(encoder.bound());
       for (size_t j = begin; j < end; ++j) {
         const BsvtfTileInput& t = tiles[list[j]];

@@ -5,6 +5,8 @@
 //     JPEG quality whose RMSE matches ours,
 //   - zlib deflate alone on the raw half floats,
 //   - libdeflate inflating our tiles' entropy stage (is the optional backend worth it?).
+//   - the same tiles entropy-coded with zstd (tile format 3, BM_btflod_decode_tile_zstd*; the
+//     entropy candidates themselves are compared in bench_codec_entropy.cpp).
 // Content: real eigen-textures: a procedural stone BTF (btf/synthesizer.hpp, 128² texels, 19×19
 // directions) factorised by FMF (factor/fmf.hpp, 8 components = 2 RGBA virtual textures), tiled
 // periodically to 512² and cut into a 4-level pyramid of 64+2·4 tiles (2×2 box filter per level).
@@ -172,11 +174,13 @@ double btf_psnr(const Content& c, double eigen_rmse) {
   return 20.0 * std::log10(c.btf_peak / rmse_btf);
 }
 
-Coded code_all(float quality, const Content& c = content(), uint32_t weight_quarters = kJpegWeightQuarters) {
+Coded code_all(float quality, const Content& c = content(), uint32_t weight_quarters = kJpegWeightQuarters,
+               TileEntropyCoder coder = TileEntropyCoder::deflate) {
   Coded out;
   out.quality = quality;
   TileEncoder enc(kLayout);
   enc.set_weight_quarters(weight_quarters);
+  if (!enc.set_entropy_coder(coder)) std::exit(3);
   std::vector<uint8_t> buffer(enc.bound());
   double err = 0;
   size_t n = 0;
@@ -299,6 +303,15 @@ const Coded& coded_q_perceptual_weighting() {
   static const Coded c = code_all(kBenchQuality, content(), kPerceptualWeightQuarters);
   return c;
 }
+// The same tiles with zstd-coded symbol streams (tile format 3): identical reconstruction.
+const Coded& coded_q_zstd() {
+  static const Coded c = code_all(kBenchQuality, content(), kJpegWeightQuarters, TileEntropyCoder::zstd);
+  return c;
+}
+const Coded& coded_q_perceptual_weighting_zstd() {
+  static const Coded c = code_all(kBenchQuality, content(), kPerceptualWeightQuarters, TileEntropyCoder::zstd);
+  return c;
+}
 const JpegCoded& jpeg_q() {
   static const JpegCoded j = jpeg_matched(coded_q().rmse);
   return j;
@@ -336,6 +349,18 @@ void BM_btflod_decode_tile_libdeflate_weighting_1_4(benchmark::State& state) {
   decode_tiles(state, InflateBackend::libdeflate, coded_q_perceptual_weighting());
 }
 BENCHMARK(BM_btflod_decode_tile_libdeflate_weighting_1_4);
+// zstd-coded tiles (BsvtfBuildOptions::entropy_coder = zstd): the same samples, baselines above
+// and BM_turbojpeg_decode_tile_4_planes* below (same run).
+void BM_btflod_decode_tile_zstd(benchmark::State& state) {
+  if (!tile_entropy_coder_available(TileEntropyCoder::zstd)) return state.SkipWithError("built without zstd");
+  decode_tiles(state, InflateBackend::libdeflate, coded_q_zstd());
+}
+BENCHMARK(BM_btflod_decode_tile_zstd);
+void BM_btflod_decode_tile_zstd_weighting_1_4(benchmark::State& state) {
+  if (!tile_entropy_coder_available(TileEntropyCoder::zstd)) return state.SkipWithError("built without zstd");
+  decode_tiles(state, InflateBackend::libdeflate, coded_q_perceptual_weighting_zstd());
+}
+BENCHMARK(BM_btflod_decode_tile_zstd_weighting_1_4);
 
 // Decode stages (profile): the same tiles, libdeflate backend. inflate = header checks + inflate
 // only; upsample = the parent prediction only; scalar = the whole decode with the AVX2 inverse

@@ -2,8 +2,10 @@
 // Entropy stage of the tile codec: the same quantised DCT coefficients of every tile of real
 // containers, coded by each candidate, in one table per material (bytes / ratio, decode µs,
 // encode µs per tile, all in the same run):
-//   deflate        the stored payloads: zlib level 9 of the byte-aligned run-length symbols
-//                  (tile format 2); decode = libdeflate inflate + symbol parse;
+//   deflate        the stored payloads (tile format 2: raw deflate of the byte-aligned run-length
+//                  symbols at the level they were built with: build_bsvtf's default 6 for
+//                  containers, TileEncoder's default 9 for --synth); decode = libdeflate inflate +
+//                  symbol parse; encode = zlib level 9 of the symbols;
 //   zstd-19        zstd level 19 of the same symbol stream, no dictionary;
 //   zstd-19+dict   the same with a dictionary trained per material over its tiles' symbol streams
 //                  (ZDICT_trainFromBuffer, 16 KiB); the dictionary's bytes are also shown amortised
@@ -420,7 +422,7 @@ int measure(const Material& m, double min_s) {
 
   // deflate (stored) ---------------------------------------------------------------------------
   {
-    Row r{"deflate (zlib 9; libdeflate decode)"};
+    Row r{"deflate (as stored; libdeflate decode)"};
     for (const auto& t : tiles) r.bytes += static_cast<double>(t.deflated.size() + t.header);
     r.decode_us = time_per_tile(n, min_s, [&](size_t i) {
       size_t got = 0;

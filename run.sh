@@ -23,7 +23,7 @@ PACKAGES=(g++ cmake make pkgconf libglm-dev libstb-dev python3-glad libeigen3-de
   libbenchmark-dev zlib1g-dev libdeflate-dev libturbojpeg0-dev libjpeg62-turbo-dev libegl-dev libopengl-dev
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
   libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev libembree-dev emscripten
-  chromium nodejs npm libopenmpi-dev openmpi-bin)
+  chromium nodejs npm libopenmpi-dev openmpi-bin libopenblas-dev)
 
 install_packages() {
   local missing=()

@@ -41,6 +41,16 @@ if(BTFLOD_WITH_OPENEXR AND NOT TARGET OpenEXR::OpenEXR)
                       "install it or configure with -DBTFLOD_WITH_OPENEXR=OFF")
 endif()
 message(STATUS "btflod: OpenEXR image sets: ${BTFLOD_WITH_OPENEXR}")
+# OpenBLAS (Debian libopenblas-dev, openblas.pc): ON defines EIGEN_USE_BLAS (and
+# BTFLOD_WITH_OPENBLAS=1) on the btflod INTERFACE target, so Eigen's float/double GEMMs (the
+# randomised SVD's products, factor/truncated_svd.hpp) call OpenBLAS's sgemm/dgemm; the macro
+# changes Eigen's code in every TU, hence on the target, not per file. OFF (default): Eigen's own
+# GEMM. docs/factor.md has the figures of both.
+option(BTFLOD_WITH_OPENBLAS "Eigen's dense products through OpenBLAS (EIGEN_USE_BLAS); default OFF" OFF)
+if(BTFLOD_WITH_OPENBLAS)
+  pkg_check_modules(BTFLOD_OPENBLAS REQUIRED IMPORTED_TARGET GLOBAL openblas)
+  message(STATUS "btflod: dense products: OpenBLAS (BTFLOD_WITH_OPENBLAS=ON)")
+endif()
 if(BTFLOD_WITH_LIBDEFLATE)
   message(STATUS "btflod: tile inflate backend: libdeflate (BTFLOD_WITH_LIBDEFLATE=ON)")
 else()

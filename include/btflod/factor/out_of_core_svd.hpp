@@ -353,6 +353,7 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
   const SvdOptions& so = options.svd;
   SvdCommunicator& comm = options.communicator ? *options.communicator : single_process_communicator();
   ThreadPool& pool = so.pool ? *so.pool : default_thread_pool();
+  [[maybe_unused]] const detail::SingleThreadedBlas single_threaded_blas;  // as truncated_svd (truncated_svd.hpp)
   const Index c = std::min<Index>({static_cast<Index>(rank), static_cast<Index>(m), static_cast<Index>(n)});
   const Index k = std::min<Index>({c + so.oversampling, static_cast<Index>(m), static_cast<Index>(n)});
   const Index mi = static_cast<Index>(m);
@@ -449,11 +450,6 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
   // One pass over this process's columns; body(a, col0_local, cnt, stripe) as in truncated_svd().
   auto pass = [&](auto&& body) -> Result<MatrixXf> {
     const auto t_start = Clock::now();
-#if defined(BTFLOD_WITH_OPENBLAS)
-    // One product per pool thread (as truncated_svd): no OpenBLAS threads on top during a pass.
-    const int blas_threads = openblas_get_num_threads();
-    if (pool.thread_count() > 1) openblas_set_num_threads(1);
-#endif
     for (auto& p : partial) p.setZero(mi, k);
     std::vector<Error> errors(stripes);
     std::vector<char> failed(stripes, 0);
@@ -486,9 +482,6 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
         }
       }
     });
-#if defined(BTFLOD_WITH_OPENBLAS)
-    openblas_set_num_threads(blas_threads);
-#endif
     rep.pass_seconds.push_back(std::chrono::duration<double>(Clock::now() - t_start).count());
     ++rep.passes;
     bool ok = !stop.load();

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <string>
 #include <random>
+#include <unordered_map>
 #include <vector>
 
 #include "btflod/codec/container.hpp"

@@ -47,8 +47,8 @@ Scene make_scene(bool vulkan) {
   ShaderConfig c;
   c.components = 8;
   c.angular.resolution = 32;
-  c.vt.slots_x = 12;
-  c.vt.slots_y = 12;
+  c.vt.slots_x = 16;  // the demo's 128-slot cache (samples/demo/stream_render.hpp)
+  c.vt.slots_y = 8;
   c.vt.finest_level = 3;
   if (VoidResult v = s.backend->init(c, 2); !v) {
     s.error = v.message();

@@ -166,8 +166,8 @@ struct Fmf {
 /// Memory order: the texel range of image i is a contiguous 3 × count block; 16 images are
 /// copied together, column by column, so every column receives 48 consecutive floats (whole
 /// cache lines) from 16 sequential read streams. Copying image by image instead wrote 12 bytes
-/// into each of `count` columns per image and ran at ~0.4× this rate (bench_factor's gather
-/// figures, docs/factor.md).
+/// into each of `count` columns per image and ran at 0.3–0.4× this rate (docs/factor.md,
+/// "Throughput").
 inline void gather_fmf_columns(const BtfFloat& btf, size_t t0, size_t count, Eigen::MatrixXf& out) {
   const size_t nvl = btf.view_count() * btf.light_count();
   const size_t n = btf.texel_count();

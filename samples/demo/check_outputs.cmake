@@ -1,12 +1,14 @@
 # Checks the files btflod-demo writes (run after demo_streaming_small): report.json with the
 # memory and frame-time figures, report.html with inline SVG, the contact sheet and frames.
-foreach(f report.json report.html contact_sheet_frames.png frames/frame_0000.png frames/frame_0023.png)
+foreach(f report.json report.html contact_sheet_frames.png frames/frame_0000.png frames/frame_0023.png reference_raw.png
+        reference_fmf_cpu.png)
   if(NOT EXISTS ${DIR}/${f})
     message(FATAL_ERROR "btflod-demo did not write ${DIR}/${f}")
   endif()
 endforeach()
 file(READ ${DIR}/report.json json)
-foreach(key fmf_texture_bytes bsvtf_texture_bytes median_ms_bsvtf median_ms_fmf bytes_received ssim)
+foreach(key fmf_texture_bytes bsvtf_texture_bytes median_ms_bsvtf median_ms_fmf bytes_received ssim raw_reference
+        bsvtf_gpu fmf_cpu paper000 raw_store_bytes)
   string(FIND "${json}" "\"${key}\"" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "report.json lacks ${key}")

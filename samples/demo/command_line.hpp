@@ -27,11 +27,18 @@ struct DemoConfig {
   bool quiet = false;                             ///< --quiet: no progress bars
   bool window = false;                            ///< --window: show the frames in an X11 window
   std::string record_feedback;                    ///< --record-feedback FILE: feedback trace for btflod-bench
+  /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
+  /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
+  /// factorised out of core. --size defaults to 64 there (512 is the paper's; ~36 GB of store each).
+  std::string profile;
+  uint64_t memory_bytes = uint64_t{2} << 30;  ///< --memory SIZE: out-of-core factorisation budget (paper)
+  bool size_given = false, frames_given = false, materials_given = false, bandwidth_given = false;
 };
 
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
+    "                   [--profile paper] [--memory SIZE]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
     "  BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
@@ -44,6 +51,12 @@ inline constexpr const char* kDemoUsage =
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
     "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
     "  for btflod-bench scheduler --trace FILE.\n"
+    "  --profile paper: paper 000's configuration: 151 x 151 directions (ubo2014), FMF C = 100 (25\n"
+    "  RGBA virtual textures per material), tiles T = 64 with a 4-texel border, a 56 x 56-slot cache\n"
+    "  (4032^2 texels), 1280 x 720 frames; each material is synthesised view by view into a BTF store\n"
+    "  (DIR/<name>.btfstore, halves) and factorised out of core within --memory (default 2G).\n"
+    "  Defaults there: --size 64 --materials 3 --frames 24 --bandwidth 8192; --size 512 is the\n"
+    "  paper's texel count (about 36 GB of store and hours of CPU per material: opt-in only).\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
@@ -89,15 +102,35 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.out_dir = value;
     } else if (a == "--record-feedback") {
       cfg.record_feedback = value;
+    } else if (a == "--profile") {
+      cfg.profile = value;
+      if (cfg.profile != "paper") return fail("--profile " + cfg.profile + ": expected paper");
+    } else if (a == "--memory") {
+      // An integer with an optional K, M or G suffix (powers of 1024).
+      char* end = nullptr;
+      errno = 0;
+      const double x = std::strtod(value, &end);
+      const std::string unit = end ? end : "";
+      const double scale = unit.empty()  ? 1.0
+                           : unit == "K" ? 1024.0
+                           : unit == "M" ? 1048576.0
+                           : unit == "G" ? 1073741824.0
+                                         : 0.0;
+      if (errno != 0 || end == value || !(x > 0.0) || scale == 0.0 || x * scale > 1e15)
+        return fail("--memory " + std::string(value) + ": expected a size such as 512M or 4G");
+      cfg.memory_bytes = static_cast<uint64_t>(x * scale);
     } else if (a == "--size") {
-      if (!parse_int(value, 1, 1024, &n)) return fail("--size " + std::string(value) + ": expected 1..1024");
+      if (!parse_int(value, 1, 4096, &n)) return fail("--size " + std::string(value) + ": expected 1..4096");
       cfg.size = static_cast<int>(n);
+      cfg.size_given = true;
     } else if (a == "--frames") {
       if (!parse_int(value, 0, 100000, &n)) return fail("--frames " + std::string(value) + ": expected 0..100000");
       cfg.frames = static_cast<int>(n);
+      cfg.frames_given = true;
     } else if (a == "--materials") {
       if (!parse_int(value, 1, 64, &n)) return fail("--materials " + std::string(value) + ": expected 1..64");
       cfg.materials = static_cast<int>(n);
+      cfg.materials_given = true;
     } else if (a == "--settle") {
       if (!parse_int(value, 0, 100000, &n)) return fail("--settle " + std::string(value) + ": expected 0..100000");
       cfg.settle = static_cast<int>(n);
@@ -105,8 +138,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.backend = value;
       if (cfg.backend != "gl" && cfg.backend != "cpu") return fail("--backend " + cfg.backend + ": expected gl or cpu");
     } else if (a == "--bandwidth") {
-      if (!parse_int(value, 1, 1000000, &n)) return fail("--bandwidth " + std::string(value) + ": expected 1..1000000 KiB/s");
+      if (!parse_int(value, 1, 1000000, &n))
+        return fail("--bandwidth " + std::string(value) + ": expected 1..1000000 KiB/s");
       cfg.bandwidth_kib = static_cast<double>(n);
+      cfg.bandwidth_given = true;
     } else if (a == "--components") {
       if (!parse_int(value, 1, 4096, &n)) return fail("--components " + std::string(value) + ": expected 1..4096");
       cfg.components = static_cast<int>(n);
@@ -122,6 +157,14 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
   }
   if (cfg.out_dir.empty()) return fail("--out DIR is required");
+  if (cfg.profile == "paper") {
+    if (!cfg.size_given) cfg.size = 64;
+    if (!cfg.frames_given) cfg.frames = 24;
+    if (!cfg.materials_given) cfg.materials = 3;
+    if (!cfg.bandwidth_given) cfg.bandwidth_kib = 8192.0;
+  } else if (cfg.size > 1024) {
+    return fail("--size " + std::to_string(cfg.size) + ": expected 1..1024 (larger with --profile paper)");
+  }
   return cfg;
 }
 

@@ -5,10 +5,10 @@
 // is the converged reference). Writes frames, a contact
 // sheet, report.html and report.json. The phases live in materials.hpp, stream_render.hpp,
 // report.hpp and samples/scene/demo_scene.hpp; this file only calls them in order.
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
-#include <chrono>
 #include <string>
 #include <thread>
 
@@ -22,6 +22,7 @@
 #include "gl_window.hpp"
 #endif
 #include "materials.hpp"
+#include "raw_reference.hpp"
 #include "report.hpp"
 #include "stream_render.hpp"
 
@@ -72,7 +73,8 @@ int main(int argc, char** argv) {
     }
   }
 #else
-  if (cfg->window) std::printf("btflod demo: --window: built without btflod_gl_window (libx11-dev): rendering headless\n");
+  if (cfg->window)
+    std::printf("btflod demo: --window: built without btflod_gl_window (libx11-dev): rendering headless\n");
 #endif
   if (cfg->backend == "gl") {
 #if BTFLOD_DEMO_HAS_GL_WINDOW
@@ -95,7 +97,8 @@ int main(int argc, char** argv) {
       if (present) r->set_after_bsvtf(present);
       renderer = std::move(r);
     } else {
-      std::printf("btflod demo: no OpenGL 4.5 (%s): FALLING BACK to the CPU reference renderer\n", backend.message().c_str());
+      std::printf("btflod demo: no OpenGL 4.5 (%s): FALLING BACK to the CPU reference renderer\n",
+                  backend.message().c_str());
     }
   }
   if (!renderer) renderer = std::make_unique<demo::CpuFrameRenderer>();
@@ -103,17 +106,30 @@ int main(int argc, char** argv) {
 
   // 2. Materials: synthesise, factorise (FMF), build .bsvtf.
   const demo::Stopwatch prep_clock;
-  demo::MaterialSettings ms;
+  const bool paper = cfg->profile == "paper";
+  demo::MaterialSettings ms = paper ? demo::paper_material_settings(cfg->size) : demo::MaterialSettings{};
   ms.size = cfg->size;
   ms.seed = cfg->seed;
+  ms.memory_budget = cfg->memory_bytes;
+  ms.quiet = cfg->quiet;
+  if (paper)
+    std::printf(
+        "btflod demo: profile paper (paper 000 §7): %d materials of %dx%d texels x 151 x 151 directions, FMF C = %u "
+        "out of core (--memory %.1f GiB), T = %u + %u border, %ux%u-slot cache, 1280x720\n",
+        cfg->materials, cfg->size, cfg->size, ms.components, static_cast<double>(cfg->memory_bytes) / 1073741824.0,
+        ms.tile_size, ms.border, 56u, 56u);
   std::vector<demo::DemoMaterial> materials;
   for (int i = 0; i < cfg->materials; ++i) {
     auto m = demo::prepare_material(static_cast<uint32_t>(i), ms, cfg->out_dir);
     if (!m) return fail("material", m.message());
-    std::printf("  material    %s: %dx%d texels x %u views x %u lights, FMF C=%u (relative error %.3f), %s (%zu bytes, "
-                "outer tile borders wrapped)\n",
-                m->name.c_str(), m->eigen_textures.width(), m->eigen_textures.height(), m->view_count, m->light_count,
-                m->components, m->fmf_relative_error, m->bsvtf_path.c_str(), m->bsvtf.size());
+    std::printf(
+        "  material    %s: %dx%d texels x %u views x %u lights, FMF C=%u (relative error %.3f vs the raw BTF), %s "
+        "(%zu bytes, outer tile borders wrapped); raw store %.1f MiB; %.1f s synthesis, %.1f s factorisation, "
+        "%.1f s build\n",
+        m->name.c_str(), m->eigen_textures.width(), m->eigen_textures.height(), m->view_count, m->light_count,
+        m->components, m->fmf_relative_error, m->bsvtf_path.c_str(), m->bsvtf.size(),
+        static_cast<double>(m->store_bytes) / 1048576.0, m->seconds_synthesis, m->seconds_factor, m->seconds_build);
+    std::fflush(stdout);
     materials.push_back(std::move(*m));
   }
   const double prep_seconds = prep_clock.seconds();
@@ -121,6 +137,11 @@ int main(int argc, char** argv) {
   // 3. Fly-through with streaming.
   demo::StreamSettings ss;
   ss.bytes_per_second = cfg->bandwidth_kib * 1024.0;
+  if (paper) {  // paper 000 §7: 1280 x 720, a 4032^2 tile cache (56 x 56 slots of 64 + 2·4 texels)
+    ss.width = 1280, ss.height = 720;
+    ss.slots_x = ss.slots_y = 56;
+    ss.uploads_per_frame = 64;
+  }
   auto streamer = demo::StreamingRenderer::create(*renderer, materials, ss);
   if (!streamer) return fail("streaming set-up", streamer.message());
   demo::RunSummary run;
@@ -138,7 +159,21 @@ int main(int argc, char** argv) {
   for (const auto& m : materials) {
     run.material_names.push_back(m.name);
     run.fmf_errors.push_back(m.fmf_relative_error);
+    run.store_bytes.push_back(m.store_bytes);
+    run.fmf_half_bytes.push_back(m.fmf_half_bytes);
+    run.bsvtf_bytes.push_back(m.bsvtf.size());
+    run.seconds_synthesis.push_back(m.seconds_synthesis);
+    run.seconds_factor.push_back(m.seconds_factor);
+    run.seconds_build.push_back(m.seconds_build);
   }
+  run.profile = paper ? "paper" : "default";
+  run.components = ms.components;
+  run.tile_size = ms.tile_size;
+  run.border = ms.border;
+  run.slots_x = ss.slots_x;
+  run.slots_y = ss.slots_y;
+  run.directions = materials.empty() ? 0 : materials.front().view_count;
+  run.texels = static_cast<uint32_t>(ms.size);
   Image<float> bsvtf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   Image<float> fmf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   std::vector<Image<float>> sheet;
@@ -163,8 +198,12 @@ int main(int argc, char** argv) {
     const scene::View v = scene::camera_path(view_frame, frames, ss.width, ss.height);
     const glm::vec3 fwd = glm::normalize(v.target - v.eye);
     info.has_camera = true;
-    info.camera = FeedbackCamera{{v.eye.x, v.eye.y, v.eye.z}, {fwd.x, fwd.y, fwd.z}, {0, 1, 0},
-                                 v.fov_y_degrees * 3.14159265f / 180.0f, 0.05f, 100.0f};
+    info.camera = FeedbackCamera{{v.eye.x, v.eye.y, v.eye.z},
+                                 {fwd.x, fwd.y, fwd.z},
+                                 {0, 1, 0},
+                                 v.fov_y_degrees * 3.14159265f / 180.0f,
+                                 0.05f,
+                                 100.0f};
     return feedback_trace->record(info, words);
   };
   const uint32_t sheet_every = std::max(1u, (frames + 11) / 12);
@@ -176,7 +215,8 @@ int main(int argc, char** argv) {
     run.frames.push_back(*rec);
     char name[64];
     std::snprintf(name, sizeof name, "frame_%04u.png", f);
-    if (auto w = write_png_srgb((out / "frames" / name).string(), bsvtf_img.view()); !w) return fail("frame png", w.message());
+    if (auto w = write_png_srgb((out / "frames" / name).string(), bsvtf_img.view()); !w)
+      return fail("frame png", w.message());
     if (f % sheet_every == 0 || f + 1 == frames) sheet.push_back(bsvtf_img);
     if (!cfg->quiet && (f % 10 == 0 || f + 1 == frames))
       std::printf("  frame %4u  %7.1f KiB received  SSIM %.4f  cache %5.1f%%  BSVTF %6.2f ms  FMF %6.2f ms\n", f,
@@ -212,7 +252,8 @@ int main(int argc, char** argv) {
     sheet.push_back(bsvtf_img);
     char name[64];
     std::snprintf(name, sizeof name, "settled_%04u.png", frames - 1);
-    if (auto w = write_png_srgb((out / "frames" / name).string(), bsvtf_img.view()); !w) return fail("frame png", w.message());
+    if (auto w = write_png_srgb((out / "frames" / name).string(), bsvtf_img.view()); !w)
+      return fail("frame png", w.message());
     std::printf("  settle      %zu frames at the last view: SSIM %.4f -> %.4f, %.1f KiB received\n",
                 run.frames.size() - settle_first, run.frames[settle_first].ssim, run.frames.back().ssim,
                 static_cast<double>(run.frames.back().bytes_received) / 1024.0);
@@ -221,15 +262,44 @@ int main(int argc, char** argv) {
   if (feedback_trace) {
     const uint64_t n = feedback_trace->frame_count();
     if (auto c = feedback_trace->close(); !c) return fail("--record-feedback", c.message());
-    std::printf("  feedback    %llu frames of %ux%u words recorded to %s\n", static_cast<unsigned long long>(n), fb_w, fb_h,
-                cfg->record_feedback.c_str());
+    std::printf("  feedback    %llu frames of %ux%u words recorded to %s\n", static_cast<unsigned long long>(n), fb_w,
+                fb_h, cfg->record_feedback.c_str());
+  }
+
+  // The last view against a render of the RAW tabulated BTF (each material's store, one pass).
+  if (frames > 0) {
+    const scene::View last = scene::camera_path(frames - 1, frames, ss.width, ss.height);
+    // Enough rays per pixel to approach the GPU's trilinear minification (3×3 at 1280×720).
+    auto ref = demo::render_raw_reference(materials, last, paper ? 3 : 4);
+    if (!ref) return fail("raw reference", ref.message());
+    run.raw.done = true;
+    run.raw.bsvtf_gpu = demo::image_error(ref->raw, bsvtf_img);
+    run.raw.fmf_gpu = demo::image_error(ref->raw, fmf_img);
+    run.raw.fmf_cpu = demo::image_error(ref->raw, ref->fmf_cpu);
+    run.raw.seconds = ref->seconds;
+    run.raw.bytes_read = ref->bytes_read;
+    run.raw.supersample = ref->supersample;
+    if (auto w = write_png_srgb((out / "reference_raw.png").string(), ref->raw.view()); !w)
+      return fail("png", w.message());
+    if (auto w = write_png_srgb((out / "reference_fmf_cpu.png").string(), ref->fmf_cpu.view()); !w)
+      return fail("png", w.message());
+    std::printf(
+        "  raw BTF     last view vs a render of the raw tabulated BTF (%.1f MiB of store read, %.1f s): SSIM / PSNR / "
+        "RMSE  BSVTF %.4f / %.2f dB / %.5f,  FMF (GPU) %.4f / %.2f dB / %.5f,  FMF (CPU, same rays) %.4f / %.2f dB / "
+        "%.5f\n",
+        static_cast<double>(ref->bytes_read) / 1048576.0, ref->seconds, run.raw.bsvtf_gpu.ssim, run.raw.bsvtf_gpu.psnr,
+        run.raw.bsvtf_gpu.rmse, run.raw.fmf_gpu.ssim, run.raw.fmf_gpu.psnr, run.raw.fmf_gpu.rmse, run.raw.fmf_cpu.ssim,
+        run.raw.fmf_cpu.psnr, run.raw.fmf_cpu.rmse);
+  } else {
+    run.raw.note = "no frames rendered";
   }
 
   // The page table was kept up to date from the cache's deltas only: compare it with a
   // from-scratch rebuild (CPU mirror of every write, and the rendered last view).
   {
     Image<float> a(static_cast<int>(ss.width), static_cast<int>(ss.height), 4), b = a;
-    const auto check = (*streamer)->check_page_tables_against_rebuild(frames > 0 ? frames - 1 : 0, std::max(frames, 1u), a, b);
+    const auto check =
+        (*streamer)->check_page_tables_against_rebuild(frames > 0 ? frames - 1 : 0, std::max(frames, 1u), a, b);
     run.page_table_check = check ? "equal" : check.message();
   }
   run.page_table_writes = (*streamer)->total_page_table_writes();
@@ -237,21 +307,37 @@ int main(int argc, char** argv) {
   run.full_rewrites = (*streamer)->full_rewrites();
 
   // 4. Outputs.
-  if (auto w = demo::write_frame_sheet((out / "contact_sheet_frames.png").string(), sheet); !w) return fail("contact sheet", w.message());
-  if (auto w = demo::write_report_json((out / "report.json").string(), run); !w) return fail("report.json", w.message());
-  if (auto w = demo::write_report_html((out / "report.html").string(), run); !w) return fail("report.html", w.message());
+  if (auto w = demo::write_frame_sheet((out / "contact_sheet_frames.png").string(), sheet); !w)
+    return fail("contact sheet", w.message());
+  if (auto w = demo::write_report_json((out / "report.json").string(), run); !w)
+    return fail("report.json", w.message());
+  if (auto w = demo::write_report_html((out / "report.html").string(), run); !w)
+    return fail("report.html", w.message());
   const demo::RunSummary::FrameTimes ft = run.frame_times();
   std::printf("  memory      BSVTF %.1f KiB vs FMF %.1f KiB (%.1f%%)\n", run.memory.bsvtf_bytes / 1024.0,
-              run.memory.fmf_bytes / 1024.0, 100.0 * run.memory.bsvtf_bytes / std::max<double>(1.0, run.memory.fmf_bytes));
-  std::printf("  frame time  BSVTF %.2f ms (incl. feedback) vs FMF %.2f ms (medians, %zu frames, both every frame):\n"
-              "              BSVTF at %.2fx the FMF frame rate (median per-frame ratio, quartiles %.2f-%.2f)\n",
-              ft.ms_bsvtf, ft.ms_fmf, ft.frames, ft.ratio, ft.ratio_q1, ft.ratio_q3);
-  std::printf("  page table  %llu texels written from the cache's deltas (%u full rewrite(s)) vs %llu per frame rewritten whole;\n"
-              "              vs a from-scratch rebuild: %s\n",
-              static_cast<unsigned long long>(run.page_table_writes), run.full_rewrites,
-              static_cast<unsigned long long>(run.full_page_table_size), run.page_table_check.c_str());
-  std::printf("  outputs     %s/report.html, report.json, contact_sheet_frames.png, %u frames; %.1f s prepare, %.1f s flight\n",
-              cfg->out_dir.c_str(), frames, prep_seconds, run.seconds_flight);
+              run.memory.fmf_bytes / 1024.0,
+              100.0 * run.memory.bsvtf_bytes / std::max<double>(1.0, run.memory.fmf_bytes));
+  std::printf(
+      "  frame time  BSVTF %.2f ms (incl. feedback) vs FMF %.2f ms (medians, %zu frames, both every frame):\n"
+      "              BSVTF at %.2fx the FMF frame rate (median per-frame ratio, quartiles %.2f-%.2f)\n",
+      ft.ms_bsvtf, ft.ms_fmf, ft.frames, ft.ratio, ft.ratio_q1, ft.ratio_q3);
+  std::printf(
+      "  paper 000   Table 2 BSVTF/FMF frame-rate ratio 0.68, 0.67, 0.83 (scenes 4-6, GeForce GTX 680) vs %.2f here "
+      "(%s);\n"
+      "              GPU memory BSVTF %.1f MiB vs FMF %.1f MiB here (U' and tables included) vs 181-244 MB vs 0.3-0.8 "
+      "GB "
+      "(scenes 4-6)\n",
+      ft.ratio, run.backend.c_str(), (run.memory.bsvtf_bytes + run.memory.u_bytes) / 1048576.0,
+      (run.memory.fmf_bytes + run.memory.u_bytes) / 1048576.0);
+  std::printf(
+      "  page table  %llu texels written from the cache's deltas (%u full rewrite(s)) vs %llu per frame rewritten "
+      "whole;\n"
+      "              vs a from-scratch rebuild: %s\n",
+      static_cast<unsigned long long>(run.page_table_writes), run.full_rewrites,
+      static_cast<unsigned long long>(run.full_page_table_size), run.page_table_check.c_str());
+  std::printf(
+      "  outputs     %s/report.html, report.json, contact_sheet_frames.png, %u frames; %.1f s prepare, %.1f s flight\n",
+      cfg->out_dir.c_str(), frames, prep_seconds, run.seconds_flight);
 
   // 5. Sanity checks (the ctests rely on them): for the fixed last view, SSIM does not fall while
   // the remaining bytes arrive during the settle phase, and ends high. The CPU reference's converged image is
@@ -269,14 +355,17 @@ int main(int argc, char** argv) {
     const bool rises = last >= first - 0.002;
     const bool high = last >= (is_gpu ? 0.85 : 0.6);
     const bool table = run.page_table_check == "equal";
-    std::printf("  checks      settle SSIM %.4f (settle frame %zu, votes of the last view only) -> %.4f (bound %.2f), "
-                "%s, page table equals rebuild: %s\n",
-                first, from - settle_first, last, is_gpu ? 0.85 : 0.6, quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled",
-                rises && high && table ? "checks passed" : "FAILED");
+    std::printf(
+        "  checks      settle SSIM %.4f (settle frame %zu, votes of the last view only) -> %.4f (bound %.2f), "
+        "%s, page table equals rebuild: %s\n",
+        first, from - settle_first, last, is_gpu ? 0.85 : 0.6,
+        quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled",
+        rises && high && table ? "checks passed" : "FAILED");
     if (!rises || !high || !table) return 1;
   }
   if (run.page_table_check != "equal") {
-    std::fprintf(stderr, "btflod-demo: page table built from deltas differs from a rebuild: %s\n", run.page_table_check.c_str());
+    std::fprintf(stderr, "btflod-demo: page table built from deltas differs from a rebuild: %s\n",
+                 run.page_table_check.c_str());
     return 1;
   }
   return 0;

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -12,11 +14,13 @@
 #include "btflod/angular/interpolators.hpp"
 #include "btflod/angular/parameterization.hpp"
 #include "btflod/backend/backend.hpp"
+#include "btflod/btf/btf_store.hpp"
 #include "btflod/btf/synthesizer.hpp"
 #include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/factor/fmf.hpp"
+#include "btflod/factor/fmf_out_of_core.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "common/bsvtf_input.hpp"
 
@@ -24,15 +28,35 @@ namespace btflod::demo {
 
 /// Settings of the material preparation.
 struct MaterialSettings {
-  int size = 32;                 ///< synthesised texels per side
-  uint32_t repeat = 8;           ///< the virtual texture holds the material tiled repeat × repeat
-  uint32_t components = 8;       ///< FMF rank C (2 RGBA virtual textures)
-  uint32_t tile_size = 32;       ///< T
-  uint32_t border = 4;           ///< B (T + 2B must be a multiple of 8)
+  int size = 32;            ///< synthesised texels per side
+  uint32_t repeat = 8;      ///< the virtual texture holds the material tiled repeat × repeat
+  uint32_t components = 8;  ///< FMF rank C (2 RGBA virtual textures)
+  uint32_t tile_size = 32;  ///< T
+  uint32_t border = 4;      ///< B (T + 2B must be a multiple of 8)
   uint32_t angular_resolution = 32;
-  float quality = 60.0f;         ///< tile codec quality
+  float quality = 60.0f;  ///< tile codec quality
   uint64_t seed = 1;
+  /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
+  /// into a BTF store of halves and factorised out of core within `memory_budget`
+  /// (factor/fmf_out_of_core.hpp); otherwise the small in-memory path (demo_directions()).
+  bool paper = false;
+  uint64_t memory_budget = uint64_t{2} << 30;
+  bool quiet = true;  ///< no progress lines on stderr
 };
+
+/// Paper 000's material settings for `size` texels per side (§7: C = 100, T = 64 with 4 texels of
+/// padding; the virtual texture holds the material repeated up to at least 512 texels).
+inline MaterialSettings paper_material_settings(int size) {
+  MaterialSettings s;
+  s.size = size;
+  s.paper = true;
+  s.components = 100;
+  s.tile_size = 64;
+  s.border = 4;
+  s.angular_resolution = 64;
+  s.repeat = static_cast<uint32_t>(std::max(1, (512 + size - 1) / size));
+  return s;
+}
 
 /// The small direction set of the demo (views and lights): rings at θ = 0, 30, 55, 75° with
 /// 1, 6, 8, 8 directions — far fewer than UBO2003's 81 so that synthesis and FMF stay fast.
@@ -48,16 +72,21 @@ struct DemoMaterial {
   std::string name;
   uint32_t light_count = 0, view_count = 0;
   uint32_t components = 0;
-  std::vector<float> u;          ///< backend layout ((light·views + view)·3 + colour)·C + c
-  Image<float> eigen_textures;   ///< V'·Σ tiled: M × N × C
+  std::vector<float> u;         ///< backend layout ((light·views + view)·3 + colour)·C + c
+  Image<float> eigen_textures;  ///< V'·Σ tiled: M × N × C
   std::vector<uint32_t> light_index, view_index;
   std::vector<float> light_weight, view_weight;
   uint32_t angular_resolution = 0;
-  EigenTextures eigen;            ///< for the tile pyramid
+  EigenTextures eigen;  ///< for the tile pyramid
   std::string bsvtf_path;
   std::vector<uint8_t> bsvtf;     ///< the container bytes
   double fmf_relative_error = 0;  ///< ‖BTF − U·Vᵀ‖ / ‖BTF‖ on the synthesised material
   uint32_t finest_level = 0;
+  int texels = 0;               ///< material texels per side (the virtual texture repeats it)
+  std::string store_path;       ///< the raw BTF as a store (btf/btf_store.hpp): the raw reference
+  uint64_t store_bytes = 0;     ///< its file size
+  uint64_t fmf_half_bytes = 0;  ///< U and V·Σ as halves (paper 000 Table 1's "FMF" file size)
+  double seconds_synthesis = 0, seconds_factor = 0, seconds_build = 0;
 
   /// The backend description (spans into this object).
   FmfMaterialData data(bool with_textures) const {
@@ -73,35 +102,71 @@ struct DemoMaterial {
   }
 };
 
+namespace detail_materials {
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace detail_materials
+
+/// ‖A − U·(VΣ)ᵀ‖_F / ‖A‖_F of an FMF against its store, streamed block by block (memory: two
+/// blocks of columns). Returns the store's read errors.
+inline Result<double> fmf_relative_error_against_store(const BtfStore& store, const Fmf& f) {
+  const size_t m = store.rows(), n = store.columns(), C = static_cast<size_t>(f.components);
+  using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  Eigen::Map<const RowMat> u(f.u.data(), static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(C));
+  std::vector<float> cols;
+  std::vector<uint8_t> scratch;
+  double se = 0.0, ss = 0.0;
+  for (size_t t0 = 0; t0 < n; t0 += store.info().block_texels) {
+    const size_t cnt = std::min<size_t>(store.info().block_texels, n - t0);
+    cols.resize(m * cnt);
+    if (auto r = store.read_columns(t0, cnt, cols.data(), m, scratch); !r) return r.error();
+    Eigen::Map<Eigen::MatrixXf> a(cols.data(), static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(cnt));
+    Eigen::Map<const RowMat> v(f.v.data() + t0 * C, static_cast<Eigen::Index>(cnt), static_cast<Eigen::Index>(C));
+    ss += static_cast<double>(a.squaredNorm());
+    a -= u * v.transpose();
+    se += static_cast<double>(a.squaredNorm());
+  }
+  return ss > 0.0 ? std::sqrt(se / ss) : 0.0;
+}
+
 /// Synthesises material `index` (cloth, stone, leather, tiles in turn, seed + index), factorises
-/// it, builds its .bsvtf container into `out_dir` and its lookup tables. Allocates; slow part of
-/// the demo (seconds).
+/// it, builds its .bsvtf container into `out_dir` and its lookup tables, and keeps the raw BTF
+/// as a store `out_dir`/<name>.btfstore (the raw reference of the report). Small path: in memory
+/// (float32 store written afterwards). Paper path (s.paper): synthesised view by view into a
+/// store of halves and factorised out of core (never holding the BTF whole). Allocates; the
+/// slow part of the demo.
 inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir) {
-  const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather, SynthMaterial::tiles};
+  const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather,
+                                 SynthMaterial::tiles};
   const SynthMaterial kind = kinds[index % 4];
   SynthesisOptions so;
-  so.views = demo_directions();
-  so.lights = demo_directions();
-  auto btf = synthesize_material(kind, s.size, s.size, s.seed + index, so);
-  if (!btf) return btf.error();
-  FmfOptions fo;
-  fo.components = static_cast<int>(s.components);
-  auto fmf = factorize_fmf(*btf, fo);
-  if (!fmf) return fmf.error();
+  so.views = s.paper ? DirectionSet::ubo2014() : demo_directions();
+  so.lights = so.views;
   DemoMaterial m;
   m.name = std::string(material_name(kind)) + "-" + std::to_string(index);
-  m.light_count = static_cast<uint32_t>(btf->light_count());
-  m.view_count = static_cast<uint32_t>(btf->view_count());
-  m.components = s.components;
-  const uint32_t C = s.components, L = m.light_count, V = m.view_count;
-  // Relative reconstruction error of the rank-C factorisation (eq. 4).
-  {
+  m.store_path = (std::filesystem::path(out_dir) / (m.name + ".btfstore")).string();
+  m.texels = s.size;
+  Fmf fmf;
+  auto t0 = std::chrono::steady_clock::now();
+  if (!s.paper) {
+    auto btf = synthesize_material(kind, s.size, s.size, s.seed + index, so);
+    if (!btf) return btf.error();
+    m.seconds_synthesis = detail_materials::seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    FmfOptions fo;
+    fo.components = static_cast<int>(s.components);
+    auto f = factorize_fmf(*btf, fo);
+    if (!f) return f.error();
+    fmf = std::move(*f);
+    m.seconds_factor = detail_materials::seconds_since(t0);
+    // Relative reconstruction error of the rank-C factorisation (eq. 4).
     double se = 0, ss = 0;
     for (int y = 0; y < btf->height(); ++y)
       for (int x = 0; x < btf->width(); ++x)
-        for (uint32_t v = 0; v < V; ++v)
-          for (uint32_t l = 0; l < L; ++l) {
-            const glm::vec3 r = fmf->evaluate_measured(x, y, v, l);
+        for (uint32_t v = 0; v < btf->view_count(); ++v)
+          for (uint32_t l = 0; l < btf->light_count(); ++l) {
+            const glm::vec3 r = fmf.evaluate_measured(x, y, v, l);
             const auto img = btf->image(v, l);
             for (int c = 0; c < 3; ++c) {
               const double a = img.at(x, y, c);
@@ -110,30 +175,89 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
             }
           }
     m.fmf_relative_error = ss > 0 ? std::sqrt(se / ss) : 0.0;
+    if (auto w = write_btf_store(*btf, m.store_path, BtfStoreValueType::float32, 256); !w) return w.error();
+  } else {
+    auto meso = make_mesostructure(kind, s.size, s.size, s.seed + index);
+    if (!meso) return meso.error();
+    auto writer =
+        BtfStoreWriter::create(m.store_path, s.size, s.size, so.views, so.lights, BtfStoreValueType::float16, 256);
+    if (!writer) return writer.error();
+    VoidResult written;
+    size_t views_done = 0;
+    auto synth = synthesize_btf_views(*meso, so, [&](size_t v, std::span<const float> block) {
+      written = writer->write_view(v, block);
+      if (!s.quiet && (++views_done % 16 == 0 || views_done == so.views.size()))
+        std::fprintf(stderr, "  %s: synthesised view %zu of %zu (%.0f s)\n", m.name.c_str(), views_done,
+                     so.views.size(), detail_materials::seconds_since(t0));
+      return static_cast<bool>(written);
+    });
+    if (!written) return written.error();
+    if (!synth) return synth.error();
+    if (auto f = writer->finish(); !f) return f.error();
+    m.seconds_synthesis = detail_materials::seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    auto store = BtfStore::open(m.store_path);
+    if (!store) return store.error();
+    FmfOutOfCoreOptions fo;
+    fo.components = static_cast<int>(s.components);
+    fo.svd.memory_budget = s.memory_budget;
+    fo.svd.checkpoint_path = m.store_path + ".checkpoint";
+    ProgressCallback progress;
+    if (!s.quiet)
+      progress = [&m, t0](std::string_view stage, double fraction) {
+        static thread_local std::string last;
+        if (stage != last || fraction >= 1.0) {
+          std::fprintf(stderr, "  %s: factor %.*s (%.0f s)\n", m.name.c_str(), static_cast<int>(stage.size()),
+                       stage.data(), detail_materials::seconds_since(t0));
+          last.assign(stage);
+        }
+        return true;
+      };
+    auto f = factorize_fmf_out_of_core(*store, fo, progress);
+    if (!f) return f.error();
+    std::remove(fo.svd.checkpoint_path.c_str());
+    fmf = std::move(*f);
+    m.seconds_factor = detail_materials::seconds_since(t0);
+    auto err = fmf_relative_error_against_store(*store, fmf);
+    if (!err) return err.error();
+    m.fmf_relative_error = *err;
   }
+  t0 = std::chrono::steady_clock::now();
+  {
+    std::error_code ec;
+    m.store_bytes = std::filesystem::file_size(m.store_path, ec);
+  }
+  m.fmf_half_bytes = (fmf.u.size() + fmf.v.size()) * 2;
+  const DirectionSet& lights = so.lights;
+  const DirectionSet& views = so.views;
+  m.light_count = static_cast<uint32_t>(lights.size());
+  m.view_count = static_cast<uint32_t>(views.size());
+  m.components = s.components;
+  const uint32_t C = s.components, L = m.light_count, V = m.view_count;
   // U: FMF rows (v·n_light + l)·3 + colour → backend/EigenTextures rows (l·n_view + v)·3 + colour.
   m.u.resize(static_cast<size_t>(L) * V * 3 * C);
   for (uint32_t l = 0; l < L; ++l)
     for (uint32_t v = 0; v < V; ++v)
       for (uint32_t col = 0; col < 3; ++col)
         for (uint32_t c = 0; c < C; ++c)
-          m.u[((static_cast<size_t>(l) * V + v) * 3 + col) * C + c] = fmf->u[((static_cast<size_t>(v) * L + l) * 3 + col) * C + c];
+          m.u[((static_cast<size_t>(l) * V + v) * 3 + col) * C + c] =
+              fmf.u[((static_cast<size_t>(v) * L + l) * 3 + col) * C + c];
   // V'·Σ tiled repeat × repeat (the material is tileable), so the virtual texture has several levels.
-  const int w = btf->width(), h = btf->height();
+  const int w = s.size, h = s.size;
   const int M = w * static_cast<int>(s.repeat), N = h * static_cast<int>(s.repeat);
   m.eigen_textures = Image<float>(M, N, static_cast<int>(C));
   for (int y = 0; y < N; ++y)
     for (int x = 0; x < M; ++x)
       for (uint32_t c = 0; c < C; ++c)
-        m.eigen_textures.at(x, y, static_cast<int>(c)) = fmf->v[(static_cast<size_t>(y % h) * w + (x % w)) * C + c];
+        m.eigen_textures.at(x, y, static_cast<int>(c)) = fmf.v[(static_cast<size_t>(y % h) * w + (x % w)) * C + c];
   m.eigen.textures = m.eigen_textures;
   m.eigen.angular = m.u;
   m.eigen.light_count = L;
   m.eigen.view_count = V;
   // Angular lookup tables (paper 000 §4): the rasterised Delaunay triangulation in the parabolic map.
-  auto lt = LookupTableInterpolator<ParabolicMap>::build(btf->lights(), static_cast<int>(s.angular_resolution));
+  auto lt = LookupTableInterpolator<ParabolicMap>::build(lights, static_cast<int>(s.angular_resolution));
   if (!lt) return lt.error();
-  auto vt = LookupTableInterpolator<ParabolicMap>::build(btf->views(), static_cast<int>(s.angular_resolution));
+  auto vt = LookupTableInterpolator<ParabolicMap>::build(views, static_cast<int>(s.angular_resolution));
   if (!vt) return vt.error();
   m.angular_resolution = s.angular_resolution;
   const auto copy_table = [](const auto& t, std::vector<uint32_t>& idx, std::vector<float>& wt) {
@@ -160,7 +284,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   md.level_count = pyramid->geometry().level_count();
   md.component_count = C;
   md.u_rows = L * V * 3;
-  samples::set_bsvtf_directions(md, btf->lights(), btf->views());
+  samples::set_bsvtf_directions(md, lights, views);
   const samples::BsvtfTileInputs inputs =
       samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
   BsvtfBuildOptions bo;
@@ -170,6 +294,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   m.bsvtf = std::move(*file);
   m.bsvtf_path = (std::filesystem::path(out_dir) / (m.name + ".bsvtf")).string();
   if (auto w2 = write_file_bytes(m.bsvtf_path, m.bsvtf); !w2) return w2.error();
+  m.seconds_build = detail_materials::seconds_since(t0);
   return m;
 }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "btflod/core/image_io.hpp"
+#include "raw_reference.hpp"
 #include "stream_render.hpp"
 
 namespace btflod::demo {
@@ -27,10 +28,24 @@ struct RunSummary {
   std::vector<double> fmf_errors;
   MemoryFigures memory;
   std::vector<FrameRecord> frames;
-  uint64_t page_table_writes = 0;       ///< GPU page-table texels written (start-up + deltas)
-  uint64_t full_page_table_size = 0;    ///< texels of one full rewrite of every table
-  uint32_t full_rewrites = 0;           ///< full rewrites (start-up, delta overflows)
-  std::string page_table_check;         ///< "equal" or the first difference from a rebuild
+  uint64_t page_table_writes = 0;     ///< GPU page-table texels written (start-up + deltas)
+  uint64_t full_page_table_size = 0;  ///< texels of one full rewrite of every table
+  uint32_t full_rewrites = 0;         ///< full rewrites (start-up, delta overflows)
+  std::string page_table_check;       ///< "equal" or the first difference from a rebuild
+  // The configuration (paper 000 §7 for --profile paper) and each material's files.
+  std::string profile = "default";
+  uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
+  std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
+  std::vector<double> seconds_synthesis, seconds_factor, seconds_build;
+  /// The last view against a render of the RAW tabulated BTF (raw_reference.hpp).
+  struct RawComparison {
+    bool done = false;
+    std::string note;  ///< why it was not done
+    ImageError bsvtf_gpu, fmf_gpu, fmf_cpu;
+    double seconds = 0;
+    uint64_t bytes_read = 0;
+    uint32_t supersample = 1;
+  } raw;
 
   /// Frame time of the two programs over one run: both are rendered every frame (alternating
   /// which goes first), so load from other processes hits both alike. Medians over the frames
@@ -97,8 +112,10 @@ inline std::string line_chart(const std::string& title, const std::string& xlabe
   const auto px = [&](double x) { return L + (x - x0) / (x1 - x0) * (W - L - R); };
   const auto py = [&](double y) { return H - B - (y - y0) / (y1 - y0) * (H - T - B); };
   std::ostringstream s;
-  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>\n";
-  s << "<text x='" << W / 2 - R / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title << "</text>\n";
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H
+    << "' font-family='sans-serif' font-size='11'>\n";
+  s << "<text x='" << W / 2 - R / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title
+    << "</text>\n";
   s << "<rect x='" << L << "' y='" << T << "' width='" << W - L - R << "' height='" << H - T - B
     << "' fill='#fafafa' stroke='#999'/>\n";
   for (int k = 1; k < 4; ++k) {
@@ -110,15 +127,17 @@ inline std::string line_chart(const std::string& title, const std::string& xlabe
   s << "<text x='" << (L + W - R) / 2 << "' y='" << H - 8 << "' text-anchor='middle'>" << xlabel << "</text>\n";
   s << "<text x='" << L - 4 << "' y='" << py(y0) << "' text-anchor='end'>" << fmt(y0) << "</text>";
   s << "<text x='" << L - 4 << "' y='" << py(y1) + 8 << "' text-anchor='end'>" << fmt(y1) << "</text>";
-  s << "<text transform='translate(14," << (T + H - B) / 2 << ") rotate(-90)' text-anchor='middle'>" << ylabel << "</text>\n";
+  s << "<text transform='translate(14," << (T + H - B) / 2 << ") rotate(-90)' text-anchor='middle'>" << ylabel
+    << "</text>\n";
   int row = 0;
   for (const auto& se : series) {
     s << "<polyline fill='none' stroke-width='2' stroke='" << se.color << "' points='";
     for (size_t i = 0; i < se.x.size(); ++i) s << px(se.x[i]) << "," << py(se.y[i]) << " ";
     s << "'/>\n";
     const double ly = T + 12 + 16 * row++;
-    s << "<line x1='" << W - R + 10 << "' x2='" << W - R + 30 << "' y1='" << ly << "' y2='" << ly << "' stroke='" << se.color
-      << "' stroke-width='3'/><text x='" << W - R + 34 << "' y='" << ly + 4 << "'>" << se.name << "</text>\n";
+    s << "<line x1='" << W - R + 10 << "' x2='" << W - R + 30 << "' y1='" << ly << "' y2='" << ly << "' stroke='"
+      << se.color << "' stroke-width='3'/><text x='" << W - R + 34 << "' y='" << ly + 4 << "'>" << se.name
+      << "</text>\n";
   }
   s << "</svg>\n";
   return s.str();
@@ -132,8 +151,10 @@ inline std::string bar_chart(const std::string& title, const std::string& unit,
   double vmax = 1e-30;
   for (const auto& b : bars) vmax = std::max(vmax, std::get<1>(b));
   std::ostringstream s;
-  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H << "' font-family='sans-serif' font-size='11'>\n";
-  s << "<text x='" << W / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title << "</text>\n";
+  s << "<svg xmlns='http://www.w3.org/2000/svg' width='" << W << "' height='" << H
+    << "' font-family='sans-serif' font-size='11'>\n";
+  s << "<text x='" << W / 2 << "' y='18' text-anchor='middle' font-size='13' font-weight='bold'>" << title
+    << "</text>\n";
   double y = T;
   for (const auto& [label, value, color] : bars) {
     const double w = value / vmax * (W - L - 90);
@@ -146,6 +167,169 @@ inline std::string bar_chart(const std::string& title, const std::string& unit,
   return s.str();
 }
 
+/// Paper 000 Table 2 (frame rate and GPU memory per scene, their GTX 680) and Table 1's 512²
+/// row (file sizes): the figures the report sets beside this run's.
+struct PaperScene {
+  const char* scene;
+  double fps_bsvtf, fps_bsvtf_sd, fps_fmf, fps_fmf_sd;  ///< fps_fmf < 0: not given (did not fit)
+  const char* gpu_bsvtf;
+  const char* gpu_fmf;
+};
+inline constexpr PaperScene kPaperTable2[] = {
+    {"1: 100 BTFs, 180K triangles", 34, 10, -1, 0, "1.7 GB", "6.2 GB"},
+    {"2: 15 BTFs, 3.7M triangles", 10, 2, -1, 0, "483 MB", "6.6 GB"},
+    {"3: 4 BTFs, 2.3M triangles", 18, 5, -1, 0, "229 MB", "3.2 GB"},
+    {"4: 5 BTFs, 4.6K triangles", 72, 16, 106, 23, "244 MB", "316 MB"},
+    {"5: 1 BTF, 50K triangles", 46, 9, 69, 14, "181 MB", "0.8 GB"},
+    {"6: 1 BTF, 1.1M triangles", 24, 3, 29, 6, "181 MB", "0.8 GB"},
+};
+
+inline std::string mib(double bytes) {
+  char b[64];
+  if (bytes >= 1073741824.0)
+    std::snprintf(b, sizeof b, "%.2f GiB", bytes / 1073741824.0);
+  else
+    std::snprintf(b, sizeof b, "%.1f MiB", bytes / 1048576.0);
+  return b;
+}
+
+inline uint64_t sum(const std::vector<uint64_t>& v) {
+  uint64_t n = 0;
+  for (uint64_t x : v) n += x;
+  return n;
+}
+
+/// report.json's "configuration", "files", "raw_reference" and "paper000" members.
+inline std::string config_and_raw_json(const RunSummary& r) {
+  std::ostringstream o;
+  char b[768];
+  std::snprintf(b, sizeof b,
+                "  \"configuration\": {\"profile\": \"%s\", \"directions\": %u, \"components\": %u, \"tile_size\": %u, "
+                "\"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, \"material_texels\": %u},\n",
+                r.profile.c_str(), r.directions, r.components, r.tile_size, r.border, r.slots_x, r.slots_y, r.texels);
+  o << b << "  \"files\": [";
+  for (size_t i = 0; i < r.store_bytes.size(); ++i) {
+    std::snprintf(
+        b, sizeof b,
+        "%s{\"material\": \"%s\", \"raw_store_bytes\": %llu, \"fmf_half_bytes\": %llu, \"bsvtf_bytes\": %llu, "
+        "\"seconds_synthesis\": %.2f, \"seconds_factor\": %.2f, \"seconds_build\": %.2f}",
+        i ? ", " : "", r.material_names[i].c_str(), static_cast<unsigned long long>(r.store_bytes[i]),
+        static_cast<unsigned long long>(r.fmf_half_bytes[i]), static_cast<unsigned long long>(r.bsvtf_bytes[i]),
+        r.seconds_synthesis[i], r.seconds_factor[i], r.seconds_build[i]);
+    o << b;
+  }
+  o << "],\n";
+  if (r.raw.done) {
+    const auto e = [&](const char* name, const ImageError& x, bool last) {
+      char t[256];
+      std::snprintf(t, sizeof t, "\"%s\": {\"ssim\": %.5f, \"psnr_db\": %.3f, \"rmse\": %.6f}%s", name, x.ssim, x.psnr,
+                    x.rmse, last ? "" : ", ");
+      return std::string(t);
+    };
+    o << "  \"raw_reference\": {" << e("bsvtf_gpu", r.raw.bsvtf_gpu, false) << e("fmf_gpu", r.raw.fmf_gpu, false)
+      << e("fmf_cpu", r.raw.fmf_cpu, false);
+    std::snprintf(b, sizeof b, "\"supersample\": %u, \"store_bytes_read\": %llu, \"seconds\": %.2f},\n",
+                  r.raw.supersample, static_cast<unsigned long long>(r.raw.bytes_read), r.raw.seconds);
+    o << b;
+  } else {
+    o << "  \"raw_reference\": {\"not_done\": \"" << r.raw.note << "\"},\n";
+  }
+  const RunSummary::FrameTimes ft = r.frame_times();
+  std::snprintf(
+      b, sizeof b,
+      "  \"paper000\": {\"table2_bsvtf_fps_over_fmf_fps\": {\"scene4\": %.3f, \"scene5\": %.3f, \"scene6\": %.3f, "
+      "\"this_run\": %.3f}, \"this_run_fps_bsvtf\": %.3f, \"this_run_fps_fmf\": %.3f, "
+      "\"this_run_gpu_bytes_bsvtf\": %llu, \"this_run_gpu_bytes_fmf\": %llu, "
+      "\"table1_512_bytes\": {\"uncompressed\": 33e9, \"fmf\": 63e6, \"bsvtf\": 53e6}, "
+      "\"hardware\": \"paper: GeForce GTX 680 (4 GB); this run: %s\"},\n",
+      72.0 / 106.0, 46.0 / 69.0, 24.0 / 29.0, ft.ratio, ft.ms_bsvtf > 0 ? 1000.0 / ft.ms_bsvtf : 0.0,
+      ft.ms_fmf > 0 ? 1000.0 / ft.ms_fmf : 0.0,
+      static_cast<unsigned long long>(r.memory.bsvtf_bytes + r.memory.u_bytes),
+      static_cast<unsigned long long>(r.memory.fmf_bytes + r.memory.u_bytes), r.backend.c_str());
+  o << b;
+  return o.str();
+}
+
+/// The report's HTML sections: the raw-BTF comparison and paper 000 Tables 1–2 beside this run.
+inline std::string raw_and_paper_html(const RunSummary& r) {
+  std::ostringstream h;
+  char row[1024];
+  h << "<h2>Against the raw BTF</h2>\n";
+  if (!r.raw.done) {
+    h << "<p>Not computed: " << r.raw.note << "</p>\n";
+  } else {
+    std::snprintf(row, sizeof row,
+                  "<p>The last (settled) view rendered from the <b>raw tabulated BTF</b> (each material's store, one "
+                  "sequential pass, %s read in %.1f s): CPU ray-caster, %u×%u rays per pixel, finest level, bilinear "
+                  "texels, the shaders' 3×3 angular taps. <i>FMF (CPU)</i> is the same rays and taps through U·V′, so "
+                  "its error is the factorisation's alone; the GPU images add rasterisation and mip filtering "
+                  "(trilinear on the GPU, supersampling here).</p>\n",
+                  mib(static_cast<double>(r.raw.bytes_read)).c_str(), r.raw.seconds, r.raw.supersample,
+                  r.raw.supersample);
+    h << row
+      << "<table><tr><th>image vs raw-BTF render</th><th>SSIM (sRGB)</th><th>PSNR dB (sRGB)</th><th>RMSE "
+         "(linear)</th></tr>";
+    const auto line = [&](const char* name, const ImageError& e) {
+      std::snprintf(row, sizeof row, "<tr><td>%s</td><td>%.4f</td><td>%.2f</td><td>%.5f</td></tr>", name, e.ssim,
+                    e.psnr, e.rmse);
+      h << row;
+    };
+    line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu);
+    line("FMF, everything resident (GPU)", r.raw.fmf_gpu);
+    line("FMF (CPU, same rays as the raw render)", r.raw.fmf_cpu);
+    h << "</table>\n<p><img src='reference_raw.png' alt='raw BTF render'> <img src='reference_fmf_cpu.png' alt='FMF "
+         "CPU "
+         "render'></p>\n";
+  }
+  const RunSummary::FrameTimes ft = r.frame_times();
+  h << "<h2>Paper 000 Table 2 beside this run</h2>\n<p>Their figures are on an NVIDIA GeForce GTX 680 (4 GB) at "
+       "1280×720; ours on <b>"
+    << r.backend << "</b> (" << r.width << "×" << r.height
+    << "; llvmpipe is a CPU rasteriser sharing 2 cores with the streaming work), so absolute frame rates are not "
+       "comparable; the BSVTF/FMF ratio and the memory are.</p>\n";
+  h << "<table><tr><th>scene</th><th>FPS BSVTF</th><th>FPS FMF</th><th>BSVTF/FMF</th><th>GPU memory BSVTF</th><th>GPU "
+       "memory FMF</th></tr>";
+  for (const PaperScene& p : kPaperTable2) {
+    char fmf[64] = "–", ratio[64] = "–";
+    if (p.fps_fmf > 0) {
+      std::snprintf(fmf, sizeof fmf, "%.0f ± %.0f", p.fps_fmf, p.fps_fmf_sd);
+      std::snprintf(ratio, sizeof ratio, "%.2f", p.fps_bsvtf / p.fps_fmf);
+    }
+    std::snprintf(
+        row, sizeof row,
+        "<tr><td>paper %s (GTX 680)</td><td>%.0f ± %.0f</td><td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>", p.scene,
+        p.fps_bsvtf, p.fps_bsvtf_sd, fmf, ratio, p.gpu_bsvtf, p.gpu_fmf);
+    h << row;
+  }
+  std::snprintf(
+      row, sizeof row,
+      "<tr><td><b>this run</b>: %u BTFs (%s) on %s</td><td>%.2f</td><td>%.2f</td><td>%.2f (quartiles %.2f–%.2f)</td>"
+      "<td>%s (cache %s + page tables, U′ and tables %s)</td><td>%s (V′ RGBA32F + mips, U′ and tables)</td></tr>",
+      r.materials, r.profile.c_str(), r.backend.c_str(), ft.ms_bsvtf > 0 ? 1000.0 / ft.ms_bsvtf : 0.0,
+      ft.ms_fmf > 0 ? 1000.0 / ft.ms_fmf : 0.0, ft.ratio, ft.ratio_q1, ft.ratio_q3,
+      mib(static_cast<double>(r.memory.bsvtf_bytes + r.memory.u_bytes)).c_str(),
+      mib(static_cast<double>(r.memory.bsvtf_bytes)).c_str(), mib(static_cast<double>(r.memory.u_bytes)).c_str(),
+      mib(static_cast<double>(r.memory.fmf_bytes + r.memory.u_bytes)).c_str());
+  h << row << "</table>\n";
+  h << "<p>File sizes per material (paper 000 Table 1, 512² row: uncompressed 33 GB, FMF 63 MB, BSVTF 53 MB):</p>"
+       "<table><tr><th>material</th><th>raw BTF store</th><th>FMF (U, V′ as halves)</th><th>.bsvtf</th><th>synthesis "
+       "s</th>"
+       "<th>factorisation s</th><th>.bsvtf build s</th></tr>";
+  for (size_t i = 0; i < r.store_bytes.size(); ++i) {
+    std::snprintf(row, sizeof row,
+                  "<tr><td>%s (%u² texels, %u×%u "
+                  "directions)</td><td>%s</td><td>%s</td><td>%s</td><td>%.1f</td><td>%.1f</td><td>%.1f</td></tr>",
+                  r.material_names[i].c_str(), r.texels, r.directions, r.directions,
+                  mib(static_cast<double>(r.store_bytes[i])).c_str(),
+                  mib(static_cast<double>(r.fmf_half_bytes[i])).c_str(),
+                  mib(static_cast<double>(r.bsvtf_bytes[i])).c_str(), r.seconds_synthesis[i], r.seconds_factor[i],
+                  r.seconds_build[i]);
+    h << row;
+  }
+  h << "</table>\n";
+  return h.str();
+}
+
 }  // namespace detail_report
 
 /// Writes DIR/report.json. Returns an io_error naming the file on failure.
@@ -154,48 +338,54 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
   if (!o) return make_error(Status::io_error, "%s: cannot open for writing", path.c_str());
   char b[512];
   o << "{\n  \"backend\": \"" << r.backend << "\",\n";
-  std::snprintf(b, sizeof b,
-                "  \"materials\": %u,\n  \"width\": %u,\n  \"height\": %u,\n  \"cache_slots\": %u,\n  \"tiles_total\": %u,\n"
-                "  \"payload_bytes_total\": %llu,\n  \"link_bytes_per_second\": %.0f,\n  \"seconds_prepare\": %.3f,\n"
-                "  \"seconds_flight\": %.3f,\n",
-                r.materials, r.width, r.height, r.slots, r.tiles, static_cast<unsigned long long>(r.payload_bytes),
-                r.bytes_per_second, r.seconds_prepare, r.seconds_flight);
+  std::snprintf(
+      b, sizeof b,
+      "  \"materials\": %u,\n  \"width\": %u,\n  \"height\": %u,\n  \"cache_slots\": %u,\n  \"tiles_total\": %u,\n"
+      "  \"payload_bytes_total\": %llu,\n  \"link_bytes_per_second\": %.0f,\n  \"seconds_prepare\": %.3f,\n"
+      "  \"seconds_flight\": %.3f,\n",
+      r.materials, r.width, r.height, r.slots, r.tiles, static_cast<unsigned long long>(r.payload_bytes),
+      r.bytes_per_second, r.seconds_prepare, r.seconds_flight);
   o << b;
   o << "  \"fmf_relative_error\": [";
   for (size_t i = 0; i < r.fmf_errors.size(); ++i) o << (i ? ", " : "") << detail_report::fmt(r.fmf_errors[i]);
   o << "],\n";
-  std::snprintf(b, sizeof b,
-                "  \"memory\": {\"fmf_texture_bytes\": %llu, \"bsvtf_texture_bytes\": %llu, \"bsvtf_over_fmf\": %.4f, "
-                "\"shared_u_and_tables_bytes\": %llu},\n",
-                static_cast<unsigned long long>(r.memory.fmf_bytes), static_cast<unsigned long long>(r.memory.bsvtf_bytes),
-                r.memory.fmf_bytes ? static_cast<double>(r.memory.bsvtf_bytes) / static_cast<double>(r.memory.fmf_bytes) : 0.0,
-                static_cast<unsigned long long>(r.memory.u_bytes));
+  std::snprintf(
+      b, sizeof b,
+      "  \"memory\": {\"fmf_texture_bytes\": %llu, \"bsvtf_texture_bytes\": %llu, \"bsvtf_over_fmf\": %.4f, "
+      "\"shared_u_and_tables_bytes\": %llu},\n",
+      static_cast<unsigned long long>(r.memory.fmf_bytes), static_cast<unsigned long long>(r.memory.bsvtf_bytes),
+      r.memory.fmf_bytes ? static_cast<double>(r.memory.bsvtf_bytes) / static_cast<double>(r.memory.fmf_bytes) : 0.0,
+      static_cast<unsigned long long>(r.memory.u_bytes));
   o << b;
   const RunSummary::FrameTimes ft = r.frame_times();
-  std::snprintf(b, sizeof b,
-                "  \"frame_time\": {\"median_ms_bsvtf\": %.3f, \"median_ms_fmf\": %.3f, \"bsvtf_fps_over_fmf_fps\": %.4f, "
-                "\"ratio_q1\": %.4f, \"ratio_q3\": %.4f, \"frames\": %zu, "
-                "\"over\": \"median of per-frame t_fmf/t_bsvtf; both rendered every frame, alternating order, after %zu warm-up frames; "
-                "BSVTF includes its feedback pass\"},\n",
-                ft.ms_bsvtf, ft.ms_fmf, ft.ratio, ft.ratio_q1, ft.ratio_q3, ft.frames, RunSummary::kWarmupFrames);
+  std::snprintf(
+      b, sizeof b,
+      "  \"frame_time\": {\"median_ms_bsvtf\": %.3f, \"median_ms_fmf\": %.3f, \"bsvtf_fps_over_fmf_fps\": %.4f, "
+      "\"ratio_q1\": %.4f, \"ratio_q3\": %.4f, \"frames\": %zu, "
+      "\"over\": \"median of per-frame t_fmf/t_bsvtf; both rendered every frame, alternating order, after %zu warm-up "
+      "frames; "
+      "BSVTF includes its feedback pass\"},\n",
+      ft.ms_bsvtf, ft.ms_fmf, ft.ratio, ft.ratio_q1, ft.ratio_q3, ft.frames, RunSummary::kWarmupFrames);
   o << b;
   std::snprintf(b, sizeof b,
                 "  \"page_table\": {\"writes\": %llu, \"full_rewrite_size\": %llu, \"full_rewrites\": %u, "
                 "\"frames\": %zu, \"check_vs_rebuild\": \"%s\"},\n",
-                static_cast<unsigned long long>(r.page_table_writes), static_cast<unsigned long long>(r.full_page_table_size),
-                r.full_rewrites, r.frames.size(), r.page_table_check.c_str());
+                static_cast<unsigned long long>(r.page_table_writes),
+                static_cast<unsigned long long>(r.full_page_table_size), r.full_rewrites, r.frames.size(),
+                r.page_table_check.c_str());
   o << b;
+  o << detail_report::config_and_raw_json(r);
   o << "  \"frames\": [\n";
   for (size_t i = 0; i < r.frames.size(); ++i) {
     const FrameRecord& f = r.frames[i];
-    std::snprintf(b, sizeof b,
-                  "    {\"frame\": %u, \"bytes_received\": %llu, \"tiles_delivered\": %u, \"occupancy\": %.4f, \"ssim\": %.5f, "
-                  "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u, "
-                  "\"page_table_writes\": %u, \"swaps\": %u, \"lod_bias\": %u, \"settle\": %s}%s\n",
-                  f.frame, static_cast<unsigned long long>(f.bytes_received), f.tiles_delivered, f.occupancy, f.ssim, f.rmse,
-                  f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, f.page_table_writes, f.swaps, f.lod_bias,
-                  f.settle ? "true" : "false",
-                  i + 1 < r.frames.size() ? "," : "");
+    std::snprintf(
+        b, sizeof b,
+        "    {\"frame\": %u, \"bytes_received\": %llu, \"tiles_delivered\": %u, \"occupancy\": %.4f, \"ssim\": %.5f, "
+        "\"rmse\": %.6f, \"ms_bsvtf\": %.3f, \"ms_fmf\": %.3f, \"requests\": %u, \"uploads\": %u, "
+        "\"page_table_writes\": %u, \"swaps\": %u, \"lod_bias\": %u, \"settle\": %s}%s\n",
+        f.frame, static_cast<unsigned long long>(f.bytes_received), f.tiles_delivered, f.occupancy, f.ssim, f.rmse,
+        f.ms_bsvtf, f.ms_fmf, f.requests, f.uploads, f.page_table_writes, f.swaps, f.lod_bias,
+        f.settle ? "true" : "false", i + 1 < r.frames.size() ? "," : "");
     o << b;
   }
   o << "  ]\n}\n";
@@ -222,7 +412,9 @@ inline VoidResult write_report_html(const std::string& path, const RunSummary& r
        "<style>body{font-family:sans-serif;max-width:1180px;margin:20px auto;color:#222}"
        "div.g{display:flex;flex-wrap:wrap;gap:16px}td,th{padding:2px 10px;text-align:left}</style></head><body>\n";
   h << "<h1>btflod demo: streaming BTF fly-through</h1>\n<p>Backend: <b>" << r.backend << "</b>. " << r.materials
-    << " synthesised materials (FMF, C = 8), " << r.frames.size() << " frames at " << r.width << "×" << r.height
+    << " synthesised materials (" << r.texels << "² texels, " << r.directions << "×" << r.directions
+    << " directions, FMF C = " << r.components << ", T = " << r.tile_size << " + " << r.border
+    << "-texel border; profile " << r.profile << "), " << r.frames.size() << " frames at " << r.width << "×" << r.height
     << ", cache of " << r.slots << " slots for " << r.tiles << " tiles, tiles streamed through a throttled link of "
     << detail_report::fmt(r.bytes_per_second / 1024.0) << " KiB/s (" << detail_report::fmt(r.payload_bytes / 1024.0)
     << " KiB of tiles in all). Command: <code>" << r.command << "</code></p>\n";
@@ -254,12 +446,14 @@ inline VoidResult write_report_html(const std::string& path, const RunSummary& r
                                  {Series{"occupancy", "#2ca02c", frame, occ}});
   h << detail_report::line_chart("Error per frame (RMSE vs FMF)", "frame", "RMSE (linear radiance)",
                                  {Series{"RMSE", "#d62728", frame, rmse}});
-  h << detail_report::line_chart("Frame time, same view", "frame", "ms", {Series{"BSVTF (+feedback)", "#1f77b4", frame, tb},
-                                                                            Series{"FMF", "#ff7f0e", frame, tf}});
+  h << detail_report::line_chart(
+      "Frame time, same view", "frame", "ms",
+      {Series{"BSVTF (+feedback)", "#1f77b4", frame, tb}, Series{"FMF", "#ff7f0e", frame, tf}});
   h << detail_report::bar_chart("Texture memory", "KiB",
                                 {{"FMF (V' RGBA32F + mips)", r.memory.fmf_bytes / 1024.0, "#ff7f0e"},
                                  {"BSVTF (cache + page table)", r.memory.bsvtf_bytes / 1024.0, "#1f77b4"}});
   h << "</div>\n<p><img src='contact_sheet_frames.png' alt='frames'></p>\n";
+  h << detail_report::raw_and_paper_html(r);
   h << "<p>Materials:";
   for (size_t i = 0; i < r.material_names.size(); ++i)
     h << " " << r.material_names[i] << " (FMF relative error " << detail_report::fmt(r.fmf_errors[i]) << ")";
@@ -281,8 +475,9 @@ inline VoidResult write_frame_sheet(const std::string& path, const std::vector<I
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x)
         for (int c = 0; c < 3; ++c)
-          sheet.at(x0 + x, y0 + y, c) = 0.25f * (frames[i].at(2 * x, 2 * y, c) + frames[i].at(2 * x + 1, 2 * y, c) +
-                                                 frames[i].at(2 * x, 2 * y + 1, c) + frames[i].at(2 * x + 1, 2 * y + 1, c));
+          sheet.at(x0 + x, y0 + y, c) =
+              0.25f * (frames[i].at(2 * x, 2 * y, c) + frames[i].at(2 * x + 1, 2 * y, c) +
+                       frames[i].at(2 * x, 2 * y + 1, c) + frames[i].at(2 * x + 1, 2 * y + 1, c));
   }
   return write_png_srgb(path, sheet.view());
 }

@@ -56,16 +56,16 @@ struct FrameRecord {
   uint32_t frame = 0;
   uint64_t bytes_received = 0;  ///< verified payload bytes so far, all materials
   uint32_t tiles_delivered = 0;
-  double occupancy = 0;         ///< used cache slots / slots
-  double ssim = 0;              ///< BSVTF vs FMF (converged) render, sRGB-encoded, mean over RGB
-  double rmse = 0;              ///< same pair, linear radiance
-  double ms_bsvtf = 0;          ///< BSVTF colour pass + feedback pass, submit to read-back
-  double ms_fmf = 0;            ///< FMF colour pass, submit to read-back
+  double occupancy = 0;  ///< used cache slots / slots
+  double ssim = 0;       ///< BSVTF vs FMF (converged) render, sRGB-encoded, mean over RGB
+  double rmse = 0;       ///< same pair, linear radiance
+  double ms_bsvtf = 0;   ///< BSVTF colour pass + feedback pass, submit to read-back
+  double ms_fmf = 0;     ///< FMF colour pass, submit to read-back
   uint32_t requests = 0, uploads = 0;
   uint32_t page_table_writes = 0;  ///< GPU page-table texels written after this frame (deltas)
   uint32_t swaps = 0;              ///< scheduler swap operations this frame
   uint32_t lod_bias = 0;           ///< scheduler's global LOD bias after this frame's plan
-  bool settle = false;          ///< camera held at the last view (convergence phase)
+  bool settle = false;             ///< camera held at the last view (convergence phase)
 };
 
 /// Linear RGBA radiance → sRGB-encoded RGB in [0, 1] (clamped), for SSIM and PNG.
@@ -87,7 +87,6 @@ struct MemoryFigures {
   uint64_t u_bytes = 0;      ///< U' and lookup tables (the same for both, not counted above)
 };
 
-
 /// What the streaming loop needs from a renderer: the GPU Backend (GpuFrameRenderer) or the CPU
 /// reference ray-caster of backend/cpu_reference.hpp (CpuFrameRenderer, the fallback).
 class FrameRenderer {
@@ -96,7 +95,8 @@ class FrameRenderer {
   virtual std::string name() const = 0;
   /// Set-up: shaders/targets, meshes or shapes, materials. `cache` (the Streamer's) outlives
   /// the renderer.
-  virtual VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
+  virtual VoidResult init(const ShaderConfig& config, const TileCache& cache,
+                          const std::vector<DemoMaterial>& materials,
                           const std::vector<scene::SceneObject>& objects) = 0;
   /// Applies one Streamer::update()'s tile uploads and page-table writes.
   virtual Status apply(const StreamerOutputs& out) = 0;
@@ -141,14 +141,16 @@ class GpuFrameRenderer final : public FrameRenderer {
     return {};
   }
   Status apply(const StreamerOutputs& out) override { return apply_streamer_outputs(be_, out, bsvtf_mats_); }
-  Status write_page_table(std::span<const PageTableWrite> writes) override { return be_.apply_page_table_writes(writes); }
+  Status write_page_table(std::span<const PageTableWrite> writes) override {
+    return be_.apply_page_table_writes(writes);
+  }
   bool renders_page_table() const override { return true; }
   /// Called after each BSVTF colour pass, outside both timings, while its image is the
   /// backend's colour target (the demo's --window presents it there).
   void set_after_bsvtf(std::function<void()> f) { after_bsvtf_ = std::move(f); }
-  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
-                    Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
-                    double& ms_fmf) override {
+  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift,
+                    const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
+                    std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) override {
     FrameDesc desc;
     desc.width = view.width;
     desc.height = view.height;
@@ -180,8 +182,9 @@ class GpuFrameRenderer final : public FrameRenderer {
     uint32_t dx = 0, dy = 0;
     feedback_sample_offset(frame, d, dx, dy);
     const float fd = static_cast<float>(d);
-    const glm::vec2 jitter{(0.5f - (static_cast<float>(dx) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_width),
-                           (0.5f - (static_cast<float>(dy) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_height)};
+    const glm::vec2 jitter{
+        (0.5f - (static_cast<float>(dx) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_width),
+        (0.5f - (static_cast<float>(dy) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_height)};
     const glm::mat4 shift_ndc = glm::translate(glm::mat4(1.0f), glm::vec3(jitter, 0.0f));
     const auto t0 = std::chrono::steady_clock::now();
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
@@ -189,7 +192,8 @@ class GpuFrameRenderer final : public FrameRenderer {
       ShaderParams p = params(material_of_[i]);
       p.model_view_proj = shift_ndc * glm::mat4(p.model_view_proj);
       p.lod.y = static_cast<float>(shift);
-      if (be_.draw_feedback(meshes_[i], p) != Status::success) return make_error(Status::io_error, "draw_feedback failed");
+      if (be_.draw_feedback(meshes_[i], p) != Status::success)
+        return make_error(Status::io_error, "draw_feedback failed");
     }
     for (size_t i = 0; i < meshes_.size(); ++i) {
       const uint32_t m = material_of_[i];
@@ -232,12 +236,27 @@ class GpuFrameRenderer final : public FrameRenderer {
   std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;
 };
 
+/// The scene of scene::make_demo_scene as analytic shapes for the CPU ray-caster: the plane
+/// (material 0) and four tori (materials 1 … n − 1 in turn).
+inline Scene analytic_demo_scene(uint32_t material_count) {
+  Scene scene;
+  scene.add(Shape::plane(0, {-6.0f, 0.0f, 6.0f}, {1, 0, 0}, {0, 0, -1}, 12.0f, 12.0f, {6.0f, 6.0f}));
+  const uint32_t n = material_count;
+  for (uint32_t i = 0; i < 4; ++i) {
+    const float a = kTwoPi * static_cast<float>(i) / 4.0f + 0.4f;
+    const uint32_t m = n > 1 ? 1 + i % (n - 1) : 0;
+    scene.add(Shape::torus(m, {2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a)}, 0.9f, 0.45f, {4.0f, 2.0f}));
+  }
+  return scene;
+}
+
 /// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
 /// feedback by render_feedback (eq. 1–2), BSVTF through CpuCacheTexture (eq. 3, the deepest
 /// resident tile), FMF from V' at the finest level (bilinear, repeat), both shaded by
 /// shade_fmf's 9 taps with the same lookup tables as the shaders. Rows run on the thread pool.
 class CpuFrameRenderer final : public FrameRenderer {
  public:
+  static constexpr uint32_t kMaxComponents = 256;  ///< C the shading loop holds (64 RGBA groups)
   std::string name() const override { return "CPU reference (backend/cpu_reference.hpp ray-caster)"; }
   VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
                   const std::vector<scene::SceneObject>&) override {
@@ -246,14 +265,11 @@ class CpuFrameRenderer final : public FrameRenderer {
     materials_ = &materials;
     config_ = config;
     texture_ = std::make_unique<CpuCacheTexture>(cache);
-    // The same scene as scene::make_demo_scene, as analytic shapes.
-    scene_.add(Shape::plane(0, {-6.0f, 0.0f, 6.0f}, {1, 0, 0}, {0, 0, -1}, 12.0f, 12.0f, {6.0f, 6.0f}));
-    const uint32_t n = static_cast<uint32_t>(materials.size());
-    for (uint32_t i = 0; i < 4; ++i) {
-      const float a = kTwoPi * static_cast<float>(i) / 4.0f + 0.4f;
-      const uint32_t m = n > 1 ? 1 + i % (n - 1) : 0;
-      scene_.add(Shape::torus(m, {2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a)}, 0.9f, 0.45f, {4.0f, 2.0f}));
-    }
+    for (const DemoMaterial& m : materials)
+      if (m.components > kMaxComponents)
+        return make_error(Status::unsupported, "%s: C = %u, the CPU reference shades at most %u components",
+                          m.name.c_str(), m.components, kMaxComponents);
+    scene_ = analytic_demo_scene(static_cast<uint32_t>(materials.size()));
     return {};
   }
   // Tiles into the cache texture; the ray-caster samples the tile cache's own page table.
@@ -267,10 +283,12 @@ class CpuFrameRenderer final : public FrameRenderer {
         },
         [](std::span<const PageTableWrite>) noexcept { return Status::success; });
   }
-  Status write_page_table(std::span<const PageTableWrite>) override { return Status::success; }  // reads the cache's table
-  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift, const std::function<ShaderParams(uint32_t)>& params,
-                    Image<float>& bsvtf, Image<float>& fmf, std::vector<uint32_t>& feedback, double& ms_bsvtf,
-                    double& ms_fmf) override {
+  Status write_page_table(std::span<const PageTableWrite>) override {
+    return Status::success;
+  }  // reads the cache's table
+  VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift,
+                    const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
+                    std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) override {
     Camera cam;
     cam.position = view.eye;
     cam.target = view.target;
@@ -303,7 +321,7 @@ class CpuFrameRenderer final : public FrameRenderer {
   }
   void shade(const Camera& cam, const ShaderParams& p, bool bsvtf, Image<float>& out) const {
     default_thread_pool().parallel_for(0, cam.height, 4, [&](size_t y0, size_t y1) {
-      float comps[64];
+      float comps[kMaxComponents];
       for (size_t y = y0; y < y1; ++y)
         for (uint32_t x = 0; x < cam.width; ++x) {
           const int xi = static_cast<int>(x), yi = static_cast<int>(y);
@@ -316,14 +334,17 @@ class CpuFrameRenderer final : public FrameRenderer {
           const uint32_t groups = (m.components + 3) / 4;
           for (uint32_t g = 0; g < groups; ++g) {
             if (bsvtf) {
-              texture_->sample(*cache_, set_->material(h.material).first_texture + g, h.texcoord.x, h.texcoord.y, comps + 4 * g);
+              texture_->sample(*cache_, set_->material(h.material).first_texture + g, h.texcoord.x, h.texcoord.y,
+                               comps + 4 * g);
             } else {
               const Image<float>& v = m.eigen_textures;
-              const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f, fy = h.texcoord.y * static_cast<float>(v.height()) - 0.5f;
+              const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f,
+                          fy = h.texcoord.y * static_cast<float>(v.height()) - 0.5f;
               const int x0 = static_cast<int>(std::floor(fx)), y0i = static_cast<int>(std::floor(fy));
               const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0i);
               const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
-              const int xa = wrap(x0, v.width()), xb = wrap(x0 + 1, v.width()), ya = wrap(y0i, v.height()), yb = wrap(y0i + 1, v.height());
+              const int xa = wrap(x0, v.width()), xb = wrap(x0 + 1, v.width()), ya = wrap(y0i, v.height()),
+                        yb = wrap(y0i + 1, v.height());
               for (uint32_t k = 0; k < 4; ++k) {
                 const int c = static_cast<int>(4 * g + k);
                 if (c >= v.channels()) {
@@ -339,7 +360,8 @@ class CpuFrameRenderer final : public FrameRenderer {
           AngularSample ls, vs;
           lookup(m, m.light_index, m.light_weight, to_local(h, glm::normalize(glm::vec3(p.light))), ls);
           lookup(m, m.view_index, m.view_weight, to_local(h, glm::normalize(view_eye(cam) - h.position)), vs);
-          const glm::vec3 rgb = shade_fmf(m.eigen, ls, vs, std::span<const float>(comps, m.components)) * glm::vec3(p.light_color);
+          const glm::vec3 rgb =
+              shade_fmf(m.eigen, ls, vs, std::span<const float>(comps, m.components)) * glm::vec3(p.light_color);
           for (int c = 0; c < 3; ++c) out.at(xi, yi, c) = rgb[c];
           out.at(xi, yi, 3) = 1.0f;
         }
@@ -365,7 +387,8 @@ class StreamingRenderer {
   /// and loads every pinned root tile and U′ packet (update() + pump() on this thread, before
   /// any worker exists). Returns an error naming the failing step. `renderer` and `materials`
   /// must outlive the object.
-  static Result<std::unique_ptr<StreamingRenderer>> create(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials,
+  static Result<std::unique_ptr<StreamingRenderer>> create(FrameRenderer& renderer,
+                                                           const std::vector<DemoMaterial>& materials,
                                                            const StreamSettings& s) {
     std::unique_ptr<StreamingRenderer> r(new StreamingRenderer(renderer, materials, s));
     if (auto e = r->init(); !e) return e.error();
@@ -374,13 +397,15 @@ class StreamingRenderer {
 
   /// Renders frame f (camera at path position view_frame of `frames`) and streams; writes the
   /// two images (RGBA linear).
-  Result<FrameRecord> frame(uint32_t f, uint32_t view_frame, uint32_t frames, Image<float>& bsvtf_img, Image<float>& fmf_img) {
+  Result<FrameRecord> frame(uint32_t f, uint32_t view_frame, uint32_t frames, Image<float>& bsvtf_img,
+                            Image<float>& fmf_img) {
     FrameRecord rec;
     rec.frame = f;
     const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
     const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
-    if (auto e = renderer_.render(view, f, s_.feedback_shift, [&](uint32_t m) { return material_params(base, m); }, bsvtf_img,
-                                  fmf_img, feedback_, rec.ms_bsvtf, rec.ms_fmf);
+    if (auto e = renderer_.render(
+            view, f, s_.feedback_shift, [&](uint32_t m) { return material_params(base, m); }, bsvtf_img, fmf_img,
+            feedback_, rec.ms_bsvtf, rec.ms_fmf);
         !e)
       return e.error();
 
@@ -396,7 +421,8 @@ class StreamingRenderer {
     rec.page_table_writes = static_cast<uint32_t>(last_page_table_writes_);
     rec.bytes_received = streamer_.bytes_read();
     rec.tiles_delivered = tiles_delivered_;
-    rec.occupancy = static_cast<double>(streamer_.cache().used_count()) / static_cast<double>(streamer_.cache().slot_count());
+    rec.occupancy =
+        static_cast<double>(streamer_.cache().used_count()) / static_cast<double>(streamer_.cache().slot_count());
     const Image<float> a = to_display(bsvtf_img), b = to_display(fmf_img);
     rec.ssim = mean_ssim(a.view(), b.view());
     rec.rmse = rmse(bsvtf_img.view(), fmf_img.view());
@@ -446,14 +472,15 @@ class StreamingRenderer {
     if (const Status st = streamer_.update(feedback, out); st != Status::success)
       return make_error(st, "Streamer::update failed");
     if (const Status st = renderer_.apply(out); st != Status::success)
-      return make_error(st, "applying the frame's outputs failed (%zu tiles, %zu page-table texels)", out.tile_upload_count,
-                        out.page_table_write_count);
+      return make_error(st, "applying the frame's outputs failed (%zu tiles, %zu page-table texels)",
+                        out.tile_upload_count, out.page_table_write_count);
     for (size_t i = 0; i < out.page_table_write_count; ++i) {
       const PageTableWrite& w = page_writes_[i];
       page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
     }
     for (size_t i = 0; i < out.event_count; ++i)
-      failures_ += events_[i].kind == ResidencyEventKind::tile_failed || events_[i].kind == ResidencyEventKind::packet_failed;
+      failures_ +=
+          events_[i].kind == ResidencyEventKind::tile_failed || events_[i].kind == ResidencyEventKind::packet_failed;
     last_uploads_ = out.tile_upload_count;
     last_page_table_writes_ = out.page_table_write_count;
     tiles_delivered_ += static_cast<uint32_t>(out.tile_upload_count);
@@ -507,8 +534,9 @@ class StreamingRenderer {
         const TileId id = lv.tile(t, i);
         if (id.level == L) {
           if (mirror(id) != rebuild(id))
-            return make_error(Status::invalid_argument, "page table %u: finest tile (%u,%u) holds 0x%08x, rebuild 0x%08x", t,
-                              id.x, id.y, mirror(id), rebuild(id));
+            return make_error(Status::invalid_argument,
+                              "page table %u: finest tile (%u,%u) holds 0x%08x, rebuild 0x%08x", t, id.x, id.y,
+                              mirror(id), rebuild(id));
           continue;
         }
         const uint32_t side = 1u << (L - id.level);
@@ -517,9 +545,10 @@ class StreamingRenderer {
             const TileId f{t, L, x, y};
             const uint32_t m = sampled_entry(mirror, id, f), r = sampled_entry(rebuild, id, f);
             if (m != r)
-              return make_error(Status::invalid_argument,
-                                "page table %u: level %u tile (%u,%u) over finest (%u,%u) samples 0x%08x, rebuild 0x%08x", t,
-                                id.level, id.x, id.y, x, y, m, r);
+              return make_error(
+                  Status::invalid_argument,
+                  "page table %u: level %u tile (%u,%u) over finest (%u,%u) samples 0x%08x, rebuild 0x%08x", t,
+                  id.level, id.x, id.y, x, y, m, r);
           }
       }
     }
@@ -569,8 +598,9 @@ class StreamingRenderer {
       directories_.push_back(std::move(*dir));
     }
     StreamerConfig sc;
-    sc.cache = CacheConfig{s_.slots_x, s_.slots_y, 1u << 16, directories_.front().metadata.tile_size,
-                           directories_.front().metadata.border, 1};
+    sc.cache = CacheConfig{
+        s_.slots_x, s_.slots_y, 1u << 16, directories_.front().metadata.tile_size, directories_.front().metadata.border,
+        1};
     sc.scheduler.budgets.uploads_per_frame = s_.uploads_per_frame;
     sc.scheduler.budgets.requests_in_flight = 4 * s_.uploads_per_frame;
     sc.scheduler.budgets.tiles_decoding = 4 * s_.uploads_per_frame;
@@ -579,9 +609,9 @@ class StreamingRenderer {
     std::vector<StreamerMaterial> streamer_materials;
     for (size_t m = 0; m < materials_.size(); ++m) {
       sources_.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(materials_[m].bsvtf)));
-      throttled_.push_back(std::make_unique<ThrottledSource>(*sources_.back(),
-                                                             s_.bytes_per_second / static_cast<double>(materials_.size()),
-                                                             std::chrono::microseconds(s_.latency_ms * 1000)));
+      throttled_.push_back(std::make_unique<ThrottledSource>(
+          *sources_.back(), s_.bytes_per_second / static_cast<double>(materials_.size()),
+          std::chrono::microseconds(s_.latency_ms * 1000)));
       streamer_materials.push_back(StreamerMaterial{&directories_[m], throttled_.back().get(), nullptr});
     }
     auto streamer = Streamer::create(streamer_materials, sc);
@@ -595,18 +625,20 @@ class StreamingRenderer {
     for (const DemoMaterial& m : materials_) {
       const uint64_t groups = (m.components + 3) / 4;
       uint64_t mips = 0;
-      for (uint64_t w = static_cast<uint64_t>(m.eigen_textures.width()), h = static_cast<uint64_t>(m.eigen_textures.height());;
-           w = std::max<uint64_t>(w / 2, 1), h = std::max<uint64_t>(h / 2, 1)) {
+      for (uint64_t w = static_cast<uint64_t>(m.eigen_textures.width()),
+                    h = static_cast<uint64_t>(m.eigen_textures.height());
+           ; w = std::max<uint64_t>(w / 2, 1), h = std::max<uint64_t>(h / 2, 1)) {
         mips += w * h;
         if (w == 1 && h == 1) break;
       }
       memory_.fmf_bytes += mips * groups * 16;  // RGBA32F
-      memory_.u_bytes += m.u.size() / m.components * groups * 16 + 2ull * m.angular_resolution * m.angular_resolution * 32;
+      memory_.u_bytes +=
+          m.u.size() / m.components * groups * 16 + 2ull * m.angular_resolution * m.angular_resolution * 32;
     }
     uint64_t pt = 0;
     for (uint32_t l = 0; l <= finest; ++l) pt += (1ull << l) * (1ull << l);
-    memory_.bsvtf_bytes = static_cast<uint64_t>(config.vt.cache_width()) * config.vt.cache_height() * 8 +
-                          pt * 4 * set().texture_count();
+    memory_.bsvtf_bytes =
+        static_cast<uint64_t>(config.vt.cache_width()) * config.vt.cache_height() * 8 + pt * 4 * set().texture_count();
     // Caller-owned outputs, sized once: every page-table texel fits (the first update writes
     // them all).
     tile_uploads_.resize(streamer_.tile_uploads_bound());

@@ -312,8 +312,9 @@ inline Int2 shader_table_texel(Float2 unit, uint32_t resolution) noexcept {
 /// Checks a configuration before generation. Returns invalid_argument with the offending field
 /// (what, expected vs found) or success. Safe for any values.
 inline VoidResult validate_shader_config(const ShaderConfig& c) {
-  if (c.components == 0 || c.components > 64)
-    return make_error(Status::invalid_argument, "shader config: components = %u, expected 1..64", c.components);
+  // Up to 128: paper 000 §7 renders C = 100 (25 RGBA groups).
+  if (c.components == 0 || c.components > 128)
+    return make_error(Status::invalid_argument, "shader config: components = %u, expected 1..128", c.components);
   if (c.angular.resolution == 0 || c.angular.resolution > 4096)
     return make_error(Status::invalid_argument, "shader config: angular.resolution = %u, expected 1..4096",
                       c.angular.resolution);

@@ -76,6 +76,7 @@
 
 #include "btflod/codec/dct.hpp"
 #include "btflod/codec/quantize.hpp"
+#include "btflod/core/allocator.hpp"
 #include "btflod/core/result.hpp"
 
 namespace btflod {
@@ -288,7 +289,10 @@ class RawInflater {
   /// Allocates the state for `backend` (libdeflate falls back to zlib when not compiled in; zlib
   /// also classifies libdeflate's failures). Returns false when allocation or zlib's set-up
   /// fails; the object is then unusable (inflate() returns invalid_argument). Set-up only.
-  bool create(InflateBackend backend) noexcept;
+  /// The state and zlib's window come from `allocator`. libdeflate's decompressor (libdeflate
+  /// 1.14 has no per-object allocator) comes from malloc: pass InflateBackend::zlib when every
+  /// byte must go through the callbacks.
+  bool create(InflateBackend backend, const RuntimeAllocator& allocator = {}) noexcept;
   /// True after a successful create().
   bool ready() const noexcept { return state_ != nullptr; }
   /// The backend in use (zlib before create()).
@@ -338,8 +342,9 @@ class ZstdDecompressor {
   ZstdDecompressor& operator=(const ZstdDecompressor&) = delete;
   ~ZstdDecompressor();
 
-  /// Allocates the context. False when zstd is not compiled in or allocation fails. Set-up only.
-  bool create() noexcept;
+  /// Allocates the context (its workspace from `allocator`). False when zstd is not compiled in
+  /// or allocation fails. Set-up only.
+  bool create(const RuntimeAllocator& allocator = {}) noexcept;
   bool ready() const noexcept { return state_ != nullptr; }
 
   /// Decompresses `in`, which must be exactly one zstd frame declaring a content size of
@@ -465,11 +470,16 @@ inline const TileTokenTable& tile_token_table() noexcept {
 class TileDecoder {
  public:
   /// `backend` libdeflate needs libdeflate compiled into the implementation TU
-  /// (inflate_backend_available); without it zlib is used. Allocates everything decode() needs.
-  explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = default_inflate_backend()) : layout_(layout) {
-    if (layout_.valid()) symbols_.resize(tile_symbol_bound(layout_));
-    ready_ = layout_.valid() && inflater_.create(backend);
-    if (ready_ && tile_entropy_coder_available(TileEntropyCoder::zstd)) zstd_.create();  // else zstd tiles fail
+  /// (inflate_backend_available); without it zlib is used. Allocates everything decode() needs,
+  /// through `allocator` (except libdeflate's own state: see RawInflater::create). When an
+  /// allocation fails every decode() returns invalid_argument.
+  explicit TileDecoder(TileLayout layout = {}, InflateBackend backend = default_inflate_backend(),
+                       const RuntimeAllocator& allocator = {})
+      : layout_(layout) {
+    ready_ = layout_.valid() && symbols_.allocate(allocator, tile_symbol_bound(layout_)) &&
+             inflater_.create(backend, allocator);
+    if (ready_ && tile_entropy_coder_available(TileEntropyCoder::zstd))
+      zstd_.create(allocator);  // without it zstd tiles fail with a message
   }
   TileDecoder(const TileDecoder&) = delete;
   TileDecoder& operator=(const TileDecoder&) = delete;
@@ -673,7 +683,7 @@ class TileDecoder {
   }
 
   TileLayout layout_;
-  std::vector<uint8_t> symbols_;
+  RuntimeArray<uint8_t> symbols_;
   TileCoefBlock blocks_[kTileMaxChannels] = {};
   TileHeaderInfo info_;
   RawInflater inflater_;
@@ -914,11 +924,37 @@ InflateBackend default_inflate_backend() noexcept {
 }
 
 struct RawInflater::State {
+  RuntimeAllocator allocator;  // zlib's zalloc/zfree reach it through stream.opaque
   z_stream stream{};
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
   libdeflate_decompressor* libdeflate = nullptr;
 #endif
 };
+
+namespace detail {
+// zlib's allocation hooks over a RuntimeAllocator. zfree is not told the size, so each block
+// carries it in a 16-byte prefix (which also keeps the block 16-byte aligned).
+inline constexpr size_t kZlibBlockPrefix = 16;
+
+inline voidpf zlib_allocate(voidpf opaque, uInt items, uInt size) {
+  const auto* allocator = static_cast<const RuntimeAllocator*>(opaque);
+  const size_t bytes = size_t{items} * size_t{size};
+  if (size != 0 && bytes / size != items) return Z_NULL;
+  auto* block = static_cast<unsigned char*>(allocator->allocate_bytes(bytes + kZlibBlockPrefix, 16));
+  if (block == nullptr) return Z_NULL;
+  std::memcpy(block, &bytes, sizeof bytes);
+  return block + kZlibBlockPrefix;
+}
+
+inline void zlib_free(voidpf opaque, voidpf pointer) {
+  if (pointer == Z_NULL) return;
+  const auto* allocator = static_cast<const RuntimeAllocator*>(opaque);
+  unsigned char* block = static_cast<unsigned char*>(pointer) - kZlibBlockPrefix;
+  size_t bytes = 0;
+  std::memcpy(&bytes, block, sizeof bytes);
+  allocator->deallocate_bytes(block, bytes + kZlibBlockPrefix, 16);
+}
+}  // namespace detail
 
 RawInflater::~RawInflater() {
   if (state_ == nullptr) return;
@@ -926,15 +962,26 @@ RawInflater::~RawInflater() {
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
   if (state_->libdeflate) libdeflate_free_decompressor(state_->libdeflate);
 #endif
-  delete state_;
+  const RuntimeAllocator allocator = state_->allocator;
+  state_->~State();
+  allocator.deallocate_bytes(state_, sizeof(State), alignof(State));
 }
 
-bool RawInflater::create(InflateBackend backend) noexcept {
+bool RawInflater::create(InflateBackend backend, const RuntimeAllocator& allocator) noexcept {
   if (state_ != nullptr) return true;
-  State* st = new (std::nothrow) State;
-  if (st == nullptr) return false;
+  void* memory = allocator.allocate_bytes(sizeof(State), alignof(State));
+  if (memory == nullptr) return false;
+  State* st = ::new (memory) State;
+  st->allocator = allocator;
+  auto release = [&] {
+    st->~State();
+    allocator.deallocate_bytes(memory, sizeof(State), alignof(State));
+  };
+  st->stream.zalloc = detail::zlib_allocate;
+  st->stream.zfree = detail::zlib_free;
+  st->stream.opaque = &st->allocator;
   if (inflateInit2(&st->stream, -15) != Z_OK) {
-    delete st;
+    release();
     return false;
   }
   // zlib allocates its 32 KiB window lazily, inside the first inflate() that ends before the
@@ -957,7 +1004,10 @@ bool RawInflater::create(InflateBackend backend) noexcept {
 #endif
   if (!ok) {
     inflateEnd(&st->stream);
-    delete st;
+#if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
+    if (st->libdeflate) libdeflate_free_decompressor(st->libdeflate);
+#endif
+    release();
     return false;
   }
   state_ = st;
@@ -1019,6 +1069,8 @@ bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept {
 // Both zstd contexts live in a workspace owned here (ZSTD_initStatic*: the context never
 // allocates, so decompress() and compress() do not either).
 struct ZstdDecompressor::State {
+  RuntimeAllocator allocator;
+  size_t workspace_bytes = 0;
   unsigned char* workspace = nullptr;
 #if defined(BTFLOD_TILE_CODEC_ZSTD)
   ZSTD_DCtx* dctx = nullptr;
@@ -1027,26 +1079,32 @@ struct ZstdDecompressor::State {
 
 ZstdDecompressor::~ZstdDecompressor() {
   if (state_ == nullptr) return;
-  delete[] state_->workspace;
-  delete state_;
+  const RuntimeAllocator allocator = state_->allocator;
+  allocator.deallocate_bytes(state_->workspace, state_->workspace_bytes, 16);
+  state_->~State();
+  allocator.deallocate_bytes(state_, sizeof(State), alignof(State));
 }
 
-bool ZstdDecompressor::create() noexcept {
+bool ZstdDecompressor::create(const RuntimeAllocator& allocator) noexcept {
 #if defined(BTFLOD_TILE_CODEC_ZSTD)
   if (state_ != nullptr) return true;
-  State* st = new (std::nothrow) State;
-  if (st == nullptr) return false;
-  const size_t size = ZSTD_estimateDCtxSize();
-  st->workspace = new (std::nothrow) unsigned char[size];  // operator new[]: aligned for any scalar (zstd needs 8)
-  if (st->workspace != nullptr) st->dctx = ZSTD_initStaticDCtx(st->workspace, size);
+  void* memory = allocator.allocate_bytes(sizeof(State), alignof(State));
+  if (memory == nullptr) return false;
+  State* st = ::new (memory) State;
+  st->allocator = allocator;
+  st->workspace_bytes = ZSTD_estimateDCtxSize();
+  st->workspace = static_cast<unsigned char*>(allocator.allocate_bytes(st->workspace_bytes, 16));  // zstd needs 8
+  if (st->workspace != nullptr) st->dctx = ZSTD_initStaticDCtx(st->workspace, st->workspace_bytes);
   if (st->dctx == nullptr) {
-    delete[] st->workspace;
-    delete st;
+    allocator.deallocate_bytes(st->workspace, st->workspace_bytes, 16);
+    st->~State();
+    allocator.deallocate_bytes(memory, sizeof(State), alignof(State));
     return false;
   }
   state_ = st;
   return true;
 #else
+  (void)allocator;
   return false;
 #endif
 }

@@ -26,10 +26,11 @@
 //    or an AsyncTileSource is asked for them in update() and complete_read() reports them.
 //  * Every buffer is allocated in create() through StreamerConfig::allocator (or operator new):
 //    the Streamer's own arrays, the tile cache, scheduler, vote counter and payload cache and
-//    the temporaries of create() itself. The one exception: each tile decoder's symbol buffer
-//    and inflate state (codec/tile_codec.hpp's TileDecoder) still come from operator new /
-//    malloc at creation (tests/test_runtime_allocator.cpp counts that these are the only global
-//    allocations of create()). update(), the jobs and the completions allocate nothing.
+//    the temporaries of create() itself, and the tile decoders' symbol buffers, zlib and zstd
+//    state. The one exception is libdeflate's decompressor (libdeflate 1.14 has no per-object
+//    allocator), one malloc per decoder when StreamerConfig::inflate_backend is libdeflate;
+//    with InflateBackend::zlib every byte goes through the callbacks
+//    (tests/test_runtime_allocator.cpp). update(), the jobs and the completions allocate nothing.
 //  * Headers used here include no thread, POSIX or GPU header; the runtime builds with
 //    -fno-exceptions -fno-rtti.
 //
@@ -102,8 +103,11 @@ struct StreamerConfig {
   /// it). 0 disables the cache. The output is the same either way.
   uint32_t decoded_cache_tiles = 16;
   /// Allocation callbacks for every buffer of the Streamer (tile cache, scheduler, vote counter,
-  /// payload cache, jobs), except the tile decoders' own scratch (see the file comment).
+  /// payload cache, jobs, tile decoders), except libdeflate's decompressor (see the file comment).
   RuntimeAllocator allocator;
+  /// The tile decoders' inflate implementation: libdeflate (the default when compiled in,
+  /// faster) or zlib (every allocation through `allocator`). Same output either way.
+  InflateBackend inflate_backend = default_inflate_backend();
 };
 
 /// A tile to copy into cache slot `slot` this frame. texels: (T+2B)² × 4 half bits, valid
@@ -990,7 +994,8 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
       job.parent = im->job_floats.data() + size_t{j} * samples * 2;
       job.out = job.parent + samples;
       job.halves = im->job_halves.data() + size_t{j} * samples;
-      job.decoder = ::new (static_cast<void*>(dec + size_t{j} * sizeof(TileDecoder))) TileDecoder(im->layout);
+      job.decoder = ::new (static_cast<void*>(dec + size_t{j} * sizeof(TileDecoder)))
+          TileDecoder(im->layout, config.inflate_backend, al);
     } else {
       const uint32_t p = j - tile_like;
       job.kind = detail::kPacketJob;

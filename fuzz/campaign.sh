@@ -6,7 +6,8 @@
 # (libFuzzer -merge=1, so the kept corpus stays minimal), crashing inputs are kept under
 # BUILD_DIR/fuzz/campaign/<target>/findings/, and a table prints executions, executions per
 # second, coverage (edges, features), inputs added and findings per target. Exit status 1 when
-# any target found something.
+# any target found something. BTFLOD_FUZZ_TARGETS (an extended regex on the target names, e.g.
+# 'container|tile_') limits the campaign to the targets it matches.
 set -euo pipefail
 build=$1 minutes=$2 jobs=$3
 src=$(cd "$(dirname "$0")" && pwd)
@@ -34,7 +35,9 @@ export out src secs
 
 targets=()
 for bin in "$build"/fuzz/fuzz_*; do
-  [ -x "$bin" ] && [ -f "$bin" ] && targets+=("$bin")
+  [ -x "$bin" ] && [ -f "$bin" ] || continue
+  if [ -n "${BTFLOD_FUZZ_TARGETS:-}" ] && ! basename "$bin" | grep -Eq -- "$BTFLOD_FUZZ_TARGETS"; then continue; fi
+  targets+=("$bin")
 done
 [ ${#targets[@]} -gt 0 ] || { echo "campaign: no fuzz targets in $build/fuzz" >&2; exit 2; }
 echo "campaign: ${#targets[@]} targets × ${minutes} min, ${jobs} at a time"

@@ -1,10 +1,13 @@
 // libFuzzer target for btf/bonn_btf.hpp: parses arbitrary bytes as a Bonn .btf file; every
 // rejection explains itself, and accepted files are reconstructed (at most 2^16 samples). The
-// encode → read → encode round trip is its own target (fuzz_bonn_btf_round_trip).
+// encode → read → encode round trip is its own target (fuzz_bonn_btf_round_trip). Mutation is
+// structure-aware (bonn_mutator.hpp: one field of the parsed file changed, the file written
+// again with consistent counts); BTFLOD_FUZZ_BYTES=1 keeps plain byte-level mutation.
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
+#include "bonn_mutator.hpp"
 #include "btflod/btf/bonn_btf.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -21,4 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto btf = reconstruct_bonn_btf(*f, ro);
   (void)btf;
   return 0;
+}
+
+extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned seed) {
+  return btflod_fuzz::mutate_bonn_btf(data, size, max_size, seed);
 }

@@ -11,7 +11,8 @@
 // Content-Range (bad_data), a server that sends more or fewer bytes, closes the connection
 // mid-transfer (short_output) or times out. Reads are cancellable through the
 // pipeline's cancel flag (libcurl's progress callback polls it). Curl handles are pooled so
-// that keep-alive connections are reused; read() is thread-safe.
+// that keep-alive connections are reused (see HttpSourceOptions::reuse_handles for the libcurl
+// versions where that is not safe); read() is thread-safe.
 #pragma once
 
 #include <algorithm>
@@ -46,6 +47,19 @@ struct HttpSourceOptions {
   /// on the thread calling size() or read(), possibly on several threads at once.
   void (*customize_handle)(CURL* handle, void* user) = nullptr;
   void* customize_user = nullptr;  ///< passed to customize_handle
+  /// Reuse curl handles (and so keep-alive connections) across reads. libcurl before 8.1.0
+  /// (Debian 12 ships 7.88.1) reads freed memory when a response on a reused handle starts its
+  /// headers with a folded line (curl issue #11101: a pointer to the previous transfer's last
+  /// header is left dangling), so a hostile server could crash the client: on those versions
+  /// the default is a fresh handle (and connection) per request. Set true to reuse anyway,
+  /// e.g. for a trusted server.
+  bool reuse_handles = http_source_handle_reuse_is_safe();
+
+  /// True when the libcurl in use (checked at run time) is 8.1.0 or newer.
+  static bool http_source_handle_reuse_is_safe() noexcept {
+    const curl_version_info_data* v = curl_version_info(CURLVERSION_NOW);
+    return v != nullptr && v->version_num >= 0x080100;
+  }
 };
 
 class HttpSource final : public TileSource {
@@ -80,8 +94,10 @@ class HttpSource final : public TileSource {
     curl_easy_getinfo(h, CURLINFO_CONTENT_LENGTH_DOWNLOAD_T, &length);
     release(h);
     if (rc != CURLE_OK)
-      return make_error(Status::io_error, "%s: HEAD failed: %s", url_.c_str(), error[0] ? error : curl_easy_strerror(rc));
-    if (code != 200) return make_error(Status::io_error, "%s: HEAD answered HTTP %ld, expected 200", url_.c_str(), code);
+      return make_error(Status::io_error, "%s: HEAD failed: %s", url_.c_str(),
+                        error[0] ? error : curl_easy_strerror(rc));
+    if (code != 200)
+      return make_error(Status::io_error, "%s: HEAD answered HTTP %ld, expected 200", url_.c_str(), code);
     if (length < 0) return make_error(Status::unsupported, "%s: server sent no Content-Length", url_.c_str());
     std::lock_guard lock(mutex_);
     size_ = static_cast<uint64_t>(length);
@@ -109,22 +125,27 @@ class HttpSource final : public TileSource {
     if (rc == CURLE_ABORTED_BY_CALLBACK || (cancel && cancel->load()))
       return make_error(Status::cancelled, "%s: range %s cancelled", url_.c_str(), range);
     // Error statuses first: their bodies (error pages) may be longer than the span.
-    if (code == 416) return make_error(Status::short_output, "%s: range %s not satisfiable (file shorter)", url_.c_str(), range);
+    if (code == 416)
+      return make_error(Status::short_output, "%s: range %s not satisfiable (file shorter)", url_.c_str(), range);
     if (code >= 400) return make_error(Status::io_error, "%s: range %s answered HTTP %ld", url_.c_str(), range, code);
     if (t.overflow || (rc == CURLE_WRITE_ERROR && t.got >= t.capacity))
-      return make_error(Status::bad_data, "%s: range %s: server sent more than the %zu requested bytes (HTTP %ld)", url_.c_str(),
-                        range, out.size(), code);
+      return make_error(Status::bad_data, "%s: range %s: server sent more than the %zu requested bytes (HTTP %ld)",
+                        url_.c_str(), range, out.size(), code);
     if (rc == CURLE_PARTIAL_FILE || rc == CURLE_RECV_ERROR || rc == CURLE_GOT_NOTHING)
-      return make_error(Status::short_output, "%s: range %s: connection closed after %zu of %zu bytes (%s)", url_.c_str(), range,
-                        t.got, out.size(), error[0] ? error : curl_easy_strerror(rc));
+      return make_error(Status::short_output, "%s: range %s: connection closed after %zu of %zu bytes (%s)",
+                        url_.c_str(), range, t.got, out.size(), error[0] ? error : curl_easy_strerror(rc));
     if (rc != CURLE_OK)
-      return make_error(Status::io_error, "%s: range %s: %s", url_.c_str(), range, error[0] ? error : curl_easy_strerror(rc));
+      return make_error(Status::io_error, "%s: range %s: %s", url_.c_str(), range,
+                        error[0] ? error : curl_easy_strerror(rc));
     if (code == 200)
-      return make_error(Status::unsupported, "%s: server ignored the Range header (HTTP 200 instead of 206)", url_.c_str());
-    if (code != 206) return make_error(Status::io_error, "%s: range %s answered HTTP %ld, expected 206", url_.c_str(), range, code);
+      return make_error(Status::unsupported, "%s: server ignored the Range header (HTTP 200 instead of 206)",
+                        url_.c_str());
+    if (code != 206)
+      return make_error(Status::io_error, "%s: range %s answered HTTP %ld, expected 206", url_.c_str(), range, code);
     if (!t.range_valid)
-      return make_error(Status::bad_data, "%s: range %s: 206 without a Content-Range of the form \"bytes first-last/size\"",
-                        url_.c_str(), range);
+      return make_error(Status::bad_data,
+                        "%s: range %s: 206 without a Content-Range of the form \"bytes first-last/size\"", url_.c_str(),
+                        range);
     if (t.range_first != offset)
       return make_error(Status::bad_data, "%s: Content-Range starts at %llu, requested %llu", url_.c_str(),
                         static_cast<unsigned long long>(t.range_first), at);
@@ -133,7 +154,8 @@ class HttpSource final : public TileSource {
                         static_cast<unsigned long long>(t.range_last),
                         static_cast<unsigned long long>(offset + out.size() - 1));
     if (t.got != out.size())
-      return make_error(Status::short_output, "%s: range %s: received %zu of %zu bytes", url_.c_str(), range, t.got, out.size());
+      return make_error(Status::short_output, "%s: range %s: received %zu of %zu bytes", url_.c_str(), range, t.got,
+                        out.size());
     return {};
   }
 
@@ -145,8 +167,8 @@ class HttpSource final : public TileSource {
     size_t capacity;
     size_t got;
     bool overflow;
-    bool range_valid;       // a well-formed "bytes first-last/…" Content-Range was received
-    uint64_t range_first;   // its first and last byte (valid when range_valid)
+    bool range_valid;      // a well-formed "bytes first-last/…" Content-Range was received
+    uint64_t range_first;  // its first and last byte (valid when range_valid)
     uint64_t range_last;
     const std::atomic<bool>* cancel;
   };
@@ -176,8 +198,10 @@ class HttpSource final : public TileSource {
     if (!number(first) || p >= end || *p++ != '-' || !number(last) || last < first) return false;
     if (p >= end || *p++ != '/') return false;
     uint64_t size = 0;
-    if (p < end && *p == '*') ++p;
-    else if (!number(size) || size <= last) return false;
+    if (p < end && *p == '*')
+      ++p;
+    else if (!number(size) || size <= last)
+      return false;
     while (p < end && (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\n')) ++p;
     return p == end;
   }
@@ -235,7 +259,7 @@ class HttpSource final : public TileSource {
     if (options_.customize_handle) options_.customize_handle(h, options_.customize_user);
   }
   CURL* acquire() {
-    {
+    if (options_.reuse_handles) {
       std::lock_guard lock(mutex_);
       if (!idle_.empty()) {
         CURL* h = idle_.back();
@@ -248,7 +272,7 @@ class HttpSource final : public TileSource {
   }
   void release(CURL* h) {
     std::lock_guard lock(mutex_);
-    if (idle_.size() < 16) {
+    if (options_.reuse_handles && idle_.size() < 16) {
       idle_.push_back(h);
       return;
     }

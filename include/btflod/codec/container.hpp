@@ -254,9 +254,11 @@ struct BsvtfBuildOptions {
   /// Frequency weighting: JPEG's table to the power weight_quarters / 4 (0..4; 4 = JPEG's table,
   /// the bytes of earlier versions; codec/quantize.hpp quant_step_factors). Stored per tile.
   uint32_t weight_quarters = kJpegWeightQuarters;
-  /// Entropy coder of every tile: deflate (tile format 2, every reader) or zstd (tile format 3,
-  /// readers built with BTFLOD_WITH_ZSTD; codec/tile_codec.hpp) at zstd_level (1..22).
-  TileEntropyCoder entropy_coder = TileEntropyCoder::deflate;
+  /// Entropy coder of every tile: zstd (tile format 3, readers built with BTFLOD_WITH_ZSTD;
+  /// codec/tile_codec.hpp) at zstd_level (1..22), or deflate (tile format 2, every reader, the
+  /// bytes of earlier versions). Default: default_tile_entropy_coder() — zstd when this build can
+  /// encode it (smaller tiles that decode faster), else deflate.
+  TileEntropyCoder entropy_coder = default_tile_entropy_coder();
   int zstd_level = 19;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
   ProgressCallback progress;   ///< stage "encode tiles", fraction of tiles done; false cancels

@@ -110,8 +110,12 @@ enum class TileEntropyCoder : uint8_t {
   zstd = 1,     ///< one zstd frame (RFC 8878) with its content size; tile format 3
 };
 /// True when the implementation TU can code `coder` (deflate always; zstd with
-/// BTFLOD_TILE_CODEC_ZSTD). Thread-safe.
+/// BTFLOD_TILE_CODEC_ZSTD — decoding only under BTFLOD_TILE_CODEC_ZSTD_DECODER_ONLY). Thread-safe.
 bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept;
+/// The coder encoders use unless told otherwise (BsvtfBuildOptions::entropy_coder): zstd when the
+/// implementation TU can encode it (BTFLOD_TILE_CODEC_ZSTD without _DECODER_ONLY), else deflate.
+/// zstd tiles are smaller and decode faster (docs/bsvtf_format.md, "Entropy stage"). Thread-safe.
+TileEntropyCoder default_tile_entropy_coder() noexcept;
 inline constexpr int kTileBlock = 8;
 inline constexpr uint32_t kTileMaxChannels = 4;
 /// Largest magnitude of a quantised coefficient, in quantisation steps (encoder and decoder).
@@ -907,6 +911,12 @@ class TileEncoder {
 #define ZSTD_STATIC_LINKING_ONLY  // ZSTD_initStaticCCtx / DCtx, ZSTD_estimate*Size (exported by libzstd.so)
 #include <zstd.h>
 #include <zstd_errors.h>
+// A client that only reads tiles may link zstd's decompressor alone (lib/common + lib/decompress,
+// e.g. the WebAssembly client): BTFLOD_TILE_CODEC_ZSTD_DECODER_ONLY then compiles ZstdCompressor
+// without zstd (create() returns false, so encoders cannot select zstd).
+#if !defined(BTFLOD_TILE_CODEC_ZSTD_DECODER_ONLY)
+#define BTFLOD_TILE_CODEC_ZSTD_ENCODER 1
+#endif
 #endif
 
 namespace btflod {
@@ -1066,6 +1076,14 @@ bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept {
 #endif
 }
 
+TileEntropyCoder default_tile_entropy_coder() noexcept {
+#if defined(BTFLOD_TILE_CODEC_ZSTD_ENCODER)
+  return TileEntropyCoder::zstd;
+#else
+  return TileEntropyCoder::deflate;
+#endif
+}
+
 // Both zstd contexts live in a workspace owned here (ZSTD_initStatic*: the context never
 // allocates, so decompress() and compress() do not either).
 struct ZstdDecompressor::State {
@@ -1137,7 +1155,7 @@ Status ZstdDecompressor::decompress(std::span<const uint8_t> in, std::span<uint8
 
 struct ZstdCompressor::State {
   unsigned char* workspace = nullptr;
-#if defined(BTFLOD_TILE_CODEC_ZSTD)
+#if defined(BTFLOD_TILE_CODEC_ZSTD_ENCODER)
   ZSTD_CCtx* cctx = nullptr;
   int level = 19;
 #endif
@@ -1155,7 +1173,7 @@ bool ZstdCompressor::create(int level) noexcept {
     delete state_;
     state_ = nullptr;
   }
-#if defined(BTFLOD_TILE_CODEC_ZSTD)
+#if defined(BTFLOD_TILE_CODEC_ZSTD_ENCODER)
   State* st = new (std::nothrow) State;
   if (st == nullptr) return false;
   st->level = std::clamp(level, 1, 22);
@@ -1177,7 +1195,7 @@ bool ZstdCompressor::create(int level) noexcept {
 
 Status ZstdCompressor::compress(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept {
   written = 0;
-#if defined(BTFLOD_TILE_CODEC_ZSTD)
+#if defined(BTFLOD_TILE_CODEC_ZSTD_ENCODER)
   if (state_ == nullptr) return Status::invalid_argument;
   const size_t n = ZSTD_compressCCtx(state_->cctx, out.data(), out.size(), in.data(), in.size(), state_->level);
   if (ZSTD_isError(n)) return Status::insufficient_space;

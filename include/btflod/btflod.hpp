@@ -95,6 +95,7 @@
 #include "btflod/codec/dct.hpp"
 #include "btflod/codec/perceptual_tolerance.hpp"
 #include "btflod/codec/quantize.hpp"
+#include "btflod/codec/rendered_rate_control.hpp"
 #include "btflod/codec/tile_codec.hpp"
 
 // stream (stream/http_source.hpp is not included: it needs libcurl, see its header)

@@ -260,6 +260,9 @@ struct BsvtfBuildOptions {
   /// encode it (smaller tiles that decode faster), else deflate.
   TileEntropyCoder entropy_coder = default_tile_entropy_coder();
   int zstd_level = 19;
+  /// Dead-zone threshold of the AC coefficients (TileEncoder::set_ac_rounding_threshold): 0.5 is
+  /// round-to-nearest; larger values zero more small coefficients. In [0.5, 1).
+  float ac_rounding_threshold = 0.5f;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
   ProgressCallback progress;   ///< stage "encode tiles", fraction of tiles done; false cancels
 };
@@ -744,6 +747,9 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
   metadata.quality = options.quality;
   if (options.weight_quarters > kJpegWeightQuarters)
     return make_error(Status::invalid_argument, "build_bsvtf: weight_quarters %u not in 0..4", options.weight_quarters);
+  if (!(options.ac_rounding_threshold >= 0.5f && options.ac_rounding_threshold < 1.0f))
+    return make_error(Status::invalid_argument, "build_bsvtf: ac_rounding_threshold %g not in [0.5, 1)",
+                      static_cast<double>(options.ac_rounding_threshold));
   const TileLayout layout = metadata.layout();
   if (!layout.valid()) return make_error(Status::invalid_argument, "build_bsvtf: invalid tile layout");
   for (const auto& t : tiles)
@@ -791,6 +797,7 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
     pool.parallel_for(0, list.size(), 4, [&](size_t begin, size_t end) {
       TileEncoder encoder(layout, options.deflate_level);
       encoder.set_weight_quarters(options.weight_quarters);
+      encoder.set_ac_rounding_threshold(options.ac_rounding_threshold);
       if (!encoder.set_entropy_coder(options.entropy_coder, options.zstd_level)) {
         std::lock_guard lock(mutex);
         failure_status = Status::insufficient_space;

@@ -740,6 +740,17 @@ class TileEncoder {
   /// earlier versions).
   void set_weight_quarters(uint32_t quarters) noexcept { weight_quarters_ = std::min(quarters, kJpegWeightQuarters); }
   uint32_t weight_quarters() const noexcept { return weight_quarters_; }
+  /// Dead-zone quantisation of the AC coefficients of the following encodes: a coefficient of
+  /// v steps (|v| = n + f, 0 ≤ f < 1) is coded as n + 1 when f ≥ `threshold`, else n (sign kept);
+  /// DC stays rounded to nearest. 0.5 (the default) is round-to-nearest, the bytes of earlier
+  /// versions. Above 0.5 small coefficients fall to zero and every magnitude leans to the smaller
+  /// integer: fewer and shorter symbols for a little more error (at most threshold · step per
+  /// coefficient, so the block-RMS bound of codec/quantize.hpp becomes 2 · threshold · t). The
+  /// decoder is unchanged (it multiplies integers by steps either way). Clamped to [0.5, 1).
+  void set_ac_rounding_threshold(float threshold) noexcept {
+    ac_rounding_ = std::isfinite(threshold) ? std::clamp(threshold, 0.5f, 0.99f) : 0.5f;
+  }
+  float ac_rounding_threshold() const noexcept { return ac_rounding_; }
   /// tile_encode_bound(layout()).
   size_t bound() const noexcept { return tile_encode_bound(layout_); }
 
@@ -803,7 +814,12 @@ class TileEncoder {
             const float v = coef[k] * inv_step[k];
             if (!(std::fabs(v) < static_cast<float>(kTileMaxCoefficient)))
               return fail(Status::invalid_argument, "sample not finite or too large for the tolerance");
-            q[k] = static_cast<int32_t>(std::nearbyint(v));
+            if (ac_rounding_ == 0.5f || k == 0) {
+              q[k] = static_cast<int32_t>(std::nearbyint(v));
+            } else {  // dead zone: |v| = n + f codes as n + 1 only when f ≥ ac_rounding_
+              const int32_t m = static_cast<int32_t>(std::fabs(v) + (1.0f - ac_rounding_));
+              q[k] = v < 0.0f ? -m : m;
+            }
           }
         }
     }
@@ -895,6 +911,7 @@ class TileEncoder {
   TileEntropyCoder coder_ = TileEntropyCoder::deflate;
   bool ready_ = false;
   uint32_t weight_quarters_ = kJpegWeightQuarters;
+  float ac_rounding_ = 0.5f;
   const char* message_ = "";
 };
 

@@ -35,6 +35,8 @@ struct MaterialSettings {
   uint32_t border = 4;      ///< B (T + 2B must be a multiple of 8)
   uint32_t angular_resolution = 32;
   float quality = 60.0f;  ///< tile codec quality
+  /// Entropy coder of the tiles (BsvtfBuildOptions::entropy_coder): zstd where the build has it.
+  TileEntropyCoder entropy_coder = default_tile_entropy_coder();
   uint64_t seed = 1;
   /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
   /// into a BTF store of halves and factorised out of core within `memory_budget`
@@ -289,6 +291,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
       samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
   BsvtfBuildOptions bo;
   bo.quality = s.quality;
+  bo.entropy_coder = s.entropy_coder;
   auto file = build_bsvtf(md, m.u, inputs.tiles, bo);
   if (!file) return file.error();
   m.bsvtf = std::move(*file);

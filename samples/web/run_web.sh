@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # btflod web client: build, serve, test.
 #   run_web.sh serve --tool BTFLOD_WEB_TOOL --work DIR [--port P]
-#       builds the wasm client (emscripten, Debian's zlib/libdeflate sources), synthesises the
-#       materials, stages the site and serves it with nginx on 127.0.0.1 until Ctrl-C.
+#       builds the wasm client (emscripten, Debian's zlib/libdeflate/libzstd sources), synthesises
+#       the materials (zstd tiles; the last material deflate-coded, as earlier versions wrote
+#       every tile, so both tile formats are served), stages the site and serves it with nginx on
+#       127.0.0.1 until Ctrl-C.
 #   run_web.sh test --tool BTFLOD_WEB_TOOL --work DIR [--reduced | --bench-only]
 #       the same site, then the browser driver (test/driver.mjs: chromium headless through
 #       puppeteer-core) and the checks; exit 77 (skipped) when emcc, chromium, nginx or node are
@@ -38,7 +40,7 @@ fi
 mkdir -p "$WORK"
 WORK=$(cd "$WORK" && pwd)
 
-# 1. The wasm client (its own emscripten build folder; zlib/libdeflate from Debian sources).
+# 1. The wasm client (its own emscripten build folder; zlib/libdeflate/libzstd from Debian sources).
 WEB_BUILD=${BTFLOD_WEB_BUILD:-$WORK/wasm-build}
 "$HERE/tools/debian_sources.sh" "$WEB_BUILD/third_party"
 if [ ! -f "$WEB_BUILD/CMakeCache.txt" ]; then
@@ -56,7 +58,9 @@ cp "$HERE"/www/*.html "$HERE"/www/*.js "$SITE/"
 cp "$WEB_BUILD"/btflod_web*.js "$WEB_BUILD"/btflod_web*.wasm "$SITE/wasm/"
 count=3
 [ "$REDUCED" = 1 ] && count=2
-[ -f "$SITE/data/materials.json" ] || "$TOOL" materials --out "$SITE/data" --count "$count" >/dev/null
+# (a materials.json without tile coders predates zstd tiles: built again)
+grep -qs '"coder"' "$SITE/data/materials.json" ||
+  "$TOOL" materials --out "$SITE/data" --count "$count" --deflate $((count - 1)) >/dev/null
 
 # 3. nginx on loopback with a private prefix (static files; Range is nginx's default for them).
 NGX=$WORK/nginx

@@ -1,6 +1,8 @@
 // btflod web client — the runtime half of the browser viewer, compiled to WebAssembly with
 // emscripten: container directories (codec/container.hpp), payload verification (CRC-32), the
-// tile decoder (codec/tile_codec.hpp, zlib or libdeflate built from Debian's sources), feedback
+// tile decoder (codec/tile_codec.hpp: zstd tiles — tile format 3, the default coder — through
+// zstd's decompressor, deflate tiles — format 2 — through zlib or libdeflate; all three built
+// from Debian's sources), feedback
 // votes (lod/feedback.hpp), the tile cache and page tables (vt/tile_cache.hpp,
 // backend/page_table_writes.hpp), the scheduler with U' packet streaming (vt/scheduler.hpp,
 // paper 000 §5–6) and the GLSL ES 3.00 programs (shader/glsl_generator.hpp).
@@ -825,9 +827,9 @@ EMSCRIPTEN_KEEPALIVE double bw_decode_us_mean() {
 }
 EMSCRIPTEN_KEEPALIVE double bw_decode_count() { return static_cast<double>(client().decodes); }
 
-/// Decodes every tile of an in-memory container `repeats` times (inflate backend 0 zlib,
-/// 1 libdeflate when built in) and writes double[5]: hash low 32 bits, hash high 32 bits, tiles,
-/// mean decode µs per tile, mean inflate µs per tile. Returns 0 or the decoder's status.
+/// Decodes every tile of an in-memory container `repeats` times (inflate backend for deflate
+/// tiles 0 zlib, 1 libdeflate when built in; zstd tiles always through zstd) and writes double[5]: hash low 32 bits,
+/// hash high 32 bits, tiles, mean decode µs per tile, mean inflate µs per tile. Returns 0 or the decoder's status.
 EMSCRIPTEN_KEEPALIVE int bw_decode_container(const uint8_t* bytes, uint32_t len, int backend, int repeats,
                                              double* out) {
   const auto r = btflod::web::decode_container_tiles(
@@ -841,13 +843,15 @@ EMSCRIPTEN_KEEPALIVE int bw_decode_container(const uint8_t* bytes, uint32_t len,
   return static_cast<int>(r.status);
 }
 
-/// Byte offset of the raw deflate stream inside a tile payload and its inflated size (for the
-/// browser's DecompressionStream('deflate-raw') comparison): writes uint32[2]; returns 0 or 1.
+/// Byte offset of the entropy-coded stream inside a tile payload, its decoded size and its coder
+/// (0 raw deflate, 1 zstd; for the browser's DecompressionStream('deflate-raw') comparison on
+/// deflate tiles): writes uint32[3]; returns 0 or 1 (not a valid tile header).
 EMSCRIPTEN_KEEPALIVE int bw_inflate_container(const uint8_t* payload, uint32_t len, uint32_t* out) {
   btflod::TileHeaderInfo info;
   if (btflod::tile_peek_header(std::span<const uint8_t>(payload, len), info) != btflod::Status::success) return 1;
   out[0] = static_cast<uint32_t>(btflod::tile_header_size(info.channels));
   out[1] = info.symbol_bytes;
+  out[2] = static_cast<uint32_t>(info.coder);
   return 0;
 }
 

@@ -8,8 +8,11 @@
 //   needed      a view of material 0 only: the other materials get only directory and roots
 //   faults      every tile's first transfer dropped by the server (444) or served from a copy
 //               with corrupted payloads: the page re-requests, converges, and matches the reference
-//   bench       wasm tile decode µs (zlib in the page, DecompressionStream inflate, libdeflate
-//               under node) vs native in the same run; frame time at 512² (SwiftShader, llvmpipe)
+//   bench       wasm tile decode µs of the zstd-coded and the deflate-coded container (zstd and
+//               zlib in the page, DecompressionStream inflate, libdeflate under node) vs native in
+//               the same run, bit identity of both; frame time at 512² (SwiftShader, llvmpipe)
+// The materials are zstd-coded (tile format 3, the default) except the last, deflate-coded
+// (format 2, what earlier versions wrote): the golden frames show both formats decoded.
 // Writes WORK/report.json and WORK/report.md; exits 1 when a check fails.
 import { spawnSync } from 'node:child_process';
 import { mkdirSync, readFileSync, writeFileSync, existsSync, readdirSync } from 'node:fs';
@@ -42,6 +45,24 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
 const materials = JSON.parse(readFileSync(path.join(args.site, 'data/materials.json'), 'utf8')).materials;
 const files = materials.map((m) => path.join(args.site, 'data', m.file));
+// Tile format of every tile of a container (byte 0 of each payload: 2 deflate, 3 zstd).
+const tileFormats = (file) => {
+  const b = readFileSync(file);
+  const indexOffset = Number(b.readBigUInt64LE(64)), count = b.readUInt32LE(72);
+  const formats = new Set();
+  for (let i = 0; i < count; ++i) formats.add(b[Number(b.readBigUInt64LE(indexOffset + 32 * i + 8))]);
+  return [...formats];
+};
+{
+  const seen = materials.map((m, i) => ({ coder: m.coder, formats: tileFormats(files[i]) }));
+  const want = { zstd: 3, deflate: 2 };
+  check('materials: zstd-coded (tile format 3) and deflate-coded (format 2) containers are served',
+    seen.every((s) => s.formats.length === 1 && s.formats[0] === want[s.coder]) &&
+      seen.some((s) => s.coder === 'zstd') && seen.some((s) => s.coder === 'deflate'),
+    seen.map((s, i) => `${materials[i].name}: ${s.coder}, tile formats ${s.formats.join('/')}`).join('; '));
+}
+const coderFile = (coder) => files[Math.max(0, materials.findIndex((m) => m.coder === coder))];
+const zstdFile = coderFile('zstd'), deflateFile = coderFile('deflate');
 
 // Corrupted copies (every payload byte range touched; header and directory intact) for the
 // fault test: the server sends them as they are, the client must refuse them by CRC.
@@ -356,7 +377,7 @@ async function bench(browser, gl, r) {
       r.frame_ms_bsvtf = await page.evaluate((n) => window.btflod.client.benchmark(n), 20);
     }
     if (gl === 'swiftshader') {
-      r.decode = await page.evaluate(async (file) => {
+      const decodeIn = async (file) => page.evaluate(async (file) => {
         const c = window.btflod.client, M = c.M;
         const head = await fetch(file, { headers: { Range: 'bytes=0-127' } });
         const total = Number(/\/(\d+)/.exec(head.headers.get('Content-Range'))[1]);
@@ -366,10 +387,12 @@ async function bench(browser, gl, r) {
         const out = M._malloc(40);
         const status = M._bw_decode_container(p, all.length, 0, 3, out);
         const d = new Float64Array(M.HEAPU8.buffer, out, 5).slice();
-        // DecompressionStream('deflate-raw') on the same tiles' deflate streams.
+        M._free(out);
+        M._free(p);
+        // DecompressionStream('deflate-raw') on the same tiles' deflate streams (deflate tiles only).
         const view = new DataView(all.buffer);
         const tileCount = view.getUint32(72, true), indexOffset = Number(view.getBigUint64(64, true));
-        const info = M._malloc(8);
+        const info = M._malloc(12);
         let us = 0, n = 0;
         for (let i = 0; i < tileCount; ++i) {
           const e = indexOffset + 32 * i;
@@ -379,7 +402,8 @@ async function bench(browser, gl, r) {
           M.HEAPU8.set(payload, pp);
           M._bw_inflate_container(pp, size, info);
           M._free(pp);
-          const [hdr, symbols] = new Uint32Array(M.HEAPU8.buffer, info, 2);
+          const [hdr, symbols, coder] = new Uint32Array(M.HEAPU8.buffer, info, 3);
+          if (coder !== 0) continue;
           const t0 = performance.now();
           const ds = new Blob([payload.subarray(hdr)]).stream().pipeThrough(new DecompressionStream('deflate-raw'));
           const got = new Uint8Array(await new Response(ds).arrayBuffer());
@@ -387,9 +411,12 @@ async function bench(browser, gl, r) {
           if (got.length !== symbols) return { error: `DecompressionStream gave ${got.length}, expected ${symbols}` };
           n += 1;
         }
-        return { status, hash_lo: d[0], hash_hi: d[1], tiles: d[2] / 3, decode_us: d[3], inflate_us: d[4],
-          decompression_stream_us: us / n };
-      }, 'data/' + materials[0].file);
+        M._free(info);
+        return { file, status, hash_lo: d[0], hash_hi: d[1], tiles: d[2] / 3, decode_us: d[3], inflate_us: d[4],
+          decompression_stream_us: n ? us / n : null };
+      }, file);
+      r.decode = await decodeIn('data/' + path.basename(zstdFile));
+      r.decode_deflate = await decodeIn('data/' + path.basename(deflateFile));
     }
     await page.close();
   }
@@ -405,20 +432,32 @@ for (const gl of gls) {
   }
 }
 
-// Native twin of the decode benchmark, same run; wasm libdeflate under node.
-const native = JSON.parse(tool('decode', '--bsvtf', files[0], '--repeats', '3'));
+// Native twin of the decode benchmark, same run (the zstd- and the deflate-coded container);
+// wasm libdeflate under node (deflate tiles).
+const native = JSON.parse(tool('decode', '--bsvtf', zstdFile, '--repeats', '3'));
+const nativeDeflate = JSON.parse(tool('decode', '--bsvtf', deflateFile, '--repeats', '3'));
 report.native_decode = native;
+report.native_decode_deflate = nativeDeflate;
 const nodeLd = spawnSync('node', ['--no-experimental-fetch', path.join(path.dirname(new URL(import.meta.url).pathname), 'node_decode.mjs'),
-  path.join(args.wasm, 'btflod_web_libdeflate.js'), files[0], '3', '1'], { encoding: 'utf8' });
+  path.join(args.wasm, 'btflod_web_libdeflate.js'), deflateFile, '3', '1'], { encoding: 'utf8' });
 if (nodeLd.status === 0) report.wasm_libdeflate_node = JSON.parse(nodeLd.stdout);
 const sw = report.runs.swiftshader;
-if (sw && sw.decode) {
-  check('wasm tile decoder bit-identical to native (scalar twin)',
-    sw.decode.status === 0 && sw.decode.hash_lo === native.hash_lo && sw.decode.hash_hi === native.hash_hi,
-    `wasm ${sw.decode.hash_hi}:${sw.decode.hash_lo}, native ${native.hash_hi}:${native.hash_lo}, ${native.tiles} tiles`);
-  console.log(`  tile decode µs: wasm ${sw.decode.decode_us.toFixed(1)} (inflate ${sw.decode.inflate_us.toFixed(1)}), ` +
-    `native scalar ${native.zlib_decode_us.toFixed(1)} (inflate ${native.zlib_inflate_us.toFixed(1)}), native SIMD ${native.simd_decode_us.toFixed(1)}; ` +
-    `DecompressionStream inflate ${sw.decode.decompression_stream_us.toFixed(1)}`);
+if (sw && sw.decode && sw.decode_deflate) {
+  const same = (w, n) => w.status === 0 && w.hash_lo === n.hash_lo && w.hash_hi === n.hash_hi;
+  check('wasm tile decoder bit-identical to native (scalar twin), zstd (format 3) and deflate (format 2) containers',
+    same(sw.decode, native) && same(sw.decode_deflate, nativeDeflate),
+    `zstd: wasm ${sw.decode.hash_hi}:${sw.decode.hash_lo}, native ${native.hash_hi}:${native.hash_lo}, ${native.tiles} tiles; ` +
+    `deflate: wasm ${sw.decode_deflate.hash_hi}:${sw.decode_deflate.hash_lo}, native ${nativeDeflate.hash_hi}:${nativeDeflate.hash_lo}, ` +
+    `${nativeDeflate.tiles} tiles`);
+  const ds = sw.decode_deflate.decompression_stream_us;
+  console.log(`  tile decode µs, zstd container: wasm ${sw.decode.decode_us.toFixed(1)} (zstd ${sw.decode.inflate_us.toFixed(1)}), ` +
+    `native scalar ${native.zlib_decode_us.toFixed(1)} (zstd ${native.zlib_inflate_us.toFixed(1)}), native SIMD ${native.simd_decode_us.toFixed(1)}`);
+  console.log(`  tile decode µs, deflate container: wasm ${sw.decode_deflate.decode_us.toFixed(1)} (zlib inflate ${sw.decode_deflate.inflate_us.toFixed(1)}), ` +
+    `native scalar ${nativeDeflate.zlib_decode_us.toFixed(1)} (inflate ${nativeDeflate.zlib_inflate_us.toFixed(1)}), native SIMD ` +
+    `${nativeDeflate.simd_decode_us.toFixed(1)}; DecompressionStream inflate ${ds === null ? '-' : ds.toFixed(1)}`);
+} else {
+  check('wasm tile decoder bit-identical to native (scalar twin), zstd (format 3) and deflate (format 2) containers', false,
+    sw && (sw.decode || sw.decode_deflate) ? JSON.stringify([sw.decode, sw.decode_deflate]) : 'no decode run');
 }
 for (const gl of gls)
   if (report.runs[gl] && report.runs[gl].frame_ms_bsvtf !== undefined && report.runs[gl].frame_ms_pcak !== undefined)

@@ -1,7 +1,9 @@
 // btflod-web-tool — the native side of the browser client's tests and benchmarks:
-//   materials --out DIR [--count N] [--size S] [--repeat R]
+//   materials --out DIR [--count N] [--size S] [--repeat R] [--deflate I[,J…]]
 //       synthesises N materials (samples/demo's preparation: procedural BTF, FMF, .bsvtf) into
-//       DIR and writes DIR/materials.json (the page's material list)
+//       DIR and writes DIR/materials.json (the page's material list, with each file's tile coder).
+//       Tiles are zstd-coded (tile format 3, the library's default); the materials listed in
+//       --deflate are deflate-coded (format 2, what earlier versions wrote)
 //   reference --out FILE.f32 --bsvtf A.bsvtf[,B.bsvtf…] --eye x,y,z --target x,y,z --fov deg
 //             --light x,y,z --light-color r,g,b --size WxH
 //       CPU reference frame of the page's scene (one 2×2 plane per material, side by side) with
@@ -17,8 +19,8 @@
 //       for the page, and the CPU reference frame of one 2×2 plane at the origin
 //       (reference_pca_rings)
 //   decode --bsvtf FILE [--repeats N]
-//       decodes every tile with zlib and libdeflate: hash (bit identity with the wasm decoder),
-//       µs per tile. Prints JSON.
+//       decodes every tile with zlib and libdeflate (deflate tiles; zstd tiles through zstd): hash (bit identity with
+//       the wasm decoder), µs per tile. Prints JSON.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -94,13 +96,22 @@ int cmd_materials(const Args& a) {
   s.size = std::atoi(a.get("size", "32").c_str());
   s.repeat = static_cast<uint32_t>(std::atoi(a.get("repeat", "8").c_str()));
   const int count = std::atoi(a.get("count", "3").c_str());
+  std::vector<bool> deflate(static_cast<size_t>(std::max(count, 0)), false);
+  for (const float f : floats(a.get("deflate"))) {
+    const int i = static_cast<int>(f);
+    if (i < 0 || i >= count || static_cast<float>(i) != f) return fail("materials: --deflate lists material indices");
+    deflate[static_cast<size_t>(i)] = true;
+  }
   std::string json = "{\"materials\": [";
   for (int i = 0; i < count; ++i) {
+    s.entropy_coder = deflate[static_cast<size_t>(i)] ? TileEntropyCoder::deflate : default_tile_entropy_coder();
+    const char* coder = s.entropy_coder == TileEntropyCoder::zstd ? "zstd" : "deflate";
     auto m = demo::prepare_material(static_cast<uint32_t>(i), s, out);
     if (!m) return fail(m.message());
     json += (i ? ", " : "") + std::string("{\"name\": \"") + m->name + "\", \"file\": \"" + m->name +
-            ".bsvtf\", \"bytes\": " + std::to_string(m->bsvtf.size()) + "}";
-    std::printf("%s: %zu bytes, %u levels\n", m->bsvtf_path.c_str(), m->bsvtf.size(), m->finest_level + 1);
+            ".bsvtf\", \"bytes\": " + std::to_string(m->bsvtf.size()) + ", \"coder\": \"" + coder + "\"}";
+    std::printf("%s: %zu bytes, %u levels, %s tiles\n", m->bsvtf_path.c_str(), m->bsvtf.size(), m->finest_level + 1,
+                coder);
   }
   json += "]}\n";
   const std::string path = (std::filesystem::path(out) / "materials.json").string();

@@ -634,24 +634,15 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
     auto& h = st.h;
     h.push_back(std::max(0.0, st.norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
     h.push_back(std::max(0.0, st.norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
-    const size_t hl = h.size();
-    const double d_last = std::max(0.0, h[hl - 2] - h[hl - 1]);
-    constexpr double kRhoMax = 0.9;
-    double rho = kRhoMax;
-    if (hl >= 4 && h[hl - 3] - h[hl - 2] > 0.0 && h[hl - 4] - h[hl - 3] > 0.0) {
-      const double r_last = d_last / (h[hl - 3] - h[hl - 2]);
-      const double r_prev = (h[hl - 3] - h[hl - 2]) / (h[hl - 4] - h[hl - 3]);
-      rho = std::max(r_last, 2.0 * r_last - r_prev);
-    }
-    rho = std::clamp(rho, 0.0, kRhoMax);
-    predicted_excess = d_last * rho / (1.0 - rho);
-    const double e = h[hl - 1];
-    const bool settled = predicted_excess <= so.power_tolerance * e || d_last <= 1e-6 * st.norm2;
+    // The same adaptive rule as truncated_svd (detail::power_iteration_bound), so both stop
+    // after the same iteration and give identical bits.
+    const detail::PowerIterationBound bound = detail::power_iteration_bound(h, so.power_tolerance, st.norm2);
+    predicted_excess = bound.predicted_excess;
+    const bool settled = bound.settled;
     const int iterations = static_cast<int>(st.iterations);
     if (progress) {
       char text[160];
-      std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, predicted %.5fx optimum", iterations,
-                    std::sqrt(e), predicted_excess < e ? std::sqrt(e / (e - predicted_excess)) : HUGE_VAL);
+      detail::format_power_iteration_stage(text, iterations, bound);
       if (!report_progress(progress, text, 1.0)) return make_error(Status::cancelled, "out_of_core_svd cancelled");
     }
     if (iterations >= q_max || (iterations >= q_min && settled)) break;

@@ -109,6 +109,48 @@ struct TruncatedSvd {
 
 namespace detail {
 
+/// The adaptive power-iteration rule's bound, shared by truncated_svd and out_of_core_svd (which
+/// must stop after the same iteration). `h` holds the residual ‖A‖² − Σσ² after every half step;
+/// the last improvement d is extrapolated geometrically with the ratio ρ of the last two
+/// improvements (the larger of ρ and its linear trend, clamped to [0, 0.9]), so the error still
+/// to gain is d·ρ/(1 − ρ). Settled when that is within `tolerance` of the current error (or the
+/// improvements vanished against ‖A‖²).
+struct PowerIterationBound {
+  double error2 = 0;            ///< current residual ‖A − QQᵀA‖² estimate
+  double predicted_excess = 0;  ///< error² still to gain by iterating further
+  bool settled = false;
+};
+inline PowerIterationBound power_iteration_bound(const std::vector<double>& h, double tolerance, double norm2) {
+  const size_t hl = h.size();
+  PowerIterationBound b;
+  if (hl < 2) return b;
+  const double d_last = std::max(0.0, h[hl - 2] - h[hl - 1]);
+  constexpr double kRhoMax = 0.9;
+  double rho = kRhoMax;
+  if (hl >= 4 && h[hl - 3] - h[hl - 2] > 0.0 && h[hl - 4] - h[hl - 3] > 0.0) {
+    const double r_last = d_last / (h[hl - 3] - h[hl - 2]);
+    const double r_prev = (h[hl - 3] - h[hl - 2]) / (h[hl - 4] - h[hl - 3]);
+    rho = std::max(r_last, 2.0 * r_last - r_prev);
+  }
+  rho = std::clamp(rho, 0.0, kRhoMax);
+  b.error2 = h[hl - 1];
+  b.predicted_excess = d_last * rho / (1.0 - rho);
+  b.settled = b.predicted_excess <= tolerance * b.error2 || d_last <= 1e-6 * norm2;
+  return b;
+}
+
+/// Progress text after power iteration `iterations`. Before the extrapolation has two
+/// improvements to work with, the predicted excess can exceed the error itself: then no ratio is
+/// printed (there is no finite bound yet) instead of "inf".
+inline void format_power_iteration_stage(char (&text)[160], int iterations, const PowerIterationBound& b) {
+  if (b.predicted_excess < b.error2)
+    std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, predicted %.5fx optimum", iterations,
+                  std::sqrt(b.error2), std::sqrt(b.error2 / (b.error2 - b.predicted_excess)));
+  else
+    std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, no bound on the optimum yet",
+                  iterations, std::sqrt(b.error2));
+}
+
 /// Y += A·Ω over one column block: `a` holds columns [col0, col0 + cnt) of A and `acc` is Y.
 /// Ω is dense (`omega`, zeta == 0) or sparse: `sparse_omega` holds zeta entries per row of Ω
 /// (column + 1, negated for −1), and Y(:, j) ± A(:, t) runs over row chunks of 512 so that the
@@ -517,23 +559,12 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
     h.push_back(std::max(0.0, norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
     h.push_back(std::max(0.0, norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
     // Extrapolation of the half-step improvements (see above).
-    const size_t hl = h.size();
-    const double d_last = std::max(0.0, h[hl - 2] - h[hl - 1]);
-    constexpr double kRhoMax = 0.9;
-    double rho = kRhoMax;
-    if (hl >= 4 && h[hl - 3] - h[hl - 2] > 0.0 && h[hl - 4] - h[hl - 3] > 0.0) {
-      const double r_last = d_last / (h[hl - 3] - h[hl - 2]);
-      const double r_prev = (h[hl - 3] - h[hl - 2]) / (h[hl - 4] - h[hl - 3]);
-      rho = std::max(r_last, 2.0 * r_last - r_prev);
-    }
-    rho = std::clamp(rho, 0.0, kRhoMax);
-    predicted_excess = d_last * rho / (1.0 - rho);
-    const double e = h[hl - 1];
-    const bool settled = predicted_excess <= options.power_tolerance * e || d_last <= 1e-6 * norm2;
+    const detail::PowerIterationBound bound = detail::power_iteration_bound(h, options.power_tolerance, norm2);
+    predicted_excess = bound.predicted_excess;
+    const bool settled = bound.settled;
     if (progress) {
       char stage[160];
-      std::snprintf(stage, sizeof stage, "power iteration %d: error estimate %.6g, predicted %.5fx optimum", iterations,
-                    std::sqrt(e), predicted_excess < e ? std::sqrt(e / (e - predicted_excess)) : HUGE_VAL);
+      detail::format_power_iteration_stage(stage, iterations, bound);
       if (!report_progress(progress, stage, done / passes_bound))
         return make_error(Status::cancelled, "truncated_svd cancelled");
     }

@@ -22,12 +22,6 @@
 // the network. Speed is bounded by a loopback TCP connection and libcurl's set-up per input
 // (the server closes after each response), a few hundred to a few thousand inputs per second.
 // btflod-link: CURL::libcurl
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -35,68 +29,40 @@
 #include <cstring>
 #include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "../tests/loopback_http_server.hpp"
 #include "btflod/stream/http_source.hpp"
 
 namespace {
 using namespace btflod;
 
+// The loopback server answers every connection with the current input's response (200 ms
+// receive timeout: a client that sends no complete request does not hold the server up).
 class FakeServer {
  public:
-  FakeServer() {
-    listener_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    int one = 1;
-    ::setsockopt(listener_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (::bind(listener_, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 || ::listen(listener_, 16) != 0) std::abort();
-    socklen_t len = sizeof a;
-    ::getsockname(listener_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
-    connect_to_ = "::127.0.0.1:" + std::to_string(port_);
-    thread_ = std::thread([this] { serve(); });
-    thread_.detach();  // lives as long as the process
-  }
-  int port() const { return port_; }
-  const char* connect_to() const { return connect_to_.c_str(); }
+  FakeServer()
+      : server_(
+            [this](int socket, const std::string&, const std::atomic<bool>&) {
+              std::string r;
+              {
+                std::lock_guard lock(mutex_);
+                r = response_;
+              }
+              test::LoopbackHttpServer::send_all(socket, r);
+            },
+            200) {}
+  int port() const { return server_.port(); }
+  const char* connect_to() const { return server_.connect_to(); }
   void set_response(std::string r) {
     std::lock_guard lock(mutex_);
     response_ = std::move(r);
   }
 
  private:
-  void serve() {
-    for (;;) {
-      const int c = ::accept(listener_, nullptr, nullptr);
-      if (c < 0) continue;
-      timeval tv{0, 200000};  // a client that sends no complete request does not block the server
-      ::setsockopt(c, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-      std::string request;
-      char buf[4096];
-      while (request.find("\r\n\r\n") == std::string::npos) {
-        const ssize_t n = ::recv(c, buf, sizeof buf, 0);
-        if (n <= 0) break;
-        request.append(buf, static_cast<size_t>(n));
-      }
-      std::string r;
-      {
-        std::lock_guard lock(mutex_);
-        r = response_;
-      }
-      ::send(c, r.data(), r.size(), MSG_NOSIGNAL);
-      ::shutdown(c, SHUT_WR);
-      ::close(c);
-    }
-  }
-  int listener_ = -1;
-  int port_ = 0;
-  std::string connect_to_;
   std::mutex mutex_;
   std::string response_;
-  std::thread thread_;
+  test::LoopbackHttpServer server_;  // last: its thread stops before the response goes
 };
 
 FakeServer& server() {

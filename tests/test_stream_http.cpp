@@ -28,6 +28,7 @@
 #include "btflod/core/file_io.hpp"
 #include "btflod/stream/http_source.hpp"
 #include "btflod/stream/pipeline.hpp"
+#include "loopback_http_server.hpp"
 
 namespace {
 
@@ -139,86 +140,57 @@ class Nginx {
 class BadServer {
  public:
   enum class Mode { drop_mid_transfer, ignore_range, wrong_range, too_much, stall };
-  BadServer(std::vector<uint8_t> body, Mode mode) : body_(std::move(body)), mode_(mode) {
-    listener_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    int one = 1;
-    ::setsockopt(listener_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ::bind(listener_, reinterpret_cast<sockaddr*>(&a), sizeof a);
-    socklen_t len = sizeof a;
-    ::getsockname(listener_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
-    ::listen(listener_, 8);
-    thread_ = std::thread([this] { serve(); });
-  }
-  ~BadServer() {
-    stop_ = true;
-    ::shutdown(listener_, SHUT_RDWR);
-    ::close(listener_);
-    thread_.join();
-  }
-  std::string url() const { return "http://127.0.0.1:" + std::to_string(port_) + "/material.bsvtf"; }
+  BadServer(std::vector<uint8_t> body, Mode mode)
+      : body_(std::move(body)),
+        mode_(mode),
+        server_([this](int socket, const std::string& request, const std::atomic<bool>& stopping) {
+          respond(socket, request, stopping);
+        }) {}
+  std::string url() const { return server_.url(); }
 
  private:
-  void serve() {
-    while (!stop_) {
-      const int c = ::accept(listener_, nullptr, nullptr);
-      if (c < 0) return;
-      std::string request;
-      char buf[4096];
-      while (request.find("\r\n\r\n") == std::string::npos) {
-        const ssize_t n = ::recv(c, buf, sizeof buf, 0);
-        if (n <= 0) break;
-        request.append(buf, static_cast<size_t>(n));
-      }
-      size_t a = 0, b = body_.size() - 1;
-      if (const size_t p = request.find("Range: bytes="); p != std::string::npos)
-        std::sscanf(request.c_str() + p + 13, "%zu-%zu", &a, &b);
-      b = std::min(b, body_.size() - 1);
-      const size_t n = b - a + 1;
-      std::string head;
-      std::string_view payload(reinterpret_cast<const char*>(body_.data()) + a, n);
-      switch (mode_) {
-        case Mode::drop_mid_transfer:
-          head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b) + "/" +
-                 std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
-          payload = payload.substr(0, n / 2);  // then close: the transfer is cut
-          break;
-        case Mode::ignore_range:
-          head = "HTTP/1.1 200 OK\r\nContent-Length: " + std::to_string(body_.size()) + "\r\n\r\n";
-          payload = std::string_view(reinterpret_cast<const char*>(body_.data()), body_.size());
-          break;
-        case Mode::wrong_range:
-          head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a + 1) + "-" + std::to_string(b + 1) +
-                 "/" + std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
-          payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a + 1, n);
-          break;
-        case Mode::too_much:
-          head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b + 100) + "/" +
-                 std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n + 100) + "\r\n\r\n";
-          payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a, n + 100);
-          break;
-        case Mode::stall:
-          head = "HTTP/1.1 206 Partial Content\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
-          payload = {};
-          break;
-      }
-      ::send(c, head.data(), head.size(), MSG_NOSIGNAL);
-      ::send(c, payload.data(), payload.size(), MSG_NOSIGNAL);
-      if (mode_ == Mode::stall) {
-        for (int i = 0; i < 300 && !stop_; ++i) std::this_thread::sleep_for(10ms);
-      }
-      ::close(c);
+  void respond(int c, const std::string& request, const std::atomic<bool>& stopping) const {
+    size_t a = 0, b = body_.size() - 1;
+    if (const size_t p = request.find("Range: bytes="); p != std::string::npos)
+      std::sscanf(request.c_str() + p + 13, "%zu-%zu", &a, &b);
+    b = std::min(b, body_.size() - 1);
+    const size_t n = b - a + 1;
+    std::string head;
+    std::string_view payload(reinterpret_cast<const char*>(body_.data()) + a, n);
+    switch (mode_) {
+      case Mode::drop_mid_transfer:
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b) + "/" +
+               std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
+        payload = payload.substr(0, n / 2);  // then close: the transfer is cut
+        break;
+      case Mode::ignore_range:
+        head = "HTTP/1.1 200 OK\r\nContent-Length: " + std::to_string(body_.size()) + "\r\n\r\n";
+        payload = std::string_view(reinterpret_cast<const char*>(body_.data()), body_.size());
+        break;
+      case Mode::wrong_range:
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a + 1) + "-" + std::to_string(b + 1) +
+               "/" + std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
+        payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a + 1, n);
+        break;
+      case Mode::too_much:
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b + 100) + "/" +
+               std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n + 100) + "\r\n\r\n";
+        payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a, n + 100);
+        break;
+      case Mode::stall:
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
+        payload = {};
+        break;
+    }
+    test::LoopbackHttpServer::send_all(c, head);
+    test::LoopbackHttpServer::send_all(c, payload);
+    if (mode_ == Mode::stall) {
+      for (int i = 0; i < 300 && !stopping; ++i) std::this_thread::sleep_for(10ms);
     }
   }
   std::vector<uint8_t> body_;
   Mode mode_;
-  int listener_ = -1;
-  int port_ = 0;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
+  test::LoopbackHttpServer server_;  // last: its thread stops before body_ goes
 };
 
 class StreamHttp : public ::testing::Test {

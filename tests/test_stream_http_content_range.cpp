@@ -9,20 +9,14 @@
 // connection is pointed at it through HttpSourceOptions::customize_handle.
 #include <gtest/gtest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "btflod/stream/http_source.hpp"
+#include "loopback_http_server.hpp"
 
 namespace {
 
@@ -32,33 +26,17 @@ using namespace btflod;
 class CannedServer {
  public:
   explicit CannedServer(std::string response) : CannedServer(std::vector<std::string>{std::move(response)}) {}
-  explicit CannedServer(std::vector<std::string> responses) : responses_(std::move(responses)) {
-    listener_ = ::socket(AF_INET, SOCK_STREAM, 0);
-    int one = 1;
-    ::setsockopt(listener_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    ::bind(listener_, reinterpret_cast<sockaddr*>(&a), sizeof a);
-    socklen_t len = sizeof a;
-    ::getsockname(listener_, reinterpret_cast<sockaddr*>(&a), &len);
-    port_ = ntohs(a.sin_port);
-    ::listen(listener_, 8);
-    connect_to_ = "::127.0.0.1:" + std::to_string(port_);
-    thread_ = std::thread([this] { serve(); });
-  }
-  ~CannedServer() {
-    stop_ = true;
-    ::shutdown(listener_, SHUT_RDWR);
-    ::close(listener_);
-    thread_.join();
-    curl_slist_free_all(list_);
-  }
-  std::string url() const { return "http://127.0.0.1:" + std::to_string(port_) + "/material.bsvtf"; }
+  explicit CannedServer(std::vector<std::string> responses)
+      : responses_(std::move(responses)),
+        server_([this](int socket, const std::string&, const std::atomic<bool>&) {
+          test::LoopbackHttpServer::send_all(socket, responses_[std::min(served_++, responses_.size() - 1)]);
+        }) {}
+  ~CannedServer() { curl_slist_free_all(list_); }
+  std::string url() const { return server_.url(); }
   HttpSourceOptions options() {
     HttpSourceOptions o;
     o.timeout_ms = 5000;
-    if (!list_) list_ = curl_slist_append(nullptr, connect_to_.c_str());
+    if (!list_) list_ = curl_slist_append(nullptr, server_.connect_to());
     o.customize_handle = [](CURL* h, void* user) {
       curl_easy_setopt(h, CURLOPT_CONNECT_TO, static_cast<curl_slist*>(user));
     };
@@ -67,33 +45,10 @@ class CannedServer {
   }
 
  private:
-  void serve() {
-    while (!stop_) {
-      const int c = ::accept(listener_, nullptr, nullptr);
-      if (c < 0) return;
-      timeval tv{1, 0};
-      ::setsockopt(c, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-      std::string request;
-      char buf[4096];
-      while (request.find("\r\n\r\n") == std::string::npos) {
-        const ssize_t n = ::recv(c, buf, sizeof buf, 0);
-        if (n <= 0) break;
-        request.append(buf, static_cast<size_t>(n));
-      }
-      const std::string& response = responses_[std::min(served_++, responses_.size() - 1)];
-      ::send(c, response.data(), response.size(), MSG_NOSIGNAL);
-      ::shutdown(c, SHUT_WR);
-      ::close(c);
-    }
-  }
   std::vector<std::string> responses_;
-  size_t served_ = 0;
-  std::string connect_to_;
+  size_t served_ = 0;  // touched by the server thread only
   curl_slist* list_ = nullptr;
-  int listener_ = -1;
-  int port_ = 0;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
+  test::LoopbackHttpServer server_;  // last: its thread stops before the members above go
 };
 
 // Reads 4 bytes at offset 10 from a server that answers `response`.

@@ -32,6 +32,10 @@ struct DemoConfig {
   /// factorised out of core. --size defaults to 64 there (512 is the paper's; ~36 GB of store each).
   std::string profile;
   uint64_t memory_bytes = uint64_t{2} << 30;  ///< --memory SIZE: out-of-core factorisation budget (paper)
+  /// --keep-stores: keep each material's BTF store (paper profile: deleted after its raw-BTF pass).
+  bool keep_stores = false;
+  std::string inputs_dir;  ///< --inputs DIR: prebuilt <name>.btfstore / <name>.fmf (paper profile)
+  int frame_width = 0, frame_height = 0;  ///< --frame-size WxH (0: the profile's, 480x270 or 1280x720)
   bool size_given = false, frames_given = false, materials_given = false, bandwidth_given = false;
 };
 
@@ -39,6 +43,7 @@ inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
     "                   [--profile paper] [--memory SIZE]\n"
+    "                   [--keep-stores] [--inputs DIR] [--frame-size WxH]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
     "  BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
@@ -57,6 +62,11 @@ inline constexpr const char* kDemoUsage =
     "  (DIR/<name>.btfstore, halves) and factorised out of core within --memory (default 2G).\n"
     "  Defaults there: --size 64 --materials 3 --frames 24 --bandwidth 8192; --size 512 is the\n"
     "  paper's texel count (about 36 GB of store and hours of CPU per material: opt-in only).\n"
+    "  Each store is deleted once its material is factorised, built and its raw-BTF reference pass\n"
+    "  done, so one store is on disk at a time; --keep-stores keeps them. --inputs DIR reuses\n"
+    "  prebuilt inputs: DIR/<name>.btfstore (e.g. cloth-0.btfstore, a symbolic link is fine; its own\n"
+    "  texel count, never deleted) and DIR/<name>.fmf (C = 100) instead of synthesising/factorising.\n"
+    "  --frame-size WxH renders W x H frames instead of the profile's (480x270, paper 1280x720).\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
@@ -91,6 +101,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.window = true;
       continue;
     }
+    if (a == "--keep-stores") {
+      cfg.keep_stores = true;
+      continue;
+    }
     if (a == "--quiet" || a == "-q") {
       cfg.quiet = true;
       continue;
@@ -100,6 +114,14 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     long long n = 0;
     if (a == "--out") {
       cfg.out_dir = value;
+    } else if (a == "--inputs") {
+      cfg.inputs_dir = value;
+    } else if (a == "--frame-size") {
+      int w = 0, h = 0;
+      char tail = 0;
+      if (std::sscanf(value, "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
+        return fail("--frame-size " + std::string(value) + ": expected WxH, 16..8192 each");
+      cfg.frame_width = w, cfg.frame_height = h;
     } else if (a == "--record-feedback") {
       cfg.record_feedback = value;
     } else if (a == "--profile") {
@@ -157,6 +179,7 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
   }
   if (cfg.out_dir.empty()) return fail("--out DIR is required");
+  if (!cfg.inputs_dir.empty() && cfg.profile != "paper") return fail("--inputs needs --profile paper");
   if (cfg.profile == "paper") {
     if (!cfg.size_given) cfg.size = 64;
     if (!cfg.frames_given) cfg.frames = 24;

@@ -12,6 +12,8 @@
 #include <string>
 #include <thread>
 
+#include <sys/resource.h>
+
 #include "btflod/lod/feedback_trace.hpp"
 #include "command_line.hpp"
 #include "demo_steps.hpp"
@@ -112,16 +114,64 @@ int main(int argc, char** argv) {
   ms.seed = cfg->seed;
   ms.memory_budget = cfg->memory_bytes;
   ms.quiet = cfg->quiet;
+  ms.inputs_dir = cfg->inputs_dir;
   if (paper)
     std::printf(
         "btflod demo: profile paper (paper 000 §7): %d materials of %dx%d texels x 151 x 151 directions, FMF C = %u "
         "out of core (--memory %.1f GiB), T = %u + %u border, %ux%u-slot cache, 1280x720\n",
         cfg->materials, cfg->size, cfg->size, ms.components, static_cast<double>(cfg->memory_bytes) / 1073741824.0,
         ms.tile_size, ms.border, 56u, 56u);
+  demo::StreamSettings ss;
+  ss.bytes_per_second = cfg->bandwidth_kib * 1024.0;
+  if (paper) {  // paper 000 §7: 1280 x 720, a 4032^2 tile cache (56 x 56 slots of 64 + 2·4 texels)
+    ss.width = 1280, ss.height = 720;
+    ss.slots_x = ss.slots_y = 56;
+    ss.uploads_per_frame = 64;
+  }
+  if (cfg->frame_width > 0) ss.width = static_cast<uint32_t>(cfg->frame_width);
+  if (cfg->frame_height > 0) ss.height = static_cast<uint32_t>(cfg->frame_height);
+  const uint32_t frames = static_cast<uint32_t>(cfg->frames);
+  // The raw-BTF reference of the last view: its rays are cast now, and each material's are
+  // resolved from its store right after that material is prepared, so that the paper profile
+  // can delete each store before the next is synthesised (one store on disk at a time).
+  std::optional<demo::RawReferenceBuilder> raw_ref;
+  if (frames > 0) {
+    const scene::View last = scene::camera_path(frames - 1, frames, ss.width, ss.height);
+    // Enough rays per pixel to approach the GPU's trilinear minification (3×3 at 1280×720).
+    auto b = demo::RawReferenceBuilder::cast(static_cast<uint32_t>(cfg->materials), last, paper ? 3 : 4);
+    if (!b) return fail("raw reference", b.message());
+    raw_ref = std::move(*b);
+  }
+  const bool transient_stores = paper && !cfg->keep_stores;
+  demo::DiskMeter disk(cfg->out_dir);
   std::vector<demo::DemoMaterial> materials;
   for (int i = 0; i < cfg->materials; ++i) {
     auto m = demo::prepare_material(static_cast<uint32_t>(i), ms, cfg->out_dir);
     if (!m) return fail("material", m.message());
+    disk.sample();
+    if (paper)
+      std::printf("  %-11s synthesis %.1f s%s, factorisation %.1f s%s, error pass %.1f s, .bsvtf build %.1f s; %s\n",
+                  m->name.c_str(), m->seconds_synthesis, m->store_prebuilt ? " (prebuilt store)" : "",
+                  m->seconds_factor, m->fmf_prebuilt ? " (prebuilt FMF)" : "", m->seconds_error, m->seconds_build,
+                  disk.describe().c_str());
+    if (raw_ref) {
+      const demo::Stopwatch raw_clock;
+      const uint64_t read_before = raw_ref->bytes_read();
+      if (auto r = raw_ref->add_material(static_cast<uint32_t>(i), *m); !r) return fail("raw reference", r.message());
+      m->seconds_raw = raw_clock.seconds();
+      disk.sample();
+      if (paper)
+        std::printf("  %-11s raw-BTF reference pass %.1f s (%.1f MiB of store read); %s\n", m->name.c_str(),
+                    m->seconds_raw, static_cast<double>(raw_ref->bytes_read() - read_before) / 1048576.0,
+                    disk.describe().c_str());
+    }
+    if (transient_stores && !m->store_prebuilt) {
+      std::error_code rm_ec;
+      std::filesystem::remove(m->store_path, rm_ec);
+      if (rm_ec) return fail("delete store", m->store_path + ": " + rm_ec.message());
+      disk.sample();
+      std::printf("  %-11s store deleted (--keep-stores keeps it); %s\n", m->name.c_str(), disk.describe().c_str());
+    }
     std::printf(
         "  material    %s: %dx%d texels x %u views x %u lights, FMF C=%u (relative error %.3f vs the raw BTF), %s "
         "(%zu bytes, outer tile borders wrapped); raw store %.1f MiB; %.1f s synthesis, %.1f s factorisation, "
@@ -135,13 +185,6 @@ int main(int argc, char** argv) {
   const double prep_seconds = prep_clock.seconds();
 
   // 3. Fly-through with streaming.
-  demo::StreamSettings ss;
-  ss.bytes_per_second = cfg->bandwidth_kib * 1024.0;
-  if (paper) {  // paper 000 §7: 1280 x 720, a 4032^2 tile cache (56 x 56 slots of 64 + 2·4 texels)
-    ss.width = 1280, ss.height = 720;
-    ss.slots_x = ss.slots_y = 56;
-    ss.uploads_per_frame = 64;
-  }
   auto streamer = demo::StreamingRenderer::create(*renderer, materials, ss);
   if (!streamer) return fail("streaming set-up", streamer.message());
   demo::RunSummary run;
@@ -165,7 +208,15 @@ int main(int argc, char** argv) {
     run.seconds_synthesis.push_back(m.seconds_synthesis);
     run.seconds_factor.push_back(m.seconds_factor);
     run.seconds_build.push_back(m.seconds_build);
+    run.seconds_error.push_back(m.seconds_error);
+    run.seconds_raw.push_back(m.seconds_raw);
+    run.material_texels.push_back(static_cast<uint32_t>(m.texels));
+    run.store_prebuilt.push_back(m.store_prebuilt ? 1 : 0);
+    run.fmf_prebuilt.push_back(m.fmf_prebuilt ? 1 : 0);
   }
+  run.transient_stores = transient_stores;
+  run.disk_peak_bytes = disk.peak();
+  run.disk_min_free_bytes = disk.min_free();
   run.profile = paper ? "paper" : "default";
   run.components = ms.components;
   run.tile_size = ms.tile_size;
@@ -177,7 +228,6 @@ int main(int argc, char** argv) {
   Image<float> bsvtf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   Image<float> fmf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   std::vector<Image<float>> sheet;
-  const uint32_t frames = static_cast<uint32_t>(cfg->frames);
   // --record-feedback: each frame's feedback words with its size, decimation, sample position
   // and camera, as a trace (lod/feedback_trace.hpp) that btflod-bench replays.
   std::optional<FeedbackTraceRecorder> feedback_trace;
@@ -267,15 +317,25 @@ int main(int argc, char** argv) {
   }
 
   // The last view against a render of the RAW tabulated BTF (each material's store, one pass).
-  if (frames > 0) {
-    const scene::View last = scene::camera_path(frames - 1, frames, ss.width, ss.height);
-    // Enough rays per pixel to approach the GPU's trilinear minification (3×3 at 1280×720).
-    auto ref = demo::render_raw_reference(materials, last, paper ? 3 : 4);
+  if (raw_ref) {
+    auto ref = raw_ref->finish();
     if (!ref) return fail("raw reference", ref.message());
     run.raw.done = true;
     run.raw.bsvtf_gpu = demo::image_error(ref->raw, bsvtf_img);
     run.raw.fmf_gpu = demo::image_error(ref->raw, fmf_img);
     run.raw.fmf_cpu = demo::image_error(ref->raw, ref->fmf_cpu);
+    run.raw.gpu_filter = ref->has_gpu_filter;
+    run.raw.gpu_filter_note = ref->gpu_filter_note;
+    if (ref->has_gpu_filter) {
+      run.raw.bsvtf_gpu_f = demo::image_error(ref->raw_gpu_filter, bsvtf_img);
+      run.raw.fmf_gpu_f = demo::image_error(ref->raw_gpu_filter, fmf_img);
+      run.raw.fmf_cpu_f = demo::image_error(ref->raw_gpu_filter, ref->fmf_gpu_filter);
+      run.raw.fmf_gpu_vs_cpu_f = demo::image_error(ref->fmf_gpu_filter, fmf_img);
+      if (auto w = write_png_srgb((out / "reference_raw_gpu_filter.png").string(), ref->raw_gpu_filter.view()); !w)
+        return fail("png", w.message());
+      if (auto w = write_png_srgb((out / "reference_fmf_gpu_filter.png").string(), ref->fmf_gpu_filter.view()); !w)
+        return fail("png", w.message());
+    }
     run.raw.seconds = ref->seconds;
     run.raw.bytes_read = ref->bytes_read;
     run.raw.supersample = ref->supersample;
@@ -290,6 +350,15 @@ int main(int argc, char** argv) {
         static_cast<double>(ref->bytes_read) / 1048576.0, ref->seconds, run.raw.bsvtf_gpu.ssim, run.raw.bsvtf_gpu.psnr,
         run.raw.bsvtf_gpu.rmse, run.raw.fmf_gpu.ssim, run.raw.fmf_gpu.psnr, run.raw.fmf_gpu.rmse, run.raw.fmf_cpu.ssim,
         run.raw.fmf_cpu.psnr, run.raw.fmf_cpu.rmse);
+    if (ref->has_gpu_filter)
+      std::printf(
+          "  raw BTF     the same through the GPU's filter (1 ray per pixel, OpenGL's LOD, trilinear mips of the raw "
+          "BTF): SSIM / PSNR  BSVTF %.4f / %.2f dB,  FMF (GPU) %.4f / %.2f dB,  FMF (CPU, same filter) %.4f / %.2f "
+          "dB;  FMF GPU vs FMF CPU same filter %.4f / %.2f dB\n",
+          run.raw.bsvtf_gpu_f.ssim, run.raw.bsvtf_gpu_f.psnr, run.raw.fmf_gpu_f.ssim, run.raw.fmf_gpu_f.psnr,
+          run.raw.fmf_cpu_f.ssim, run.raw.fmf_cpu_f.psnr, run.raw.fmf_gpu_vs_cpu_f.ssim, run.raw.fmf_gpu_vs_cpu_f.psnr);
+    else
+      std::printf("  raw BTF     no GPU-filter-matched reference: %s\n", ref->gpu_filter_note.c_str());
   } else {
     run.raw.note = "no frames rendered";
   }
@@ -335,6 +404,12 @@ int main(int argc, char** argv) {
       "              vs a from-scratch rebuild: %s\n",
       static_cast<unsigned long long>(run.page_table_writes), run.full_rewrites,
       static_cast<unsigned long long>(run.full_page_table_size), run.page_table_check.c_str());
+  if (rusage ru{}; getrusage(RUSAGE_SELF, &ru) == 0)
+    std::printf("  resources   CPU %.1f s user + %.1f s system, peak RSS %.1f MiB; disk peak %.2f GiB in %s\n",
+                static_cast<double>(ru.ru_utime.tv_sec) + 1e-6 * static_cast<double>(ru.ru_utime.tv_usec),
+                static_cast<double>(ru.ru_stime.tv_sec) + 1e-6 * static_cast<double>(ru.ru_stime.tv_usec),
+                static_cast<double>(ru.ru_maxrss) / 1024.0, static_cast<double>(disk.peak()) / 1073741824.0,
+                cfg->out_dir.c_str());
   std::printf(
       "  outputs     %s/report.html, report.json, contact_sheet_frames.png, %u frames; %.1f s prepare, %.1f s flight\n",
       cfg->out_dir.c_str(), frames, prep_seconds, run.seconds_flight);

@@ -19,6 +19,7 @@
 #include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/fmf_out_of_core.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
@@ -44,7 +45,16 @@ struct MaterialSettings {
   bool paper = false;
   uint64_t memory_budget = uint64_t{2} << 30;
   bool quiet = true;  ///< no progress lines on stderr
+  /// Paper path: a folder of prebuilt inputs. When it holds `<name>.btfstore` (e.g. made by
+  /// `btflod-convert synth --profile paper`, or a symbolic link to one), that store is the
+  /// material (its own texel count; never deleted) instead of a synthesised one; when it also
+  /// holds `<name>.fmf` (`btflod-convert factor`), that FMF is used instead of factorising.
+  std::string inputs_dir;
 };
+
+/// How often the paper profile repeats a material of `texels` per side in its virtual texture
+/// (up to at least 512 texels).
+inline uint32_t paper_repeat(int texels) { return static_cast<uint32_t>(std::max(1, (512 + texels - 1) / texels)); }
 
 /// Paper 000's material settings for `size` texels per side (§7: C = 100, T = 64 with 4 texels of
 /// padding; the virtual texture holds the material repeated up to at least 512 texels).
@@ -56,7 +66,7 @@ inline MaterialSettings paper_material_settings(int size) {
   s.tile_size = 64;
   s.border = 4;
   s.angular_resolution = 64;
-  s.repeat = static_cast<uint32_t>(std::max(1, (512 + size - 1) / size));
+  s.repeat = paper_repeat(size);
   return s;
 }
 
@@ -86,9 +96,13 @@ struct DemoMaterial {
   uint32_t finest_level = 0;
   int texels = 0;               ///< material texels per side (the virtual texture repeats it)
   std::string store_path;       ///< the raw BTF as a store (btf/btf_store.hpp): the raw reference
+  bool store_prebuilt = false;  ///< the store came from MaterialSettings::inputs_dir (never deleted)
+  bool fmf_prebuilt = false;    ///< the FMF came from MaterialSettings::inputs_dir
   uint64_t store_bytes = 0;     ///< its file size
   uint64_t fmf_half_bytes = 0;  ///< U and V·Σ as halves (paper 000 Table 1's "FMF" file size)
   double seconds_synthesis = 0, seconds_factor = 0, seconds_build = 0;
+  double seconds_error = 0;  ///< the streamed error pass against the store (paper path)
+  double seconds_raw = 0;    ///< its raw-BTF reference pass (raw_reference.hpp)
 
   /// The backend description (spans into this object).
   FmfMaterialData data(bool with_textures) const {
@@ -179,31 +193,52 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     m.fmf_relative_error = ss > 0 ? std::sqrt(se / ss) : 0.0;
     if (auto w = write_btf_store(*btf, m.store_path, BtfStoreValueType::float32, 256); !w) return w.error();
   } else {
-    auto meso = make_mesostructure(kind, s.size, s.size, s.seed + index);
-    if (!meso) return meso.error();
-    auto writer =
-        BtfStoreWriter::create(m.store_path, s.size, s.size, so.views, so.lights, BtfStoreValueType::float16, 256);
-    if (!writer) return writer.error();
-    VoidResult written;
-    size_t views_done = 0;
-    auto synth = synthesize_btf_views(*meso, so, [&](size_t v, std::span<const float> block) {
-      written = writer->write_view(v, block);
-      if (!s.quiet && (++views_done % 16 == 0 || views_done == so.views.size()))
-        std::fprintf(stderr, "  %s: synthesised view %zu of %zu (%.0f s)\n", m.name.c_str(), views_done,
-                     so.views.size(), detail_materials::seconds_since(t0));
-      return static_cast<bool>(written);
-    });
-    if (!written) return written.error();
-    if (!synth) return synth.error();
-    if (auto f = writer->finish(); !f) return f.error();
-    m.seconds_synthesis = detail_materials::seconds_since(t0);
-    t0 = std::chrono::steady_clock::now();
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path inputs(s.inputs_dir);
+    const std::string pre_store = (inputs / (m.name + ".btfstore")).string();
+    const std::string pre_fmf = (inputs / (m.name + ".fmf")).string();
+    m.store_prebuilt = !s.inputs_dir.empty() && fs::is_regular_file(pre_store, ec);
+    m.fmf_prebuilt = m.store_prebuilt && fs::is_regular_file(pre_fmf, ec);
+    if (m.store_prebuilt) {
+      m.store_path = pre_store;
+    } else {
+      auto meso = make_mesostructure(kind, s.size, s.size, s.seed + index);
+      if (!meso) return meso.error();
+      auto writer =
+          BtfStoreWriter::create(m.store_path, s.size, s.size, so.views, so.lights, BtfStoreValueType::float16, 256);
+      if (!writer) return writer.error();
+      VoidResult written;
+      size_t views_done = 0;
+      auto synth = synthesize_btf_views(*meso, so, [&](size_t v, std::span<const float> block) {
+        written = writer->write_view(v, block);
+        if (!s.quiet && (++views_done % 16 == 0 || views_done == so.views.size()))
+          std::fprintf(stderr, "  %s: synthesised view %zu of %zu (%.0f s)\n", m.name.c_str(), views_done,
+                       so.views.size(), detail_materials::seconds_since(t0));
+        return static_cast<bool>(written);
+      });
+      if (!written) return written.error();
+      if (!synth) return synth.error();
+      if (auto f = writer->finish(); !f) return f.error();
+      m.seconds_synthesis = detail_materials::seconds_since(t0);
+      t0 = std::chrono::steady_clock::now();
+    }
     auto store = BtfStore::open(m.store_path);
     if (!store) return store.error();
+    if (store->info().width != store->info().height)
+      return make_error(Status::unsupported, "%s: %dx%d texels: the demo needs a square material", m.store_path.c_str(),
+                        store->info().width, store->info().height);
+    if (store->info().views.size() != so.views.size() || store->info().lights.size() != so.lights.size())
+      return make_error(Status::bad_data, "%s: %zu x %zu directions, the paper profile has %zu x %zu",
+                        m.store_path.c_str(), store->info().views.size(), store->info().lights.size(), so.views.size(),
+                        so.lights.size());
+    so.views = store->info().views;
+    so.lights = store->info().lights;
+    m.texels = store->info().width;
     FmfOutOfCoreOptions fo;
     fo.components = static_cast<int>(s.components);
     fo.svd.memory_budget = s.memory_budget;
-    fo.svd.checkpoint_path = m.store_path + ".checkpoint";
+    fo.svd.checkpoint_path = (fs::path(out_dir) / (m.name + ".btfstore.checkpoint")).string();
     ProgressCallback progress;
     if (!s.quiet)
       progress = [&m, t0](std::string_view stage, double fraction) {
@@ -215,14 +250,29 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
         }
         return true;
       };
-    auto f = factorize_fmf_out_of_core(*store, fo, progress);
-    if (!f) return f.error();
-    std::remove(fo.svd.checkpoint_path.c_str());
-    fmf = std::move(*f);
+    if (m.fmf_prebuilt) {
+      auto f = load_factorization(pre_fmf);
+      if (!f) return f.error();
+      if (!std::holds_alternative<Fmf>(*f)) return make_error(Status::bad_data, "%s: not an FMF", pre_fmf.c_str());
+      fmf = std::move(std::get<Fmf>(*f));
+      if (fmf.shape.width != m.texels || fmf.shape.height != m.texels || fmf.shape.view_count() != so.views.size() ||
+          fmf.shape.light_count() != so.lights.size() || fmf.components != static_cast<int>(s.components) ||
+          fmf.u.size() != store->rows() * static_cast<size_t>(fmf.components) ||
+          fmf.v.size() != store->columns() * static_cast<size_t>(fmf.components))
+        return make_error(Status::bad_data, "%s: shape or C = %d differs from %s (C = %u expected)", pre_fmf.c_str(),
+                          fmf.components, m.store_path.c_str(), s.components);
+    } else {
+      auto f = factorize_fmf_out_of_core(*store, fo, progress);
+      if (!f) return f.error();
+      std::remove(fo.svd.checkpoint_path.c_str());
+      fmf = std::move(*f);
+    }
     m.seconds_factor = detail_materials::seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
     auto err = fmf_relative_error_against_store(*store, fmf);
     if (!err) return err.error();
     m.fmf_relative_error = *err;
+    m.seconds_error = detail_materials::seconds_since(t0);
   }
   t0 = std::chrono::steady_clock::now();
   {
@@ -245,8 +295,9 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
           m.u[((static_cast<size_t>(l) * V + v) * 3 + col) * C + c] =
               fmf.u[((static_cast<size_t>(v) * L + l) * 3 + col) * C + c];
   // V'·Σ tiled repeat × repeat (the material is tileable), so the virtual texture has several levels.
-  const int w = s.size, h = s.size;
-  const int M = w * static_cast<int>(s.repeat), N = h * static_cast<int>(s.repeat);
+  const int w = m.texels, h = m.texels;
+  const uint32_t repeat = s.paper ? paper_repeat(m.texels) : s.repeat;
+  const int M = w * static_cast<int>(repeat), N = h * static_cast<int>(repeat);
   m.eigen_textures = Image<float>(M, N, static_cast<int>(C));
   for (int y = 0; y < N; ++y)
     for (int x = 0; x < M; ++x)
@@ -300,5 +351,47 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   m.seconds_build = detail_materials::seconds_since(t0);
   return m;
 }
+
+/// What the demo holds on disk: the bytes of the regular files directly in its output folder
+/// (stores, checkpoints, containers; prebuilt inputs are elsewhere) and the file system's free
+/// space, sampled after each step, with the peak and the minimum over the samples.
+class DiskMeter {
+ public:
+  explicit DiskMeter(std::string dir) : dir_(std::move(dir)) { sample(); }
+
+  /// Measures now (never throws; unreadable entries count as 0).
+  void sample() {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    uint64_t sum = 0;
+    for (fs::directory_iterator it(dir_, ec), end; !ec && it != end; it.increment(ec)) {
+      std::error_code e2;
+      if (it->is_regular_file(e2) && !it->is_symlink(e2)) {
+        const uint64_t n = it->file_size(e2);
+        if (!e2) sum += n;
+      }
+    }
+    used_ = sum;
+    peak_ = std::max(peak_, used_);
+    const fs::space_info sp = fs::space(dir_, ec);
+    free_ = ec ? 0 : sp.available;
+    min_free_ = std::min(min_free_, free_);
+  }
+  uint64_t used() const noexcept { return used_; }
+  uint64_t peak() const noexcept { return peak_; }
+  uint64_t min_free() const noexcept { return min_free_; }
+  /// "disk: 33.4 GiB in DIR (peak 33.4 GiB), 1.2 GiB free".
+  std::string describe() const {
+    char b[256];
+    std::snprintf(b, sizeof b, "disk: %.2f GiB in the output folder (peak %.2f GiB), %.2f GiB free",
+                  static_cast<double>(used_) / 1073741824.0, static_cast<double>(peak_) / 1073741824.0,
+                  static_cast<double>(free_) / 1073741824.0);
+    return b;
+  }
+
+ private:
+  std::string dir_;
+  uint64_t used_ = 0, peak_ = 0, free_ = 0, min_free_ = ~uint64_t{0};
+};
 
 }  // namespace btflod::demo

@@ -14,11 +14,14 @@
 // and the per-sample lists), so the raw reference works for stores larger than RAM (paper 000's
 // 512² × 151² material is ~36 GB): the rays are cast first, each sample's four texels are
 // bucketed by store block, and each block's columns are applied to the samples that need them.
+// RawReferenceBuilder does this material by material, so that each store is needed only for its
+// own pass (the paper profile deletes it right after: one store on disk at a time).
 #pragma once
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "btflod/btf/btf_store.hpp"
@@ -31,6 +34,15 @@ namespace btflod::demo {
 struct RawReference {
   Image<float> raw;      ///< from the tabulated BTF (linear RGBA)
   Image<float> fmf_cpu;  ///< from the FMF, same rays and taps (linear RGBA)
+  /// The GPU's texture filter instead of supersampling: one ray through each pixel centre, the
+  /// level of detail of OpenGL's isotropic minification (λ = log2 of the larger screen-space
+  /// derivative of the texel coordinate, as the FMF sampler and vt_lambda) and trilinear
+  /// filtering over the box-filtered mip chain — of the raw BTF (raw_gpu_filter) and of V′
+  /// through U (fmf_gpu_filter). Empty (has_gpu_filter false, gpu_filter_note says why) unless
+  /// every material's texel count and virtual texture are powers of two.
+  Image<float> raw_gpu_filter, fmf_gpu_filter;
+  bool has_gpu_filter = false;
+  std::string gpu_filter_note;
   double seconds = 0;
   uint64_t bytes_read = 0;  ///< store bytes read (one pass over each material's store)
   uint32_t supersample = 1;
@@ -57,10 +69,8 @@ inline ImageError image_error(const Image<float>& reference, const Image<float>&
 
 namespace detail_raw {
 
-struct Sample {
-  uint32_t material = 0;
+struct Sample {  ///< a ray's angular taps
   AngularSample light, view;
-  glm::vec3 raw{0.0f};  ///< accumulated over the four texels
 };
 
 struct TexelRef {
@@ -68,6 +78,21 @@ struct TexelRef {
   uint32_t sample = 0;  ///< index into the samples
   float weight = 0.0f;  ///< bilinear weight
 };
+
+/// A pixel-centre ray of the GPU-filter-matched references: its taps (texel-pyramid keys and
+/// trilinear × bilinear weights, at most 2 levels × 4 texels) and angular taps.
+struct FilteredSample {
+  AngularSample light, view;
+  uint32_t key[8] = {};
+  float weight[8] = {};
+  uint32_t taps = 0;
+};
+
+inline int exact_log2(int n) {
+  int k = 0;
+  while ((1 << k) < n) ++k;
+  return (1 << k) == n ? k : -1;
+}
 
 inline void lookup(const DemoMaterial& m, const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 dir,
                    AngularSample& out) {
@@ -82,89 +107,111 @@ inline void lookup(const DemoMaterial& m, const std::vector<uint32_t>& idx, cons
 
 }  // namespace detail_raw
 
-/// Renders the raw and FMF references of `view` (see the file comment). `materials[i].store_path`
-/// must name a complete store of material i's BTF. Returns the store's errors (named) and
-/// unsupported for C above CpuFrameRenderer::kMaxComponents. Allocates; uses the default thread
-/// pool for the rays.
-inline Result<RawReference> render_raw_reference(const std::vector<DemoMaterial>& materials, const scene::View& view,
-                                                 uint32_t supersample) {
-  const auto t_start = std::chrono::steady_clock::now();
-  RawReference ref;
-  ref.supersample = std::max(1u, supersample);
-  const uint32_t ssn = ref.supersample;
-  for (const DemoMaterial& m : materials)
+/// Builds the raw and FMF references of one view material by material (see the file comment),
+/// so that each material's store is needed only while add_material() reads it: the rays are cast
+/// first (cast(), before any store exists), each material's samples are resolved from its store
+/// in one pass right after its factorisation (add_material()), and finish() returns the images.
+/// The store can be deleted once add_material() has returned. Not thread-safe; uses the default
+/// thread pool for the rays. Memory: about 60 bytes per ray plus 48 per ray of the material
+/// being added (a 1280 x 720 view at 3 x 3 rays: about 0.9 GB).
+class RawReferenceBuilder {
+ public:
+  /// Casts `supersample`² rays per pixel of `view` into the analytic scene of `material_count`
+  /// materials (analytic_demo_scene). Returns invalid_argument for an empty view or no material.
+  static Result<RawReferenceBuilder> cast(uint32_t material_count, const scene::View& view, uint32_t supersample) {
+    if (material_count == 0 || view.width == 0 || view.height == 0)
+      return make_error(Status::invalid_argument, "raw reference: empty view or no material");
+    RawReferenceBuilder b;
+    b.t_start_ = std::chrono::steady_clock::now();
+    b.ssn_ = std::max(1u, supersample);
+    b.width_ = static_cast<int>(view.width), b.height_ = static_cast<int>(view.height);
+    b.added_.assign(material_count, 0);
+    const Scene scene = analytic_demo_scene(material_count);
+    Camera cam;
+    cam.position = view.eye;
+    cam.target = view.target;
+    cam.fov_y_degrees = view.fov_y_degrees;
+    cam.width = view.width;
+    cam.height = view.height;
+    const ShaderParams p = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
+    const glm::vec3 light_dir = glm::normalize(glm::vec3(p.light));
+    b.light_color_ = glm::vec3(p.light_color);
+    const uint32_t ssn = b.ssn_;
+    const int W = b.width_;
+    const size_t n = static_cast<size_t>(W) * static_cast<size_t>(b.height_) * ssn * ssn;
+    b.rays_.assign(n, Ray{});
+    b.raw_.assign(n, glm::vec3(0.0f));
+    b.fmf_.assign(n, glm::vec3(0.0f));
+    const size_t np = static_cast<size_t>(W) * static_cast<size_t>(b.height_);
+    b.pixel_rays_.assign(np, Ray{});
+    b.raw_f_.assign(np, glm::vec3(0.0f));
+    b.fmf_f_.assign(np, glm::vec3(0.0f));
+    default_thread_pool().parallel_for(0, static_cast<size_t>(b.height_), 2, [&](size_t y0, size_t y1) {
+      for (size_t y = y0; y < y1; ++y)
+        for (int x = 0; x < W; ++x)
+          for (uint32_t sy = 0; sy < ssn; ++sy)
+            for (uint32_t sx = 0; sx < ssn; ++sx) {
+              const size_t si = ((y * static_cast<size_t>(W) + static_cast<size_t>(x)) * ssn + sy) * ssn + sx;
+              const float px = static_cast<float>(x) + (static_cast<float>(sx) + 0.5f) / static_cast<float>(ssn);
+              const float py = static_cast<float>(y) + (static_cast<float>(sy) + 0.5f) / static_cast<float>(ssn);
+              const SurfaceHit h = scene.intersect(cam.ray(px, py));
+              if (!h.hit) continue;
+              Ray& r = b.rays_[si];
+              r.material = h.material;
+              r.texcoord = h.texcoord;
+              r.light_local = to_local(h, light_dir);
+              r.view_local = to_local(h, glm::normalize(cam.position - h.position));
+            }
+      // The pixel centre with its texture-coordinate footprint: the neighbouring pixels' rays
+      // meet the hit's tangent plane; their uv offsets (in the dpdu, dpdv basis) are the screen
+      // derivatives the rasteriser's dFdx/dFdy estimate.
+      for (size_t y = y0; y < y1; ++y)
+        for (int x = 0; x < W; ++x) {
+          const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
+          const SurfaceHit h = scene.intersect(cam.ray(px, py));
+          if (!h.hit) continue;
+          Ray& r = b.pixel_rays_[y * static_cast<size_t>(W) + static_cast<size_t>(x)];
+          r.material = h.material;
+          r.texcoord = h.texcoord;
+          r.light_local = to_local(h, light_dir);
+          r.view_local = to_local(h, glm::normalize(cam.position - h.position));
+          const float uu = glm::dot(h.dpdu, h.dpdu), uv = glm::dot(h.dpdu, h.dpdv), vv = glm::dot(h.dpdv, h.dpdv);
+          const float det = uu * vv - uv * uv;
+          float rho = 1.0f;  // a whole texture per pixel when degenerate
+          if (det > 0.0f) {
+            rho = 0.0f;
+            for (int k = 0; k < 2; ++k) {
+              const ::btflod::Ray nr = cam.ray(px + (k == 0 ? 1.0f : 0.0f), py + (k == 1 ? 1.0f : 0.0f));
+              const float denom = glm::dot(nr.direction, h.normal);
+              if (std::fabs(denom) < 1e-12f) {
+                rho = 1.0f;
+                break;
+              }
+              const float t = glm::dot(h.position - nr.origin, h.normal) / denom;
+              const glm::vec3 dp = nr.origin + t * nr.direction - h.position;
+              const float pu = glm::dot(h.dpdu, dp), pv = glm::dot(h.dpdv, dp);
+              const float du = (vv * pu - uv * pv) / det, dv = (uu * pv - uv * pu) / det;
+              rho = std::max(rho, std::sqrt(du * du + dv * dv));
+            }
+          }
+          r.footprint = rho;
+        }
+    });
+    b.seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - b.t_start_).count();
+    return b;
+  }
+
+  /// Resolves the rays that hit material `index` from `m`'s store (`m.store_path`, read once,
+  /// block by block in file order) and its FMF (m.eigen_textures, m.u). Returns the store's
+  /// errors (named), bad_data when the store's shape differs from `m`, unsupported for C above
+  /// CpuFrameRenderer::kMaxComponents, invalid_argument for an index out of range or added twice.
+  VoidResult add_material(uint32_t index, const DemoMaterial& m) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (index >= added_.size() || added_[index])
+      return make_error(Status::invalid_argument, "raw reference: material %u out of range or added twice", index);
     if (m.components > CpuFrameRenderer::kMaxComponents)
       return make_error(Status::unsupported, "%s: C = %u above %u", m.name.c_str(), m.components,
                         CpuFrameRenderer::kMaxComponents);
-  const Scene scene = analytic_demo_scene(static_cast<uint32_t>(materials.size()));
-  Camera cam;
-  cam.position = view.eye;
-  cam.target = view.target;
-  cam.fov_y_degrees = view.fov_y_degrees;
-  cam.width = view.width;
-  cam.height = view.height;
-  const ShaderParams p = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
-  const glm::vec3 light_dir = glm::normalize(glm::vec3(p.light)), light_color = glm::vec3(p.light_color);
-  const int W = static_cast<int>(view.width), H = static_cast<int>(view.height);
-  ref.raw = Image<float>(W, H, 4);
-  ref.fmf_cpu = Image<float>(W, H, 4);
-  const size_t n_samples = static_cast<size_t>(W) * H * ssn * ssn;
-  std::vector<detail_raw::Sample> samples(n_samples);
-  std::vector<uint8_t> hit(n_samples, 0);
-  std::vector<glm::vec3> fmf_rgb(n_samples, glm::vec3(0.0f));
-  // Per material, the texel references of its samples (filled per row range, then merged).
-  const size_t nm = materials.size();
-  std::vector<std::vector<std::vector<detail_raw::TexelRef>>> refs_per_row(static_cast<size_t>(H));
-  default_thread_pool().parallel_for(0, static_cast<size_t>(H), 2, [&](size_t y0, size_t y1) {
-    float comps[CpuFrameRenderer::kMaxComponents];
-    for (size_t y = y0; y < y1; ++y) {
-      auto& refs = refs_per_row[y];
-      refs.assign(nm, {});
-      for (int x = 0; x < W; ++x)
-        for (uint32_t sy = 0; sy < ssn; ++sy)
-          for (uint32_t sx = 0; sx < ssn; ++sx) {
-            const size_t si = ((y * static_cast<size_t>(W) + static_cast<size_t>(x)) * ssn + sy) * ssn + sx;
-            const float px = static_cast<float>(x) + (static_cast<float>(sx) + 0.5f) / static_cast<float>(ssn);
-            const float py = static_cast<float>(y) + (static_cast<float>(sy) + 0.5f) / static_cast<float>(ssn);
-            const SurfaceHit h = scene.intersect(cam.ray(px, py));
-            if (!h.hit) continue;
-            hit[si] = 1;
-            const DemoMaterial& m = materials[h.material];
-            detail_raw::Sample& s = samples[si];
-            s.material = h.material;
-            detail_raw::lookup(m, m.light_index, m.light_weight, to_local(h, light_dir), s.light);
-            detail_raw::lookup(m, m.view_index, m.view_weight, to_local(h, glm::normalize(cam.position - h.position)),
-                               s.view);
-            // Bilinear over the virtual texture (the material repeated), as the CPU FMF shading.
-            const Image<float>& v = m.eigen_textures;
-            const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f;
-            const float fy = h.texcoord.y * static_cast<float>(v.height()) - 0.5f;
-            const int x0 = static_cast<int>(std::floor(fx)), y0i = static_cast<int>(std::floor(fy));
-            const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0i);
-            const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
-            const int xs[2] = {wrap(x0, v.width()), wrap(x0 + 1, v.width())};
-            const int ys[2] = {wrap(y0i, v.height()), wrap(y0i + 1, v.height())};
-            const float wx[2] = {1.0f - ax, ax}, wy[2] = {1.0f - ay, ay};
-            for (int k = 0; k < v.channels() && k < static_cast<int>(CpuFrameRenderer::kMaxComponents); ++k) {
-              const float top = v.at(xs[0], ys[0], k) * wx[0] + v.at(xs[1], ys[0], k) * wx[1];
-              const float bot = v.at(xs[0], ys[1], k) * wx[0] + v.at(xs[1], ys[1], k) * wx[1];
-              comps[k] = top * wy[0] + bot * wy[1];
-            }
-            fmf_rgb[si] = shade_fmf(m.eigen, s.light, s.view, std::span<const float>(comps, m.components));
-            for (int j = 0; j < 2; ++j)
-              for (int i = 0; i < 2; ++i) {
-                const float w = wx[i] * wy[j];
-                if (w == 0.0f) continue;
-                const uint32_t tx = static_cast<uint32_t>(xs[i] % m.texels),
-                               ty = static_cast<uint32_t>(ys[j] % m.texels);
-                refs[h.material].push_back({ty * static_cast<uint32_t>(m.texels) + tx, static_cast<uint32_t>(si), w});
-              }
-          }
-    }
-  });
-  // One pass over each store: bucket the references by block, then apply each block's columns.
-  for (size_t mi = 0; mi < nm; ++mi) {
-    const DemoMaterial& m = materials[mi];
     auto store = BtfStore::open(m.store_path);
     if (!store) return store.error();
     const BtfStoreInfo& info = store->info();
@@ -172,21 +219,172 @@ inline Result<RawReference> render_raw_reference(const std::vector<DemoMaterial>
         info.lights.size() != m.light_count)
       return make_error(Status::bad_data, "%s: store shape differs from material %s", m.store_path.c_str(),
                         m.name.c_str());
+    // The angular taps, the FMF on the same rays, and each ray's four texel references.
+    const size_t n = rays_.size();
+    std::vector<detail_raw::Sample> taps(n);
+    const size_t chunks = std::max<size_t>(1, std::min<size_t>(256, n / 4096));
+    std::vector<std::vector<detail_raw::TexelRef>> refs(chunks);
+    default_thread_pool().parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
+      float comps[CpuFrameRenderer::kMaxComponents];
+      for (size_t c = c0; c < c1; ++c)
+        for (size_t si = n * c / chunks; si < n * (c + 1) / chunks; ++si) {
+          const Ray& r = rays_[si];
+          if (r.material != index) continue;
+          detail_raw::Sample& s = taps[si];
+          detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, s.light);
+          detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, s.view);
+          // Bilinear over the virtual texture (the material repeated), as the CPU FMF shading.
+          const Image<float>& v = m.eigen_textures;
+          const float fx = r.texcoord.x * static_cast<float>(v.width()) - 0.5f;
+          const float fy = r.texcoord.y * static_cast<float>(v.height()) - 0.5f;
+          const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+          const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
+          const auto wrap = [](int i, int k) { return ((i % k) + k) % k; };
+          const int xs[2] = {wrap(x0, v.width()), wrap(x0 + 1, v.width())};
+          const int ys[2] = {wrap(y0, v.height()), wrap(y0 + 1, v.height())};
+          const float wx[2] = {1.0f - ax, ax}, wy[2] = {1.0f - ay, ay};
+          for (int k = 0; k < v.channels() && k < static_cast<int>(CpuFrameRenderer::kMaxComponents); ++k) {
+            const float top = v.at(xs[0], ys[0], k) * wx[0] + v.at(xs[1], ys[0], k) * wx[1];
+            const float bot = v.at(xs[0], ys[1], k) * wx[0] + v.at(xs[1], ys[1], k) * wx[1];
+            comps[k] = top * wy[0] + bot * wy[1];
+          }
+          fmf_[si] = shade_fmf(m.eigen, s.light, s.view, std::span<const float>(comps, m.components));
+          for (int j = 0; j < 2; ++j)
+            for (int i = 0; i < 2; ++i) {
+              const float w = wx[i] * wy[j];
+              if (w == 0.0f) continue;
+              const uint32_t tx = static_cast<uint32_t>(xs[i] % m.texels), ty = static_cast<uint32_t>(ys[j] % m.texels);
+              refs[c].push_back({ty * static_cast<uint32_t>(m.texels) + tx, static_cast<uint32_t>(si), w});
+            }
+        }
+    });
+    // The GPU-filter-matched pixel rays: trilinear taps into the material's texel pyramid, the
+    // FMF through V′'s mips, and one request (texel-pyramid key, direction pair) per raw tap.
     const size_t B = info.block_texels, nl = info.lights.size(), rows = store->rows();
+    const int K = detail_raw::exact_log2(m.texels);
+    const int Mv = m.eigen_textures.width(), KM = detail_raw::exact_log2(Mv);
+    if (gpu_filter_ok_ && (K < 0 || KM < 0 || m.eigen_textures.height() != Mv)) {
+      gpu_filter_ok_ = false;
+      gpu_filter_note_ = m.name + ": texel count or virtual texture not a power of two";
+      std::vector<glm::vec3>().swap(raw_f_);
+      std::vector<glm::vec3>().swap(fmf_f_);
+    }
+    std::vector<size_t> key_offset;
+    std::vector<std::vector<float>> vmip;  // V′ of the material (one period), box-filtered levels 0..K
+    std::vector<detail_raw::FilteredSample> ftaps;
+    std::vector<uint64_t> requests;      // sorted: key << 20 | (view · n_light + light)
+    std::vector<uint32_t> key_begin;     // requests of key k: [key_begin[k], key_begin[k + 1])
+    std::vector<glm::vec3> request_sum;  // per request, the sum of its key's texels (then the mean)
+    const uint32_t C = m.components;
+    if (gpu_filter_ok_) {
+      const int S = m.texels;
+      key_offset.assign(static_cast<size_t>(K) + 2, 0);
+      for (int k = 0; k <= K; ++k)
+        key_offset[static_cast<size_t>(k) + 1] =
+            key_offset[static_cast<size_t>(k)] + static_cast<size_t>(S >> k) * (S >> k);
+      vmip.resize(static_cast<size_t>(K) + 1);
+      vmip[0].resize(static_cast<size_t>(S) * S * C);
+      for (int y = 0; y < S; ++y)
+        for (int x = 0; x < S; ++x)
+          for (uint32_t c = 0; c < C; ++c)
+            vmip[0][(static_cast<size_t>(y) * S + x) * C + c] = m.eigen_textures.at(x, y, static_cast<int>(c));
+      for (int k = 1; k <= K; ++k) {
+        const int s = S >> k;
+        vmip[k].resize(static_cast<size_t>(s) * s * C);
+        const std::vector<float>& f = vmip[static_cast<size_t>(k) - 1];
+        for (int y = 0; y < s; ++y)
+          for (int x = 0; x < s; ++x)
+            for (uint32_t c = 0; c < C; ++c) {
+              const auto at = [&](int xx, int yy) { return f[(static_cast<size_t>(yy) * (2 * s) + xx) * C + c]; };
+              vmip[k][(static_cast<size_t>(y) * s + x) * C + c] =
+                  0.25f * (at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1));
+            }
+      }
+      const size_t np = pixel_rays_.size();
+      ftaps.resize(np);
+      const size_t fchunks = std::max<size_t>(1, std::min<size_t>(256, np / 1024));
+      std::vector<std::vector<uint64_t>> req_chunks(fchunks);
+      default_thread_pool().parallel_for(0, fchunks, 1, [&](size_t c0, size_t c1) {
+        float comps[CpuFrameRenderer::kMaxComponents];
+        for (size_t c = c0; c < c1; ++c)
+          for (size_t pi = np * c / fchunks; pi < np * (c + 1) / fchunks; ++pi) {
+            const Ray& r = pixel_rays_[pi];
+            if (r.material != index) continue;
+            detail_raw::FilteredSample& f = ftaps[pi];
+            detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, f.light);
+            detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, f.view);
+            // OpenGL's LINEAR_MIPMAP_LINEAR: λ ≤ 0 magnifies (level 0), else levels ⌊λ⌋ and ⌊λ⌋ + 1.
+            const float lambda = std::log2(std::max(r.footprint * static_cast<float>(Mv), 1e-20f));
+            int k0 = 0, k1 = 0;
+            float w1 = 0.0f;
+            if (lambda > 0.0f) {
+              const float l = std::min(lambda, static_cast<float>(KM));
+              k0 = static_cast<int>(std::floor(l));
+              k1 = std::min(k0 + 1, KM);
+              w1 = k1 == k0 ? 0.0f : l - static_cast<float>(k0);
+            }
+            std::fill(comps, comps + C, 0.0f);
+            for (int li = 0; li < 2; ++li) {
+              const int k = li == 0 ? k0 : k1;
+              const float wl = li == 0 ? 1.0f - w1 : w1;
+              if (wl == 0.0f) continue;
+              const int sv = Mv >> k, kk = std::min(k, K), sm = S >> kk;
+              const float fx = r.texcoord.x * static_cast<float>(sv) - 0.5f;
+              const float fy = r.texcoord.y * static_cast<float>(sv) - 0.5f;
+              const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+              const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
+              for (int j = 0; j < 2; ++j)
+                for (int i = 0; i < 2; ++i) {
+                  const float w = wl * (i ? ax : 1.0f - ax) * (j ? ay : 1.0f - ay);
+                  if (w == 0.0f) continue;
+                  const int vx = (((x0 + i) % sv) + sv) % sv, vy = (((y0 + j) % sv) + sv) % sv;
+                  const size_t local = static_cast<size_t>(vy % sm) * sm + static_cast<size_t>(vx % sm);
+                  const float* vm = vmip[static_cast<size_t>(kk)].data() + local * C;
+                  for (uint32_t q = 0; q < C; ++q) comps[q] += w * vm[q];
+                  f.key[f.taps] = static_cast<uint32_t>(key_offset[static_cast<size_t>(kk)] + local);
+                  f.weight[f.taps] = w;
+                  ++f.taps;
+                }
+            }
+            fmf_f_[pi] = shade_fmf(m.eigen, f.light, f.view, std::span<const float>(comps, C));
+            for (uint32_t t = 0; t < f.taps; ++t)
+              for (size_t a = 0; a < 3; ++a)
+                for (size_t v = 0; v < 3; ++v)
+                  if (f.light.weight[a] * f.view.weight[v] != 0.0f)
+                    req_chunks[c].push_back(uint64_t{f.key[t]} << 20 |
+                                            (uint64_t{f.view.index[v]} * nl + uint64_t{f.light.index[a]}));
+          }
+      });
+      for (auto& rc : req_chunks) {
+        requests.insert(requests.end(), rc.begin(), rc.end());
+        std::vector<uint64_t>().swap(rc);
+      }
+      std::sort(requests.begin(), requests.end());
+      requests.erase(std::unique(requests.begin(), requests.end()), requests.end());
+      const size_t n_keys = key_offset.back();
+      key_begin.assign(n_keys + 1, 0);
+      for (const uint64_t q : requests) ++key_begin[static_cast<size_t>(q >> 20) + 1];
+      for (size_t k = 0; k < n_keys; ++k) key_begin[k + 1] += key_begin[k];
+      request_sum.assign(requests.size(), glm::vec3(0.0f));
+    }
+    // One pass over the store: bucket the references by block, then apply each block's columns
+    // (and add each texel to the requests of its texel-pyramid ancestors).
     std::vector<std::vector<detail_raw::TexelRef>> by_block(info.block_count());
-    for (auto& row : refs_per_row)
-      for (const detail_raw::TexelRef& r : row[mi]) by_block[r.texel / B].push_back(r);
+    for (auto& chunk : refs) {
+      for (const detail_raw::TexelRef& r : chunk) by_block[r.texel / B].push_back(r);
+      std::vector<detail_raw::TexelRef>().swap(chunk);
+    }
     std::vector<float> cols;
     std::vector<uint8_t> scratch;
     for (size_t b = 0; b < by_block.size(); ++b) {
-      if (by_block[b].empty()) continue;
-      const size_t t0 = b * B, cnt = info.block_width(b);
+      if (by_block[b].empty() && requests.empty()) continue;
+      const size_t t0b = b * B, cnt = info.block_width(b);
       cols.resize(rows * cnt);
-      if (auto r = store->read_columns(t0, cnt, cols.data(), rows, scratch); !r) return r.error();
-      ref.bytes_read += static_cast<uint64_t>(rows) * cnt * info.value_size();
+      if (auto r = store->read_columns(t0b, cnt, cols.data(), rows, scratch); !r) return r.error();
+      bytes_read_ += static_cast<uint64_t>(rows) * cnt * info.value_size();
       for (const detail_raw::TexelRef& r : by_block[b]) {
-        detail_raw::Sample& s = samples[r.sample];
-        const float* col = cols.data() + (r.texel - t0) * rows;
+        const detail_raw::Sample& s = taps[r.sample];
+        const float* col = cols.data() + (r.texel - t0b) * rows;
         glm::vec3 rgb(0.0f);
         for (size_t i = 0; i < 3; ++i)
           for (size_t j = 0; j < 3; ++j) {
@@ -195,27 +393,138 @@ inline Result<RawReference> render_raw_reference(const std::vector<DemoMaterial>
             const float* px = col + (static_cast<size_t>(s.view.index[j]) * nl + s.light.index[i]) * 3;
             rgb += w * glm::vec3(px[0], px[1], px[2]);
           }
-        s.raw += r.weight * rgb;
+        raw_[r.sample] += r.weight * rgb;
       }
+      std::vector<detail_raw::TexelRef>().swap(by_block[b]);
+      if (!requests.empty())
+        for (size_t t = t0b; t < t0b + cnt; ++t) {
+          const size_t x = t % static_cast<size_t>(m.texels), y = t / static_cast<size_t>(m.texels);
+          const float* col = cols.data() + (t - t0b) * rows;
+          for (int k = 0; k <= K; ++k) {
+            const size_t sm = static_cast<size_t>(m.texels) >> k;
+            const size_t key = key_offset[static_cast<size_t>(k)] + (y >> k) * sm + (x >> k);
+            for (uint32_t q = key_begin[key]; q < key_begin[key + 1]; ++q) {
+              const float* px = col + static_cast<size_t>(requests[q] & 0xFFFFFu) * 3;
+              request_sum[q] += glm::vec3(px[0], px[1], px[2]);
+            }
+          }
+        }
     }
+    if (gpu_filter_ok_) {
+      // Sums to means (a level-k texel averages 4^k texels), then each pixel's trilinear taps.
+      for (int k = 0; k <= K; ++k)
+        for (size_t key = key_offset[static_cast<size_t>(k)]; key < key_offset[static_cast<size_t>(k) + 1]; ++key)
+          for (uint32_t q = key_begin[key]; q < key_begin[key + 1]; ++q)
+            request_sum[q] *= 1.0f / static_cast<float>(size_t{1} << (2 * k));
+      default_thread_pool().parallel_for(0, ftaps.size(), 4096, [&](size_t p0, size_t p1) {
+        for (size_t pi = p0; pi < p1; ++pi) {
+          if (pixel_rays_[pi].material != index) continue;
+          const detail_raw::FilteredSample& f = ftaps[pi];
+          glm::vec3 rgb(0.0f);
+          for (uint32_t t = 0; t < f.taps; ++t)
+            for (size_t a = 0; a < 3; ++a)
+              for (size_t v = 0; v < 3; ++v) {
+                const float w = f.weight[t] * f.light.weight[a] * f.view.weight[v];
+                if (w == 0.0f) continue;
+                const uint64_t want =
+                    uint64_t{f.key[t]} << 20 | (uint64_t{f.view.index[v]} * nl + uint64_t{f.light.index[a]});
+                const auto first = requests.begin() + key_begin[f.key[t]],
+                           last = requests.begin() + key_begin[f.key[t] + 1];
+                const auto it = std::lower_bound(first, last, want);
+                rgb += w * request_sum[static_cast<size_t>(it - requests.begin())];
+              }
+          raw_f_[pi] = rgb;
+        }
+      });
+    }
+    added_[index] = 1;
+    seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return {};
   }
-  // Resolve: box filter over the subsamples, light colour, the renderers' background.
-  const float inv = 1.0f / static_cast<float>(ssn * ssn);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      glm::vec3 raw(0.0f), fmf(0.0f);
-      for (uint32_t k = 0; k < ssn * ssn; ++k) {
-        const size_t si = (static_cast<size_t>(y) * W + static_cast<size_t>(x)) * ssn * ssn + k;
-        const glm::vec3 bg(0.45f, 0.55f, 0.7f);
-        raw += hit[si] ? samples[si].raw * light_color : bg;
-        fmf += hit[si] ? fmf_rgb[si] * light_color : bg;
+
+  /// Store bytes read so far (one pass over each added material's store).
+  uint64_t bytes_read() const noexcept { return bytes_read_; }
+
+  /// The two images (box filter over the rays, light colour, the renderers' background).
+  /// Returns invalid_argument until every material was added.
+  Result<RawReference> finish() const {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < added_.size(); ++i)
+      if (!added_[i]) return make_error(Status::invalid_argument, "raw reference: material %zu not added", i);
+    RawReference ref;
+    ref.supersample = ssn_;
+    ref.bytes_read = bytes_read_;
+    ref.raw = Image<float>(width_, height_, 4);
+    ref.fmf_cpu = Image<float>(width_, height_, 4);
+    const uint32_t k2 = ssn_ * ssn_;
+    const float inv = 1.0f / static_cast<float>(k2);
+    const glm::vec3 bg(0.45f, 0.55f, 0.7f);
+    for (int y = 0; y < height_; ++y)
+      for (int x = 0; x < width_; ++x) {
+        glm::vec3 raw(0.0f), fmf(0.0f);
+        for (uint32_t k = 0; k < k2; ++k) {
+          const size_t si = (static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x)) * k2 + k;
+          const bool hit = rays_[si].material != kMiss;
+          raw += hit ? raw_[si] * light_color_ : bg;
+          fmf += hit ? fmf_[si] * light_color_ : bg;
+        }
+        for (int c = 0; c < 3; ++c) ref.raw.at(x, y, c) = raw[c] * inv, ref.fmf_cpu.at(x, y, c) = fmf[c] * inv;
+        ref.raw.at(x, y, 3) = 1.0f;
+        ref.fmf_cpu.at(x, y, 3) = 1.0f;
       }
-      for (int c = 0; c < 3; ++c) ref.raw.at(x, y, c) = raw[c] * inv, ref.fmf_cpu.at(x, y, c) = fmf[c] * inv;
-      ref.raw.at(x, y, 3) = 1.0f;
-      ref.fmf_cpu.at(x, y, 3) = 1.0f;
+    ref.has_gpu_filter = gpu_filter_ok_;
+    ref.gpu_filter_note = gpu_filter_note_;
+    if (gpu_filter_ok_) {
+      ref.raw_gpu_filter = Image<float>(width_, height_, 4);
+      ref.fmf_gpu_filter = Image<float>(width_, height_, 4);
+      for (int y = 0; y < height_; ++y)
+        for (int x = 0; x < width_; ++x) {
+          const size_t pi = static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x);
+          const bool hit = pixel_rays_[pi].material != kMiss;
+          const glm::vec3 raw = hit ? raw_f_[pi] * light_color_ : bg, fmf = hit ? fmf_f_[pi] * light_color_ : bg;
+          for (int c = 0; c < 3; ++c) ref.raw_gpu_filter.at(x, y, c) = raw[c], ref.fmf_gpu_filter.at(x, y, c) = fmf[c];
+          ref.raw_gpu_filter.at(x, y, 3) = 1.0f;
+          ref.fmf_gpu_filter.at(x, y, 3) = 1.0f;
+        }
     }
-  ref.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  return ref;
+    ref.seconds = seconds_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return ref;
+  }
+
+ private:
+  static constexpr uint32_t kMiss = ~0u;
+  struct Ray {
+    uint32_t material = kMiss;
+    glm::vec2 texcoord{0.0f};
+    glm::vec3 light_local{0.0f}, view_local{0.0f};
+    float footprint = 0.0f;  ///< pixel rays: max |∂uv/∂x|, |∂uv/∂y| per pixel (uv in [0, 1))
+  };
+  std::chrono::steady_clock::time_point t_start_;
+  uint32_t ssn_ = 1;
+  int width_ = 0, height_ = 0;
+  glm::vec3 light_color_{1.0f};
+  std::vector<Ray> rays_;
+  std::vector<glm::vec3> raw_, fmf_;  ///< per ray: raw BTF and FMF radiance before the light colour
+  std::vector<Ray> pixel_rays_;       ///< one per pixel centre, with its footprint (GPU-filter-matched)
+  std::vector<glm::vec3> raw_f_, fmf_f_;
+  bool gpu_filter_ok_ = true;
+  std::string gpu_filter_note_;
+  std::vector<uint8_t> added_;
+  uint64_t bytes_read_ = 0;
+  double seconds_ = 0;
+};
+
+/// Renders the raw and FMF references of `view` at once (RawReferenceBuilder over every
+/// material). `materials[i].store_path` must name a complete store of material i's BTF. Returns
+/// the store's errors (named) and unsupported for C above CpuFrameRenderer::kMaxComponents.
+/// Allocates; uses the default thread pool for the rays.
+inline Result<RawReference> render_raw_reference(const std::vector<DemoMaterial>& materials, const scene::View& view,
+                                                 uint32_t supersample) {
+  auto b = RawReferenceBuilder::cast(static_cast<uint32_t>(materials.size()), view, supersample);
+  if (!b) return b.error();
+  for (size_t i = 0; i < materials.size(); ++i)
+    if (auto r = b->add_material(static_cast<uint32_t>(i), materials[i]); !r) return r.error();
+  return b->finish();
 }
 
 }  // namespace btflod::demo

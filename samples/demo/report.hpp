@@ -37,11 +37,23 @@ struct RunSummary {
   uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
   std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
   std::vector<double> seconds_synthesis, seconds_factor, seconds_build;
+  std::vector<double> seconds_error, seconds_raw;  ///< error pass, raw-BTF reference pass per material
+  std::vector<uint32_t> material_texels;           ///< per material (a prebuilt store has its own)
+  std::vector<uint8_t> store_prebuilt, fmf_prebuilt;
+  bool transient_stores = false;  ///< each store deleted after its raw-BTF pass (paper profile)
+  uint64_t disk_peak_bytes = 0;   ///< peak bytes in the output folder (demo::DiskMeter)
+  uint64_t disk_min_free_bytes = 0;
   /// The last view against a render of the RAW tabulated BTF (raw_reference.hpp).
   struct RawComparison {
     bool done = false;
     std::string note;  ///< why it was not done
     ImageError bsvtf_gpu, fmf_gpu, fmf_cpu;
+    /// Against the GPU-filter-matched raw render (RawReference::raw_gpu_filter): the GPU images
+    /// and the FMF through the same filter on the CPU (the factorisation error alone under the
+    /// GPU's filtering); fmf_gpu_vs_cpu_filter compares the two FMF renders (the rasteriser).
+    bool gpu_filter = false;
+    std::string gpu_filter_note;
+    ImageError bsvtf_gpu_f, fmf_gpu_f, fmf_cpu_f, fmf_gpu_vs_cpu_f;
     double seconds = 0;
     uint64_t bytes_read = 0;
     uint32_t supersample = 1;
@@ -212,13 +224,28 @@ inline std::string config_and_raw_json(const RunSummary& r) {
     std::snprintf(
         b, sizeof b,
         "%s{\"material\": \"%s\", \"raw_store_bytes\": %llu, \"fmf_half_bytes\": %llu, \"bsvtf_bytes\": %llu, "
-        "\"seconds_synthesis\": %.2f, \"seconds_factor\": %.2f, \"seconds_build\": %.2f}",
+        "\"seconds_synthesis\": %.2f, \"seconds_factor\": %.2f, \"seconds_build\": %.2f",
         i ? ", " : "", r.material_names[i].c_str(), static_cast<unsigned long long>(r.store_bytes[i]),
         static_cast<unsigned long long>(r.fmf_half_bytes[i]), static_cast<unsigned long long>(r.bsvtf_bytes[i]),
         r.seconds_synthesis[i], r.seconds_factor[i], r.seconds_build[i]);
     o << b;
+    if (i < r.seconds_raw.size() && i < r.material_texels.size() && i < r.store_prebuilt.size()) {
+      std::snprintf(b, sizeof b,
+                    ", \"texels\": %u, \"seconds_error_pass\": %.2f, \"seconds_raw_reference_pass\": %.2f, "
+                    "\"store_prebuilt\": %s, \"fmf_prebuilt\": %s",
+                    r.material_texels[i], r.seconds_error[i], r.seconds_raw[i], r.store_prebuilt[i] ? "true" : "false",
+                    r.fmf_prebuilt[i] ? "true" : "false");
+      o << b;
+    }
+    o << "}";
   }
   o << "],\n";
+  std::snprintf(b, sizeof b,
+                "  \"disk\": {\"transient_stores\": %s, \"peak_bytes_in_output_folder\": %llu, "
+                "\"min_free_bytes\": %llu},\n",
+                r.transient_stores ? "true" : "false", static_cast<unsigned long long>(r.disk_peak_bytes),
+                static_cast<unsigned long long>(r.disk_min_free_bytes));
+  o << b;
   if (r.raw.done) {
     const auto e = [&](const char* name, const ImageError& x, bool last) {
       char t[256];
@@ -228,6 +255,11 @@ inline std::string config_and_raw_json(const RunSummary& r) {
     };
     o << "  \"raw_reference\": {" << e("bsvtf_gpu", r.raw.bsvtf_gpu, false) << e("fmf_gpu", r.raw.fmf_gpu, false)
       << e("fmf_cpu", r.raw.fmf_cpu, false);
+    if (r.raw.gpu_filter)
+      o << "\"gpu_filter\": {" << e("bsvtf_gpu", r.raw.bsvtf_gpu_f, false) << e("fmf_gpu", r.raw.fmf_gpu_f, false)
+        << e("fmf_cpu", r.raw.fmf_cpu_f, false) << e("fmf_gpu_vs_fmf_cpu", r.raw.fmf_gpu_vs_cpu_f, true) << "}, ";
+    else
+      o << "\"gpu_filter\": {\"not_done\": \"" << r.raw.gpu_filter_note << "\"}, ";
     std::snprintf(b, sizeof b, "\"supersample\": %u, \"store_bytes_read\": %llu, \"seconds\": %.2f},\n",
                   r.raw.supersample, static_cast<unsigned long long>(r.raw.bytes_read), r.raw.seconds);
     o << b;
@@ -277,6 +309,14 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
     line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu);
     line("FMF, everything resident (GPU)", r.raw.fmf_gpu);
     line("FMF (CPU, same rays as the raw render)", r.raw.fmf_cpu);
+    if (r.raw.gpu_filter) {
+      h << "<tr><th colspan='4'>vs the raw BTF through the GPU's filter (one ray per pixel centre, OpenGL's "
+           "level of detail, trilinear over the box-filtered mip chain of the raw BTF)</th></tr>\n";
+      line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu_f);
+      line("FMF, everything resident (GPU)", r.raw.fmf_gpu_f);
+      line("FMF (CPU, same filter): the factorisation error alone", r.raw.fmf_cpu_f);
+      line("FMF (GPU) vs FMF (CPU, same filter): rasteriser vs ray-caster", r.raw.fmf_gpu_vs_cpu_f);
+    }
     h << "</table>\n<p><img src='reference_raw.png' alt='raw BTF render'> <img src='reference_fmf_cpu.png' alt='FMF "
          "CPU "
          "render'></p>\n";
@@ -319,14 +359,20 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
     std::snprintf(row, sizeof row,
                   "<tr><td>%s (%u² texels, %u×%u "
                   "directions)</td><td>%s</td><td>%s</td><td>%s</td><td>%.1f</td><td>%.1f</td><td>%.1f</td></tr>",
-                  r.material_names[i].c_str(), r.texels, r.directions, r.directions,
-                  mib(static_cast<double>(r.store_bytes[i])).c_str(),
+                  r.material_names[i].c_str(), i < r.material_texels.size() ? r.material_texels[i] : r.texels,
+                  r.directions, r.directions, mib(static_cast<double>(r.store_bytes[i])).c_str(),
                   mib(static_cast<double>(r.fmf_half_bytes[i])).c_str(),
                   mib(static_cast<double>(r.bsvtf_bytes[i])).c_str(), r.seconds_synthesis[i], r.seconds_factor[i],
                   r.seconds_build[i]);
     h << row;
   }
   h << "</table>\n";
+  std::snprintf(
+      row, sizeof row, "<p>Disk: at most %s in the output folder (%s), at least %s free.</p>\n",
+      mib(static_cast<double>(r.disk_peak_bytes)).c_str(),
+      r.transient_stores ? "each store deleted after its raw-BTF pass: one store at a time" : "every store kept",
+      mib(static_cast<double>(r.disk_min_free_bytes)).c_str());
+  h << row;
   return h.str();
 }
 

@@ -30,7 +30,7 @@
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
 //            [--default-quality] [--per-component-tolerance] [--luminance-tolerance] [--perceptual]
-//            [--weight-quarters Q] [--scene-directions N] [--zstd]
+//            [--weight-quarters Q] [--scene-directions N] [--zstd] [--rendered] [--dead-zone T]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
@@ -54,6 +54,14 @@
 //                      as btflod-convert build, else 4; BsvtfBuildOptions::weight_quarters)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
 //   --zstd             entropy-code the tiles with zstd (BsvtfBuildOptions::entropy_coder)
+//   --rendered         (implies --perceptual) build with build_bsvtf_rendered
+//                      (codec/rendered_rate_control.hpp): every tile position's tolerances
+//                      rescaled until its texture-space p99 ΔE*ab is the target at the quality;
+//                      --rendered-target X (at quality 50), --rendered-quantile Q,
+//                      --rendered-passes N tune it; with --scene-directions the error is measured
+//                      under the training views' direction histogram
+//   --dead-zone T      AC rounding threshold T in [0.5, 1) (BsvtfBuildOptions::ac_rounding_threshold)
+//   --level-scale S    level l's tolerances × S^(l − finest level) (S > 1: coarser levels finer)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
 #include <algorithm>
 #include <chrono>
@@ -68,6 +76,7 @@
 #include <vector>
 
 #include "btflod/codec/perceptual_tolerance.hpp"
+#include "btflod/codec/rendered_rate_control.hpp"
 #include "btflod/core/image_io.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 #include "common/bsvtf_input.hpp"
@@ -92,6 +101,10 @@ struct Options : SceneOptions {
   PerceptualToleranceOptions perceptual_options;
   uint32_t weight_quarters = 99;  // --weight-quarters (JPEG table exponent × 4); 99: 1 with --perceptual, else 4
   uint32_t scene_direction_views = 0;  // > 0: direction weights from that many training views
+  bool rendered = false;               // --rendered: build_bsvtf_rendered (implies --perceptual)
+  float ac_rounding = 0.5f;            // --dead-zone: BsvtfBuildOptions::ac_rounding_threshold
+  float level_scale = 1.0f;            // --level-scale S: level l's tolerances × S^(l − finest level)
+  RenderedRateOptions rendered_options;
   bool zstd = false;                   // --zstd: tiles entropy-coded with zstd (tile format 3)
   bool check = false;
   std::string doc;
@@ -184,7 +197,25 @@ bool parse(int argc, char** argv, Options& o) {
       ok = u32(o.weight_quarters, 0, 4);
     else if (a == "--zstd")
       o.zstd = true;
-    else if (a == "--scene-directions")
+    else if (a == "--dead-zone" && v) {
+      char* end = nullptr;
+      o.ac_rounding = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && o.ac_rounding >= 0.5f && o.ac_rounding < 1.0f;
+    } else if (a == "--level-scale" && v) {
+      char* end = nullptr;
+      o.level_scale = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && o.level_scale > 0.0f && o.level_scale < 16.0f;
+    } else if (a == "--rendered")
+      o.rendered = o.perceptual = true;
+    else if (a == "--rendered-passes")
+      ok = u32(o.rendered_options.passes, 0, 16), o.rendered = o.perceptual = true;
+    else if ((a == "--rendered-target" || a == "--rendered-quantile") && v) {
+      char* end = nullptr;
+      const float x = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && x > 0 && x < 1e6f && (a == "--rendered-target" || x <= 1);
+      (a == "--rendered-target" ? o.rendered_options.target_at_quality50 : o.rendered_options.error.quantile) = x;
+      o.rendered = o.perceptual = true;
+    } else if (a == "--scene-directions")
       ok = u32(o.scene_direction_views, 1, 64), o.perceptual = true;
     else if (a == "--direction-samples")
       ok = u32(o.perceptual_options.direction_samples, 1, 1u << 20), o.perceptual = true;
@@ -364,6 +395,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::vector<Reference> refs;
+  std::vector<std::vector<float>> scene_hist(w.materials.size());  // --scene-directions histograms
   std::ostringstream luminance_scales;
   for (const Material& m : w.materials) {
     auto r = make_reference(m, o.size);
@@ -403,6 +435,7 @@ int main(int argc, char** argv) {
             if (p.hit && p.material == mi) accumulate_direction_weights(p.light, p.view, m.demo.view_count, hist);
         }
         po.direction_weights = hist;
+        scene_hist[mi] = hist;  // --rendered measures its error under the same directions
       }
       BsvtfMetadata md = m.dir.metadata;
       md.component_ranges.clear();  // the ranges build_bsvtf will use (from the tiles)
@@ -419,6 +452,10 @@ int main(int argc, char** argv) {
       luminance_scales << " " << m.demo.name << " " << fmt("%.4f", rep->min_channel_scale) << "–"
                        << fmt("%.4f", rep->max_channel_scale) << ";";
     }
+    if (o.level_scale != 1.0f)  // --level-scale S: level l's tolerances × S^(l − finest level)
+      for (BsvtfTileInput& t : r->inputs.tiles)
+        t.tolerance_scale *=
+            std::pow(o.level_scale, static_cast<float>(t.id.level) - (m.dir.metadata.level_count - 1.0f));
     refs.push_back(std::move(*r));
   }
   std::vector<Camera> cams;
@@ -472,7 +509,20 @@ int main(int argc, char** argv) {
       bo.tolerance_reference = o.tolerance;
       bo.weight_quarters = bo_weight_quarters(o);
       if (o.zstd) bo.entropy_coder = TileEntropyCoder::zstd;
-      auto file = build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
+      bo.ac_rounding_threshold = o.ac_rounding;
+      RenderedRateReport rr;
+      RenderedRateOptions ro = o.rendered_options;
+      ro.error.exposure = {w.light_color.r, w.light_color.g, w.light_color.b};
+      if (!scene_hist[mi].empty()) ro.error.direction_weights = scene_hist[mi];
+      auto file = o.rendered ? build_bsvtf_rendered(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo, ro, &rr)
+                             : build_bsvtf(m.dir.metadata, m.demo.u, ref.inputs.tiles, bo);
+      if (o.rendered && file) {
+        std::printf("  %s q%.0f: rendered p%.0f target %.3f; per pass max/min", m.demo.name.c_str(),
+                    static_cast<double>(q), 100.0 * ro.error.quantile, static_cast<double>(rr.target));
+        for (size_t pi = 0; pi < rr.pass_max.size(); ++pi)
+          std::printf(" %.3f/%.3f", static_cast<double>(rr.pass_max[pi]), static_cast<double>(rr.pass_min[pi]));
+        std::printf("; scales %.3f..%.3f\n", static_cast<double>(rr.min_scale), static_cast<double>(rr.max_scale));
+      }
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());
         return 1;

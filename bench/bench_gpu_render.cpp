@@ -5,6 +5,7 @@
 // inside the timing). BSVTF runs with levels 0..2 resident and the finest level over the left
 // half of the texture (the quad is shown at about one texel per pixel at 512²).
 // BM_*_Pairs interleave the two programs and report the median per-pair frame-rate ratio.
+// BM_*_ScenePasses time the demo's scene geometry with the colour and feedback passes apart.
 // btflod-link: btflod_gl_backend btflod_vk_backend
 #include <benchmark/benchmark.h>
 
@@ -15,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "../samples/scene/demo_scene.hpp"
 #include "../tests/test_shader_scene.hpp"
 #include "gl_backend.hpp"
 #include "vk_backend.hpp"
@@ -29,6 +31,7 @@ constexpr int kTextureSize = 512;  // M = N, T = 64 → L = 3
 struct Scene {
   std::unique_ptr<Backend> backend;
   MeshHandle mesh;
+  std::vector<MeshHandle> scene_meshes;  // samples/scene/demo_scene.hpp: ground plane and four tori
   MaterialHandle fmf, bsvtf;
   ShaderParams params;
   FrameDesc frame;
@@ -59,6 +62,8 @@ Scene make_scene(bool vulkan) {
   const auto verts = quad_vertices();
   const auto idx = quad_indices();
   s.mesh = *s.backend->create_mesh(MeshData{verts, idx});
+  for (const scene::SceneObject& o : scene::make_demo_scene(5))
+    s.scene_meshes.push_back(*s.backend->create_mesh(MeshData{o.vertices, o.indices}));
   s.fmf = *s.backend->create_material(m.data(true));
   s.bsvtf = *s.backend->create_material(m.data(false));
   // Levels 0..2 resident everywhere, the finest level (3) over the left half: 2 × 53 slots.
@@ -144,12 +149,93 @@ void render_pairs(benchmark::State& state, bool vulkan) {
   state.counters["bsvtf_fps_over_fmf"] = median(ratio);
 }
 
+// The demo's scene geometry (a 12 × 12 ground plane and four 96 × 48 tori, samples/scene/
+// demo_scene.hpp) at the demo's 480 × 270 with its feedback pass at 1/4 per axis, every object
+// with the bench material, seen from the demo's camera path at frame 120 of 200. Per iteration,
+// in a rotating order, four frames each timed from begin_frame to the colour read-back (as the
+// demo times them): FMF; the BSVTF colour pass alone; the feedback pass alone; the demo's BSVTF
+// frame (feedback pass, then colour pass). Counters: the median frame times, the medians of
+// the per-iteration ratios t_FMF / t_BSVTF (colour alone and the demo's frame) and the median
+// marginal cost of the feedback pass in the demo's frame (t_frame − t_colour).
+void render_scene_passes(benchmark::State& state, bool vulkan) {
+  static Scene scenes[2];
+  Scene& s = scenes[vulkan ? 1 : 0];
+  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
+  if (!s.backend) {
+    state.SkipWithError(("backend unavailable: " + s.error).c_str());
+    return;
+  }
+  const scene::View view = scene::camera_path(120, 200, 480, 270);
+  ShaderParams p = scene::view_params(view, glm::vec3(0.4f, 1.0f, 0.3f), glm::vec3(3.0f));
+  p.vt_extent = s.params.vt_extent;
+  FrameDesc desc;
+  desc.width = view.width;
+  desc.height = view.height;
+  constexpr uint32_t kShift = 2;
+  desc.feedback_width = (view.width + 3) >> kShift;
+  desc.feedback_height = (view.height + 3) >> kShift;
+  ShaderParams pf = p;
+  pf.lod.y = static_cast<float>(kShift);
+  Image<float> color(static_cast<int>(view.width), static_cast<int>(view.height), 4);
+  enum Pass { fmf, colour, feedback, frame, kPasses };
+  const auto one = [&](int pass) {
+    const auto t0 = std::chrono::steady_clock::now();
+    s.backend->begin_frame(desc);
+    if (pass == feedback || pass == frame)
+      for (MeshHandle m : s.scene_meshes) s.backend->draw_feedback(m, pf);
+    if (pass != feedback)
+      for (MeshHandle m : s.scene_meshes)
+        s.backend->draw(pass == fmf ? ShaderProgram::fmf : ShaderProgram::bsvtf, m, pass == fmf ? s.fmf : s.bsvtf, p);
+    s.backend->end_frame();
+    if (pass != feedback)
+      s.backend->read_color(color.view());
+    else
+      s.backend->wait_idle();
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    s.backend->wait_idle();
+    FeedbackFrame fb;
+    while (s.backend->poll_feedback(fb)) {
+    }
+    return ms;
+  };
+  for (int warm = 0; warm < 2; ++warm)
+    for (int pass = 0; pass < kPasses; ++pass) one(pass);
+  std::vector<double> t[kPasses], r_colour, r_frame, marginal;
+  int rot = 0;
+  for (auto _ : state) {
+    double ms[kPasses];
+    for (int k = 0; k < kPasses; ++k) {
+      const int pass = (k + rot) % kPasses;
+      ms[pass] = one(pass);
+    }
+    ++rot;
+    for (int k = 0; k < kPasses; ++k) t[k].push_back(ms[k]);
+    r_colour.push_back(ms[fmf] / ms[colour]);
+    r_frame.push_back(ms[fmf] / ms[frame]);
+    marginal.push_back(ms[frame] - ms[colour]);
+  }
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["ms_fmf"] = median(t[fmf]);
+  state.counters["ms_bsvtf_colour"] = median(t[colour]);
+  state.counters["ms_feedback_alone"] = median(t[feedback]);
+  state.counters["ms_bsvtf_frame"] = median(t[frame]);
+  state.counters["ms_feedback_marginal"] = median(marginal);
+  state.counters["colour_fps_over_fmf"] = median(r_colour);
+  state.counters["frame_fps_over_fmf"] = median(r_frame);
+}
+
 void BM_Gl_Fmf(benchmark::State& st) { render(st, false, ShaderProgram::fmf); }
 void BM_Gl_Bsvtf(benchmark::State& st) { render(st, false, ShaderProgram::bsvtf); }
 void BM_Vk_Fmf(benchmark::State& st) { render(st, true, ShaderProgram::fmf); }
 void BM_Vk_Bsvtf(benchmark::State& st) { render(st, true, ShaderProgram::bsvtf); }
 void BM_Gl_Pairs(benchmark::State& st) { render_pairs(st, false); }
 void BM_Vk_Pairs(benchmark::State& st) { render_pairs(st, true); }
+void BM_Gl_ScenePasses(benchmark::State& st) { render_scene_passes(st, false); }
+void BM_Vk_ScenePasses(benchmark::State& st) { render_scene_passes(st, true); }
 
 }  // namespace
 
@@ -163,4 +249,6 @@ BENCHMARK(BM_Vk_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRe
 // levels it may blend (docs/demo.md, "frame rate").
 BENCHMARK(BM_Gl_Pairs)->Arg(240)->Arg(256)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_Vk_Pairs)->Arg(240)->Arg(256)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Gl_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
+BENCHMARK(BM_Vk_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK_MAIN();

@@ -675,10 +675,11 @@ inline void piece_bsvtf(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::tile_cache);
   e.constant_bool("kTrilinear", e.config.vt.trilinear);
   // Addressing (paper 000 eq. 2-3) is done once per fragment for the levels the blend can use
-  // and shared by every RGBA group; per group: the page-table texel of level l1 (and of l0 or
-  // mip 0 only when that case arises) and one cache fetch per blended level: the second fetch
-  // is skipped when the blend weight is 0 (l0 == l1, lambda clamped, or an integer lambda).
-  // The l0 and mip-0 page-table texels are one fetch with a selected address (exclusive cases).
+  // and shared by every RGBA group; per group: two page-table texels (level l1, and level l0 or
+  // mip 0 — exclusive cases, one fetch with a selected address) and two cache fetches blended
+  // with weight 0 when only one level applies. No branches: llvmpipe/lavapipe run both sides of
+  // a branch under an execution mask, and a real GPU gains little from skipping one fetch
+  // (docs/shaders.md, "BSVTF fragment cost").
   e.emit(
       "// One fragment's virtual-texture address: finest-level texel coordinate, the two blend levels\n"
       "// (l0 = floor(lambda), l1 = l0 + 1 clamped), their tiles (eq. 2) and in-tile offsets, and the\n"
@@ -715,22 +716,16 @@ inline void piece_bsvtf(GlslEmitter& e) {
       "  // is resident) or mip 0 (tile l1 missing). Fetched unconditionally: SIMD rasterisers such as\n"
       "  // llvmpipe run both sides of a branch under a mask, so two fetches in two branches cost two.\n"
       "  uint e2 = texelFetch($page_table$, ivec3(have1 ? a.tile0 : a.tilef, layer), have1 ? a.finest - a.l0 : 0).x;\n"
-      "  uint e = e1;  // the entry sampled first\n"
-      "  vec2 in_tile = a.in1;\n"
-      "  float w = 0.0;  // weight of level l1 blended over it\n"
-      "  if (!have1) {\n"
-      "    // tile l1 missing: mip 0 holds the deepest resident tile (vt/tile_cache.hpp's table); it is\n"
-      "    // finer than l1 when the cache dropped ancestors hidden by resident children\n"
-      "    if ((e2 >> 24u) > (e1 >> 24u)) e = e2;\n"
-      "    @tile_at(a.texel, int(e >> 24u), in_tile);\n"
-      "  } else if (@kTrilinear && a.l1 != a.l0 && int(e2 >> 24u) == a.l0) {\n"
-      "    // trilinear across levels when tile l0 is resident too (weight 0: level l0 alone)\n"
-      "    e = e2;\n"
-      "    in_tile = a.in0;\n"
-      "    w = a.w;\n"
-      "  }\n"
-      "  vec4 s = @cache_sample(e, in_tile);\n"
-      "  return w > 0.0 ? mix(s, @cache_sample(e1, a.in1), w) : s;\n"
+      "  // Selects, not branches (the same masking reason). Trilinear across levels when tile l0 is\n"
+      "  // resident too (weight 0: level l0 alone). Tile l1 missing: mip 0 holds the deepest resident\n"
+      "  // tile (vt/tile_cache.hpp's table); it is finer than l1 when the cache dropped ancestors hidden\n"
+      "  // by resident children. Either way the first sample is at the level of its entry.\n"
+      "  bool tri = @kTrilinear && have1 && a.l1 != a.l0 && int(e2 >> 24u) == a.l0;\n"
+      "  uint e = (tri || (!have1 && (e2 >> 24u) > (e1 >> 24u))) ? e2 : e1;  // the entry sampled first\n"
+      "  vec2 in_tile;\n"
+      "  @tile_at(a.texel, int(e >> 24u), in_tile);\n"
+      "  // Level l1 blended over it with weight w; w = 0 leaves the first sample exact (finite texels).\n"
+      "  return mix(@cache_sample(e, in_tile), @cache_sample(e1, a.in1), tri ? a.w : 0.0);\n"
       "}\n"
       "// Component groups of the material whose group 0 is page-table layer $first_layer$.\n"
       "// Uses derivatives (@vt_lambda): call in uniform control flow.\n"
@@ -1302,15 +1297,22 @@ inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, Gls
   }
   const char* name = shader_program_name(r.program);
   s += "void main() {\n";
-  if (r.raw_view)
-    s += format_message("  if (btflod.ids.z == 1u) { btflod_color = btflod_%s_raw(v_uv); return; }\n", name);
+  if (r.raw_view)  // the components once: the raw view is group 0 of what eq. 5 reads (a
+                   // separate _raw() call would fetch group 0 twice on SIMD rasterisers)
+    s += format_message(
+        "  vec4 v[btflod_kFmfGroups]; btflod_%s_components(v_uv, v);\n"
+        "  if (btflod.ids.z == 1u) { btflod_color = v[0]; return; }\n",
+        name);
   s += "  vec3 to_eye = normalize(btflod.camera_pos.xyz - v_world_pos);\n"
        "  vec3 to_light = btflod.light.w > 0.5 ? normalize(btflod.light.xyz - v_world_pos)"
        " : normalize(btflod.light.xyz);\n"
        "  vec3 wl; vec3 wv;\n"
        "  btflod_local_dirs(v_normal, v_tangent, to_light, to_eye, wl, wv);\n";
-  s += format_message("  btflod_color = vec4(btflod_%s(v_uv, wl, wv%s) * btflod.light_color.rgb, 1.0);\n", name,
-                      r.extra_args);
+  if (r.raw_view)
+    s += "  btflod_color = vec4(btflod_fmf_brdf(v, wl, wv) * btflod.light_color.rgb, 1.0);\n";
+  else
+    s += format_message("  btflod_color = vec4(btflod_%s(v_uv, wl, wv%s) * btflod.light_color.rgb, 1.0);\n", name,
+                        r.extra_args);
   s += "}\n";
   return s;
 }

@@ -78,14 +78,4 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   return 0;
 }
 
-extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned int seed) {
-  if (btflod_fuzz::byte_mode()) return LLVMFuzzerMutate(data, size, max_size);
-  return btflod_fuzz::mutate_bsvtf(data, size, max_size, seed);
-}
-
-extern "C" size_t LLVMFuzzerCustomCrossOver(const uint8_t* a, size_t a_size, const uint8_t* b, size_t b_size,
-                                            uint8_t* out, size_t max_size, unsigned int seed) {
-  if (!btflod_fuzz::byte_mode())
-    if (const size_t n = btflod_fuzz::cross_over_bsvtf(a, a_size, b, b_size, out, max_size, seed)) return n;
-  return btflod_fuzz::splice(a, a_size, b, b_size, out, max_size, seed);
-}
+BTFLOD_FUZZ_STRUCTURE_AWARE(btflod_fuzz::mutate_bsvtf, btflod_fuzz::cross_over_bsvtf)

@@ -27,7 +27,8 @@ int run_build(int argc, char** argv) {
     std::puts(
         "usage: btflod-convert build IN.fmf OUT.bsvtf [--quality Q] [--tile T] [--border B]\n"
         "                            [--tolerance perceptual|shared|per-component] [--exposure E]\n"
-        "                            [--weight-quarters W] [--wrap] [--deflate-level N] [--quiet]\n"
+        "                            [--weight-quarters W] [--wrap] [--deflate [--deflate-level N]]\n"
+        "                            [--zstd-level N] [--quiet]\n"
         "  IN is an FMF factor file (btflod-convert factor --method fmf).\n"
         "  --quality Q      1..100 (default 50): scales the block-RMS error tolerances like JPEG's\n"
         "                   quality (docs/bsvtf_format.md)\n"
@@ -43,7 +44,11 @@ int run_build(int argc, char** argv) {
         "                   perceptual tolerances, else 4 = JPEG's table)\n"
         "  --wrap           the material repeats: outer tile borders wrap to the opposite edge\n"
         "                   (default: clamp; wrapped borders avoid a seam where uv repeats)\n"
-        "  --deflate-level  zlib level 0..9 (default 6)");
+        "  --deflate        entropy-code the tiles with deflate (tile format 2, the bytes of earlier\n"
+        "                   versions, read by every client) instead of the default zstd (format 3:\n"
+        "                   smaller tiles that decode faster; docs/bsvtf_format.md \"Entropy stage\")\n"
+        "  --deflate-level  zlib level 0..9 (default 6)\n"
+        "  --zstd-level     zstd level 1..22 (default 19)");
     return convert::kExitOk;
   }
   const double quality = opt.number("quality", 50.0, 1.0, 100.0);
@@ -57,6 +62,8 @@ int run_build(int argc, char** argv) {
       opt.integer("weight-quarters", perceptual ? kPerceptualWeightQuarters : kJpegWeightQuarters, 0, 4));
   const bool wrap = opt.flag("wrap");
   const int deflate_level = static_cast<int>(opt.integer("deflate-level", 6, 0, 9));
+  const bool deflate = opt.flag("deflate");
+  const int zstd_level = static_cast<int>(opt.integer("zstd-level", 19, 1, 22));
   const bool quiet = opt.flag("quiet", 'q');
   if (!opt.finish()) return convert::kExitUsage;
   if (!perceptual && tolerance_name != "shared" && tolerance_name != "per-component") {
@@ -141,6 +148,8 @@ int run_build(int argc, char** argv) {
   BsvtfBuildOptions options;
   options.quality = static_cast<float>(quality);
   options.deflate_level = deflate_level;
+  if (deflate) options.entropy_coder = TileEntropyCoder::deflate;
+  options.zstd_level = zstd_level;
   options.tolerance_reference =
       tolerance_name == "per-component" ? ToleranceReference::per_component : ToleranceReference::shared_max;
   options.weight_quarters = weight_quarters;
@@ -165,12 +174,15 @@ int run_build(int argc, char** argv) {
   const double raw = static_cast<double>(inputs.tiles.size()) *
                      static_cast<double>(TileLayout{tile, border, 4}.sample_count()) * 2.0;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("%s: %dx%d, %u components, %u levels of %u+2x%u tiles -> %s: %zu bytes (%zu tiles, %llu tile bytes, %.2f:1 vs raw "
-              "half tiles; directory %llu bytes; U %zu packets), quality %.0f, tolerances %s, weighting JPEG^(%u/4), %.2f s\n",
-              in.c_str(), w, h, comps, md.level_count, tile, border, out.c_str(), file->size(), inputs.tiles.size(),
-              static_cast<unsigned long long>(tile_bytes), raw / static_cast<double>(tile_bytes),
-              static_cast<unsigned long long>(dir->header.directory_size), dir->packets.size(), quality,
-              tolerance_report.c_str(), weight_quarters, seconds);
+  std::printf(
+      "%s: %dx%d, %u components, %u levels of %u+2x%u tiles -> %s: %zu bytes (%zu tiles, %llu tile bytes, %.2f:1 vs "
+      "raw half tiles; directory %llu bytes; U %zu packets), quality %.0f, tolerances %s, weighting JPEG^(%u/4), "
+      "%s tiles, %.2f s\n",
+      in.c_str(), w, h, comps, md.level_count, tile, border, out.c_str(), file->size(), inputs.tiles.size(),
+      static_cast<unsigned long long>(tile_bytes), raw / static_cast<double>(tile_bytes),
+      static_cast<unsigned long long>(dir->header.directory_size), dir->packets.size(), quality,
+      tolerance_report.c_str(), weight_quarters, options.entropy_coder == TileEntropyCoder::zstd ? "zstd" : "deflate",
+      seconds);
   for (uint32_t l = 0; l < md.level_count; ++l)
     std::printf("  levels 0..%u: first %llu bytes\n", l, static_cast<unsigned long long>(dir->prefix_size(l)));
   return convert::kExitOk;

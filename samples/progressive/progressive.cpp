@@ -34,7 +34,8 @@
 // Usage: btflod-progressive --out DIR [--materials N] [--components C] [--size N] [--repeat R]
 //            [--quality Q] [--width W] [--height H] [--views V] [--bytes-per-frame B]
 //            [--frames-to-all F] [--decimation D] [--max-frames N] [--doc docs/progressive.md]
-//            [--svg PATH] [--check-determinism]
+//            [--svg PATH] [--check-determinism] [--deflate]
+// --deflate codes the tiles with deflate (tile format 2) instead of the default zstd (format 3).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -144,6 +145,8 @@ bool parse(int argc, char** argv, Options& o) {
       ++i;
     } else if (a == "--check-determinism")
       o.check_determinism = true;
+    else if (a == "--deflate")
+      o.entropy_coder = TileEntropyCoder::deflate;
     else {
       std::fprintf(stderr, "btflod-progressive: unknown or incomplete argument '%s'\n", a.c_str());
       return false;
@@ -634,11 +637,12 @@ int main(int argc, char** argv) {
       line, sizeof line,
       "Command: `%s` (%.0f s on this machine).\n\n"
       "Data: %u materials, %ux%u texels, C = %u → %zu RGBA virtual textures each, T = %u, B = %u, %u levels, "
-      "codec quality %.0f: %llu tiles = %.1f KiB compressed (%.1f KiB as raw RGBA16F) + %llu U packets = %.1f KiB; "
+      "codec quality %.0f, %s: %llu tiles = %.1f KiB compressed (%.1f KiB as raw RGBA16F) + %llu U packets = %.1f KiB; "
       "all bytes %.1f KiB. Link: %llu bytes per frame. Image %ux%u, feedback 1/%u.\n\n",
       command.c_str(), seconds(), o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height, o.components,
       m0.decoded.size(), m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border,
-      m0.pyramid.geometry().level_count(), static_cast<double>(o.quality), static_cast<unsigned long long>(tiles),
+      m0.pyramid.geometry().level_count(), static_cast<double>(o.quality),
+      o.entropy_coder == TileEntropyCoder::zstd ? "zstd" : "deflate", static_cast<unsigned long long>(tiles),
       static_cast<double>(tile_bytes) / 1024.0, static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0,
       static_cast<unsigned long long>(packets), static_cast<double>(packet_bytes) / 1024.0,
       static_cast<double>(w.total_bytes) / 1024.0, static_cast<unsigned long long>(per_frame), o.width, o.height,

@@ -32,6 +32,7 @@ struct SceneOptions {
   uint32_t size = 32;
   uint32_t repeat = 8;
   float quality = 60.0f;
+  TileEntropyCoder entropy_coder = default_tile_entropy_coder();  // --deflate: deflate (tile format 2)
   uint32_t tile_size = 32;
   uint32_t width = 256, height = 144;
   uint32_t views = 3;
@@ -91,6 +92,7 @@ inline Result<Material> load_material(uint32_t index, const SceneOptions& o) {
   ms.repeat = o.repeat;
   ms.components = o.components;
   ms.quality = o.quality;
+  ms.entropy_coder = o.entropy_coder;
   ms.tile_size = o.tile_size;
   auto dm = demo::prepare_material(index, ms, o.out);
   if (!dm) return dm.error();

@@ -30,7 +30,7 @@
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
 //            [--default-quality] [--per-component-tolerance] [--luminance-tolerance] [--perceptual]
-//            [--weight-quarters Q] [--scene-directions N] [--zstd] [--rendered] [--dead-zone T]
+//            [--weight-quarters Q] [--scene-directions N] [--deflate | --zstd] [--rendered] [--dead-zone T]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
@@ -53,7 +53,8 @@
 //   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4; default 1 with --perceptual
 //                      as btflod-convert build, else 4; BsvtfBuildOptions::weight_quarters)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
-//   --zstd             entropy-code the tiles with zstd (BsvtfBuildOptions::entropy_coder)
+//   --deflate          entropy-code the tiles with deflate (tile format 2) instead of the default
+//                      zstd (format 3; --zstd says so explicitly; BsvtfBuildOptions::entropy_coder)
 //   --rendered         (implies --perceptual) build with build_bsvtf_rendered
 //                      (codec/rendered_rate_control.hpp): every tile position's tolerances
 //                      rescaled until its texture-space p99 ΔE*ab is the target at the quality;
@@ -105,7 +106,6 @@ struct Options : SceneOptions {
   float ac_rounding = 0.5f;            // --dead-zone: BsvtfBuildOptions::ac_rounding_threshold
   float level_scale = 1.0f;            // --level-scale S: level l's tolerances × S^(l − finest level)
   RenderedRateOptions rendered_options;
-  bool zstd = false;                   // --zstd: tiles entropy-coded with zstd (tile format 3)
   bool check = false;
   std::string doc;
   Options() {
@@ -196,7 +196,9 @@ bool parse(int argc, char** argv, Options& o) {
     } else if (a == "--weight-quarters")
       ok = u32(o.weight_quarters, 0, 4);
     else if (a == "--zstd")
-      o.zstd = true;
+      o.entropy_coder = TileEntropyCoder::zstd;
+    else if (a == "--deflate")
+      o.entropy_coder = TileEntropyCoder::deflate;
     else if (a == "--dead-zone" && v) {
       char* end = nullptr;
       o.ac_rounding = std::strtof(argv[++i], &end);
@@ -508,7 +510,7 @@ int main(int argc, char** argv) {
       bo.quality = q;
       bo.tolerance_reference = o.tolerance;
       bo.weight_quarters = bo_weight_quarters(o);
-      if (o.zstd) bo.entropy_coder = TileEntropyCoder::zstd;
+      bo.entropy_coder = o.entropy_coder;
       bo.ac_rounding_threshold = o.ac_rounding;
       RenderedRateReport rr;
       RenderedRateOptions ro = o.rendered_options;
@@ -630,7 +632,8 @@ int main(int argc, char** argv) {
                                                                       : "") +
                                ", exposure = the sun's colour; range per material:" + luminance_scales.str() + ")"
                          : std::string())
-        << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)" << (o.zstd ? ", tiles coded with zstd" : "")
+        << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)"
+        << (o.entropy_coder == TileEntropyCoder::zstd ? ", tiles coded with zstd" : ", tiles coded with deflate")
         << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
         << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
         << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size

@@ -26,6 +26,7 @@ struct DemoConfig {
   bool interreflection = false;                   ///< --interreflection
   bool quiet = false;                             ///< --quiet: no progress bars
   bool window = false;                            ///< --window: show the frames in an X11 window
+  bool deflate = false;                           ///< --deflate: deflate tiles (format 2), not zstd
   std::string record_feedback;                    ///< --record-feedback FILE: feedback trace for btflod-bench
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
   /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
@@ -42,7 +43,7 @@ struct DemoConfig {
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
-    "                   [--profile paper] [--memory SIZE]\n"
+    "                   [--profile paper] [--memory SIZE] [--deflate]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
@@ -54,6 +55,8 @@ inline constexpr const char* kDemoUsage =
     "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
     "  --window shows each BSVTF frame in an X11 window (GL backend, needs DISPLAY; headless\n"
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
+    "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
+    "  zstd (format 3, the default: smaller tiles that decode faster).\n"
     "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
     "  for btflod-bench scheduler --trace FILE.\n"
     "  --profile paper: paper 000's configuration: 151 x 151 directions (ubo2014), FMF C = 100 (25\n"
@@ -99,6 +102,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
     if (a == "--window") {
       cfg.window = true;
+      continue;
+    }
+    if (a == "--deflate") {
+      cfg.deflate = true;
       continue;
     }
     if (a == "--keep-stores") {

@@ -114,6 +114,7 @@ int main(int argc, char** argv) {
   ms.seed = cfg->seed;
   ms.memory_budget = cfg->memory_bytes;
   ms.quiet = cfg->quiet;
+  if (cfg->deflate) ms.entropy_coder = TileEntropyCoder::deflate;
   ms.inputs_dir = cfg->inputs_dir;
   if (paper)
     std::printf(

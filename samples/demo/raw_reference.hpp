@@ -127,12 +127,7 @@ class RawReferenceBuilder {
     b.width_ = static_cast<int>(view.width), b.height_ = static_cast<int>(view.height);
     b.added_.assign(material_count, 0);
     const Scene scene = analytic_demo_scene(material_count);
-    Camera cam;
-    cam.position = view.eye;
-    cam.target = view.target;
-    cam.fov_y_degrees = view.fov_y_degrees;
-    cam.width = view.width;
-    cam.height = view.height;
+    const Camera cam = scene::to_camera(view);
     const ShaderParams p = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
     const glm::vec3 light_dir = glm::normalize(glm::vec3(p.light));
     b.light_color_ = glm::vec3(p.light_color);

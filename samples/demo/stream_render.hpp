@@ -33,6 +33,7 @@
 #include "btflod/vt/tile_cache.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
+#include "scene/view_camera.hpp"
 
 namespace btflod::demo {
 
@@ -289,12 +290,7 @@ class CpuFrameRenderer final : public FrameRenderer {
   VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift,
                     const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
                     std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) override {
-    Camera cam;
-    cam.position = view.eye;
-    cam.target = view.target;
-    cam.fov_y_degrees = view.fov_y_degrees;
-    cam.width = view.width;
-    cam.height = view.height;
+    const Camera cam = scene::to_camera(view);
     const ShaderParams p = params(0);
     auto t0 = std::chrono::steady_clock::now();
     const uint32_t d = 1u << shift;

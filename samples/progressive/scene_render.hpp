@@ -21,6 +21,7 @@
 #include "btflod/vt/tile_pyramid.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
+#include "scene/view_camera.hpp"
 
 namespace btflod::progressive {
 
@@ -177,17 +178,8 @@ struct World {
     return {};
   }
 
-  Camera camera(uint32_t view) const { return to_camera(scene::camera_path(view, opt.views, opt.width, opt.height)); }
-
-  /// The CPU reference camera of a scene view.
-  static Camera to_camera(const scene::View& v) {
-    Camera cam;
-    cam.position = v.eye;
-    cam.target = v.target;
-    cam.fov_y_degrees = v.fov_y_degrees;
-    cam.width = v.width;
-    cam.height = v.height;
-    return cam;
+  Camera camera(uint32_t view) const {
+    return scene::to_camera(scene::camera_path(view, opt.views, opt.width, opt.height));
   }
 };
 

@@ -432,7 +432,7 @@ int main(int argc, char** argv) {
         hist.assign(size_t{m.demo.light_count} * m.demo.view_count, 0.0f);
         const uint32_t mi = static_cast<uint32_t>(&m - w.materials.data());
         for (uint32_t j = 0; j < n; ++j) {
-          const Camera cam = World::to_camera(scene::camera_path(2 * j + 1, 2 * n + 1, o.width, o.height));
+          const Camera cam = scene::to_camera(scene::camera_path(2 * j + 1, 2 * n + 1, o.width, o.height));
           for (const Pixel& p : prepare_view(w, cam))
             if (p.hit && p.material == mi) accumulate_direction_weights(p.light, p.view, m.demo.view_count, hist);
         }

@@ -95,6 +95,33 @@ TEST(CpuReference, PlaneSphereTorusHitsAndFrames) {
   EXPECT_FALSE(s3.intersect(Ray{{5, 5, 5}, {0, -1, 0}}).hit);
 }
 
+// The local frame is (t along dpdu, b on dpdv's side, n): a direction along +dpdv has local
+// y > 0 on every shape, also where dpdu × dpdv points against the normal (a torus seen from
+// outside, whose mesh carries tangent.w = −1 for the shaders). A frame built as n × t alone
+// mirrors y there, so the CPU ray-caster and the GPU disagree on every torus.
+TEST(CpuReference, LocalFrameFollowsTheParameterisationOnEveryShape) {
+  Scene scene;
+  scene.add(Shape::torus(0, {0, 0, 0}, 1.0f, 0.25f));
+  scene.add(Shape::sphere(1, {0, 0, 10}, 0.5f));
+  scene.add(Shape::plane(2, {-1, -3, -1}, {1, 0, 0}, {0, 0, 1}, 2.0f, 2.0f));
+  const Ray rays[] = {Ray{{1, 0, 5}, {0, 0, -1}}, Ray{{0.3f, 0.2f, 5}, {0, 0, 1}}, Ray{{0.2f, 0, 0.3f}, {0, -1, 0}},
+                      Ray{{0.2f, -5, 0.3f}, {0, 1, 0}}};  // torus, sphere, plane from above and below
+  int hits = 0;
+  for (const Ray& r : rays) {
+    const SurfaceHit h = scene.intersect(r);
+    ASSERT_TRUE(h.hit);
+    ++hits;
+    const glm::vec3 along_u = glm::normalize(h.dpdu), along_v = glm::normalize(h.dpdv);
+    EXPECT_GT(to_local(h, along_u).x, 0.99f);
+    EXPECT_GT(to_local(h, along_v).y, 0.99f) << "material " << h.material;
+    EXPECT_NEAR(to_local(h, h.normal).z, 1.0f, 1e-5f);
+  }
+  EXPECT_EQ(hits, 4);
+  // The torus from outside is left-handed: dpdu × dpdv points inwards.
+  const SurfaceHit ht = scene.intersect(rays[0]);
+  EXPECT_LT(glm::dot(glm::cross(ht.dpdu, ht.dpdv), ht.normal), 0.0f);
+}
+
 TEST(CpuReference, FootprintAndFeedbackFollowEquations1And2) {
   // Camera 4 units above a 2×2 plane of a 512² texture, looking straight down; 128 px high with
   // fov 2·atan(0.25) → the view is 2 units tall: 64 px per unit, 256 texels per unit → 4 texels

@@ -126,7 +126,7 @@ class RawReferenceBuilder {
     b.ssn_ = std::max(1u, supersample);
     b.width_ = static_cast<int>(view.width), b.height_ = static_cast<int>(view.height);
     b.added_.assign(material_count, 0);
-    const Scene scene = analytic_demo_scene(material_count);
+    const Scene scene = scene::analytic_demo_scene(material_count);
     const Camera cam = scene::to_camera(view);
     const ShaderParams p = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
     const glm::vec3 light_dir = glm::normalize(glm::vec3(p.light));

@@ -32,6 +32,7 @@
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "materials.hpp"
+#include "scene/analytic_demo_scene.hpp"
 #include "scene/demo_scene.hpp"
 #include "scene/view_camera.hpp"
 
@@ -237,20 +238,6 @@ class GpuFrameRenderer final : public FrameRenderer {
   std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;
 };
 
-/// The scene of scene::make_demo_scene as analytic shapes for the CPU ray-caster: the plane
-/// (material 0) and four tori (materials 1 … n − 1 in turn).
-inline Scene analytic_demo_scene(uint32_t material_count) {
-  Scene scene;
-  scene.add(Shape::plane(0, {-6.0f, 0.0f, 6.0f}, {1, 0, 0}, {0, 0, -1}, 12.0f, 12.0f, {6.0f, 6.0f}));
-  const uint32_t n = material_count;
-  for (uint32_t i = 0; i < 4; ++i) {
-    const float a = kTwoPi * static_cast<float>(i) / 4.0f + 0.4f;
-    const uint32_t m = n > 1 ? 1 + i % (n - 1) : 0;
-    scene.add(Shape::torus(m, {2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a)}, 0.9f, 0.45f, {4.0f, 2.0f}));
-  }
-  return scene;
-}
-
 /// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
 /// feedback by render_feedback (eq. 1–2), BSVTF through CpuCacheTexture (eq. 3, the deepest
 /// resident tile), FMF from V' at the finest level (bilinear, repeat), both shaded by
@@ -270,7 +257,7 @@ class CpuFrameRenderer final : public FrameRenderer {
       if (m.components > kMaxComponents)
         return make_error(Status::unsupported, "%s: C = %u, the CPU reference shades at most %u components",
                           m.name.c_str(), m.components, kMaxComponents);
-    scene_ = analytic_demo_scene(static_cast<uint32_t>(materials.size()));
+    scene_ = scene::analytic_demo_scene(static_cast<uint32_t>(materials.size()));
     return {};
   }
   // Tiles into the cache texture; the ray-caster samples the tile cache's own page table.

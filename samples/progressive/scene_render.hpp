@@ -20,6 +20,7 @@
 #include "btflod/shader/shader_config.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "materials.hpp"
+#include "scene/analytic_demo_scene.hpp"
 #include "scene/demo_scene.hpp"
 #include "scene/view_camera.hpp"
 
@@ -167,14 +168,7 @@ struct World {
         for (uint32_t b : tb) total_bytes += b;
       for (uint32_t b : m.packet_bytes) total_bytes += b;
     }
-    // The analytic twin of scene::make_demo_scene (what the demo's CPU fallback ray-casts).
-    scene.add(Shape::plane(0, {-6.0f, 0.0f, 6.0f}, {1, 0, 0}, {0, 0, -1}, 12.0f, 12.0f, {6.0f, 6.0f}));
-    const uint32_t n = static_cast<uint32_t>(materials.size());
-    for (uint32_t i = 0; i < 4; ++i) {
-      const float a = kTwoPi * static_cast<float>(i) / 4.0f + 0.4f;
-      const uint32_t m = n > 1 ? 1 + i % (n - 1) : 0;
-      scene.add(Shape::torus(m, {2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a)}, 0.9f, 0.45f, {4.0f, 2.0f}));
-    }
+    scene = scene::analytic_demo_scene(static_cast<uint32_t>(materials.size()));
     return {};
   }
 

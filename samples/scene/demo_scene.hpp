@@ -81,15 +81,34 @@ inline SceneObject make_torus(uint32_t material, glm::vec3 center, float R, floa
 
 /// The demo scene: a ground plane of material 0 and `materials − 1` tori (materials 1, 2, …;
 /// when materials = 1 the tori reuse material 0) standing on a ring around the origin.
-inline std::vector<SceneObject> make_demo_scene(uint32_t materials, uint32_t torus_count = 4) {
-  std::vector<SceneObject> objects;
-  objects.push_back(make_ground(0, -6.0f, -6.0f, 12.0f, 6.0f));
-  for (uint32_t i = 0; i < torus_count; ++i) {
-    const float a = kTwoPi * static_cast<float>(i) / static_cast<float>(torus_count) + 0.4f;
-    const glm::vec3 c(2.6f * std::cos(a), 0.45f, 2.6f * std::sin(a));
-    const uint32_t m = materials > 1 ? 1 + i % (materials - 1) : 0;
-    objects.push_back(make_torus(m, c, 0.9f, 0.45f, 96, 48, 4.0f, 2.0f));
+/// The demo scene's layout, shared by the triangle meshes (make_demo_scene) and the analytic
+/// shapes the CPU ray-casters intersect (scene/analytic_demo_scene.hpp), so the two never drift.
+struct DemoLayout {
+  static constexpr float kGroundOrigin = -6.0f;  ///< ground over [−6, 6]² in x and z
+  static constexpr float kGroundSize = 12.0f;
+  static constexpr float kGroundRepeat = 6.0f;  ///< uv ∈ [0, 6]²
+  static constexpr float kTorusMajor = 0.9f, kTorusMinor = 0.45f;
+  static constexpr float kTorusRepeatU = 4.0f, kTorusRepeatV = 2.0f;
+  static constexpr uint32_t kDefaultTori = 4;
+
+  /// Centre of torus i of `count`, on a ring of radius 2.6 standing on the ground.
+  static glm::vec3 torus_center(uint32_t i, uint32_t count) noexcept {
+    const float a = kTwoPi * static_cast<float>(i) / static_cast<float>(count) + 0.4f;
+    return {2.6f * std::cos(a), kTorusMinor, 2.6f * std::sin(a)};
   }
+  /// Material of torus i: 1, 2, … n − 1 in turn; material 0 when there is only one.
+  static uint32_t torus_material(uint32_t i, uint32_t materials) noexcept {
+    return materials > 1 ? 1 + i % (materials - 1) : 0;
+  }
+};
+
+inline std::vector<SceneObject> make_demo_scene(uint32_t materials, uint32_t torus_count = DemoLayout::kDefaultTori) {
+  using L = DemoLayout;
+  std::vector<SceneObject> objects;
+  objects.push_back(make_ground(0, L::kGroundOrigin, L::kGroundOrigin, L::kGroundSize, L::kGroundRepeat));
+  for (uint32_t i = 0; i < torus_count; ++i)
+    objects.push_back(make_torus(L::torus_material(i, materials), L::torus_center(i, torus_count), L::kTorusMajor,
+                                 L::kTorusMinor, 96, 48, L::kTorusRepeatU, L::kTorusRepeatV));
   return objects;
 }
 

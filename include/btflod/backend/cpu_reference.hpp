@@ -418,11 +418,15 @@ inline glm::vec3 shade_fmf(const EigenTextures& fmf, const AngularSample& light,
   return rgb;
 }
 
-/// A direction in the hit's tangent frame (x along dpdu, z = normal), as the angular
-/// interpolators expect. noexcept.
+/// A direction in the hit's tangent frame (x along dpdu, y on dpdv's side, z = normal), as the
+/// angular interpolators expect. The frame keeps the parameterisation's handedness, as the
+/// shaders' tangent.w and TangentFrame do: where dpdu × dpdv points against the normal (the
+/// tori seen from outside) the texture is mirrored on the surface and so are its directions,
+/// so y = −(n × t) there. noexcept.
 inline glm::vec3 to_local(const SurfaceHit& h, glm::vec3 world_dir) noexcept {
   const glm::vec3 t = glm::normalize(h.dpdu - h.normal * glm::dot(h.normal, h.dpdu));
-  const glm::vec3 b = glm::cross(h.normal, t);
+  const glm::vec3 nxt = glm::cross(h.normal, t);
+  const glm::vec3 b = glm::dot(nxt, h.dpdv) < 0.0f ? -nxt : nxt;
   return glm::vec3(glm::dot(world_dir, t), glm::dot(world_dir, b), glm::dot(world_dir, h.normal));
 }
 

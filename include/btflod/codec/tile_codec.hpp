@@ -428,7 +428,15 @@ struct TileTokenTable {
   uint8_t rows_up_to[64];  // 1 + the largest row among zig-zag positions 0..k
   uint8_t cols_up_to[64];
   uint8_t zigzag[64];  // zigzag_order<8>() as bytes
+  // The value-token fast path: advance[t] is r + 1 for a value token (the position after its
+  // coefficient), kTileTokenSlowAdvance for every other byte, so one load, one addition and one
+  // comparison tell the common case apart; zigzag_after[j] = zigzag[j − 1] (the coefficient's
+  // position).
+  uint16_t advance[256];
+  uint8_t zigzag_after[65];
 };
+// Larger than any block position plus a run: sends a token to the general path.
+inline constexpr uint16_t kTileTokenSlowAdvance = 256;
 inline const TileTokenTable& tile_token_table() noexcept {
   static const TileTokenTable table = [] {
     TileTokenTable t{};
@@ -450,6 +458,7 @@ inline const TileTokenTable& tile_token_table() noexcept {
         t.kind[b] = TileTokenKind::value;
         t.value[b] = static_cast<float>(tile_unzigzag(m));
       }
+      t.advance[b] = t.kind[b] == TileTokenKind::value ? static_cast<uint16_t>(r + 1) : kTileTokenSlowAdvance;
     }
     const auto& zigzag = zigzag_order<kTileBlock>();
     uint8_t rows = 0, cols = 0;
@@ -459,6 +468,7 @@ inline const TileTokenTable& tile_token_table() noexcept {
       t.rows_up_to[k] = rows;
       t.cols_up_to[k] = cols;
       t.zigzag[k] = static_cast<uint8_t>(zigzag[k]);
+      t.zigzag_after[k + 1] = static_cast<uint8_t>(zigzag[k]);
     }
     return t;
   }();
@@ -563,9 +573,10 @@ class TileDecoder {
     return s;
   }
 
-  // Parses one block code into `b` (which must be all zero on entry). Returns nullptr and sets
-  // message_ on malformed input. `fast`: the caller checked that a longest block code fits
-  // before `end`, so the per-byte end checks are skipped (they cannot fire).
+  // Parses one block code into `b` (which must be all zero on entry), dequantising with `steps`.
+  // Returns nullptr and sets message_ on malformed input. `fast`: the caller checked that a
+  // longest block code fits before `end`, so the per-byte end checks are skipped (they cannot
+  // fire).
   template <bool fast>
   const uint8_t* parse_block(const uint8_t* p, const uint8_t* end, int64_t& dc, const float* steps, TileCoefBlock& b,
                              const detail::TileTokenTable& tokens) noexcept {
@@ -582,26 +593,28 @@ class TileDecoder {
       message_ = "tile symbol stream: DC coefficient beyond 2^29 steps";
       return nullptr;
     }
-    int last = -1;  // zig-zag position of the last non-zero coefficient
+    uint32_t filled = 0;  // 1 + the zig-zag position of the last non-zero coefficient (0: none)
     if (dc != 0) {
       b.coef[0] = static_cast<float>(dc) * steps[0];
-      last = 0;
+      filled = 1;
     }
-    int k = 1;
+    uint32_t k = 1;  // zig-zag position of the next coefficient
     for (;;) {
       if (!fast && p == end) {
         message_ = "tile symbol stream ends inside a block";
         return nullptr;
       }
       const uint32_t t = *p++;
-      k += tokens.run[t];
-      if (k < 64 && tokens.kind[t] == detail::TileTokenKind::value) {  // the common case
-        const int natural = zigzag[k];
+      const uint32_t next = k + tokens.advance[t];
+      if (next < 64) {  // the common case: r zeros and a coefficient, more positions follow
+        const uint32_t natural = tokens.zigzag_after[next];
         b.coef[natural] = tokens.value[t] * steps[natural];
-        last = k;
-        if (++k == 64) break;
+        k = filled = next;
         continue;
       }
+      // Every other token (end of block, zero run, escape, invalid), or a value token that fills
+      // or overruns the block.
+      k += tokens.run[t];
       const detail::TileTokenKind kind = tokens.kind[t];
       if (kind == detail::TileTokenKind::end_of_block) break;
       if (kind == detail::TileTokenKind::invalid) {
@@ -613,24 +626,26 @@ class TileDecoder {
         return nullptr;
       }
       if (kind == detail::TileTokenKind::zero_run) continue;
-      // escape: mapped value 15 + varint
-      uint32_t extra = 0;
-      if (!detail::tile_read_varint(p, end, extra)) {
-        message_ = "tile symbol stream: coefficient varint truncated or longer than 5 bytes";
-        return nullptr;
+      float value = tokens.value[t];
+      if (kind == detail::TileTokenKind::escape) {  // mapped value 15 + varint
+        uint32_t extra = 0;
+        if (!detail::tile_read_varint(p, end, extra)) {
+          message_ = "tile symbol stream: coefficient varint truncated or longer than 5 bytes";
+          return nullptr;
+        }
+        if (extra > 2u * static_cast<uint32_t>(kTileMaxCoefficient) - 15u) {
+          message_ = "tile symbol stream: AC coefficient beyond 2^29 steps";
+          return nullptr;
+        }
+        value = static_cast<float>(detail::tile_unzigzag(15u + extra));
       }
-      if (extra > 2u * static_cast<uint32_t>(kTileMaxCoefficient) - 15u) {
-        message_ = "tile symbol stream: AC coefficient beyond 2^29 steps";
-        return nullptr;
-      }
-      const int natural = zigzag[k];
-      b.coef[natural] = static_cast<float>(detail::tile_unzigzag(15u + extra)) * steps[natural];
-      last = k;
-      if (++k == 64) break;
+      b.coef[zigzag[k]] = value * steps[zigzag[k]];
+      k = filled = k + 1;
+      if (k == 64) break;
     }
-    if (last >= 0) {
-      b.rows = tokens.rows_up_to[last];
-      b.cols = tokens.cols_up_to[last];
+    if (filled > 0) {
+      b.rows = tokens.rows_up_to[filled - 1];
+      b.cols = tokens.cols_up_to[filled - 1];
     }
     return p;
   }

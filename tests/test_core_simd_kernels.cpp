@@ -1,6 +1,6 @@
 // Tests for the SIMD kernels of core/simd.hpp: every ISA build the machine can run returns the
-// scalar twin's bits on every kernel (half <-> float, 8x8 DCT, the tile decoder's inverse DCT,
-// feedback run detection), the dispatch can be forced to each build (simd_force_isa, the
+// scalar twin's bits on every kernel (half <-> float, 8x8 DCT, the tile decoder's inverse DCT and
+// parent up-sampling, feedback run detection), the up-sampling kernel those of the plain loops, the dispatch can be forced to each build (simd_force_isa, the
 // BTFLOD_FORCE_ISA names), and whole tile decodes and vote counts are bit-identical under every
 // forced build. A build the CPU lacks is reported as skipped, never as passed.
 #include <gtest/gtest.h>
@@ -63,7 +63,7 @@ TEST(SimdKernels, EveryAvailableBuildHasACompleteTable) {
     if (k == nullptr) continue;
     EXPECT_EQ(k->isa, isa);
     EXPECT_TRUE(k->half_to_float && k->float_to_half && k->dct8_forward && k->dct8_inverse && k->tile_idct_add &&
-                k->tile_idct_add4 && k->run_marks);
+                k->tile_idct_add4 && k->run_marks && k->upsample_parent);
   }
 #if BTFLOD_HAS_X86_DISPATCH
   __builtin_cpu_init();
@@ -274,6 +274,85 @@ TEST(SimdKernels, RunMarksAreBitIdenticalAndMarkEveryChange) {
       got.assign(ref.size(), 0xdeadbeefu);
       k->run_marks(words.data() + 1, n, got.data());
       ASSERT_EQ(got, ref) << btflod::simd_isa_name(k->isa) << " trial " << trial;
+    }
+  }
+}
+
+// Every build of the up-sampling kernel, the scalar twin included, equals the plain loops of
+// detail::upsample_parent_reference bit for bit: C = 1..4, every quadrant, borders 0 (taps
+// clamped at the far edge, weights outside [0, 1] at both ends), odd and even, odd and tiny
+// stored sizes, parents with signed zeros, subnormals and wide exponents.
+TEST(SimdKernels, ParentUpsamplingIsBitIdenticalToThePlainLoops) {
+  struct Geometry {
+    uint32_t tile_size, border;
+  };
+  const Geometry geometries[] = {{64, 4}, {8, 1}, {16, 3}, {62, 5}, {10, 0}, {64, 0}, {9, 1}, {7, 0},
+                                 {2, 0},  {1, 1}, {3, 2},  {1024, 0}, {1000, 12}};
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-4, 4);
+  std::uniform_int_distribution<int> exponent(-140, 60);
+  for (const Geometry& g : geometries) {
+    const btflod::TileLayout layout{g.tile_size, g.border, 4};
+    const uint32_t s = layout.stored_size();
+    for (uint32_t channels = 1; channels <= 4; ++channels) {
+      const size_t n = size_t{s} * s * channels;
+      std::vector<float> parent(n), ref(n), got(n);
+      for (float& v : parent) {
+        const uint32_t kind = rng() % 16;
+        v = kind == 0 ? -0.0f : kind == 1 ? std::ldexp(u(rng), exponent(rng)) : u(rng);
+      }
+      for (uint32_t q = 0; q < 4; ++q) {
+        const float base_x = btflod::detail::upsample_parent_base(layout, q & 1);
+        const float base_y = btflod::detail::upsample_parent_base(layout, q >> 1);
+        const std::string where = "T " + std::to_string(g.tile_size) + " B " + std::to_string(g.border) + " C " +
+                                  std::to_string(channels) + " q " + std::to_string(q);
+        std::vector<const SimdKernels*> builds = simd_builds();
+#if defined(__FMA__) || defined(__FP_FAST_FMAF)
+        // This translation unit may contract the plain loops into FMA: compare with the scalar twin.
+        scalar_twin().upsample_parent(parent.data(), s, channels, base_x, base_y, ref.data());
+#else
+        btflod::detail::upsample_parent_reference(parent.data(), s, channels, base_x, base_y, ref.data());
+        builds.push_back(&scalar_twin());
+#endif
+        for (const SimdKernels* k : builds) {
+          std::fill(got.begin(), got.end(), std::numeric_limits<float>::quiet_NaN());
+          k->upsample_parent(parent.data(), s, channels, base_x, base_y, got.data());
+          for (size_t i = 0; i < n; ++i) {
+            ASSERT_EQ(std::bit_cast<uint32_t>(got[i]), std::bit_cast<uint32_t>(ref[i]))
+                << btflod::simd_isa_name(k->isa) << " " << where << " texel " << i / channels << " channel "
+                << i % channels << ": " << got[i] << " vs " << ref[i];
+          }
+        }
+      }
+    }
+  }
+}
+
+// Every build blends at the child's positions: a parent linear in x, y and the channel up-samples
+// to the same linear function at stored coordinate (base + i/2, base' + j/2), exactly (small
+// integers and quarter weights round nowhere), taps clamped or extrapolated at the edges included.
+TEST(SimdKernels, ParentUpsamplingBlendsAtTheChildPositions) {
+  const uint32_t s = 24;
+  for (uint32_t channels = 1; channels <= 4; ++channels) {
+    std::vector<float> parent(size_t{s} * s * channels), got(parent.size());
+    for (uint32_t y = 0; y < s; ++y)
+      for (uint32_t x = 0; x < s; ++x)
+        for (uint32_t c = 0; c < channels; ++c)
+          parent[(size_t{y} * s + x) * channels + c] = static_cast<float>(4 * x + 8 * y + 64 * c);
+    for (const float base : {1.75f, 2.25f, -0.25f, 12.25f}) {
+      std::vector<const SimdKernels*> builds = simd_builds();
+      builds.push_back(&scalar_twin());
+      for (const SimdKernels* k : builds) {
+        k->upsample_parent(parent.data(), s, channels, base, base + 0.5f, got.data());
+        for (uint32_t y = 0; y < s; ++y)
+          for (uint32_t x = 0; x < s; ++x) {
+            const float px = base + 0.5f * static_cast<float>(x), py = base + 0.5f + 0.5f * static_cast<float>(y);
+            for (uint32_t c = 0; c < channels; ++c)
+              ASSERT_EQ(got[(size_t{y} * s + x) * channels + c], 4 * px + 8 * py + 64.0f * static_cast<float>(c))
+                  << btflod::simd_isa_name(k->isa) << " C " << channels << " base " << base << " at " << x << ","
+                  << y;
+          }
+      }
     }
   }
 }

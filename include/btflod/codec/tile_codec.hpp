@@ -60,10 +60,11 @@
 // workspace allocated at set-up), so neither encode() nor decode() allocates.
 //
 // SIMD: the inverse DCT of each block (for C = 4 the four channels of a block position at once,
-// added interleaved) is a kernel of core/simd.hpp (tile_idct_add / tile_idct_add4, codec/dct.hpp),
-// compiled per ISA and chosen once at run time; every build returns the scalar twin's bits, so
-// the encoder's closed loop and any client reproduce the same reconstruction on every CPU
-// (TileDecoder::set_simd(false) runs the scalar twin).
+// added interleaved) and the parent up-sampling are kernels of core/simd.hpp (tile_idct_add /
+// tile_idct_add4, codec/dct.hpp; upsample_parent), compiled per ISA and chosen once at run time;
+// every build returns the scalar twin's bits, so the encoder's closed loop and any client
+// reproduce the same reconstruction on every CPU (TileDecoder::set_simd(false) runs the scalar
+// twin).
 #pragma once
 
 #include <algorithm>
@@ -180,30 +181,48 @@ inline void upsample_parent_rows(uint32_t s, float base_x, float base_y, const f
     }
   }
 }
+
+/// The up-sampling of upsample_parent as plain separable loops (the form the SIMD kernel
+/// SimdKernels::upsample_parent reproduces bit for bit; tests and benches compare with it):
+/// `s` × `s` texels of `channels` floats, output texel (i, j) at parent stored coordinate
+/// (base_x + i/2, base_y + j/2). Products and sums are those of the kernel only when this
+/// translation unit does not contract them into FMA (no -mfma / -march with FMA, or
+/// -ffp-contract=off). Preconditions: those of SimdKernels::upsample_parent. Thread-safe, no
+/// allocation (≤ 22 KiB of stack).
+inline void upsample_parent_reference(const float* parent, uint32_t s, uint32_t channels, float base_x, float base_y,
+                                      float* out) noexcept {
+  switch (channels) {
+    case 1:
+      return upsample_parent_rows<1>(s, base_x, base_y, parent, out);
+    case 2:
+      return upsample_parent_rows<2>(s, base_x, base_y, parent, out);
+    case 3:
+      return upsample_parent_rows<3>(s, base_x, base_y, parent, out);
+    default:
+      return upsample_parent_rows<4>(s, base_x, base_y, parent, out);
+  }
+}
+
+/// Parent stored coordinate of child texel 0 along one axis for quadrant bit `q` (see
+/// upsample_parent): q·T/2 + B/2 − 1/4.
+inline float upsample_parent_base(const TileLayout& layout, uint32_t q) noexcept {
+  return static_cast<float>(q & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
+}
 }  // namespace detail
 
 /// Bilinear up-sampling of a decoded parent tile to the prediction of its child in quadrant
 /// (qx, qy) ∈ {0,1}² (qx = child.x & 1, qy = child.y & 1). A child texel with stored index i
 /// lies at parent stored coordinate p = qx·T/2 + B/2 − 1/4 + i/2 (texel centres, level l → l−1
 /// halves coordinates); for B ≥ 1 every tap lies inside the parent's stored texels, so the
-/// borders provide the filter support. Computed separably (vertical, then horizontal blend).
+/// borders provide the filter support. Computed separably (vertical, then horizontal blend) by
+/// the SIMD kernel of `kernels` (SimdKernels::upsample_parent; default: the build in use), whose
+/// every build returns the same bits, so encoder and decoder predict alike on every CPU.
 /// Preconditions: layout.valid(), parent and out hold layout.sample_count() floats and do not
-/// overlap. Thread-safe, no allocation (≤ 20 KiB of stack).
-inline void upsample_parent(const TileLayout& layout, const float* parent, uint32_t qx, uint32_t qy,
-                            float* out) noexcept {
-  const uint32_t s = layout.stored_size();
-  const float base_x = static_cast<float>(qx & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
-  const float base_y = static_cast<float>(qy & 1u) * layout.tile_size * 0.5f + layout.border * 0.5f - 0.25f;
-  switch (layout.channels) {
-    case 1:
-      return detail::upsample_parent_rows<1>(s, base_x, base_y, parent, out);
-    case 2:
-      return detail::upsample_parent_rows<2>(s, base_x, base_y, parent, out);
-    case 3:
-      return detail::upsample_parent_rows<3>(s, base_x, base_y, parent, out);
-    default:
-      return detail::upsample_parent_rows<4>(s, base_x, base_y, parent, out);
-  }
+/// overlap. Thread-safe, no allocation (≤ 23 KiB of stack).
+inline void upsample_parent(const TileLayout& layout, const float* parent, uint32_t qx, uint32_t qy, float* out,
+                            const SimdKernels& kernels = simd_kernels()) noexcept {
+  kernels.upsample_parent(parent, layout.stored_size(), layout.channels, detail::upsample_parent_base(layout, qx),
+                          detail::upsample_parent_base(layout, qy), out);
 }
 
 /// What a payload header says, without decoding (tile_peek_header).
@@ -661,12 +680,12 @@ class TileDecoder {
       for (int k = 0; k < 64; ++k) steps[c][k] = info.tolerance[c] * factors[k];
 
     float* dst = out.data();
+    const SimdKernels& kernels = simd_allowed_ ? simd_kernels() : *simd_kernels_for(SimdIsa::scalar);
     if (info.residual) {
-      upsample_parent(layout_, parent.data(), qx, qy, dst);
+      upsample_parent(layout_, parent.data(), qx, qy, dst, kernels);
     } else {
       std::fill(dst, dst + layout_.sample_count(), 0.0f);
     }
-    const SimdKernels& kernels = simd_allowed_ ? simd_kernels() : *simd_kernels_for(SimdIsa::scalar);
     const detail::TileTokenTable& tokens = detail::tile_token_table();
     const uint8_t* p = symbols_.data();
     const uint8_t* const end = p + info.symbol_bytes;

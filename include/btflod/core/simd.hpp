@@ -1,9 +1,9 @@
 // btflod — SIMD kernels and their run-time dispatch (the libdeflate pattern).
 //
-// Every SIMD kernel of the library (bulk half <-> float conversion, the 8x8 DCT and the tile
-// decoder's inverse DCT, the run detection of feedback vote counting) is written ONCE, as a
-// kernel source over a small vector-operations type (core/simd_kernels.inl), and compiled once
-// per instruction set in the implementation TU (BTFLOD_IMPLEMENTATION, see btflod.hpp): a scalar
+// Every SIMD kernel of the library (bulk half <-> float conversion, the 8x8 DCT, the tile
+// decoder's inverse DCT and parent up-sampling, the run detection of feedback vote counting) is
+// written ONCE, as a kernel source over a small vector-operations type (core/simd_kernels.inl),
+// and compiled once per instruction set in the implementation TU (BTFLOD_IMPLEMENTATION, see btflod.hpp): a scalar
 // twin (portable C++, every platform), an AVX2 + F16C build and an AVX-512 (F, BW, DQ, VL) build,
 // each with a function target attribute (never whole-program -m flags). The builds of one ISA form
 // a SimdKernels table of function pointers. The table is chosen once, on first use, from the CPU
@@ -84,6 +84,13 @@ struct SimdKernels {
   /// words[k] != words[k - 1], for k < n (words[-1] must be readable); the bits of the last mark
   /// word at and above n % 64 are 0. marks holds ceil(n / 64) words.
   void (*run_marks)(const uint32_t* words, size_t n, uint64_t* marks) noexcept = nullptr;
+  /// Bilinear up-sampling of a parent tile of s × s texels of `channels` floats (interleaved) to
+  /// its child's prediction (codec/tile_codec.hpp, upsample_parent): output texel (i, j) blends
+  /// the parent at stored coordinate (base_x + i/2, base_y + j/2), each tap clamped to
+  /// [0, s − 2] + 1. Preconditions: 2 ≤ s ≤ 1024, 1 ≤ channels ≤ 4, −1 < base_x, base_y ≤ s;
+  /// parent and out hold s·s·channels floats and do not overlap. ≤ 23 KiB of stack.
+  void (*upsample_parent)(const float* parent, uint32_t s, uint32_t channels, float base_x, float base_y,
+                          float* out) noexcept = nullptr;
 };
 
 /// The table in use: chosen on the first call from the CPU and BTFLOD_FORCE_ISA /

@@ -81,6 +81,29 @@ struct ScalarOps {
     for (int i = 0; i < 8; ++i) a.v[i] += b.v[i];
     return a;
   }
+  // One product, kept out of FMA contraction like mul.
+  static float mul1(float a, float b) noexcept {
+    float p = a * b;
+#if defined(__FP_FAST_FMAF) || defined(__FMA__) || defined(__aarch64__)
+    BTFLOD_OPAQUE_MEM(p);
+#endif
+    return p;
+  }
+  // r[l] = a[idx[l]], idx[l] < 8.
+  static F8 permute(const F8& a, const int32_t* idx) noexcept {
+    F8 r;
+    for (int l = 0; l < 8; ++l) r.v[l] = a.v[idx[l]];
+    return r;
+  }
+  // The upper half of a, then the lower half of b.
+  static F8 middle(const F8& a, const F8& b) noexcept {
+    F8 r;
+    for (int l = 0; l < 4; ++l) {
+      r.v[l] = a.v[4 + l];
+      r.v[4 + l] = b.v[l];
+    }
+    return r;
+  }
   static void add_interleaved4(float* dst, const F8& r0, const F8& r1, const F8& r2, const F8& r3) noexcept {
     for (int x = 0; x < 8; ++x) {
       dst[4 * x + 0] += r0.v[x];
@@ -138,6 +161,15 @@ struct Avx2Ops {
     return p;
   }
   BTFLOD_TARGET_AVX2 static F8 add(F8 a, F8 b) noexcept { return _mm256_add_ps(a, b); }
+  BTFLOD_TARGET_AVX2 static float mul1(float a, float b) noexcept {
+    float p = a * b;
+    BTFLOD_OPAQUE_XMM(p);
+    return p;
+  }
+  BTFLOD_TARGET_AVX2 static F8 permute(F8 a, const int32_t* idx) noexcept {
+    return _mm256_permutevar8x32_ps(a, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)));
+  }
+  BTFLOD_TARGET_AVX2 static F8 middle(F8 a, F8 b) noexcept { return _mm256_permute2f128_ps(a, b, 0x21); }
   // dst[4x + c] += r_c[x]: transposes 4 channel rows of 8 texels into 8 texels of 4 channels.
   BTFLOD_TARGET_AVX2 static void add_interleaved4(float* dst, F8 r0, F8 r1, F8 r2, F8 r3) noexcept {
     const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
@@ -179,6 +211,11 @@ struct Avx512Ops : Avx2Ops {
   static constexpr size_t kMarkLanes = 16;
   BTFLOD_TARGET_AVX512 static F8 mul(F8 a, F8 b) noexcept {
     F8 p = _mm256_mul_ps(a, b);
+    BTFLOD_OPAQUE_VEC(p);
+    return p;
+  }
+  BTFLOD_TARGET_AVX512 static float mul1(float a, float b) noexcept {
+    float p = a * b;
     BTFLOD_OPAQUE_VEC(p);
     return p;
   }

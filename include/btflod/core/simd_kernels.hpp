@@ -123,7 +123,7 @@ struct ScalarOps {
   }
   static uint64_t ne_mask(const uint32_t* p) noexcept {
     uint64_t m = 0;
-    for (size_t k = 0; k < kMarkLanes; ++k) m |= static_cast<uint64_t>(p[k] != p[k - 1]) << k;
+    for (size_t k = 0; k < kMarkLanes; ++k) m |= static_cast<uint64_t>(p[k] != p[static_cast<ptrdiff_t>(k) - 1]) << k;
     return m;
   }
 };

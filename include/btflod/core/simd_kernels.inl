@@ -95,7 +95,7 @@ BTFLOD_KERNEL_ATTR void run_marks(const uint32_t* words, size_t n, uint64_t* mar
     uint64_t m = 0;
     size_t k = 0;
     for (; k + V::kMarkLanes <= lim; k += V::kMarkLanes) m |= V::ne_mask(p + k) << k;
-    for (; k < lim; ++k) m |= static_cast<uint64_t>(p[k] != p[k - 1]) << k;
+    for (; k < lim; ++k) m |= static_cast<uint64_t>(p[k] != p[static_cast<ptrdiff_t>(k) - 1]) << k;  // words[-1] is readable
     marks[q / 64] = m;
   }
 }

@@ -144,7 +144,7 @@ TEST(Half, ScalarMatchesIndependentReferenceOnManyFloats) {
 
 #if BTFLOD_HAS_X86_DISPATCH
 TEST(Half, F16cMatchesScalarTwinOnAllPatternsAndManyFloats) {
-  if (!__builtin_cpu_supports("f16c")) GTEST_SKIP() << "CPU has no F16C; only the scalar twin runs here";
+  if (!btflod::cpu_has_f16c()) GTEST_SKIP() << "CPU has no F16C (or BTFLOD_DISABLE_SIMD is set); only the scalar twin runs here";
   std::vector<uint16_t> patterns(65536);
   for (uint32_t i = 0; i < 65536; ++i) patterns[i] = static_cast<uint16_t>(i);
   std::vector<float> simd(65536), scalar(65536);

@@ -1,6 +1,6 @@
 // Differential libFuzzer target for the SIMD kernels of core/simd.hpp: every ISA build the CPU
 // runs (AVX2, AVX-512) must return the scalar twin's bits on every input. Byte 0 selects the
-// kernel (value % 5), the rest is its input:
+// kernel (value % 6), the rest is its input:
 //   0  half -> float      the bytes as binary16 patterns
 //   1  float -> half      the bytes as float bit patterns (NaN payloads, subnormals, overflow)
 //   2  8x8 DCT            forward and inverse of 64 floats from the bytes, row stride 8..15
@@ -9,6 +9,9 @@
 //                         column step 1..4
 //   4  run detection      feedback words from the bytes (small alphabet, so runs occur), the
 //                         run marks of each build, and VoteCounter::count under each forced build
+//   5  parent up-sampling a parent tile of s x s texels (s 2..40, 1..4 channels, origin at any
+//                         quarter texel in (-1, s/2)) from the bytes; every build and the scalar
+//                         twin against the plain separable loops (detail::upsample_parent_reference)
 // A mismatch traps. Floats are compared by bits, except that any two NaN are equal: the payload of
 // a NaN made from two NaN operands is unspecified by IEEE 754 (core/simd.hpp). On a CPU without
 // SIMD builds the target still runs the scalar twin (no comparison).
@@ -20,6 +23,7 @@
 #include <cstring>
 
 #include "btflod/codec/dct.hpp"
+#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
 #include "btflod/lod/feedback.hpp"
@@ -171,6 +175,28 @@ void fuzz_runs(const SimdKernels& s, const SimdKernels* const* builds, int nb, c
   simd_force_isa(saved);
 }
 
+void fuzz_upsample(const SimdKernels& s, const SimdKernels* const* builds, int nb, const uint8_t* p, size_t size) {
+  constexpr uint32_t kMaxSize = 40;
+  static float parent[kMaxSize * kMaxSize * 4], ref[kMaxSize * kMaxSize * 4], got[kMaxSize * kMaxSize * 4];
+  uint8_t shape[4] = {};
+  std::memcpy(shape, p, size < 4 ? size : 4);
+  p += size < 4 ? size : 4;
+  size -= size < 4 ? size : 4;
+  const uint32_t n = 2 + shape[0] % (kMaxSize - 1), channels = 1 + shape[1] % 4;
+  // The decoder's origins are q·T/2 + B/2 − 1/4; any quarter texel in [−1/4, n/2 − 1/2] here.
+  const float base_x = -0.25f + 0.25f * static_cast<float>(shape[2] % (2 * n));
+  const float base_y = -0.25f + 0.25f * static_cast<float>(shape[3] % (2 * n));
+  const size_t count = size_t{n} * n * channels;
+  for (size_t i = 0; i < count; ++i) parent[i] = float_at(p, size, i);
+  detail::upsample_parent_reference(parent, n, channels, base_x, base_y, ref);
+  s.upsample_parent(parent, n, channels, base_x, base_y, got);
+  check_floats(got, ref, count);
+  for (int b = 0; b < nb; ++b) {
+    builds[b]->upsample_parent(parent, n, channels, base_x, base_y, got);
+    check_floats(got, ref, count);
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -180,7 +206,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const SimdKernels& s = *simd_kernels_for(SimdIsa::scalar);
   const uint8_t* p = data + 1;
   const size_t n = size - 1;
-  switch (data[0] % 5) {
+  switch (data[0] % 6) {
     case 0:
       fuzz_half_to_float(s, builds, nb, p, n);
       break;
@@ -193,8 +219,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 3:
       fuzz_tile_idct(s, builds, nb, p, n);
       break;
-    default:
+    case 4:
       if (n > 0) fuzz_runs(s, builds, nb, p, n);
+      break;
+    default:
+      fuzz_upsample(s, builds, nb, p, n);
       break;
   }
   return 0;

@@ -5,6 +5,7 @@
 //     JPEG quality whose RMSE matches ours,
 //   - zlib deflate alone on the raw half floats,
 //   - libdeflate inflating our tiles' entropy stage (is the optional backend worth it?).
+//   - the decode-speed ratio against libjpeg-turbo measured pair by pair (BM_decode_pairs_*),
 //   - the same tiles entropy-coded with zstd (tile format 3, BM_btflod_decode_tile_zstd*; the
 //     entropy candidates themselves are compared in bench_codec_entropy.cpp).
 // Content: real eigen-textures: a procedural stone BTF (btf/synthesizer.hpp, 128² texels, 19×19
@@ -27,6 +28,8 @@
 #include <turbojpeg.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -443,6 +446,89 @@ void BM_turbojpeg_decode_tile_4_planes_matched_1_4(benchmark::State& state) {
   turbojpeg_decode_tiles(state, j);
 }
 BENCHMARK(BM_turbojpeg_decode_tile_4_planes_matched_1_4);
+
+// The decode-speed ratio in one benchmark: each iteration decodes the same kPairTiles tiles with
+// btflod and, right after, as four JPEG planes at the matched error (jpeg_q()), alternating which
+// goes first, and records t_turbojpeg / t_btflod for that pair. Load that drifts during a run
+// moves both sides of a pair alike, so these ratios are steadier than the ratio of two separately
+// timed benchmarks. Counters (> 1: btflod decodes the samples faster): sample_rate_ratio =
+// Σ t_turbojpeg / Σ t_btflod (the ratio of the sample rates), and the median and
+// quartiles of the per-pair ratio (their spread is mostly tile content: the tiles of a pair
+// change every iteration).
+constexpr size_t kPairTiles = 8;
+void decode_pairs(benchmark::State& state, const Coded& coded) {
+  const Content& c = content();
+  const JpegCoded& j = jpeg_q();
+  TileDecoder dec(kLayout, InflateBackend::libdeflate);
+  const int n = static_cast<int>(kLayout.stored_size());
+  tjhandle d = tjInitDecompress();
+  std::vector<float> out(kLayout.sample_count());
+  std::vector<uint8_t> plane(size_t(n) * n);
+  std::vector<double> ratios;
+  double sum_btflod = 0, sum_jpeg = 0;
+  size_t first = 0;
+  bool btflod_first = true;
+  const auto decode_btflod = [&] {
+    for (size_t k = 0; k < kPairTiles; ++k) {
+      const size_t i = (first + k) % c.tiles.size();
+      const Tile& t = c.tiles[i];
+      std::span<const float> parent;
+      if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
+      if (dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) != Status::success) return false;
+      benchmark::DoNotOptimize(out.data());
+    }
+    return true;
+  };
+  const auto decode_jpeg = [&] {
+    for (size_t k = 0; k < kPairTiles; ++k) {
+      const size_t i = (first + k) % c.tiles.size();
+      for (size_t plane_index = 0; plane_index < 4; ++plane_index) {
+        const auto& s = j.streams[(i * 4 + plane_index) % j.streams.size()];
+        tjDecompress2(d, s.data(), s.size(), plane.data(), n, n, n, TJPF_GRAY, 0);
+        benchmark::DoNotOptimize(plane.data());
+      }
+    }
+  };
+  using clock = std::chrono::steady_clock;
+  for (auto _ : state) {
+    double t_btflod = 0, t_jpeg = 0;
+    for (int side = 0; side < 2; ++side) {
+      const auto t0 = clock::now();
+      const bool btflod_now = (side == 0) == btflod_first;
+      if (btflod_now) {
+        if (!decode_btflod()) {
+          state.SkipWithError("decode");
+          break;
+        }
+      } else {
+        decode_jpeg();
+      }
+      const double s = std::chrono::duration<double>(clock::now() - t0).count();
+      (btflod_now ? t_btflod : t_jpeg) = s;
+    }
+    if (t_btflod > 0) ratios.push_back(t_jpeg / t_btflod);
+    sum_btflod += t_btflod;
+    sum_jpeg += t_jpeg;
+    btflod_first = !btflod_first;
+    first = (first + kPairTiles) % c.tiles.size();
+  }
+  tjDestroy(d);
+  if (ratios.empty()) return;
+  std::sort(ratios.begin(), ratios.end());
+  const auto at = [&](double q) { return ratios[static_cast<size_t>(q * static_cast<double>(ratios.size() - 1))]; };
+  state.counters["sample_rate_ratio"] = sum_jpeg / sum_btflod;
+  state.counters["median"] = at(0.5);
+  state.counters["q1"] = at(0.25);
+  state.counters["q3"] = at(0.75);
+  state.counters["pairs"] = static_cast<double>(ratios.size());
+}
+void BM_decode_pairs_zstd_vs_turbojpeg(benchmark::State& state) {
+  if (!tile_entropy_coder_available(TileEntropyCoder::zstd)) return state.SkipWithError("built without zstd");
+  decode_pairs(state, coded_q_zstd());
+}
+BENCHMARK(BM_decode_pairs_zstd_vs_turbojpeg)->MinTime(1.0);
+void BM_decode_pairs_libdeflate_vs_turbojpeg(benchmark::State& state) { decode_pairs(state, coded_q()); }
+BENCHMARK(BM_decode_pairs_libdeflate_vs_turbojpeg)->MinTime(1.0);
 
 struct DeflatedHalves {
   std::vector<std::vector<uint8_t>> streams;

@@ -625,7 +625,9 @@ class TileDecoder {
       }
       const uint32_t t = *p++;
       const uint32_t next = k + tokens.advance[t];
-      if (next < 64) {  // the common case: r zeros and a coefficient, more positions follow
+      // [[likely]]: g++ 12 otherwise places this path out of line, two taken jumps per token
+      // (3–4 % of a tile's decode, bench_codec).
+      if (next < 64) [[likely]] {  // the common case: r zeros and a coefficient, more positions follow
         const uint32_t natural = tokens.zigzag_after[next];
         b.coef[natural] = tokens.value[t] * steps[natural];
         k = filled = next;

@@ -465,6 +465,10 @@ TEST_F(CodecTileSymbols, HandMadeStreamsDecodeToTheirCoefficients) {
   // Escaped value: mapped 15 + 100 = 115 → −58 at position 1; a 2-byte DC varint.
   ASSERT_EQ(decode(stream_with(1, {0x80, 0x00, 0x0F, 100, 0x00})), Status::success) << dec_.message();
   EXPECT_NEAR(out_[1] , -58.0 * 0.5 * factors[1] * basis[0] * basis[8 + 0], 1e-4);
+  // An escape as the block's last coefficient (position 63, no end-of-block byte) with a 2-byte
+  // varint: mapped 15 + 200 = 215 → −108; the blocks after it must still parse from the next byte.
+  ASSERT_EQ(decode(stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xEF, 0xC8, 0x01})), Status::success) << dec_.message();
+  EXPECT_NEAR(out_[0], -108.0 * 0.5 * factors[63] * basis[7 * 8] * basis[7 * 8], 1e-4);
 }
 
 TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
@@ -481,6 +485,7 @@ TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
   const Case cases[] = {
       {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF0, 0x00}), "zero run past the end"},  // 64 zeros
       {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF1, 0x00}), "zero run past the end"},  // value at 64
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xFF, 0x01, 0x00}), "zero run past the end"},  // escape at 64
       {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xE1, 0x01}), "longer than the tile"},   // a token after 63
       {stream_with(0, {0x00, 0x10, 0x00}), "invalid token"},
       {stream_with(0, {0x80, 0x80, 0x80, 0x80, 0x80, 0x01, 0x00}), "DC varint"},        // 6-byte varint

@@ -328,17 +328,32 @@ void set_rates(benchmark::State& state, size_t samples_per_iteration) {
 }
 
 // --- decode ---------------------------------------------------------------------------------
+// Decodes tile i of content() from `coded` (its parent's reconstruction as the prediction).
+bool decode_tile_at(TileDecoder& dec, const Coded& coded, size_t i, std::span<float> out) {
+  const Tile& t = content().tiles[i];
+  std::span<const float> parent;
+  if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
+  const bool ok = dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) == Status::success;
+  benchmark::DoNotOptimize(out.data());
+  return ok;
+}
+// Decodes the four JPEG planes of tile i (modulo the tiles `j` holds) into `plane`.
+void turbojpeg_decode_tile_at(tjhandle d, const JpegCoded& j, size_t i, std::vector<uint8_t>& plane) {
+  const int n = static_cast<int>(kLayout.stored_size());
+  for (size_t k = 0; k < 4; ++k) {
+    const auto& s = j.streams[(i * 4 + k) % j.streams.size()];
+    tjDecompress2(d, s.data(), s.size(), plane.data(), n, n, n, TJPF_GRAY, 0);
+    benchmark::DoNotOptimize(plane.data());
+  }
+}
+
 void decode_tiles(benchmark::State& state, InflateBackend backend, const Coded& coded = coded_q()) {
   const Content& c = content();
   TileDecoder dec(kLayout, backend);
   std::vector<float> out(kLayout.sample_count());
   size_t i = 0;
   for (auto _ : state) {
-    const Tile& t = c.tiles[i];
-    std::span<const float> parent;
-    if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
-    if (dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) != Status::success) state.SkipWithError("decode");
-    benchmark::DoNotOptimize(out.data());
+    if (!decode_tile_at(dec, coded, i, out)) state.SkipWithError("decode");
     i = (i + 1) % c.tiles.size();
   }
   set_rates(state, kLayout.sample_count());
@@ -408,11 +423,7 @@ void BM_btflod_decode_tile_libdeflate_scalar(benchmark::State& state) {
   std::vector<float> out(kLayout.sample_count());
   size_t i = 0;
   for (auto _ : state) {
-    const Tile& t = c.tiles[i];
-    std::span<const float> parent;
-    if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
-    if (dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) != Status::success) state.SkipWithError("decode");
-    benchmark::DoNotOptimize(out.data());
+    if (!decode_tile_at(dec, coded, i, out)) state.SkipWithError("decode");
     i = (i + 1) % c.tiles.size();
   }
   set_rates(state, kLayout.sample_count());
@@ -425,11 +436,7 @@ void turbojpeg_decode_tiles(benchmark::State& state, const JpegCoded& j) {
   std::vector<uint8_t> out(size_t(n) * n);
   size_t i = 0;
   for (auto _ : state) {
-    for (int k = 0; k < 4; ++k) {
-      const auto& s = j.streams[(i * 4 + k) % j.streams.size()];
-      tjDecompress2(d, s.data(), s.size(), out.data(), n, n, n, TJPF_GRAY, 0);
-      benchmark::DoNotOptimize(out.data());
-    }
+    turbojpeg_decode_tile_at(d, j, i, out);
     i = (i + 1) % (j.streams.size() / 4);
   }
   tjDestroy(d);
@@ -469,25 +476,12 @@ void decode_pairs(benchmark::State& state, const Coded& coded) {
   size_t first = 0;
   bool btflod_first = true;
   const auto decode_btflod = [&] {
-    for (size_t k = 0; k < kPairTiles; ++k) {
-      const size_t i = (first + k) % c.tiles.size();
-      const Tile& t = c.tiles[i];
-      std::span<const float> parent;
-      if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
-      if (dec.decode(coded.payloads[i], parent, t.id.x & 1, t.id.y & 1, out) != Status::success) return false;
-      benchmark::DoNotOptimize(out.data());
-    }
+    for (size_t k = 0; k < kPairTiles; ++k)
+      if (!decode_tile_at(dec, coded, (first + k) % c.tiles.size(), out)) return false;
     return true;
   };
   const auto decode_jpeg = [&] {
-    for (size_t k = 0; k < kPairTiles; ++k) {
-      const size_t i = (first + k) % c.tiles.size();
-      for (size_t plane_index = 0; plane_index < 4; ++plane_index) {
-        const auto& s = j.streams[(i * 4 + plane_index) % j.streams.size()];
-        tjDecompress2(d, s.data(), s.size(), plane.data(), n, n, n, TJPF_GRAY, 0);
-        benchmark::DoNotOptimize(plane.data());
-      }
-    }
+    for (size_t k = 0; k < kPairTiles; ++k) turbojpeg_decode_tile_at(d, j, (first + k) % c.tiles.size(), plane);
   };
   using clock = std::chrono::steady_clock;
   for (auto _ : state) {

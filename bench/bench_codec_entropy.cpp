@@ -10,6 +10,9 @@
 //   zstd-19+dict   the same with a dictionary trained per material over its tiles' symbol streams
 //                  (ZDICT_trainFromBuffer, 16 KiB); the dictionary's bytes are also shown amortised
 //                  over the material's tiles (a per-material dictionary must ship with it);
+//   zstd-split     bytes only, no decoder: the same symbols in five zstd-19 frames (DC varints, AC
+//                  tokens starting at zig-zag positions 1–5, 6–20, 21–63, escape varints), each
+//                  with its own literal table, + 3 bytes per stream for the sizes;
 //   jpeg-huffman   JPEG's Huffman coding of the coefficients through libjpeg-turbo's coefficient
 //                  API (jpeg_write_coefficients with optimised per-tile tables, jpeg_read_coefficients),
 //                  one grayscale JPEG per channel plane, unit quantisation tables; bytes = DHT
@@ -520,6 +523,66 @@ int measure(const Material& m, double min_s) {
     }
     ZSTD_freeCCtx(cc);
     ZSTD_freeDCtx(dc);
+    rows.push_back(r);
+  }
+  // zstd over split streams (bytes only) -------------------------------------------------------------
+  // The same symbols in five streams, each its own zstd 19 frame (so each gets its own literal
+  // Huffman table): DC varints; AC tokens that start at zig-zag position 1–5, 6–20 and 21–63; the
+  // escapes' varints. Estimates what frequency-banded statistics give zstd's order-0 stage before
+  // any format change; 3 bytes per stream are counted for the sizes a tile header would hold.
+  {
+    Row r{"zstd 19, five split streams (bytes only)"};
+    ZSTD_CCtx* cc = ZSTD_createCCtx();
+    std::vector<uint8_t> parts[5];
+    std::vector<uint8_t> out(ZSTD_compressBound(sym_scratch.size()));
+    uint8_t varint[5];
+    const auto put_varint = [&](std::vector<uint8_t>& to, uint32_t v) {
+      to.insert(to.end(), varint, detail::tile_write_varint(varint, v));
+    };
+    for (const auto& t : tiles) {
+      for (auto& part : parts) part.clear();
+      int64_t prev_dc[4] = {};
+      for (size_t b = 0; b < blocks; ++b)
+        for (uint32_t c = 0; c < ch; ++c) {
+          const int32_t* q = t.zz.data() + (b * ch + c) * 64;
+          put_varint(parts[0], detail::tile_zigzag(static_cast<int32_t>(q[0] - prev_dc[c])));
+          prev_dc[c] = q[0];
+          int last = 0;
+          for (int k = 1; k < 64; ++k)
+            if (q[k] != 0) last = k;
+          int k = 1;
+          while (k <= last) {
+            std::vector<uint8_t>& tokens = parts[k < 6 ? 1 : k < 21 ? 2 : 3];
+            int run = 0;
+            while (q[k + run] == 0 && run < 15) ++run;
+            if (q[k + run] == 0) {  // 16 zeros
+              tokens.push_back(0xF0);
+              k += 16;
+              continue;
+            }
+            const uint32_t m = detail::tile_zigzag(q[k + run]);
+            tokens.push_back(static_cast<uint8_t>(run << 4 | std::min(m, 15u)));
+            if (m >= 15) put_varint(parts[4], m - 15);
+            k += run + 1;
+          }
+          if (last < 63) parts[k < 6 ? 1 : k < 21 ? 2 : 3].push_back(0x00);
+        }
+      size_t split_bytes = 0;  // the same symbols, so the same count as the one stream
+      for (const auto& part : parts) split_bytes += part.size();
+      if (split_bytes != t.symbols.size()) {
+        std::fprintf(stderr, "%s: split streams hold %zu bytes, the symbol stream %zu\n", path.c_str(), split_bytes,
+                     t.symbols.size());
+        ZSTD_freeCCtx(cc);
+        return 1;
+      }
+      for (const auto& part : parts) {
+        if (part.empty()) continue;
+        r.bytes += static_cast<double>(ZSTD_compressCCtx(cc, out.data(), out.size(), part.data(), part.size(), 19) + 3);
+      }
+      r.bytes += static_cast<double>(t.header);
+    }
+    ZSTD_freeCCtx(cc);
+    r.note = "no decoder: an estimate for a banded format";
     rows.push_back(r);
   }
   // JPEG Huffman ----------------------------------------------------------------------------------

@@ -36,6 +36,7 @@
 #include <cstdint>
 #include <span>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "btflod/angular/angular_sample.hpp"
@@ -55,11 +56,30 @@ inline constexpr uint32_t kPerceptualWeightQuarters = 1;
 // AngularRowOrder (the order of U's angular rows) is defined in codec/container.hpp, which
 // stores it in the container (BsvtfMetadata::u_row_order).
 
-/// Options for perceptual_tolerance_scales().
-struct PerceptualToleranceOptions {
+/// The renders a perceptual error measure imagines: their display mapping and how often they
+/// show each (light, view) pair. Shared by PerceptualToleranceOptions and RenderedErrorOptions
+/// (codec/rendered_rate_control.hpp), which sample directions alike.
+struct ViewingConditions {
   /// Display-linear RGB = exposure ⊙ BTF value; the display clips at 1 (white). E.g. the light's
   /// colour times the exposure of the renderer. Each must be finite and > 0.
   std::array<float, 3> exposure{1.0f, 1.0f, 1.0f};
+  /// How often a rendered pixel shows the pair (l, v), up to a constant: cos θ_l^light_cosine_power
+  /// · cos θ_v^view_cosine_power (z of the metadata's unit direction vectors), each power in
+  /// [0, 64]. View power 1 is projected area: a surface seen at θ_v covers ∝ cos θ_v of the
+  /// screen. Both 0: every measured pair alike. Needs light_directions / view_directions with
+  /// angular rows = lights · views unless both are 0.
+  float light_cosine_power = 0.0f;
+  float view_cosine_power = 1.0f;
+  /// How angular rows map to (light, view) for the cosine weights (and direction_weights).
+  AngularRowOrder row_order = AngularRowOrder::light_major;
+  /// If not empty: the frequency of each (light, view) pair in rendering instead of the cosine
+  /// model, one entry per angular row in row_order, ≥ 0 and finite, not all 0 —
+  /// e.g. accumulated from a renderer's feedback pass with accumulate_direction_weights().
+  std::span<const float> direction_weights;
+};
+
+/// Options for perceptual_tolerance_scales().
+struct PerceptualToleranceOptions : ViewingConditions {
   /// ΔE*ab that plays the role of the component range in tolerance_for_quality (> 0): each
   /// component's block-RMS error bound is ≈ reference_delta_e / 128 ΔE*ab at quality 50. 50
   /// (half the L* scale) makes quality 50 invisible (p99 ΔE*ab < 2.3) on the four demo
@@ -73,20 +93,8 @@ struct PerceptualToleranceOptions {
   /// Interior texels are sampled every `texel_stride` texels in x and y (≥ 1).
   uint32_t texel_stride = 4;
   /// (light, view) pairs sampled, stratified over U's angular rows (≥ 1; capped at the rows).
+  /// The display mapping and the direction model are the ViewingConditions fields.
   uint32_t direction_samples = 1024;
-  /// How often a rendered pixel shows the pair (l, v), up to a constant: cos θ_l^light_cosine_power
-  /// · cos θ_v^view_cosine_power (z of the metadata's unit direction vectors). view power 1 is
-  /// projected area: a surface seen at θ_v covers ∝ cos θ_v of the screen. Both 0: every
-  /// measured pair alike. Needs light_directions / view_directions with u_rows = colours ·
-  /// lights · views (row = (light · views + view) · colours + colour) unless both are 0.
-  float light_cosine_power = 0.0f;
-  float view_cosine_power = 1.0f;
-  /// How angular rows map to (light, view) for the cosine weights (and direction_weights).
-  AngularRowOrder row_order = AngularRowOrder::light_major;
-  /// If not empty: the frequency of each (light, view) pair in rendering instead of the cosine
-  /// model, one entry per angular row in row_order, ≥ 0 and finite, not all 0 —
-  /// e.g. accumulated from a renderer's feedback pass with accumulate_direction_weights().
-  std::span<const float> direction_weights;
   /// G_c is the power mean (mean of g_c^gain_power)^(1/gain_power) over the samples, in
   /// [0.125, 64]: 1 (the default) is the expected ΔE*ab per unit error; 2 (RMS, the squared-
   /// error optimum) lets rare extreme samples (grazing, shadowed: the top 1 % a p99 criterion
@@ -149,6 +157,61 @@ inline float perceptual_gain(const float rgb[3], const float d[3], float dark_fl
   return std::sqrt(dl * dl + da * da + db * db);
 }
 
+// The angular rows a perceptual measure evaluates, with their weights: each row's weight from
+// `v` (direction_weights when given, else the cosine model over the metadata's directions, else
+// 1), then every row of weight > 0 when `samples` covers the rows, else a stratified
+// inverse-CDF sample of `samples` rows of weight 1 (deterministic). `who` prefixes the errors:
+// invalid_argument when the weights do not match the rows or are all 0. Allocates.
+inline Result<std::pair<std::vector<uint32_t>, std::vector<double>>> sample_viewing_directions(
+    const BsvtfMetadata& md, uint32_t angular, const ViewingConditions& v, uint32_t samples, const char* who) {
+  std::vector<double> weight(angular, 1.0);
+  const size_t L = md.light_directions.size() / 3, V = md.view_directions.size() / 3;
+  const bool histogram = !v.direction_weights.empty();
+  const bool cosine = !histogram && (v.light_cosine_power != 0.0f || v.view_cosine_power != 0.0f);
+  if (histogram && v.direction_weights.size() != angular)
+    return make_error(Status::invalid_argument, "%s: %zu direction weights for %u angular rows", who,
+                      v.direction_weights.size(), angular);
+  if (cosine && (L * V != angular || md.light_directions.size() != L * 3 || md.view_directions.size() != V * 3))
+    return make_error(Status::invalid_argument,
+                      "%s: direction weights need %u angular rows = lights × views (have %zu × %zu)", who, angular, L,
+                      V);
+  double total = 0;
+  for (size_t a = 0; a < angular; ++a) {
+    if (histogram) {
+      const float x = v.direction_weights[a];
+      if (!(x >= 0.0f) || !(x < 1e30f))
+        return make_error(Status::invalid_argument, "%s: direction weight %zu not finite and >= 0", who, a);
+      weight[a] = x;
+    } else if (cosine) {
+      const bool lm = v.row_order == AngularRowOrder::light_major;
+      const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
+      const double cl = std::max(0.0f, md.light_directions[li * 3 + 2]);
+      const double cv = std::max(0.0f, md.view_directions[vi * 3 + 2]);
+      weight[a] = std::pow(cl, v.light_cosine_power) * std::pow(cv, v.view_cosine_power);
+      if (!std::isfinite(weight[a])) weight[a] = 0;
+    }
+    total += weight[a];
+  }
+  if (!(total > 0)) return make_error(Status::invalid_argument, "%s: every direction has weight 0", who);
+  std::vector<uint32_t> rows;
+  std::vector<double> row_weight;
+  if (samples >= angular) {
+    for (uint32_t a = 0; a < angular; ++a)
+      if (weight[a] > 0) rows.push_back(a), row_weight.push_back(weight[a]);
+  } else {
+    std::vector<double> cdf(angular);
+    double acc = 0;
+    for (uint32_t a = 0; a < angular; ++a) cdf[a] = acc += weight[a];
+    for (uint32_t j = 0; j < samples; ++j) {
+      const double target = (j + 0.5) / samples * acc;
+      rows.push_back(static_cast<uint32_t>(
+          std::min<size_t>(angular - 1, std::lower_bound(cdf.begin(), cdf.end(), target) - cdf.begin())));
+      row_weight.push_back(1.0);
+    }
+  }
+  return std::make_pair(std::move(rows), std::move(row_weight));
+}
+
 }  // namespace detail
 
 /// Sets BsvtfTileInput::channel_scale of every tile so that build_bsvtf with
@@ -207,56 +270,11 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
 
   // The sampled angular rows, exposure applied, as RGB × C (grey for luminance U).
   const uint32_t angular = metadata.u_rows / channels;
-  // Direction weights, then the sample: every angular row with its weight when
-  // direction_samples covers them, else a stratified inverse-CDF sample of equal weight
-  // (deterministic).
-  std::vector<double> weight(angular, 1.0);
-  {
-    const size_t L = metadata.light_directions.size() / 3, V = metadata.view_directions.size() / 3;
-    const bool histogram = !o.direction_weights.empty();
-    const bool cosine = !histogram && (o.light_cosine_power != 0.0f || o.view_cosine_power != 0.0f);
-    if (histogram && o.direction_weights.size() != angular)
-      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: %zu direction weights for %u angular rows",
-                        o.direction_weights.size(), angular);
-    if (cosine && (L * V != angular || metadata.light_directions.size() != L * 3 || metadata.view_directions.size() != V * 3))
-      return make_error(Status::invalid_argument,
-                        "perceptual_tolerance_scales: direction weights need %u angular rows = lights × views (have %zu × %zu)",
-                        angular, L, V);
-    double total = 0;
-    for (size_t a = 0; a < angular; ++a) {
-      if (histogram) {
-        const float x = o.direction_weights[a];
-        if (!(x >= 0.0f) || !(x < 1e30f))
-          return make_error(Status::invalid_argument, "perceptual_tolerance_scales: direction weight %zu not finite and >= 0", a);
-        weight[a] = x;
-      } else if (cosine) {
-        const bool lm = o.row_order == AngularRowOrder::light_major;
-        const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
-        const double cl = std::max(0.0f, metadata.light_directions[li * 3 + 2]);
-        const double cv = std::max(0.0f, metadata.view_directions[vi * 3 + 2]);
-        weight[a] = std::pow(cl, o.light_cosine_power) * std::pow(cv, o.view_cosine_power);
-        if (!std::isfinite(weight[a])) weight[a] = 0;
-      }
-      total += weight[a];
-    }
-    if (!(total > 0)) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: every direction has weight 0");
-  }
-  std::vector<uint32_t> rows;
-  std::vector<double> row_weight;
-  if (o.direction_samples >= angular) {
-    for (uint32_t a = 0; a < angular; ++a)
-      if (weight[a] > 0) rows.push_back(a), row_weight.push_back(weight[a]);
-  } else {
-    std::vector<double> cdf(angular);
-    double acc = 0;
-    for (uint32_t a = 0; a < angular; ++a) cdf[a] = acc += weight[a];
-    for (uint32_t j = 0; j < o.direction_samples; ++j) {
-      const double target = (j + 0.5) / o.direction_samples * acc;
-      rows.push_back(static_cast<uint32_t>(
-          std::min<size_t>(angular - 1, std::lower_bound(cdf.begin(), cdf.end(), target) - cdf.begin())));
-      row_weight.push_back(1.0);
-    }
-  }
+  auto sample =
+      detail::sample_viewing_directions(metadata, angular, o, o.direction_samples, "perceptual_tolerance_scales");
+  if (!sample) return sample.error();
+  const std::vector<uint32_t>& rows = sample->first;
+  const std::vector<double>& row_weight = sample->second;
   const uint32_t nd = static_cast<uint32_t>(rows.size());
   std::vector<float> ud(size_t{nd} * 3 * C);
   for (uint32_t j = 0; j < nd; ++j) {

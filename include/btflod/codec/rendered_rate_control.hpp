@@ -51,9 +51,9 @@ namespace btflod {
 inline constexpr float kRenderedTargetAtQuality50 = 5.0f;
 
 /// Options of rendered_tile_errors() and build_bsvtf_rendered().
-struct RenderedErrorOptions {
-  /// Display-linear RGB = exposure ⊙ BTF value, clipped to [0, 1] (white = 1). Each finite, > 0.
-  std::array<float, 3> exposure{1.0f, 1.0f, 1.0f};
+/// The display mapping and the direction model (exposure, cosine powers, row order, direction
+/// weights) are the ViewingConditions fields, as for perceptual_tolerance_scales.
+struct RenderedErrorOptions : ViewingConditions {
   /// The quantile of ΔE*ab measured per tile position, in (0, 1]: 0.99 matches the visibility
   /// criterion (99 % of the pixels below one just-noticeable difference).
   float quantile = 0.99f;
@@ -61,13 +61,6 @@ struct RenderedErrorOptions {
   uint32_t texel_stride = 2;
   /// (light, view) pairs sampled (stratified, ≥ 1; every row when it covers them all).
   uint32_t direction_samples = 256;
-  /// How often a pixel shows (l, v): cos θ_l^light_cosine_power · cos θ_v^view_cosine_power
-  /// (as PerceptualToleranceOptions; both 0: every pair alike), or `direction_weights` (one per
-  /// angular row in row_order) when not empty.
-  float light_cosine_power = 0.0f;
-  float view_cosine_power = 1.0f;
-  AngularRowOrder row_order = AngularRowOrder::light_major;
-  std::span<const float> direction_weights;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
 };
 
@@ -116,55 +109,6 @@ inline std::array<float, 3> rendered_lab(const float rgb_in[3]) noexcept {
   return {116.0f * f[1] - 16.0f, 500.0f * (f[0] - f[1]), 200.0f * (f[1] - f[2])};
 }
 
-// The sampled angular rows and their weights (the same model as perceptual_tolerance_scales).
-inline Result<std::pair<std::vector<uint32_t>, std::vector<double>>> rendered_direction_sample(
-    const BsvtfMetadata& md, uint32_t angular, const RenderedErrorOptions& o) {
-  std::vector<double> weight(angular, 1.0);
-  const size_t L = md.light_directions.size() / 3, V = md.view_directions.size() / 3;
-  const bool histogram = !o.direction_weights.empty();
-  const bool cosine = !histogram && (o.light_cosine_power != 0.0f || o.view_cosine_power != 0.0f);
-  if (histogram && o.direction_weights.size() != angular)
-    return make_error(Status::invalid_argument, "rendered error: %zu direction weights for %u angular rows",
-                      o.direction_weights.size(), angular);
-  if (cosine && L * V != angular)
-    return make_error(Status::invalid_argument,
-                      "rendered error: cosine weights need %u rows = lights × views (%zu × %zu)", angular, L, V);
-  double total = 0;
-  for (size_t a = 0; a < angular; ++a) {
-    if (histogram) {
-      const float x = o.direction_weights[a];
-      if (!(x >= 0.0f) || !(x < 1e30f))
-        return make_error(Status::invalid_argument, "rendered error: direction weight %zu not finite and >= 0", a);
-      weight[a] = x;
-    } else if (cosine) {
-      const bool lm = o.row_order == AngularRowOrder::light_major;
-      const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
-      weight[a] = std::pow(std::max(0.0f, md.light_directions[li * 3 + 2]), o.light_cosine_power) *
-                  std::pow(std::max(0.0f, md.view_directions[vi * 3 + 2]), o.view_cosine_power);
-      if (!std::isfinite(weight[a])) weight[a] = 0;
-    }
-    total += weight[a];
-  }
-  if (!(total > 0)) return make_error(Status::invalid_argument, "rendered error: every direction has weight 0");
-  std::vector<uint32_t> rows;
-  std::vector<double> row_weight;
-  if (o.direction_samples >= angular) {
-    for (uint32_t a = 0; a < angular; ++a)
-      if (weight[a] > 0) rows.push_back(a), row_weight.push_back(weight[a]);
-  } else {
-    std::vector<double> cdf(angular);
-    double acc = 0;
-    for (uint32_t a = 0; a < angular; ++a) cdf[a] = acc += weight[a];
-    for (uint32_t j = 0; j < o.direction_samples; ++j) {
-      const double target = (j + 0.5) / o.direction_samples * acc;
-      rows.push_back(static_cast<uint32_t>(
-          std::min<size_t>(angular - 1, std::lower_bound(cdf.begin(), cdf.end(), target) - cdf.begin())));
-      row_weight.push_back(1.0);
-    }
-  }
-  return std::make_pair(std::move(rows), std::move(row_weight));
-}
-
 }  // namespace detail
 
 /// The rendered colour difference between `reference` tiles and `decoded` tiles (decoded[i]
@@ -205,7 +149,7 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
   if (!std::all_of(u.begin(), u.end(), [](float v) { return std::isfinite(v); }))
     return make_error(Status::invalid_argument, "rendered_tile_errors: U is not finite");
   const uint32_t angular = metadata.u_rows / channels;
-  auto sample = detail::rendered_direction_sample(metadata, angular, o);
+  auto sample = detail::sample_viewing_directions(metadata, angular, o, o.direction_samples, "rendered_tile_errors");
   if (!sample) return sample.error();
   const std::vector<uint32_t>& rows = sample->first;
   const std::vector<double>& row_weight = sample->second;

@@ -291,6 +291,18 @@ TEST(CodecRenderedRate, HostileOptionsAndSizesAreErrors) {
   std::vector<float> bad_u = m.u;
   bad_u[5] = std::nanf("");
   EXPECT_EQ(rendered_tile_errors(m.md, bad_u, m.tiles, decoded, o).error().status, Status::invalid_argument);
+  // Direction weights (ViewingConditions, sampled as for perceptual tolerances): a count that is
+  // not the angular rows, a negative or NaN weight, all weights 0 — each an error naming the call.
+  const std::vector<float> eight(8, 1.0f), negative{1, 1, 1, 1, -1, 1, 1, 1, 1},
+      not_a_number{1, 1, std::nanf(""), 1, 1, 1, 1, 1, 1}, zeros(9, 0.0f);
+  for (const std::vector<float>* w : {&eight, &negative, &not_a_number, &zeros}) {
+    o.direction_weights = *w;
+    auto r = rendered_tile_errors(m.md, m.u, m.tiles, decoded, o);
+    ASSERT_FALSE(r);
+    EXPECT_EQ(r.error().status, Status::invalid_argument);
+    EXPECT_NE(r.error().message.find("rendered_tile_errors"), std::string::npos) << r.error().message;
+  }
+  o.direction_weights = {};
   RenderedRateOptions ro;
   ro.target_at_quality50 = -1.0f;
   EXPECT_EQ(build_bsvtf_rendered(m.md, m.u, m.tiles, {}, ro).error().status, Status::invalid_argument);

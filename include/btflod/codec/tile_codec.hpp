@@ -422,6 +422,16 @@ inline bool tile_read_varint(const uint8_t*& p, const uint8_t* end, uint32_t& va
   }
   return false;
 }
+// tile_read_varint with a shortcut for the common one-byte varint. `fast`: the caller checked
+// that bytes remain before `end`, so the shortcut skips the end check.
+template <bool fast>
+inline bool tile_read_varint_short_first(const uint8_t*& p, const uint8_t* end, uint32_t& value) noexcept {
+  if ((fast || p != end) && *p < 0x80u) {
+    value = *p++;
+    return true;
+  }
+  return tile_read_varint(p, end, value);
+}
 inline uint8_t* tile_write_varint(uint8_t* p, uint32_t v) noexcept {
   while (v >= 0x80u) {
     *p++ = static_cast<uint8_t>(v | 0x80u);
@@ -601,9 +611,7 @@ class TileDecoder {
                              const detail::TileTokenTable& tokens) noexcept {
     const uint8_t* const zigzag = tokens.zigzag;
     uint32_t u = 0;
-    if ((fast || p != end) && *p < 0x80u) {
-      u = *p++;
-    } else if (!detail::tile_read_varint(p, end, u)) {
+    if (!detail::tile_read_varint_short_first<fast>(p, end, u)) {
       message_ = "tile symbol stream: DC varint truncated or longer than 5 bytes";
       return nullptr;
     }
@@ -641,9 +649,7 @@ class TileDecoder {
       // bench's quality, against one end of block per block), and their varint is mostly 1 byte.
       if (kind == detail::TileTokenKind::escape && k < 64) [[likely]] {
         uint32_t extra = 0;
-        if ((fast || p != end) && *p < 0x80u) {
-          extra = *p++;
-        } else if (!detail::tile_read_varint(p, end, extra)) {
+        if (!detail::tile_read_varint_short_first<fast>(p, end, extra)) {
           message_ = "tile symbol stream: coefficient varint truncated or longer than 5 bytes";
           return nullptr;
         }

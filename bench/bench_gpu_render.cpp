@@ -152,11 +152,13 @@ void render_pairs(benchmark::State& state, bool vulkan) {
 // The demo's scene geometry (a 12 × 12 ground plane and four 96 × 48 tori, samples/scene/
 // demo_scene.hpp) at the demo's 480 × 270 with its feedback pass at 1/4 per axis, every object
 // with the bench material, seen from the demo's camera path at frame 120 of 200. Per iteration,
-// in a rotating order, four frames each timed from begin_frame to the colour read-back (as the
-// demo times them): FMF; the BSVTF colour pass alone; the feedback pass alone; the demo's BSVTF
-// frame (feedback pass, then colour pass). Counters: the median frame times, the medians of
-// the per-iteration ratios t_FMF / t_BSVTF (colour alone and the demo's frame) and the median
-// marginal cost of the feedback pass in the demo's frame (t_frame − t_colour).
+// in a rotating order, five frames each timed from begin_frame to the colour read-back (as the
+// demo times them): FMF; the BSVTF colour pass alone; the feedback pass alone; a BSVTF frame
+// with a separate feedback pass (feedback pass, then colour pass: `--feedback-pass` in the
+// demo); the demo's BSVTF frame (bsvtf_feedback: the colour pass writes the feedback words).
+// Counters: the median frame times, the medians of the per-iteration ratios t_FMF / t_BSVTF
+// (colour alone, with the separate pass, with bsvtf_feedback) and the median marginal cost of
+// the separate feedback pass (t_frame − t_colour).
 void render_scene_passes(benchmark::State& state, bool vulkan) {
   static Scene scenes[2];
   Scene& s = scenes[vulkan ? 1 : 0];
@@ -174,16 +176,20 @@ void render_scene_passes(benchmark::State& state, bool vulkan) {
   constexpr uint32_t kShift = 2;
   desc.feedback_width = (view.width + 3) >> kShift;
   desc.feedback_height = (view.height + 3) >> kShift;
+  desc.feedback_sample_x = 1;  // bsvtf_feedback frames: pixel (1, 2) of every 4 × 4 block
+  desc.feedback_sample_y = 2;
   ShaderParams pf = p;
   pf.lod.y = static_cast<float>(kShift);
   Image<float> color(static_cast<int>(view.width), static_cast<int>(view.height), 4);
-  enum Pass { fmf, colour, feedback, frame, kPasses };
+  enum Pass { fmf, colour, feedback, frame, words, kPasses };
   const auto one = [&](int pass) {
     const auto t0 = std::chrono::steady_clock::now();
     s.backend->begin_frame(desc);
     if (pass == feedback || pass == frame)
       for (MeshHandle m : s.scene_meshes) s.backend->draw_feedback(m, pf);
-    if (pass != feedback)
+    if (pass == words)
+      for (MeshHandle m : s.scene_meshes) s.backend->draw(ShaderProgram::bsvtf_feedback, m, s.bsvtf, p);
+    else if (pass != feedback)
       for (MeshHandle m : s.scene_meshes)
         s.backend->draw(pass == fmf ? ShaderProgram::fmf : ShaderProgram::bsvtf, m, pass == fmf ? s.fmf : s.bsvtf, p);
     s.backend->end_frame();
@@ -200,7 +206,7 @@ void render_scene_passes(benchmark::State& state, bool vulkan) {
   };
   for (int warm = 0; warm < 2; ++warm)
     for (int pass = 0; pass < kPasses; ++pass) one(pass);
-  std::vector<double> t[kPasses], r_colour, r_frame, marginal;
+  std::vector<double> t[kPasses], r_colour, r_frame, r_words, marginal;
   int rot = 0;
   for (auto _ : state) {
     double ms[kPasses];
@@ -212,6 +218,7 @@ void render_scene_passes(benchmark::State& state, bool vulkan) {
     for (int k = 0; k < kPasses; ++k) t[k].push_back(ms[k]);
     r_colour.push_back(ms[fmf] / ms[colour]);
     r_frame.push_back(ms[fmf] / ms[frame]);
+    r_words.push_back(ms[fmf] / ms[words]);
     marginal.push_back(ms[frame] - ms[colour]);
   }
   const auto median = [](std::vector<double> v) {
@@ -226,6 +233,8 @@ void render_scene_passes(benchmark::State& state, bool vulkan) {
   state.counters["ms_feedback_marginal"] = median(marginal);
   state.counters["colour_fps_over_fmf"] = median(r_colour);
   state.counters["frame_fps_over_fmf"] = median(r_frame);
+  state.counters["ms_bsvtf_colour_words"] = median(t[words]);
+  state.counters["colour_words_fps_over_fmf"] = median(r_words);
 }
 
 void BM_Gl_Fmf(benchmark::State& st) { render(st, false, ShaderProgram::fmf); }

@@ -1,6 +1,7 @@
 // Tests for backend/cpu_reference.hpp: ray–shape hits and tangent frames, the eq. 1 footprint,
 // feedback words, eq. 3 sampling through the page table against the pyramid, 9-tap FMF shading,
-// the eq. 7 error, and the whole loop (feedback → votes → scheduler → cache) replaying exactly.
+// the eq. 7 error, and the whole loop (feedback → votes → scheduler → cache) replaying exactly;
+// and backend.hpp's subsample_feedback (the readback of a bsvtf_feedback frame).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "btflod/backend/backend.hpp"
 #include "btflod/backend/cpu_reference.hpp"
 #include "btflod/vt/scheduler.hpp"
 
@@ -273,4 +275,48 @@ TEST(CpuReference, WholeLoopLowersEquation7ErrorAndReplaysExactly) {
   ASSERT_EQ(e1.size(), 12u);
   for (size_t f = 3; f < e1.size(); ++f) EXPECT_LT(e1[f], 0.7 * r1[f]) << "frame " << f << ": streaming must reduce E";
   EXPECT_GT(s1.size(), 10u);
+}
+
+TEST(BackendFeedback, SubsampleTakesTheSamplePixelOfEveryBlock) {
+  // 10 × 7 screen, 3 × 2 feedback texels → blocks of ⌈10/3⌉ × ⌈7/2⌉ = 4 × 4 pixels; the last
+  // block column and row are cut by the screen edge.
+  FrameDesc f;
+  f.width = 10;
+  f.height = 7;
+  f.feedback_width = 3;
+  f.feedback_height = 2;
+  f.feedback_sample_x = 1;
+  f.feedback_sample_y = 3;
+  ASSERT_EQ(f.feedback_block_width(), 4u);
+  ASSERT_EQ(f.feedback_block_height(), 4u);
+  std::vector<uint32_t> top_down(70), bottom_up(70);
+  for (uint32_t y = 0; y < 7; ++y)
+    for (uint32_t x = 0; x < 10; ++x) {
+      top_down[y * 10 + x] = 100 * y + x;         // row 0 = top
+      bottom_up[(6 - y) * 10 + x] = 100 * y + x;  // row 0 = bottom, as GL reads back
+    }
+  const uint32_t empty = 0xffffffffu;
+  std::vector<uint32_t> out(6, 7u);
+  ASSERT_EQ(subsample_feedback(top_down, false, f, empty, out), Status::success);
+  // texel (x, y) = pixel (4x + 1, 4y + 3); y = 1 asks for row 7, past the 7-row screen
+  EXPECT_EQ(out, (std::vector<uint32_t>{301, 305, 309, empty, empty, empty}));
+  std::vector<uint32_t> flipped(6, 7u);
+  ASSERT_EQ(subsample_feedback(bottom_up, true, f, empty, flipped), Status::success);
+  EXPECT_EQ(flipped, out);
+  f.feedback_sample_x = 3;  // texel (2, ·) → pixel 11, past the 10-column screen
+  f.feedback_sample_y = 2;
+  ASSERT_EQ(subsample_feedback(top_down, false, f, empty, out), Status::success);
+  EXPECT_EQ(out, (std::vector<uint32_t>{203, 207, empty, 603, 607, empty}));
+  // Bad calls write nothing.
+  std::vector<uint32_t> untouched(6, 7u);
+  f.feedback_sample_x = 4;  // outside the block
+  EXPECT_EQ(subsample_feedback(top_down, false, f, empty, untouched), Status::invalid_argument);
+  f.feedback_sample_x = 0;
+  EXPECT_EQ(subsample_feedback(std::span<const uint32_t>(top_down).first(69), false, f, empty, untouched),
+            Status::invalid_argument);
+  EXPECT_EQ(subsample_feedback(top_down, false, f, empty, std::span<uint32_t>(untouched).first(5)),
+            Status::invalid_argument);
+  f.feedback_width = 0;
+  EXPECT_EQ(subsample_feedback(top_down, false, f, empty, untouched), Status::invalid_argument);
+  EXPECT_EQ(untouched, std::vector<uint32_t>(6, 7u));
 }

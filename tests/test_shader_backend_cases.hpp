@@ -208,6 +208,99 @@ void feedback_words(Factory make) {
   EXPECT_FALSE(be->poll_feedback(fb)) << "one frame gives one readback";
 }
 
+/// bsvtf_feedback: the colour pass writes the colour of bsvtf and every pixel's feedback word;
+/// the readback is FrameDesc's sample of each 8 × 8 block, the word a feedback pass jittered onto
+/// that pixel writes (and the word eq. 1–2 give there).
+template <class Factory>
+void colour_pass_feedback(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+  const int M = 256, N = 256;
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const Material m = make_material(config, M, N);
+  const Pyramid pyr = build_pyramid(m, 2);
+  const CacheFill fill = fill_cache(pyr, config.vt, M, N);
+  ASSERT_EQ(be->upload_tiles(fill.uploads), Status::success);
+  ASSERT_EQ(be->apply_page_table_writes(fill.deltas), Status::success);
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok());
+  auto mat = be->create_material(m.data(false));
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  // Quad over the middle half of the screen: 2 texels per pixel in x, 1 in y → λ = 1.
+  ShaderParams params = make_params(0.5f);
+  params.vt_extent = glm::vec4(M, N, 2, 0);
+  params.ids = glm::uvec4(0, 37, 0, 0);
+  const FeedbackWordLayout layout;
+  FrameDesc bad = frame_desc();
+  bad.feedback_sample_x = 8;  // blocks are 256 / 32 = 8 pixels wide
+  EXPECT_EQ(be->begin_frame(bad), Status::invalid_argument);
+  for (const auto& [sx, sy] : {std::pair<uint32_t, uint32_t>{5, 2}, {0, 7}}) {
+    FrameDesc desc = frame_desc();
+    desc.feedback_sample_x = sx;
+    desc.feedback_sample_y = sy;
+    Image<float> colour(kSize, kSize, 4), plain(kSize, kSize, 4);
+    FeedbackFrame fb;
+    ASSERT_EQ(be->begin_frame(desc), Status::success);
+    ASSERT_EQ(be->draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);
+    ASSERT_EQ(be->read_color(colour.view()), Status::success);
+    ASSERT_EQ(be->wait_idle(), Status::success);
+    ASSERT_TRUE(be->poll_feedback(fb));
+    ASSERT_EQ(fb.words.size(), 32u * 32u);
+    const std::vector<uint32_t> words(fb.words.begin(), fb.words.end());
+    // The same view through bsvtf and a separate feedback pass (lod.y = log2 8) whose projection
+    // is shifted so that each texel centre sees pixel (sx, sy) of its block (y from the top).
+    ShaderParams jittered = params;
+    const float dx = static_cast<float>(sx), dy_from_bottom = static_cast<float>(7 - sy);
+    jittered.model_view_proj =
+        glm::translate(glm::mat4(1.0f), glm::vec3((0.5f - (dx + 0.5f) / 8.0f) * 2.0f / 32.0f,
+                                                  (0.5f - (dy_from_bottom + 0.5f) / 8.0f) * 2.0f / 32.0f, 0.0f)) *
+        glm::mat4(params.model_view_proj);
+    jittered.lod.y = 3.0f;
+    ASSERT_EQ(be->begin_frame(desc), Status::success);
+    ASSERT_EQ(be->draw_feedback(*mesh, jittered), Status::success);
+    ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);
+    ASSERT_EQ(be->read_color(plain.view()), Status::success);
+    ASSERT_EQ(be->wait_idle(), Status::success);
+    ASSERT_TRUE(be->poll_feedback(fb));
+    ASSERT_EQ(fb.words.size(), 32u * 32u);
+    int covered = 0, mismatches = 0;
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 32; ++x) {
+        const size_t i = static_cast<size_t>(y) * 32 + static_cast<size_t>(x);
+        const int px = 8 * x + static_cast<int>(sx), py = 8 * y + static_cast<int>(sy);
+        uint32_t expect = layout.empty_word;
+        if (px >= 64 && px < 192) {
+          glm::vec3 world;
+          glm::vec2 uv;
+          pixel_to_quad(px, py, kSize, kSize, 0.5f, world, uv);
+          expect = pack_feedback_word(
+              layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
+          ++covered;
+        }
+        if ((words[i] != expect || fb.words[i] != expect) && ++mismatches <= 5)
+          ADD_FAILURE() << "sample (" << sx << ", " << sy << ") texel (" << x << ", " << y << "): colour pass "
+                        << std::hex << words[i] << ", feedback pass " << fb.words[i] << ", expected " << expect;
+      }
+    EXPECT_EQ(covered, 16 * 32);
+    EXPECT_EQ(mismatches, 0);
+    expect_has_content(colour);
+    EXPECT_GE(psnr_rgb(plain, colour), 200.0) << "output 0 of bsvtf_feedback is bsvtf's colour";
+  }
+  // The next frame, with neither a feedback pass nor bsvtf_feedback, reads nothing back.
+  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  ASSERT_EQ(be->wait_idle(), Status::success);
+  FeedbackFrame fb;
+  EXPECT_FALSE(be->poll_feedback(fb)) << "no feedback drawn, none read back";
+}
+
 template <class Factory>
 void feedback_ring(Factory make) {
   std::string why;
@@ -281,16 +374,19 @@ void rejects_bad_input(Factory make) {
 
 }  // namespace btflod::backend_cases
 
-#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                                \
-  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                                      \
-    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::parabolic,                 \
-                                           btflod::AngularLookup::barycentric);                                   \
-  }                                                                                                               \
-  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                                  \
-    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::elevated_concentric,       \
-                                           btflod::AngularLookup::nearest);                                       \
-  }                                                                                                               \
-  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) { btflod::backend_cases::bsvtf_partial_cache(factory); } \
-  TEST(Name##Backend, FeedbackDecodesToExpectedWords) { btflod::backend_cases::feedback_words(factory); }          \
-  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) { btflod::backend_cases::feedback_ring(factory); }     \
+#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                                       \
+  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                                           \
+    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::parabolic,                      \
+                                           btflod::AngularLookup::barycentric);                                        \
+  }                                                                                                                    \
+  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                                       \
+    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::elevated_concentric,            \
+                                           btflod::AngularLookup::nearest);                                            \
+  }                                                                                                                    \
+  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) {                                                   \
+    btflod::backend_cases::bsvtf_partial_cache(factory);                                                               \
+  }                                                                                                                    \
+  TEST(Name##Backend, FeedbackDecodesToExpectedWords) { btflod::backend_cases::feedback_words(factory); }              \
+  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) { btflod::backend_cases::feedback_ring(factory); }         \
+  TEST(Name##Backend, ColourPassFeedbackMatchesFeedbackPass) { btflod::backend_cases::colour_pass_feedback(factory); } \
   TEST(Name##Backend, RejectsBadInput) { btflod::backend_cases::rejects_bad_input(factory); }

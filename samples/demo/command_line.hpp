@@ -28,6 +28,7 @@ struct DemoConfig {
   bool window = false;                            ///< --window: show the frames in an X11 window
   bool deflate = false;                           ///< --deflate: deflate tiles (format 2), not zstd
   std::string record_feedback;                    ///< --record-feedback FILE: feedback trace for btflod-bench
+  bool separate_feedback_pass = false;            ///< --feedback-pass: feedback words in a pass of their own
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
   /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
   /// factorised out of core. --size defaults to 64 there (512 is the paper's; ~36 GB of store each).
@@ -43,7 +44,7 @@ struct DemoConfig {
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
-    "                   [--profile paper] [--memory SIZE] [--deflate]\n"
+    "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
@@ -58,6 +59,8 @@ inline constexpr const char* kDemoUsage =
     "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
     "  zstd (format 3, the default: smaller tiles that decode faster).\n"
     "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
+    "  --feedback-pass draws the feedback words in a pass of their own at 1/16 of the screen\n"
+    "  (GPU path) instead of writing them from the BSVTF colour pass (the default).\n"
     "  for btflod-bench scheduler --trace FILE.\n"
     "  --profile paper: paper 000's configuration: 151 x 151 directions (ubo2014), FMF C = 100 (25\n"
     "  RGBA virtual textures per material), tiles T = 64 with a 4-texel border, a 56 x 56-slot cache\n"
@@ -106,6 +109,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
     if (a == "--deflate") {
       cfg.deflate = true;
+      continue;
+    }
+    if (a == "--feedback-pass") {
+      cfg.separate_feedback_pass = true;
       continue;
     }
     if (a == "--keep-stores") {

@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
       is_gpu = true;
       auto r = std::make_unique<demo::GpuFrameRenderer>(*be);
       if (present) r->set_after_bsvtf(present);
+      r->set_separate_feedback_pass(cfg->separate_feedback_pass);
       renderer = std::move(r);
     } else {
       std::printf("btflod demo: no OpenGL 4.5 (%s): FALLING BACK to the CPU reference renderer\n",

@@ -61,7 +61,7 @@ struct FrameRecord {
   double occupancy = 0;  ///< used cache slots / slots
   double ssim = 0;       ///< BSVTF vs FMF (converged) render, sRGB-encoded, mean over RGB
   double rmse = 0;       ///< same pair, linear radiance
-  double ms_bsvtf = 0;   ///< BSVTF colour pass + feedback pass, submit to read-back
+  double ms_bsvtf = 0;   ///< BSVTF colour pass with its feedback words (or + feedback pass), submit to read-back
   double ms_fmf = 0;     ///< FMF colour pass, submit to read-back
   uint32_t requests = 0, uploads = 0;
   uint32_t page_table_writes = 0;  ///< GPU page-table texels written after this frame (deltas)
@@ -150,6 +150,9 @@ class GpuFrameRenderer final : public FrameRenderer {
   /// Called after each BSVTF colour pass, outside both timings, while its image is the
   /// backend's colour target (the demo's --window presents it there).
   void set_after_bsvtf(std::function<void()> f) { after_bsvtf_ = std::move(f); }
+  /// Draws the feedback words in a pass of their own at the feedback resolution (the GPU path of
+  /// paper 000 §5) instead of writing them from the colour pass (ShaderProgram::bsvtf_feedback).
+  void set_separate_feedback_pass(bool on) { separate_feedback_pass_ = on; }
   VoidResult render(const scene::View& view, uint64_t frame, uint32_t shift,
                     const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
                     std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) override {
@@ -168,11 +171,13 @@ class GpuFrameRenderer final : public FrameRenderer {
   }
 
  private:
-  // The feedback pass (1/2^shift of the screen, paper 000 §5) for every mesh first,
-  // then the BSVTF colour pass: one render-target switch per frame instead of two per mesh
-  // (on llvmpipe each switch flushes the binned scene). Each feedback texel samples one screen
-  // pixel of its 2^shift × 2^shift block, a different one every frame (lod/feedback.hpp's
-  // feedback_sample_offset): the projection is shifted by the offset from the texel centre.
+  // Each feedback texel takes one screen pixel of its 2^shift × 2^shift block, a different one
+  // every frame (lod/feedback.hpp's feedback_sample_offset). By default the BSVTF colour pass
+  // writes every pixel's word (bsvtf_feedback) and the backend reads back that pixel of each
+  // block: no second pass over the geometry. With a separate feedback pass (1/2^shift of the
+  // screen, paper 000 §5) it is drawn for every mesh first, then the colour pass: one
+  // render-target switch per frame instead of two per mesh (on llvmpipe each switch flushes the
+  // binned scene); its projection is shifted by the offset from the texel centre.
   // The streaming loop sums the votes over the 4^shift frames of one rotation cycle
   // (VoteCounter::accumulate): single-frame votes of a rotating position differ from frame to
   // frame and kept a full cache swapping at a fixed view (SSIM oscillating 0.91-0.96 over the
@@ -188,9 +193,12 @@ class GpuFrameRenderer final : public FrameRenderer {
         (0.5f - (static_cast<float>(dx) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_width),
         (0.5f - (static_cast<float>(dy) + 0.5f) / fd) * 2.0f / static_cast<float>(desc.feedback_height)};
     const glm::mat4 shift_ndc = glm::translate(glm::mat4(1.0f), glm::vec3(jitter, 0.0f));
+    FrameDesc frame_desc = desc;
+    frame_desc.feedback_sample_x = dx;
+    frame_desc.feedback_sample_y = dy;
     const auto t0 = std::chrono::steady_clock::now();
-    if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
-    for (size_t i = 0; i < meshes_.size(); ++i) {
+    if (be_.begin_frame(frame_desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
+    for (size_t i = 0; separate_feedback_pass_ && i < meshes_.size(); ++i) {
       ShaderParams p = params(material_of_[i]);
       p.model_view_proj = shift_ndc * glm::mat4(p.model_view_proj);
       p.lod.y = static_cast<float>(shift);
@@ -199,7 +207,8 @@ class GpuFrameRenderer final : public FrameRenderer {
     }
     for (size_t i = 0; i < meshes_.size(); ++i) {
       const uint32_t m = material_of_[i];
-      if (be_.draw(ShaderProgram::bsvtf, meshes_[i], bsvtf_mats_[m], params(m)) != Status::success)
+      const ShaderProgram program = separate_feedback_pass_ ? ShaderProgram::bsvtf : ShaderProgram::bsvtf_feedback;
+      if (be_.draw(program, meshes_[i], bsvtf_mats_[m], params(m)) != Status::success)
         return make_error(Status::io_error, "draw (bsvtf) failed");
     }
     if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
@@ -233,6 +242,7 @@ class GpuFrameRenderer final : public FrameRenderer {
 
   Backend& be_;
   std::function<void()> after_bsvtf_;
+  bool separate_feedback_pass_ = false;
   std::vector<MeshHandle> meshes_;
   std::vector<uint32_t> material_of_;
   std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;

@@ -37,6 +37,10 @@ struct FeedbackSlot {
   uint64_t frame = 0;
   uint32_t width = 0, height = 0;
   bool pending = false;  ///< holds a readback not yet returned by poll_feedback
+  /// The PBO holds the full-resolution words of a bsvtf_feedback frame (this frame's desc):
+  /// poll_feedback() subsamples them.
+  bool full = false;
+  FrameDesc desc{};
 };
 
 class GlBackend final : public Backend {
@@ -62,7 +66,7 @@ class GlBackend final : public Backend {
 
   ~GlBackend() override {
     eglMakeCurrent(display_, surface_, surface_, context_);
-    for (GLuint p : {fmf_, bsvtf_, feedback_}) glDeleteProgram(p);
+    for (GLuint p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) glDeleteProgram(p);
     for (GlMesh& m : meshes_) {
       glDeleteVertexArrays(1, &m.vao);
       glDeleteBuffers(1, &m.vbo);
@@ -97,9 +101,10 @@ class GlBackend final : public Backend {
       return make_error(Status::invalid_argument, "GL: %u virtual textures, expected 1..2048", virtual_texture_count);
     config_ = config;
     vt_layers_ = virtual_texture_count;
-    const ShaderProgram programs[3] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback};
-    GLuint* out[3] = {&fmf_, &bsvtf_, &feedback_};
-    for (int i = 0; i < 3; ++i) {
+    const ShaderProgram programs[4] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback,
+                                       ShaderProgram::bsvtf_feedback};
+    GLuint* out[4] = {&fmf_, &bsvtf_, &feedback_, &bsvtf_feedback_};
+    for (int i = 0; i < 4; ++i) {
       Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::gl450_core, config);
       if (!src) return src.error();
       Result<GLuint> prog = compile_gl_program(*src, shader_program_name(programs[i]));
@@ -270,7 +275,9 @@ class GlBackend final : public Backend {
   Status begin_frame(const FrameDesc& frame) noexcept override {
     make_current();
     if (!initialised_ || frame.width == 0 || frame.height == 0 || frame.feedback_width == 0 ||
-        frame.feedback_height == 0 || frame.width > 16384 || frame.height > 16384)
+        frame.feedback_height == 0 || frame.width > 16384 || frame.height > 16384 ||
+        frame.feedback_sample_x >= frame.feedback_block_width() ||
+        frame.feedback_sample_y >= frame.feedback_block_height())
       return Status::invalid_argument;
     if (frame.width != frame_.width || frame.height != frame_.height || frame.feedback_width != frame_.feedback_width ||
         frame.feedback_height != frame_.feedback_height || !color_fbo_) {
@@ -286,6 +293,7 @@ class GlBackend final : public Backend {
     glClearNamedFramebufferuiv(feedback_fbo_, GL_COLOR, 0, empty);
     glClearNamedFramebufferfv(feedback_fbo_, GL_DEPTH, 0, &one);
     feedback_drawn_ = false;
+    feedback_stored_ = false;
     return Status::success;
   }
 
@@ -309,10 +317,13 @@ class GlBackend final : public Backend {
       prog = fmf_;
     } else if (program == ShaderProgram::bsvtf) {
       prog = bsvtf_;
+    } else if (program == ShaderProgram::bsvtf_feedback) {
+      prog = bsvtf_feedback_;
     } else {
       return Status::invalid_argument;
     }
-    glBindFramebuffer(GL_FRAMEBUFFER, color_fbo_);
+    const bool words = program == ShaderProgram::bsvtf_feedback;
+    glBindFramebuffer(GL_FRAMEBUFFER, words ? color_feedback_fbo_ : color_fbo_);
     glViewport(0, 0, static_cast<GLsizei>(frame_.width), static_cast<GLsizei>(frame_.height));
     glUseProgram(prog);
     bind(ShaderBinding::eigen_abrdfs, m.eigen_abrdfs);
@@ -323,6 +334,15 @@ class GlBackend final : public Backend {
     } else {
       bind(ShaderBinding::tile_cache, cache_);
       bind(ShaderBinding::page_table, page_table_);
+    }
+    if (words) {
+      // Colour and every pixel's feedback word (fragment output 1). The word target is cleared
+      // by the frame's first such draw only: frames without one never touch it.
+      if (!feedback_stored_) {
+        const GLuint empty[4] = {config_.vt.feedback.empty_word, 0, 0, 0};
+        glClearNamedFramebufferuiv(color_feedback_fbo_, GL_COLOR, 1, empty);
+      }
+      feedback_drawn_ = feedback_stored_ = true;
     }
     submit_draw(meshes_[mesh.id - 1], params);
     return Status::success;
@@ -355,16 +375,21 @@ class GlBackend final : public Backend {
         release(*slot);
         ++dropped_;
       }
-      const size_t bytes = static_cast<size_t>(frame_.feedback_width) * frame_.feedback_height * 4;
+      // A bsvtf_feedback frame reads back every pixel's word (a plain copy, subsampled in
+      // poll_feedback), any other the feedback target.
+      const uint32_t w = feedback_stored_ ? frame_.width : frame_.feedback_width;
+      const uint32_t h = feedback_stored_ ? frame_.height : frame_.feedback_height;
+      const size_t bytes = static_cast<size_t>(w) * h * 4;
       if (slot_capacity(*slot) < bytes) {
         glNamedBufferData(slot->pbo, static_cast<GLsizeiptr>(bytes), nullptr, GL_STREAM_READ);  // resize only
       }
       glBindBuffer(GL_PIXEL_PACK_BUFFER, slot->pbo);
-      glBindFramebuffer(GL_READ_FRAMEBUFFER, feedback_fbo_);
-      glReadBuffer(GL_COLOR_ATTACHMENT0);
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, feedback_stored_ ? color_feedback_fbo_ : feedback_fbo_);
+      glReadBuffer(feedback_stored_ ? GL_COLOR_ATTACHMENT1 : GL_COLOR_ATTACHMENT0);
       glPixelStorei(GL_PACK_ALIGNMENT, 4);
-      glReadPixels(0, 0, static_cast<GLsizei>(frame_.feedback_width), static_cast<GLsizei>(frame_.feedback_height),
-                   GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+      glReadPixels(0, 0, static_cast<GLsizei>(w), static_cast<GLsizei>(h), GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+      slot->full = feedback_stored_;
+      slot->desc = frame_;
       glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
       slot->fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
       slot->frame = frame_counter_;
@@ -387,12 +412,17 @@ class GlBackend final : public Backend {
     if (r != GL_ALREADY_SIGNALED && r != GL_CONDITION_SATISFIED) return false;
     const size_t n = static_cast<size_t>(oldest->width) * oldest->height;
     if (readback_.size() < n) readback_.resize(n);  // grows to the largest feedback size once
+    const size_t mapped = oldest->full ? static_cast<size_t>(oldest->desc.width) * oldest->desc.height : n;
     const uint32_t* src = static_cast<const uint32_t*>(
-        glMapNamedBufferRange(oldest->pbo, 0, static_cast<GLsizeiptr>(n * 4), GL_MAP_READ_BIT));
+        glMapNamedBufferRange(oldest->pbo, 0, static_cast<GLsizeiptr>(mapped * 4), GL_MAP_READ_BIT));
     if (!src) return false;
-    for (uint32_t y = 0; y < oldest->height; ++y)  // GL rows are bottom-up; FeedbackFrame is top-down
-      std::memcpy(readback_.data() + static_cast<size_t>(y) * oldest->width,
-                  src + static_cast<size_t>(oldest->height - 1 - y) * oldest->width, oldest->width * 4u);
+    if (oldest->full)  // GL rows are bottom-up; FeedbackFrame is top-down
+      subsample_feedback(std::span<const uint32_t>(src, mapped), true, oldest->desc, config_.vt.feedback.empty_word,
+                         std::span<uint32_t>(readback_.data(), n));
+    else
+      for (uint32_t y = 0; y < oldest->height; ++y)
+        std::memcpy(readback_.data() + static_cast<size_t>(y) * oldest->width,
+                    src + static_cast<size_t>(oldest->height - 1 - y) * oldest->width, oldest->width * 4u);
     glUnmapNamedBuffer(oldest->pbo);
     out.frame = oldest->frame;
     out.width = oldest->width;
@@ -500,6 +530,16 @@ class GlBackend final : public Backend {
     };
     make_fbo(GL_RGBA32F, frame_.width, frame_.height, color_fbo_, color_tex_, color_depth_);
     make_fbo(GL_R32UI, frame_.feedback_width, frame_.feedback_height, feedback_fbo_, feedback_tex_, feedback_depth_);
+    // bsvtf_feedback: the colour target and depth of color_fbo_ plus every pixel's word.
+    glCreateTextures(GL_TEXTURE_2D, 1, &feedback_full_tex_);
+    glTextureStorage2D(feedback_full_tex_, 1, GL_R32UI, static_cast<GLsizei>(frame_.width),
+                       static_cast<GLsizei>(frame_.height));
+    glCreateFramebuffers(1, &color_feedback_fbo_);
+    glNamedFramebufferTexture(color_feedback_fbo_, GL_COLOR_ATTACHMENT0, color_tex_, 0);
+    glNamedFramebufferTexture(color_feedback_fbo_, GL_COLOR_ATTACHMENT1, feedback_full_tex_, 0);
+    glNamedFramebufferRenderbuffer(color_feedback_fbo_, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, color_depth_);
+    const GLenum both[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(color_feedback_fbo_, 2, both);
   }
 
   void destroy_targets() {
@@ -509,7 +549,10 @@ class GlBackend final : public Backend {
     glDeleteFramebuffers(2, fbos);
     glDeleteTextures(2, texs);
     glDeleteRenderbuffers(2, rbs);
+    glDeleteFramebuffers(1, &color_feedback_fbo_);
+    glDeleteTextures(1, &feedback_full_tex_);
     color_fbo_ = feedback_fbo_ = color_tex_ = feedback_tex_ = color_depth_ = feedback_depth_ = 0;
+    color_feedback_fbo_ = feedback_full_tex_ = 0;
   }
 
   EGLDisplay display_;
@@ -520,12 +563,14 @@ class GlBackend final : public Backend {
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;
-  GLuint fmf_ = 0, bsvtf_ = 0, feedback_ = 0;
+  GLuint fmf_ = 0, bsvtf_ = 0, feedback_ = 0, bsvtf_feedback_ = 0;
   GLuint cache_ = 0, page_table_ = 0, ubo_ = 0;
   GLuint color_fbo_ = 0, color_tex_ = 0, color_depth_ = 0;
   GLuint feedback_fbo_ = 0, feedback_tex_ = 0, feedback_depth_ = 0;
+  GLuint color_feedback_fbo_ = 0, feedback_full_tex_ = 0;
   FrameDesc frame_{0, 0, 0, 0, {0, 0, 0, 0}};
   bool feedback_drawn_ = false;
+  bool feedback_stored_ = false;  ///< bsvtf_feedback drawn this frame: its words replace the feedback pass
   uint64_t frame_counter_ = 0;
   uint64_t dropped_ = 0;
   std::vector<GlMesh> meshes_;

@@ -29,7 +29,7 @@ VkBackend::~VkBackend() {
     destroy(ubo_all_);
     destroy_targets();
     for (Texture* t : {&cache_, &page_table_, &dummy_float_, &dummy_uint_}) destroy(*t);
-    for (VkPipeline p : {fmf_, bsvtf_, feedback_}) vkDestroyPipeline(device_, p, nullptr);
+    for (VkPipeline p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) vkDestroyPipeline(device_, p, nullptr);
     vkDestroyPipelineLayout(device_, pipeline_layout_, nullptr);
     vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
     vkDestroyDescriptorSetLayout(device_, set_layout_, nullptr);
@@ -108,14 +108,16 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
   config_ = config;
   vt_layers_ = virtual_texture_count;
   if (VoidResult r = create_layout(); !r) return r;
-  const ShaderProgram programs[3] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback};
-  VkPipeline* out[3] = {&fmf_, &bsvtf_, &feedback_};
-  for (int i = 0; i < 3; ++i) {
+  const ShaderProgram programs[4] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback,
+                                     ShaderProgram::bsvtf_feedback};
+  VkPipeline* out[4] = {&fmf_, &bsvtf_, &feedback_, &bsvtf_feedback_};
+  for (int i = 0; i < 4; ++i) {
     Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::vulkan450, config);
     if (!src) return src.error();
-    Result<VkPipeline> p =
-        create_pipeline(*src, shader_program_name(programs[i]),
-                        programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT);
+    Result<VkPipeline> p = create_pipeline(
+        *src, shader_program_name(programs[i]),
+        programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT, VK_NULL_HANDLE,
+        programs[i] == ShaderProgram::bsvtf_feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_UNDEFINED);
     if (!p) return p.error();
     *out[i] = *p;
   }
@@ -332,7 +334,8 @@ Status VkBackend::apply_page_table_writes(std::span<const PageTableWrite> writes
 Status VkBackend::begin_frame(const FrameDesc& frame) noexcept {
   if (!initialised_ || frame.width == 0 || frame.height == 0 || frame.feedback_width == 0 ||
       frame.feedback_height == 0 || frame.width > limits_.maxImageDimension2D ||
-      frame.height > limits_.maxImageDimension2D)
+      frame.height > limits_.maxImageDimension2D || frame.feedback_sample_x >= frame.feedback_block_width() ||
+      frame.feedback_sample_y >= frame.feedback_block_height())
     return Status::invalid_argument;
   if (frame.width != frame_.width || frame.height != frame_.height || frame.feedback_width != frame_.feedback_width ||
       frame.feedback_height != frame_.feedback_height || !color_.image) {
@@ -351,7 +354,7 @@ Status VkBackend::begin_frame(const FrameDesc& frame) noexcept {
   clear_pass(c.cmd, color_, color_depth_, color_clear, frame.width, frame.height);
   clear_pass(c.cmd, feedback_color_, feedback_depth_, feedback_clear, frame.feedback_width, frame.feedback_height);
   full_barrier(c.cmd);
-  feedback_drawn_ = false;
+  feedback_drawn_ = feedback_stored_ = false;
   in_frame_ = true;
   return Status::success;
 }
@@ -371,9 +374,27 @@ Status VkBackend::draw(ShaderProgram program, MeshHandle mesh, MaterialHandle ma
     pipeline = fmf_;
   else if (program == ShaderProgram::bsvtf)
     pipeline = bsvtf_;
+  else if (program == ShaderProgram::bsvtf_feedback)
+    pipeline = bsvtf_feedback_;
   else
     return Status::invalid_argument;
-  return record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width, frame_.height);
+  if (program != ShaderProgram::bsvtf_feedback)
+    return record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
+                       frame_.height);
+  // Colour and every pixel's feedback word (second colour target). The word target is cleared
+  // by the frame's first such draw only: frames without one never touch it.
+  if (!feedback_stored_) {
+    FrameContext& c = open_context();
+    VkClearColorValue empty{};
+    empty.uint32[0] = config_.vt.feedback.empty_word;
+    const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(c.cmd, feedback_full_.image, VK_IMAGE_LAYOUT_GENERAL, &empty, 1, &range);
+    full_barrier(c.cmd);
+  }
+  const Status s = record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
+                               frame_.height, VK_NULL_HANDLE, &feedback_full_);
+  if (s == Status::success) feedback_drawn_ = feedback_stored_ = true;
+  return s;
 }
 
 Status VkBackend::draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept {
@@ -401,7 +422,11 @@ Status VkBackend::end_frame() noexcept {
       slot->pending = false;
       ++dropped_;
     }
-    const VkDeviceSize bytes = VkDeviceSize{frame_.feedback_width} * frame_.feedback_height * 4;
+    // A bsvtf_feedback frame copies every pixel's word (subsampled in poll_feedback), any other
+    // the feedback target.
+    const uint32_t w = feedback_stored_ ? frame_.width : frame_.feedback_width;
+    const uint32_t h = feedback_stored_ ? frame_.height : frame_.feedback_height;
+    const VkDeviceSize bytes = VkDeviceSize{w} * h * 4;
     if (slot->buffer.size < bytes) {
       // Grows only when the feedback size grows; a dropped slot may still be read by the GPU.
       vkDeviceWaitIdle(device_);
@@ -410,8 +435,11 @@ Status VkBackend::end_frame() noexcept {
     }
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {frame_.feedback_width, frame_.feedback_height, 1};
-    vkCmdCopyImageToBuffer(c.cmd, feedback_color_.image, VK_IMAGE_LAYOUT_GENERAL, slot->buffer.buffer, 1, &region);
+    region.imageExtent = {w, h, 1};
+    vkCmdCopyImageToBuffer(c.cmd, (feedback_stored_ ? feedback_full_ : feedback_color_).image, VK_IMAGE_LAYOUT_GENERAL,
+                           slot->buffer.buffer, 1, &region);
+    slot->full = feedback_stored_;
+    slot->desc = frame_;
     slot->serial = serial;
     slot->frame = frame_counter_;
     slot->width = frame_.feedback_width;
@@ -432,7 +460,13 @@ bool VkBackend::poll_feedback(FeedbackFrame& out) noexcept {
   if (!oldest || oldest->serial > completed_serial_) return false;
   const size_t n = static_cast<size_t>(oldest->width) * oldest->height;
   if (readback_.size() < n) readback_.resize(n);                // grows to the largest feedback size once
-  std::memcpy(readback_.data(), oldest->buffer.mapped, n * 4);  // row 0 = top (flipped viewport)
+  if (oldest->full) {  // the words of every pixel, row 0 = top (flipped viewport)
+    const size_t full = static_cast<size_t>(oldest->desc.width) * oldest->desc.height;
+    subsample_feedback(std::span<const uint32_t>(static_cast<const uint32_t*>(oldest->buffer.mapped), full), false,
+                       oldest->desc, config_.vt.feedback.empty_word, std::span<uint32_t>(readback_.data(), n));
+  } else {
+    std::memcpy(readback_.data(), oldest->buffer.mapped, n * 4);  // row 0 = top (flipped viewport)
+  }
   out.frame = oldest->frame;
   out.width = oldest->width;
   out.height = oldest->height;

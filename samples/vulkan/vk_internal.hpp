@@ -82,6 +82,10 @@ struct FeedbackSlot {
   uint64_t serial = 0, frame = 0;
   uint32_t width = 0, height = 0;
   bool pending = false;
+  /// The buffer holds the full-resolution words of a bsvtf_feedback frame (this frame's desc):
+  /// poll_feedback() subsamples them.
+  bool full = false;
+  FrameDesc desc{};
 };
 
 #define BTFLOD_VK_CHECK(expr, what)                                                                                  \
@@ -164,14 +168,16 @@ class VkBackend final : public Backend {
   Result<VkDescriptorSet> allocate_set(const VkMaterial* m);
   Buffer& shared_ubo() { return ubo_all_; }
 
+  /// `second_format` (when not VK_FORMAT_UNDEFINED): a second colour attachment (bsvtf_feedback's words).
   Result<VkPipeline> create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
-                                     VkPipelineLayout layout = VK_NULL_HANDLE);
+                                     VkPipelineLayout layout = VK_NULL_HANDLE,
+                                     VkFormat second_format = VK_FORMAT_UNDEFINED);
 
   // --- recording ---------------------------------------------------------------------------
   static void full_barrier(VkCommandBuffer cmd);
   Status record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
                      const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
-                     VkPipelineLayout layout = VK_NULL_HANDLE);
+                     VkPipelineLayout layout = VK_NULL_HANDLE, const Texture* second = nullptr);
   static void clear_pass(VkCommandBuffer cmd, const Texture& color, const Texture& depth, VkClearValue value,
                          uint32_t w, uint32_t h);
   VkDeviceSize context_ubo_base() const { return VkDeviceSize{current_} * ubo_stride_ * options_.max_draws_per_frame; }
@@ -206,6 +212,7 @@ class VkBackend final : public Backend {
   VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkPipeline fmf_ = VK_NULL_HANDLE, bsvtf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
+  VkPipeline bsvtf_feedback_ = VK_NULL_HANDLE;
   VkDescriptorSet feedback_set_ = VK_NULL_HANDLE;
   // Set and pipeline layouts of the laplacian, lpca, pca_views and spmm programs (created on first use).
   VkDescriptorSetLayout rep_set_layout_[4] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
@@ -215,6 +222,7 @@ class VkBackend final : public Backend {
   bool initialised_ = false;
   Texture cache_, page_table_, dummy_float_, dummy_uint_;
   Texture color_, color_depth_, feedback_color_, feedback_depth_;
+  Texture feedback_full_;  ///< bsvtf_feedback: every pixel's word (R32_UINT, screen size)
   Buffer ubo_all_, color_readback_;
   VkDeviceSize ubo_stride_ = 256;
   std::vector<FrameContext> contexts_;
@@ -227,6 +235,7 @@ class VkBackend final : public Backend {
   std::vector<VkMaterial> materials_;
   FrameDesc frame_{0, 0, 0, 0, {0, 0, 0, 0}};
   bool in_frame_ = false, feedback_drawn_ = false;
+  bool feedback_stored_ = false;  ///< bsvtf_feedback drawn this frame: its words replace the feedback pass
   uint64_t frame_counter_ = 0, dropped_ = 0;
 };
 

@@ -88,7 +88,7 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
 }
 
 Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
-                                              VkPipelineLayout layout) {
+                                              VkPipelineLayout layout, VkFormat second_format) {
   Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name);
   if (!vs) return vs.error();
   Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name);
@@ -143,16 +143,19 @@ Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, cons
   VkPipelineColorBlendAttachmentState blend{};
   blend.colorWriteMask =
       VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
+  const uint32_t attachments = second_format == VK_FORMAT_UNDEFINED ? 1 : 2;
+  const VkPipelineColorBlendAttachmentState blends[2] = {blend, blend};
+  const VkFormat formats[2] = {color_format, second_format};
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  cb.attachmentCount = 1;
-  cb.pAttachments = &blend;
+  cb.attachmentCount = attachments;
+  cb.pAttachments = blends;
   const VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
   VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
   dy.dynamicStateCount = 2;
   dy.pDynamicStates = dyn;
   VkPipelineRenderingCreateInfo rci{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  rci.colorAttachmentCount = 1;
-  rci.pColorAttachmentFormats = &color_format;
+  rci.colorAttachmentCount = attachments;
+  rci.pColorAttachmentFormats = formats;
   rci.depthAttachmentFormat = VK_FORMAT_D32_SFLOAT;
   VkGraphicsPipelineCreateInfo gci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
   gci.pNext = &rci;
@@ -178,23 +181,26 @@ Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, cons
 }
 
 // Dynamic rendering into one colour and one depth target of w × h: both loaded, or (`clear`
-// not null) the colour cleared to *clear and the depth to 1.
-static void begin_rendering(VkCommandBuffer cmd, const Texture& color, const Texture& depth, uint32_t w,
-                            uint32_t h, const VkClearValue* clear) {
+// not null) the colour cleared to *clear and the depth to 1. `second` (loaded) is a second
+// colour target.
+static void begin_rendering(VkCommandBuffer cmd, const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
+                            const VkClearValue* clear, const Texture* second = nullptr) {
   VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
   ca.imageView = color.view;
   ca.imageLayout = VK_IMAGE_LAYOUT_GENERAL;
   ca.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
   ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   if (clear) ca.clearValue = *clear;
+  VkRenderingAttachmentInfo colors[2] = {ca, ca};
+  if (second) colors[1].imageView = second->view;
   VkRenderingAttachmentInfo da = ca;
   da.imageView = depth.view;
   if (clear) da.clearValue.depthStencil = {1.0f, 0};
   VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
   ri.renderArea = {{0, 0}, {w, h}};
   ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
+  ri.colorAttachmentCount = second ? 2 : 1;
+  ri.pColorAttachments = colors;
   ri.pDepthAttachment = &da;
   vkCmdBeginRendering(cmd, &ri);
 }
@@ -209,13 +215,13 @@ void VkBackend::full_barrier(VkCommandBuffer cmd) {
 
 Status VkBackend::record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
                               const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
-                              VkPipelineLayout layout) {
+                              VkPipelineLayout layout, const Texture* second) {
   FrameContext& c = open_context();
   if (c.ubo_offset + ubo_stride_ > ubo_stride_ * options_.max_draws_per_frame) return Status::insufficient_space;
   const VkDeviceSize offset = context_ubo_base() + c.ubo_offset;
   std::memcpy(static_cast<char*>(ubo_all_.mapped) + offset, &params, sizeof(ShaderParams));
   c.ubo_offset += ubo_stride_;
-  begin_rendering(c.cmd, color, depth, w, h, nullptr);
+  begin_rendering(c.cmd, color, depth, w, h, nullptr, second);
   // Negative height: NDC y = +1 lands on row 0, as in OpenGL after its bottom-up readback.
   const VkViewport viewport{0.0f, static_cast<float>(h), static_cast<float>(w), -static_cast<float>(h), 0.0f, 1.0f};
   const VkRect2D scissor{{0, 0}, {w, h}};

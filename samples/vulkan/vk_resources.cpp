@@ -213,11 +213,13 @@ bool VkBackend::create_targets() {
          create_texture(feedback_color_, VK_FORMAT_R32_UINT, frame_.feedback_width, frame_.feedback_height, 1, 1, color,
                         false) &&
          create_texture(feedback_depth_, VK_FORMAT_D32_SFLOAT, frame_.feedback_width, frame_.feedback_height, 1, 1,
-                        depth, false);
+                        depth, false) &&
+         create_texture(feedback_full_, VK_FORMAT_R32_UINT, frame_.width, frame_.height, 1, 1,
+                        color | VK_IMAGE_USAGE_TRANSFER_DST_BIT, false);
 }
 
 void VkBackend::destroy_targets() {
-  for (Texture* t : {&color_, &color_depth_, &feedback_color_, &feedback_depth_}) destroy(*t);
+  for (Texture* t : {&color_, &color_depth_, &feedback_color_, &feedback_depth_, &feedback_full_}) destroy(*t);
 }
 
 }  // namespace btflod::samples::vk_detail

@@ -562,7 +562,51 @@ struct FrameDesc {
   uint32_t feedback_width = 32;
   uint32_t feedback_height = 32;
   float clear_color[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  /// Frames drawn with ShaderProgram::bsvtf_feedback: feedback texel (x, y) is the word of
+  /// screen pixel (x·bw + feedback_sample_x, y·bh + feedback_sample_y), counted from the top
+  /// left, with bw × bh = feedback_block_width() × feedback_block_height() (subsample_feedback()).
+  /// Rotate it over the block from frame to frame (feedback_sample_offset()). Must be < bw, bh.
+  uint32_t feedback_sample_x = 0;
+  uint32_t feedback_sample_y = 0;
+
+  /// ⌈width / feedback_width⌉: screen pixels per feedback texel across.
+  constexpr uint32_t feedback_block_width() const noexcept {
+    return feedback_width ? (width + feedback_width - 1) / feedback_width : 0;
+  }
+  /// ⌈height / feedback_height⌉: screen pixels per feedback texel down.
+  constexpr uint32_t feedback_block_height() const noexcept {
+    return feedback_height ? (height + feedback_height - 1) / feedback_height : 0;
+  }
 };
+
+/// The feedback target of a bsvtf_feedback frame from the full-resolution words its colour pass
+/// wrote: out[x + y·feedback_width] = the word of pixel (x·bw + sample_x, y·bh + sample_y) of
+/// `full` (frame.width × frame.height words, row 0 = top row of the image, or the bottom row
+/// when `bottom_up`, as GL reads back), `empty_word` where that pixel is outside the screen.
+/// Returns invalid_argument (and writes nothing) when a size does not match the frame or the
+/// sample is outside the block. Backends call it when a readback arrives; no allocation.
+inline Status subsample_feedback(std::span<const uint32_t> full, bool bottom_up, const FrameDesc& frame,
+                                 uint32_t empty_word, std::span<uint32_t> out) noexcept {
+  const uint32_t bw = frame.feedback_block_width(), bh = frame.feedback_block_height();
+  if (full.size() != static_cast<size_t>(frame.width) * frame.height ||
+      out.size() != static_cast<size_t>(frame.feedback_width) * frame.feedback_height || bw == 0 || bh == 0 ||
+      frame.feedback_sample_x >= bw || frame.feedback_sample_y >= bh)
+    return Status::invalid_argument;
+  for (uint32_t y = 0; y < frame.feedback_height; ++y) {
+    const uint64_t py = static_cast<uint64_t>(y) * bh + frame.feedback_sample_y;  // from the top
+    uint32_t* row = out.data() + static_cast<size_t>(y) * frame.feedback_width;
+    if (py >= frame.height) {
+      std::fill(row, row + frame.feedback_width, empty_word);
+      continue;
+    }
+    const uint32_t* src = full.data() + static_cast<size_t>(bottom_up ? frame.height - 1 - py : py) * frame.width;
+    for (uint32_t x = 0; x < frame.feedback_width; ++x) {
+      const uint64_t px = static_cast<uint64_t>(x) * bw + frame.feedback_sample_x;
+      row[x] = px < frame.width ? src[px] : empty_word;
+    }
+  }
+  return Status::success;
+}
 
 /// A finished feedback readback. `words` stays valid until the next poll_feedback() or
 /// end_frame(); width·height words, row 0 = top row of the image.
@@ -582,7 +626,7 @@ class Backend {
   virtual const char* name() const noexcept = 0;
 
   // --- set-up (may allocate; returns a readable error) ------------------------------------
-  /// Generates and compiles the fmf, bsvtf and feedback programs for `config` and creates the
+  /// Generates and compiles the fmf, bsvtf, feedback and bsvtf_feedback programs for `config` and creates the
   /// tile cache (RGBA16F, config.vt.slot_count() slots) and the page table (R32UI array of
   /// `virtual_texture_count` layers, config.vt.finest_level + 1 mips, every entry 0 = slot 0 at
   /// level 0). Call once, before anything else; then upload the root tiles and the initial page
@@ -633,14 +677,18 @@ class Backend {
 
   // --- frame (per frame) -------------------------------------------------------------------
   /// Starts a frame: clears the colour target and the feedback target (to the config's
-  /// FeedbackWordLayout::empty_word). Targets are (re)created when the size changes.
+  /// FeedbackWordLayout::empty_word). Targets are (re)created when the size changes. Returns
+  /// invalid_argument for a zero or oversized target or a feedback sample outside its block.
   virtual Status begin_frame(const FrameDesc& frame) noexcept = 0;
-  /// Draws a mesh with `program` and the given shader parameters: fmf or bsvtf for an FMF
-  /// material, laplacian / lpca / pca_views / spmm for a material of that representation. Returns
+  /// Draws a mesh with `program` and the given shader parameters: fmf, bsvtf or bsvtf_feedback
+  /// for an FMF material, laplacian / lpca / pca_views / spmm for a material of that representation. Returns
   /// invalid_argument when the program does not fit the material.
   virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
                       const ShaderParams& params) noexcept = 0;
-  /// Draws a mesh into the feedback target (paper 000 eq. 1–2).
+  /// Draws a mesh into the feedback target (paper 000 eq. 1–2). A frame whose colour pass uses
+  /// ShaderProgram::bsvtf_feedback needs none: draw() then writes the words of every pixel and
+  /// end_frame() reads back FrameDesc's sample of them (subsample_feedback()), replacing what
+  /// draw_feedback() wrote in that frame.
   virtual Status draw_feedback(MeshHandle mesh, const ShaderParams& params) noexcept = 0;
   /// Submits the frame and starts the asynchronous feedback readback into a ring of
   /// feedback_ring_size() buffers. When every ring buffer is still in flight the oldest

@@ -22,7 +22,7 @@
 //   page_table     float P_vt_lambda(vec2 uv); ivec2 P_tile_of(vec2 uv, int level); …  eq. 1–2
 //   bsvtf          P_VtSite P_vt_site(vec2 uv, float lambda); vec4 P_vt_fetch(int layer, P_VtSite);
 //                  void P_bsvtf_components(uv, out v[]); vec4 P_bsvtf_raw(uv); vec3 P_bsvtf(uv, wl, wv)
-//   feedback       uint P_feedback_word(vec2 uv)                                  paper 000 eq. 1–2
+//   feedback       uint P_feedback_word(vec2 uv); uint P_feedback_word_at(uv, lambda)   paper 000 eq. 1–2
 //   laplacian      float P_laplacian_lambda(float distance); vec3 P_laplacian(uv, wl, wv, lambda)
 //   lpca           vec3 P_lpca(vec2 uv, vec3 wl, vec3 wv)                         paper 002 §6.2
 //   pca_views      vec3 P_pca_views(vec2 uv, vec3 wl, vec3 wv)                    paper 004 §6.3
@@ -62,11 +62,26 @@
 
 namespace btflod {
 
-enum class ShaderProgram : unsigned char { fmf, bsvtf, feedback, laplacian, lpca, pca_views, spmm, pca_rings };
+/// Whole programs of generate_program(). bsvtf_feedback is bsvtf that also writes every pixel's
+/// feedback word (paper 000 eq. 1–2, at the colour pass's own derivatives) to a second render
+/// target, fragment output 1 (uint): the backend subsamples it to the feedback target, so no
+/// separate feedback pass draws the geometry again.
+enum class ShaderProgram : unsigned char {
+  fmf,
+  bsvtf,
+  feedback,
+  laplacian,
+  lpca,
+  pca_views,
+  spmm,
+  pca_rings,
+  bsvtf_feedback
+};
 
 inline constexpr ShaderProgram kAllShaderPrograms[] = {
-    ShaderProgram::fmf,  ShaderProgram::bsvtf,     ShaderProgram::feedback, ShaderProgram::laplacian,
-    ShaderProgram::lpca, ShaderProgram::pca_views, ShaderProgram::spmm,     ShaderProgram::pca_rings};
+    ShaderProgram::fmf,       ShaderProgram::bsvtf,     ShaderProgram::feedback,
+    ShaderProgram::laplacian, ShaderProgram::lpca,      ShaderProgram::pca_views,
+    ShaderProgram::spmm,      ShaderProgram::pca_rings, ShaderProgram::bsvtf_feedback};
 /// Rings and directions per table (light, view) of the ring search's uniform block (UBO2014:
 /// 10 rings, 151 directions). backend/ring_search_block.hpp packs the block.
 inline constexpr uint32_t kRingSearchMaxRings = 16;
@@ -92,6 +107,8 @@ constexpr const char* shader_program_name(ShaderProgram p) noexcept {
       return "pca_rings";
     case ShaderProgram::spmm:
       return "spmm";
+    case ShaderProgram::bsvtf_feedback:
+      return "bsvtf_feedback";
   }
   return "unknown";
 }
@@ -744,11 +761,9 @@ inline void piece_bsvtf(GlslEmitter& e) {
 inline void piece_feedback(GlslEmitter& e) {
   const FeedbackWordLayout& f = e.config.vt.feedback;
   e.emit(
-      "// Packed feedback word (paper 000 eq. 1-2; FeedbackWordLayout, pack_feedback_word) of uv for\n"
-      "// texture $texture_id$. Uses derivatives: call in uniform control flow.\n"
-      "uint @feedback_word(vec2 uv) {\n"
-      "  // log2(screen / feedback size): derivatives in a smaller feedback pass are that much larger.\n"
-      "  float lambda = @vt_lambda(uv) + $feedback_lod_offset$;\n"
+      "// Packed feedback word (paper 000 eq. 1-2; FeedbackWordLayout, pack_feedback_word) of uv at\n"
+      "// continuous level `lambda` (@vt_lambda at the resolution of the pass) for texture $texture_id$.\n"
+      "uint @feedback_word_at(vec2 uv, float lambda) {\n"
       "  // request the finest level the renderer blends in (ceil), tolerant of float noise\n");
   e.out += format_message("  int level = clamp(int(ceil(lambda - 1e-3)), 0, min(%svt_finest(), %u));\n",
                           e.options.prefix.c_str(), f.max_level());
@@ -759,7 +774,13 @@ inline void piece_feedback(GlslEmitter& e) {
       " | ((uint(%s) & %uu) << %uu);\n",
       detail::low_mask(f.x_bits), f.x_shift, detail::low_mask(f.y_bits), f.y_shift, detail::low_mask(f.level_bits),
       f.level_shift, id.c_str(), detail::low_mask(f.texture_bits), f.texture_shift);
-  e.emit("}\n");
+  e.emit(
+      "}\n"
+      "// The word of a feedback pass: uses derivatives, call in uniform control flow.\n"
+      "uint @feedback_word(vec2 uv) {\n"
+      "  // log2(screen / feedback size): derivatives in a smaller feedback pass are that much larger.\n"
+      "  return @feedback_word_at(uv, @vt_lambda(uv) + $feedback_lod_offset$);\n"
+      "}\n");
 }
 
 // Laplacian-pyramid PCA with continuous range-based LOD, paper 001 eq. 7.
@@ -1278,11 +1299,14 @@ inline constexpr GlslProgramRecipe kProgramRecipes[] = {
     {ShaderProgram::pca_views, GlslPiece::pca_views, false, ""},
     {ShaderProgram::spmm, GlslPiece::spmm, false, ""},
     {ShaderProgram::pca_rings, GlslPiece::pca_rings, false, ""},
+    {ShaderProgram::bsvtf_feedback, GlslPiece::bsvtf, true, ""},
 };
 
 inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, GlslTarget t, const ShaderConfig& c) {
   const bool feedback = r.program == ShaderProgram::feedback;
-  const uint32_t pieces = feedback ? piece_bit(r.piece) : piece_bit(r.piece) | piece_bit(GlslPiece::local_frame);
+  const bool stores_feedback = r.program == ShaderProgram::bsvtf_feedback;
+  uint32_t pieces = feedback ? piece_bit(r.piece) : piece_bit(r.piece) | piece_bit(GlslPiece::local_frame);
+  if (stores_feedback) pieces |= piece_bit(GlslPiece::feedback);
   Result<GlslFunctionSource> fn = generate_functions(pieces, t, c);
   if (!fn) return fn.error();
   std::string s;
@@ -1290,19 +1314,22 @@ inline Result<std::string> glsl_program_fragment(const GlslProgramRecipe& r, Gls
   glsl_params_block(s, t);
   glsl_varyings(s, t, "in");
   s += feedback ? "layout(location = 0) out uint btflod_feedback;\n" : "layout(location = 0) out vec4 btflod_color;\n";
+  if (stores_feedback)  // a second render target: no side effects, so early depth tests stay on
+    s += t == GlslTarget::es300 ? "layout(location = 1) out highp uint btflod_feedback;\n"
+                                : "layout(location = 1) out uint btflod_feedback;\n";
   s += fn->code;
   if (feedback) {
     s += "void main() { btflod_feedback = btflod_feedback_word(v_uv); }\n";
     return s;
   }
-  const char* name = shader_program_name(r.program);
+  const char* name = glsl_piece_name(r.piece);
   s += "void main() {\n";
   if (r.raw_view)  // the components once: the raw view is group 0 of what eq. 5 reads (a
                    // separate _raw() call would fetch group 0 twice on SIMD rasterisers)
-    s += format_message(
-        "  vec4 v[btflod_kFmfGroups]; btflod_%s_components(v_uv, v);\n"
-        "  if (btflod.ids.z == 1u) { btflod_color = v[0]; return; }\n",
-        name);
+    s += format_message("  vec4 v[btflod_kFmfGroups]; btflod_%s_components(v_uv, v);\n", name);
+  if (stores_feedback)  // the colour pass's derivatives: no LOD offset (that is for a smaller feedback pass)
+    s += "  btflod_feedback = btflod_feedback_word_at(v_uv, btflod_vt_lambda(v_uv));\n";
+  if (r.raw_view) s += "  if (btflod.ids.z == 1u) { btflod_color = v[0]; return; }\n";
   s += "  vec3 to_eye = normalize(btflod.camera_pos.xyz - v_world_pos);\n"
        "  vec3 to_light = btflod.light.w > 0.5 ? normalize(btflod.light.xyz - v_world_pos)"
        " : normalize(btflod.light.xyz);\n"

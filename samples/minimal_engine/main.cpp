@@ -129,7 +129,8 @@ int main() {
         std::printf("frame %3u: material %u ready (roots and U' loaded)\n", frame, events[i].material);
     uploads += out.tile_upload_count;
     page_writes += out.page_table_write_count;
-    // (the engine renders here: feedback pass + BSVTF pass with the generated shaders)
+    // (the engine renders here: the BSVTF pass with the generated bsvtf_feedback program, whose
+    // colour pass also writes the feedback words read back next frame; docs/shaders.md)
     return Status::success;
   };
   {

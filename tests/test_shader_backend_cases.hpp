@@ -292,6 +292,40 @@ void colour_pass_feedback(Factory make) {
     expect_has_content(colour);
     EXPECT_GE(psnr_rgb(plain, colour), 200.0) << "output 0 of bsvtf_feedback is bsvtf's colour";
   }
+  // A height that is no multiple of the block: 190 rows over 32 texels → blocks of 8 × 6 pixels;
+  // with sample (3, 5) the last texel row asks for pixel row 191, past the screen: empty words.
+  // (λ = 1 still: 2 texels per pixel in x, 256/190 in y.)
+  FrameDesc odd = frame_desc();
+  odd.height = 190;
+  odd.feedback_sample_x = 3;
+  odd.feedback_sample_y = 5;
+  ASSERT_EQ(odd.feedback_block_height(), 6u);
+  ASSERT_EQ(be->begin_frame(odd), Status::success);
+  ASSERT_EQ(be->draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be->end_frame(), Status::success);
+  ASSERT_EQ(be->wait_idle(), Status::success);
+  FeedbackFrame odd_fb;
+  ASSERT_TRUE(be->poll_feedback(odd_fb));
+  ASSERT_EQ(odd_fb.words.size(), 32u * 32u);
+  int odd_covered = 0, odd_mismatches = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) {
+      const int px = 8 * x + 3, py = 6 * y + 5;
+      uint32_t expect = layout.empty_word;
+      if (px >= 64 && px < 192 && py < 190) {
+        glm::vec3 world;
+        glm::vec2 uv;
+        pixel_to_quad(px, py, kSize, 190, 0.5f, world, uv);
+        expect = pack_feedback_word(
+            layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
+        ++odd_covered;
+      }
+      const uint32_t w = odd_fb.words[static_cast<size_t>(y) * 32 + static_cast<size_t>(x)];
+      if (w != expect && ++odd_mismatches <= 5)
+        ADD_FAILURE() << "190 rows, texel (" << x << ", " << y << "): " << std::hex << w << " expected " << expect;
+    }
+  EXPECT_EQ(odd_covered, 16 * 31);
+  EXPECT_EQ(odd_mismatches, 0);
   // The next frame, with neither a feedback pass nor bsvtf_feedback, reads nothing back.
   ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
   ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);

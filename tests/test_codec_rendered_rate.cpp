@@ -4,7 +4,8 @@
 // coefficients fall to zero, the error stays within threshold · step, 0.5 keeps the old bytes —
 // and codec/rendered_rate_control.hpp: the rendered ΔE*ab against an independent CIELAB
 // conversion, and build_bsvtf_rendered equalising the rendered error quantile over tile
-// positions whose sensitivities differ by an order of magnitude (a plain build does not).
+// positions whose sensitivities differ by an order of magnitude (a plain build does not), and the
+// per-block quantiles with the report's block spread.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -273,6 +274,95 @@ TEST(CodecRenderedRate, BuildEqualisesTheRenderedErrorOverPositionsAndDarkTilesG
   ASSERT_TRUE(coarse) << coarse.message();
   EXPECT_FLOAT_EQ(report.target, 3.0f);
   EXPECT_LT(coarse->size(), file->size());
+}
+
+TEST(CodecRenderedRate, BlockQuantilesLocateAnErrorAndTheReportCountsTheSpread) {
+  Material m;
+  const TileLayout layout = m.md.layout();
+  const uint32_t S = layout.stored_size(), per_side = S / kTileBlock;
+  std::vector<std::vector<float>> decoded(m.samples);
+  // Position 0 (the level-0 tile): an error δ in component 0 of block (1, 1) only.
+  const float delta = 0.05f;
+  for (uint32_t y = 8; y < 16; ++y)
+    for (uint32_t x = 8; x < 16; ++x) decoded[0][(size_t{y} * S + x) * 4] += delta;
+  RenderedErrorOptions o;
+  o.quantile = 1.0f;
+  o.direction_samples = 1000;
+  o.view_cosine_power = 0.0f;
+  auto plain = rendered_tile_errors(m.md, m.u, m.tiles, decoded, o);
+  ASSERT_TRUE(plain) << plain.message();
+  EXPECT_TRUE((*plain)[0].block_quantile.empty()) << "block quantiles only when asked for";
+  o.block_quantiles = true;
+  auto err = rendered_tile_errors(m.md, m.u, m.tiles, decoded, o);
+  ASSERT_TRUE(err) << err.message();
+  const std::vector<float>& blocks = (*err)[0].block_quantile;
+  ASSERT_EQ(blocks.size(), size_t{per_side} * per_side);
+  for (uint32_t b = 0; b < blocks.size(); ++b)
+    if (b == per_side + 1) {
+      EXPECT_FLOAT_EQ(blocks[b], (*err)[0].quantile) << "the erroneous block holds the tile's maximum";
+      EXPECT_GT(blocks[b], 0.5f);
+    } else {
+      EXPECT_EQ(blocks[b], 0.0f) << "block " << b << " is exact";
+    }
+  EXPECT_FLOAT_EQ((*err)[0].quantile, (*plain)[0].quantile) << "asking for blocks changes no tile quantile";
+  // build_bsvtf_rendered reports every block of every position once in block_spread; bright and
+  // dark halves of one tile put blocks well below their tile's quantile.
+  for (size_t i = 1; i < m.samples.size(); ++i)
+    for (uint32_t y = 0; y < S; ++y)
+      for (uint32_t x = S / 2; x < S; ++x) m.samples[i][(size_t{y} * S + x) * 4] += 1.5f;
+  BsvtfBuildOptions bo;
+  bo.entropy_coder = TileEntropyCoder::deflate;
+  RenderedRateOptions ro;
+  ro.target_at_quality50 = 1.5f;
+  ro.error.direction_samples = 1000;
+  RenderedRateReport report;
+  auto file = build_bsvtf_rendered(m.md, m.u, m.tiles, bo, ro, &report);
+  ASSERT_TRUE(file) << file.message();
+  size_t counted = 0, far_below = 0;
+  for (size_t k = 0; k < report.block_spread.size(); ++k) {
+    counted += report.block_spread[k];
+    if (k >= 4) far_below += report.block_spread[k];  // Q / q_b ≥ 2
+  }
+  EXPECT_EQ(counted, size_t{per_side} * per_side * 5) << "every block of the 5 positions has interior samples";
+  // 12 of the 45 blocks here (4 without the bright halves: the 16² tiles' border blocks have only
+  // 4 interior samples each, so their quantiles scatter).
+  EXPECT_GE(far_below, 8u) << "the bright blocks must lie well below their tiles' quantile";
+}
+
+TEST(CodecRenderedRate, ADirectionPriorMixesTheCosineModelUnderTheHistogram) {
+  // With every row evaluated (9 rows ≤ direction_samples) the mean ΔE*ab is linear in the
+  // normalised row weights: prior p gives (1 − p) · mean(histogram) + p · mean(cosine model).
+  Material m;
+  std::vector<std::vector<float>> decoded(m.samples);
+  for (size_t i = 0; i < m.md.layout().texel_count(); ++i) decoded[0][i * 4 + 1] += 0.3f;
+  RenderedErrorOptions o;
+  o.direction_samples = 1000;
+  o.view_cosine_power = 1.0f;
+  const auto mean_of = [&](const RenderedErrorOptions& options) {
+    auto r = rendered_tile_errors(m.md, m.u, m.tiles, decoded, options);
+    EXPECT_TRUE(r) << r.message();
+    return r ? (*r)[0].mean : 0.0f;
+  };
+  const float cosine = mean_of(o);
+  const std::vector<float> histogram{0, 0, 0, 0, 0, 0, 0, 4, 0};  // light 2, view 1 only
+  o.direction_weights = histogram;
+  const float seen = mean_of(o);
+  EXPECT_GT(std::fabs(seen - cosine), 0.05f * cosine) << "the fixture must tell the two models apart";
+  o.direction_prior = 0.25f;
+  EXPECT_NEAR(mean_of(o), 0.75f * seen + 0.25f * cosine, 1e-4f * cosine);
+  // Out of range: an error naming the call, for the rendered error and the perceptual scales alike.
+  for (float bad : {-0.1f, 1.0f, std::nanf("")}) {
+    o.direction_prior = bad;
+    auto r = rendered_tile_errors(m.md, m.u, m.tiles, decoded, o);
+    ASSERT_FALSE(r) << bad;
+    EXPECT_EQ(r.error().status, Status::invalid_argument);
+    EXPECT_NE(r.error().message.find("direction prior"), std::string::npos) << r.error().message;
+    PerceptualToleranceOptions po;
+    po.direction_weights = histogram;
+    po.direction_prior = bad;
+    std::vector<BsvtfTileInput> tiles(m.tiles);
+    EXPECT_EQ(perceptual_tolerance_scales(m.md, m.u, tiles, po).error().status, Status::invalid_argument);
+  }
 }
 
 TEST(CodecRenderedRate, HostileOptionsAndSizesAreErrors) {

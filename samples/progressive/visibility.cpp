@@ -30,7 +30,8 @@
 // Usage: btflod-visibility --out DIR [--qualities 5,10,25,50] [--materials N] [--components C]
 //            [--size N] [--repeat R] [--tile T] [--width W] [--height H] [--views V]
 //            [--default-quality] [--per-component-tolerance] [--luminance-tolerance] [--perceptual]
-//            [--weight-quarters Q] [--scene-directions N] [--deflate | --zstd] [--rendered] [--dead-zone T]
+//            [--weight-quarters Q] [--scene-directions N [--scene-prior P]] [--deflate | --zstd] [--rendered]
+//            [--dead-zone T]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
 //            [--doc docs/bsvtf_format.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
@@ -49,7 +50,9 @@
 //                      --dark-floor F, --reference-de E, --gain-power P, --direction-samples N,
 //                      --light-cos-power / --view-cos-power X tune it (library defaults otherwise)
 //   --scene-directions N  (with --perceptual) direction weights from the pixels of N training
-//                      views of the camera path (t = (2j+1)/2N, never the evaluation views)
+//                      views of the camera path (t = (2j+1)/2N, never the evaluation views);
+//                      --scene-prior P mixes the cosine model under them with share P in [0, 1)
+//                      (ViewingConditions::direction_prior)
 //   --weight-quarters Q  frequency weighting JPEG table^(Q/4) (0..4; default 1 with --perceptual
 //                      as btflod-convert build, else 4; BsvtfBuildOptions::weight_quarters)
 //   --default-quality  measure only BsvtfBuildOptions' default quality (btflod-convert build's too)
@@ -219,7 +222,12 @@ bool parse(int argc, char** argv, Options& o) {
       o.rendered = o.perceptual = true;
     } else if (a == "--scene-directions")
       ok = u32(o.scene_direction_views, 1, 64), o.perceptual = true;
-    else if (a == "--direction-samples")
+    else if (a == "--scene-prior" && v) {
+      char* end = nullptr;
+      const float x = std::strtof(argv[++i], &end);
+      ok = *end == '\0' && x >= 0.0f && x < 1.0f;
+      o.perceptual_options.direction_prior = o.rendered_options.error.direction_prior = x;
+    } else if (a == "--direction-samples")
       ok = u32(o.perceptual_options.direction_samples, 1, 1u << 20), o.perceptual = true;
     else if (a == "--luminance-white" && v) {
       char* end = nullptr;
@@ -523,7 +531,16 @@ int main(int argc, char** argv) {
                     static_cast<double>(q), 100.0 * ro.error.quantile, static_cast<double>(rr.target));
         for (size_t pi = 0; pi < rr.pass_max.size(); ++pi)
           std::printf(" %.3f/%.3f", static_cast<double>(rr.pass_max[pi]), static_cast<double>(rr.pass_min[pi]));
-        std::printf("; scales %.3f..%.3f\n", static_cast<double>(rr.min_scale), static_cast<double>(rr.max_scale));
+        std::printf("; scales %.3f..%.3f", static_cast<double>(rr.min_scale), static_cast<double>(rr.max_scale));
+        // RenderedRateReport::block_spread: what a per-block step could gain.
+        size_t blocks = 0;
+        for (size_t n : rr.block_spread) blocks += n;
+        std::printf("; blocks by tile p99 / block p99:");
+        for (size_t k = 0; k < rr.block_spread.size(); ++k)
+          std::printf(" %s%.3g %.1f%%", k < kRenderedBlockSpreadEdges.size() ? "<" : ">=",
+                      static_cast<double>(kRenderedBlockSpreadEdges[std::min(k, kRenderedBlockSpreadEdges.size() - 1)]),
+                      blocks ? 100.0 * static_cast<double>(rr.block_spread[k]) / static_cast<double>(blocks) : 0.0);
+        std::printf("\n");
       }
       if (!file) {
         std::fprintf(stderr, "btflod-visibility: %s\n", file.message().c_str());

@@ -76,6 +76,10 @@ struct ViewingConditions {
   /// model, one entry per angular row in row_order, ≥ 0 and finite, not all 0 —
   /// e.g. accumulated from a renderer's feedback pass with accumulate_direction_weights().
   std::span<const float> direction_weights;
+  /// With direction_weights: the share in [0, 1) of the cosine model mixed under the histogram,
+  /// (1 − prior) · h / Σh + prior · c / Σc, so that pairs a few training views never showed keep
+  /// some weight (needs the cosine model's directions when > 0). 0: the histogram alone.
+  float direction_prior = 0.0f;
 };
 
 /// Options for perceptual_tolerance_scales().
@@ -167,7 +171,11 @@ inline Result<std::pair<std::vector<uint32_t>, std::vector<double>>> sample_view
   std::vector<double> weight(angular, 1.0);
   const size_t L = md.light_directions.size() / 3, V = md.view_directions.size() / 3;
   const bool histogram = !v.direction_weights.empty();
-  const bool cosine = !histogram && (v.light_cosine_power != 0.0f || v.view_cosine_power != 0.0f);
+  if (!(v.direction_prior >= 0.0f && v.direction_prior < 1.0f))
+    return make_error(Status::invalid_argument, "%s: direction prior %g not in [0, 1)", who,
+                      static_cast<double>(v.direction_prior));
+  const bool prior = histogram && v.direction_prior > 0.0f;
+  const bool cosine = (!histogram || prior) && (v.light_cosine_power != 0.0f || v.view_cosine_power != 0.0f);
   if (histogram && v.direction_weights.size() != angular)
     return make_error(Status::invalid_argument, "%s: %zu direction weights for %u angular rows", who,
                       v.direction_weights.size(), angular);
@@ -175,24 +183,35 @@ inline Result<std::pair<std::vector<uint32_t>, std::vector<double>>> sample_view
     return make_error(Status::invalid_argument,
                       "%s: direction weights need %u angular rows = lights × views (have %zu × %zu)", who, angular, L,
                       V);
-  double total = 0;
+  std::vector<double> model(angular, 1.0);  // the cosine model (or 1), the prior under a histogram
+  double total = 0, model_total = 0;
   for (size_t a = 0; a < angular; ++a) {
+    if (cosine) {
+      const bool lm = v.row_order == AngularRowOrder::light_major;
+      const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
+      const double cl = std::max(0.0f, md.light_directions[li * 3 + 2]);
+      const double cv = std::max(0.0f, md.view_directions[vi * 3 + 2]);
+      model[a] = std::pow(cl, v.light_cosine_power) * std::pow(cv, v.view_cosine_power);
+      if (!std::isfinite(model[a])) model[a] = 0;
+    }
+    model_total += model[a];
     if (histogram) {
       const float x = v.direction_weights[a];
       if (!(x >= 0.0f) || !(x < 1e30f))
         return make_error(Status::invalid_argument, "%s: direction weight %zu not finite and >= 0", who, a);
       weight[a] = x;
-    } else if (cosine) {
-      const bool lm = v.row_order == AngularRowOrder::light_major;
-      const size_t li = lm ? a / V : a % L, vi = lm ? a % V : a / L;
-      const double cl = std::max(0.0f, md.light_directions[li * 3 + 2]);
-      const double cv = std::max(0.0f, md.view_directions[vi * 3 + 2]);
-      weight[a] = std::pow(cl, v.light_cosine_power) * std::pow(cv, v.view_cosine_power);
-      if (!std::isfinite(weight[a])) weight[a] = 0;
+    } else {
+      weight[a] = model[a];
     }
     total += weight[a];
   }
   if (!(total > 0)) return make_error(Status::invalid_argument, "%s: every direction has weight 0", who);
+  if (prior) {
+    if (!(model_total > 0)) return make_error(Status::invalid_argument, "%s: the direction prior has weight 0", who);
+    const double p = v.direction_prior;
+    for (size_t a = 0; a < angular; ++a) weight[a] = (1.0 - p) * weight[a] / total + p * model[a] / model_total;
+    total = 1.0;
+  }
   std::vector<uint32_t> rows;
   std::vector<double> row_weight;
   if (samples >= angular) {

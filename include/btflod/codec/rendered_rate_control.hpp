@@ -61,6 +61,9 @@ struct RenderedErrorOptions : ViewingConditions {
   uint32_t texel_stride = 2;
   /// (light, view) pairs sampled (stratified, ≥ 1; every row when it covers them all).
   uint32_t direction_samples = 256;
+  /// Also measure the quantile of every 8×8 block position of the stored tile
+  /// (RenderedTileError::block_quantile).
+  bool block_quantiles = false;
   ThreadPool* pool = nullptr;  ///< nullptr: default_thread_pool()
 };
 
@@ -81,6 +84,9 @@ struct RenderedTileError {
   uint32_t level = 0, x = 0, y = 0;
   float quantile = 0.0f;  ///< the options' quantile of ΔE*ab over the position's samples
   float mean = 0.0f;      ///< mean ΔE*ab
+  /// With RenderedErrorOptions::block_quantiles: the quantile over the samples of each 8×8 block
+  /// position of the stored tile (row-major); 0 for border blocks without samples.
+  std::vector<float> block_quantile{};
 };
 
 /// What build_bsvtf_rendered() did (for reports).
@@ -89,7 +95,16 @@ struct RenderedRateReport {
   std::vector<float> pass_min;               ///< … and the smallest
   float target = 0.0f;                       ///< the target at the build's quality
   float min_scale = 0.0f, max_scale = 0.0f;  ///< range of the per-position tolerance multipliers
+  /// How far each 8×8 block's error quantile q_b lies below its tile position's Q in the final
+  /// build: block positions with Q / q_b below 1.1 (a block may lie above its tile's quantile), in
+  /// [1.1, 1.25), [1.25, 1.5), [1.5, 2), [2, 3) and from 3 (blocks without samples are not counted). It bounds what a
+  /// per-block step could save: a block at Q / q_b = r could take an r× coarser step before it reached its tile's
+  /// quantile.
+  std::array<size_t, 6> block_spread{};
 };
+
+/// The upper edges of RenderedRateReport::block_spread's bins but the last.
+inline constexpr std::array<float, 5> kRenderedBlockSpreadEdges{1.1f, 1.25f, 1.5f, 2.0f, 3.0f};
 
 namespace detail {
 
@@ -178,12 +193,31 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
     at[it->second][id.texture] = i;
   }
   const uint32_t S = layout.stored_size(), B = layout.border, T = layout.tile_size;
+  const uint32_t blocks_per_side = S / kTileBlock;
+  // The weighted quantile of (ΔE, weight) pairs (sorts them); 0 when empty.
+  const auto weighted_quantile = [&](std::vector<std::pair<float, double>>& de, float& mean) {
+    double total = 0, sum = 0;
+    for (const auto& [d, wt] : de) total += wt, sum += wt * d;
+    mean = total > 0 ? static_cast<float>(sum / total) : 0.0f;
+    std::sort(de.begin(), de.end());
+    double acc = 0;
+    float q = de.empty() ? 0.0f : de.back().first;
+    for (const auto& [d, wt] : de)
+      if ((acc += wt) >= o.quantile * total) {
+        q = d;
+        break;
+      }
+    return q;
+  };
   ThreadPool& pool = o.pool ? *o.pool : default_thread_pool();
   pool.parallel_for(0, out.size(), 1, [&](size_t begin, size_t end) {
     std::vector<float> v(C), w(C);
     std::vector<std::pair<float, double>> de;
+    std::vector<std::vector<std::pair<float, double>>> block_de(o.block_quantiles ? blocks_per_side * blocks_per_side
+                                                                                  : 0);
     for (size_t p = begin; p < end; ++p) {
       de.clear();
+      for (auto& b : block_de) b.clear();
       for (uint32_t y = B; y < B + T; y += o.texel_stride)
         for (uint32_t x = B; x < B + T; x += o.texel_stride) {
           const size_t s = (size_t{y} * S + x) * 4;
@@ -201,20 +235,15 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
             const float d = std::sqrt((la[0] - lb[0]) * (la[0] - lb[0]) + (la[1] - lb[1]) * (la[1] - lb[1]) +
                                       (la[2] - lb[2]) * (la[2] - lb[2]));
             de.emplace_back(d, row_weight[j]);
+            if (!block_de.empty())
+              block_de[(y / kTileBlock) * blocks_per_side + x / kTileBlock].emplace_back(d, row_weight[j]);
           }
         }
-      double total = 0, sum = 0;
-      for (const auto& [d, wt] : de) total += wt, sum += wt * d;
-      std::sort(de.begin(), de.end());
-      double acc = 0;
-      float q = de.empty() ? 0.0f : de.back().first;
-      for (const auto& [d, wt] : de)
-        if ((acc += wt) >= o.quantile * total) {
-          q = d;
-          break;
-        }
-      out[p].quantile = q;
-      out[p].mean = total > 0 ? static_cast<float>(sum / total) : 0.0f;
+      out[p].quantile = weighted_quantile(de, out[p].mean);
+      out[p].block_quantile.resize(block_de.size());
+      float block_mean = 0.0f;
+      for (size_t b = 0; b < block_de.size(); ++b)
+        out[p].block_quantile[b] = weighted_quantile(block_de[b], block_mean);
     }
   });
   return out;
@@ -283,7 +312,9 @@ inline Result<std::vector<uint8_t>> build_bsvtf_rendered(const BsvtfMetadata& me
       if (decoder.decode(payload, parent, id.x & 1u, id.y & 1u, decoded[i]) != Status::success)
         return make_error(Status::bad_data, "build_bsvtf_rendered: %s", decoder.message());
     }
-    auto errors = rendered_tile_errors(metadata, u, work, decoded, rate.error);
+    RenderedErrorOptions error_options = rate.error;
+    error_options.block_quantiles = final_build;  // for RenderedRateReport::block_spread
+    auto errors = rendered_tile_errors(metadata, u, work, decoded, error_options);
     if (!errors) return errors.error();
     float lo = 1e30f, hi = 0.0f;
     for (const RenderedTileError& e : *errors) lo = std::min(lo, e.quantile), hi = std::max(hi, e.quantile);
@@ -292,6 +323,13 @@ inline Result<std::vector<uint8_t>> build_bsvtf_rendered(const BsvtfMetadata& me
     if (final_build) {
       rep.min_scale = *std::min_element(scale.begin(), scale.end());
       rep.max_scale = *std::max_element(scale.begin(), scale.end());
+      for (const RenderedTileError& e : *errors)
+        for (float qb : e.block_quantile) {
+          if (!(qb > 0.0f)) continue;
+          const float r = e.quantile / qb;
+          ++rep.block_spread[std::upper_bound(kRenderedBlockSpreadEdges.begin(), kRenderedBlockSpreadEdges.end(), r) -
+                             kRenderedBlockSpreadEdges.begin()];
+        }
       *report = std::move(rep);
       return file;
     }

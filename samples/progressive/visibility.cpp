@@ -267,6 +267,11 @@ bool parse(int argc, char** argv, Options& o) {
     std::fprintf(stderr, "btflod-visibility: --out DIR is required\n");
     return false;
   }
+  if (o.perceptual_options.direction_prior > 0.0f && o.scene_direction_views == 0) {
+    std::fprintf(stderr,
+                 "btflod-visibility: --scene-prior needs --scene-directions (it mixes under their histogram)\n");
+    return false;
+  }
   return true;
 }
 

@@ -365,6 +365,49 @@ TEST(CodecRenderedRate, ADirectionPriorMixesTheCosineModelUnderTheHistogram) {
   }
 }
 
+TEST(CodecRenderedRate, ATexelFootprintAveragesTheErrorAsAMinifiedViewDoes) {
+  Material m;
+  const uint32_t S = m.md.layout().stored_size();
+  RenderedErrorOptions o;
+  o.quantile = 1.0f;
+  o.direction_samples = 1000;
+  o.texel_stride = 2;  // samples start at even texels: a 2 × 2 footprint covers one of each parity
+  const auto quantile_of = [&](const std::vector<std::vector<float>>& decoded, uint32_t footprint) {
+    o.texel_footprint = footprint;
+    auto r = rendered_tile_errors(m.md, m.u, m.tiles, decoded, o);
+    EXPECT_TRUE(r) << r.message();
+    return r ? (*r)[0].quantile : -1.0f;
+  };
+  // A checkerboard error ±δ in component 0 of the level-0 tile: every texel is wrong, every
+  // 2 × 2 mean is exact.
+  std::vector<std::vector<float>> checker(m.samples), constant(m.samples);
+  for (uint32_t y = 0; y < S; ++y)
+    for (uint32_t x = 0; x < S; ++x) {
+      checker[0][(size_t{y} * S + x) * 4] += (x + y) % 2 ? 0.05f : -0.05f;
+      constant[0][(size_t{y} * S + x) * 4] += 0.05f;
+    }
+  EXPECT_GT(quantile_of(checker, 1), 0.5f);
+  EXPECT_NEAR(quantile_of(checker, 2), 0.0f, 1e-3f) << "a 2 × 2 mean cancels a checkerboard";
+  // On a flat tile a constant error survives any footprint (CIELAB is not linear, so the
+  // reference must not change under the mean either).
+  for (uint32_t i = 1; i < S * S; ++i)
+    for (uint32_t c = 0; c < 4; ++c) m.samples[0][i * 4 + c] = m.samples[0][c];
+  constant[0] = m.samples[0];
+  for (uint32_t i = 0; i < S * S; ++i) constant[0][i * 4] += 0.05f;
+  EXPECT_GT(quantile_of(constant, 1), 0.5f);
+  EXPECT_NEAR(quantile_of(constant, 3), quantile_of(constant, 1), 1e-3f * quantile_of(constant, 1));
+  // The footprint must stay inside the stored tile: 1..border + 1.
+  for (uint32_t bad : {0u, m.md.border + 2}) {
+    o.texel_footprint = bad;
+    auto r = rendered_tile_errors(m.md, m.u, m.tiles, constant, o);
+    ASSERT_FALSE(r) << bad;
+    EXPECT_EQ(r.error().status, Status::invalid_argument);
+    EXPECT_NE(r.error().message.find("texel footprint"), std::string::npos) << r.error().message;
+  }
+  o.texel_footprint = m.md.border + 1;
+  EXPECT_TRUE(rendered_tile_errors(m.md, m.u, m.tiles, constant, o));
+}
+
 TEST(CodecRenderedRate, HostileOptionsAndSizesAreErrors) {
   Material m;
   std::vector<std::vector<float>> decoded(m.samples);

@@ -62,8 +62,8 @@
 //                      (codec/rendered_rate_control.hpp): every tile position's tolerances
 //                      rescaled until its texture-space p99 ΔE*ab is the target at the quality;
 //                      --rendered-target X (at quality 50), --rendered-quantile Q,
-//                      --rendered-passes N tune it; with --scene-directions the error is measured
-//                      under the training views' direction histogram
+//                      --rendered-passes N, --rendered-footprint F tune it; with --scene-directions the error is
+//                      measured under the training views' direction histogram
 //   --dead-zone T      AC rounding threshold T in [0.5, 1) (BsvtfBuildOptions::ac_rounding_threshold)
 //   --level-scale S    level l's tolerances × S^(l − finest level) (S > 1: coarser levels finer)
 //   --check            exit 1 unless every listed quality meets the criterion on every material.
@@ -212,6 +212,8 @@ bool parse(int argc, char** argv, Options& o) {
       ok = *end == '\0' && o.level_scale > 0.0f && o.level_scale < 16.0f;
     } else if (a == "--rendered")
       o.rendered = o.perceptual = true;
+    else if (a == "--rendered-footprint")
+      ok = u32(o.rendered_options.error.texel_footprint, 1, 5), o.rendered = o.perceptual = true;
     else if (a == "--rendered-passes")
       ok = u32(o.rendered_options.passes, 0, 16), o.rendered = o.perceptual = true;
     else if ((a == "--rendered-target" || a == "--rendered-quantile") && v) {

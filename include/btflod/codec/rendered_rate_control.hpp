@@ -66,6 +66,10 @@ struct RenderedErrorOptions : ViewingConditions {
   uint32_t texel_stride = 2;
   /// (light, view) pairs sampled (stratified, ≥ 1; every row when it covers them all).
   uint32_t direction_samples = 256;
+  /// Texels averaged per sample, in x and y (1..B + 1): 1 renders each sampled texel; F renders
+  /// the mean of the F × F texels from it (reference and decoded alike), as a minified view
+  /// averages neighbouring texels' errors.
+  uint32_t texel_footprint = 1;
   /// Also measure the quantile of every 8×8 block position of the stored tile
   /// (RenderedTileError::block_quantile).
   bool block_quantiles = false;
@@ -166,6 +170,9 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
     if (reference[i].samples.size() != layout.sample_count() || decoded[i].size() != layout.sample_count() ||
         !reference[i].id.valid() || reference[i].id.texture >= metadata.texture_count())
       return make_error(Status::invalid_argument, "rendered_tile_errors: tile %zu has a bad id or size", i);
+  if (o.texel_footprint < 1 || o.texel_footprint > layout.border + 1)
+    return make_error(Status::invalid_argument, "rendered_tile_errors: texel footprint %u not in 1..%u (border + 1)",
+                      o.texel_footprint, layout.border + 1);
   if (!std::all_of(u.begin(), u.end(), [](float v) { return std::isfinite(v); }))
     return make_error(Status::invalid_argument, "rendered_tile_errors: U is not finite");
   const uint32_t angular = metadata.u_rows / channels;
@@ -228,8 +235,21 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
           const size_t s = (size_t{y} * S + x) * 4;
           for (uint32_t c = 0; c < C; ++c) {
             const size_t t = at[p][c / 4];
-            v[c] = t == SIZE_MAX ? 0.0f : reference[t].samples[s + c % 4];
-            w[c] = t == SIZE_MAX ? 0.0f : decoded[t][s + c % 4];
+            if (t == SIZE_MAX) {
+              v[c] = w[c] = 0.0f;
+            } else if (o.texel_footprint == 1) {
+              v[c] = reference[t].samples[s + c % 4];
+              w[c] = decoded[t][s + c % 4];
+            } else {  // the mean over footprint² texels from (x, y): what a minified view averages
+              float a = 0.0f, b = 0.0f;
+              for (uint32_t dy = 0; dy < o.texel_footprint; ++dy)
+                for (uint32_t dx = 0; dx < o.texel_footprint; ++dx) {
+                  const size_t f = ((size_t{y} + dy) * S + x + dx) * 4 + c % 4;
+                  a += reference[t].samples[f], b += decoded[t][f];
+                }
+              const float inv = 1.0f / static_cast<float>(o.texel_footprint * o.texel_footprint);
+              v[c] = a * inv, w[c] = b * inv;
+            }
           }
           for (uint32_t j = 0; j < nd; ++j) {
             const float* row = &ud[size_t{j} * 3 * C];

@@ -206,11 +206,12 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
   }
   const uint32_t S = layout.stored_size(), B = layout.border, T = layout.tile_size;
   const uint32_t blocks_per_side = S / kTileBlock;
-  // The weighted quantile of (ΔE, weight) pairs (sorts them); 0 when empty.
-  const auto weighted_quantile = [&](std::vector<std::pair<float, double>>& de, float& mean) {
+  // The weighted quantile of (ΔE, weight) pairs (sorts them), and their weighted mean when `mean`
+  // is not null; 0 when empty.
+  const auto weighted_quantile = [&](std::vector<std::pair<float, double>>& de, float* mean) {
     double total = 0, sum = 0;
     for (const auto& [d, wt] : de) total += wt, sum += wt * d;
-    mean = total > 0 ? static_cast<float>(sum / total) : 0.0f;
+    if (mean) *mean = total > 0 ? static_cast<float>(sum / total) : 0.0f;
     std::sort(de.begin(), de.end());
     double acc = 0;
     float q = de.empty() ? 0.0f : de.back().first;
@@ -232,16 +233,12 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
       for (auto& b : block_de) b.clear();
       for (uint32_t y = B; y < B + T; y += o.texel_stride)
         for (uint32_t x = B; x < B + T; x += o.texel_stride) {
-          const size_t s = (size_t{y} * S + x) * 4;
           for (uint32_t c = 0; c < C; ++c) {
             const size_t t = at[p][c / 4];
             if (t == SIZE_MAX) {
               v[c] = w[c] = 0.0f;
-            } else if (o.texel_footprint == 1) {
-              v[c] = reference[t].samples[s + c % 4];
-              w[c] = decoded[t][s + c % 4];
             } else {  // the mean over footprint² texels from (x, y): what a minified view averages
-              float a = 0.0f, b = 0.0f;
+              float a = 0.0f, b = 0.0f;  // (footprint 1: exactly the texel's values)
               for (uint32_t dy = 0; dy < o.texel_footprint; ++dy)
                 for (uint32_t dx = 0; dx < o.texel_footprint; ++dx) {
                   const size_t f = ((size_t{y} + dy) * S + x + dx) * 4 + c % 4;
@@ -264,11 +261,9 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
               block_de[(y / kTileBlock) * blocks_per_side + x / kTileBlock].emplace_back(d, row_weight[j]);
           }
         }
-      out[p].quantile = weighted_quantile(de, out[p].mean);
+      out[p].quantile = weighted_quantile(de, &out[p].mean);
       out[p].block_quantile.resize(block_de.size());
-      float block_mean = 0.0f;
-      for (size_t b = 0; b < block_de.size(); ++b)
-        out[p].block_quantile[b] = weighted_quantile(block_de[b], block_mean);
+      for (size_t b = 0; b < block_de.size(); ++b) out[p].block_quantile[b] = weighted_quantile(block_de[b], nullptr);
     }
   });
   return out;

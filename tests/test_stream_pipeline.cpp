@@ -473,7 +473,12 @@ TEST(StreamPipeline, StressWithRandomFaultsNeverDeliversWrongData) {
   std::mt19937 rng(3);
   const auto tiles = all_tiles();
   Collected c;
-  for (int frame = 0; frame < 300; ++frame) {
+  // 300 random frames at least; then random frames go on until the pipeline has delivered and
+  // read enough for the checks below, so a slow machine (sanitisers, a loaded CI) takes longer
+  // instead of failing. A pipeline that stops delivering still fails, at the deadline.
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  const auto enough = [&] { return c.order.size() > 20u && p.value()->progress().fetches >= 25u; };
+  for (int frame = 0; frame < 300 || (!enough() && std::chrono::steady_clock::now() < deadline); ++frame) {
     std::vector<StreamItem> wanted;
     const size_t n = rng() % 12;
     for (size_t i = 0; i < n; ++i) wanted.push_back(tiles[rng() % tiles.size()]);

@@ -6,7 +6,8 @@
 #       every tile, so both tile formats are served), stages the site and serves it with nginx on
 #       127.0.0.1 until Ctrl-C.
 #   run_web.sh test --tool BTFLOD_WEB_TOOL --work DIR [--reduced | --bench-only]
-#       the same site, then the browser driver (test/driver.mjs: chromium headless through
+#       the same site, the engine runtime in wasm under Node (test/node_streamer.mjs), then the
+#       browser driver (test/driver.mjs: chromium headless through
 #       puppeteer-core) and the checks; exit 77 (skipped) when emcc, chromium, nginx or node are
 #       missing. nginx runs with a private prefix and config; it is stopped on exit.
 set -euo pipefail
@@ -47,8 +48,9 @@ if [ ! -f "$WEB_BUILD/CMakeCache.txt" ]; then
   emcmake cmake -S "$HERE/client" -B "$WEB_BUILD" -DCMAKE_BUILD_TYPE=Release -DBTFLOD_WEB_THIRD_PARTY="$WEB_BUILD/third_party" \
     -DCMAKE_CROSSCOMPILING_EMULATOR="/usr/bin/node;--no-experimental-fetch" >/dev/null
 fi
-# The reduced (CI) run builds the page's module only; the full run adds the libdeflate twin.
-if [ "$REDUCED" = 1 ]; then targets=(--target btflod_web); else targets=(); fi
+# The reduced (CI) run builds the page's module and the Streamer module; the full run adds the
+# libdeflate twin.
+if [ "$REDUCED" = 1 ]; then targets=(--target btflod_web btflod_web_streamer); else targets=(); fi
 cmake --build "$WEB_BUILD" -j "${BTFLOD_JOBS:-2}" "${targets[@]}" >/dev/null
 
 # 2. The site: page, client, wasm, materials (+ corrupted copies for the fault test).
@@ -111,8 +113,15 @@ if [ "$mode" = serve ]; then
   exit 0
 fi
 
-# 4. Browser test.
+# 4. The engine runtime in wasm under Node (no browser): every material in one Streamer with
+#    JavaScript-owned, out-of-order, failing and damaged reads (test/node_streamer.mjs).
 TEST=$HERE/test
+if [ -z "$BENCH_ONLY" ]; then
+  node --no-experimental-fetch "$TEST/node_streamer.mjs" "$WEB_BUILD/btflod_web_streamer.js" "$SITE"/data/*.bsvtf ||
+    { echo "btflod web: the Streamer in WebAssembly FAILED"; exit 1; }
+fi
+
+# 5. Browser test.
 if [ ! -d "$TEST/node_modules/puppeteer-core" ]; then
   (cd "$TEST" && PUPPETEER_SKIP_DOWNLOAD=1 npm install --no-audit --no-fund --silent >/dev/null 2>&1) || {
     echo "btflod web: SKIPPED, npm could not install puppeteer-core into $TEST/node_modules"

@@ -42,7 +42,7 @@ void check_scatter(AngularRowOrder order) {
     std::vector<float> packet(static_cast<size_t>(md.u_rows) * 4);
     for (size_t r = 0; r < md.u_rows; ++r)
       for (uint32_t k = 0; k < 4; ++k) packet[r * 4 + k] = u_value(r, 4 * g + k);
-    web::scatter_u_packet(md, g, packet, rgba, u);
+    web::scatter_u_packet(md, g, packet, rgba, u, md.u_row_order);
   }
   for (uint32_t l = 0; l < L; ++l)
     for (uint32_t v = 0; v < V; ++v)

@@ -1,19 +1,23 @@
 // btflod web client — the runtime half of the browser viewer, compiled to WebAssembly with
-// emscripten: container directories (codec/container.hpp), payload verification (CRC-32), the
-// tile decoder (codec/tile_codec.hpp: zstd tiles — tile format 3, the default coder — through
-// zstd's decompressor, deflate tiles — format 2 — through zlib or libdeflate; all three built
-// from Debian's sources), feedback
-// votes (lod/feedback.hpp), the tile cache and page tables (vt/tile_cache.hpp,
-// backend/page_table_writes.hpp), the scheduler with U' packet streaming (vt/scheduler.hpp,
-// paper 000 §5–6) and the GLSL ES 3.00 programs (shader/glsl_generator.hpp).
+// emscripten. Streaming is the engine runtime itself: one Streamer (runtime/streamer.hpp, the
+// object native engines use) over every material, its reads handed to JavaScript through
+// js_read_queue.hpp. The Streamer verifies payloads (size, CRC-32), decodes tiles against their
+// parent chains (codec/tile_codec.hpp: zstd tiles — tile format 3, the default coder — and
+// deflate tiles — format 2 — through zlib or libdeflate, all built from Debian's sources),
+// counts the feedback votes, runs the scheduler with U′ packet streaming (paper 000 §5–6) and
+// emits tile uploads and page-table writes. This file adds what the page needs around it: the
+// angular lookup tables and the U′ texture layout (web_material.hpp), the GLSL ES 3.00 programs
+// (shader/glsl_generator.hpp), and paper 004's fixed component order for comparison, which
+// bypasses the scheduler and so has its own small cache.
 //
-// JavaScript (www/btflod_client.js) owns I/O and the GPU: it fetches byte ranges with `Range:`,
-// hands verified-or-not bytes to bw_deliver(), uploads what bw_apply_uploads() reports and
-// draws with WebGL 2. The C interface below passes plain integers and pointers into the wasm
-// heap; every function returns a status (0 = success) or a count, and bw_last_error() holds the
-// message of the last failure. Untrusted bytes (directories, payloads) are checked by the
-// library's readers: a corrupt payload is refused before it is decoded, never uploaded.
-// Single-threaded (the browser's main thread); nothing allocates per frame after bw_start().
+// JavaScript (www/btflod_client.js) owns I/O and the GPU: per frame it hands the feedback words
+// to bw_frame(), uploads what that released, fetches the byte ranges bw_reads() lists with
+// `Range:` and reports each with bw_complete_read(). The C interface passes plain integers and
+// pointers into the wasm heap; every function returns a status (0 = success) or a count, and
+// bw_last_error() holds the message of the last failure. Untrusted bytes (directories,
+// payloads) are checked by the library's readers: a corrupt payload is refused before it is
+// decoded, never uploaded. Single-threaded (the browser's main thread): decode jobs run in
+// bw_frame() through Streamer::pump(); nothing allocates per frame after bw_start().
 // This is the program's one implementation translation unit (btflod.hpp: the non-inline code of
 // the headers it includes — CRC-32, inflate back ends, half conversion, dispatch — is compiled
 // here). Only runtime headers are included, so no Eigen or offline code enters the module.
@@ -21,7 +25,7 @@
 #include <emscripten/emscripten.h>
 
 #include <algorithm>
-#include <chrono>
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -35,10 +39,11 @@
 #include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/lod/feedback.hpp"
+#include "btflod/runtime/streamer.hpp"
 #include "btflod/shader/glsl_generator.hpp"
-#include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/vt_layout.hpp"
+#include "js_read_queue.hpp"
 #include "web_material.hpp"
 
 namespace btflod::web {
@@ -49,8 +54,7 @@ enum Code : int {
   kBadArgument = 1,   ///< unknown id, call out of order
   kCorrupt = 2,       ///< payload failed its size/CRC check: fetch again
   kDecodeFailed = 3,  ///< verified payload that does not decode (or its parent is missing)
-  kBusy = 4,          ///< decoding budget full: deliver again later
-  kFailed = 5,        ///< set-up failure, see bw_last_error()
+  kFailed = 5,        ///< set-up failure, see bw_last_error() (4 is reserved)
 };
 
 struct ClientMaterial {
@@ -58,20 +62,16 @@ struct ClientMaterial {
   AngularTextures angular;
   std::vector<float> u_rgba;  ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
   std::vector<float> u;       ///< U row-major (row · C + c), for the CPU side
-  uint32_t set_index = 0;
-  uint32_t packets_loaded = 0;  ///< U' packets delivered (in order)
-  /// Per (flat tile · K + local texture): arena slot of the decoded tile, or kNotDecoded.
-  std::vector<uint32_t> decoded_slot;
-  /// Per (flat tile · K + local texture): the verified payload (compressed, ~1/10 of the decoded
-  /// size), kept to decode the tile again when a child needs it after the arena evicted it.
-  std::vector<std::vector<uint8_t>> payloads;
-  std::vector<uint8_t> delivered;  ///< per (local texture, flat tile): delivered at least once
+  uint32_t packets_loaded = 0;     ///< U′ packets uploaded (the highest g + 1)
+  std::vector<uint8_t> delivered;  ///< per (local texture, flat tile): uploaded at least once
   double weight_total = 0, weight_delivered = 0;
+  /// (offset, size, CRC-32) of every payload, by offset: lets the page check bytes it keeps.
+  std::vector<std::array<uint64_t, 3>> payload_index;
 };
 
-/// One entry of the request list JavaScript reads (all uint32 for a flat Uint32Array view).
+/// One item of the fixed component order (all uint32 for a flat Uint32Array view).
 struct RequestInfo {
-  uint32_t id;  ///< scheduler request id, or kRootBase + root index
+  uint32_t id;  ///< kOrderBase + position in the order
   uint32_t material;
   uint32_t kind;            ///< 0 tile, 1 U' packet
   uint32_t key_lo, key_hi;  ///< local tile key (kind 0) or packet index (kind 1)
@@ -79,7 +79,7 @@ struct RequestInfo {
   uint32_t size;
 };
 
-/// One upload JavaScript performs after bw_apply_uploads().
+/// One upload JavaScript performs after bw_frame() (or an ordered delivery).
 struct UploadInfo {
   uint32_t kind;  ///< 0 tile into `slot`, 1 U' packet (re-upload layers of `material`)
   uint32_t slot;
@@ -93,52 +93,48 @@ struct PageWrite {
   uint32_t layer, mip, x, y, entry;
 };
 
-inline constexpr uint32_t kRootBase = 0x40000000u;
-inline constexpr uint32_t kNotDecoded = 0xffffffffu;
 inline constexpr uint32_t kOrderBase = 0x50000000u;
+
+/// Paper 004 §5's order for comparison: component group by group (U′ packet g, then every tile
+/// of virtual texture g coarse to fine), material after material, no feedback. Every tile keeps
+/// its slot and its decoded samples (the children's parents), so the cache must hold them all.
+struct FixedOrder {
+  VtSet set;
+  std::unique_ptr<TileCache> cache;
+  std::vector<std::unique_ptr<TileDecoder>> decoders;  // one per material
+  std::vector<RequestInfo> items;
+  std::vector<std::vector<float>> decoded;  // per (material base + flat · K + local texture)
+  std::vector<uint32_t> material_base;
+  std::vector<uint16_t> staging;  // half texels of deliveries until JavaScript uploaded them
+  std::vector<uint8_t> dirty;     // per global texture: page table to write again
+};
 
 class Client {
  public:
   std::string error;
   std::vector<std::unique_ptr<ClientMaterial>> materials;
-  VtSet set;
-  std::unique_ptr<TileCache> cache;
-  std::unique_ptr<Scheduler> scheduler;
-  std::unique_ptr<VoteCounter> votes;
-  std::unique_ptr<TileDecoder> decoder;
   TileLayout layout{};
-  uint32_t finest_level = 0;
   uint32_t angular_resolution = 32;
+  uint32_t decoded_cache_tiles = 16;
   ShaderConfig base_config;
-  // Decoded tiles (the parents of later tiles): an LRU arena of decoded_capacity slots, not one
-  // copy per tile of every material. Roots (level 0) are never evicted; an evicted ancestor is
-  // decoded again from its kept payload when a child needs it (redecodes).
-  std::vector<float> arena;
-  uint32_t decoded_capacity = 256;
-  std::vector<uint64_t> arena_stamp;                              // last use; 0 = free
-  std::vector<std::pair<ClientMaterial*, uint32_t>> arena_owner;  // (material, tile entry)
-  std::vector<uint8_t> arena_pinned;                              // roots
-  uint64_t arena_clock = 0;
-  uint64_t evictions = 0, redecodes = 0;
-  std::vector<uint16_t> staging;      // half texels per request id (+ roots at the end)
-  std::vector<float> packet_scratch;  // one unpacked U' packet
-  std::vector<RequestInfo> requests;  // this frame's new requests
-  std::vector<RequestInfo> roots;     // pinned root tiles, fetched before streaming
-  std::vector<UploadInfo> uploads;
-  std::vector<uint32_t> pending_root_uploads;
-  std::vector<PageTableWrite> writes;
-  std::vector<PageWrite> page_writes;
-  std::vector<uint8_t> slot_used;
-  std::vector<TileId> slot_tiles;
-  std::vector<uint8_t> root_decoded;
   std::string shader_text;
-  std::vector<RequestInfo> order;       // fixed component-by-component order (comparison)
-  std::vector<uint16_t> order_staging;  // half texels of ordered deliveries until uploaded
+  // The engine runtime and its I/O.
+  std::unique_ptr<JsReadQueue> read_queue;
+  std::vector<std::unique_ptr<JsSource>> sources;
+  Streamer streamer;
+  std::vector<StreamerTileUpload> tile_uploads;
+  std::vector<StreamerPacketUpload> packet_uploads;
+  std::vector<PageTableWrite> table_writes;
+  std::vector<ResidencyEvent> events;
+  uint64_t refused = 0;  ///< payloads the runtime refused (size/CRC mismatch): fetched again
+  uint64_t failed = 0;   ///< other failed reads or decodes
+  // What JavaScript applies next.
+  std::vector<UploadInfo> uploads;
+  std::vector<PageWrite> page_writes;
+  std::vector<float> packet_scratch;  // one U′ packet as floats
+  std::unique_ptr<FixedOrder> order;
   uint64_t frame = 0;
   bool started = false;
-  bool full_rewrite = true;
-  double decode_us_total = 0;
-  uint64_t decodes = 0;
 
   int fail(Code c, std::string message) {
     error = std::move(message);
@@ -146,105 +142,85 @@ class Client {
   }
 
   int add_material(std::span<const uint8_t> directory, uint64_t file_size) {
-    if (started) return fail(kBadArgument, "add_material after start");
+    if (started) return -fail(kBadArgument, "add_material after start");
     auto d = parse_bsvtf_directory(directory, file_size);
-    if (!d) return fail(kFailed, d.message());
-    if (auto e = check_u_layout(d->metadata); !e) return fail(kFailed, e.message());
+    if (!d) return -fail(kFailed, d.message());
+    if (auto e = check_u_layout(d->metadata); !e) return -fail(kFailed, e.message());
     auto m = std::make_unique<ClientMaterial>();
     m->dir = std::move(*d);
     const BsvtfMetadata& md = m->dir.metadata;
     if (!materials.empty() && (md.tile_size != layout.tile_size || md.border != layout.border))
-      return fail(kFailed, "every material of one page must share tile size and border");
+      return -fail(kFailed, "every material of one page must share tile size and border");
     layout = md.layout();
     auto a = build_angular_textures(md, angular_resolution);
-    if (!a) return fail(kFailed, a.message());
+    if (!a) return -fail(kFailed, a.message());
     m->angular = std::move(*a);
     const size_t lights = md.light_directions.size() / 3, views = md.view_directions.size() / 3;
     m->u_rgba.assign(lights * views * md.component_count * 4, 0.0f);
     m->u.assign(static_cast<size_t>(md.u_rows) * md.component_count, 0.0f);
+    for (const BsvtfTileEntry& e : m->dir.tiles) {
+      m->weight_total += e.weight;
+      m->payload_index.push_back({e.offset, e.size, e.crc});
+    }
+    for (const BsvtfPacketEntry& p : m->dir.packets) m->payload_index.push_back({p.offset, p.size, p.crc});
+    std::sort(m->payload_index.begin(), m->payload_index.end());
     materials.push_back(std::move(m));
     return static_cast<int>(materials.size() - 1);
   }
 
+  // The Streamer over every material (paper 000 §5–6: P = w·v, budgets in payload bytes, U′
+  // columns streamed by priority when stream_u), with JavaScript-owned reads.
   int start(uint32_t slots_x, uint32_t slots_y, uint32_t feedback_shift, uint32_t uploads_per_frame,
             uint32_t requests_in_flight, bool stream_u) {
     if (started || materials.empty()) return fail(kBadArgument, "start: no materials or already started");
-    for (auto& m : materials) {
-      const BsvtfMetadata& md = m->dir.metadata;
-      m->set_index =
-          set.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
-      const VtMaterial& vm = set.material(m->set_index);
-      finest_level = std::max(finest_level, vm.levels.finest_level());
-      // Paper 000 eq. 8 weights w from the tile index (the scheduler's priority P = w·v).
-      const size_t tiles = vm.levels.tile_count();
-      m->decoded_slot.assign(tiles * vm.texture_count, kNotDecoded);
-      m->payloads.assign(tiles * vm.texture_count, {});
-      m->delivered.assign(tiles * vm.texture_count, 0);
-      for (const BsvtfTileEntry& e : m->dir.tiles) {
-        if (e.id.texture >= vm.texture_count) continue;
-        const uint32_t flat = vm.levels.index(e.id);
-        set.weights(vm.first_texture + e.id.texture)[flat] = Half(e.weight);
-        m->weight_total += e.weight;
-      }
-    }
-    auto c = TileCache::create(set, TileCacheConfig{slots_x, slots_y, 1u << 16});
-    if (!c) return fail(kFailed, c.message());
-    cache = std::make_unique<TileCache>(std::move(*c));
-    SchedulerConfig sc;
-    sc.budgets.uploads_per_frame = uploads_per_frame;
-    sc.budgets.requests_in_flight = requests_in_flight;
-    sc.budgets.tiles_decoding = requests_in_flight;  // decoding is synchronous in bw_deliver
-    sc.budgets.bytes_in_flight = 64ull << 20;
-    sc.tile_bytes = layout.sample_count() * 2;
-    sc.stream_u_columns = stream_u;
+    if (feedback_shift > 4 || uploads_per_frame == 0 || requests_in_flight == 0)
+      return fail(kBadArgument, "start: feedback shift above 4 or a zero budget");
+    StreamerConfig config;
+    config.cache = CacheConfig{slots_x, slots_y, 1u << 16, layout.tile_size, layout.border, 1};
+    config.scheduler.budgets.uploads_per_frame = uploads_per_frame;
+    config.scheduler.budgets.requests_in_flight = requests_in_flight;
+    config.scheduler.budgets.tiles_decoding = requests_in_flight;  // jobs run within bw_frame
+    config.scheduler.budgets.bytes_in_flight = 64ull << 20;
+    config.scheduler.stream_u_columns = stream_u;
     // Over HTTP the request budget is hit on every frame of the initial load; the global LOD bias
     // that overload raises should fall again within a few frames, not 30, once the link is idle.
-    sc.calm_frames = 5;
-    sc.u_packet_bytes = materials[0]->dir.packets.empty() ? 1 : materials[0]->dir.packets[0].size;
-    auto s = Scheduler::create(*cache, sc);
+    config.scheduler.calm_frames = 5;
+    config.vote_window_frames = 1u << (2 * feedback_shift);
+    config.decoded_cache_tiles = decoded_cache_tiles;
+    // One recorded read per job at a time at most: tile jobs, roots and packets.
+    read_queue = std::make_unique<JsReadQueue>(static_cast<size_t>(requests_in_flight) * (kMaxTileLevel + 1) +
+                                               config.root_jobs + config.packet_jobs);
+    std::vector<StreamerMaterial> list;
+    for (uint32_t m = 0; m < materials.size(); ++m) {
+      sources.push_back(std::make_unique<JsSource>(*read_queue, m));
+      StreamerMaterial sm;
+      sm.directory = &materials[m]->dir;
+      sm.async_source = sources.back().get();
+      list.push_back(sm);
+    }
+    auto s = Streamer::create(list, config);
     if (!s) return fail(kFailed, s.message());
-    scheduler = std::make_unique<Scheduler>(std::move(*s));
-    // Requests count their real payload sizes against bytes_in_flight.
-    for (auto& m : materials) {
-      const VtMaterial& vm = set.material(m->set_index);
-      for (const BsvtfTileEntry& e : m->dir.tiles)
-        if (e.id.texture < vm.texture_count)
-          scheduler->set_tile_bytes(vm.first_texture + e.id.texture, vm.levels.index(e.id), e.size);
-    }
-    votes = std::make_unique<VoteCounter>(vote_layouts(set), VoteWindowConfig{1u << (2 * feedback_shift), 0});
-    decoder = std::make_unique<TileDecoder>(layout);
-    // Decoded parents: a bounded LRU arena. A decode needs its ancestors (at most finest_level
-    // of them) resident at once, and roots stay: the capacity is raised to cover both.
-    size_t max_rows = 0, root_count = 0;
-    for (auto& m : materials) {
-      max_rows = std::max<size_t>(max_rows, m->dir.metadata.u_rows);
-      root_count += set.material(m->set_index).texture_count;
-    }
-    decoded_capacity = std::max<uint32_t>(decoded_capacity, static_cast<uint32_t>(root_count) + finest_level + 4);
-    arena.assign(static_cast<size_t>(decoded_capacity) * layout.sample_count(), 0.0f);
-    arena_stamp.assign(decoded_capacity, 0);
-    arena_owner.assign(decoded_capacity, {nullptr, 0});
-    arena_pinned.assign(decoded_capacity, 0);
+    streamer = std::move(*s);
+    for (uint32_t m = 0; m < materials.size(); ++m)
+      materials[m]->delivered.assign(
+          static_cast<size_t>(streamer.cache().set().levels_of(streamer.first_texture(m)).tile_count()) *
+              streamer.texture_count(m),
+          0);
+    tile_uploads.resize(streamer.tile_uploads_bound());
+    packet_uploads.resize(streamer.packet_uploads_bound());
+    table_writes.resize(4096);
+    events.resize(256);
+    uploads.reserve(tile_uploads.size() + packet_uploads.size());
+    page_writes.reserve(table_writes.size());
+    size_t max_rows = 0;
+    for (auto& m : materials) max_rows = std::max<size_t>(max_rows, m->dir.metadata.u_rows);
     packet_scratch.assign(max_rows * 4, 0.0f);
-    // Roots: pinned, fetched first (one per virtual texture).
-    for (uint32_t mi = 0; mi < materials.size(); ++mi) {
-      const ClientMaterial& m = *materials[mi];
-      for (uint32_t k = 0; k < set.material(m.set_index).texture_count; ++k) {
-        const BsvtfTileEntry* e = m.dir.find(TileId{k, 0, 0, 0});
-        if (!e) return fail(kFailed, "container without a root tile");
-        roots.push_back(
-            make_info(kRootBase + static_cast<uint32_t>(roots.size()), mi, 0, e->id.key(), e->offset, e->size));
-      }
-    }
-    root_decoded.assign(roots.size(), 0);
-    staging.assign((static_cast<size_t>(requests_in_flight) + roots.size()) * layout.sample_count(), 0);
-    requests.reserve(requests_in_flight);
-    uploads.reserve(requests_in_flight + roots.size());
-    slot_used.assign(cache->slot_count(), 0);
-    slot_tiles.assign(cache->slot_count(), TileId{});
     base_config.angular.resolution = angular_resolution;
     base_config.angular.parameterisation = DirectionParameterisation::parabolic;
     base_config.angular.lookup = AngularLookup::barycentric;
+    uint32_t finest_level = 0;
+    for (uint32_t m = 0; m < materials.size(); ++m)
+      finest_level = std::max(finest_level, streamer.cache().set().levels_of(streamer.first_texture(m)).finest_level());
     base_config.vt.tile_size = layout.tile_size;
     base_config.vt.border = layout.border;
     base_config.vt.slots_x = slots_x;
@@ -256,9 +232,112 @@ class Client {
     return kOk;
   }
 
-  static RequestInfo make_info(uint32_t id, uint32_t material, uint32_t kind, uint64_t key, uint64_t offset,
-                               uint32_t size) {
-    return RequestInfo{id,
+  uint32_t material_of_texture(uint32_t texture) const noexcept {
+    for (uint32_t m = 0; m < materials.size(); ++m)
+      if (texture >= streamer.first_texture(m) && texture < streamer.first_texture(m) + streamer.texture_count(m))
+        return m;
+    return 0;
+  }
+
+  // Σ w of the tiles uploaded at least once (the page's quality estimate without a reference).
+  void count_delivered(ClientMaterial& m, const VtLevelTable& levels, uint32_t texture_count, TileId local) {
+    uint8_t& seen = m.delivered[static_cast<size_t>(levels.index(local)) * texture_count + local.texture];
+    if (seen) return;
+    seen = 1;
+    if (const BsvtfTileEntry* e = m.dir.find(local)) m.weight_delivered += e->weight;
+  }
+
+  // U′ packet g of material `mi` (halves, light-major rows) into the material's U′ texture.
+  void load_packet(uint32_t mi, uint32_t g, std::span<const uint16_t> halves) {
+    ClientMaterial& m = *materials[mi];
+    const std::span<float> packet(packet_scratch.data(), halves.size());
+    for (size_t i = 0; i < halves.size(); ++i) packet[i] = half_bits_to_float(halves[i]);
+    scatter_u_packet(m.dir.metadata, g, packet, m.u_rgba, m.u, AngularRowOrder::light_major);
+    m.packets_loaded = std::max(m.packets_loaded, g + 1);
+    uploads.push_back(UploadInfo{1, 0, mi, g, 0});
+  }
+
+  // One frame of the Streamer: the decode jobs whose bytes arrived run, then update() with this
+  // frame's feedback words. Its outputs become uploads and page writes for JavaScript (valid
+  // until the next bw_frame). Returns the number of new reads (bw_reads()).
+  int frame_update(std::span<const uint32_t> words) {
+    if (!started) return -fail(kBadArgument, "frame before start");
+    if (order) return -fail(kBadArgument, "frame in the fixed component order");
+    streamer.pump();
+    StreamerOutputs out{tile_uploads, packet_uploads, table_writes, events};
+    if (streamer.update(words, out) != Status::success) return -fail(kFailed, "update failed");
+    ++frame;
+    uploads.clear();
+    page_writes.clear();
+    for (size_t i = 0; i < out.tile_upload_count; ++i) {
+      const StreamerTileUpload& u = tile_uploads[i];
+      const uint32_t mi = material_of_texture(u.tile.texture);
+      const uint32_t first = streamer.first_texture(mi);
+      const TileId local{u.tile.texture - first, u.tile.level, u.tile.x, u.tile.y};
+      count_delivered(*materials[mi], streamer.cache().set().levels_of(u.tile.texture), streamer.texture_count(mi),
+                      local);
+      uploads.push_back(
+          UploadInfo{0, u.slot, mi, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.texels.data()))});
+    }
+    for (size_t i = 0; i < out.packet_upload_count; ++i)
+      load_packet(packet_uploads[i].material, packet_uploads[i].packet, packet_uploads[i].halves);
+    for (size_t i = 0; i < out.page_table_write_count; ++i) {
+      const PageTableWrite& w = table_writes[i];
+      page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
+    }
+    for (size_t i = 0; i < out.event_count; ++i) {
+      const ResidencyEvent& e = events[i];
+      if (e.kind != ResidencyEventKind::tile_failed && e.kind != ResidencyEventKind::packet_failed) continue;
+      ++(e.status == Status::bad_data ? refused : failed);
+    }
+    return static_cast<int>(read_queue->take());
+  }
+
+  void complete_read(uint64_t ticket, uint32_t status) {
+    if (!started) return;
+    streamer.complete_read(
+        ticket, status <= static_cast<uint32_t>(Status::cancelled) ? static_cast<Status>(status) : Status::io_error);
+  }
+
+  // The fixed order's items, its own cache (every tile of every material) and decoders.
+  int build_component_order() {
+    if (!started) return -fail(kBadArgument, "component order before start");
+    if (order) return static_cast<int>(order->items.size());
+    auto o = std::make_unique<FixedOrder>();
+    for (const auto& m : materials) {
+      const BsvtfMetadata& md = m->dir.metadata;
+      o->set.add_material(VtGeometry::make(md.width, md.height, md.tile_size, md.border), md.texture_count());
+    }
+    auto c = TileCache::create(o->set, TileCacheConfig{base_config.vt.slots_x, base_config.vt.slots_y, 1u << 16});
+    if (!c) return -fail(kFailed, c.message());
+    o->cache = std::make_unique<TileCache>(std::move(*c));
+    uint32_t entries = 0;
+    for (uint32_t mi = 0; mi < materials.size(); ++mi) {
+      const VtMaterial& vm = o->set.material(mi);
+      o->material_base.push_back(entries);
+      entries += vm.levels.tile_count() * vm.texture_count;
+      o->decoders.push_back(std::make_unique<TileDecoder>(layout));
+      const ClientMaterial& m = *materials[mi];
+      for (uint32_t g = 0; g < m.dir.packets.size(); ++g) {
+        const BsvtfPacketEntry& p = m.dir.packets[g];
+        o->items.push_back(make_info(mi, 1, g, p.offset, p.size, o->items.size()));
+        for (const BsvtfTileEntry& e : m.dir.tiles)  // sorted by key: coarse to fine
+          if (e.id.texture == g) o->items.push_back(make_info(mi, 0, e.id.key(), e.offset, e.size, o->items.size()));
+      }
+    }
+    if (o->cache->slot_count() < entries) return -fail(kFailed, "cache too small for every tile of the materials");
+    o->decoded.resize(entries);
+    o->dirty.assign(o->set.texture_count(), 1);                   // the roots' slots: written on the first upload
+    o->staging.reserve(o->items.size() * layout.sample_count());  // pointers stay valid until uploaded
+    uploads.clear();
+    page_writes.clear();
+    order = std::move(o);
+    return static_cast<int>(order->items.size());
+  }
+
+  static RequestInfo make_info(uint32_t material, uint32_t kind, uint64_t key, uint64_t offset, uint32_t size,
+                               size_t position) {
+    return RequestInfo{kOrderBase + static_cast<uint32_t>(position),
                        material,
                        kind,
                        static_cast<uint32_t>(key),
@@ -268,297 +347,81 @@ class Client {
                        size};
   }
 
-  uint32_t material_of_set(uint32_t set_material) const noexcept {
-    for (uint32_t i = 0; i < materials.size(); ++i)
-      if (materials[i]->set_index == set_material) return i;
-    return 0;
-  }
-
-  // Votes from this frame's feedback words → plan → the new requests.
-  int plan(std::span<const uint32_t> words) {
-    if (!started) return fail(kBadArgument, "frame before start");
-    requests.clear();
-    if (!words.empty()) votes->accumulate(words, 1, scheduler->lod_bias());
-    for (const TileRequest& q : scheduler->plan(*cache, *votes, ++frame)) {
-      const uint32_t sm = set.material_of(q.tile.texture);
-      const uint32_t mi = material_of_set(sm);
-      const ClientMaterial& m = *materials[mi];
-      const uint32_t local = q.tile.texture - set.material(sm).first_texture;
-      if (q.u_packet) {
-        const BsvtfPacketEntry& p = m.dir.packets[local];
-        requests.push_back(make_info(q.id, mi, 1, local, p.offset, p.size));
-      } else {
-        const BsvtfTileEntry* e = m.dir.find(TileId{local, q.tile.level, q.tile.x, q.tile.y});
-        if (!e) {
-          scheduler->cancel(*cache, q.id);
-          continue;
-        }
-        requests.push_back(make_info(q.id, mi, 0, e->id.key(), e->offset, e->size));
-      }
-    }
-    return static_cast<int>(requests.size());
-  }
-
-  // An arena slot for a new decoded tile: a free one, else the least recently used unpinned
-  // one (its tile is decoded again from its payload if a child needs it later).
-  uint32_t acquire_slot() {
-    uint32_t best = kNotDecoded;
-    for (uint32_t i = 0; i < decoded_capacity; ++i) {
-      if (arena_stamp[i] == 0) return i;
-      if (!arena_pinned[i] && (best == kNotDecoded || arena_stamp[i] < arena_stamp[best])) best = i;
-    }
-    release(best);
-    ++evictions;
-    return best;
-  }
-
-  float* slot_data(uint32_t slot) { return arena.data() + static_cast<size_t>(slot) * layout.sample_count(); }
-
-  // The decoded samples of `local`, decoding it (and, recursively, its evicted ancestors) again
-  // from the kept payloads when the arena dropped it. Null when a payload was never delivered.
-  const float* decoded(ClientMaterial& m, TileId local, uint32_t depth = 0) {
-    const VtMaterial& vm = set.material(m.set_index);
-    const uint32_t entry = vm.levels.index(local) * vm.texture_count + local.texture;
-    if (m.decoded_slot[entry] != kNotDecoded) {
-      arena_stamp[m.decoded_slot[entry]] = ++arena_clock;
-      return slot_data(m.decoded_slot[entry]);
-    }
-    if (m.payloads[entry].empty() || depth > finest_level) return nullptr;
-    std::span<const float> parent;
-    if (local.level > 0) {
-      const float* p = decoded(m, local.parent(), depth + 1);
-      if (!p) return nullptr;
-      parent = std::span<const float>(p, layout.sample_count());
-    }
-    const uint32_t slot = acquire_slot();  // the ancestors just used are the newest: never evicted here
-    if (decoder->decode(m.payloads[entry], parent, local.x & 1, local.y & 1,
-                        std::span<float>(slot_data(slot), layout.sample_count())) != Status::success) {
-      release(slot);
-      return nullptr;
-    }
-    ++redecodes;
-    place(m, entry, slot, local.level == 0);
-    return slot_data(slot);
-  }
-
-  void release(uint32_t slot) {
-    auto& [owner, entry] = arena_owner[slot];
-    if (owner && owner->decoded_slot[entry] == slot) owner->decoded_slot[entry] = kNotDecoded;
-    arena_owner[slot] = {nullptr, 0};
-    arena_stamp[slot] = 0;
-    arena_pinned[slot] = 0;
-  }
-
-  void place(ClientMaterial& m, uint32_t entry, uint32_t slot, bool pinned) {
-    m.decoded_slot[entry] = slot;
-    arena_owner[slot] = {&m, entry};
-    arena_stamp[slot] = ++arena_clock;
-    arena_pinned[slot] = pinned ? 1 : 0;
-  }
-
-  // Verifies and decodes one tile payload into its arena slot and `halves`.
-  int decode_tile(ClientMaterial& m, TileId local, std::span<const uint8_t> bytes, uint16_t* halves) {
-    const BsvtfTileEntry* e = m.dir.find(local);
-    if (!e) return fail(kBadArgument, "unknown tile");
-    if (verify_bsvtf_payload(e->size, e->crc, bytes) != Status::success)
-      return fail(kCorrupt, format_message("tile %u/%u/%u/%u: payload size or CRC-32 mismatch", local.texture,
-                                           local.level, local.x, local.y));
-    const VtLevelTable& lv = set.material(m.set_index).levels;
-    const uint32_t flat = lv.index(local);
-    const uint32_t K = set.material(m.set_index).texture_count;
-    const uint32_t entry = flat * K + local.texture;
-    if (m.payloads[entry].empty()) m.payloads[entry].assign(bytes.begin(), bytes.end());
-    std::span<const float> parent;
-    if (local.level > 0) {
-      const float* p = decoded(m, local.parent());
-      if (!p) return fail(kDecodeFailed, "parent tile not decoded");
-      parent = std::span<const float>(p, layout.sample_count());
-    }
-    uint32_t slot = m.decoded_slot[entry];
-    if (slot == kNotDecoded) slot = acquire_slot();  // the parent is the newest: not evicted here
-    float* out = slot_data(slot);
-    const auto t0 = std::chrono::steady_clock::now();
-    const Status s =
-        decoder->decode(bytes, parent, local.x & 1, local.y & 1, std::span<float>(out, layout.sample_count()));
-    decode_us_total += std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
-    ++decodes;
-    if (s != Status::success) {
-      release(slot);  // whatever it held is overwritten
-      m.payloads[entry].clear();
-      return fail(kDecodeFailed, decoder->message());
-    }
-    place(m, entry, slot, local.level == 0);
-    float_to_half(std::span<const float>(out, layout.sample_count()),
-                  std::span<uint16_t>(halves, layout.sample_count()));
-    // Paper 000 §6: ‖T‖²_F / T² of the tile (interior texels) for the U' packet priority.
-    double energy = 0;
-    const uint32_t S = layout.stored_size(), B = layout.border;
-    for (uint32_t y = B; y < S - B; ++y)
-      for (uint32_t x = B; x < S - B; ++x)
-        for (uint32_t c = 0; c < 4; ++c) {
-          const double v = out[(static_cast<size_t>(y) * S + x) * 4 + c];
-          energy += v * v;
-        }
-    // The scheduler keeps its own copy of w and the energies (vt/scheduler.hpp set_energy).
-    scheduler->set_energy(set.material(m.set_index).first_texture + local.texture, flat,
-                          static_cast<float>(energy / (static_cast<double>(layout.tile_size) * layout.tile_size)));
-    uint8_t& seen = m.delivered[static_cast<size_t>(flat) * K + local.texture];
-    if (!seen) {
-      seen = 1;
-      m.weight_delivered += e->weight;
-    }
-    return kOk;
-  }
-
-  // Paper 004 §5's order for comparison: component group by group (U' packet g, then every
-  // tile of virtual texture g coarse to fine), material after material, no feedback.
-  int build_component_order() {
-    order.clear();
-    for (uint32_t mi = 0; mi < materials.size(); ++mi) {
-      const ClientMaterial& m = *materials[mi];
-      for (uint32_t g = 0; g < m.dir.packets.size(); ++g) {
-        const BsvtfPacketEntry& p = m.dir.packets[g];
-        order.push_back(make_info(kOrderBase + static_cast<uint32_t>(order.size()), mi, 1, g, p.offset, p.size));
-        for (const BsvtfTileEntry& e : m.dir.tiles)
-          if (e.id.texture == g && e.id.level > 0)
-            order.push_back(
-                make_info(kOrderBase + static_cast<uint32_t>(order.size()), mi, 0, e.id.key(), e.offset, e.size));
-      }
-    }
-    order_staging.clear();
-    order_staging.reserve(order.size() * layout.sample_count());  // pointers stay valid until uploaded
-    return static_cast<int>(order.size());
-  }
-
-  // Delivery of an item of the fixed order: straight into the cache (every tile keeps its slot,
-  // ancestors stay: the page table names the deepest), bypassing the scheduler.
-  int deliver_ordered(uint32_t i, std::span<const uint8_t> bytes) {
-    if (i >= order.size()) return fail(kBadArgument, "unknown order item");
-    const RequestInfo& info = order[i];
+  // Delivery of an item of the fixed order, in order (a tile's parent came before it): verified,
+  // decoded against the parent, inserted into the order's cache with its ancestors kept.
+  int deliver_ordered(uint32_t id, std::span<const uint8_t> bytes) {
+    if (!order || id < kOrderBase || id - kOrderBase >= order->items.size())
+      return fail(kBadArgument, "unknown order item");
+    FixedOrder& o = *order;
+    const RequestInfo& info = o.items[id - kOrderBase];
     ClientMaterial& m = *materials[info.material];
     if (info.kind == 1) {
       const BsvtfPacketEntry& p = m.dir.packets[info.key_lo];
       if (verify_bsvtf_payload(p.size, p.crc, bytes) != Status::success) return fail(kCorrupt, "U packet CRC mismatch");
       unpack_bsvtf_packet(bytes, packet_scratch);
-      scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, m.u);
+      scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, m.u, m.dir.metadata.u_row_order);
       m.packets_loaded = std::max(m.packets_loaded, info.key_lo + 1);
       uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0});
       return kOk;
     }
     const TileId local = TileId::from_key(static_cast<uint64_t>(info.key_hi) << 32 | info.key_lo);
-    // One staging buffer per delivery: JavaScript uploads before the next delivery is handed in.
-    order_staging.resize(order_staging.size() + layout.sample_count());
-    uint16_t* halves = order_staging.data() + order_staging.size() - layout.sample_count();
-    if (int c = decode_tile(m, local, bytes, halves); c != kOk) return c;
-    const uint32_t slot = cache->reserve_slot();
-    if (slot == kNoSlot) return fail(kFailed, "cache too small for the whole material");
-    const TileId global{set.material(m.set_index).first_texture + local.texture, local.level, local.x, local.y};
-    if (cache->insert(global, slot, frame) != Status::success) return fail(kFailed, "insert failed");
+    const BsvtfTileEntry* e = m.dir.find(local);
+    if (!e || verify_bsvtf_payload(e->size, e->crc, bytes) != Status::success)
+      return fail(kCorrupt, format_message("tile %u/%u/%u/%u: payload size or CRC-32 mismatch", local.texture,
+                                           local.level, local.x, local.y));
+    const VtMaterial& vm = o.set.material(info.material);
+    const auto entry_of = [&](const TileId& t) {
+      return o.material_base[info.material] + vm.levels.index(t) * vm.texture_count + t.texture;
+    };
+    std::span<const float> parent;
+    if (local.level > 0) {
+      parent = o.decoded[entry_of(local.parent())];
+      if (parent.empty()) return fail(kDecodeFailed, "parent tile not decoded");
+    }
+    std::vector<float>& samples = o.decoded[entry_of(local)];
+    samples.resize(layout.sample_count());
+    if (o.decoders[info.material]->decode(bytes, parent, local.x & 1, local.y & 1, samples) != Status::success) {
+      samples.clear();
+      return fail(kDecodeFailed, o.decoders[info.material]->message());
+    }
+    const TileId global{vm.first_texture + local.texture, local.level, local.x, local.y};
+    uint32_t slot = o.cache->slot_of(global);  // roots are pinned at creation
+    if (slot == kNoSlot) {
+      slot = o.cache->reserve_slot();
+      if (slot == kNoSlot || o.cache->insert(global, slot, frame) != Status::success)
+        return fail(kFailed, "cache too small for the whole material");
+    }
+    o.staging.resize(o.staging.size() + layout.sample_count());
+    uint16_t* halves = o.staging.data() + o.staging.size() - layout.sample_count();
+    float_to_half(samples, std::span<uint16_t>(halves, layout.sample_count()));
+    count_delivered(m, vm.levels, vm.texture_count, local);
+    o.dirty[global.texture] = 1;
     uploads.push_back(
         UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
     return kOk;
   }
 
-  int deliver(uint32_t id, std::span<const uint8_t> bytes) {
-    if (!started) return fail(kBadArgument, "deliver before start");
-    if (id >= kOrderBase) return deliver_ordered(id - kOrderBase, bytes);
-    if (id >= kRootBase) {
-      const uint32_t r = id - kRootBase;
-      if (r >= roots.size() || root_decoded[r]) return fail(kBadArgument, "unknown root");
-      const RequestInfo& info = roots[r];
-      ClientMaterial& m = *materials[info.material];
-      const TileId local = TileId::from_key(static_cast<uint64_t>(info.key_hi) << 32 | info.key_lo);
-      uint16_t* halves = staging.data() + (scheduler->config().budgets.requests_in_flight + r) * layout.sample_count();
-      if (int c = decode_tile(m, local, bytes, halves); c != kOk) return c;
-      // The cache pins every root at creation (vt/tile_cache.hpp); older caches leave it to us.
-      const TileId global{set.material(m.set_index).first_texture + local.texture, 0, 0, 0};
-      uint32_t slot = cache->slot_of(global);
-      if (slot == kNoSlot) {
-        slot = cache->reserve_slot();
-        if (slot == kNoSlot) return fail(kFailed, "cache too small for the root tiles");
-        if (cache->insert(global, slot, 0) != Status::success) return fail(kFailed, "root insert failed");
-      }
-      root_decoded[r] = 1;
-      uploads.push_back(
-          UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
-      return kOk;
+  // Staged uploads; in the fixed order also the page tables of the textures it changed (whole
+  // tables: the order's cache only grows, so a texture's entries change in many places at once).
+  int staged_uploads() {
+    if (!started) return -fail(kBadArgument, "uploads before start");
+    if (order) {
+      table_writes.clear();
+      std::vector<PageTableWrite> writes;
+      for (uint32_t t = 0; t < order->dirty.size(); ++t)
+        if (order->dirty[t]) append_full_page_table_writes(*order->cache, t, writes);
+      std::fill(order->dirty.begin(), order->dirty.end(), 0);
+      page_writes.clear();
+      for (const PageTableWrite& w : writes)
+        page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
     }
-    // A scheduler request: find it among those issued (ids are reused only after retirement).
-    if (!scheduler->begin_decode(id)) return fail(kBusy, "request not awaiting data or decoding budget full");
-    const RequestInfo* info = nullptr;
-    for (size_t i = issued_.size(); i-- > 0;)
-      if (issued_[i].id == id) {
-        info = &issued_[i];
-        break;
-      }
-    if (!info) {
-      scheduler->cancel(*cache, id);
-      return fail(kBadArgument, "unknown request id");
-    }
-    ClientMaterial& m = *materials[info->material];
-    int code = kOk;
-    if (info->kind == 1) {
-      const BsvtfPacketEntry& p = m.dir.packets[info->key_lo];
-      if (verify_bsvtf_payload(p.size, p.crc, bytes) != Status::success) {
-        code = fail(kCorrupt, format_message("U packet %u: payload size or CRC-32 mismatch", info->key_lo));
-      } else {
-        unpack_bsvtf_packet(bytes, packet_scratch);
-        scatter_u_packet(m.dir.metadata, info->key_lo, packet_scratch, m.u_rgba, m.u);
-      }
-    } else {
-      const TileId local = TileId::from_key(static_cast<uint64_t>(info->key_hi) << 32 | info->key_lo);
-      code = decode_tile(m, local, bytes, staging.data() + static_cast<size_t>(id) * layout.sample_count());
-    }
-    // A refused payload frees its request and slot: the scheduler plans the tile again from the
-    // next frame's votes (a new request, a new fetch), so corrupt bytes never reach the cache.
-    if (code == kOk)
-      scheduler->finish_decode(id);
-    else
-      scheduler->cancel(*cache, id);
-    return code;
+    return static_cast<int>(uploads.size());
   }
 
-  // Uploads ready requests (scheduler order, budgeted) and the page-table writes they cause.
-  int apply_uploads() {
-    if (!started) return fail(kBadArgument, "apply before start");
-    scheduler->apply_uploads(*cache, [&](const TileRequest& q) {
-      const uint32_t sm = set.material_of(q.tile.texture);
-      const uint32_t mi = material_of_set(sm);
-      if (q.u_packet) {
-        const uint32_t local = q.tile.texture - set.material(sm).first_texture;
-        materials[mi]->packets_loaded = std::max(materials[mi]->packets_loaded, local + 1);
-        uploads.push_back(UploadInfo{1, 0, mi, local, 0});
-      } else {
-        const uint16_t* h = staging.data() + static_cast<size_t>(q.id) * layout.sample_count();
-        uploads.push_back(UploadInfo{0, q.slot, mi, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(h))});
-      }
-    });
-    // Page tables (docs/shaders.md): the cache's deltas plus the own-level chain of every tile
-    // that entered or left a slot (a hidden tile changes no finest-level entry).
-    writes.clear();
-    if (full_rewrite || cache->deltas_overflowed()) {
-      for (uint32_t t = 0; t < set.texture_count(); ++t) append_full_page_table_writes(*cache, t, writes);
-      full_rewrite = false;
-    } else {
-      append_page_table_writes(*cache, cache->deltas(), writes);
-      for (uint32_t s = 0; s < cache->slot_count(); ++s) {
-        const SlotInfo& si = cache->slot(s);
-        const bool used = si.state == SlotInfo::State::used;
-        if (used == (slot_used[s] != 0) && (!used || si.tile == slot_tiles[s])) continue;
-        if (slot_used[s]) append_tile_chain_writes(*cache, slot_tiles[s], writes);
-        if (used) append_tile_chain_writes(*cache, si.tile, writes);
-      }
-    }
-    for (uint32_t s = 0; s < cache->slot_count(); ++s) {
-      const SlotInfo& si = cache->slot(s);
-      slot_used[s] = si.state == SlotInfo::State::used ? 1 : 0;
-      slot_tiles[s] = si.tile;
-    }
-    cache->clear_deltas();
+  void uploads_done() {
+    uploads.clear();
     page_writes.clear();
-    for (const PageTableWrite& w : writes)
-      page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
-    return static_cast<int>(uploads.size());
+    if (order) order->staging.clear();
   }
 
   const char* program_source(int program, int stage, uint32_t material) {
@@ -573,9 +436,6 @@ class Client {
     shader_text = stage == 0 ? src->vertex : src->fragment;
     return shader_text.c_str();
   }
-
-  // Requests issued (for deliver()'s lookup; newest last, ids are reused after retirement).
-  std::vector<RequestInfo> issued_;
 };
 
 Client& client() {
@@ -603,8 +463,8 @@ EMSCRIPTEN_KEEPALIVE int bw_set_angular_resolution(uint32_t r) {
 /// directory_size) of a file of `file_size` bytes. Returns the material index (≥ 0) or −code.
 /// Untrusted input: every field is validated by parse_bsvtf_directory.
 EMSCRIPTEN_KEEPALIVE int bw_add_material(const uint8_t* bytes, uint32_t len, double file_size) {
-  const int r = client().add_material(std::span<const uint8_t>(bytes, len), static_cast<uint64_t>(file_size));
-  return r;
+  if (!bytes || !(file_size >= 0 && file_size < 9.0e15)) return -btflod::web::kBadArgument;
+  return client().add_material(std::span<const uint8_t>(bytes, len), static_cast<uint64_t>(file_size));
 }
 
 /// Directory size a client must fetch, from the first 128 bytes; 0 on a bad header.
@@ -617,57 +477,99 @@ EMSCRIPTEN_KEEPALIVE double bw_directory_size(const uint8_t* header, uint32_t le
   return static_cast<double>(h->directory_size);
 }
 
-/// Creates the VT set, cache (slots_x × slots_y), scheduler and vote counter. Returns 0 or a code.
+/// Creates the Streamer over every material: a cache of slots_x × slots_y slots, votes summed
+/// over 4^feedback_shift frames, the scheduler's upload and request budgets, U′ columns streamed
+/// by priority when stream_u. Its first bw_frame() asks for the pinned roots (and, without
+/// stream_u, every U′ packet). Returns 0 or a code.
 EMSCRIPTEN_KEEPALIVE int bw_start(uint32_t slots_x, uint32_t slots_y, uint32_t feedback_shift,
                                   uint32_t uploads_per_frame, uint32_t requests_in_flight, int stream_u) {
   return client().start(slots_x, slots_y, feedback_shift, uploads_per_frame, requests_in_flight, stream_u != 0);
 }
 
-/// Pinned root tiles to fetch first: count, and a pointer to RequestInfo[count].
-EMSCRIPTEN_KEEPALIVE int bw_root_count() { return static_cast<int>(client().roots.size()); }
-EMSCRIPTEN_KEEPALIVE const void* bw_roots() { return client().roots.data(); }
+/// Bounds the decoded ancestors the runtime keeps (StreamerConfig::decoded_cache_tiles: a
+/// decode starts from the deepest one kept). Call before bw_start. Returns 0, or kBadArgument
+/// after start.
+EMSCRIPTEN_KEEPALIVE int bw_set_decoded_capacity(uint32_t tiles) {
+  auto& c = client();
+  if (c.started) return btflod::web::kBadArgument;
+  c.decoded_cache_tiles = tiles;
+  return 0;
+}
+
+/// One frame: runs the decode jobs whose reads completed, then the Streamer's update with this
+/// frame's feedback words (null with count 0: no votes). Returns the number of new reads to
+/// perform (bw_reads()) or −code. The uploads and page writes it released are listed by
+/// bw_apply_uploads() until bw_uploads_done() or the next bw_frame().
+EMSCRIPTEN_KEEPALIVE int bw_frame(const uint32_t* words, uint32_t count) {
+  if (!words && count) return -btflod::web::kBadArgument;
+  return client().frame_update(std::span<const uint32_t>(words, count));
+}
+
+/// The reads of the last bw_frame(): (ticket lo, ticket hi, material, offset lo, offset hi,
+/// size, destination address) per read. Copy `size` bytes to the destination, then call
+/// bw_complete_read(ticket, 0); on failure pass a status instead (5 = io_error). Any order.
+EMSCRIPTEN_KEEPALIVE const void* bw_reads() {
+  auto& c = client();
+  return c.started ? c.read_queue->taken().data() : nullptr;
+}
+EMSCRIPTEN_KEEPALIVE void bw_complete_read(uint32_t ticket_lo, uint32_t ticket_hi, uint32_t status) {
+  client().complete_read(static_cast<uint64_t>(ticket_hi) << 32 | ticket_lo, status);
+}
 
 /// The fixed component-by-component order (paper 004 §5: U' packet g and the tiles of virtual
-/// texture g, group after group) as RequestInfo[count] with ids for bw_deliver; for comparing
-/// streaming orders. Returns the count.
+/// texture g, group after group) as RequestInfo[count] with ids for bw_deliver_ordered; for
+/// comparing streaming orders. Switches the client to it (bw_frame is refused afterwards).
+/// Returns the count or −code.
 EMSCRIPTEN_KEEPALIVE int bw_component_order() { return client().build_component_order(); }
-EMSCRIPTEN_KEEPALIVE const void* bw_order() { return client().order.data(); }
-
-/// Counts this frame's feedback words and plans. Returns the number of new requests (pointer:
-/// bw_requests()) or −code. words may be null with count 0 (no feedback this frame).
-EMSCRIPTEN_KEEPALIVE int bw_frame(const uint32_t* words, uint32_t count) {
+EMSCRIPTEN_KEEPALIVE const void* bw_order() {
   auto& c = client();
-  const int n = c.plan(std::span<const uint32_t>(words, count));
-  if (n < 0) return n;
-  for (const auto& r : c.requests) c.issued_.push_back(r);
-  // Forget issued entries the scheduler no longer knows (delivered or cancelled long ago).
-  if (c.issued_.size() > 4096) c.issued_.erase(c.issued_.begin(), c.issued_.begin() + 2048);
-  return n;
+  return c.order ? c.order->items.data() : nullptr;
 }
-EMSCRIPTEN_KEEPALIVE const void* bw_requests() { return client().requests.data(); }
 
-/// Hands the bytes of request `id` (or a root) over: verified (size, CRC-32), decoded against
-/// its parent and staged for upload. Returns 0, kCorrupt (refetch), kDecodeFailed, kBusy or
+/// Hands the bytes of fixed-order item `id` over, in order: verified (size, CRC-32), decoded
+/// against its parent and staged for upload. Returns 0, kCorrupt, kDecodeFailed or
 /// kBadArgument. Corrupt or undecodable bytes are never staged.
-EMSCRIPTEN_KEEPALIVE int bw_deliver(uint32_t id, const uint8_t* bytes, uint32_t len) {
-  return client().deliver(id, std::span<const uint8_t>(bytes, len));
+EMSCRIPTEN_KEEPALIVE int bw_deliver_ordered(uint32_t id, const uint8_t* bytes, uint32_t len) {
+  if (!bytes && len) return btflod::web::kBadArgument;
+  return client().deliver_ordered(id, std::span<const uint8_t>(bytes, len));
 }
 
-/// Drops request `id` (the fetch failed for good); the scheduler plans it again later.
-EMSCRIPTEN_KEEPALIVE void bw_cancel(uint32_t id) {
-  if (client().scheduler && id < btflod::web::kRootBase) client().scheduler->cancel(*client().cache, id);
-}
-
-/// Applies ready uploads; returns how many (pointer bw_uploads(), cleared by bw_uploads_done()),
-/// with the page-table writes in bw_page_writes() (count bw_page_write_count()).
-EMSCRIPTEN_KEEPALIVE int bw_apply_uploads() { return client().apply_uploads(); }
+/// Uploads to perform (pointer bw_uploads(), cleared by bw_uploads_done()), with the page-table
+/// writes in bw_page_writes() (count bw_page_write_count()). Returns the count or −code.
+EMSCRIPTEN_KEEPALIVE int bw_apply_uploads() { return client().staged_uploads(); }
 EMSCRIPTEN_KEEPALIVE const void* bw_uploads() { return client().uploads.data(); }
-EMSCRIPTEN_KEEPALIVE void bw_uploads_done() {
-  client().uploads.clear();
-  client().order_staging.clear();
-}
+EMSCRIPTEN_KEEPALIVE void bw_uploads_done() { client().uploads_done(); }
 EMSCRIPTEN_KEEPALIVE int bw_page_write_count() { return static_cast<int>(client().page_writes.size()); }
 EMSCRIPTEN_KEEPALIVE const void* bw_page_writes() { return client().page_writes.data(); }
+
+/// 1 when bytes [offset, offset + len) of material m are a whole payload of its directory with
+/// the right CRC-32 (the page keeps such bytes to serve a later read of the same range), else 0.
+EMSCRIPTEN_KEEPALIVE int bw_payload_ok(uint32_t m, double offset, const uint8_t* bytes, uint32_t len) {
+  auto& c = client();
+  if (m >= c.materials.size() || !bytes || !(offset >= 0)) return 0;
+  const auto& index = c.materials[m]->payload_index;
+  const uint64_t o = static_cast<uint64_t>(offset);
+  auto it = std::lower_bound(index.begin(), index.end(), std::array<uint64_t, 3>{o, 0, 0});
+  if (it == index.end() || (*it)[0] != o || (*it)[1] != len) return 0;
+  return btflod::crc32_of(std::span<const uint8_t>(bytes, len)) == (*it)[2] ? 1 : 0;
+}
+
+/// 1 once every material's roots (and, without U′ streaming, its U′ packets) were handed out.
+EMSCRIPTEN_KEEPALIVE int bw_ready() {
+  auto& c = client();
+  if (!c.started) return 0;
+  for (uint32_t m = 0; m < c.materials.size(); ++m)
+    if (!c.streamer.material_ready(m)) return 0;
+  return 1;
+}
+
+/// Payloads the runtime refused (size or CRC-32 mismatch; fetched again) and other failed
+/// reads or decodes, as double[2]. Returns 0.
+EMSCRIPTEN_KEEPALIVE int bw_faults(double* out) {
+  out[0] = static_cast<double>(client().refused);
+  out[1] = static_cast<double>(client().failed);
+  return 0;
+}
 
 /// GLSL ES 3.00 source of `program` (ShaderProgram order: 0 fmf, 1 bsvtf, 2 feedback, …),
 /// stage 0 vertex / 1 fragment, for material `m`'s component count. Null on error.
@@ -728,23 +630,23 @@ EMSCRIPTEN_KEEPALIVE uint32_t bw_crc32(const uint8_t* bytes, uint32_t len) {
 /// page), slots_x, slots_y, angular resolution.
 EMSCRIPTEN_KEEPALIVE int bw_material_info(uint32_t m, uint32_t* out) {
   auto& c = client();
-  if (!c.started || m >= c.materials.size()) return btflod::web::kBadArgument;
+  if (!c.started || m >= c.materials.size() || !out) return btflod::web::kBadArgument;
   const auto& mat = *c.materials[m];
   const auto& md = mat.dir.metadata;
-  const auto& vm = c.set.material(mat.set_index);
+  const uint32_t first = c.streamer.first_texture(m);
   const uint32_t v[16] = {md.width,
                           md.height,
                           md.level_count,
                           md.component_count,
                           static_cast<uint32_t>(md.light_directions.size() / 3),
                           static_cast<uint32_t>(md.view_directions.size() / 3),
-                          vm.first_texture,
+                          first,
                           md.tile_size,
                           md.border,
-                          vm.levels.finest_level(),
+                          c.streamer.cache().set().levels_of(first).finest_level(),
                           static_cast<uint32_t>(mat.dir.packets.size()),
                           mat.packets_loaded,
-                          1u << c.finest_level,
+                          1u << c.base_config.vt.finest_level,
                           c.base_config.vt.slots_x,
                           c.base_config.vt.slots_y,
                           c.angular_resolution};
@@ -752,80 +654,81 @@ EMSCRIPTEN_KEEPALIVE int bw_material_info(uint32_t m, uint32_t* out) {
   return 0;
 }
 /// Total virtual textures (page-table layers) over all materials.
-EMSCRIPTEN_KEEPALIVE int bw_texture_count() { return static_cast<int>(client().set.texture_count()); }
-/// Pointers to a material's eigen_abrdfs (RGBA32F) and angular tables (index RGBA32UI, weight RGBA32F).
-EMSCRIPTEN_KEEPALIVE const float* bw_u_rgba(uint32_t m) { return client().materials[m]->u_rgba.data(); }
-EMSCRIPTEN_KEEPALIVE const uint32_t* bw_angular_index(uint32_t m) {
-  return client().materials[m]->angular.index.data();
+EMSCRIPTEN_KEEPALIVE int bw_texture_count() {
+  auto& c = client();
+  return c.started ? static_cast<int>(c.streamer.cache().set().texture_count()) : 0;
 }
-EMSCRIPTEN_KEEPALIVE const float* bw_angular_weight(uint32_t m) { return client().materials[m]->angular.weight.data(); }
-/// Σ w of delivered tiles / Σ w of all tiles of material m (paper 000 eq. 8), in [0, 1].
+/// Pointers to a material's eigen_abrdfs (RGBA32F) and angular tables (index RGBA32UI, weight RGBA32F).
+EMSCRIPTEN_KEEPALIVE const float* bw_u_rgba(uint32_t m) {
+  auto& c = client();
+  return m < c.materials.size() ? c.materials[m]->u_rgba.data() : nullptr;
+}
+EMSCRIPTEN_KEEPALIVE const uint32_t* bw_angular_index(uint32_t m) {
+  auto& c = client();
+  return m < c.materials.size() ? c.materials[m]->angular.index.data() : nullptr;
+}
+EMSCRIPTEN_KEEPALIVE const float* bw_angular_weight(uint32_t m) {
+  auto& c = client();
+  return m < c.materials.size() ? c.materials[m]->angular.weight.data() : nullptr;
+}
+/// Σ w of uploaded tiles / Σ w of all tiles of material m (paper 000 eq. 8), in [0, 1].
 EMSCRIPTEN_KEEPALIVE double bw_converged_fraction(uint32_t m) {
-  const auto& mat = *client().materials[m];
+  auto& c = client();
+  if (m >= c.materials.size()) return 0.0;
+  const auto& mat = *c.materials[m];
   return mat.weight_total > 0 ? mat.weight_delivered / mat.weight_total : 0.0;
 }
-/// Requests issued and not yet uploaded or cancelled.
+/// Requests planned and not yet uploaded or cancelled, plus decode jobs in flight.
 EMSCRIPTEN_KEEPALIVE int bw_in_flight() {
-  return client().scheduler ? static_cast<int>(client().scheduler->requests_in_flight()) : 0;
+  auto& c = client();
+  return c.started ? static_cast<int>(c.streamer.scheduler().requests_in_flight() + c.streamer.jobs_in_flight()) : 0;
 }
 /// Visible-but-missing tiles of the last plan (0 once the view has converged).
 EMSCRIPTEN_KEEPALIVE double bw_visible_missing() {
-  return client().scheduler ? static_cast<double>(client().scheduler->frame().visible_missing) : 0.0;
+  auto& c = client();
+  return c.started ? static_cast<double>(c.streamer.scheduler().frame().visible_missing) : 0.0;
 }
+
+/// The runtime's decoded-ancestor cache and payload reads as double[5]: capacity (tiles), tile
+/// levels a decode did not decode (nor read) because an ancestor was kept, payload bytes read,
+/// cache bytes ((T+2B)² × 4 floats per tile), pending page-table writes.
+EMSCRIPTEN_KEEPALIVE int bw_decoded_stats(double* out) {
+  auto& c = client();
+  if (!c.started || !out) return btflod::web::kBadArgument;
+  out[0] = c.decoded_cache_tiles;
+  out[1] = static_cast<double>(c.streamer.decoded_levels_skipped());
+  out[2] = static_cast<double>(c.streamer.bytes_read());
+  out[3] = static_cast<double>(c.decoded_cache_tiles) * static_cast<double>(c.layout.sample_count()) * sizeof(float);
+  out[4] = static_cast<double>(c.streamer.pending_page_table_writes());
+  return 0;
+}
+
 /// Scheduler state for diagnostics as double[10]: U' packets loaded of materials 0 and 1, cache
 /// slots used, and this frame's adds, requests, U' requests, swaps, rejected swaps, budget hits,
 /// LOD bias. Returns 0.
-/// Bounds the decoded-parent arena to `tiles` decoded tiles (raised to roots + finest level + 4).
-/// Call before bw_start. Returns 0, or kBadArgument after start.
-EMSCRIPTEN_KEEPALIVE int bw_set_decoded_capacity(uint32_t tiles) {
-  auto& c = client();
-  if (c.started) return btflod::web::kBadArgument;
-  c.decoded_capacity = tiles;
-  return 0;
-}
-
-/// Decoded-parent arena as double[5]: capacity (tiles), resident tiles, evictions, tiles decoded
-/// again from their kept payloads, arena bytes.
-EMSCRIPTEN_KEEPALIVE int bw_decoded_stats(double* out) {
-  auto& c = client();
-  if (!c.started) return btflod::web::kBadArgument;
-  size_t resident = 0;
-  for (uint64_t s : c.arena_stamp) resident += s != 0;
-  out[0] = c.decoded_capacity;
-  out[1] = static_cast<double>(resident);
-  out[2] = static_cast<double>(c.evictions);
-  out[3] = static_cast<double>(c.redecodes);
-  out[4] = static_cast<double>(c.arena.size() * sizeof(float));
-  return 0;
-}
-
 EMSCRIPTEN_KEEPALIVE int bw_counters(double* out) {
   auto& c = client();
-  if (!c.started) return btflod::web::kBadArgument;
-  const auto& f = c.scheduler->frame();
-  out[0] = c.scheduler->u_loaded(0);
-  out[1] = c.materials.size() > 1 ? c.scheduler->u_loaded(1) : 0;
-  out[2] = c.cache->used_count();
+  if (!c.started || !out) return btflod::web::kBadArgument;
+  const auto& s = c.streamer.scheduler();
+  const auto& f = s.frame();
+  out[0] = s.u_loaded(0);
+  out[1] = c.materials.size() > 1 ? s.u_loaded(1) : 0;
+  out[2] = c.streamer.cache().used_count();
   out[3] = static_cast<double>(f.adds);
   out[4] = static_cast<double>(f.requests);
   out[5] = static_cast<double>(f.u_requests);
   out[6] = static_cast<double>(f.swaps);
   out[7] = static_cast<double>(f.swaps_rejected);
   out[8] = static_cast<double>(f.budget_hits());
-  out[9] = c.scheduler->lod_bias();
+  out[9] = s.lod_bias();
   return 0;
 }
 
 /// The scheduler's global LOD bias (raised under overload; 0 when requests are at full detail).
 EMSCRIPTEN_KEEPALIVE int bw_lod_bias() {
-  return client().scheduler ? static_cast<int>(client().scheduler->lod_bias()) : 0;
+  auto& c = client();
+  return c.started ? static_cast<int>(c.streamer.scheduler().lod_bias()) : 0;
 }
-
-/// Mean tile decode time in µs over this page's decodes, and their count.
-EMSCRIPTEN_KEEPALIVE double bw_decode_us_mean() {
-  return client().decodes ? client().decode_us_total / static_cast<double>(client().decodes) : 0.0;
-}
-EMSCRIPTEN_KEEPALIVE double bw_decode_count() { return static_cast<double>(client().decodes); }
 
 /// Decodes every tile of an in-memory container `repeats` times (inflate backend for deflate
 /// tiles 0 zlib, 1 libdeflate when built in; zstd tiles always through zstd) and writes double[5]: hash low 32 bits,

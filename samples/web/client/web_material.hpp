@@ -91,15 +91,16 @@ inline VoidResult check_u_layout(const BsvtfMetadata& md) {
   return {};
 }
 
-/// Writes U packet g (unpack_bsvtf_packet's floats: row r, component 4g + k at r·4 + k; rows in
-/// the container's u_row_order) into the
+/// Writes U packet g (floats: row r, component 4g + k at r·4 + k; rows in `packet_order`: the
+/// container's u_row_order for unpack_bsvtf_packet's output, version 2's unspecified order read
+/// as light-major as every producer wrote it; light-major for a Streamer's packet upload) into the
 /// eigen_abrdfs texture array `rgba` (texel (light, view), layer c, rgb = colour; layout of
 /// backend/backend.hpp pack_eigen_abrdfs_rgba: ((c · views + view) · lights + light) · 4), and
 /// into E's light-major U `u` (((light · views + view) · 3 + colour) · C + c), both sized for
 /// every component. Components past C
 /// in the last packet are dropped. No allocation.
 inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<const float> packet, std::span<float> rgba,
-                             std::span<float> u) noexcept {
+                             std::span<float> u, AngularRowOrder packet_order) noexcept {
   const uint32_t lights = static_cast<uint32_t>(md.light_directions.size() / 3);
   const uint32_t views = static_cast<uint32_t>(md.view_directions.size() / 3);
   const uint32_t C = md.component_count;
@@ -110,9 +111,7 @@ inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<cons
     for (uint32_t l = 0; l < lights; ++l)
       for (uint32_t v = 0; v < views; ++v)
         for (uint32_t col = 0; col < 3; ++col) {
-          // The container says how U's rows are ordered (version 3); version 2 files were
-          // written light-major by every producer.
-          const size_t row = md.u_row_order == AngularRowOrder::view_major
+          const size_t row = packet_order == AngularRowOrder::view_major
                                  ? (static_cast<size_t>(v) * lights + l) * 3 + col
                                  : (static_cast<size_t>(l) * views + v) * 3 + col;
           const float value = packet[row * 4 + k] * scale;

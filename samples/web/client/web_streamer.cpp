@@ -16,8 +16,8 @@
 // bs_update(). Set-up allocates; bs_update, bs_pump and bs_complete_read do not.
 //
 // samples/web/test/node_streamer.mjs drives this module under Node with out-of-order, failing
-// and corrupted reads and checks it against independent decodes; the viewer's own client
-// (web_client.cpp) drives the scheduler directly for paper 004's fixed-order comparison.
+// and corrupted reads and checks it against independent decodes. The viewer's module
+// (web_client.cpp) runs the same Streamer and adds what the page draws with.
 #define BTFLOD_IMPLEMENTATION 1
 #include <emscripten/emscripten.h>
 
@@ -35,58 +35,9 @@
 #include "btflod/lod/feedback.hpp"
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/vt/vt_layout.hpp"
+#include "js_read_queue.hpp"
 
 namespace btflod::web {
-
-/// One read JavaScript is asked to perform (all uint32 for a flat Uint32Array view).
-struct ReadRequest {
-  uint32_t ticket_lo, ticket_hi;
-  uint32_t material;
-  uint32_t offset_lo, offset_hi;
-  uint32_t size;
-  uint32_t destination;  ///< heap address of `size` bytes
-};
-
-class JsReadQueue;
-
-/// The AsyncTileSource of one material: records reads for JavaScript. Refuses a read when the
-/// queue is full (the Streamer retries it on a later update).
-class JsSource final : public AsyncTileSource {
- public:
-  JsSource(JsReadQueue& queue, uint32_t material) : queue_(queue), material_(material) {}
-  bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override;
-
- private:
-  JsReadQueue& queue_;
-  uint32_t material_;
-};
-
-class JsReadQueue {
- public:
-  explicit JsReadQueue(size_t capacity) { reads_.reserve(capacity); }
-  bool push(const ReadRequest& r) noexcept {
-    if (reads_.size() == reads_.capacity()) return false;
-    reads_.push_back(r);
-    return true;
-  }
-  /// Moves the recorded reads to `taken` (JavaScript's view) and clears the queue.
-  size_t take(std::vector<ReadRequest>& taken) noexcept {
-    taken.assign(reads_.begin(), reads_.end());  // same capacity: no allocation
-    reads_.clear();
-    return taken.size();
-  }
-  size_t capacity() const noexcept { return reads_.capacity(); }
-
- private:
-  std::vector<ReadRequest> reads_;
-};
-
-bool JsSource::start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept {
-  return queue_.push(ReadRequest{static_cast<uint32_t>(ticket), static_cast<uint32_t>(ticket >> 32), material_,
-                                 static_cast<uint32_t>(offset), static_cast<uint32_t>(offset >> 32),
-                                 static_cast<uint32_t>(out.size()),
-                                 static_cast<uint32_t>(reinterpret_cast<uintptr_t>(out.data()))});
-}
 
 /// The module's state: the directories, their sources, the Streamer and the output buffers.
 struct WebStreamer {
@@ -103,7 +54,6 @@ struct WebStreamer {
   std::vector<ResidencyEvent> events;
   StreamerOutputs outputs;
   std::vector<uint32_t> tile_view, packet_view, page_view, event_view;
-  std::vector<ReadRequest> reads_taken;
 
   int fail(int code, std::string message) {
     error = std::move(message);
@@ -184,7 +134,6 @@ EMSCRIPTEN_KEEPALIVE int bs_create(uint32_t slots_x, uint32_t slots_y, uint32_t 
   s.packet_view.resize(s.packet_uploads.size() * 5);
   s.page_view.resize(s.page_writes.size() * 5);
   s.event_view.resize(s.events.size() * 7);
-  s.reads_taken.reserve(max_reads);
   s.created = true;
   return 0;
 }
@@ -247,11 +196,11 @@ EMSCRIPTEN_KEEPALIVE const uint32_t* bs_events() { return state().event_view.dat
 EMSCRIPTEN_KEEPALIVE uint32_t bs_take_reads() {
   auto& s = state();
   if (!s.created) return 0;
-  return static_cast<uint32_t>(s.read_queue->take(s.reads_taken));
+  return static_cast<uint32_t>(s.read_queue->take());
 }
 EMSCRIPTEN_KEEPALIVE const uint32_t* bs_reads() {
-  static_assert(sizeof(btflod::web::ReadRequest) == 7 * sizeof(uint32_t));
-  return reinterpret_cast<const uint32_t*>(state().reads_taken.data());
+  auto& s = state();
+  return s.created ? reinterpret_cast<const uint32_t*>(s.read_queue->taken().data()) : nullptr;
 }
 
 /// Reports a read: status 0 when its bytes are at the destination, else a Status value

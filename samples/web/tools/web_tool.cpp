@@ -165,7 +165,7 @@ int cmd_reference(const Args& a) {
     std::vector<float> packet(static_cast<size_t>(md.u_rows) * 4);
     for (const BsvtfPacketEntry& p : mats[i].dir.packets) {
       unpack_bsvtf_packet(std::span<const uint8_t>(mats[i].file).subspan(p.offset, p.size), packet);
-      web::scatter_u_packet(md, p.index, packet, mats[i].u_rgba, mats[i].u);
+      web::scatter_u_packet(md, p.index, packet, mats[i].u_rgba, mats[i].u, md.u_row_order);
     }
     mats[i].eigen.angular = mats[i].u;
     mats[i].eigen.light_count = static_cast<uint32_t>(lights);

@@ -1,26 +1,28 @@
 // btflod web client: streaming .bsvtf materials from a static server with HTTP Range requests
 // and drawing them with WebGL 2 through the GLSL ES 3.00 programs btflod generates.
 //
-// The runtime (container reader, CRC checks, tile decoder, feedback votes, tile cache, scheduler,
-// shader generator) is the WebAssembly module built from samples/web/client/web_client.cpp;
-// this file owns only I/O (fetch with `Range:`) and the GPU (textures, buffers, draws). Per frame:
-//   1. uploads the tiles and U' packets the scheduler released (bw_apply_uploads) and the
-//      page-table texels they changed;
-//   2. draws every material with the bsvtf program into a float target, tone-maps to the canvas;
-//   3. draws the feedback pass (R32UI, 1/4 resolution), reads it back and hands the words to the
-//      scheduler (bw_frame), which returns new requests in priority order (P = w·v, paper 000
-//      §5; U' packets by §6 priority); each becomes one Range request. Bytes are handed to
-//      bw_deliver as they arrive: verified (size, CRC-32) and decoded there, refused otherwise,
-//      so a corrupt or truncated transfer is fetched again and never reaches the GPU.
+// The runtime is the WebAssembly module built from samples/web/client/web_client.cpp: the
+// library's Streamer (runtime/streamer.hpp — container directories, CRC checks, tile decoder,
+// feedback votes, tile cache, scheduler) plus the shader generator. This file owns only I/O
+// (fetch with `Range:`) and the GPU (textures, buffers, draws). Per frame:
+//   1. draws every material with the bsvtf program into a float target, tone-maps to the canvas;
+//   2. draws the feedback pass (R32UI, 1/4 resolution) and reads it back; once a readback has
+//      arrived, its words go to the Streamer (bw_frame), which runs the decode jobs whose bytes
+//      came in, plans (P = w·v, paper 000 §5; U' packets by §6 priority) and releases uploads
+//      (tiles, U' packets, page-table texels: applied at once) and new reads in priority order;
+//      each read becomes one Range request. Bytes are copied to the read's place in the wasm heap
+//      and reported with bw_complete_read: the Streamer verifies them (size, CRC-32) before it
+//      decodes, so a corrupt or truncated transfer is fetched again and never reaches the GPU.
 'use strict';
 
-const BW = { ok: 0, badArgument: 1, corrupt: 2, decodeFailed: 3, busy: 4, failed: 5 };
+const BW = { ok: 0, badArgument: 1, corrupt: 2, decodeFailed: 3, failed: 5 };
 const PROGRAM = { fmf: 0, bsvtf: 1, feedback: 2, laplacian: 3, lpca: 4, pca_views: 5, spmm: 6, pca_rings: 7 };
 const BINDING = {
   btflod_eigen_abrdfs: 1, btflod_angular_index: 2, btflod_angular_weight: 3, btflod_eigen_textures: 4,
   btflod_tile_cache: 5, btflod_page_table: 6, btflod_pca_l: 13, btflod_pca_r: 14,
 };
-const ROOT_BASE = 0x40000000;
+const ORDER_BASE = 0x50000000;
+const IO_ERROR = 5;  // Status::io_error, for bw_complete_read
 // The ring search's uniform block (backend/ring_search_block.hpp: RingSearchBlock) and the
 // binding point the page gives it (ES: assigned by name, btflod_DirectionRings).
 const RING_BLOCK_BYTES = 2576;
@@ -135,7 +137,8 @@ export class BtflodClient {
       lightColor: [1.6, 1.4, 1.2], bias: 0, eye: null };
     this.frameMs = 0;
     // Client-side LRU of verified payloads (paper 000 §6: keep received tiles in RAM), so a tile
-    // the scheduler evicts and wants back later is not fetched again. Bounded by bytes.
+    // the scheduler evicts and wants back later is not fetched again. Bounded by bytes; only
+    // bytes whose CRC-32 matches their directory entry (bw_payload_ok) are kept.
     this.payloads = new Map();
     this.payloadBytes = 0;
     this.payloadBudget = 64 << 20;
@@ -170,17 +173,44 @@ export class BtflodClient {
       this.materials.push({ url, index, fileSize: head.total });
     }
     const o = this.opt;
-    if (o.decodedTiles) M._bw_set_decoded_capacity(o.decodedTiles);  // LRU bound of decoded parents
+    if (o.decodedTiles) M._bw_set_decoded_capacity(o.decodedTiles);  // decoded ancestors kept
     if (M._bw_start(o.slotsX, o.slotsY, 0, o.uploadsPerFrame, o.requestsInFlight, o.streamU ? 1 : 0) !== 0)
       throw new Error(this.error());
     this.initGpu();
-    // Pinned roots first (one per virtual texture), before any feedback.
-    const n = M._bw_root_count();
-    const roots = new Uint32Array(M.HEAPU8.buffer, M._bw_roots(), n * 8).slice();
-    await Promise.all(Array.from({ length: n }, (_, i) => this.fetchAndDeliver(this.requestInfo(roots, i))));
+    // Pinned roots first (one per virtual texture), before any feedback: the Streamer asks for
+    // them on its first frames.
+    const deadline = performance.now() + 60000;
+    while (!M._bw_ready()) {
+      if (performance.now() > deadline) throw new Error('root tiles did not arrive within 60 s');
+      this.streamFrame(0, 0);
+      await new Promise((r) => setTimeout(r, 1));
+    }
   }
 
-  requestInfo(arr, i) {
+  // One Streamer frame with `count` feedback words at heap address `words`: decode jobs whose
+  // bytes arrived run, the uploads it releases are applied (their texels are valid until the
+  // next frame), and its new reads join the fetch queue.
+  streamFrame(words, count) {
+    const M = this.M;
+    const n = M._bw_frame(words, count);
+    if (n < 0) throw new Error(this.error());
+    const reads = new Uint32Array(M.HEAPU8.buffer, M._bw_reads(), n * 7).slice();
+    for (let i = 0; i < n; ++i) {
+      const b = i * 7;
+      this.queue.push({ ticket: [reads[b], reads[b + 1]], material: reads[b + 2],
+        offset: reads[b + 3] + reads[b + 4] * 2 ** 32, size: reads[b + 5], destination: reads[b + 6] });
+    }
+    this.applyUploads();
+    const p = M._malloc(16);
+    M._bw_faults(p);
+    const [refused, failed] = new Float64Array(M.HEAPU8.buffer, p, 2);
+    M._free(p);
+    this.stats.corrupt = refused;
+    this.stats.decodeFailures = failed;
+    this.pump();
+  }
+
+  orderInfo(arr, i) {
     const b = i * 8;
     return { id: arr[b], material: arr[b + 1], kind: arr[b + 2], key: arr[b + 3] + arr[b + 4] * 2 ** 32,
       offset: arr[b + 5] + arr[b + 6] * 2 ** 32, size: arr[b + 7] };
@@ -209,50 +239,40 @@ export class BtflodClient {
     }
   }
 
-  // One fetch with retries; hands the bytes to the runtime. A corrupt payload is refused there
-  // (the scheduler re-plans the tile: a new request); a dropped connection is retried here.
-  async fetchAndDeliver(info) {
-    const mat = this.materials[info.material];
-    const cacheKey = `${info.material}:${info.offset}`;
-    const cached = this.payloads.get(cacheKey);
-    if (cached) {
-      this.payloads.delete(cacheKey);  // most recently used last
-      this.payloads.set(cacheKey, cached);
+  // One read of the Streamer: from the payload LRU or one fetch with retries; the bytes go to
+  // the read's destination in the wasm heap and the read is reported. The Streamer verifies them
+  // (a corrupt payload comes back as a refused tile and a new read); a transfer that failed
+  // opt.maxRetries times is reported as an I/O error (the tile is planned again).
+  async serveRead(read) {
+    const M = this.M;
+    const key = `${read.material}:${read.offset}`;
+    const complete = (bytes) => {
+      if (bytes) M.HEAPU8.set(bytes, read.destination);  // M.HEAPU8 now: the heap may have grown
+      M._bw_complete_read(read.ticket[0], read.ticket[1], bytes ? 0 : IO_ERROR);
+    };
+    const cached = this.payloads.get(key);
+    if (cached && cached.length === read.size) {
+      this.payloads.delete(key);  // most recently used last
+      this.payloads.set(key, cached);
       this.stats.cacheHits = (this.stats.cacheHits || 0) + 1;
-      const p = this.heapCopy(cached);
-      const code = this.M._bw_deliver(info.id, p, cached.length);
-      this.M._free(p);
-      if (code === BW.ok) return;
-    }
-    for (let attempt = 0; ; ++attempt) {
-      const got = await this.fetchWithRetries(info, mat.url, attempt);
-      if (!got) {
-        if (info.id < ROOT_BASE) this.M._bw_cancel(info.id);
-        return;
-      }
-      const { bytes } = got;
-      attempt = got.attempt;
-      const p = this.heapCopy(bytes);
-      const code = this.M._bw_deliver(info.id, p, bytes.length);
-      this.M._free(p);
-      if (code === BW.corrupt) {
-        this.stats.corrupt += 1;
-        if (info.id >= ROOT_BASE) continue;  // roots are not scheduled: fetch again here
-        return;
-      }
-      if (code !== BW.ok) {
-        this.stats.failures += 1;
-        console.warn(`deliver ${info.id}: ${this.error()}`);
-      } else if (!this.payloads.has(cacheKey)) {  // verified by CRC: keep it
-        this.payloads.set(cacheKey, bytes);
-        this.payloadBytes += bytes.length;
-        for (const [k, v] of this.payloads) {
-          if (this.payloadBytes <= this.payloadBudget) break;
-          this.payloads.delete(k);
-          this.payloadBytes -= v.length;
-        }
-      }
+      complete(cached);
       return;
+    }
+    const got = await this.fetchWithRetries(read, this.materials[read.material].url);
+    if (!got || got.bytes.length !== read.size) {
+      if (got) this.stats.failures += 1;
+      complete(null);
+      return;
+    }
+    complete(got.bytes);
+    if (!this.payloads.has(key) && M._bw_payload_ok(read.material, read.offset, read.destination, read.size)) {
+      this.payloads.set(key, got.bytes);
+      this.payloadBytes += got.bytes.length;
+      for (const [k, v] of this.payloads) {
+        if (this.payloadBytes <= this.payloadBudget) break;
+        this.payloads.delete(k);
+        this.payloadBytes -= v.length;
+      }
     }
   }
 
@@ -260,7 +280,7 @@ export class BtflodClient {
     while (this.active < this.opt.fetchConcurrency && this.queue.length) {
       const info = this.queue.shift();
       this.active += 1;
-      this.fetchAndDeliver(info).finally(() => { this.active -= 1; this.pump(); });
+      this.serveRead(info).finally(() => { this.active -= 1; this.pump(); });
     }
   }
 
@@ -499,7 +519,6 @@ export class BtflodClient {
       }
       this.stats.uploads += 1;
     }
-    M._bw_uploads_done();
     const w = M._bw_page_write_count();
     if (w > 0) {
       const pw = new Uint32Array(M.HEAPU8.buffer, M._bw_page_writes(), w * 5).slice();
@@ -511,6 +530,7 @@ export class BtflodClient {
           gl.RED_INTEGER, gl.UNSIGNED_INT, one);
       }
     }
+    M._bw_uploads_done();  // uploads and page writes applied
     return n;
   }
 
@@ -608,11 +628,7 @@ export class BtflodClient {
       words[i] = w;
       if (w !== 0xffffffff) this.visible.add(w >>> 22);  // material field of the feedback word
     }
-    const count = M._bw_frame(this.feedbackHeap, n);
-    if (count < 0) throw new Error(this.error());
-    const reqs = new Uint32Array(M.HEAPU8.buffer, M._bw_requests(), count * 8).slice();
-    for (let i = 0; i < count; ++i) this.queue.push(this.requestInfo(reqs, i));
-    this.pump();
+    this.streamFrame(this.feedbackHeap, n);
     return true;
   }
 
@@ -621,10 +637,11 @@ export class BtflodClient {
   startComponentOrder() {
     const M = this.M;
     const n = M._bw_component_order();
+    if (n < 0) throw new Error(this.error());
     const list = new Uint32Array(M.HEAPU8.buffer, M._bw_order(), n * 8).slice();
     this.fixedOrder = true;
     this.orderLeft = n;
-    for (let i = 0; i < n; ++i) this.queue.push(this.requestInfo(list, i));
+    for (let i = 0; i < n; ++i) this.queue.push(this.orderInfo(list, i));
     // Deliveries must reach the wasm side in order (a tile needs its parent): one fetch at a time
     // ahead of delivery would be slow, so fetch concurrently and deliver in sequence.
     this.orderBuffer = new Map();
@@ -636,7 +653,7 @@ export class BtflodClient {
   pumpOrder() {
     while (this.active < this.opt.fetchConcurrency && this.orderList.length) {
       const info = this.orderList.shift();
-      const seq = info.id - 0x50000000;
+      const seq = info.id - ORDER_BASE;
       this.active += 1;
       fetchRange(this.materials[info.material].url, info.offset, info.size, this.stats).then(({ bytes }) => {
         this.orderBuffer.set(seq, { info, bytes });
@@ -644,7 +661,7 @@ export class BtflodClient {
           const item = this.orderBuffer.get(this.orderNext);
           this.orderBuffer.delete(this.orderNext);
           const p = this.heapCopy(item.bytes);
-          const code = this.M._bw_deliver(item.info.id, p, item.bytes.length);
+          const code = this.M._bw_deliver_ordered(item.info.id, p, item.bytes.length);
           this.M._free(p);
           if (code !== BW.ok) this.stats.failures += 1;
           this.orderNext += 1;
@@ -670,13 +687,15 @@ export class BtflodClient {
     return this.frameMs;
   }
 
-  /// The wasm side's decoded-parent arena: { capacity, resident, evictions, redecodes, bytes }.
+  /// The runtime's decoded-ancestor cache: { capacity (tiles), skipped (tile levels a decode
+  /// started below because an ancestor was kept), bytesRead (payload bytes), bytes (cache size),
+  /// pendingWrites (page-table texels waiting) }.
   decodedStats() {
     const p = this.M._malloc(40);
     this.M._bw_decoded_stats(p);
-    const [capacity, resident, evictions, redecodes, bytes] = new Float64Array(this.M.HEAPU8.buffer, p, 5);
+    const [capacity, skipped, bytesRead, bytes, pendingWrites] = new Float64Array(this.M.HEAPU8.buffer, p, 5);
     this.M._free(p);
-    return { capacity, resident, evictions, redecodes, bytes };
+    return { capacity, skipped, bytesRead, bytes, pendingWrites };
   }
 
   /// The "quality so far" the page shows: the SSIM estimate against the converged frame when

@@ -101,12 +101,13 @@ inline constexpr uint32_t kOrderBase = 0x50000000u;
 struct FixedOrder {
   VtSet set;
   std::unique_ptr<TileCache> cache;
-  std::vector<std::unique_ptr<TileDecoder>> decoders;  // one per material
+  std::unique_ptr<TileDecoder> decoder;
   std::vector<RequestInfo> items;
   std::vector<std::vector<float>> decoded;  // per (material base + flat · K + local texture)
   std::vector<uint32_t> material_base;
   std::vector<uint16_t> staging;  // half texels of deliveries until JavaScript uploaded them
   std::vector<uint8_t> dirty;     // per global texture: page table to write again
+  std::vector<PageTableWrite> writes;  // reserved for every page-table texel
 };
 
 class Client {
@@ -316,7 +317,6 @@ class Client {
       const VtMaterial& vm = o->set.material(mi);
       o->material_base.push_back(entries);
       entries += vm.levels.tile_count() * vm.texture_count;
-      o->decoders.push_back(std::make_unique<TileDecoder>(layout));
       const ClientMaterial& m = *materials[mi];
       for (uint32_t g = 0; g < m.dir.packets.size(); ++g) {
         const BsvtfPacketEntry& p = m.dir.packets[g];
@@ -325,9 +325,14 @@ class Client {
           if (e.id.texture == g) o->items.push_back(make_info(mi, 0, e.id.key(), e.offset, e.size, o->items.size()));
       }
     }
+    o->decoder = std::make_unique<TileDecoder>(layout);
     if (o->cache->slot_count() < entries) return -fail(kFailed, "cache too small for every tile of the materials");
     o->decoded.resize(entries);
-    o->dirty.assign(o->set.texture_count(), 1);                   // the roots' slots: written on the first upload
+    o->dirty.assign(o->set.texture_count(), 1);  // the roots' slots: written on the first upload
+    size_t texels = 0;
+    for (uint32_t t = 0; t < o->set.texture_count(); ++t) texels += o->set.levels_of(t).tile_count();
+    o->writes.reserve(texels);
+    page_writes.reserve(texels);
     o->staging.reserve(o->items.size() * layout.sample_count());  // pointers stay valid until uploaded
     uploads.clear();
     page_writes.clear();
@@ -380,9 +385,9 @@ class Client {
     }
     std::vector<float>& samples = o.decoded[entry_of(local)];
     samples.resize(layout.sample_count());
-    if (o.decoders[info.material]->decode(bytes, parent, local.x & 1, local.y & 1, samples) != Status::success) {
+    if (o.decoder->decode(bytes, parent, local.x & 1, local.y & 1, samples) != Status::success) {
       samples.clear();
-      return fail(kDecodeFailed, o.decoders[info.material]->message());
+      return fail(kDecodeFailed, o.decoder->message());
     }
     const TileId global{vm.first_texture + local.texture, local.level, local.x, local.y};
     uint32_t slot = o.cache->slot_of(global);  // roots are pinned at creation
@@ -406,13 +411,12 @@ class Client {
   int staged_uploads() {
     if (!started) return -fail(kBadArgument, "uploads before start");
     if (order) {
-      table_writes.clear();
-      std::vector<PageTableWrite> writes;
+      order->writes.clear();
       for (uint32_t t = 0; t < order->dirty.size(); ++t)
-        if (order->dirty[t]) append_full_page_table_writes(*order->cache, t, writes);
+        if (order->dirty[t]) append_full_page_table_writes(*order->cache, t, order->writes);
       std::fill(order->dirty.begin(), order->dirty.end(), 0);
       page_writes.clear();
-      for (const PageTableWrite& w : writes)
+      for (const PageTableWrite& w : order->writes)
         page_writes.push_back(PageWrite{w.tile.texture, w.page_mip, w.tile.x, w.tile.y, w.entry});
     }
     return static_cast<int>(uploads.size());

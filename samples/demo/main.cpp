@@ -429,8 +429,12 @@ int main(int argc, char** argv) {
     const size_t from = settle_first + std::min<size_t>(vote_window - 1, run.frames.size() - settle_first - 1);
     const double first = run.frames[from].ssim, last = run.frames.back().ssim;
     // Non-decreasing (with a small tolerance): when the cache already held the last view's
-    // tiles when the flight ended, SSIM is flat at its converged value.
-    const bool rises = last >= first - 0.002;
+    // tiles when the flight ended, SSIM is flat at its converged value. The CPU ray-caster samples
+    // the finest level unfiltered, so a finer tile arriving late can add aliasing on the far
+    // ground as well as detail: it ended 0.004 below its settle start once under a loaded CI
+    // (0.9514 -> 0.9474), where six runs on an idle machine moved by -0.0003 to +0.0044.
+    const double dip = is_gpu ? 0.002 : 0.01;
+    const bool rises = last >= first - dip;
     const bool high = last >= (is_gpu ? 0.85 : 0.6);
     const bool table = run.page_table_check == "equal";
     // The rasteriser and the CPU ray-caster shade the same FMF through the same filter: anything
@@ -442,12 +446,17 @@ int main(int argc, char** argv) {
     if (paths_compared)
       std::snprintf(agree, sizeof agree, ", FMF GPU vs CPU same filter SSIM %.4f (bound 0.95)",
                     run.raw.fmf_gpu_vs_cpu_f.ssim);
+    std::string failed;
+    if (!rises) failed += format_message(" SSIM fell more than %.3f during the settle;", dip);
+    if (!high) failed += " SSIM below its bound;";
+    if (!table) failed += " page table differs from a rebuild;";
+    if (!paths_agree) failed += " FMF GPU and CPU disagree;";
     std::printf(
         "  checks      settle SSIM %.4f (settle frame %zu, votes of the last view only) -> %.4f (bound %.2f), "
-        "%s, page table equals rebuild%s: %s\n",
+        "%s, page table equals rebuild%s: %s%s\n",
         first, from - settle_first, last, is_gpu ? 0.85 : 0.6,
         quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled", agree,
-        rises && high && table && paths_agree ? "checks passed" : "FAILED");
+        failed.empty() ? "checks passed" : "FAILED:", failed.c_str());
     if (!rises || !high || !table || !paths_agree) return 1;
   }
   if (run.page_table_check != "equal") {

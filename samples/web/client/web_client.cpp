@@ -60,8 +60,7 @@ enum Code : int {
 struct ClientMaterial {
   BsvtfDirectory dir;
   AngularTextures angular;
-  std::vector<float> u_rgba;  ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
-  std::vector<float> u;       ///< U row-major (row · C + c), for the CPU side
+  std::vector<float> u_rgba;       ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
   uint32_t packets_loaded = 0;     ///< U′ packets uploaded (the highest g + 1)
   std::vector<uint8_t> delivered;  ///< per (local texture, flat tile): uploaded at least once
   double weight_total = 0, weight_delivered = 0;
@@ -158,7 +157,6 @@ class Client {
     m->angular = std::move(*a);
     const size_t lights = md.light_directions.size() / 3, views = md.view_directions.size() / 3;
     m->u_rgba.assign(lights * views * md.component_count * 4, 0.0f);
-    m->u.assign(static_cast<size_t>(md.u_rows) * md.component_count, 0.0f);
     for (const BsvtfTileEntry& e : m->dir.tiles) {
       m->weight_total += e.weight;
       m->payload_index.push_back({e.offset, e.size, e.crc});
@@ -253,7 +251,7 @@ class Client {
     ClientMaterial& m = *materials[mi];
     const std::span<float> packet(packet_scratch.data(), halves.size());
     for (size_t i = 0; i < halves.size(); ++i) packet[i] = half_bits_to_float(halves[i]);
-    scatter_u_packet(m.dir.metadata, g, packet, m.u_rgba, m.u, AngularRowOrder::light_major);
+    scatter_u_packet(m.dir.metadata, g, packet, m.u_rgba, {}, AngularRowOrder::light_major);
     m.packets_loaded = std::max(m.packets_loaded, g + 1);
     uploads.push_back(UploadInfo{1, 0, mi, g, 0});
   }
@@ -364,7 +362,7 @@ class Client {
       const BsvtfPacketEntry& p = m.dir.packets[info.key_lo];
       if (verify_bsvtf_payload(p.size, p.crc, bytes) != Status::success) return fail(kCorrupt, "U packet CRC mismatch");
       unpack_bsvtf_packet(bytes, packet_scratch);
-      scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, m.u, m.dir.metadata.u_row_order);
+      scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, {}, m.dir.metadata.u_row_order);
       m.packets_loaded = std::max(m.packets_loaded, info.key_lo + 1);
       uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0});
       return kOk;

@@ -97,7 +97,7 @@ inline VoidResult check_u_layout(const BsvtfMetadata& md) {
 /// eigen_abrdfs texture array `rgba` (texel (light, view), layer c, rgb = colour; layout of
 /// backend/backend.hpp pack_eigen_abrdfs_rgba: ((c · views + view) · lights + light) · 4), and
 /// into E's light-major U `u` (((light · views + view) · 3 + colour) · C + c), both sized for
-/// every component. Components past C
+/// every component (`u` may be empty: then only `rgba` is written). Components past C
 /// in the last packet are dropped. No allocation.
 inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<const float> packet, std::span<float> rgba,
                              std::span<float> u, AngularRowOrder packet_order) noexcept {
@@ -116,7 +116,7 @@ inline void scatter_u_packet(const BsvtfMetadata& md, uint32_t g, std::span<cons
                                  : (static_cast<size_t>(l) * views + v) * 3 + col;
           const float value = packet[row * 4 + k] * scale;
           rgba[((static_cast<size_t>(c) * views + v) * lights + l) * 4 + col] = value;
-          u[((static_cast<size_t>(l) * views + v) * 3 + col) * C + c] = value;
+          if (!u.empty()) u[((static_cast<size_t>(l) * views + v) * 3 + col) * C + c] = value;
         }
   }
 }

@@ -74,13 +74,13 @@ const materials = files.map((_, m) => info(m, 0));
 }
 const textureCount = materials.reduce((n, m) => n + m.textures, 0);
 
-// The wanted set of a phase: per material, (level, x0, x1, y0, y1) in tiles at that level.
-const phases = [
+// The wanted set of a move: per material, (level, x0, x1, y0, y1) in tiles at that level.
+const moves = [
   (m) => { const f = info(m, materials[m].finest); return [f.finest, 0, f.tilesX >> 1, 0, f.tilesY >> 1]; },
   (m) => { const f = info(m, materials[m].finest); return [f.finest, f.tilesX >> 1, f.tilesX, f.tilesY >> 1, f.tilesY]; },
   (m) => { const l = Math.max(0, materials[m].finest - 1), f = info(m, l); return [l, 0, f.tilesX, 0, f.tilesY]; },
 ];
-const wantedOf = (phase) => files.map((_, m) => phases[phase](m));
+const wantedOf = (move) => files.map((_, m) => moves[move](m));
 const wordsOf = (wanted) => {
   const words = [];
   for (const [m, [level, x0, x1, y0, y1]] of wanted.entries())
@@ -163,8 +163,8 @@ const frames = [];
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const feedbackHeap = M._malloc(64 << 10);
 let frame = 0;
-for (let phase = 0; phase < phases.length; ++phase) {
-  const wanted = wantedOf(phase);
+for (let move = 0; move < moves.length; ++move) {
+  const wanted = wantedOf(move);
   const words = wordsOf(wanted);
   new Uint32Array(M.HEAPU8.buffer, feedbackHeap, words.length).set(words);
   let converged = -1;
@@ -182,7 +182,7 @@ for (let phase = 0; phase < phases.length; ++phase) {
     }
   }
   frames.push(converged);
-  if (converged < 0) fail(`phase ${phase}: the wanted tiles did not all become resident in 2000 frames`);
+  if (converged < 0) fail(`move ${move}: the wanted tiles did not all become resident in 2000 frames`);
 }
 // Drain the remaining page-table writes, then compare the mirror with a rebuild.
 for (let f = 0; f < 8; ++f) {
@@ -207,7 +207,7 @@ const stats = Array.from(new Float64Array(M.HEAPU8.buffer, statsPtr, 6));
 const ready = materials.map((_, m) => info(m, 0).ready);
 
 if (wrongTiles) fail(`${wrongTiles} uploaded tiles differ from an independent decode`);
-// The first two phases want disjoint finest tiles: each was uploaded at least once.
+// The first two moves want disjoint finest tiles: each was uploaded at least once.
 const tilesWanted = (wanted) =>
   wanted.reduce((n, [, x0, x1, y0, y1], m) => n + (x1 - x0) * (y1 - y0) * materials[m].textures, 0);
 const disjointWanted = tilesWanted(wantedOf(0)) + tilesWanted(wantedOf(1));

@@ -201,10 +201,9 @@ export class BtflodClient {
         offset: reads[b + 3] + reads[b + 4] * 2 ** 32, size: reads[b + 5], destination: reads[b + 6] });
     }
     this.applyUploads();
-    const p = M._malloc(16);
-    M._bw_faults(p);
-    const [refused, failed] = new Float64Array(M.HEAPU8.buffer, p, 2);
-    M._free(p);
+    this.faultsHeap = this.faultsHeap || M._malloc(16);  // once: nothing allocates per frame
+    M._bw_faults(this.faultsHeap);
+    const [refused, failed] = new Float64Array(M.HEAPU8.buffer, this.faultsHeap, 2);
     this.stats.corrupt = refused;
     this.stats.decodeFailures = failed;
     this.pump();

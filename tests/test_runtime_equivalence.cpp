@@ -158,6 +158,8 @@ TEST(RuntimeEquivalence, SamePageTablesAndImagesAsTheHandAssembledLoop) {
     // Hand-assembled: uploads of last frame's decodes, votes, plan, decode, page tables.
     sched.apply_uploads(cache, [&](const TileRequest& q) { old_tex.upload(cache, q.slot, staging[q.id]); });
     votes.accumulate(fb, 1, sched.lod_bias());
+    // The runtime schedules a material's tiles once it is ready (its roots verified and uploaded).
+    for (uint32_t m = 0; m < 2; ++m) sched.set_material_enabled(m, rt.material_ready(m));
     for (const TileRequest& q : sched.plan(cache, votes, f)) {
       const uint32_t m = set.material_of(q.tile.texture);
       staging[q.id] = decode_direct(

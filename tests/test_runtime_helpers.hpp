@@ -1,10 +1,16 @@
-// Shared by the runtime tests (test_runtime_streamer.cpp, test_runtime_equivalence.cpp): the
-// reference texels of a tile, decoded straight from its container.
+// Shared by the runtime tests (test_runtime_*.cpp): the reference texels of a tile, decoded
+// straight from its container; small synthetic worlds of containers; an engine stand-in that
+// keeps what the GPU would (cache slots, page tables, U′ packets) and checks it against the
+// Streamer's cache; an engine-owned asynchronous I/O queue.
 #pragma once
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <deque>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -12,6 +18,9 @@
 #include "btflod/codec/container.hpp"
 #include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/tile_source.hpp"
+#include "btflod/vt/bsvtf_build.hpp"
 #include "btflod/vt/tile_id.hpp"
 
 namespace btflod_test {
@@ -37,5 +46,204 @@ inline std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, con
   float_to_half(parent, h);
   return h;
 }
+
+using namespace btflod;
+
+inline constexpr uint32_t kLights = 4, kViews = 5;
+
+// A smooth synthetic material: C components over W×H texels, U′ with kLights × kViews × 3 rows
+// light-major (rows (l · V + v) · 3 + c).
+inline EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
+  EigenTextures e;
+  e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
+  for (uint32_t y = 0; y < size; ++y)
+    for (uint32_t x = 0; x < size; ++x)
+      for (uint32_t c = 0; c < components; ++c)
+        e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
+            0.5f + 0.4f * std::sin(0.05f * (x + 1.0f) * (c + 1) + 0.03f * y * (seed + 1)) / (1.0f + c);
+  e.light_count = kLights;
+  e.view_count = kViews;
+  e.angular.resize(size_t{kLights} * kViews * 3 * components);
+  for (size_t i = 0; i < e.angular.size(); ++i) e.angular[i] = 0.1f + 0.01f * static_cast<float>((i * 7 + seed) % 50);
+  return e;
+}
+
+inline std::vector<float> directions(uint32_t n) {
+  std::vector<float> d;
+  for (uint32_t i = 0; i < n; ++i) {
+    const float a = 0.7f * i;
+    d.insert(d.end(), {0.3f * std::cos(a), 0.3f * std::sin(a), std::sqrt(1.0f - 0.09f)});
+  }
+  return d;
+}
+
+// U′ of e in view-major order.
+inline std::vector<float> to_view_major(const EigenTextures& e) {
+  const uint32_t C = e.components();
+  std::vector<float> out(e.angular.size());
+  for (uint32_t l = 0; l < e.light_count; ++l)
+    for (uint32_t v = 0; v < e.view_count; ++v)
+      for (uint32_t c = 0; c < 3; ++c)
+        for (uint32_t k = 0; k < C; ++k)
+          out[((size_t{v} * e.light_count + l) * 3 + c) * C + k] =
+              e.angular[((size_t{l} * e.view_count + v) * 3 + c) * C + k];
+  return out;
+}
+
+inline std::vector<uint8_t> build(const EigenTextures& e, AngularRowOrder order = AngularRowOrder::light_major) {
+  BsvtfFromEigenOptions o;
+  o.tile_size = 32;
+  o.border = 4;
+  o.row_order = order;
+  o.light_directions = directions(kLights);
+  o.view_directions = directions(kViews);
+  if (order == AngularRowOrder::view_major) {
+    EigenTextures vm = e;
+    vm.angular = to_view_major(e);
+    return build_bsvtf_from_eigen_textures(vm, o).value();
+  }
+  return build_bsvtf_from_eigen_textures(e, o).value();
+}
+
+struct World {
+  std::vector<std::vector<uint8_t>> files;
+  std::vector<BsvtfDirectory> dirs;
+  std::vector<std::unique_ptr<MemorySource>> sources;
+  std::vector<StreamerMaterial> materials;
+  void add(std::vector<uint8_t> file) { files.push_back(std::move(file)); }
+  void finish(AsyncTileSource* async = nullptr) {
+    for (auto& f : files) {
+      dirs.push_back(read_bsvtf(f).value());
+      sources.push_back(std::make_unique<MemorySource>(std::span<const uint8_t>(f)));
+    }
+    for (size_t i = 0; i < files.size(); ++i)
+      materials.push_back(StreamerMaterial{&dirs[i], async ? nullptr : sources[i].get(), async});
+  }
+};
+
+inline StreamerConfig small_config() {
+  StreamerConfig c;
+  c.cache = CacheConfig{8, 8, 1u << 12, 32, 4, 1};
+  c.scheduler.budgets.uploads_per_frame = 8;
+  c.scheduler.budgets.requests_in_flight = 16;
+  c.vote_window_frames = 1;
+  return c;
+}
+
+// Every finest tile of every material voted once per frame.
+inline std::vector<uint32_t> full_feedback(const Streamer& s) {
+  std::vector<uint32_t> words;
+  for (uint32_t m = 0; m < s.material_count(); ++m) {
+    const VtLevelTable& lv = s.cache().set().material(m).levels;
+    const uint32_t L = lv.finest_level();
+    for (uint32_t y = 0; y < lv.tiles_y[L]; ++y)
+      for (uint32_t x = 0; x < lv.tiles_x[L]; ++x) words.push_back(pack_feedback(FeedbackTile{m, L, x, y}));
+  }
+  return words;
+}
+
+// What an engine keeps: the cache texture (per slot texels), the GPU page table, U′ packets.
+struct Engine {
+  std::vector<StreamerTileUpload> tile_out;
+  std::vector<StreamerPacketUpload> packet_out;
+  std::vector<PageTableWrite> writes_out;
+  std::vector<ResidencyEvent> events_out;
+  std::vector<std::vector<uint16_t>> slots;
+  std::vector<std::vector<uint32_t>> page_table;  // per texture, flat tile index
+  std::vector<std::vector<uint16_t>> packets;     // per global texture
+  std::vector<uint32_t> ready;
+  uint64_t tile_uploads = 0;
+  explicit Engine(const Streamer& s, size_t writes = 4096) {
+    tile_out.resize(s.tile_uploads_bound());
+    packet_out.resize(s.packet_uploads_bound());
+    writes_out.resize(writes);
+    events_out.resize(64);
+    slots.resize(s.cache().slot_count());
+    for (uint32_t t = 0; t < s.cache().set().texture_count(); ++t)
+      page_table.emplace_back(s.cache().set().levels_of(t).tile_count(), 0xffffffffu);
+    packets.resize(s.cache().set().texture_count());
+  }
+  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
+  void apply(const Streamer& s, const StreamerOutputs& o) {
+    for (size_t i = 0; i < o.tile_upload_count; ++i) {
+      slots[o.tile_uploads[i].slot].assign(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end());
+      ++tile_uploads;
+    }
+    for (size_t i = 0; i < o.packet_upload_count; ++i)
+      packets[o.packet_uploads[i].texture].assign(o.packet_uploads[i].halves.begin(), o.packet_uploads[i].halves.end());
+    for (size_t i = 0; i < o.page_table_write_count; ++i) {
+      const PageTableWrite& w = o.page_table_writes[i];
+      page_table[w.tile.texture][s.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
+    }
+    for (size_t i = 0; i < o.event_count; ++i)
+      if (o.events[i].kind == ResidencyEventKind::material_ready) ready.push_back(o.events[i].material);
+  }
+};
+
+// Checks the engine's copies against the streamer's cache: every resident slot holds the
+// tile's exact texels, every GPU page-table texel the shader can reach is right.
+inline void check_engine(const World& w, const Streamer& s, const Engine& e) {
+  const TileCache& c = s.cache();
+  for (uint32_t slot = 0; slot < c.slot_count(); ++slot) {
+    const SlotInfo& si = c.slot(slot);
+    if (si.state != SlotInfo::State::used) continue;
+    const uint32_t m = c.set().material_of(si.tile.texture);
+    if (si.tile.level == 0 && !s.material_ready(m)) continue;  // pinned root still loading
+    const TileId local{si.tile.texture - s.first_texture(m), si.tile.level, si.tile.x, si.tile.y};
+    ASSERT_EQ(e.slots[slot], decode_direct(w.files[m], w.dirs[m], local)) << "slot " << slot;
+  }
+  for (uint32_t t = 0; t < c.set().texture_count(); ++t) {
+    const VtLevelTable& lv = c.set().levels_of(t);
+    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+      const TileId id = lv.tile(t, i);
+      if (c.resident(id) || id.level == lv.finest_level()) {
+        ASSERT_EQ(e.page_table[t][i], gpu_page_entry(c, id));
+      }
+    }
+  }
+}
+
+inline uint32_t run(Streamer& s, Engine& e, const std::vector<uint32_t>& fb, uint32_t frames) {
+  uint32_t uploads = 0;
+  for (uint32_t f = 0; f < frames; ++f) {
+    StreamerOutputs o = e.outputs();
+    EXPECT_EQ(s.update(fb, o), Status::success);
+    uploads += static_cast<uint32_t>(o.tile_upload_count);
+    e.apply(s, o);
+    s.pump();
+  }
+  return uploads;
+}
+
+
+// An engine-owned I/O queue: reads are served one update later, from memory.
+struct QueueSource final : AsyncTileSource {
+  struct Read {
+    uint64_t offset;
+    std::span<uint8_t> out;
+    uint64_t ticket;
+    size_t file;
+  };
+  std::vector<std::vector<uint8_t>>* files = nullptr;
+  std::deque<Read> reads;
+  size_t file = 0;
+  bool refuse_next = true;
+  bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
+    if (refuse_next) {  // the first read is refused: the runtime must retry it
+      refuse_next = false;
+      return false;
+    }
+    reads.push_back(Read{offset, out, ticket, file});
+    return true;
+  }
+  void complete_all(Streamer& s) {
+    while (!reads.empty()) {
+      const Read r = reads.front();
+      reads.pop_front();
+      std::memcpy(r.out.data(), (*files)[r.file].data() + r.offset, r.out.size());
+      s.complete_read(r.ticket, Status::success);
+    }
+  }
+};
 
 }  // namespace btflod_test

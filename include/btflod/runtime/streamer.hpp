@@ -76,6 +76,24 @@ struct StreamerMaterial {
   AngularRowOrder assumed_row_order = AngularRowOrder::unspecified;
 };
 
+/// What the Streamer does when a read, a checksum or a decode fails (docs/vt.md, "Failures").
+/// A failed tile is retried after a back-off that doubles per failure (first_backoff_frames,
+/// 2×, 4×, … up to max_backoff_frames); after `tile_attempts` failures it is reported
+/// unavailable (ResidencyEventKind::tile_unavailable) and never requested again, so its parent
+/// keeps serving its area. A pinned root or a start-up U′ packet that fails `startup_attempts`
+/// times fails its material (material_failed): none of its tiles is scheduled until the engine
+/// calls Streamer::retry_material(). A material's tiles are scheduled only once it is ready.
+struct StreamerFailurePolicy {
+  uint32_t tile_attempts = 4;         ///< failures of one tile before it is given up (≥ 1)
+  uint32_t startup_attempts = 4;      ///< failures of a root or start-up packet before its material fails (≥ 1)
+  uint32_t packet_attempts = 4;       ///< failures of a streamed U′ packet (§6) before it is given up (≥ 1)
+  uint32_t first_backoff_frames = 2;  ///< frames before the first retry (0: retry on the next update)
+  uint32_t max_backoff_frames = 120;  ///< cap of the doubling back-off
+  /// Tiles waiting for their back-off at once; a failure beyond it is retried without waiting
+  /// (its attempts still count).
+  uint32_t held_tiles_capacity = 256;
+};
+
 /// Everything fixed at creation.
 struct StreamerConfig {
   /// The cache (slots, layers, tile size, border); tile size and border must match every
@@ -102,6 +120,12 @@ struct StreamerConfig {
   /// cached ancestor instead of decoding the chain from the root (and reads no payload above
   /// it). 0 disables the cache. The output is the same either way.
   uint32_t decoded_cache_tiles = 16;
+  /// Tile decoders (each with its inflate state and symbol buffer): the most jobs the engine
+  /// runs at once. A run_job() that finds every decoder busy puts its job back (runnable) and
+  /// returns at once, so running more threads than this wastes their time but is safe.
+  uint32_t decode_workers = 4;
+  /// Retries, back-off and give-up counts.
+  StreamerFailurePolicy failure;
   /// Allocation callbacks for every buffer of the Streamer (tile cache, scheduler, vote counter,
   /// payload cache, jobs, tile decoders), except libdeflate's decompressor (see the file comment).
   RuntimeAllocator allocator;
@@ -131,8 +155,12 @@ struct StreamerPacketUpload {
 enum class ResidencyEventKind : uint8_t {
   material_ready,  ///< every root tile and (unless streamed) every U′ packet was handed out
   packet_loaded,   ///< a U′ packet was handed out (packet_uploads)
-  tile_failed,     ///< a tile could not be read or decoded (status says why); it may be retried
-  packet_failed,   ///< a U′ packet could not be read
+  tile_failed,     ///< a tile could not be read or decoded (status says why); retried after a back-off
+  packet_failed,   ///< a U′ packet could not be read or verified; retried after a back-off
+  tile_unavailable,    ///< a tile failed StreamerFailurePolicy::tile_attempts times: never requested again
+  material_failed,     ///< a root or start-up U′ packet failed startup_attempts times (terminal until
+                       ///< retry_material()); tile = the failing texture's root or packet
+  packet_unavailable,  ///< a streamed U′ packet (§6) failed packet_attempts times: never requested again
 };
 
 /// Something the engine may want to react to.
@@ -145,16 +173,74 @@ struct ResidencyEvent {
 
 /// Caller-owned outputs of one update(). Capacities: tile_uploads ≥ tile_uploads_bound(),
 /// packet_uploads ≥ packet_uploads_bound(); page_table_writes and events any size (what does
-/// not fit waits for the next update, resp. is counted in events_dropped()).
+/// not fit waits for the next update, resp. is counted in events_dropped()); runnable_jobs any
+/// size (jobs that do not fit stay runnable for acquire_job()).
 struct StreamerOutputs {
   std::span<StreamerTileUpload> tile_uploads;
   std::span<StreamerPacketUpload> packet_uploads;
   std::span<PageTableWrite> page_table_writes;
   std::span<ResidencyEvent> events;
+  /// Jobs claimed for the engine by this update: hand each to a worker that calls run_job()
+  /// once. Empty span: nothing is claimed (workers pull with acquire_job()).
+  std::span<uint32_t> runnable_jobs{};
   size_t tile_upload_count = 0;
   size_t packet_upload_count = 0;
   size_t page_table_write_count = 0;
   size_t event_count = 0;
+  size_t runnable_job_count = 0;
+};
+
+/// Bytes the Streamer holds, by what they are for: allocated in create(), constant afterwards
+/// (nothing allocates later). total is everything allocated through StreamerConfig::allocator
+/// and still held (libdeflate's decompressors, outside the callbacks, are not counted).
+struct StreamerMemory {
+  uint64_t tile_cache = 0;       ///< slot table, per-tile slot indices, page-table bookkeeping
+  uint64_t scheduler = 0;        ///< requests, weights, priorities, per-tile flags
+  uint64_t votes = 0;            ///< vote counter (window of feedback frames)
+  uint64_t payload_cache = 0;    ///< compressed ancestors (payload_cache_bytes + index)
+  uint64_t job_buffers = 0;      ///< payload chains, decode scratch, output texels, U′ packets
+  uint64_t decoders = 0;         ///< decode_workers tile decoders (symbols, zlib/zstd state)
+  uint64_t decoded_cache = 0;    ///< decoded_cache_tiles decoded ancestors
+  uint64_t tables = 0;           ///< per-material, per-tile records, page-table mirror, queues,
+                                 ///< failure counts, the Streamer object and its allocation ledger
+  uint64_t total = 0;            ///< all of the above
+  uint64_t allocations = 0;      ///< allocations held (each through the callbacks)
+};
+
+/// A snapshot of the Streamer's state and counters since creation. Cheap (O(jobs)); any frame.
+struct StreamerStats {
+  StreamerMemory memory;
+  uint64_t frame = 0;                   ///< update() calls so far
+  uint32_t slots = 0, slots_used = 0;   ///< cache slots, of which hold a tile (roots included)
+  uint32_t materials_ready = 0;         ///< materials whose roots (and U′ unless streamed) are loaded
+  uint32_t materials_failed = 0;        ///< materials in the failed state now
+  uint32_t jobs_reading = 0;            ///< jobs waiting for async reads
+  uint32_t jobs_runnable = 0;           ///< jobs ready to run (not claimed)
+  uint32_t jobs_running = 0;            ///< jobs claimed or running
+  uint32_t jobs_waiting_retry = 0;      ///< start-up jobs waiting for their back-off
+  uint32_t tiles_backing_off = 0;       ///< tiles held until their back-off ends
+  uint32_t tiles_unavailable = 0;       ///< tiles given up (and not reset by retry_material())
+  uint64_t tile_failures = 0;           ///< tile and root jobs that failed (read, checksum, decode)
+  uint64_t packet_failures = 0;         ///< U′ packet jobs that failed
+  uint64_t retries = 0;                 ///< failed work started again (after its back-off)
+  uint64_t cancelled = 0;               ///< jobs dropped because reads were cancelled (no failure counted)
+  uint64_t feedback_ignored = 0;        ///< feedback words naming no material, or one not ready or failed
+  uint64_t bytes_read = 0;              ///< payload bytes read from sources
+  uint64_t decoded_levels_skipped = 0;  ///< see Streamer::decoded_levels_skipped()
+  uint64_t events_dropped = 0;          ///< events that did not fit the caller's span
+  uint64_t decoder_busy = 0;            ///< run_job() calls that found every decoder busy
+};
+
+/// Shapes of the GPU resources an engine allocates for a Streamer (docs/shaders.md): the
+/// cache texture, the page table (one R32UI 2D-array layer per virtual texture, mip s holding
+/// level L − s of that texture) and the U′ texture (one RGBA16F packet per virtual texture).
+struct StreamerGpuLayout {
+  uint32_t cache_width = 0, cache_height = 0, cache_layers = 0;  ///< texels of the tile cache
+  uint32_t page_table_width = 0, page_table_height = 0;          ///< finest-level tiles, max over textures
+  uint32_t page_table_levels = 0;                                 ///< L + 1, max over textures
+  uint32_t page_table_layers = 0;                                 ///< virtual textures
+  uint32_t u_rows = 0;                                            ///< rows of the largest U′ packet
+  uint32_t u_packets = 0;                                         ///< virtual textures
 };
 
 /// The work a thread executor pulls (stream/thread_executor.hpp). Thread-safe.
@@ -164,16 +250,30 @@ class StreamerJobQueue {
   virtual ~StreamerJobQueue() = default;
   /// Claims a runnable job and returns its handle, or kNoJob. Any thread; lock-free.
   virtual uint32_t acquire_job() noexcept = 0;
-  /// Runs a claimed job (reads through a blocking source, verifies, decodes). Any thread;
-  /// distinct jobs run concurrently. No allocation.
+  /// Runs a job this thread claimed (acquire_job(), claim_job() or an update()'s
+  /// runnable_jobs): reads through a blocking source, verifies, decodes. Any thread; distinct
+  /// jobs run concurrently. A handle that is out of range or not claimed is ignored; a job
+  /// that finds every decoder busy is put back (runnable). No allocation.
   virtual void run_job(uint32_t job) noexcept = 0;
+  /// Claims job `job` if it is runnable (e.g. the handle complete_read() returned). Returns
+  /// true when the caller now owns it and must run_job() it. Any thread; lock-free.
+  virtual bool claim_job(uint32_t job) noexcept = 0;
   /// Registers a function update() calls when it made jobs runnable (e.g. to wake workers).
   virtual void set_job_notify(void (*notify)(void* user), void* user) noexcept = 0;
 };
 
 namespace detail {
 
-enum JobState : uint8_t { kJobFree, kJobReading, kJobRunnable, kJobRunning, kJobDone, kJobFailed, kJobHanded };
+enum JobState : uint8_t {
+  kJobFree,
+  kJobReading,
+  kJobRunnable,
+  kJobRunning,
+  kJobDone,
+  kJobFailed,
+  kJobHanded,
+  kJobWaiting,  // a failed start-up job waiting for its back-off (retry_frame)
+};
 enum JobKind : uint8_t { kTileJob, kRootJob, kPacketJob };
 
 struct TileRecord {  // one tile of a container: where its payload is
@@ -193,6 +293,7 @@ struct StreamerMaterialState {
   uint32_t packet_base = 0;  // index of packet 0 in the packet records
   uint32_t roots_loaded = 0, packets_loaded = 0;
   bool ready = false;
+  bool failed = false;  // a root or start-up packet was given up (material_failed)
 };
 
 struct StreamerJob {
@@ -214,12 +315,39 @@ struct StreamerJob {
   uint8_t result_in_out = 0;                      // the decoded tile is in `out` (1) or `parent` (0)
   uint8_t parent_decoded = 0;                     // the other buffer holds the decoded parent of the tile
   uint8_t decoded_kept = 0;                       // the completion was handled (buffers offered, pin released)
+  uint64_t retry_frame = 0;                       // kJobWaiting: the frame it starts again
   Status status = Status::success;
   uint8_t* bytes = nullptr;
   float* parent = nullptr;
   float* out = nullptr;
   uint16_t* halves = nullptr;
-  TileDecoder* decoder = nullptr;
+};
+
+// Counts what goes through the engine's allocator, so that StreamerStats::memory reports it
+// (allocated before everything else, released after everything else).
+struct AllocationLedger {
+  RuntimeAllocator inner;
+  uint64_t live = 0, count = 0;
+  static void* allocate(void* user, size_t bytes, size_t alignment) {
+    AllocationLedger& l = *static_cast<AllocationLedger*>(user);
+    void* p = l.inner.allocate_bytes(bytes, alignment);
+    if (p != nullptr) l.live += bytes, ++l.count;
+    return p;
+  }
+  static void deallocate(void* user, void* p, size_t bytes, size_t alignment) {
+    AllocationLedger& l = *static_cast<AllocationLedger*>(user);
+    l.inner.deallocate_bytes(p, bytes, alignment);
+    l.live -= bytes, --l.count;
+  }
+  RuntimeAllocator counting() noexcept { return RuntimeAllocator{&allocate, &deallocate, this}; }
+};
+
+// A tile or streamed U′ packet held back until its back-off ends.
+struct HeldWork {
+  uint32_t texture = 0;  // global virtual texture (its material's packet: material index)
+  uint32_t flat = 0;
+  uint64_t until = 0;    // the frame it may be requested again
+  uint8_t packet = 0;
 };
 
 }  // namespace detail
@@ -271,9 +399,42 @@ class Streamer {
   /// The job interface of this Streamer; stays valid when the Streamer is moved.
   StreamerJobQueue& jobs() noexcept;
 
+  /// Claims a specific runnable job (see StreamerJobQueue::claim_job).
+  bool claim_job(uint32_t job) noexcept;
+
   /// Reports an AsyncTileSource read started with `ticket`: success when its bytes are in the
-  /// buffer, anything else on failure. Any thread, once per ticket. noexcept.
-  void complete_read(uint64_t ticket, Status status) noexcept;
+  /// buffer, Status::cancelled when the engine cancelled the read (the job is dropped without
+  /// counting a failure and its work is asked for again later), anything else on failure.
+  /// Returns the job this completion made runnable (its last read), or kNoJob; the engine may
+  /// claim_job() it and hand it to a worker, or leave it for acquire_job(). Any thread, once
+  /// per ticket; unknown tickets are ignored. noexcept.
+  uint32_t complete_read(uint64_t ticket, Status status) noexcept;
+
+  // --- quiescing ------------------------------------------------------------------------
+  /// From the next update() on, no job, read or retry is started (finished jobs are still
+  /// collected and their outputs handed out), so that the engine can drain: complete or
+  /// cancel its outstanding reads, let running jobs end, update() until idle(), then destroy
+  /// the Streamer (or resume()). Update thread.
+  void quiesce() noexcept;
+  /// Starts work again after quiesce().
+  void resume() noexcept;
+  /// True when no job is reading, runnable or running: destroying the Streamer is safe then.
+  /// Any thread.
+  bool idle() const noexcept;
+
+  // --- failures -------------------------------------------------------------------------
+  /// True when the material failed (ResidencyEventKind::material_failed) and was not retried.
+  bool material_failed(uint32_t material) const noexcept;
+  /// Forgets the failures of a material (its failed start-up items are queued again, its
+  /// unavailable tiles may be requested again), e.g. after the engine repaired its source.
+  /// invalid_argument for an unknown material. Update thread; no allocation.
+  Status retry_material(uint32_t material) noexcept;
+
+  // --- what the engine can see ----------------------------------------------------------
+  /// Memory, residency, jobs and failure counters (StreamerStats). O(jobs), no allocation.
+  StreamerStats stats() const noexcept;
+  /// Shapes of the cache texture, page table and U′ texture the engine must allocate.
+  StreamerGpuLayout gpu_layout() const noexcept;
 
   // --- state ---------------------------------------------------------------------------
   const TileCache& cache() const noexcept;
@@ -309,7 +470,8 @@ class Streamer {
 // Implementation (inline: header-only).
 
 struct Streamer::Impl final : StreamerJobQueue {
-  RuntimeAllocator allocator;
+  detail::AllocationLedger* ledger = nullptr;  // owned by Streamer::destroy()
+  RuntimeAllocator allocator;                  // ledger->counting()
   StreamerConfig config;
   TileLayout layout;
   TileCache cache;
@@ -325,11 +487,26 @@ struct Streamer::Impl final : StreamerJobQueue {
   RuntimeArray<uint8_t> job_bytes;
   RuntimeArray<float> job_floats;
   RuntimeArray<uint16_t> job_halves;
-  RuntimeArray<uint8_t> decoder_storage;
+  RuntimeArray<uint8_t> decoder_storage;  // decode_workers TileDecoders
+  RuntimeArray<std::atomic<uint8_t>> decoder_busy;
+  uint32_t decoder_count = 0;
+  std::atomic<uint64_t> decoder_busy_hits{0};
+  // Failures (StreamerFailurePolicy): per tile record and per packet record, saturating.
+  RuntimeArray<uint8_t> tile_failures;
+  RuntimeArray<uint8_t> packet_failures;
+  RuntimeArray<uint8_t> startup_failed;  // per global texture: 1 root given up, 2 packet given up
+  RuntimeArray<detail::HeldWork> held;
+  uint32_t held_count = 0;
+  uint32_t tiles_unavailable = 0, materials_failed_now = 0;
+  uint64_t tile_failure_count = 0, packet_failure_count = 0, retry_count = 0, cancelled_count = 0;
+  uint64_t feedback_ignored = 0;
+  bool quiescing = false;
+  StreamerMemory memory;
   size_t chain_bytes = 0, packet_bytes = 0, max_rows = 0;
-  // Start-up queue: roots (global texture ids), then packets (global texture ids).
+  // Start-up queue: a ring of (global texture << 1 | is_packet), roots first; items a
+  // retry_material() queues again go to its end (each item is in it at most once).
   RuntimeArray<uint32_t> startup;
-  uint32_t startup_next = 0, startup_roots = 0;
+  uint32_t startup_head = 0, startup_count = 0;
   // Scheduler packet requests waiting for a packet job.
   RuntimeArray<uint64_t> waiting_packets;  // (texture << 32) | request id
   uint32_t waiting_count = 0;
@@ -365,12 +542,30 @@ struct Streamer::Impl final : StreamerJobQueue {
   Impl(TileCache&& c, Scheduler&& s, VoteCounter&& v)
       : cache(std::move(c)), scheduler(std::move(s)), votes(std::move(v)) {}
   ~Impl() override {
-    if (decoder_storage.data() != nullptr)
-      for (uint32_t j = 0; j < jobs.size(); ++j)
-        if (jobs[j].decoder != nullptr) jobs[j].decoder->~TileDecoder();
+    for (uint32_t d = 0; d < decoder_count; ++d) decoder(d)->~TileDecoder();
+  }
+
+  TileDecoder* decoder(uint32_t d) noexcept {
+    uint8_t* p = decoder_storage.data();
+    p += (alignof(TileDecoder) - reinterpret_cast<uintptr_t>(p) % alignof(TileDecoder)) % alignof(TileDecoder);
+    return reinterpret_cast<TileDecoder*>(p + size_t{d} * sizeof(TileDecoder));
+  }
+  uint32_t claim_decoder() noexcept {
+    for (uint32_t d = 0; d < decoder_count; ++d) {
+      uint8_t expected = 0;
+      if (decoder_busy[d].load(std::memory_order_relaxed) == 0 &&
+          decoder_busy[d].compare_exchange_strong(expected, 1, std::memory_order_acquire))
+        return d;
+    }
+    return kNoJob;
   }
 
   // --- StreamerJobQueue ---
+  bool claim_job(uint32_t j) noexcept override {
+    if (j >= jobs.size()) return false;
+    uint8_t expected = detail::kJobRunnable;
+    return jobs[j].state.compare_exchange_strong(expected, detail::kJobRunning, std::memory_order_acquire);
+  }
   uint32_t acquire_job() noexcept override {
     for (uint32_t j = 0; j < jobs.size(); ++j) {
       uint8_t expected = detail::kJobRunnable;
@@ -387,7 +582,20 @@ struct Streamer::Impl final : StreamerJobQueue {
   void run_job(uint32_t j) noexcept override {
     if (j >= jobs.size()) return;
     detail::StreamerJob& job = jobs[j];
-    const Status s = job.kind == detail::kPacketJob ? run_packet(job) : run_tile(job);
+    if (job.state.load(std::memory_order_acquire) != detail::kJobRunning) return;  // not claimed
+    Status s;
+    if (job.kind == detail::kPacketJob) {
+      s = run_packet(job);
+    } else {
+      const uint32_t d = claim_decoder();
+      if (d == kNoJob) {  // more threads than decode_workers: someone else runs it later
+        decoder_busy_hits.fetch_add(1, std::memory_order_relaxed);
+        job.state.store(detail::kJobRunnable, std::memory_order_release);
+        return;
+      }
+      s = run_tile(job, *decoder(d));
+      decoder_busy[d].store(0, std::memory_order_release);
+    }
     job.status = s;
     job.state.store(s == Status::success ? detail::kJobDone : detail::kJobFailed, std::memory_order_release);
   }
@@ -411,7 +619,7 @@ struct Streamer::Impl final : StreamerJobQueue {
     return Status::success;
   }
 
-  Status run_tile(detail::StreamerJob& job) noexcept {
+  Status run_tile(detail::StreamerJob& job, TileDecoder& decoder) noexcept {
     const uint32_t m = job.material;
     const uint32_t k = local_texture(job.tile);
     const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
@@ -429,7 +637,7 @@ struct Streamer::Impl final : StreamerJobQueue {
         if (s != Status::success) return s;
       }
       if (const Status v = verify_bsvtf_payload(rec.size, rec.crc, dst); v != Status::success) return Status::bad_data;
-      const Status d = job.decoder->decode(
+      const Status d = decoder.decode(
           dst, t.level > 0 ? std::span<const float>(previous, layout.sample_count()) : std::span<const float>(),
           t.x & 1u, t.y & 1u, std::span<float>(buffers[current], layout.sample_count()));
       if (d != Status::success) return d;
@@ -589,21 +797,21 @@ struct Streamer::Impl final : StreamerJobQueue {
     return true;
   }
 
-  void complete_read(uint64_t ticket, Status status) noexcept {
+  uint32_t complete_read(uint64_t ticket, Status status) noexcept {
     const uint32_t j = static_cast<uint32_t>(ticket >> 8);
-    if (j >= jobs.size()) return;
+    if (j >= jobs.size()) return kNoJob;
     detail::StreamerJob& job = jobs[j];
-    if (job.state.load(std::memory_order_acquire) != detail::kJobReading) return;
+    if (job.state.load(std::memory_order_acquire) != detail::kJobReading) return kNoJob;
     if (status != Status::success) job.read_status.store(static_cast<uint8_t>(status), std::memory_order_relaxed);
-    if (job.reads_pending.fetch_sub(1, std::memory_order_acq_rel) == 1) {
-      const uint8_t rs = job.read_status.load(std::memory_order_relaxed);
-      if (rs != 0) {
-        job.status = static_cast<Status>(rs);
-        job.state.store(detail::kJobFailed, std::memory_order_release);
-      } else {
-        job.state.store(detail::kJobRunnable, std::memory_order_release);
-      }
+    if (job.reads_pending.fetch_sub(1, std::memory_order_acq_rel) != 1) return kNoJob;
+    const uint8_t rs = job.read_status.load(std::memory_order_relaxed);
+    if (rs != 0) {
+      job.status = static_cast<Status>(rs);
+      job.state.store(detail::kJobFailed, std::memory_order_release);
+      return kNoJob;
     }
+    job.state.store(detail::kJobRunnable, std::memory_order_release);
+    return j;
   }
 
   // Hands a job to the source or the executor.
@@ -665,6 +873,7 @@ struct Streamer::Impl final : StreamerJobQueue {
     const bool packets_done = config.scheduler.stream_u_columns || ms.packets_loaded >= ms.texture_count;
     if (!ms.ready && ms.roots_loaded >= ms.texture_count && packets_done) {
       ms.ready = true;
+      scheduler.set_material_enabled(m, true);  // its tiles are scheduled from now on
       push_event(out, ResidencyEvent{ResidencyEventKind::material_ready, m, TileId{ms.first_texture, 0, 0, 0},
                                      Status::success});
     }
@@ -689,18 +898,163 @@ struct Streamer::Impl final : StreamerJobQueue {
     ++queue_count;
   }
 
+  // --- failures (StreamerFailurePolicy) ---
+  uint64_t backoff_frames(uint32_t failures) const noexcept {
+    const StreamerFailurePolicy& p = config.failure;
+    uint64_t d = p.first_backoff_frames;
+    for (uint32_t i = 1; i < failures && d < p.max_backoff_frames; ++i) d *= 2;
+    return std::min<uint64_t>(d, p.max_backoff_frames);
+  }
+  static uint32_t bump(uint8_t& failures) noexcept {
+    if (failures < 255) ++failures;
+    return failures;
+  }
+  uint32_t record_index(uint32_t m, uint32_t local_tex, uint32_t flat) const noexcept {
+    return materials[m].record_base + local_tex * materials[m].tile_count + flat;
+  }
+  void push_startup(uint32_t item) noexcept {
+    if (startup_count == startup.size()) return;  // cannot happen: each item is queued at most once
+    startup[(startup_head + startup_count) % startup.size()] = item;
+    ++startup_count;
+  }
+
+  // A root or start-up U′ packet job failed: back off, or fail the material.
+  void startup_failed_job(uint32_t j, StreamerOutputs& out) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    const uint32_t m = job.material, t = job.tile.texture;
+    detail::StreamerMaterialState& ms = materials[m];
+    const bool packet = job.kind == detail::kPacketJob;
+    if (job.status == Status::cancelled) {  // the engine cancelled the read: not a failure
+      ++cancelled_count;
+      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
+      job.retry_frame = frame + 1;
+      return;
+    }
+    const uint32_t k = t - ms.first_texture;
+    uint8_t& fails = packet ? packet_failures[ms.packet_base + k] : tile_failures[record_index(m, k, 0)];
+    packet ? ++packet_failure_count : ++tile_failure_count;
+    push_event(out, ResidencyEvent{packet ? ResidencyEventKind::packet_failed : ResidencyEventKind::tile_failed, m,
+                                   job.tile, job.status});
+    if (bump(fails) < config.failure.startup_attempts) {
+      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
+      job.retry_frame = frame + backoff_frames(fails);
+      return;
+    }
+    startup_failed[t] |= packet ? 2 : 1;
+    job.state.store(detail::kJobFree, std::memory_order_relaxed);
+    if (!ms.failed) {
+      ms.failed = true;
+      ++materials_failed_now;
+      scheduler.set_material_enabled(m, false);
+      push_event(out, ResidencyEvent{ResidencyEventKind::material_failed, m, job.tile, job.status});
+    }
+  }
+
+  // A scheduler request failed (its request is cancelled already): hold the tile or packet back
+  // for its back-off, or give it up.
+  void request_failed_job(const detail::StreamerJob& job, StreamerOutputs& out) noexcept {
+    const uint32_t m = job.material;
+    const detail::StreamerMaterialState& ms = materials[m];
+    const uint32_t k = job.tile.texture - ms.first_texture;
+    if (job.status == Status::cancelled) {
+      ++cancelled_count;
+      return;
+    }
+    if (job.kind == detail::kPacketJob) {
+      ++packet_failure_count;
+      push_event(out, ResidencyEvent{ResidencyEventKind::packet_failed, m, job.tile, job.status});
+      const uint32_t fails = bump(packet_failures[ms.packet_base + k]);
+      scheduler.hold_u_packets(m, true);
+      if (fails >= config.failure.packet_attempts) {
+        push_event(out, ResidencyEvent{ResidencyEventKind::packet_unavailable, m, job.tile, job.status});
+      } else if (held_count < held.size()) {
+        held[held_count++] = detail::HeldWork{m, k, frame + backoff_frames(fails), 1};
+      } else {
+        scheduler.hold_u_packets(m, false);
+      }
+      return;
+    }
+    ++tile_failure_count;
+    push_event(out, ResidencyEvent{ResidencyEventKind::tile_failed, m, job.tile, job.status});
+    const uint32_t flat = cache.set().levels_of(job.tile.texture).index(job.tile);
+    const uint32_t fails = bump(tile_failures[record_index(m, k, flat)]);
+    if (fails >= config.failure.tile_attempts) {
+      scheduler.hold_tile(job.tile.texture, flat, true);
+      ++tiles_unavailable;
+      push_event(out, ResidencyEvent{ResidencyEventKind::tile_unavailable, m, job.tile, job.status});
+    } else if (held_count < held.size()) {
+      scheduler.hold_tile(job.tile.texture, flat, true);
+      held[held_count++] = detail::HeldWork{job.tile.texture, flat, frame + backoff_frames(fails), 0};
+    }
+  }
+
+  // Held work whose back-off ended may be requested again.
+  void release_held() noexcept {
+    for (uint32_t i = 0; i < held_count;) {
+      const detail::HeldWork h = held[i];
+      if (h.until > frame) {
+        ++i;
+        continue;
+      }
+      if (h.packet)
+        scheduler.hold_u_packets(h.texture, false);
+      else
+        scheduler.hold_tile(h.texture, h.flat, false);
+      ++retry_count;
+      held[i] = held[--held_count];
+    }
+  }
+
+  Status retry_material(uint32_t m) noexcept {
+    if (m >= materials.size()) return Status::invalid_argument;
+    detail::StreamerMaterialState& ms = materials[m];
+    for (uint32_t k = 0; k < ms.texture_count; ++k) {
+      const uint32_t t = ms.first_texture + k;
+      for (uint32_t flat = 0; flat < ms.tile_count; ++flat) {
+        uint8_t& f = tile_failures[record_index(m, k, flat)];
+        if (f >= config.failure.tile_attempts && flat > 0 && scheduler.tile_held(t, flat)) {
+          scheduler.hold_tile(t, flat, false);
+          --tiles_unavailable;
+        }
+        f = 0;
+      }
+      packet_failures[ms.packet_base + k] = 0;
+      if (startup_failed[t] & 1) push_startup(t << 1);
+      if (startup_failed[t] & 2) push_startup(t << 1 | 1);
+      startup_failed[t] = 0;
+    }
+    for (uint32_t i = 0; i < held_count;) {  // held work of this material: released now
+      const detail::HeldWork h = held[i];
+      const bool mine = h.packet ? h.texture == m : texture_material[h.texture] == m;
+      if (!mine) {
+        ++i;
+        continue;
+      }
+      if (!h.packet) scheduler.hold_tile(h.texture, h.flat, false);
+      held[i] = held[--held_count];
+    }
+    scheduler.hold_u_packets(m, false);
+    if (ms.failed) {
+      ms.failed = false;
+      --materials_failed_now;
+    }
+    return Status::success;
+  }
+
   Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
     if (out.tile_uploads.size() < tile_uploads_bound() || out.packet_uploads.size() < packet_uploads_bound())
       return Status::invalid_argument;
     out.tile_upload_count = out.packet_upload_count = out.page_table_write_count = out.event_count = 0;
+    out.runnable_job_count = 0;
     ++frame;
     // 1. Jobs whose outputs were handed out last frame become free.
     for (uint32_t j = 0; j < jobs.size(); ++j)
       if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobHanded)
         jobs[j].state.store(detail::kJobFree, std::memory_order_relaxed);
     // Retry async reads a source refused.
-    for (uint32_t j = 0; j < jobs.size(); ++j)
-      if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobReading) start_reads(j);
+    if (!quiescing)
+      for (uint32_t j = 0; j < jobs.size(); ++j)
+        if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobReading) start_reads(j);
     // 2. Finished jobs.
     for (uint32_t j = 0; j < jobs.size(); ++j) {
       detail::StreamerJob& job = jobs[j];
@@ -716,8 +1070,7 @@ struct Streamer::Impl final : StreamerJobQueue {
           mark_loaded(job.material, false, out);
           job.state.store(detail::kJobHanded, std::memory_order_relaxed);
         } else if (!ok) {
-          push_event(out, ResidencyEvent{ResidencyEventKind::tile_failed, job.material, job.tile, job.status});
-          start_tile_job(j, detail::kRootJob, kNoJob, job.tile);  // the root is pinned: retry
+          startup_failed_job(j, out);  // the root is pinned: retried after a back-off, or the material fails
         }
         continue;
       }
@@ -726,18 +1079,15 @@ struct Streamer::Impl final : StreamerJobQueue {
           emit_packet(job, out);
           job.state.store(detail::kJobHanded, std::memory_order_relaxed);
         } else if (!ok) {
-          push_event(out, ResidencyEvent{ResidencyEventKind::packet_failed, job.material, job.tile, job.status});
-          start_packet_job(j, kNoJob, job.tile.texture);
+          startup_failed_job(j, out);
         }
         continue;
       }
-      if (!ok) {  // scheduler request: drop it (the scheduler asks again while it is wanted)
-        push_event(out, ResidencyEvent{job.kind == detail::kPacketJob ? ResidencyEventKind::packet_failed
-                                                                      : ResidencyEventKind::tile_failed,
-                                       job.material, job.tile, job.status});
+      if (!ok) {  // scheduler request: dropped, held back for its back-off or given up
         scheduler.cancel(cache, job.request);
         job_of_request[job.request] = kNoJob;
         job.state.store(detail::kJobFree, std::memory_order_relaxed);
+        request_failed_job(job, out);
         continue;
       }
       if (job.kind == detail::kTileJob) keep_payloads(job);
@@ -745,6 +1095,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       // it; begin_decode then returns false and changes nothing).
       if (scheduler.begin_decode(job.request)) scheduler.finish_decode(job.request);
     }
+    release_held();
     // 3. Uploads in request order within the budget.
     scheduler.apply_uploads(cache, [&](const TileRequest& q) {
       const uint32_t j = job_of_request[q.id];
@@ -759,10 +1110,14 @@ struct Streamer::Impl final : StreamerJobQueue {
       job_of_request[q.id] = kNoJob;
       job.state.store(detail::kJobHanded, std::memory_order_relaxed);
     });
-    // 4. Votes and plan.
+    // 4. Votes and plan (none while quiescing: nothing new starts).
+    for (const uint32_t word : feedback) {
+      const uint32_t m = unpack_feedback(word).material;
+      feedback_ignored += m >= materials.size() || !materials[m].ready || materials[m].failed;
+    }
     if (!feedback.empty()) votes.accumulate(feedback, config.vote_weight, scheduler.lod_bias());
+    if (quiescing) return finish_update(out);
     const std::span<const TileRequest> requests = scheduler.plan(cache, votes, frame);
-    bool launched = false;
     for (const TileRequest& q : requests) {
       if (q.u_packet) {
         if (waiting_count < waiting_packets.size())
@@ -780,7 +1135,6 @@ struct Streamer::Impl final : StreamerJobQueue {
       }
       job_of_request[q.id] = j;
       start_tile_job(j, detail::kTileJob, q.id, q.tile);
-      launched = true;
     }
     // Scheduler packets waiting for a packet job.
     const uint32_t packet_begin = tile_jobs + root_jobs;
@@ -793,22 +1147,36 @@ struct Streamer::Impl final : StreamerJobQueue {
       const uint32_t id = static_cast<uint32_t>(w);
       job_of_request[id] = j;
       start_packet_job(j, id, static_cast<uint32_t>(w >> 32));
-      launched = true;
     }
-    // Start-up: roots, then packets.
-    while (startup_next < startup.size()) {
-      const bool root = startup_next < startup_roots;
+    // Start-up jobs whose back-off ended start again.
+    for (uint32_t j = tile_jobs; j < jobs.size(); ++j) {
+      detail::StreamerJob& job = jobs[j];
+      if (job.state.load(std::memory_order_relaxed) != detail::kJobWaiting || job.retry_frame > frame) continue;
+      ++retry_count;
+      if (job.kind == detail::kRootJob)
+        start_tile_job(j, detail::kRootJob, kNoJob, job.tile);
+      else
+        start_packet_job(j, kNoJob, job.tile.texture);
+    }
+    // Start-up: roots, then packets (then what retry_material() queued again).
+    while (startup_count > 0) {
+      const uint32_t item = startup[startup_head];
+      const bool root = (item & 1u) == 0;
       const uint32_t j =
           root ? free_job(tile_jobs, tile_jobs + root_jobs) : free_job(packet_begin, packet_begin + packet_jobs);
       if (j == kNoJob) break;
-      const uint32_t texture = startup[startup_next++];
+      startup_head = (startup_head + 1) % static_cast<uint32_t>(startup.size());
+      --startup_count;
       if (root)
-        start_tile_job(j, detail::kRootJob, kNoJob, TileId{texture, 0, 0, 0});
+        start_tile_job(j, detail::kRootJob, kNoJob, TileId{item >> 1, 0, 0, 0});
       else
-        start_packet_job(j, kNoJob, texture);
-      launched = true;
+        start_packet_job(j, kNoJob, item >> 1);
     }
-    // 5. Page-table texels changed by this frame's operations.
+    return finish_update(out);
+  }
+
+  // 5. Page-table texels changed by this frame's operations, then the runnable jobs.
+  Status finish_update(StreamerOutputs& out) noexcept {
     for_each_frame_page_table_write(cache, [&](const PageTableWrite& w) {
       queue_write(w.tile.texture, cache.set().levels_of(w.tile.texture).index(w.tile), w.entry);
     });
@@ -824,10 +1192,17 @@ struct Streamer::Impl final : StreamerJobQueue {
       out.page_table_writes[out.page_table_write_count++] =
           PageTableWrite{tile, lv.finest_level() - tile.level, mirror[i]};
     }
-    // Jobs made runnable by async completions since the last update count too.
-    for (uint32_t j = 0; j < jobs.size() && !launched; ++j)
-      launched = jobs[j].state.load(std::memory_order_relaxed) == detail::kJobRunnable;
-    if (launched && notify != nullptr) notify(notify_user);
+    // Runnable jobs (launched now or made runnable by async completions) are claimed for the
+    // engine as far as its span holds; executors pulling with acquire_job() are woken for the rest.
+    bool unclaimed = false;
+    for (uint32_t j = 0; j < jobs.size(); ++j) {
+      if (jobs[j].state.load(std::memory_order_relaxed) != detail::kJobRunnable) continue;
+      if (out.runnable_job_count < out.runnable_jobs.size() && claim_job(j))
+        out.runnable_jobs[out.runnable_job_count++] = j;
+      else
+        unclaimed = true;
+    }
+    if (unclaimed && notify != nullptr) notify(notify_user);
     return Status::success;
   }
 
@@ -844,10 +1219,29 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
                       config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,
                       config.cache.border);
-  if (config.packet_jobs == 0 || config.root_jobs == 0 || config.u_row_order == AngularRowOrder::unspecified)
+  if (config.packet_jobs == 0 || config.root_jobs == 0 || config.decode_workers == 0 ||
+      config.u_row_order == AngularRowOrder::unspecified)
     return make_error(Status::invalid_argument,
-                      "streamer: packet_jobs and root_jobs must be > 0 and u_row_order specified");
-  const RuntimeAllocator& al = config.allocator;
+                      "streamer: packet_jobs, root_jobs and decode_workers must be > 0 and u_row_order specified");
+  const StreamerFailurePolicy& fp = config.failure;
+  if (fp.tile_attempts == 0 || fp.startup_attempts == 0 || fp.packet_attempts == 0)
+    return make_error(Status::invalid_argument, "streamer: failure policy attempts must be ≥ 1");
+  // Every allocation goes through a ledger over the engine's callbacks (StreamerStats::memory).
+  void* ledger_memory =
+      config.allocator.allocate_bytes(sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
+  if (ledger_memory == nullptr) return make_error(Status::insufficient_space, "streamer: allocator failed");
+  detail::AllocationLedger* ledger = ::new (ledger_memory) detail::AllocationLedger{config.allocator};
+  struct LedgerGuard {  // frees the ledger unless the Streamer took it
+    detail::AllocationLedger* ledger;
+    ~LedgerGuard() {
+      if (ledger == nullptr) return;
+      const RuntimeAllocator inner = ledger->inner;
+      ledger->~AllocationLedger();
+      inner.deallocate_bytes(ledger, sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
+    }
+  } ledger_guard{ledger};
+  Streamer out;  // destroyed before the guard on every error path
+  const RuntimeAllocator al = ledger->counting();
   VtSet set(al);
   uint32_t total_tiles = 0, max_levels = 0, max_payload = 0, max_packet = 0, max_rows = 0, max_texture_count = 0;
   for (size_t m = 0; m < materials.size(); ++m) {
@@ -895,11 +1289,17 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     max_rows = std::max(max_rows, md.u_rows);
     max_texture_count = std::max(max_texture_count, vm.texture_count);
   }
+  const uint64_t set_bytes = ledger->live, set_allocations = ledger->count;  // a create() temporary
+  StreamerMemory memory;
+  uint64_t mark = ledger->live;
   auto cache = TileCache::create(set, config.cache, al);
   if (!cache) return cache.error();
+  memory.tile_cache = ledger->live - mark;
+  mark = ledger->live;
   SchedulerConfig sc = config.scheduler;
   auto sched = Scheduler::create(cache.value(), sc, al);
   if (!sched) return sched.error();
+  memory.scheduler = ledger->live - mark;
   // Real payload sizes for the byte budgets.
   for (uint32_t m = 0; m < set.material_count(); ++m) {
     const VtMaterial& vm = set.material(m);
@@ -908,26 +1308,31 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
         sched->set_tile_bytes(vm.first_texture + k, i, materials[m].directory->find(vm.levels.tile(k, i))->size);
     sched->set_u_packet_bytes(m, materials[m].directory->packets.empty() ? 0 : materials[m].directory->packets[0].size);
   }
-  RuntimeArray<VoteLayout> layouts;
+  RuntimeArray<VoteLayout> layouts;  // a create() temporary too
+  const uint64_t layouts_bytes = uint64_t{sizeof(VoteLayout)} * set.material_count();
   if (!layouts.allocate(al, set.material_count()))
     return make_error(Status::insufficient_space, "streamer: allocator failed");
   for (uint32_t m = 0; m < set.material_count(); ++m) {
     const VtLevelTable& lv = set.material(m).levels;
     layouts[m] = VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]};
   }
+  mark = ledger->live;
   VoteCounter votes(layouts.span(), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, al);
+  memory.votes = ledger->live - mark;
 
   void* mem = al.allocate_bytes(sizeof(Impl), alignof(Impl));
   if (mem == nullptr) return make_error(Status::insufficient_space, "streamer: allocator failed");
   Impl* im = ::new (mem) Impl(std::move(cache.value()), std::move(sched.value()), std::move(votes));
-  Streamer out;
   out.impl_ = im;
+  im->ledger = std::exchange(ledger_guard.ledger, nullptr);
   im->allocator = al;
   im->config = config;
   im->layout = TileLayout{config.cache.tile_size, config.cache.border, 4};
+  mark = ledger->live;
   im->payloads = PayloadCache(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512}, al);
   if (im->payloads.allocation_failed())
     return make_error(Status::insufficient_space, "streamer: allocating the payload cache failed");
+  memory.payload_cache = ledger->live - mark;
   const auto fail = [&](const char* what) {
     return make_error(Status::insufficient_space, "streamer: allocating %s failed", what);
   };
@@ -977,16 +1382,14 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   im->packet_bytes = max_packet;
   im->max_rows = max_rows;
   const size_t samples = im->layout.sample_count();
+  mark = ledger->live;
   if (!im->jobs.allocate(al, nj) ||
       !im->job_bytes.allocate(al, tile_like * im->chain_bytes + size_t{im->packet_jobs} * max_packet) ||
       !im->job_floats.allocate(al, size_t{tile_like} * samples * 2) ||
       !im->job_halves.allocate(al, size_t{tile_like} * samples + size_t{im->packet_jobs} * max_rows * 4) ||
-      !im->decoder_storage.allocate(al, size_t{tile_like} * sizeof(TileDecoder) + alignof(TileDecoder)) ||
       !im->job_of_request.allocate(al, config.scheduler.budgets.requests_in_flight) ||
       !im->waiting_packets.allocate(al, config.scheduler.budgets.requests_in_flight))
     return fail("job buffers");
-  uint8_t* dec = im->decoder_storage.data();
-  dec += (alignof(TileDecoder) - reinterpret_cast<uintptr_t>(dec) % alignof(TileDecoder)) % alignof(TileDecoder);
   for (uint32_t j = 0; j < nj; ++j) {
     detail::StreamerJob& job = im->jobs[j];
     if (j < tile_like) {
@@ -994,8 +1397,6 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
       job.parent = im->job_floats.data() + size_t{j} * samples * 2;
       job.out = job.parent + samples;
       job.halves = im->job_halves.data() + size_t{j} * samples;
-      job.decoder = ::new (static_cast<void*>(dec + size_t{j} * sizeof(TileDecoder)))
-          TileDecoder(im->layout, config.inflate_backend, al);
     } else {
       const uint32_t p = j - tile_like;
       job.kind = detail::kPacketJob;
@@ -1004,18 +1405,36 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     }
   }
   std::fill(im->job_of_request.data(), im->job_of_request.data() + im->job_of_request.size(), kNoJob);
+  memory.job_buffers = ledger->live - mark;
+  // One tile decoder per worker the engine declares (not per job).
+  mark = ledger->live;
+  if (!im->decoder_storage.allocate(al, size_t{config.decode_workers} * sizeof(TileDecoder) + alignof(TileDecoder)) ||
+      !im->decoder_busy.allocate(al, config.decode_workers))
+    return fail("tile decoders");
+  for (uint32_t d = 0; d < config.decode_workers; ++d) {
+    ::new (static_cast<void*>(im->decoder(d))) TileDecoder(im->layout, config.inflate_backend, al);
+    ++im->decoder_count;
+  }
+  memory.decoders = ledger->live - mark;
+  mark = ledger->live;
   if (!im->decoded.allocate(al, config.decoded_cache_tiles) ||
       !im->decoded_floats.allocate(al, size_t{config.decoded_cache_tiles} * samples))
     return fail("decoded cache");
   for (uint32_t e = 0; e < config.decoded_cache_tiles; ++e)
     im->decoded[e].samples = im->decoded_floats.data() + size_t{e} * samples;
-  // Start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
+  memory.decoded_cache = ledger->live - mark;
+  // Failure bookkeeping.
   const uint32_t textures = set.texture_count();
-  const uint32_t startup = textures + (config.scheduler.stream_u_columns ? 0 : textures);
-  if (!im->startup.allocate(al, startup)) return fail("start-up queue");
-  for (uint32_t t = 0; t < textures; ++t) im->startup[t] = t;
-  for (uint32_t t = textures; t < startup; ++t) im->startup[t] = t - textures;
-  im->startup_roots = textures;
+  if (!im->tile_failures.allocate(al, total_tiles) || !im->packet_failures.allocate(al, packets_total) ||
+      !im->startup_failed.allocate(al, textures) || !im->held.allocate(al, config.failure.held_tiles_capacity))
+    return fail("failure tables");
+  // Start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
+  // A material's tiles are scheduled once it is ready (its roots verified and uploaded).
+  if (!im->startup.allocate(al, size_t{textures} * 2)) return fail("start-up queue");
+  for (uint32_t t = 0; t < textures; ++t) im->push_startup(t << 1);
+  if (!config.scheduler.stream_u_columns)
+    for (uint32_t t = 0; t < textures; ++t) im->push_startup(t << 1 | 1);
+  for (uint32_t m = 0; m < nm; ++m) im->scheduler.set_material_enabled(m, false);
   // GPU page-table mirror: every texel queued once (the initial full upload).
   if (!im->texture_tile_base.allocate(al, textures) || !im->mirror.allocate(al, total_tiles) ||
       !im->queued.allocate(al, total_tiles) || !im->queue.allocate(al, std::max<uint32_t>(total_tiles, 1)) ||
@@ -1033,15 +1452,27 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     base += lv.tile_count();
   }
   im->cache.clear_deltas();
+  // What is left: the Streamer object, the material, tile and packet tables, the page-table
+  // mirror and queues (the create() temporaries are released when it returns: not counted).
+  memory.total = ledger->live - set_bytes - layouts_bytes + sizeof(detail::AllocationLedger);
+  memory.allocations = ledger->count - set_allocations - 1 + 1;  // − the layouts, + the ledger
+  memory.tables = memory.total - memory.tile_cache - memory.scheduler - memory.votes - memory.payload_cache -
+                  memory.job_buffers - memory.decoders - memory.decoded_cache;
+  im->memory = memory;
   return out;
 }
 
 inline void Streamer::destroy() noexcept {
   if (impl_ == nullptr) return;
   const RuntimeAllocator al = impl_->allocator;
+  detail::AllocationLedger* ledger = impl_->ledger;
   impl_->~Impl();
   al.deallocate_bytes(impl_, sizeof(Impl), alignof(Impl));
   impl_ = nullptr;
+  if (ledger == nullptr) return;
+  const RuntimeAllocator inner = ledger->inner;
+  ledger->~AllocationLedger();
+  inner.deallocate_bytes(ledger, sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
 }
 
 inline Status Streamer::update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
@@ -1062,7 +1493,72 @@ inline uint32_t Streamer::pump(uint32_t max_jobs) noexcept {
   return n;
 }
 inline StreamerJobQueue& Streamer::jobs() noexcept { return *impl_; }
-inline void Streamer::complete_read(uint64_t ticket, Status status) noexcept { impl_->complete_read(ticket, status); }
+inline bool Streamer::claim_job(uint32_t job) noexcept { return impl_->claim_job(job); }
+inline uint32_t Streamer::complete_read(uint64_t ticket, Status status) noexcept {
+  return impl_->complete_read(ticket, status);
+}
+inline void Streamer::quiesce() noexcept { impl_->quiescing = true; }
+inline void Streamer::resume() noexcept { impl_->quiescing = false; }
+inline bool Streamer::idle() const noexcept {
+  for (uint32_t j = 0; j < impl_->jobs.size(); ++j) {
+    const uint8_t s = impl_->jobs[j].state.load(std::memory_order_acquire);
+    if (s == detail::kJobReading || s == detail::kJobRunnable || s == detail::kJobRunning) return false;
+  }
+  return true;
+}
+inline bool Streamer::material_failed(uint32_t m) const noexcept {
+  return m < impl_->materials.size() && impl_->materials[m].failed;
+}
+inline Status Streamer::retry_material(uint32_t m) noexcept { return impl_->retry_material(m); }
+inline StreamerStats Streamer::stats() const noexcept {
+  const Impl& im = *impl_;
+  StreamerStats st;
+  st.memory = im.memory;
+  st.frame = im.frame;
+  st.slots = im.cache.slot_count();
+  st.slots_used = im.cache.used_count();
+  for (uint32_t m = 0; m < im.materials.size(); ++m) st.materials_ready += im.materials[m].ready ? 1u : 0u;
+  st.materials_failed = im.materials_failed_now;
+  for (uint32_t j = 0; j < im.jobs.size(); ++j) {
+    const uint8_t s = im.jobs[j].state.load(std::memory_order_relaxed);
+    st.jobs_reading += s == detail::kJobReading;
+    st.jobs_runnable += s == detail::kJobRunnable;
+    st.jobs_running += s == detail::kJobRunning;
+    st.jobs_waiting_retry += s == detail::kJobWaiting;
+  }
+  st.tiles_backing_off = 0;
+  for (uint32_t i = 0; i < im.held_count; ++i) st.tiles_backing_off += im.held[i].packet ? 0u : 1u;
+  st.tiles_unavailable = im.tiles_unavailable;
+  st.tile_failures = im.tile_failure_count;
+  st.packet_failures = im.packet_failure_count;
+  st.retries = im.retry_count;
+  st.cancelled = im.cancelled_count;
+  st.feedback_ignored = im.feedback_ignored;
+  st.bytes_read = im.bytes_read.load(std::memory_order_relaxed);
+  st.decoded_levels_skipped = im.decoded_levels_skipped;
+  st.events_dropped = im.dropped_events;
+  st.decoder_busy = im.decoder_busy_hits.load(std::memory_order_relaxed);
+  return st;
+}
+inline StreamerGpuLayout Streamer::gpu_layout() const noexcept {
+  const Impl& im = *impl_;
+  StreamerGpuLayout g;
+  const CacheConfig& c = im.config.cache;
+  const uint32_t stored = c.tile_size + 2 * c.border;
+  g.cache_width = c.slots_x * stored;
+  g.cache_height = c.slots_y * stored;
+  g.cache_layers = c.cache_layers;
+  const VtSet& set = im.cache.set();
+  g.page_table_layers = g.u_packets = set.texture_count();
+  for (uint32_t m = 0; m < set.material_count(); ++m) {
+    const VtLevelTable& lv = set.material(m).levels;
+    g.page_table_width = std::max(g.page_table_width, lv.tiles_x[lv.finest_level()]);
+    g.page_table_height = std::max(g.page_table_height, lv.tiles_y[lv.finest_level()]);
+    g.page_table_levels = std::max(g.page_table_levels, lv.finest_level() + 1);
+    g.u_rows = std::max(g.u_rows, im.materials[m].rows);
+  }
+  return g;
+}
 inline const TileCache& Streamer::cache() const noexcept { return impl_->cache; }
 inline const Scheduler& Streamer::scheduler() const noexcept { return impl_->scheduler; }
 inline const VoteCounter& Streamer::votes() const noexcept { return impl_->votes; }

@@ -182,6 +182,8 @@ class Scheduler {
     for (uint32_t m = 0; m < set.material_count(); ++m)
       s.u_loaded_[m] = config.stream_u_columns ? 0 : set.material(m).texture_count;
     s.u_priority_.assign(set.material_count(), 0.0);
+    s.material_enabled_.assign(set.material_count(), 1);
+    s.u_held_.assign(set.material_count(), 0);
     s.adds_.reserve(b.requests_in_flight + 2);
     s.leaves_.assign(static_cast<size_t>(set.texture_count()) * kLeavesPerTexture, Leaf{});
     s.leaf_count_.assign(set.texture_count(), 0);
@@ -220,6 +222,37 @@ class Scheduler {
   void set_u_packet_bytes(uint32_t material, uint64_t bytes) noexcept {
     if (material < u_packet_bytes_.size()) u_packet_bytes_[material] = bytes;
   }
+  /// Holds a tile back (held = true: never added or inserted as a swap ancestor) or lets it be
+  /// requested again (false), e.g. while a failed read backs off or after it was given up. A
+  /// tile with a request in flight is not changed (cancel() the request first). Out-of-range
+  /// ids are ignored. noexcept, no allocation.
+  void hold_tile(uint32_t texture, uint32_t flat, bool held) noexcept {
+    if (texture >= texture_base_.size()) return;
+    const size_t i = index(texture, flat);
+    if (i >= requested_.size() || requested_[i] == kRequested) return;
+    requested_[i] = held ? kHeld : 0;
+  }
+  /// True when the tile is held back (hold_tile). Out-of-range ids: false.
+  bool tile_held(uint32_t texture, uint32_t flat) const noexcept {
+    if (texture >= texture_base_.size()) return false;
+    const size_t i = index(texture, flat);
+    return i < requested_.size() && requested_[i] == kHeld;
+  }
+  /// Enables (default) or disables scheduling for a material: a disabled material gets no
+  /// add and no U′ packet request (its resident tiles stay and may still be swapped out).
+  /// Out-of-range ids are ignored.
+  void set_material_enabled(uint32_t material, bool enabled) noexcept {
+    if (material < material_enabled_.size()) material_enabled_[material] = enabled ? 1 : 0;
+  }
+  /// True when the material may be scheduled (set_material_enabled). Out of range: false.
+  bool material_enabled(uint32_t material) const noexcept {
+    return material < material_enabled_.size() && material_enabled_[material] != 0;
+  }
+  /// Holds back (or releases) the §6 U′ packet requests of a material. Out of range: ignored.
+  void hold_u_packets(uint32_t material, bool held) noexcept {
+    if (material < u_held_.size()) u_held_[material] = held ? 1 : 0;
+  }
+
   /// Bytes a request for the tile counts (set_tile_bytes or config().tile_bytes).
   /// Precondition: texture and flat index in range.
   uint32_t tile_bytes(uint32_t texture, uint32_t flat) const noexcept { return tile_bytes_[index(texture, flat)]; }
@@ -370,6 +403,8 @@ class Scheduler {
         u_loaded_(a),
         u_requested_(a),
         u_priority_(a),
+        material_enabled_(a),
+        u_held_(a),
         adds_(a),
         leaves_(a),
         leaf_count_(a),
@@ -382,6 +417,8 @@ class Scheduler {
         max_weights_(a) {}
 
   static constexpr uint32_t kLeavesPerTexture = 4;
+  static constexpr uint8_t kRequested = 1;  // requested_: a request is in flight
+  static constexpr uint8_t kHeld = 2;       // requested_: held back (hold_tile)
   static constexpr uint32_t kNoRequest = 0xffffffffu;
   enum class State : uint8_t { idle, requested, decoding, ready };
   struct Pending {
@@ -450,7 +487,7 @@ class Scheduler {
       const uint32_t v = votes.votes_at(ft.material, flat);
       const uint32_t direct = votes.direct_votes_at(ft.material, flat);
       const uint32_t parent_flat = ft.level > 0 ? m.levels.index(ft.level - 1, ft.x >> 1, ft.y >> 1) : 0;
-      const uint32_t usable = std::min(u_loaded_[ft.material], m.texture_count);
+      const uint32_t usable = material_enabled_[ft.material] ? std::min(u_loaded_[ft.material], m.texture_count) : 0;
       const uint32_t* slots = cache.material_slots(ft.material, flat);
       const uint32_t* parent_slots = cache.material_slots(ft.material, parent_flat);
       const size_t base = material_base_[ft.material] + static_cast<size_t>(flat) * m.texture_count;
@@ -611,7 +648,7 @@ class Scheduler {
     if (u_packet) {
       ++frame_counters_.u_requests;
     } else {
-      requested_[index(tile.texture, cache.set().levels_of(tile.texture).index(tile))] = 1;
+      requested_[index(tile.texture, cache.set().levels_of(tile.texture).index(tile))] = kRequested;
     }
   }
 
@@ -637,7 +674,9 @@ class Scheduler {
     for (;;) {
       uint32_t best = kNoRequest;
       for (uint32_t m = 0; m < set.material_count(); ++m) {
-        if (u_requested_[m] || u_loaded_[m] >= set.material(m).texture_count || u_priority_[m] <= p) continue;
+        if (u_requested_[m] || !material_enabled_[m] || u_held_[m] || u_loaded_[m] >= set.material(m).texture_count ||
+            u_priority_[m] <= p)
+          continue;
         if (best == kNoRequest || u_priority_[m] > u_priority_[best]) best = m;
       }
       if (best == kNoRequest) return true;
@@ -724,7 +763,7 @@ class Scheduler {
   Vec<Pending> pending_;
   Vec<uint32_t> free_requests_;
   Vec<uint32_t> material_base_;   // per material (+ total), tile-major arrays below
-  Vec<uint8_t> requested_;        // a request for (texture, tile) is pending
+  Vec<uint8_t> requested_;        // per tile: 0, kRequested (a request is pending) or kHeld
   Vec<uint32_t> texture_base_;    // per texture: index of its flat tile 0
   Vec<uint32_t> texture_stride_;  // per texture: virtual textures of its material
   Vec<float> set_weights_;        // w(i, l, l−1) as given
@@ -735,6 +774,8 @@ class Scheduler {
   Vec<uint32_t> u_loaded_;
   Vec<uint8_t> u_requested_;
   Vec<double> u_priority_;
+  Vec<uint8_t> material_enabled_;  // per material: may be scheduled
+  Vec<uint8_t> u_held_;            // per material: §6 packet requests held back
   Vec<AddCandidate> adds_;
   Vec<Leaf> leaves_;
   Vec<uint32_t> leaf_count_;

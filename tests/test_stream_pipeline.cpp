@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for stream/tile_source.hpp and stream/pipeline.hpp: sources (memory, file, throttled),
 // delivery of exactly what a direct decode gives, priority order, ancestor fetches, stale-request
 // cancellation, checksum and truncation faults (re-requested or skipped, never cached), the
@@ -404,15 +405,53 @@ TEST(StreamPipeline, UploadBudgetLimitsEachDelivery) {
   EXPECT_EQ(total, 16u);
 }
 
+namespace {
+// Counts the reads a pipeline makes through it and how many are running right now: after the
+// pipeline's destructor returns, none may be running and none may start (no worker is left).
+struct WatchedSource final : TileSource {
+  TileSource& inner;
+  std::atomic<uint64_t> started{0};
+  std::atomic<int> running{0};
+  explicit WatchedSource(TileSource& i) : inner(i) {}
+  Result<uint64_t> size() override { return inner.size(); }
+  VoidResult read(uint64_t o, std::span<uint8_t> out, const std::atomic<bool>* c) override {
+    started.fetch_add(1);
+    running.fetch_add(1);
+    auto r = inner.read(o, out, c);
+    running.fetch_sub(1);
+    return r;
+  }
+  std::string describe() const override { return "watched(" + inner.describe() + ")"; }
+};
+
+// Destroys the pipeline and returns how long its destructor took.
+std::chrono::steady_clock::duration destroy(std::unique_ptr<StreamingPipeline>& p) {
+  const auto t0 = std::chrono::steady_clock::now();
+  p.reset();
+  return std::chrono::steady_clock::now() - t0;
+}
+
+// Waits (up to 10 s) until `done` holds; returns whether it did.
+template <class F>
+bool wait_until(F done) {
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+}  // namespace
+
+// The destructor's promise (pipeline.hpp: cancels in-flight reads, drops queued work, joins the
+// workers): it returns promptly even with 30-second reads in flight or workers blocked on a full
+// ready queue, and once it has returned no read runs or starts. Leaks are LeakSanitizer's job
+// (./run.sh's ASan stage runs this file with detect_leaks=1).
 TEST(StreamPipeline, ShutdownWithRequestsInFlightAndFullReadyQueueIsClean) {
   MemorySource mem(std::span<const uint8_t>(fixture().file));
   ThrottledSource glacial(mem, 0, std::chrono::microseconds(30'000'000));
-  {
-    auto p = StreamingPipeline::open(mem);  // directory via the fast source
-    ASSERT_TRUE(p.ok());
-  }
-  // Reads that would take 30 s each are in flight when the pipeline is destroyed.
-  MemorySource directory_only(std::span<const uint8_t>(fixture().file));
+  // Reads that would take 30 s each are in flight when the pipeline is destroyed (the
+  // directory comes through the fast source).
   struct SplitSource final : TileSource {
     TileSource& fast;
     TileSource& slow;
@@ -423,23 +462,43 @@ TEST(StreamPipeline, ShutdownWithRequestsInFlightAndFullReadyQueueIsClean) {
       return o < dir ? fast.read(o, out, c) : slow.read(o, out, c);
     }
     std::string describe() const override { return "split"; }
-  } split(directory_only, glacial, fixture().dir.header.directory_size);
+  } split(mem, glacial, fixture().dir.header.directory_size);
   {
-    auto p = StreamingPipeline::open(split);
+    WatchedSource watched(split);
+    PipelineConfig cfg;
+    cfg.worker_threads = 3;
+    auto p = StreamingPipeline::open(watched, cfg);
     ASSERT_TRUE(p.ok());
     p.value()->request(all_tiles());
+    // A worker is inside a 30-second read (of the root, which the other workers wait for).
+    ASSERT_TRUE(wait_until([&] { return watched.running.load() >= 1; }));
+    const uint64_t started = watched.started.load();
+    const auto took = destroy(p.value());
+    EXPECT_LT(took, 5s) << "the destructor waited for the reads instead of cancelling them";
+    EXPECT_EQ(watched.running.load(), 0);
+    EXPECT_EQ(watched.started.load(), started);  // the cancelled reads were not retried
+    std::this_thread::sleep_for(20ms);           // a worker still alive would start another read
+    EXPECT_EQ(watched.started.load(), started);
+  }
+  {
+    // Workers blocked on a full ready queue (nothing is ever delivered) also shut down.
+    WatchedSource watched(mem);
+    PipelineConfig cfg;
+    cfg.ready_capacity = 1;
+    auto p = StreamingPipeline::open(watched, cfg);
+    ASSERT_TRUE(p.ok());
+    p.value()->request(all_tiles());
+    ASSERT_TRUE(wait_until([&] { return p.value()->progress().decodes >= 3; }));
+    const PipelineProgress before = p.value()->progress();
+    EXPECT_EQ(before.tiles_delivered, 0u);
+    EXPECT_LT(before.decodes, all_tiles().size());  // blocked: the queue holds one tile
+    const auto took = destroy(p.value());
+    EXPECT_LT(took, 5s);
+    EXPECT_EQ(watched.running.load(), 0);
+    const uint64_t started = watched.started.load();
     std::this_thread::sleep_for(20ms);
-  }  // destructor must return promptly (cancel), not after 30 s
-  // Workers blocked on a full ready queue (never delivered) also shut down.
-  PipelineConfig cfg;
-  cfg.ready_capacity = 1;
-  auto p = StreamingPipeline::open(mem, cfg);
-  ASSERT_TRUE(p.ok());
-  p.value()->request(all_tiles());
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  while (p.value()->progress().decodes < 3 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(1ms);
-  p.value().reset();
-  SUCCEED();
+    EXPECT_EQ(watched.started.load(), started);
+  }
 }
 
 TEST(StreamPipeline, OpenRejectsBrokenContainers) {

@@ -10,7 +10,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <random>
 #include <string>
 #include <unordered_map>
@@ -362,19 +365,62 @@ TEST_F(CodecContainerFailures, RandomDirectoryCorruptionNeverCrashes) {
   EXPECT_LT(accepted, 40);  // only bytes outside any checked field (reserved, crc-fixed padding) may pass
 }
 
-TEST(CodecContainer, WritesFuzzSeedsWhenAsked) {
-  const char* dir = std::getenv("BTFLOD_WRITE_CONTAINER_SEEDS");
-  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_CONTAINER_SEEDS not set";
+// Seeds of fuzz/fuzz_container_reader.cpp, written into BTFLOD_WRITE_CONTAINER_SEEDS when set
+// (BTFLOD_WRITE_CONTAINER_SEEDS=fuzz/corpus/fuzz_container_reader test_codec_container
+// --gtest_filter='*Seeds*' adds them to the corpus), else into the test's temporary folder. Read
+// back, each does what the fuzzer needs of it: the whole files parse, verify and decode every
+// tile (parents first) and U packet, the truncated one is refused with a message.
+TEST(CodecContainer, WritesFuzzSeedsThatParseTheFuzzersWay) {
+  const char* env = std::getenv("BTFLOD_WRITE_CONTAINER_SEEDS");
+  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
+                                        ? std::filesystem::path(env)
+                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_container_reader";
+  std::filesystem::create_directories(dir);
   auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
-    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    std::ofstream f(dir / name, std::ios::binary);
     f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     ASSERT_TRUE(f.good()) << name;
   };
+  auto read = [&](const std::string& name) {
+    std::ifstream f(dir / name, std::ios::binary);
+    return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
+  };
   const auto small = build(make_material(2, 4), 30);
-  ASSERT_TRUE(read_bsvtf(small).ok());
   write("seed_small.bsvtf", small);
   write("seed_two_textures.bsvtf", build(make_material(2, 6), 10));
   write("seed_truncated.bsvtf", std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
+  for (const char* name : {"seed_small.bsvtf", "seed_two_textures.bsvtf"}) {
+    const std::vector<uint8_t> file = read(name);
+    auto dir_or = read_bsvtf(file);
+    ASSERT_TRUE(dir_or.ok()) << name << ": " << dir_or.message();
+    const BsvtfDirectory& d = dir_or.value();
+    EXPECT_EQ(d.packets.size(), d.metadata.texture_count()) << name;
+    for (const BsvtfPacketEntry& p : d.packets)
+      EXPECT_EQ(verify_bsvtf_payload(p.size, p.crc, std::span<const uint8_t>(file).subspan(p.offset, p.size)),
+                Status::success)
+          << name << " packet " << p.index;
+    // Every tile decodes against its decoded parent, as a client (and the fuzzer) would.
+    const TileLayout layout = d.metadata.layout();
+    TileDecoder dec(layout);
+    std::map<uint64_t, std::vector<float>> decoded;
+    for (uint32_t level = 0; level < d.metadata.level_count; ++level)
+      for (const BsvtfTileEntry& e : d.tiles) {
+        if (e.id.level != level) continue;
+        const auto payload = std::span<const uint8_t>(file).subspan(e.offset, e.size);
+        ASSERT_EQ(verify_bsvtf_payload(e.size, e.crc, payload), Status::success) << name;
+        std::vector<float> out(layout.sample_count());
+        const std::vector<float>* parent = level > 0 ? &decoded.at(e.id.parent().key()) : nullptr;
+        ASSERT_EQ(dec.decode(payload, parent ? std::span<const float>(*parent) : std::span<const float>(), e.id.x & 1u,
+                             e.id.y & 1u, out),
+                  Status::success)
+            << name << ": " << dec.message();
+        decoded[e.id.key()] = std::move(out);
+      }
+    EXPECT_EQ(decoded.size(), d.tiles.size()) << name;
+  }
+  auto truncated = read_bsvtf(read("seed_truncated.bsvtf"));
+  EXPECT_FALSE(truncated.ok());
+  EXPECT_FALSE(truncated.message().empty());
 }
 
 }  // namespace

@@ -10,7 +10,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <random>
 #include <vector>
@@ -563,16 +565,46 @@ std::vector<uint8_t> symbols_with_escapes_and_runs() {
   return s;
 }
 
+// What fuzz/fuzz_tile_decoder.cpp does with an input: byte 0 selects the quadrant (bits 1, 2)
+// and the inflate backend (bit 3), the rest is a payload decoded by a 24×24 or 72×72 decoder
+// (from the header, channels from the header) against the parent (i % 17) / 8. Returns the
+// decoder's status; a success must give finite samples, a failure a message.
+Status fuzzer_decode(const std::vector<uint8_t>& input) {
+  const std::span<const uint8_t> payload(input.data() + 1, input.size() - 1);
+  btflod::TileHeaderInfo info;
+  const bool peeked = btflod::tile_peek_header(payload, info) == Status::success;
+  const uint32_t channels = peeked && info.channels >= 1 && info.channels <= 4 ? info.channels : 4;
+  const TileLayout layout{peeked && info.stored_size == 72 ? 64u : 16u, 4, channels};
+  TileDecoder dec(layout, input[0] >> 3 & 1u ? btflod::InflateBackend::libdeflate : btflod::InflateBackend::zlib);
+  std::vector<float> parent(layout.sample_count()), out(layout.sample_count());
+  for (size_t i = 0; i < parent.size(); ++i) parent[i] = static_cast<float>(i % 17) * 0.125f;
+  const Status st = dec.decode(payload, parent, input[0] >> 1 & 1u, input[0] >> 2 & 1u, out);
+  if (st == Status::success) {
+    for (float v : out) EXPECT_TRUE(std::isfinite(v));
+  } else {
+    EXPECT_TRUE(dec.message() != nullptr && dec.message()[0] != '\0');
+  }
+  return st;
+}
+
 // Fuzz seeds for fuzz/fuzz_tile_decoder.cpp (byte 0: even = decode mode with the quadrant in
-// bits 1..2, odd = round trip), written only when BTFLOD_WRITE_TILE_SEEDS names a folder.
-TEST(CodecTile, WritesFuzzSeedsWhenAsked) {
-  const char* dir = std::getenv("BTFLOD_WRITE_TILE_SEEDS");
-  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_TILE_SEEDS not set";
+// bits 1..2; odd = the former round-trip mode, kept as seeds of hostile payloads), written into
+// BTFLOD_WRITE_TILE_SEEDS when set (BTFLOD_WRITE_TILE_SEEDS=fuzz/corpus/fuzz_tile_decoder
+// test_codec_tile --gtest_filter='*Seeds*' refreshes the corpus), else into the test's temporary
+// folder. Read back and fed as the fuzzer does, every decode-mode seed must decode (a seed that
+// stops at a header check would fuzz nothing beyond it) and every other one fail with a message.
+TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
+  const char* env = std::getenv("BTFLOD_WRITE_TILE_SEEDS");
+  const std::filesystem::path dir =
+      env != nullptr && env[0] != '\0' ? std::filesystem::path(env) : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_decoder";
+  std::filesystem::create_directories(dir);
+  std::vector<std::string> decoding, failing;
   auto write = [&](const std::string& name, uint8_t mode, const std::vector<uint8_t>& payload) {
-    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    std::ofstream f(dir / name, std::ios::binary);
     f.put(static_cast<char>(mode));
     f.write(reinterpret_cast<const char*>(payload.data()), static_cast<std::streamsize>(payload.size()));
     ASSERT_TRUE(f.good()) << name;
+    (mode & 1u ? failing : decoding).push_back(name);
   };
   for (uint32_t stored : {24u, 72u}) {
     const TileLayout layout{stored - 8, 4, 4};
@@ -605,6 +637,18 @@ TEST(CodecTile, WritesFuzzSeedsWhenAsked) {
         payload_with_symbols(small, symbols_with_escapes_and_runs()));
   write("seed_roundtrip", 1, std::vector<uint8_t>{7, 200, 13, 0, 255, 90, 33, 1});
   write("seed_roundtrip_jpeg", 1 | 4 << 1, std::vector<uint8_t>{9, 100, 3, 250, 5, 80, 1});  // JPEG table
+  EXPECT_EQ(decoding.size(), 10u);
+  for (const auto& name : decoding) {
+    std::ifstream f(dir / name, std::ios::binary);
+    const std::vector<uint8_t> seed{std::istreambuf_iterator<char>(f), {}};
+    ASSERT_GT(seed.size(), 1u) << name;
+    EXPECT_EQ(fuzzer_decode(seed), Status::success) << name;
+  }
+  for (const auto& name : failing) {
+    std::ifstream f(dir / name, std::ios::binary);
+    const std::vector<uint8_t> seed{std::istreambuf_iterator<char>(f), {}};
+    EXPECT_NE(fuzzer_decode(seed), Status::success) << name;
+  }
 }
 
 }  // namespace

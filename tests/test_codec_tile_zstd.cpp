@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -219,16 +221,54 @@ TEST_F(TileZstd, EncodeDoesNotAllocateAndSwitchesBack) {
 }  // namespace
 
 namespace {
-// Seeds of fuzz/fuzz_tile_zstd.cpp (mode 0: declared size + frame; mode 1: round trip input):
-// BTFLOD_WRITE_ZSTD_SEEDS=fuzz/corpus/fuzz_tile_zstd test_codec_tile_zstd.
-TEST(TileZstdSeeds, WritesFuzzSeedsWhenAsked) {
-  const char* dir = std::getenv("BTFLOD_WRITE_ZSTD_SEEDS");
-  if (dir == nullptr || dir[0] == '\0') GTEST_SKIP() << "BTFLOD_WRITE_ZSTD_SEEDS not set";
+// What fuzz/fuzz_tile_zstd.cpp does with an input in decode mode (even byte 0): bytes 1–2 fold
+// into the declared symbol byte count, the rest is the zstd frame behind the fuzzer's own
+// format-3 header. Returns the decoder's status; `out` gets the samples.
+Status fuzzer_decode_mode(const std::vector<uint8_t>& input, std::vector<float>& out) {
+  const size_t blocks = btflod::tile_block_count(kLayout.stored_size(), kLayout.channels);
+  const uint32_t lo = static_cast<uint32_t>(blocks * btflod::kTileMinBlockCode);
+  const uint32_t hi = static_cast<uint32_t>(blocks * btflod::kTileMaxBlockCode);
+  uint32_t declared = input.size() >= 3 ? uint32_t{input[1]} | uint32_t{input[2]} << 8 : lo;
+  declared = lo + declared % (hi - lo + 1);
+  const size_t header = btflod::tile_header_size(kLayout.channels);
+  std::vector<uint8_t> payload(header);
+  payload[0] = btflod::kTileFormatVersionCoder;
+  payload[1] = btflod::kTileBlock;
+  payload[2] = static_cast<uint8_t>(kLayout.channels);
+  payload[3] = static_cast<uint8_t>((input[0] >> 1 & 1u) | static_cast<uint32_t>(TileEntropyCoder::zstd) << 4);
+  const uint16_t stored = static_cast<uint16_t>(kLayout.stored_size());
+  std::memcpy(payload.data() + 4, &stored, 2);
+  std::memcpy(payload.data() + 6, &stored, 2);
+  for (uint32_t c = 0; c < kLayout.channels; ++c) {
+    const float t = 0.01f * static_cast<float>(c + 1);
+    std::memcpy(payload.data() + 8 + 4 * c, &t, 4);
+  }
+  std::memcpy(payload.data() + header - 4, &declared, 4);
+  if (input.size() > 3) payload.insert(payload.end(), input.begin() + 3, input.end());
+  TileDecoder dec(kLayout);
+  out.assign(kLayout.sample_count(), 0.0f);
+  return dec.decode(payload, {}, input[0] >> 2 & 1u, input[0] >> 3 & 1u, out);
+}
+
+// Seeds of fuzz/fuzz_tile_zstd.cpp (mode 0: declared size + frame; mode 1: round trip input),
+// written into BTFLOD_WRITE_ZSTD_SEEDS when set (BTFLOD_WRITE_ZSTD_SEEDS=fuzz/corpus/fuzz_tile_zstd
+// test_codec_tile_zstd --gtest_filter='*Seeds*' refreshes the corpus), else into the test's
+// temporary folder. Each seed is read back and must reach the decoder's success path the way
+// the fuzzer feeds it: a seed that stops at a header check would fuzz nothing beyond it.
+TEST(TileZstdSeeds, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
   if (!btflod::tile_entropy_coder_available(TileEntropyCoder::zstd)) GTEST_SKIP() << "built without zstd";
+  const char* env = std::getenv("BTFLOD_WRITE_ZSTD_SEEDS");
+  const std::filesystem::path dir =
+      env != nullptr && env[0] != '\0' ? std::filesystem::path(env) : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_zstd";
+  std::filesystem::create_directories(dir);
   auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
-    std::ofstream f(std::string(dir) + "/" + name, std::ios::binary);
+    std::ofstream f(dir / name, std::ios::binary);
     f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     ASSERT_TRUE(f.good()) << name;
+  };
+  auto read = [&](const std::string& name) {
+    std::ifstream f(dir / name, std::ios::binary);
+    return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
   };
   TileEncoder enc(kLayout);
   ASSERT_TRUE(enc.set_entropy_coder(TileEntropyCoder::zstd));
@@ -242,8 +282,19 @@ TEST(TileZstdSeeds, WritesFuzzSeedsWhenAsked) {
     const uint32_t folded = declared - lo;  // the fuzzer maps bytes 1-2 to lo + value % range
     std::vector<uint8_t> s{0, static_cast<uint8_t>(folded), static_cast<uint8_t>(folded >> 8)};
     s.insert(s.end(), c.bytes.begin() + static_cast<ptrdiff_t>(header), c.bytes.end());
-    write("seed_frame_" + std::to_string(seed), s);
+    const std::string name = "seed_frame_" + std::to_string(seed);
+    write(name, s);
+    // Read back and fed as the fuzzer does: the frame decodes (under the fuzzer's header, whose
+    // tolerances differ from the encoder's, so the samples are finite but not the tile's).
+    const std::vector<uint8_t> back = read(name);
+    ASSERT_EQ(back, s) << name;
+    std::vector<float> out;
+    ASSERT_EQ(fuzzer_decode_mode(back, out), Status::success) << name;
+    for (float v : out) ASSERT_TRUE(std::isfinite(v)) << name;
   }
-  write("seed_round_trip", {1, 7, 200, 13, 99, 0, 255, 128, 64, 32, 16, 8});
+  const std::vector<uint8_t> round_trip{1, 7, 200, 13, 99, 0, 255, 128, 64, 32, 16, 8};
+  write("seed_round_trip", round_trip);
+  EXPECT_EQ(read("seed_round_trip"), round_trip);
+  EXPECT_EQ(round_trip[0] & 1u, 1u);  // odd: the fuzzer's round-trip mode
 }
 }  // namespace

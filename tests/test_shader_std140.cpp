@@ -1,8 +1,9 @@
 // shader/std140.hpp and ShaderParams: the plain std140 types hold exactly the bytes GLM's types
 // held (the backends memcpy ShaderParams into a uniform buffer), convert both ways with GLM, and
-// the CPU twins of the shaders' direction map give bit for bit what the former GLM arithmetic gave.
+// the CPU twin of the shaders' direction map agrees with the angular module's maps and hand values.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -11,44 +12,11 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "btflod/angular/parameterization.hpp"
 #include "btflod/shader/shader_config.hpp"
 #include "btflod/shader/std140.hpp"
 
 using namespace btflod;
-
-namespace {
-
-// The formula shader_direction_to_unit_square used when it took and returned GLM vectors.
-glm::vec2 glm_direction_to_unit_square(DirectionParameterisation p, glm::vec3 d) {
-  d.z = std::max(d.z, 0.0f);
-  const float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  if (!(len > 1e-20f)) return glm::vec2(0.5f);
-  d /= len;
-  if (p == DirectionParameterisation::parabolic) return glm::vec2(d.x, d.y) / (1.0f + d.z) * 0.5f + 0.5f;
-  const glm::vec2 disk = glm::vec2(d.x, d.y) / std::sqrt(1.0f + d.z);
-  const float r = std::sqrt(disk.x * disk.x + disk.y * disk.y);
-  if (r < 1e-7f) return glm::vec2(0.5f);
-  constexpr float kQuarter = 0.78539816339744831f;
-  float phi = std::atan2(disk.y, disk.x);
-  if (phi < -kQuarter) phi += 8.0f * kQuarter;
-  float a, b;
-  if (phi < kQuarter) {
-    a = r;
-    b = phi * a / kQuarter;
-  } else if (phi < 3.0f * kQuarter) {
-    b = r;
-    a = -(phi - 2.0f * kQuarter) * b / kQuarter;
-  } else if (phi < 5.0f * kQuarter) {
-    a = -r;
-    b = (phi - 4.0f * kQuarter) * a / kQuarter;
-  } else {
-    b = -r;
-    a = -(phi - 6.0f * kQuarter) * b / kQuarter;
-  }
-  return glm::vec2(a, b) * 0.5f + 0.5f;
-}
-
-}  // namespace
 
 TEST(ShaderStd140, MatrixHoldsGlmBytesColumnMajorAndRoundTrips) {
   const glm::mat4 m = glm::perspective(0.9f, 1.5f, 0.1f, 50.0f) *
@@ -107,23 +75,55 @@ TEST(ShaderStd140, ShaderParamsKeepsTheLayoutAndDefaultsOfTheGlmBlock) {
   EXPECT_EQ(std::memcmp(&g, &s, sizeof s), 0) << "assigned from GLM";
 }
 
-TEST(ShaderStd140, DirectionMapTwinIsBitIdenticalToTheGlmFormula) {
+// The CPU twin of the shaders' direction map against values computed independently of it: the
+// angular module's maps in double precision (angular/parameterization.hpp, written for the
+// triangulation), the inverse maps (from_square: the forward Shirley–Chiu map and the elevation,
+// a different formula) bringing the direction back, and values worked out by hand.
+TEST(ShaderStd140, DirectionMapTwinMatchesTheAngularMapsAndHandValues) {
+  using P = DirectionParameterisation;
+  const auto twin = [](P p, glm::vec3 d) { return glm::vec2(shader_direction_to_unit_square(p, d)); };
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
-  for (auto p : {DirectionParameterisation::parabolic, DirectionParameterisation::elevated_concentric}) {
+  for (P p : {P::parabolic, P::elevated_concentric}) {
     for (int i = 0; i < 20000; ++i) {
       const glm::vec3 d(u(rng), u(rng), u(rng));
-      const glm::vec2 want = glm_direction_to_unit_square(p, d);
-      const glm::vec2 got = shader_direction_to_unit_square(p, d);
-      ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << d.x << " " << d.y << " " << d.z;
+      const glm::vec2 got = twin(p, d);
+      const glm::dvec2 want = p == P::parabolic ? ParabolicMap::to_square_precise(glm::dvec3(d))
+                                                : ElevatedConcentricMap::to_square_precise(glm::dvec3(d));
+      ASSERT_NEAR(got.x, want.x, 2e-6) << d.x << " " << d.y << " " << d.z;
+      ASSERT_NEAR(got.y, want.y, 2e-6) << d.x << " " << d.y << " " << d.z;
+      // The inverse map returns the direction clamped onto the hemisphere.
+      glm::vec3 h(d.x, d.y, std::max(d.z, 0.0f));
+      if (glm::length(h) < 1e-3f) continue;
+      h = glm::normalize(h);
+      const glm::vec3 back =
+          p == P::parabolic ? ParabolicMap::from_square(got) : ElevatedConcentricMap::from_square(got);
+      ASSERT_LT(glm::length(back - h), 1e-5f) << d.x << " " << d.y << " " << d.z;
       const glm::ivec2 t = shader_table_texel(got, 33);
       ASSERT_GE(t.x, 0);
       ASSERT_LT(t.x, 33);
       ASSERT_GE(t.y, 0);
       ASSERT_LT(t.y, 33);
     }
-    EXPECT_EQ(glm::vec2(shader_direction_to_unit_square(p, Float3(0, 0, 0))), glm::vec2(0.5f));
+    // By hand: the pole is the centre, the horizon's axis points are the edges' midpoints,
+    // a zero vector (and straight down, clamped to zero) maps to the centre.
+    for (glm::vec3 d : {glm::vec3(0, 0, 1), glm::vec3(0, 0, 0), glm::vec3(0, 0, -1)})
+      EXPECT_EQ(twin(p, d), glm::vec2(0.5f)) << d.x << " " << d.y << " " << d.z;
+    EXPECT_EQ(twin(p, {1, 0, 0}), glm::vec2(1.0f, 0.5f));
+    EXPECT_EQ(twin(p, {0, 1, 0}), glm::vec2(0.5f, 1.0f));
+    EXPECT_EQ(twin(p, {-1, 0, 0}), glm::vec2(0.0f, 0.5f));
+    EXPECT_EQ(twin(p, {0, -1, 0}), glm::vec2(0.5f, 0.0f));
   }
+  // θ = 60° towards +x (z = 1/2): parabolic x/(1 + z) = tan 30°; elevated concentric ρ = √(1 − z).
+  const glm::vec3 d60(std::sqrt(3.0f) / 2, 0, 0.5f);
+  EXPECT_NEAR(twin(P::parabolic, d60).x, 0.5 + 0.5 / std::sqrt(3.0), 1e-6);
+  EXPECT_NEAR(twin(P::elevated_concentric, d60).x, 0.5 + 0.5 * std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(twin(P::elevated_concentric, d60).y, 0.5, 1e-6);
+  // The horizon's diagonal: the parabolic disk's rim at 45°, the concentric square's corner.
+  const glm::vec3 diagonal(std::sqrt(0.5f), std::sqrt(0.5f), 0);
+  EXPECT_NEAR(twin(P::parabolic, diagonal).x, 0.5 + 0.5 * std::sqrt(0.5), 1e-6);
+  EXPECT_NEAR(twin(P::elevated_concentric, diagonal).x, 1.0, 1e-6);
+  EXPECT_NEAR(twin(P::elevated_concentric, diagonal).y, 1.0, 1e-6);
 }
 
 TEST(ShaderStd140, NoTruncatingConversionFromOtherComponentTypes) {

@@ -1,8 +1,10 @@
 // btflod-demo — command line: DemoConfig and its parser.
 #pragma once
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <cstdint>
 #include <cstdlib>
 #include <optional>
 #include <string>
@@ -20,10 +22,12 @@ struct DemoConfig {
   std::string backend = "gl";                     ///< --backend gl|cpu
   double bandwidth_kib = 96.0;                    ///< --bandwidth KiB/s of the throttled link
   int settle = 60;                                ///< --settle N: max frames at the last view
-  SynthMaterial material = SynthMaterial::cloth;  ///< --material NAME
+  /// --material NAME: every material is synthesised as NAME (seed + index still differs);
+  /// unset: cloth, stone, leather, tiles in turn.
+  std::optional<SynthMaterial> material;
   uint64_t seed = 1;                              ///< --seed N
-  int components = 32;                            ///< --components K (DFMF, per channel)
-  bool interreflection = false;                   ///< --interreflection
+  int components = 0;                             ///< --components C: FMF rank (0: the profile's default)
+  bool interreflection = false;                   ///< --interreflection: one diffuse bounce in the synthesis
   bool quiet = false;                             ///< --quiet: no progress bars
   bool window = false;                            ///< --window: show the frames in an X11 window
   bool deflate = false;                           ///< --deflate: deflate tiles (format 2), not zstd
@@ -39,16 +43,35 @@ struct DemoConfig {
   std::string inputs_dir;  ///< --inputs DIR: prebuilt <name>.btfstore / <name>.fmf (paper profile)
   int frame_width = 0, frame_height = 0;  ///< --frame-size WxH (0: the profile's, 480x270 or 1280x720)
   bool size_given = false, frames_given = false, materials_given = false, bandwidth_given = false;
+  bool seed_given = false, components_given = false;
 };
+
+/// The largest FMF rank the demo accepts: the generated shaders hold at most 128 components
+/// (shader/shader_config.hpp).
+inline constexpr int kMaxDemoComponents = 128;
+
+/// The FMF rank of the default profile (docs/demo.md, "Default rank": measured against the raw
+/// BTF through the same rays). A macro so that the usage text can print it.
+#define BTFLOD_DEMO_DEFAULT_COMPONENTS 8
+#define BTFLOD_DEMO_STR2(x) #x
+#define BTFLOD_DEMO_STR(x) BTFLOD_DEMO_STR2(x)
+inline constexpr int kDefaultDemoComponents = BTFLOD_DEMO_DEFAULT_COMPONENTS;
+/// Bounds of the default materials at the default rank against the raw BTF (FMF through the same
+/// rays as the raw render; docs/demo.md, "Default rank"): the whole last view, and each material
+/// covering at least kMinMaterialPixels pixels of it.
+inline constexpr double kDefaultRawSsimBound = 0.0;
+inline constexpr double kDefaultRawMaterialSsimBound = 0.0;
+inline constexpr uint64_t kMinMaterialPixels = 2000;
 
 inline constexpr const char* kDemoUsage =
     "usage: btflod-demo --out DIR [--frames N] [--size N] [--materials N] [--backend gl|cpu]\n"
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
     "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
-    "                   [--keep-stores] [--inputs DIR] [--frame-size WxH]\n"
+    "                   [--keep-stores] [--inputs DIR] [--frame-size WxH] [--components C]\n"
+    "                   [--material cloth|stone|leather|tiles] [--interreflection]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
-    "  (FMF, C = 8), builds one .bsvtf container each, then flies a camera through a scene of\n"
-    "  BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
+    "  (FMF of rank C = --components, default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
+    "  .bsvtf container each, then flies a camera through a scene of BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
     "  sources, rendering BSVTF (and FMF as the converged reference) with the GL\n"
     "  backend. Writes DIR/frames/frame_NNNN.png, DIR/contact_sheet_frames.png,\n"
     "  DIR/report.html and DIR/report.json.\n"
@@ -73,7 +96,14 @@ inline constexpr const char* kDemoUsage =
     "  prebuilt inputs: DIR/<name>.btfstore (e.g. cloth-0.btfstore, a symbolic link is fine; its own\n"
     "  texel count, never deleted) and DIR/<name>.fmf (C = 100) instead of synthesising/factorising.\n"
     "  --frame-size WxH renders W x H frames instead of the profile's (480x270, paper 1280x720).\n"
-    "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1";
+    "  --components C sets the FMF rank of every material (1..128; default "
+    BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) ", paper 100).\n"
+    "  --material NAME synthesises every material as NAME (cloth, stone, leather or tiles; seed + index\n"
+    "  still differs) instead of the four kinds in turn. --interreflection adds one bounce of diffuse\n"
+    "  interreflection to the synthesis (btf/synthesizer.hpp; slower). Neither applies to prebuilt\n"
+    "  --inputs stores.\n"
+    "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1\n"
+    "  --components " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS);
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
 /// --help, with *exit_code = 0; otherwise 2).
@@ -123,7 +153,13 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.quiet = true;
       continue;
     }
-    if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value (or is unknown)");
+    static constexpr std::string_view kValueOptions[] = {
+        "--out",    "--inputs",   "--frame-size", "--record-feedback", "--profile", "--memory",
+        "--size",   "--frames",   "--materials",  "--settle",          "--backend", "--bandwidth",
+        "--components", "--seed", "--material"};
+    if (std::find(std::begin(kValueOptions), std::end(kValueOptions), a) == std::end(kValueOptions))
+      return fail("unknown option " + std::string(a));
+    if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value");
     const char* value = argv[++i];
     long long n = 0;
     if (a == "--out") {
@@ -179,11 +215,14 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.bandwidth_kib = static_cast<double>(n);
       cfg.bandwidth_given = true;
     } else if (a == "--components") {
-      if (!parse_int(value, 1, 4096, &n)) return fail("--components " + std::string(value) + ": expected 1..4096");
+      if (!parse_int(value, 1, kMaxDemoComponents, &n))
+        return fail("--components " + std::string(value) + ": expected 1.." + std::to_string(kMaxDemoComponents) +
+                    " (the shaders hold at most " + std::to_string(kMaxDemoComponents) + " components)");
       cfg.components = static_cast<int>(n);
     } else if (a == "--seed") {
       if (!parse_int(value, 0, (1ll << 62), &n)) return fail("--seed " + std::string(value) + ": expected >= 0");
       cfg.seed = static_cast<uint64_t>(n);
+      cfg.seed_given = true;
     } else if (a == "--material") {
       auto m = material_from_name(value);
       if (!m) return fail("--material " + std::string(value) + ": expected cloth, stone, leather or tiles");
@@ -193,6 +232,8 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
   }
   if (cfg.out_dir.empty()) return fail("--out DIR is required");
+  cfg.components_given = cfg.components != 0;
+  if (cfg.components == 0) cfg.components = cfg.profile == "paper" ? 100 : kDefaultDemoComponents;
   if (!cfg.inputs_dir.empty() && cfg.profile != "paper") return fail("--inputs needs --profile paper");
   if (cfg.profile == "paper") {
     if (!cfg.size_given) cfg.size = 64;

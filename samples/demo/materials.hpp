@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,7 @@ namespace btflod::demo {
 struct MaterialSettings {
   int size = 32;            ///< synthesised texels per side
   uint32_t repeat = 8;      ///< the virtual texture holds the material tiled repeat × repeat
-  uint32_t components = 8;  ///< FMF rank C (2 RGBA virtual textures)
+  uint32_t components = 8;  ///< FMF rank C (⌈C/4⌉ RGBA virtual textures; btflod-demo sets --components)
   uint32_t tile_size = 32;  ///< T
   uint32_t border = 4;      ///< B (T + 2B must be a multiple of 8)
   uint32_t angular_resolution = 32;
@@ -39,6 +40,10 @@ struct MaterialSettings {
   /// Entropy coder of the tiles (BsvtfBuildOptions::entropy_coder): zstd where the build has it.
   TileEntropyCoder entropy_coder = default_tile_entropy_coder();
   uint64_t seed = 1;
+  /// Every material synthesised as this kind (--material); unset: cloth, stone, leather, tiles in turn.
+  std::optional<SynthMaterial> kind;
+  /// One bounce of diffuse interreflection in the synthesis (--interreflection; SynthesisOptions).
+  bool interreflection = false;
   /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
   /// into a BTF store of halves and factorised out of core within `memory_budget`
   /// (factor/fmf_out_of_core.hpp); otherwise the small in-memory path (demo_directions()).
@@ -146,7 +151,7 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
   return ss > 0.0 ? std::sqrt(se / ss) : 0.0;
 }
 
-/// Synthesises material `index` (cloth, stone, leather, tiles in turn, seed + index), factorises
+/// Synthesises material `index` (cloth, stone, leather, tiles in turn, or s.kind; seed + index), factorises
 /// it, builds its .bsvtf container into `out_dir` and its lookup tables, and keeps the raw BTF
 /// as a store `out_dir`/<name>.btfstore (the raw reference of the report). Small path: in memory
 /// (float32 store written afterwards). Paper path (s.paper): synthesised view by view into a
@@ -155,8 +160,9 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
 inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir) {
   const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather,
                                  SynthMaterial::tiles};
-  const SynthMaterial kind = kinds[index % 4];
+  const SynthMaterial kind = s.kind ? *s.kind : kinds[index % 4];
   SynthesisOptions so;
+  so.interreflection = s.interreflection;
   so.views = s.paper ? DirectionSet::ubo2014() : demo_directions();
   so.lights = so.views;
   DemoMaterial m;

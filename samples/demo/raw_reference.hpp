@@ -21,6 +21,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -43,27 +45,92 @@ struct RawReference {
   Image<float> raw_gpu_filter, fmf_gpu_filter;
   bool has_gpu_filter = false;
   std::string gpu_filter_note;
+  /// Per pixel (row-major), the material its pixel-centre ray hits, or ~0u for the background:
+  /// the mask of the per-material figures (image_error's `pixel_material`).
+  std::vector<uint32_t> pixel_material;
   double seconds = 0;
   uint64_t bytes_read = 0;  ///< store bytes read (one pass over each material's store)
   uint32_t supersample = 1;
 };
 
 /// Error of an image against the raw reference: SSIM of the sRGB-encoded images (as the frame
-/// SSIM), PSNR of the same (range 1) and RMSE of the linear radiance.
+/// SSIM), PSNR of the same (range 1), RMSE of the linear radiance, and ΔE*ab (CIE 1976, D65) of
+/// what the PNGs show — each pixel's linear RGB clamped to [0, 1] and converted to CIELAB
+/// (metrics/image_metrics.hpp's linear_srgb_to_lab) — as its mean and 99th percentile over the
+/// pixels. `pixels` counts the pixels compared.
 struct ImageError {
   double ssim = 0, psnr = 0, rmse = 0;
+  double de_mean = 0, de_p99 = 0;
+  uint64_t pixels = 0;
+  std::string filter;  ///< the rays and filter of both images, e.g. "same rays: 4×4 per pixel, box filter"
 };
 
-inline ImageError image_error(const Image<float>& reference, const Image<float>& image) {
+/// Every pixel of the images, or only those whose pixel-centre ray hits material `only` of
+/// `pixel_material` (RawReference::pixel_material). The masked SSIM is the mean of the SSIM map
+/// (metrics' ssim_map, 11 × 11 Gaussian window) over the window positions centred on the
+/// material's pixels; its PSNR, RMSE and ΔE are over the material's pixels. All zero when no
+/// pixel qualifies.
+inline ImageError image_error(const Image<float>& reference, const Image<float>& image,
+                              const std::vector<uint32_t>* pixel_material = nullptr, uint32_t only = 0) {
   ImageError e;
+  const int W = reference.width(), H = reference.height();
+  if (image.width() != W || image.height() != H || W == 0 || H == 0) return e;
+  const bool masked = pixel_material != nullptr && pixel_material->size() == static_cast<size_t>(W) * H;
+  const auto in = [&](int x, int y) {
+    return !masked || (*pixel_material)[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] == only;
+  };
   const Image<float> a = to_display(reference), b = to_display(image);
-  e.ssim = mean_ssim(a.view(), b.view());
-  e.psnr = psnr(a.view(), b.view(), 1.0);
-  Image<float> ra(reference.width(), reference.height(), 3), rb = ra;
-  for (int y = 0; y < ra.height(); ++y)
-    for (int x = 0; x < ra.width(); ++x)
-      for (int c = 0; c < 3; ++c) ra.at(x, y, c) = reference.at(x, y, c), rb.at(x, y, c) = image.at(x, y, c);
-  e.rmse = rmse(ra.view(), rb.view());
+  if (!masked) {
+    e.ssim = mean_ssim(a.view(), b.view());
+  } else {
+    double sum = 0.0;
+    uint64_t n = 0;
+    for (int c = 0; c < 3; ++c) {
+      int mw = 0;
+      const std::vector<double> map = ssim_map(a.view(), b.view(), c, SsimOptions{}, &mw);
+      if (mw <= 0) continue;
+      const int r = (W - mw) / 2;
+      for (size_t i = 0; i < map.size(); ++i) {
+        const int x = static_cast<int>(i % static_cast<size_t>(mw)) + r, y = static_cast<int>(i / static_cast<size_t>(mw)) + r;
+        if (in(x, y)) sum += map[i], ++n;
+      }
+    }
+    e.ssim = n ? sum / static_cast<double>(n) : 0.0;
+  }
+  double se_display = 0.0, se_linear = 0.0;
+  std::vector<double> de;
+  de.reserve(static_cast<size_t>(W) * static_cast<size_t>(H));
+  double de_sum = 0.0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!in(x, y)) continue;
+      double clamped[2][3];
+      for (int c = 0; c < 3; ++c) {
+        const double dd = static_cast<double>(a.at(x, y, c)) - b.at(x, y, c);
+        const double dl = static_cast<double>(reference.at(x, y, c)) - image.at(x, y, c);
+        se_display += dd * dd;
+        se_linear += dl * dl;
+        clamped[0][c] = std::clamp(static_cast<double>(reference.at(x, y, c)), 0.0, 1.0);
+        clamped[1][c] = std::clamp(static_cast<double>(image.at(x, y, c)), 0.0, 1.0);
+      }
+      const auto la = linear_srgb_to_lab(clamped[0][0], clamped[0][1], clamped[0][2]);
+      const auto lb = linear_srgb_to_lab(clamped[1][0], clamped[1][1], clamped[1][2]);
+      const double d = std::sqrt((la[0] - lb[0]) * (la[0] - lb[0]) + (la[1] - lb[1]) * (la[1] - lb[1]) +
+                                 (la[2] - lb[2]) * (la[2] - lb[2]));
+      de.push_back(d);
+      de_sum += d;
+    }
+  e.pixels = de.size();
+  if (de.empty()) return e;
+  const double n3 = 3.0 * static_cast<double>(de.size());
+  e.psnr = se_display > 0.0 ? 10.0 * std::log10(n3 / se_display) : std::numeric_limits<double>::infinity();
+  e.rmse = std::sqrt(se_linear / n3);
+  e.de_mean = de_sum / static_cast<double>(de.size());
+  // Nearest rank: the smallest value with at least 99 % of the pixels at or below it.
+  const size_t rank = static_cast<size_t>(std::ceil(0.99 * static_cast<double>(de.size())));
+  const size_t k = std::min(de.size() - 1, rank > 0 ? rank - 1 : 0);
+  std::nth_element(de.begin(), de.begin() + static_cast<std::ptrdiff_t>(k), de.end());
+  e.de_p99 = de[k];
   return e;
 }
 
@@ -469,6 +536,8 @@ class RawReferenceBuilder {
       }
     ref.has_gpu_filter = gpu_filter_ok_;
     ref.gpu_filter_note = gpu_filter_note_;
+    ref.pixel_material.resize(pixel_rays_.size());
+    for (size_t pi = 0; pi < pixel_rays_.size(); ++pi) ref.pixel_material[pi] = pixel_rays_[pi].material;
     if (gpu_filter_ok_) {
       ref.raw_gpu_filter = Image<float>(width_, height_, 4);
       ref.fmf_gpu_filter = Image<float>(width_, height_, 4);

@@ -37,6 +37,7 @@ struct RunSummary {
   /// Where the feedback words come from: "colour pass" (bsvtf_feedback), "feedback pass"
   /// (--feedback-pass) or "cpu" (the CPU renderer's ray caster).
   std::string feedback_words = "colour pass";
+  bool components_default = true;  ///< C is the profile's default (no --components)
   uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
   std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
   std::vector<double> seconds_synthesis, seconds_factor, seconds_build;
@@ -57,6 +58,14 @@ struct RunSummary {
     bool gpu_filter = false;
     std::string gpu_filter_note;
     ImageError bsvtf_gpu_f, fmf_gpu_f, fmf_cpu_f, fmf_gpu_vs_cpu_f;
+    /// Per material (the pixels whose pixel-centre ray hits it): the FMF through the same rays as
+    /// the raw render (the factorisation error alone) and, with gpu_filter, the streamed BSVTF and
+    /// the resident FMF against the raw BTF through the GPU's filter. Each ImageError::filter says
+    /// which rays and filter.
+    struct PerMaterial {
+      ImageError fmf_cpu, bsvtf_gpu_f, fmf_gpu_f;
+    };
+    std::vector<PerMaterial> per_material;
     double seconds = 0;
     uint64_t bytes_read = 0;
     uint32_t supersample = 1;
@@ -214,16 +223,34 @@ inline uint64_t sum(const std::vector<uint64_t>& v) {
   return n;
 }
 
+/// One comparison with the raw BTF as a JSON object (SSIM and PSNR of the sRGB images, RMSE of
+/// the linear ones, ΔE*ab mean and p99, pixels compared, and the rays and filter of both images).
+inline std::string image_error_json(const ImageError& x) {
+  char t[384];
+  std::snprintf(t, sizeof t,
+                "{\"ssim\": %.5f, \"psnr_db\": %.3f, \"rmse\": %.6f, \"delta_e_mean\": %.3f, \"delta_e_p99\": %.3f, "
+                "\"pixels\": %llu, \"filter\": ",
+                x.ssim, x.psnr, x.rmse, x.de_mean, x.de_p99, static_cast<unsigned long long>(x.pixels));
+  std::string out = t;
+  out += '"';
+  for (const char c : x.filter) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"}";
+}
+
 /// report.json's "configuration", "files", "raw_reference" and "paper000" members.
 inline std::string config_and_raw_json(const RunSummary& r) {
   std::ostringstream o;
   char b[768];
   std::snprintf(b, sizeof b,
-                "  \"configuration\": {\"profile\": \"%s\", \"directions\": %u, \"components\": %u, \"tile_size\": %u, "
+                "  \"configuration\": {\"profile\": \"%s\", \"directions\": %u, \"components\": %u, "
+                "\"components_default\": %s, \"tile_size\": %u, "
                 "\"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, \"material_texels\": %u, "
                 "\"feedback_words\": \"%s\"},\n",
-                r.profile.c_str(), r.directions, r.components, r.tile_size, r.border, r.slots_x, r.slots_y, r.texels,
-                r.feedback_words.c_str());
+                r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false", r.tile_size,
+                r.border, r.slots_x, r.slots_y, r.texels, r.feedback_words.c_str());
   o << b << "  \"files\": [";
   for (size_t i = 0; i < r.store_bytes.size(); ++i) {
     std::snprintf(
@@ -253,10 +280,7 @@ inline std::string config_and_raw_json(const RunSummary& r) {
   o << b;
   if (r.raw.done) {
     const auto e = [&](const char* name, const ImageError& x, bool last) {
-      char t[256];
-      std::snprintf(t, sizeof t, "\"%s\": {\"ssim\": %.5f, \"psnr_db\": %.3f, \"rmse\": %.6f}%s", name, x.ssim, x.psnr,
-                    x.rmse, last ? "" : ", ");
-      return std::string(t);
+      return "\"" + std::string(name) + "\": " + image_error_json(x) + (last ? "" : ", ");
     };
     o << "  \"raw_reference\": {" << e("bsvtf_gpu", r.raw.bsvtf_gpu, false) << e("fmf_gpu", r.raw.fmf_gpu, false)
       << e("fmf_cpu", r.raw.fmf_cpu, false);
@@ -265,6 +289,16 @@ inline std::string config_and_raw_json(const RunSummary& r) {
         << e("fmf_cpu", r.raw.fmf_cpu_f, false) << e("fmf_gpu_vs_fmf_cpu", r.raw.fmf_gpu_vs_cpu_f, true) << "}, ";
     else
       o << "\"gpu_filter\": {\"not_done\": \"" << r.raw.gpu_filter_note << "\"}, ";
+    o << "\"per_material\": [";
+    for (size_t i = 0; i < r.raw.per_material.size(); ++i) {
+      const auto& pm = r.raw.per_material[i];
+      o << (i ? ", " : "") << "{\"material\": \"" << (i < r.material_names.size() ? r.material_names[i] : "")
+        << "\", \"fmf_relative_error\": " << fmt(i < r.fmf_errors.size() ? r.fmf_errors[i] : 0.0) << ", "
+        << e("fmf_cpu", pm.fmf_cpu, !r.raw.gpu_filter);
+      if (r.raw.gpu_filter) o << e("bsvtf_gpu_gpu_filter", pm.bsvtf_gpu_f, false) << e("fmf_gpu_gpu_filter", pm.fmf_gpu_f, true);
+      o << "}";
+    }
+    o << "], ";
     std::snprintf(b, sizeof b, "\"supersample\": %u, \"store_bytes_read\": %llu, \"seconds\": %.2f},\n",
                   r.raw.supersample, static_cast<unsigned long long>(r.raw.bytes_read), r.raw.seconds);
     o << b;
@@ -298,29 +332,58 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
     std::snprintf(row, sizeof row,
                   "<p>The last (settled) view rendered from the <b>raw tabulated BTF</b> (each material's store, one "
                   "sequential pass, %s read in %.1f s): CPU ray-caster, %u×%u rays per pixel, finest level, bilinear "
-                  "texels, the shaders' 3×3 angular taps. <i>FMF (CPU)</i> is the same rays and taps through U·V′, so "
-                  "its error is the factorisation's alone; the GPU images add rasterisation and mip filtering "
-                  "(trilinear on the GPU, supersampling here).</p>\n",
+                  "texels, the shaders' 3×3 angular taps, and again with one ray per pixel centre through the GPU's "
+                  "filter (OpenGL's level of detail, trilinear over box-filtered mips). <i>FMF (CPU)</i> is the same "
+                  "rays and taps through U·V′, so its error is the factorisation's alone. Every row names the rays "
+                  "and the filter of both images; only the last two compare images filtered differently.</p>\n",
                   mib(static_cast<double>(r.raw.bytes_read)).c_str(), r.raw.seconds, r.raw.supersample,
                   r.raw.supersample);
     h << row
-      << "<table><tr><th>image vs raw-BTF render</th><th>SSIM (sRGB)</th><th>PSNR dB (sRGB)</th><th>RMSE "
-         "(linear)</th></tr>";
+      << "<table><tr><th>image vs raw-BTF render</th><th>rays and filter</th><th>SSIM (sRGB)</th><th>PSNR dB "
+         "(sRGB)</th><th>ΔE*ab mean</th><th>ΔE*ab p99</th><th>RMSE (linear)</th></tr>";
     const auto line = [&](const char* name, const ImageError& e) {
-      std::snprintf(row, sizeof row, "<tr><td>%s</td><td>%.4f</td><td>%.2f</td><td>%.5f</td></tr>", name, e.ssim,
-                    e.psnr, e.rmse);
+      std::snprintf(row, sizeof row,
+                    "<tr><td>%s</td><td>%s</td><td>%.4f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td><td>%.5f</td></tr>",
+                    name, e.filter.c_str(), e.ssim, e.psnr, e.de_mean, e.de_p99, e.rmse);
       h << row;
     };
-    line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu);
-    line("FMF, everything resident (GPU)", r.raw.fmf_gpu);
-    line("FMF (CPU, same rays as the raw render)", r.raw.fmf_cpu);
+    line("FMF (CPU): the factorisation error alone", r.raw.fmf_cpu);
     if (r.raw.gpu_filter) {
-      h << "<tr><th colspan='4'>vs the raw BTF through the GPU's filter (one ray per pixel centre, OpenGL's "
-           "level of detail, trilinear over the box-filtered mip chain of the raw BTF)</th></tr>\n";
       line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu_f);
       line("FMF, everything resident (GPU)", r.raw.fmf_gpu_f);
-      line("FMF (CPU, same filter): the factorisation error alone", r.raw.fmf_cpu_f);
-      line("FMF (GPU) vs FMF (CPU, same filter): rasteriser vs ray-caster", r.raw.fmf_gpu_vs_cpu_f);
+      line("FMF (CPU): the factorisation error alone", r.raw.fmf_cpu_f);
+      line("FMF (GPU) vs FMF (CPU), not the raw BTF: rasteriser vs ray-caster", r.raw.fmf_gpu_vs_cpu_f);
+    }
+    h << "<tr><th colspan='7'>different filters (not a like-for-like comparison: the GPU's trilinear mips "
+         "against the raw render's supersampled box filter)</th></tr>\n";
+    line("BSVTF streamed, settled (GPU)", r.raw.bsvtf_gpu);
+    line("FMF, everything resident (GPU)", r.raw.fmf_gpu);
+    h << "</table>\n";
+    if (!r.raw.per_material.empty()) {
+      h << "<h3>Per material (pixels whose centre ray hits it)</h3>\n<p>The relative error ‖BTF − U·V′ᵀ‖<sub>F</sub> / "
+           "‖BTF‖<sub>F</sub> is over every sample of the material; a few bright samples (e.g. mirror highlights) can "
+           "hold most of its energy, so a small relative error can still lose what a viewer sees. The image figures "
+           "are what the last view shows.</p>\n<table><tr><th>material</th><th>relative error (Frobenius)</th>"
+           "<th>pixels</th><th>FMF SSIM</th><th>FMF PSNR dB</th><th>FMF ΔE*ab mean</th><th>FMF ΔE*ab p99</th>";
+      if (r.raw.gpu_filter) h << "<th>BSVTF SSIM</th><th>BSVTF ΔE*ab p99</th>";
+      h << "</tr>\n";
+      for (size_t i = 0; i < r.raw.per_material.size(); ++i) {
+        const auto& pm = r.raw.per_material[i];
+        std::snprintf(row, sizeof row,
+                      "<tr><td>%s</td><td>%.3f</td><td>%llu</td><td>%.4f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td>",
+                      i < r.material_names.size() ? r.material_names[i].c_str() : "",
+                      i < r.fmf_errors.size() ? r.fmf_errors[i] : 0.0, static_cast<unsigned long long>(pm.fmf_cpu.pixels),
+                      pm.fmf_cpu.ssim, pm.fmf_cpu.psnr, pm.fmf_cpu.de_mean, pm.fmf_cpu.de_p99);
+        h << row;
+        if (r.raw.gpu_filter) {
+          std::snprintf(row, sizeof row, "<td>%.4f</td><td>%.2f</td>", pm.bsvtf_gpu_f.ssim, pm.bsvtf_gpu_f.de_p99);
+          h << row;
+        }
+        h << "</tr>\n";
+      }
+      h << "</table>\n<p>FMF: " << r.raw.per_material.front().fmf_cpu.filter << ".";
+      if (r.raw.gpu_filter) h << " BSVTF: " << r.raw.per_material.front().bsvtf_gpu_f.filter << ".";
+      h << "</p>\n";
     }
     h << "</table>\n<p><img src='reference_raw.png' alt='raw BTF render'> <img src='reference_fmf_cpu.png' alt='FMF "
          "CPU "

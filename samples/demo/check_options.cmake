@@ -1,0 +1,78 @@
+# Every btflod-demo option does what its help says or is refused. Runs the demo on tiny
+# configurations (one material, one 96 x 54 frame, no settle) and checks report.json:
+#   --components C: the configuration states C and the FMF written has rank C (its U and V as
+#                   halves are C · (directions² · 3 + texels²) · 2 bytes);
+#   --material NAME: every material is NAME; --interreflection changes the synthesised BTF;
+# and that unknown options and out-of-range values exit with 2 and say what is wrong.
+# Arguments: -DDEMO=<btflod-demo> -DDIR=<scratch folder>.
+file(REMOVE_RECURSE ${DIR})
+set(tiny --materials 1 --frames 1 --settle 0 --frame-size 96x54 --quiet)
+
+function(run_demo name)
+  execute_process(COMMAND ${DEMO} --out ${DIR}/${name} ${tiny} ${ARGN} RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                  ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "btflod-demo ${ARGN} failed (${rc}):\n${out}\n${err}")
+  endif()
+  file(READ ${DIR}/${name}/report.json json)
+  set(json "${json}" PARENT_SCOPE)
+  set(out "${out}" PARENT_SCOPE)
+endfunction()
+
+function(check_rank json want)
+  string(JSON c GET "${json}" configuration components)
+  string(JSON d GET "${json}" configuration directions)
+  string(JSON t GET "${json}" configuration material_texels)
+  string(JSON bytes GET "${json}" files 0 fmf_half_bytes)
+  math(EXPR expect "${want} * (${d} * ${d} * 3 + ${t} * ${t}) * 2")
+  if(NOT c EQUAL want OR NOT bytes EQUAL expect)
+    message(FATAL_ERROR "C = ${want} asked: report says C = ${c}, FMF of ${bytes} bytes (rank ${want}: ${expect})")
+  endif()
+endfunction()
+
+run_demo(c12 --components 12)
+check_rank("${json}" 12)
+string(JSON is_default GET "${json}" configuration components_default)
+if(is_default)
+  message(FATAL_ERROR "--components 12: the report calls C the default")
+endif()
+string(FIND "${out}" "FMF C=12" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "--components 12: stdout does not say FMF C=12:\n${out}")
+endif()
+# The per-material comparison with the raw BTF names its rays and filter.
+string(JSON filter GET "${json}" raw_reference per_material 0 fmf_cpu filter)
+string(JSON p99 GET "${json}" raw_reference per_material 0 fmf_cpu delta_e_p99)
+if(NOT filter MATCHES "^same rays" OR p99 STREQUAL "")
+  message(FATAL_ERROR "raw_reference.per_material[0].fmf_cpu: filter '${filter}', delta_e_p99 '${p99}'")
+endif()
+
+run_demo(c5 --components 5)
+check_rank("${json}" 5)
+
+run_demo(tiles --material tiles)
+string(JSON name GET "${json}" files 0 material)
+if(NOT name STREQUAL "tiles-0")
+  message(FATAL_ERROR "--material tiles: the material is ${name}")
+endif()
+run_demo(tiles_ir --material tiles --interreflection)
+file(SHA256 ${DIR}/tiles/tiles-0.btfstore plain)
+file(SHA256 ${DIR}/tiles_ir/tiles-0.btfstore bounced)
+if(plain STREQUAL bounced)
+  message(FATAL_ERROR "--interreflection did not change the synthesised BTF")
+endif()
+
+# Refused: exit code 2 and a message naming the problem.
+foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknown option --bogus-option"
+             "--components;0;--components 0: expected 1..128" "--components;129;--components 129: expected 1..128"
+             "--material;glass;--material glass: expected cloth, stone, leather or tiles"
+             "--components;needs a value")
+  list(POP_BACK case message)
+  execute_process(COMMAND ${DEMO} --out ${DIR}/refused ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                  ERROR_VARIABLE err)
+  string(FIND "${err}" "${message}" at)
+  if(NOT rc EQUAL 2 OR at EQUAL -1)
+    message(FATAL_ERROR "btflod-demo ${case}: exit ${rc} (expected 2), stderr lacks '${message}':\n${err}")
+  endif()
+endforeach()
+message(STATUS "btflod-demo options: --components, --material, --interreflection work; bad options refused")

@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for codec/container.hpp: build → read round trip (metadata, U packets, weights, tiles
 // decoded down the hierarchy within the tolerance), the contiguous coarse-to-fine prefix,
 // determinism across thread counts, and failure classes (truncated, trailing bytes, wrong
@@ -212,8 +213,10 @@ TEST(CodecContainer, HigherQualityGivesLargerFile) {
 TEST(CodecContainer, WriterRejectsInconsistentInput) {
   Material m = make_material(2, 4);
   auto dup = m.tiles;
-  dup.push_back(dup.back());
-  EXPECT_EQ(build_bsvtf(m.metadata, m.u, dup).status(), Status::invalid_argument);
+  dup.push_back(dup.back());  // refused before any encoding: two workers would write one slot
+  auto d = build_bsvtf(m.metadata, m.u, dup);
+  EXPECT_EQ(d.status(), Status::invalid_argument);
+  EXPECT_NE(d.message().find("given twice"), std::string::npos) << d.message();
   auto orphan = m.tiles;
   orphan.erase(orphan.begin());  // drop the root
   auto r = build_bsvtf(m.metadata, m.u, orphan);

@@ -793,7 +793,12 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
   for (uint32_t level = 0; level < metadata.level_count; ++level) {
     const auto& list = by_level[level];
     current.clear();
-    for (size_t i : list) current[tiles[i].id.key()];  // pre-create slots: workers only write values
+    // Pre-create one slot per tile, so workers only write values, each its own slot. A tile
+    // given twice would have two workers writing one slot at once: refused here.
+    for (size_t i : list)
+      if (!current.try_emplace(tiles[i].id.key()).second)
+        return make_error(Status::invalid_argument, "build_bsvtf: tile (%u, level %u, %u, %u) given twice",
+                          tiles[i].id.texture, tiles[i].id.level, tiles[i].id.x, tiles[i].id.y);
     pool.parallel_for(0, list.size(), 4, [&](size_t begin, size_t end) {
       TileEncoder encoder(layout, options.deflate_level);
       encoder.set_weight_quarters(options.weight_quarters);

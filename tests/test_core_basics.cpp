@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for core/result.hpp, core/bytes.hpp, core/image.hpp, core/color.hpp, core/thread_pool.hpp.
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // btflod-link: CURL::libcurl
-// btflod-label: net
+// btflod-label: net threads
 // Tests for stream/http_source.hpp against real servers on 127.0.0.1: Debian's nginx (started
 // by the test with a temporary config; the tests skip with a message when nginx is absent) and a
 // tiny socket server thread that misbehaves on purpose (drops the connection mid-transfer,

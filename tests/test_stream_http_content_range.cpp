@@ -1,4 +1,5 @@
 // btflod-link: CURL::libcurl
+// btflod-label: unit threads
 // Regression tests for stream/http_source.hpp, failure class "a 206 whose Content-Range does
 // not describe the requested range": found by fuzz_http_source (each response below is what
 // the fuzzer's fake server sent). A range read must only succeed when the answer is a 206 with

@@ -9,7 +9,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <cstring>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -98,6 +101,62 @@ TEST(RuntimeFailures, CorruptTileIsRetriedWithBackOffThenReportedUnavailable) {
   EXPECT_FALSE(s.cache().resident(global));
   EXPECT_TRUE(s.cache().resident(global.parent()));
   EXPECT_TRUE(s.scheduler().tile_held(global.texture, s.cache().set().levels_of(global.texture).index(global)));
+  check_engine(w, s, e);
+}
+
+namespace {
+// Every second read of one byte range fails.
+struct FlakySource final : TileSource {
+  std::span<const uint8_t> bytes;
+  uint64_t flaky_offset = 0;
+  uint32_t reads = 0;
+  Result<uint64_t> size() override { return static_cast<uint64_t>(bytes.size()); }
+  VoidResult read(uint64_t offset, std::span<uint8_t> out, const std::atomic<bool>* = nullptr) override {
+    if (offset == flaky_offset && reads++ % 2 == 0) return make_error(Status::io_error, "flaky");
+    std::memcpy(out.data(), bytes.data() + offset, out.size());
+    return {};
+  }
+  std::string describe() const override { return "flaky"; }
+};
+}  // namespace
+
+// Attempts count consecutive failures: a tile whose reads fail every other time is evicted and
+// requested again and again, and is never given up with tile_attempts = 2.
+TEST(RuntimeFailures, OnlyConsecutiveFailuresCountTowardsGivingUp) {
+  World w;
+  w.add(build(make_eigen(128, 4, 13)));  // L = 2: 4×4 finest tiles
+  w.finish();
+  const TileId flaky{0, 2, 0, 0};
+  FlakySource src;
+  src.bytes = w.files[0];
+  src.flaky_offset = w.dirs[0].find(flaky)->offset;
+  w.materials[0].source = &src;
+  StreamerConfig cfg = small_config();
+  cfg.cache.slots_x = 3;  // 6 slots: root, parent and four tiles of one corner; the other corner evicts them
+  cfg.cache.slots_y = 2;
+  cfg.payload_cache_bytes = 0;  // every request reads its payloads
+  cfg.decoded_cache_tiles = 0;
+  cfg.failure.tile_attempts = 2;
+  cfg.failure.first_backoff_frames = 1;
+  auto s = std::move(Streamer::create(w.materials, cfg).value());
+  Engine e(s);
+  EventLog log;
+  uint32_t visits_resident = 0;
+  for (uint32_t f = 0; f < 240; ++f) {
+    const uint32_t half = (f / 30) % 2;  // two tiles of one corner, then of the opposite one, ...
+    std::vector<uint32_t> fb;
+    for (uint32_t y = 0; y < 2; ++y)
+      for (uint32_t x = 0; x < 2; ++x) fb.push_back(pack_feedback(FeedbackTile{0, 2, 2 * half + x, 2 * half + y}));
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    log.add(o);
+    s.pump();
+    visits_resident += f % 30 == 29 && half == 0 && s.cache().resident(TileId{s.first_texture(0), 2, 0, 0});
+  }
+  EXPECT_GE(log.count(ResidencyEventKind::tile_failed, 0), 3u);  // failed on several visits
+  EXPECT_EQ(log.count(ResidencyEventKind::tile_unavailable, 0), 0u);
+  EXPECT_EQ(visits_resident, 4u);  // and was resident at the end of every visit
   check_engine(w, s, e);
 }
 

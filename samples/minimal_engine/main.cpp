@@ -3,8 +3,10 @@
 // feedback words and copy its outputs to the GPU. The "GPU" here is plain arrays (a cache
 // texture of slots, one page table per virtual texture, U′ packets) and the feedback comes
 // from a camera sliding over two materials; a real engine renders the generated shaders' feedback
-// pass instead (docs/shaders.md). Decode jobs run on btflod's ThreadExecutor; an engine may run
-// Streamer::acquire_job()/run_job() on its own workers instead.
+// pass instead (docs/shaders.md). Decode jobs run on btflod's ThreadExecutor first, then on the
+// engine's own loop from the handles update() hands out (StreamerOutputs::runnable_jobs). A third
+// material arrives damaged (its root tile fails its checksum): it fails cleanly, once, and the
+// rest of the world streams on.
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -46,14 +48,14 @@ struct FakeGpu {
   std::vector<std::vector<uint16_t>> u_packets;    // per virtual texture
 };
 
-// A camera sliding over two side-by-side materials: each feedback texel names the tile (level,
-// x, y) of the material it sees (lod/feedback.hpp's packed word).
+// A camera sliding over two side-by-side materials (the bottom rows see the third): each
+// feedback texel names the tile (level, x, y) of the material it sees (lod/feedback.hpp).
 std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
   std::vector<uint32_t> words;
   for (uint32_t y = 0; y < 45; ++y)
     for (uint32_t x = 0; x < 80; ++x) {
       const float u = (x + frame * 0.5f) / 80.0f;
-      const uint32_t m = u < 1.0f ? 0u : 1u;
+      const uint32_t m = y >= 40 ? 2u : u < 1.0f ? 0u : 1u;  // the damaged material at the bottom
       const VtLevelTable& lv = s.cache().set().material(m).levels;
       const uint32_t level = std::min(lv.finest_level(), 1 + y / 15);
       const uint32_t n = lv.tiles_x[level];
@@ -67,7 +69,9 @@ std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
 
 int main() {
   // 2. Containers and their sources (a file, an HTTP range source or memory, as here).
-  std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f)};
+  std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f),
+                                             make_container(4, 0.02f)};
+  files[2][read_bsvtf(files[2])->find(TileId{0, 0, 0, 0})->offset + 9] ^= 0xff;  // damaged in transit
   std::vector<BsvtfDirectory> directories;
   std::vector<MemorySource> sources;
   sources.reserve(files.size());
@@ -85,6 +89,8 @@ int main() {
   config.cache = CacheConfig{8, 8, 1u << 14, 32, 4, 1};  // 64 slots of 40×40 texels
   config.scheduler.budgets.uploads_per_frame = 8;
   config.vote_window_frames = 1;
+  config.decode_workers = 2;              // the most threads that run jobs at once
+  config.failure.startup_attempts = 3;    // a root that fails 3 times fails its material
   auto created = Streamer::create(materials, config);
   if (!created) return std::fprintf(stderr, "streamer: %s\n", created.message().c_str()), 1;
   Streamer streamer = std::move(*created);
@@ -94,6 +100,7 @@ int main() {
   std::vector<StreamerPacketUpload> packets(streamer.packet_uploads_bound());
   std::vector<PageTableWrite> writes(4096);
   std::vector<ResidencyEvent> events(64);
+  std::vector<uint32_t> jobs(64);  // decode jobs update() claims for the engine
   FakeGpu gpu;
   gpu.slots.resize(streamer.cache().slot_count());
   for (uint32_t t = 0; t < streamer.cache().set().texture_count(); ++t)
@@ -104,7 +111,7 @@ int main() {
   uint64_t uploads = 0, page_writes = 0;
   auto frame_update = [&](uint32_t frame) -> Status {
     const std::vector<uint32_t> feedback = render_feedback(streamer, frame);  // GPU readback
-    StreamerOutputs out{tiles, packets, writes, events};
+    StreamerOutputs out{tiles, packets, writes, events, jobs};
     if (const Status st = streamer.update(feedback, out); st != Status::success) return st;
     // Tiles first, then U′, then the page-table texels (backend/streamer_outputs.hpp; with a
     // btflod::Backend this is apply_streamer_outputs(backend, out, material_handles)).
@@ -127,6 +134,10 @@ int main() {
     for (size_t i = 0; i < out.event_count; ++i)
       if (events[i].kind == ResidencyEventKind::material_ready)
         std::printf("frame %3u: material %u ready (roots and U' loaded)\n", frame, events[i].material);
+      else if (events[i].kind == ResidencyEventKind::material_failed)  // retry_material() after a repair
+        std::printf("frame %3u: material %u failed (%s); its tiles are not requested\n", frame, events[i].material,
+                    status_name(events[i].status));
+    for (size_t i = 0; i < out.runnable_job_count; ++i) streamer.run_job(jobs[i]);  // the engine's workers
     uploads += out.tile_upload_count;
     page_writes += out.page_table_write_count;
     // (the engine renders here: the BSVTF pass with the generated bsvtf_feedback program, whose
@@ -141,10 +152,10 @@ int main() {
   // The camera stops: frames go on, decode jobs now run on this thread (Streamer::pump), until
   // every requested tile of the last view has arrived (how long the workers took above varies).
   for (uint32_t frame = 120; frame < 400; ++frame) {
-    while (streamer.jobs_in_flight() > 0) streamer.pump();
+    while (!streamer.idle()) streamer.pump();
     const uint64_t before = uploads + page_writes;
     if (frame_update(119) != Status::success) return 1;
-    if (uploads + page_writes == before && streamer.jobs_in_flight() == 0) break;
+    if (uploads + page_writes == before && streamer.idle()) break;
   }
 
   // 6. Check: every slot the cache uses holds texels, every page-table texel the shader reads at
@@ -157,14 +168,22 @@ int main() {
       const TileId id = lv.tile(t, i);
       const uint32_t slot = cache.slot_of(id);
       if (slot == kNoSlot) continue;
+      if (streamer.material_failed(cache.set().material_of(t))) {  // only its (pinned, empty) root
+        bad += id.level > 0;
+        continue;
+      }
       ++resident;
       if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != make_page_entry(id.level, slot)) ++bad;
     }
   }
-  const bool ready = streamer.material_ready(0) && streamer.material_ready(1);
+  const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_failed(2);
+  const StreamerStats st = streamer.stats();  // cheap enough for every frame
   std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used, %llu bytes read\n",
               static_cast<unsigned long long>(uploads), static_cast<unsigned long long>(page_writes), resident,
-              cache.used_count(), cache.slot_count(), static_cast<unsigned long long>(streamer.bytes_read()));
+              cache.used_count(), cache.slot_count(), static_cast<unsigned long long>(st.bytes_read));
+  std::printf("memory %.2f MiB (job buffers %.2f, decoders %.2f, payload cache %.2f); %llu failed tile reads\n",
+              st.memory.total / 1048576.0, st.memory.job_buffers / 1048576.0, st.memory.decoders / 1048576.0,
+              st.memory.payload_cache / 1048576.0, static_cast<unsigned long long>(st.tile_failures));
   std::printf("converged: %s\n", ready && bad == 0 && resident > 2 * cache.set().texture_count() ? "yes" : "no");
   return ready && bad == 0 ? 0 : 1;
 }

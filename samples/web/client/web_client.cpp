@@ -186,6 +186,7 @@ class Client {
     config.scheduler.calm_frames = 5;
     config.vote_window_frames = 1u << (2 * feedback_shift);
     config.decoded_cache_tiles = decoded_cache_tiles;
+    config.decode_workers = 1;  // the jobs run on the page's thread, within bw_frame
     // One recorded read per job at a time at most: tile jobs, roots and packets.
     read_queue = std::make_unique<JsReadQueue>(static_cast<size_t>(requests_in_flight) * (kMaxTileLevel + 1) +
                                                config.root_jobs + config.packet_jobs);

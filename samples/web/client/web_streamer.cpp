@@ -114,6 +114,7 @@ EMSCRIPTEN_KEEPALIVE int bs_create(uint32_t slots_x, uint32_t slots_y, uint32_t 
   }
   const BsvtfMetadata& md = s.directories.front()->metadata;
   StreamerConfig config;
+  config.decode_workers = 1;  // the jobs run on the page's thread (bs_pump)
   config.cache = CacheConfig{slots_x, slots_y, 1u << 16, md.tile_size, md.border, 1};
   config.scheduler.budgets.uploads_per_frame = uploads_per_frame;
   config.scheduler.budgets.requests_in_flight = requests_in_flight;

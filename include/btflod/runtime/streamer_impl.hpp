@@ -1,0 +1,861 @@
+// btflod — the Streamer's implementation (runtime/streamer.hpp documents the API): the job
+// records, the decode of a tile's chain, failure handling (StreamerFailurePolicy) and update().
+// Included by runtime/streamer.hpp; compiles alone too.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cstdint>
+#include <cstring>
+#include <new>
+#include <span>
+#include <utility>
+
+#include "btflod/runtime/streamer.hpp"
+
+namespace btflod {
+
+namespace detail {
+
+enum JobState : uint8_t {
+  kJobFree,
+  kJobReading,
+  kJobRunnable,
+  kJobRunning,
+  kJobDone,
+  kJobFailed,
+  kJobHanded,
+  kJobWaiting,  // a failed start-up job waiting for its back-off (retry_frame)
+};
+enum JobKind : uint8_t { kTileJob, kRootJob, kPacketJob };
+
+struct TileRecord {  // one tile of a container: where its payload is
+  uint64_t offset = 0;
+  uint32_t size = 0;
+  uint32_t crc = 0;
+};
+
+struct StreamerMaterialState {
+  TileSource* source = nullptr;
+  AsyncTileSource* async_source = nullptr;
+  uint32_t first_texture = 0, texture_count = 0, components = 0;
+  uint32_t tile_count = 0;   // per virtual texture
+  uint32_t record_base = 0;  // index of (texture 0, flat 0) in the records array
+  uint32_t lights = 0, views = 0, channels = 0, rows = 0;
+  AngularRowOrder row_order = AngularRowOrder::light_major;
+  uint32_t packet_base = 0;  // index of packet 0 in the packet records
+  uint32_t roots_loaded = 0, packets_loaded = 0;
+  bool ready = false;
+  bool failed = false;  // a root or start-up packet was given up (material_failed)
+};
+
+struct StreamerJob {
+  std::atomic<uint8_t> state{kJobFree};
+  std::atomic<uint32_t> reads_pending{0};
+  std::atomic<uint8_t> read_status{0};
+  uint8_t kind = kTileJob;
+  uint32_t material = 0;
+  uint32_t request = 0;  // scheduler request id (tile and scheduler packet jobs); kNoJob: start-up
+  TileId tile;           // global id; for packets {texture, 0, 0, 0}
+  uint32_t chain = 0;    // tiles root … tile
+  uint32_t next_read = 0;
+  TileId chain_tile[kMaxTileLevel + 1];
+  uint32_t chain_offset[kMaxTileLevel + 1] = {};  // offset into bytes
+  uint8_t chain_cached[kMaxTileLevel + 1] = {};   // bytes came from the payload cache
+  uint32_t chain_start = 0;                       // first chain level decoded (those above come from `base`)
+  const float* base = nullptr;                    // decoded ancestor chain_start − 1 (a pinned cache entry)
+  uint32_t pinned = 0xffffffffu;                  // decoded-cache entry pinned for `base`
+  uint8_t result_in_out = 0;                      // the decoded tile is in `out` (1) or `parent` (0)
+  uint8_t parent_decoded = 0;                     // the other buffer holds the decoded parent of the tile
+  uint8_t decoded_kept = 0;                       // the completion was handled (buffers offered, pin released)
+  uint64_t retry_frame = 0;                       // kJobWaiting: the frame it starts again
+  Status status = Status::success;
+  uint8_t* bytes = nullptr;
+  float* parent = nullptr;
+  float* out = nullptr;
+  uint16_t* halves = nullptr;
+};
+
+// Counts what goes through the engine's allocator, so that StreamerStats::memory reports it
+// (allocated before everything else, released after everything else).
+struct AllocationLedger {
+  RuntimeAllocator inner;
+  uint64_t live = 0, count = 0;
+  static void* allocate(void* user, size_t bytes, size_t alignment) {
+    AllocationLedger& l = *static_cast<AllocationLedger*>(user);
+    void* p = l.inner.allocate_bytes(bytes, alignment);
+    if (p != nullptr) l.live += bytes, ++l.count;
+    return p;
+  }
+  static void deallocate(void* user, void* p, size_t bytes, size_t alignment) {
+    AllocationLedger& l = *static_cast<AllocationLedger*>(user);
+    l.inner.deallocate_bytes(p, bytes, alignment);
+    l.live -= bytes, --l.count;
+  }
+  RuntimeAllocator counting() noexcept { return RuntimeAllocator{&allocate, &deallocate, this}; }
+};
+
+// A tile or streamed U′ packet held back until its back-off ends.
+struct HeldWork {
+  uint32_t texture = 0;  // global virtual texture (its material's packet: material index)
+  uint32_t flat = 0;
+  uint64_t until = 0;    // the frame it may be requested again
+  uint8_t packet = 0;
+};
+
+}  // namespace detail
+
+
+struct Streamer::Impl final : StreamerJobQueue {
+  detail::AllocationLedger* ledger = nullptr;  // owned by Streamer::destroy()
+  RuntimeAllocator allocator;                  // ledger->counting()
+  StreamerConfig config;
+  TileLayout layout;
+  TileCache cache;
+  Scheduler scheduler;
+  VoteCounter votes;
+  PayloadCache payloads;
+  RuntimeArray<detail::StreamerMaterialState> materials;
+  RuntimeArray<detail::TileRecord> records;         // per material, texture, flat tile
+  RuntimeArray<detail::TileRecord> packet_records;  // per material, packet
+  RuntimeArray<uint32_t> texture_material;          // global texture → material
+  RuntimeArray<detail::StreamerJob> jobs;           // [tile jobs | root jobs | packet jobs]
+  uint32_t tile_jobs = 0, root_jobs = 0, packet_jobs = 0;
+  RuntimeArray<uint8_t> job_bytes;
+  RuntimeArray<float> job_floats;
+  RuntimeArray<uint16_t> job_halves;
+  RuntimeArray<uint8_t> decoder_storage;  // decode_workers TileDecoders
+  RuntimeArray<std::atomic<uint8_t>> decoder_busy;
+  uint32_t decoder_count = 0;
+  std::atomic<uint64_t> decoder_busy_hits{0};
+  // Failures (StreamerFailurePolicy): per tile record and per packet record, saturating.
+  RuntimeArray<uint8_t> tile_failures;
+  RuntimeArray<uint8_t> packet_failures;
+  RuntimeArray<uint8_t> startup_failed;  // per global texture: 1 root given up, 2 packet given up
+  RuntimeArray<detail::HeldWork> held;
+  uint32_t held_count = 0;
+  uint32_t tiles_unavailable = 0, materials_failed_now = 0;
+  uint64_t tile_failure_count = 0, packet_failure_count = 0, retry_count = 0, cancelled_count = 0;
+  uint64_t feedback_ignored = 0;
+  bool quiescing = false;
+  StreamerMemory memory;
+  size_t chain_bytes = 0, packet_bytes = 0, max_rows = 0;
+  // Start-up queue: a ring of (global texture << 1 | is_packet), roots first; items a
+  // retry_material() queues again go to its end (each item is in it at most once).
+  RuntimeArray<uint32_t> startup;
+  uint32_t startup_head = 0, startup_count = 0;
+  // Scheduler packet requests waiting for a packet job.
+  RuntimeArray<uint64_t> waiting_packets;  // (texture << 32) | request id
+  uint32_t waiting_count = 0;
+  // GPU page-table mirror and the queue of texels to write.
+  RuntimeArray<uint32_t> texture_tile_base;  // global texture → index of flat 0 in mirror
+  RuntimeArray<uint32_t> mirror;
+  RuntimeArray<uint8_t> queued;
+  RuntimeArray<uint32_t> queue;           // ring of mirror indices
+  RuntimeArray<uint32_t> mirror_texture;  // mirror index → texture (for emission)
+  size_t queue_head = 0, queue_count = 0;
+  // Ready scheduler packets (request id → job) for apply_uploads.
+  RuntimeArray<uint32_t> job_of_request;
+  // Decoded-ancestor cache: entries own float buffers of one tile each; only the update
+  // thread changes it. A job reads a pinned entry's buffer while it runs; finished jobs hand
+  // their decoded tile (and its parent) over by swapping buffers with the least recently used
+  // unpinned entry, so nothing is copied.
+  struct DecodedEntry {
+    uint64_t key = ~0ull;  // ~0: empty
+    float* samples = nullptr;
+    uint32_t pins = 0;
+    uint64_t used = 0;
+  };
+  RuntimeArray<DecodedEntry> decoded;
+  RuntimeArray<float> decoded_floats;
+  uint64_t decoded_clock = 0;
+  uint64_t decoded_levels_skipped = 0;
+  uint64_t frame = 0;
+  uint64_t dropped_events = 0;
+  std::atomic<uint64_t> bytes_read{0};
+  void (*notify)(void*) = nullptr;
+  void* notify_user = nullptr;
+
+  Impl(TileCache&& c, Scheduler&& s, VoteCounter&& v)
+      : cache(std::move(c)), scheduler(std::move(s)), votes(std::move(v)) {}
+  ~Impl() override {
+    for (uint32_t d = 0; d < decoder_count; ++d) decoder(d)->~TileDecoder();
+  }
+
+  TileDecoder* decoder(uint32_t d) noexcept {
+    uint8_t* p = decoder_storage.data();
+    p += (alignof(TileDecoder) - reinterpret_cast<uintptr_t>(p) % alignof(TileDecoder)) % alignof(TileDecoder);
+    return reinterpret_cast<TileDecoder*>(p + size_t{d} * sizeof(TileDecoder));
+  }
+  uint32_t claim_decoder() noexcept {
+    for (uint32_t d = 0; d < decoder_count; ++d) {
+      uint8_t expected = 0;
+      if (decoder_busy[d].load(std::memory_order_relaxed) == 0 &&
+          decoder_busy[d].compare_exchange_strong(expected, 1, std::memory_order_acquire))
+        return d;
+    }
+    return kNoJob;
+  }
+
+  // --- StreamerJobQueue ---
+  bool claim_job(uint32_t j) noexcept override {
+    if (j >= jobs.size()) return false;
+    uint8_t expected = detail::kJobRunnable;
+    return jobs[j].state.compare_exchange_strong(expected, detail::kJobRunning, std::memory_order_acquire);
+  }
+  uint32_t acquire_job() noexcept override {
+    for (uint32_t j = 0; j < jobs.size(); ++j) {
+      uint8_t expected = detail::kJobRunnable;
+      if (jobs[j].state.load(std::memory_order_relaxed) == detail::kJobRunnable &&
+          jobs[j].state.compare_exchange_strong(expected, detail::kJobRunning, std::memory_order_acquire))
+        return j;
+    }
+    return kNoJob;
+  }
+  void set_job_notify(void (*fn)(void*), void* user) noexcept override {
+    notify = fn;
+    notify_user = user;
+  }
+  void run_job(uint32_t j) noexcept override {
+    if (j >= jobs.size()) return;
+    detail::StreamerJob& job = jobs[j];
+    if (job.state.load(std::memory_order_acquire) != detail::kJobRunning) return;  // not claimed
+    Status s;
+    if (job.kind == detail::kPacketJob) {
+      s = run_packet(job);
+    } else {
+      const uint32_t d = claim_decoder();
+      if (d == kNoJob) {  // more threads than decode_workers: someone else runs it later
+        decoder_busy_hits.fetch_add(1, std::memory_order_relaxed);
+        job.state.store(detail::kJobRunnable, std::memory_order_release);
+        return;
+      }
+      s = run_tile(job, *decoder(d));
+      decoder_busy[d].store(0, std::memory_order_release);
+    }
+    job.status = s;
+    job.state.store(s == Status::success ? detail::kJobDone : detail::kJobFailed, std::memory_order_release);
+  }
+
+  const detail::StreamerMaterialState& mat(uint32_t m) const noexcept { return materials[m]; }
+  uint32_t local_texture(const TileId& global) const noexcept {
+    return global.texture - materials[texture_material[global.texture]].first_texture;
+  }
+  const detail::TileRecord& record_of(uint32_t m, uint32_t local_tex, uint32_t flat) const noexcept {
+    const detail::StreamerMaterialState& ms = materials[m];
+    return records[ms.record_base + static_cast<size_t>(local_tex) * ms.tile_count + flat];
+  }
+
+  // Reads the payloads the job does not have yet through the blocking source.
+  Status read_blocking(detail::StreamerJob& job, std::span<uint8_t> dst, uint64_t offset) noexcept {
+    TileSource* src = materials[job.material].source;
+    if (src == nullptr) return Status::invalid_argument;
+    auto r = src->read(offset, dst);
+    if (!r) return r.status();
+    bytes_read.fetch_add(dst.size(), std::memory_order_relaxed);
+    return Status::success;
+  }
+
+  Status run_tile(detail::StreamerJob& job, TileDecoder& decoder) noexcept {
+    const uint32_t m = job.material;
+    const uint32_t k = local_texture(job.tile);
+    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
+    // Decode chain_start … tile, each level against the previous one (the first against the
+    // cached ancestor `base`, or nothing for the root), alternating between the two buffers.
+    float* buffers[2] = {job.out, job.parent};
+    const float* previous = job.base;
+    uint32_t current = 0;
+    for (uint32_t i = job.chain_start; i < job.chain; ++i) {
+      const TileId t = job.chain_tile[i];
+      const detail::TileRecord& rec = record_of(m, k, lv.index(t));
+      std::span<uint8_t> dst(job.bytes + job.chain_offset[i], rec.size);
+      if (!job.chain_cached[i] && materials[m].async_source == nullptr) {
+        const Status s = read_blocking(job, dst, rec.offset);
+        if (s != Status::success) return s;
+      }
+      if (const Status v = verify_bsvtf_payload(rec.size, rec.crc, dst); v != Status::success) return Status::bad_data;
+      const Status d = decoder.decode(
+          dst, t.level > 0 ? std::span<const float>(previous, layout.sample_count()) : std::span<const float>(),
+          t.x & 1u, t.y & 1u, std::span<float>(buffers[current], layout.sample_count()));
+      if (d != Status::success) return d;
+      previous = buffers[current];
+      current ^= 1u;
+    }
+    const uint32_t decoded_levels = job.chain - job.chain_start;
+    job.result_in_out = decoded_levels > 0 && previous == job.out ? 1 : 0;
+    job.parent_decoded = decoded_levels >= 2 ? 1 : 0;
+    float_to_half(std::span<const float>(previous, layout.sample_count()),
+                  std::span<uint16_t>(job.halves, layout.sample_count()));
+    return Status::success;
+  }
+
+  Status run_packet(detail::StreamerJob& job) noexcept {
+    const detail::StreamerMaterialState& ms = materials[job.material];
+    const uint32_t g = local_texture(job.tile);
+    const detail::TileRecord& rec = packet_records[ms.packet_base + g];
+    std::span<uint8_t> dst(job.bytes, rec.size);
+    if (ms.async_source == nullptr) {
+      const Status s = read_blocking(job, dst, rec.offset);
+      if (s != Status::success) return s;
+    }
+    if (verify_bsvtf_payload(rec.size, rec.crc, dst) != Status::success) return Status::bad_data;
+    // Rows (a · n_b + b) · channels + colour; reorder when the container's order differs.
+    const bool swap = ms.row_order != config.u_row_order;
+    const uint32_t na = ms.row_order == AngularRowOrder::light_major ? ms.lights : ms.views;
+    const uint32_t nb = ms.row_order == AngularRowOrder::light_major ? ms.views : ms.lights;
+    for (uint32_t a = 0; a < na; ++a)
+      for (uint32_t b = 0; b < nb; ++b)
+        for (uint32_t c = 0; c < ms.channels; ++c) {
+          const size_t src_row = (static_cast<size_t>(a) * nb + b) * ms.channels + c;
+          const size_t dst_row = swap ? (static_cast<size_t>(b) * na + a) * ms.channels + c : src_row;
+          std::memcpy(job.halves + dst_row * 4, job.bytes + src_row * 8, 8);
+        }
+    return Status::success;
+  }
+
+  bool push_event(StreamerOutputs& out, const ResidencyEvent& e) noexcept {
+    if (out.event_count < out.events.size()) {
+      out.events[out.event_count++] = e;
+      return true;
+    }
+    ++dropped_events;
+    return false;
+  }
+
+  // Sets up a tile job's chain (root … tile) with cached payloads copied in; returns the
+  // number of reads needed.
+  uint32_t prepare_chain(detail::StreamerJob& job) noexcept {
+    const uint32_t m = job.material;
+    const uint32_t k = local_texture(job.tile);
+    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
+    job.chain = job.tile.level + 1;
+    release_decoded(job);
+    job.decoded_kept = 0;
+    // The deepest decoded ancestor (or the tile itself) in the decoded cache: pinned, and the
+    // chain is decoded below it only.
+    job.chain_start = 0;
+    job.base = nullptr;
+    for (uint32_t i = job.chain; i-- > 0 && decoded.size() > 0;) {
+      const uint32_t e = find_decoded(decoded_key(m, k, job.tile.ancestor(i)));
+      if (e == kNoJob) continue;
+      ++decoded[e].pins;
+      decoded[e].used = ++decoded_clock;
+      job.pinned = e;
+      job.base = decoded[e].samples;
+      job.chain_start = i + 1;
+      decoded_levels_skipped += i + 1;
+      break;
+    }
+    uint32_t offset = 0, reads = 0;
+    for (uint32_t i = 0; i < job.chain; ++i) {
+      const TileId t = job.tile.ancestor(i);
+      job.chain_tile[i] = t;
+      job.chain_offset[i] = offset;
+      if (i < job.chain_start) {  // not decoded: no payload needed
+        job.chain_cached[i] = 1;
+        continue;
+      }
+      const detail::TileRecord& rec = record_of(m, k, lv.index(t));
+      const uint64_t key = (static_cast<uint64_t>(m) << 48) ^ TileId { k, t.level, t.x, t.y }.key();
+      job.chain_cached[i] = payloads.get(key, std::span<uint8_t>(job.bytes + offset, rec.size)) == rec.size ? 1 : 0;
+      if (!job.chain_cached[i]) ++reads;
+      offset += rec.size;
+    }
+    job.next_read = 0;
+    return reads;
+  }
+
+  static uint64_t decoded_key(uint32_t material, uint32_t local_texture, const TileId& t) noexcept {
+    return (static_cast<uint64_t>(material) << 48) ^ TileId { local_texture, t.level, t.x, t.y }.key();
+  }
+  uint32_t find_decoded(uint64_t key) const noexcept {
+    for (uint32_t e = 0; e < decoded.size(); ++e)
+      if (decoded[e].key == key) return e;
+    return kNoJob;
+  }
+  // Releases the job's pin on the decoded cache (update thread).
+  void release_decoded(detail::StreamerJob& job) noexcept {
+    if (job.pinned != kNoJob) --decoded[job.pinned].pins;
+    job.pinned = kNoJob;
+    job.base = nullptr;
+  }
+  // Hands a decoded tile over to the cache: the job's buffer `samples` is swapped with the
+  // least recently used unpinned entry's (nothing when the tile is cached already or every
+  // entry is pinned).
+  void offer_decoded(uint64_t key, float*& samples) noexcept {
+    if (find_decoded(key) != kNoJob) return;
+    uint32_t victim = kNoJob;
+    for (uint32_t e = 0; e < decoded.size(); ++e)
+      if (decoded[e].pins == 0 && (victim == kNoJob || decoded[e].used < decoded[victim].used)) victim = e;
+    if (victim == kNoJob) return;
+    std::swap(decoded[victim].samples, samples);
+    decoded[victim].key = key;
+    decoded[victim].used = ++decoded_clock;
+  }
+  // A finished tile or root job (once): releases its pin and, when it succeeded, offers the
+  // tile and its decoded parent to the decoded cache.
+  void keep_decoded(detail::StreamerJob& job, bool ok) noexcept {
+    if (job.decoded_kept) return;
+    job.decoded_kept = 1;
+    release_decoded(job);
+    if (!ok || decoded.size() == 0 || job.chain_start >= job.chain) return;
+    const uint32_t k = local_texture(job.tile);
+    float*& result = job.result_in_out ? job.out : job.parent;
+    float*& other = job.result_in_out ? job.parent : job.out;
+    offer_decoded(decoded_key(job.material, k, job.tile), result);
+    if (job.parent_decoded) offer_decoded(decoded_key(job.material, k, job.tile.parent()), other);
+  }
+
+  static uint64_t ticket_of(uint32_t job, uint32_t item) noexcept { return (static_cast<uint64_t>(job) << 8) | item; }
+
+  // Starts the async reads of a job that are not started yet. Returns false when the source
+  // refused one (retried next update).
+  bool start_reads(uint32_t j) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    AsyncTileSource* src = materials[job.material].async_source;
+    if (job.kind == detail::kPacketJob) {
+      if (job.next_read > 0) return true;
+      const detail::TileRecord& rec = packet_records[materials[job.material].packet_base + local_texture(job.tile)];
+      if (!src->start_read(rec.offset, std::span<uint8_t>(job.bytes, rec.size), ticket_of(j, 0))) return false;
+      bytes_read.fetch_add(rec.size, std::memory_order_relaxed);
+      job.next_read = 1;
+      return true;
+    }
+    const uint32_t k = local_texture(job.tile);
+    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
+    for (; job.next_read < job.chain; ++job.next_read) {
+      const uint32_t i = job.next_read;
+      if (job.chain_cached[i]) continue;
+      const detail::TileRecord& rec = record_of(job.material, k, lv.index(job.chain_tile[i]));
+      if (!src->start_read(rec.offset, std::span<uint8_t>(job.bytes + job.chain_offset[i], rec.size), ticket_of(j, i)))
+        return false;
+      bytes_read.fetch_add(rec.size, std::memory_order_relaxed);
+    }
+    return true;
+  }
+
+  uint32_t complete_read(uint64_t ticket, Status status) noexcept {
+    const uint32_t j = static_cast<uint32_t>(ticket >> 8);
+    if (j >= jobs.size()) return kNoJob;
+    detail::StreamerJob& job = jobs[j];
+    if (job.state.load(std::memory_order_acquire) != detail::kJobReading) return kNoJob;
+    if (status != Status::success) job.read_status.store(static_cast<uint8_t>(status), std::memory_order_relaxed);
+    if (job.reads_pending.fetch_sub(1, std::memory_order_acq_rel) != 1) return kNoJob;
+    const uint8_t rs = job.read_status.load(std::memory_order_relaxed);
+    if (rs != 0) {
+      job.status = static_cast<Status>(rs);
+      job.state.store(detail::kJobFailed, std::memory_order_release);
+      return kNoJob;
+    }
+    job.state.store(detail::kJobRunnable, std::memory_order_release);
+    return j;
+  }
+
+  // Hands a job to the source or the executor.
+  void launch(uint32_t j, uint32_t reads) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    job.status = Status::success;
+    job.read_status.store(0, std::memory_order_relaxed);
+    if (materials[job.material].async_source == nullptr || reads == 0) {
+      job.state.store(detail::kJobRunnable, std::memory_order_release);
+      return;
+    }
+    job.reads_pending.store(reads, std::memory_order_relaxed);
+    job.state.store(detail::kJobReading, std::memory_order_release);
+    start_reads(j);
+  }
+
+  void start_tile_job(uint32_t j, uint8_t kind, uint32_t request, const TileId& global) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    job.kind = kind;
+    job.request = request;
+    job.tile = global;
+    job.material = texture_material[global.texture];
+    launch(j, prepare_chain(job));
+  }
+  void start_packet_job(uint32_t j, uint32_t request, uint32_t texture) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    job.kind = detail::kPacketJob;
+    job.request = request;
+    job.tile = TileId{texture, 0, 0, 0};
+    job.material = texture_material[texture];
+    job.next_read = 0;
+    launch(j, 1);
+  }
+  uint32_t free_job(uint32_t begin, uint32_t end) const noexcept {
+    for (uint32_t j = begin; j < end; ++j)
+      if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobFree) return j;
+    return kNoJob;
+  }
+
+  // Caches a finished tile job's chain payloads (so later children need not read them).
+  void keep_payloads(const detail::StreamerJob& job) noexcept {
+    const uint32_t k = local_texture(job.tile);
+    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
+    for (uint32_t i = 0; i < job.chain; ++i) {
+      if (job.chain_cached[i]) continue;
+      const TileId t = job.chain_tile[i];
+      const detail::TileRecord& rec = record_of(job.material, k, lv.index(t));
+      const uint64_t key = (static_cast<uint64_t>(job.material) << 48) ^ TileId { k, t.level, t.x, t.y }.key();
+      payloads.put(key, std::span<const uint8_t>(job.bytes + job.chain_offset[i], rec.size));
+    }
+  }
+
+  void mark_loaded(uint32_t m, bool packet, StreamerOutputs& out) noexcept {
+    detail::StreamerMaterialState& ms = materials[m];
+    if (packet)
+      ++ms.packets_loaded;
+    else
+      ++ms.roots_loaded;
+    const bool packets_done = config.scheduler.stream_u_columns || ms.packets_loaded >= ms.texture_count;
+    if (!ms.ready && ms.roots_loaded >= ms.texture_count && packets_done) {
+      ms.ready = true;
+      scheduler.set_material_enabled(m, true);  // its tiles are scheduled from now on
+      push_event(out, ResidencyEvent{ResidencyEventKind::material_ready, m, TileId{ms.first_texture, 0, 0, 0},
+                                     Status::success});
+    }
+  }
+
+  void emit_packet(const detail::StreamerJob& job, StreamerOutputs& out) noexcept {
+    const detail::StreamerMaterialState& ms = materials[job.material];
+    const uint32_t g = local_texture(job.tile);
+    packet_failures[ms.packet_base + g] = 0;
+    out.packet_uploads[out.packet_upload_count++] = StreamerPacketUpload{
+        job.material, g, job.tile.texture, ms.rows, std::span<const uint16_t>(job.halves, size_t{ms.rows} * 4)};
+    push_event(out, ResidencyEvent{ResidencyEventKind::packet_loaded, job.material, job.tile, Status::success});
+    mark_loaded(job.material, true, out);
+  }
+
+  void queue_write(uint32_t texture, uint32_t flat, uint32_t entry) noexcept {
+    const uint32_t i = texture_tile_base[texture] + flat;
+    if (mirror[i] == entry) return;
+    mirror[i] = entry;
+    if (queued[i]) return;
+    queued[i] = 1;
+    queue[(queue_head + queue_count) % queue.size()] = i;
+    ++queue_count;
+  }
+
+  // --- failures (StreamerFailurePolicy) ---
+  uint64_t backoff_frames(uint32_t failures) const noexcept {
+    const StreamerFailurePolicy& p = config.failure;
+    uint64_t d = p.first_backoff_frames;
+    for (uint32_t i = 1; i < failures && d < p.max_backoff_frames; ++i) d *= 2;
+    return std::min<uint64_t>(d, p.max_backoff_frames);
+  }
+  static uint32_t bump(uint8_t& failures) noexcept {
+    if (failures < 255) ++failures;
+    return failures;
+  }
+  uint32_t record_index(uint32_t m, uint32_t local_tex, uint32_t flat) const noexcept {
+    return materials[m].record_base + local_tex * materials[m].tile_count + flat;
+  }
+  void push_startup(uint32_t item) noexcept {
+    if (startup_count == startup.size()) return;  // cannot happen: each item is queued at most once
+    startup[(startup_head + startup_count) % startup.size()] = item;
+    ++startup_count;
+  }
+
+  // A root or start-up U′ packet job failed: back off, or fail the material.
+  void startup_failed_job(uint32_t j, StreamerOutputs& out) noexcept {
+    detail::StreamerJob& job = jobs[j];
+    const uint32_t m = job.material, t = job.tile.texture;
+    detail::StreamerMaterialState& ms = materials[m];
+    const bool packet = job.kind == detail::kPacketJob;
+    if (job.status == Status::cancelled) {  // the engine cancelled the read: not a failure
+      ++cancelled_count;
+      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
+      job.retry_frame = frame + 1;
+      return;
+    }
+    const uint32_t k = t - ms.first_texture;
+    uint8_t& fails = packet ? packet_failures[ms.packet_base + k] : tile_failures[record_index(m, k, 0)];
+    packet ? ++packet_failure_count : ++tile_failure_count;
+    push_event(out, ResidencyEvent{packet ? ResidencyEventKind::packet_failed : ResidencyEventKind::tile_failed, m,
+                                   job.tile, job.status});
+    if (bump(fails) < config.failure.startup_attempts) {
+      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
+      job.retry_frame = frame + backoff_frames(fails);
+      return;
+    }
+    startup_failed[t] |= packet ? 2 : 1;
+    job.state.store(detail::kJobFree, std::memory_order_relaxed);
+    if (!ms.failed) {
+      ms.failed = true;
+      ++materials_failed_now;
+      scheduler.set_material_enabled(m, false);
+      push_event(out, ResidencyEvent{ResidencyEventKind::material_failed, m, job.tile, job.status});
+    }
+  }
+
+  // A scheduler request failed (its request is cancelled already): hold the tile or packet back
+  // for its back-off, or give it up.
+  void request_failed_job(const detail::StreamerJob& job, StreamerOutputs& out) noexcept {
+    const uint32_t m = job.material;
+    const detail::StreamerMaterialState& ms = materials[m];
+    const uint32_t k = job.tile.texture - ms.first_texture;
+    if (job.status == Status::cancelled) {
+      ++cancelled_count;
+      return;
+    }
+    if (job.kind == detail::kPacketJob) {
+      ++packet_failure_count;
+      push_event(out, ResidencyEvent{ResidencyEventKind::packet_failed, m, job.tile, job.status});
+      const uint32_t fails = bump(packet_failures[ms.packet_base + k]);
+      scheduler.hold_u_packets(m, true);
+      if (fails >= config.failure.packet_attempts) {
+        push_event(out, ResidencyEvent{ResidencyEventKind::packet_unavailable, m, job.tile, job.status});
+      } else if (held_count < held.size()) {
+        held[held_count++] = detail::HeldWork{m, k, frame + backoff_frames(fails), 1};
+      } else {
+        scheduler.hold_u_packets(m, false);
+      }
+      return;
+    }
+    ++tile_failure_count;
+    push_event(out, ResidencyEvent{ResidencyEventKind::tile_failed, m, job.tile, job.status});
+    const uint32_t flat = cache.set().levels_of(job.tile.texture).index(job.tile);
+    const uint32_t fails = bump(tile_failures[record_index(m, k, flat)]);
+    if (fails >= config.failure.tile_attempts) {
+      scheduler.hold_tile(job.tile.texture, flat, true);
+      ++tiles_unavailable;
+      push_event(out, ResidencyEvent{ResidencyEventKind::tile_unavailable, m, job.tile, job.status});
+    } else if (held_count < held.size()) {
+      scheduler.hold_tile(job.tile.texture, flat, true);
+      held[held_count++] = detail::HeldWork{job.tile.texture, flat, frame + backoff_frames(fails), 0};
+    }
+  }
+
+  // Held work whose back-off ended may be requested again.
+  void release_held() noexcept {
+    for (uint32_t i = 0; i < held_count;) {
+      const detail::HeldWork h = held[i];
+      if (h.until > frame) {
+        ++i;
+        continue;
+      }
+      if (h.packet)
+        scheduler.hold_u_packets(h.texture, false);
+      else
+        scheduler.hold_tile(h.texture, h.flat, false);
+      ++retry_count;
+      held[i] = held[--held_count];
+    }
+  }
+
+  Status retry_material(uint32_t m) noexcept {
+    if (m >= materials.size()) return Status::invalid_argument;
+    detail::StreamerMaterialState& ms = materials[m];
+    for (uint32_t k = 0; k < ms.texture_count; ++k) {
+      const uint32_t t = ms.first_texture + k;
+      for (uint32_t flat = 0; flat < ms.tile_count; ++flat) {
+        uint8_t& f = tile_failures[record_index(m, k, flat)];
+        if (f >= config.failure.tile_attempts && flat > 0 && scheduler.tile_held(t, flat)) {
+          scheduler.hold_tile(t, flat, false);
+          --tiles_unavailable;
+        }
+        f = 0;
+      }
+      packet_failures[ms.packet_base + k] = 0;
+      if (startup_failed[t] & 1) push_startup(t << 1);
+      if (startup_failed[t] & 2) push_startup(t << 1 | 1);
+      startup_failed[t] = 0;
+    }
+    for (uint32_t i = 0; i < held_count;) {  // held work of this material: released now
+      const detail::HeldWork h = held[i];
+      const bool mine = h.packet ? h.texture == m : texture_material[h.texture] == m;
+      if (!mine) {
+        ++i;
+        continue;
+      }
+      if (!h.packet) scheduler.hold_tile(h.texture, h.flat, false);
+      held[i] = held[--held_count];
+    }
+    scheduler.hold_u_packets(m, false);
+    if (ms.failed) {
+      ms.failed = false;
+      --materials_failed_now;
+    }
+    return Status::success;
+  }
+
+  Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
+    if (out.tile_uploads.size() < tile_uploads_bound() || out.packet_uploads.size() < packet_uploads_bound())
+      return Status::invalid_argument;
+    out.tile_upload_count = out.packet_upload_count = out.page_table_write_count = out.event_count = 0;
+    out.runnable_job_count = 0;
+    ++frame;
+    // 1. Jobs whose outputs were handed out last frame become free.
+    for (uint32_t j = 0; j < jobs.size(); ++j)
+      if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobHanded)
+        jobs[j].state.store(detail::kJobFree, std::memory_order_relaxed);
+    // Retry async reads a source refused.
+    if (!quiescing)
+      for (uint32_t j = 0; j < jobs.size(); ++j)
+        if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobReading) start_reads(j);
+    // 2. Finished jobs.
+    for (uint32_t j = 0; j < jobs.size(); ++j) {
+      detail::StreamerJob& job = jobs[j];
+      const uint8_t st = job.state.load(std::memory_order_acquire);
+      if (st != detail::kJobDone && st != detail::kJobFailed) continue;
+      const bool ok = st == detail::kJobDone;
+      if (job.kind != detail::kPacketJob) keep_decoded(job, ok);
+      if (job.kind == detail::kRootJob) {
+        if (ok && out.tile_upload_count < out.tile_uploads.size()) {
+          keep_payloads(job);
+          out.tile_uploads[out.tile_upload_count++] = StreamerTileUpload{
+              cache.slot_of(job.tile), job.tile, std::span<const uint16_t>(job.halves, layout.sample_count())};
+          tile_failures[record_index(job.material, local_texture(job.tile), 0)] = 0;
+          mark_loaded(job.material, false, out);
+          job.state.store(detail::kJobHanded, std::memory_order_relaxed);
+        } else if (!ok) {
+          startup_failed_job(j, out);  // the root is pinned: retried after a back-off, or the material fails
+        }
+        continue;
+      }
+      if (job.request == kNoJob) {  // start-up packet
+        if (ok && out.packet_upload_count < out.packet_uploads.size()) {
+          emit_packet(job, out);
+          job.state.store(detail::kJobHanded, std::memory_order_relaxed);
+        } else if (!ok) {
+          startup_failed_job(j, out);
+        }
+        continue;
+      }
+      if (!ok) {  // scheduler request: dropped, held back for its back-off or given up
+        scheduler.cancel(cache, job.request);
+        job_of_request[job.request] = kNoJob;
+        job.state.store(detail::kJobFree, std::memory_order_relaxed);
+        request_failed_job(job, out);
+        continue;
+      }
+      if (job.kind == detail::kTileJob) {
+        keep_payloads(job);
+        // A success ends the tile's run of failures: attempts count consecutive failures.
+        tile_failures[record_index(job.material, local_texture(job.tile),
+                                   cache.set().levels_of(job.tile.texture).index(job.tile))] = 0;
+      } else {
+        packet_failures[materials[job.material].packet_base + local_texture(job.tile)] = 0;
+      }
+      // Ready for the scheduler (a job already reported stays ready until apply_uploads takes
+      // it; begin_decode then returns false and changes nothing).
+      if (scheduler.begin_decode(job.request)) scheduler.finish_decode(job.request);
+    }
+    release_held();
+    // 3. Uploads in request order within the budget.
+    scheduler.apply_uploads(cache, [&](const TileRequest& q) {
+      const uint32_t j = job_of_request[q.id];
+      if (j == kNoJob) return;
+      detail::StreamerJob& job = jobs[j];
+      if (q.u_packet) {
+        if (out.packet_upload_count < out.packet_uploads.size()) emit_packet(job, out);
+      } else if (out.tile_upload_count < out.tile_uploads.size()) {
+        out.tile_uploads[out.tile_upload_count++] =
+            StreamerTileUpload{q.slot, q.tile, std::span<const uint16_t>(job.halves, layout.sample_count())};
+      }
+      job_of_request[q.id] = kNoJob;
+      job.state.store(detail::kJobHanded, std::memory_order_relaxed);
+    });
+    // 4. Votes and plan (none while quiescing: nothing new starts).
+    for (const uint32_t word : feedback) {
+      const uint32_t m = unpack_feedback(word).material;
+      feedback_ignored += m >= materials.size() || !materials[m].ready || materials[m].failed;
+    }
+    if (!feedback.empty()) votes.accumulate(feedback, config.vote_weight, scheduler.lod_bias());
+    if (quiescing) return finish_update(out);
+    const std::span<const TileRequest> requests = scheduler.plan(cache, votes, frame);
+    for (const TileRequest& q : requests) {
+      if (q.u_packet) {
+        if (waiting_count < waiting_packets.size())
+          waiting_packets[waiting_count++] = (uint64_t{q.tile.texture} << 32) | q.id;
+        else
+          scheduler.cancel(cache, q.id);
+        continue;
+      }
+      // A free tile job (jobs handed out this frame stay untouched until the next update, so
+      // there are requests_in_flight + uploads_per_frame of them: one is always free).
+      const uint32_t j = free_job(0, tile_jobs);
+      if (j == kNoJob) {
+        scheduler.cancel(cache, q.id);
+        continue;
+      }
+      job_of_request[q.id] = j;
+      start_tile_job(j, detail::kTileJob, q.id, q.tile);
+    }
+    // Scheduler packets waiting for a packet job.
+    const uint32_t packet_begin = tile_jobs + root_jobs;
+    while (waiting_count > 0) {
+      const uint32_t j = free_job(packet_begin, packet_begin + packet_jobs);
+      if (j == kNoJob) break;
+      const uint64_t w = waiting_packets[0];
+      std::memmove(waiting_packets.data(), waiting_packets.data() + 1, (waiting_count - 1) * sizeof(uint64_t));
+      --waiting_count;
+      const uint32_t id = static_cast<uint32_t>(w);
+      job_of_request[id] = j;
+      start_packet_job(j, id, static_cast<uint32_t>(w >> 32));
+    }
+    // Start-up jobs whose back-off ended start again.
+    for (uint32_t j = tile_jobs; j < jobs.size(); ++j) {
+      detail::StreamerJob& job = jobs[j];
+      if (job.state.load(std::memory_order_relaxed) != detail::kJobWaiting || job.retry_frame > frame) continue;
+      ++retry_count;
+      if (job.kind == detail::kRootJob)
+        start_tile_job(j, detail::kRootJob, kNoJob, job.tile);
+      else
+        start_packet_job(j, kNoJob, job.tile.texture);
+    }
+    // Start-up: roots, then packets (then what retry_material() queued again).
+    while (startup_count > 0) {
+      const uint32_t item = startup[startup_head];
+      const bool root = (item & 1u) == 0;
+      const uint32_t j =
+          root ? free_job(tile_jobs, tile_jobs + root_jobs) : free_job(packet_begin, packet_begin + packet_jobs);
+      if (j == kNoJob) break;
+      startup_head = (startup_head + 1) % static_cast<uint32_t>(startup.size());
+      --startup_count;
+      if (root)
+        start_tile_job(j, detail::kRootJob, kNoJob, TileId{item >> 1, 0, 0, 0});
+      else
+        start_packet_job(j, kNoJob, item >> 1);
+    }
+    return finish_update(out);
+  }
+
+  // 5. Page-table texels changed by this frame's operations, then the runnable jobs.
+  Status finish_update(StreamerOutputs& out) noexcept {
+    for_each_frame_page_table_write(cache, [&](const PageTableWrite& w) {
+      queue_write(w.tile.texture, cache.set().levels_of(w.tile.texture).index(w.tile), w.entry);
+    });
+    cache.clear_deltas();
+    while (queue_count > 0 && out.page_table_write_count < out.page_table_writes.size()) {
+      const uint32_t i = queue[queue_head];
+      queue_head = (queue_head + 1) % queue.size();
+      --queue_count;
+      queued[i] = 0;
+      const uint32_t t = mirror_texture[i];
+      const VtLevelTable& lv = cache.set().levels_of(t);
+      const TileId tile = lv.tile(t, i - texture_tile_base[t]);
+      out.page_table_writes[out.page_table_write_count++] =
+          PageTableWrite{tile, lv.finest_level() - tile.level, mirror[i]};
+    }
+    // Runnable jobs (launched now or made runnable by async completions) are claimed for the
+    // engine as far as its span holds; executors pulling with acquire_job() are woken for the rest.
+    bool unclaimed = false;
+    for (uint32_t j = 0; j < jobs.size(); ++j) {
+      if (jobs[j].state.load(std::memory_order_relaxed) != detail::kJobRunnable) continue;
+      if (out.runnable_job_count < out.runnable_jobs.size() && claim_job(j))
+        out.runnable_jobs[out.runnable_job_count++] = j;
+      else
+        unclaimed = true;
+    }
+    if (unclaimed && notify != nullptr) notify(notify_user);
+    return Status::success;
+  }
+
+  size_t tile_uploads_bound() const noexcept { return config.scheduler.budgets.uploads_per_frame + root_jobs; }
+  size_t packet_uploads_bound() const noexcept { return packet_jobs; }
+};
+
+}  // namespace btflod
+
+#include "btflod/runtime/streamer_create.hpp"

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -33,7 +34,10 @@ using namespace btflod;
 
 namespace {
 
-std::string tmp_path(const std::string& name) { return std::string(BTFLOD_TEST_TMP_DIR) + "/ooc_" + name; }
+// Per process: ctest runs each test of this file as its own process, several at once.
+std::string tmp_path(const std::string& name) {
+  return std::string(BTFLOD_TEST_TMP_DIR) + "/ooc_" + std::to_string(::getpid()) + "_" + name;
+}
 
 // 32 × 24 texels, 9 views × 9 lights: A is 243 × 768, numerical rank ~12 plus noise.
 const BtfFloat& test_btf() {
@@ -46,6 +50,10 @@ const std::string& test_store() {
   static const std::string path = [] {
     const std::string p = tmp_path("store.btfstore");
     EXPECT_TRUE(write_btf_store(test_btf(), p, BtfStoreValueType::float32, 32));
+    static const struct Remove {
+      std::string path;
+      ~Remove() { std::remove(path.c_str()); }
+    } remove_at_exit{p};
     return p;
   }();
   return path;

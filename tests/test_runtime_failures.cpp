@@ -214,7 +214,7 @@ TEST(RuntimeFailures, CorruptRootFailsItsMaterialOnceAndNoChildIsScheduled) {
   EXPECT_EQ(s.stats().materials_failed, 1u);
   const VtLevelTable& lv = s.cache().set().material(1).levels;
   for (uint32_t i = 1; i < lv.tile_count(); ++i) EXPECT_FALSE(s.cache().resident(lv.tile(s.first_texture(1), i)));
-  EXPECT_GT(s.stats().feedback_ignored, 0u);  // the failed material's words
+  EXPECT_GT(s.stats().feedback_ignored, 0u);  // the failed material's voted tiles
   check_engine(w, s, e);
   // The engine repairs the source and retries: the material loads and streams exactly.
   std::copy(intact.begin(), intact.end(), w.files[1].begin());  // the source reads these bytes
@@ -377,7 +377,7 @@ TEST(RuntimeFailures, OneDecoderServesSeveralThreadsAndFeedbackForUnknownMateria
   Engine e(s);
   auto fb = full_feedback(s);
   fb.push_back(pack_feedback(FeedbackTile{5, 0, 0, 0}));  // no such material
-  const uint64_t ignored_before = s.stats().feedback_ignored;
+  const uint64_t rejected_before = s.stats().feedback_rejected;
   {
     ThreadExecutor workers(s.jobs(), 3);
     for (uint32_t f = 0; f < 60; ++f) {
@@ -393,7 +393,7 @@ TEST(RuntimeFailures, OneDecoderServesSeveralThreadsAndFeedbackForUnknownMateria
   ASSERT_EQ(s.update(fb, o), Status::success);
   e.apply(s, o);
   EXPECT_TRUE(s.material_ready(0));
-  EXPECT_GE(s.stats().feedback_ignored - ignored_before, 61u);  // one unknown word per frame at least
+  EXPECT_GE(s.stats().feedback_rejected - rejected_before, 61u);  // one unknown word per frame at least
   check_engine(w, s, e);
 }
 

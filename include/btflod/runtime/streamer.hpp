@@ -233,7 +233,8 @@ struct StreamerStats {
   uint64_t packet_failures = 0;         ///< U′ packet jobs that failed
   uint64_t retries = 0;                 ///< failed work started again (after its back-off)
   uint64_t cancelled = 0;               ///< jobs dropped because reads were cancelled (no failure counted)
-  uint64_t feedback_ignored = 0;        ///< feedback words naming no material, or one not ready or failed
+  uint64_t feedback_ignored = 0;        ///< voted tiles (per frame) of materials not ready or failed
+  uint64_t feedback_rejected = 0;       ///< feedback words naming no material or no tile of it
   uint64_t bytes_read = 0;              ///< payload bytes read from sources
   uint64_t decoded_levels_skipped = 0;  ///< see Streamer::decoded_levels_skipped()
   uint64_t events_dropped = 0;          ///< events that did not fit the caller's span

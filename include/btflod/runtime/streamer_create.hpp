@@ -335,6 +335,7 @@ inline StreamerStats Streamer::stats() const noexcept {
   st.retries = im.retry_count;
   st.cancelled = im.cancelled_count;
   st.feedback_ignored = im.feedback_ignored;
+  st.feedback_rejected = im.votes.rejected();
   st.bytes_read = im.bytes_read.load(std::memory_order_relaxed);
   st.decoded_levels_skipped = im.decoded_levels_skipped;
   st.events_dropped = im.dropped_events;

@@ -757,11 +757,15 @@ struct Streamer::Impl final : StreamerJobQueue {
       job.state.store(detail::kJobHanded, std::memory_order_relaxed);
     });
     // 4. Votes and plan (none while quiescing: nothing new starts).
-    for (const uint32_t word : feedback) {
-      const uint32_t m = unpack_feedback(word).material;
-      feedback_ignored += m >= materials.size() || !materials[m].ready || materials[m].failed;
+    if (!feedback.empty()) {
+      votes.accumulate(feedback, config.vote_weight, scheduler.lod_bias());
+      // Voted tiles of materials that are not ready or failed schedule nothing; counted per
+      // distinct tile (not per word: a pass over every word costs as much as the votes).
+      for (const uint32_t word : votes.touched()) {
+        const uint32_t m = unpack_feedback(word).material;
+        feedback_ignored += !materials[m].ready || materials[m].failed;
+      }
     }
-    if (!feedback.empty()) votes.accumulate(feedback, config.vote_weight, scheduler.lod_bias());
     if (quiescing) return finish_update(out);
     const std::span<const TileRequest> requests = scheduler.plan(cache, votes, frame);
     for (const TileRequest& q : requests) {

@@ -56,11 +56,15 @@ inline constexpr int kMaxDemoComponents = 128;
 #define BTFLOD_DEMO_STR2(x) #x
 #define BTFLOD_DEMO_STR(x) BTFLOD_DEMO_STR2(x)
 inline constexpr int kDefaultDemoComponents = BTFLOD_DEMO_DEFAULT_COMPONENTS;
-/// Bounds of the default materials at the default rank against the raw BTF (FMF through the same
+/// Floors of the default materials at the default rank against the raw BTF (FMF through the same
 /// rays as the raw render; docs/demo.md, "Default rank"): the whole last view, and each material
-/// covering at least kMinMaterialPixels pixels of it.
-inline constexpr double kDefaultRawSsimBound = 0.0;
-inline constexpr double kDefaultRawMaterialSsimBound = 0.0;
+/// covering at least kMinMaterialPixels pixels of it. Measured at C = 8: 0.814 whole and 0.336 for
+/// tiles-3 (default run), 0.854 and 0.762 for leather-2 (the ctest's 24 frames, 3 materials); the
+/// figure does not depend on streaming timing, so the margin covers only arithmetic differences.
+/// They catch a regression of the factorisation or the reference, not a fidelity target: C = 16
+/// reaches 0.965 but doubles the frame time.
+inline constexpr double kDefaultRawSsimBound = 0.78;
+inline constexpr double kDefaultRawMaterialSsimBound = 0.30;
 inline constexpr uint64_t kMinMaterialPixels = 2000;
 
 inline constexpr const char* kDemoUsage =

@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for the Streamer's failure policy, engine-owned jobs, quiescing and what the engine can
 // see (runtime/streamer.hpp): a corrupt tile is retried with back-off at most
 // tile_attempts times and then reported unavailable while its parent keeps serving; a corrupt

@@ -2,7 +2,8 @@
 # btflod's one entry point for a fresh Debian 12 machine.
 #   ./run.sh demo [demo args...]  install what is missing, build, run the demo on built-in data
 #   ./run.sh test                 install what is missing, build and run every test
-#                                 (release with -Werror, then ASan+UBSan, then fuzz smoke runs)
+#                                 (release with -Werror, then ASan+UBSan, then TSan on the tests
+#                                 that start threads, then fuzz smoke runs)
 #   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
 #   ./run.sh web [--port P]       build the WebAssembly client and the materials, serve them with
 #                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
@@ -85,7 +86,7 @@ case "$cmd" in
     start=$(date +%s)
     echo "== release build (-Werror) =="
     configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_BENCH=OFF \
-      -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF -DBTFLOD_WERROR=ON -DBTFLOD_TEST_FILTER=
+      -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF -DBTFLOD_WERROR=ON -DBTFLOD_TEST_FILTER= -DBTFLOD_TEST_LABEL=
     (cd "$BUILD" && ctest --no-tests=error --output-on-failure -j "$JOBS" --timeout 900)
     echo "== ASan+UBSan build: unit tests =="
     # clang at -O0 with asserts on and line tables only: the sanitizers need no more, clang's UBSan
@@ -94,8 +95,18 @@ case "$cmd" in
     CC=clang CXX=clang++ configure_and_build "$BUILD-asan" -DBTFLOD_SANITIZE=ON -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_BENCH=OFF \
       -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=ON \
       -DBTFLOD_BUILD_SAMPLES=OFF -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" \
-      -DBTFLOD_TEST_FILTER="$ASAN_TESTS"
+      -DBTFLOD_TEST_FILTER="$ASAN_TESTS" -DBTFLOD_TEST_LABEL=
     (cd "$BUILD-asan" && ASAN_OPTIONS=detect_leaks=1 ctest --no-tests=error --output-on-failure -j "$JOBS" -L unit --timeout 900)
+    echo "== ThreadSanitizer build: tests that start threads =="
+    # The test files labelled `threads` (their `// btflod-label:` lines; tests/README.md lists
+    # them), built alone with clang -O1 -g1, asserts on. Suppressions: tests/tsan.supp.
+    tsan_start=$(date +%s)
+    tsan_options="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp"
+    CC=clang CXX=clang++ configure_and_build "$BUILD-tsan" -DBTFLOD_SANITIZE=thread -DBTFLOD_BUILD_TESTS=ON \
+      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=ON -DBTFLOD_BUILD_SAMPLES=OFF \
+      -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DBTFLOD_TEST_FILTER= -DBTFLOD_TEST_LABEL=threads
+    (cd "$BUILD-tsan" && TSAN_OPTIONS="$tsan_options" ctest --no-tests=error --output-on-failure -j "$JOBS" -L threads --timeout 900)
+    echo "btflod: ThreadSanitizer stage took $(( $(date +%s) - tsan_start )) s"
     echo "== libFuzzer smoke runs (clang) =="
     CC=clang CXX=clang++ configure_and_build "$BUILD-fuzz" -DBTFLOD_BUILD_FUZZ=ON -DBTFLOD_BUILD_TESTS=OFF \
       -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_INSTALL=OFF -DBTFLOD_WERROR=OFF \
@@ -114,7 +125,7 @@ case "$cmd" in
     fuzz/campaign.sh "$BUILD-fuzz" "$minutes" "$JOBS" || status=$?
     echo "== random-operation tests, 10^6 operations each (invariants checked after every one) =="
     configure_and_build "$BUILD" -DBTFLOD_BUILD_TESTS=ON -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF \
-      -DBTFLOD_SANITIZE=OFF -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_TEST_FILTER='^test_vt_(cache|scheduler)$'
+      -DBTFLOD_SANITIZE=OFF -DBTFLOD_BUILD_SAMPLES=OFF -DBTFLOD_TEST_FILTER='^test_vt_(cache|scheduler)$' -DBTFLOD_TEST_LABEL=
     BTFLOD_RANDOM_OPS=1000000 "$BUILD/tests/test_vt_cache" --gtest_filter='*Random*' || status=1
     BTFLOD_RANDOM_OPS=1000000 "$BUILD/tests/test_vt_scheduler" --gtest_filter='*Random*' || status=1
     exit $status

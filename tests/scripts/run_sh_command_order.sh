@@ -14,7 +14,7 @@ for tool in cmake ctest; do
 done
 printf '#!/bin/sh\necho "install ok installed"\n' > "$work/bin/dpkg-query"
 chmod +x "$work/bin/"*
-mkdir -p "$work/tree/b/samples/demo" "$work/tree/b-asan" "$work/tree/b-fuzz"
+mkdir -p "$work/tree/b/samples/demo" "$work/tree/b-asan" "$work/tree/b-tsan" "$work/tree/b-fuzz"
 printf '#!/bin/sh\nexit 0\n' > "$work/tree/b/samples/demo/btflod-demo"
 chmod +x "$work/tree/b/samples/demo/btflod-demo"
 (cd "$work/tree" && PATH="$work/bin:$PATH" BTFLOD_BUILD_DIR=b BTFLOD_JOBS=1 ./run.sh demo >/dev/null)

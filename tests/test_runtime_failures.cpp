@@ -229,6 +229,40 @@ TEST(RuntimeFailures, CorruptRootFailsItsMaterialOnceAndNoChildIsScheduled) {
   check_engine(w, s, e);
 }
 
+// §6 streamed U′ packets: a damaged packet is retried packet_attempts times, then given up;
+// the material's first packet and its tiles keep streaming.
+TEST(RuntimeFailures, DamagedStreamedPacketIsGivenUpAndTheRestStreams) {
+  World w;
+  w.add(build(make_eigen(128, 8, 14)));  // two virtual textures, two U′ packets
+  {
+    const BsvtfDirectory d = read_bsvtf(w.files[0]).value();
+    ASSERT_EQ(d.packets.size(), 2u);
+    w.files[0][d.packets[1].offset + d.packets[1].size / 2] ^= 0x21;
+  }
+  w.finish();
+  StreamerConfig cfg = small_config();
+  cfg.scheduler.stream_u_columns = true;
+  cfg.failure.packet_attempts = 3;
+  cfg.failure.first_backoff_frames = 1;
+  auto s = std::move(Streamer::create(w.materials, cfg).value());
+  Engine e(s);
+  EventLog log;
+  run_logged(s, e, log, 80);
+  const TileId packet1{s.first_texture(0) + 1, 0, 0, 0};
+  EXPECT_TRUE(s.material_ready(0));
+  EXPECT_FALSE(s.material_failed(0));
+  EXPECT_EQ(log.count(ResidencyEventKind::packet_failed, 0, &packet1), 3u);
+  EXPECT_EQ(log.count(ResidencyEventKind::packet_unavailable, 0, &packet1), 1u);
+  EXPECT_EQ(s.scheduler().u_loaded(0), 1u);  // packet 0 only
+  EXPECT_FALSE(e.packets[s.first_texture(0)].empty());
+  EXPECT_EQ(s.stats().packet_failures, 3u);
+  // Texture 0's finest tiles stream; texture 1 (no U′) gets none.
+  const VtLevelTable& lv = s.cache().set().material(0).levels;
+  EXPECT_TRUE(s.cache().resident(lv.tile(s.first_texture(0), lv.tile_count() - 1)));
+  EXPECT_FALSE(s.cache().resident(lv.tile(s.first_texture(0) + 1, lv.tile_count() - 1)));
+  check_engine(w, s, e);
+}
+
 TEST(RuntimeFailures, JobsHandedOutByUpdateAndByCompleteReadRunOnce) {
   World w;
   w.add(build(make_eigen(128, 6, 5)));

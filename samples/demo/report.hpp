@@ -341,10 +341,14 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
     h << row
       << "<table><tr><th>image vs raw-BTF render</th><th>rays and filter</th><th>SSIM (sRGB)</th><th>PSNR dB "
          "(sRGB)</th><th>ΔE*ab mean</th><th>ΔE*ab p99</th><th>RMSE (linear)</th></tr>";
-    const auto line = [&](const char* name, const ImageError& e) {
+    // The CPU fallback renders the "GPU" images with the reference ray-caster: say which.
+    const bool cpu_renderer = r.feedback_words == "cpu";
+    const auto line = [&](std::string name, const ImageError& e) {
+      if (cpu_renderer)
+        for (size_t at; (at = name.find("(GPU)")) != std::string::npos;) name.replace(at, 5, "(CPU renderer)");
       std::snprintf(row, sizeof row,
                     "<tr><td>%s</td><td>%s</td><td>%.4f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td><td>%.5f</td></tr>",
-                    name, e.filter.c_str(), e.ssim, e.psnr, e.de_mean, e.de_p99, e.rmse);
+                    name.c_str(), e.filter.c_str(), e.ssim, e.psnr, e.de_mean, e.de_p99, e.rmse);
       h << row;
     };
     line("FMF (CPU): the factorisation error alone", r.raw.fmf_cpu);
@@ -385,7 +389,7 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
       if (r.raw.gpu_filter) h << " BSVTF: " << r.raw.per_material.front().bsvtf_gpu_f.filter << ".";
       h << "</p>\n";
     }
-    h << "</table>\n<p><img src='reference_raw.png' alt='raw BTF render'> <img src='reference_fmf_cpu.png' alt='FMF "
+    h << "<p><img src='reference_raw.png' alt='raw BTF render'> <img src='reference_fmf_cpu.png' alt='FMF "
          "CPU "
          "render'></p>\n";
   }

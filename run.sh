@@ -9,6 +9,9 @@
 #                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
 #   ./run.sh raytrace [args...]   Embree ray tracer with BTF materials on built-in data, into
 #                                 out/raytrace/ (docs/raytrace.md)
+#   ./run.sh soak [minutes]       stream a world through faulty I/O for the given minutes
+#                                 (default 10), checking the engine's invariants every frame
+#                                 (docs/reliability.md); a report in out/soak.json
 #   ./run.sh fuzz [minutes]       fuzzing campaign: every libFuzzer target for the given minutes
 #                                 (default 10), corpus merged into fuzz/corpus/, a table per
 #                                 target; then the random-operation tests with 10^6 operations
@@ -163,8 +166,17 @@ case "$cmd" in
     mkdir -p out
     "$BUILD"/samples/raytrace/btflod-raytrace --out out/raytrace "$@"
     ;;
+  soak)
+    install_packages
+    minutes=${1:-10}
+    case "$minutes" in '' | *[!0-9]*) echo "usage: ./run.sh soak [minutes]" >&2; exit 2 ;; esac
+    BTFLOD_TARGET=btflod-soak configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
+      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    mkdir -p out
+    "$BUILD"/samples/soak/btflod-soak --minutes "$minutes" --json out/soak.json
+    ;;
   *)
-    echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz|svd-compare" >&2
+    echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz|soak|svd-compare" >&2
     exit 2
     ;;
 esac

@@ -25,4 +25,5 @@
 #include "btflod/factor/truncated_svd.hpp"
 #include "btflod/lod/feedback_trace.hpp"
 #include "btflod/shader/glsl_generator.hpp"
+#include "btflod/shader/hlsl_generator.hpp"
 #include "btflod/vt/tile_pyramid.hpp"

@@ -110,6 +110,7 @@
 
 // shader
 #include "btflod/shader/glsl_generator.hpp"
+#include "btflod/shader/hlsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
 #include "btflod/shader/std140.hpp"
 

@@ -11,6 +11,10 @@
 // The aligned forms are left to the implementation (they pair with their own deletes). The
 // deallocation functions are not inlined: GCC would otherwise see free() applied to the
 // result of a new-expression and warn (-Wmismatched-new-delete) in every caller.
+//
+// Under ThreadSanitizer nothing is replaced and global_news() stays 0: TSan's runtime defines
+// the global operator new itself, in the same program, so a replacement cannot be linked. The
+// allocation checks are made by the release and ASan stages; the TSan stage checks for races.
 #pragma once
 
 #include <atomic>
@@ -18,6 +22,15 @@
 #include <cstdint>
 #include <cstdlib>
 #include <new>
+
+#if defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define BTFLOD_TEST_NO_NEW_REPLACEMENT 1
+#endif
+#endif
+#if defined(__SANITIZE_THREAD__) && !defined(BTFLOD_TEST_NO_NEW_REPLACEMENT)
+#define BTFLOD_TEST_NO_NEW_REPLACEMENT 1
+#endif
 
 namespace btflod_test {
 
@@ -34,6 +47,7 @@ inline void* counted_malloc(std::size_t n) noexcept {
 
 }  // namespace btflod_test
 
+#if !defined(BTFLOD_TEST_NO_NEW_REPLACEMENT)
 [[gnu::noinline]] void* operator new(std::size_t n) {
   if (void* p = btflod_test::counted_malloc(n)) return p;
   throw std::bad_alloc();
@@ -54,3 +68,4 @@ inline void* counted_malloc(std::size_t n) noexcept {
 }
 [[gnu::noinline]] void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 [[gnu::noinline]] void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
+#endif  // BTFLOD_TEST_NO_NEW_REPLACEMENT

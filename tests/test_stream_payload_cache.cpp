@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for stream/payload_cache.hpp (the pipeline's compressed-payload LRU in fixed storage)
 // and for the pipeline's "no allocation after set-up": a counting global operator new in this
 // executable counts every heap allocation, on any thread, while steady-state streaming runs

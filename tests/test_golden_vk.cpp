@@ -4,6 +4,8 @@
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
 // (test_golden_representations.hpp).
+// The HLSL programs (VkBackendOptions::hlsl_programs, SPIR-V from glslang's HLSL front end)
+// render the FMF and the partial-cache BSVTF scenes like the Vulkan GLSL programs (>= 60 dB).
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_vk_backend
 // btflod-label: gpu
@@ -15,13 +17,64 @@
 
 namespace {
 
-std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
-  auto r = btflod::samples::create_vk_backend();
+std::unique_ptr<btflod::Backend> make_vk_backend(std::string& why, bool hlsl) {
+  btflod::samples::VkBackendOptions o;
+  o.hlsl_programs = hlsl;
+  auto r = btflod::samples::create_vk_backend(o);
   if (!r) {
     why = r.message();
     return nullptr;
   }
   return std::move(r.value());
+}
+std::unique_ptr<btflod::Backend> make_backend(std::string& why) { return make_vk_backend(why, false); }
+
+// The image of `program` on the golden scene (the partial cache for bsvtf) drawn by `be`.
+void render_golden(btflod::Backend& be, btflod::ShaderProgram program, btflod::Image<float>& img) {
+  using namespace btflod;
+  using namespace btflod::golden;
+  const ShaderConfig config = golden_config();
+  const Material m = make_material(config, kTexture, kTexture);
+  PartialCacheScene vt;
+  const bool bsvtf = program == ShaderProgram::bsvtf;
+  if (bsvtf) build_partial_cache(config, m, vt);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(be.init(config, bsvtf ? vt.set.texture_count() : 2).ok());
+  if (bsvtf) {
+    ASSERT_EQ(be.upload_tiles(vt.uploads), Status::success);
+    ASSERT_EQ(be.apply_page_table_writes(vt.writes), Status::success);
+  }
+  std::vector<MeshVertex> verts;
+  std::vector<uint32_t> idx;
+  plane_mesh(PlaneSetup{}, verts, idx);
+  auto mesh = be.create_mesh(MeshData{verts, idx});
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  FmfMaterialData d = m.data(!bsvtf);
+  d.mipmaps = false;
+  auto mat = be.create_material(d);
+  ASSERT_TRUE(mat.ok()) << mat.message();
+  ASSERT_EQ(be.begin_frame(backend_frame()), Status::success);
+  ASSERT_EQ(be.draw(program, *mesh, *mat, golden_params(golden_camera())), Status::success);
+  ASSERT_EQ(be.end_frame(), Status::success);
+  ASSERT_EQ(be.read_color(img.view()), Status::success);
+}
+
+void hlsl_matches_glsl(btflod::ShaderProgram program) {
+  std::string why;
+  std::unique_ptr<btflod::Backend> glsl = make_vk_backend(why, false);
+  if (!glsl) GTEST_SKIP() << "GPU API unavailable: " << why;
+  std::unique_ptr<btflod::Backend> hlsl = make_vk_backend(why, true);
+  ASSERT_TRUE(hlsl) << why;
+  btflod::Image<float> a(btflod::golden::kSize, btflod::golden::kSize, 4);
+  btflod::Image<float> b(btflod::golden::kSize, btflod::golden::kSize, 4);
+  render_golden(*glsl, program, a);
+  render_golden(*hlsl, program, b);
+  if (::testing::Test::HasFatalFailure()) return;
+  btflod::golden::expect_content(b);
+  const double psnr = btflod::test_scene::psnr_rgb(a, b);
+  std::printf("[ %s ] golden %s, HLSL vs GLSL programs: PSNR %.2f dB\n", hlsl->name(),
+              btflod::shader_program_name(program), psnr);
+  EXPECT_GE(psnr, 60.0);
 }
 
 }  // namespace
@@ -35,3 +88,5 @@ TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_
 TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
 TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }
 TEST(GoldenVk, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_backend); }
+TEST(GoldenVk, HlslFmfRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::fmf); }
+TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::bsvtf); }

@@ -2,6 +2,8 @@
 // table uploads, frames, feedback ring, colour readback. See vk_internal.hpp.
 #include "vk_internal.hpp"
 
+#include "btflod/shader/hlsl_generator.hpp"
+
 #include <algorithm>
 #include <cstring>
 #include <memory>
@@ -66,7 +68,8 @@ VoidResult VkBackend::create_device() {
         queue_family_ = q;
         limits_ = props.limits;
         name_ = std::string("Vulkan ") + std::to_string(VK_API_VERSION_MAJOR(props.apiVersion)) + "." +
-                std::to_string(VK_API_VERSION_MINOR(props.apiVersion)) + " (" + props.deviceName + ")";
+                std::to_string(VK_API_VERSION_MINOR(props.apiVersion)) + " (" + props.deviceName + ")" +
+                (options_.hlsl_programs ? ", HLSL programs" : "");
         break;
       }
     if (physical_) break;
@@ -112,12 +115,15 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
                                      ShaderProgram::bsvtf_feedback};
   VkPipeline* out[4] = {&fmf_, &bsvtf_, &feedback_, &bsvtf_feedback_};
   for (int i = 0; i < 4; ++i) {
-    Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::vulkan450, config);
+    Result<GlslProgramSource> src = options_.hlsl_programs
+                                        ? generate_hlsl_program(programs[i], config)
+                                        : generate_program(programs[i], GlslTarget::vulkan450, config);
     if (!src) return src.error();
     Result<VkPipeline> p = create_pipeline(
         *src, shader_program_name(programs[i]),
         programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT, VK_NULL_HANDLE,
-        programs[i] == ShaderProgram::bsvtf_feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_UNDEFINED);
+        programs[i] == ShaderProgram::bsvtf_feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_UNDEFINED,
+        options_.hlsl_programs);
     if (!p) return p.error();
     *out[i] = *p;
   }

@@ -95,9 +95,11 @@ struct FeedbackSlot {
       return make_error(Status::unsupported, "Vulkan: %s failed (VkResult %d)", what, static_cast<int>(vk_result_)); \
   } while (0)
 /// GLSL → SPIR-V with glslc (subprocess), cached in the temp directory under a hash of
-/// (glslc path, stage, source). Returns `unsupported` with the compiler log when glslc is
+/// (compiler path, stage, source); `hlsl`: HLSL source (entry point main) through
+/// glslangValidator -D -V instead. Returns `unsupported` with the compiler log when glslc is
 /// missing or fails. Thread-safe (unique temporary names, atomic rename on publish).
-Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const char* stage, const std::string& tag);
+Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const char* stage, const std::string& tag,
+                                            bool hlsl = false);
 
 /// The btflod::Backend implementation. Single-threaded like every Backend: all calls from one
 /// thread. Created by create_vk_backend() (create_device, then create_shared_ubo).
@@ -171,7 +173,7 @@ class VkBackend final : public Backend {
   /// `second_format` (when not VK_FORMAT_UNDEFINED): a second colour attachment (bsvtf_feedback's words).
   Result<VkPipeline> create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
                                      VkPipelineLayout layout = VK_NULL_HANDLE,
-                                     VkFormat second_format = VK_FORMAT_UNDEFINED);
+                                     VkFormat second_format = VK_FORMAT_UNDEFINED, bool hlsl = false);
 
   // --- recording ---------------------------------------------------------------------------
   static void full_barrier(VkCommandBuffer cmd);

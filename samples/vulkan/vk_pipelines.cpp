@@ -88,10 +88,10 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
 }
 
 Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
-                                              VkPipelineLayout layout, VkFormat second_format) {
-  Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name);
+                                              VkPipelineLayout layout, VkFormat second_format, bool hlsl) {
+  Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name, hlsl);
   if (!vs) return vs.error();
-  Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name);
+  Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name, hlsl);
   if (!fs) return fs.error();
   VkShaderModule modules[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   const std::vector<uint32_t>* code[2] = {&*vs, &*fs};

@@ -34,17 +34,21 @@ std::vector<uint32_t> read_words(const std::string& path) {
 
 }  // namespace
 
-/// GLSL → SPIR-V with glslc (subprocess). Results are cached in the temp directory under a hash
-/// of (glslc path, stage, source): the generated source is deterministic, so every later run
-/// (and every test process) skips the ~0.4 s compile. Files are published with rename().
-Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const char* stage, const std::string& tag) {
-  const std::string glslc = BTFLOD_GLSLC;
-  if (glslc.empty()) return make_error(Status::unsupported, "Vulkan: glslc was not found at configure time");
+/// GLSL → SPIR-V with glslc, or HLSL with glslangValidator -D (subprocess). Results are cached in
+/// the temp directory under a hash of (compiler path, stage, language, source): the generated
+/// source is deterministic, so every later run (and every test process) skips the ~0.4 s compile.
+/// Files are published with rename().
+Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const char* stage, const std::string& tag,
+                                            bool hlsl) {
+  const std::string glslc = hlsl ? BTFLOD_GLSLANG_VALIDATOR : BTFLOD_GLSLC;
+  if (glslc.empty())
+    return make_error(Status::unsupported, "Vulkan: %s was not found at configure time",
+                      hlsl ? "glslangValidator" : "glslc");
   static std::atomic<unsigned> counter{0};
   const std::filesystem::path dir = std::filesystem::temp_directory_path();
   char hash[32];
-  std::snprintf(hash, sizeof(hash), "%016llx",
-                static_cast<unsigned long long>(fnv1a(source, fnv1a(glslc + "|" + stage + "|vulkan1.1"))));
+  const std::string key = glslc + "|" + stage + (hlsl ? "|hlsl" : "") + "|vulkan1.1";
+  std::snprintf(hash, sizeof(hash), "%016llx", static_cast<unsigned long long>(fnv1a(source, fnv1a(key))));
   const std::string cached = (dir / ("btflod_spv_" + std::string(hash) + "." + stage + ".spv")).string();
   if (std::vector<uint32_t> words = read_words(cached); !words.empty() && words[0] == 0x07230203u) return words;
   const std::string base =
@@ -55,8 +59,10 @@ Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const cha
     f << source;
     if (!f) return make_error(Status::io_error, "Vulkan: cannot write %s", src.c_str());
   }
+  const std::string flags = hlsl ? std::string(" -D -V --target-env vulkan1.1 -e main -S ") + stage
+                                  : std::string(" --target-env=vulkan1.1");
   const std::string cmd =
-      "\"" + glslc + "\" --target-env=vulkan1.1 -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
+      "\"" + glslc + "\"" + flags + " -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
   const int rc = std::system(cmd.c_str());
   std::vector<uint32_t> words = read_words(spv);
   std::ifstream lg(log);
@@ -66,8 +72,8 @@ Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const cha
   std::filesystem::remove(log, ec);
   if (rc != 0 || words.empty()) {
     std::filesystem::remove(spv, ec);
-    return make_error(Status::unsupported, "Vulkan: glslc failed on %s shader %s (exit %d): %s", stage, tag.c_str(), rc,
-                      log_text.c_str());
+    return make_error(Status::unsupported, "Vulkan: %s failed on %s shader %s (exit %d): %s", glslc.c_str(), stage,
+                      tag.c_str(), rc, log_text.c_str());
   }
   std::filesystem::rename(spv, cached, ec);  // atomic publish; on failure just drop the file
   if (ec) std::filesystem::remove(spv, ec);

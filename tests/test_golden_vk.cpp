@@ -5,7 +5,8 @@
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
 // (test_golden_representations.hpp).
 // The HLSL programs (VkBackendOptions::hlsl_programs, SPIR-V from glslang's HLSL front end)
-// render the FMF and the partial-cache BSVTF scenes like the Vulkan GLSL programs (>= 60 dB).
+// render the FMF and the partial-cache BSVTF scenes like the Vulkan GLSL programs (>= 60 dB), and
+// pass every golden test above against the same CPU references.
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_vk_backend
 // btflod-label: gpu
@@ -28,6 +29,7 @@ std::unique_ptr<btflod::Backend> make_vk_backend(std::string& why, bool hlsl) {
   return std::move(r.value());
 }
 std::unique_ptr<btflod::Backend> make_backend(std::string& why) { return make_vk_backend(why, false); }
+std::unique_ptr<btflod::Backend> make_hlsl_backend(std::string& why) { return make_vk_backend(why, true); }
 
 // The image of `program` on the golden scene (the partial cache for bsvtf) drawn by `be`.
 void render_golden(btflod::Backend& be, btflod::ShaderProgram program, btflod::Image<float>& img) {
@@ -90,3 +92,9 @@ TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_vie
 TEST(GoldenVk, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_backend); }
 TEST(GoldenVk, HlslFmfRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::fmf); }
 TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::bsvtf); }
+TEST(GoldenVk, HlslFmfMatchesCpuReference) { btflod::golden::golden_fmf(make_hlsl_backend); }
+TEST(GoldenVk, HlslBsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_hlsl_backend); }
+TEST(GoldenVk, HlslLaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_hlsl_backend); }
+TEST(GoldenVk, HlslLpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_hlsl_backend); }
+TEST(GoldenVk, HlslPcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_hlsl_backend); }
+TEST(GoldenVk, HlslSpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_hlsl_backend); }

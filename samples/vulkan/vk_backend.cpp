@@ -2,8 +2,6 @@
 // table uploads, frames, feedback ring, colour readback. See vk_internal.hpp.
 #include "vk_internal.hpp"
 
-#include "btflod/shader/hlsl_generator.hpp"
-
 #include <algorithm>
 #include <cstring>
 #include <memory>

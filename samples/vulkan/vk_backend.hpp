@@ -17,9 +17,9 @@ struct VkBackendOptions {
   uint32_t frames_in_flight = 2;                ///< command buffers recorded while the GPU works
   uint32_t max_draws_per_frame = 256;           ///< uniform-buffer slices per frame
   uint64_t staging_bytes_per_frame = 8u << 20;  ///< tile and page-table uploads per frame
-  /// fmf, bsvtf, feedback and bsvtf_feedback from generate_hlsl_program(), compiled to SPIR-V by
-  /// glslangValidator's HLSL front end (the texture and its sampler state share the combined
-  /// image-sampler binding); false: the Vulkan GLSL through glslc. The other programs are GLSL.
+  /// Every program from generate_hlsl_program(), compiled to SPIR-V by glslangValidator's HLSL
+  /// front end (a texture and its sampler state share the combined image-sampler binding);
+  /// false: the Vulkan GLSL of generate_program() through glslc.
   bool hlsl_programs = false;
 };
 

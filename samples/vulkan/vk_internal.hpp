@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "vk_backend.hpp"
+#include "btflod/shader/hlsl_generator.hpp"
 
 namespace btflod::samples::vk_detail {
 

@@ -198,10 +198,11 @@ Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, cons
     if (r) r = upload_texture(m.rep[i], t.data, t.texel_bytes);
   }
   if (r) {
-    Result<GlslProgramSource> src = generate_program(program, GlslTarget::vulkan450, config);
+    Result<GlslProgramSource> src = options_.hlsl_programs ? generate_hlsl_program(program, config)
+                                                           : generate_program(program, GlslTarget::vulkan450, config);
     if (!src) r = src.error();
     Result<VkPipeline> p = r ? create_pipeline(*src, shader_program_name(program), VK_FORMAT_R32G32B32A32_SFLOAT,
-                                               rep_pipeline_layout_[kind])
+                                               rep_pipeline_layout_[kind], VK_FORMAT_UNDEFINED, options_.hlsl_programs)
                              : Result<VkPipeline>(r.error());
     if (p)
       m.pipeline = *p;

@@ -39,6 +39,10 @@
 // enumerator, one emit function and one row in detail::kPieces (plus, for a whole program, a
 // ShaderProgram and a row in detail::kProgramRecipes).
 //
+// shader/hlsl_generator.hpp emits the same pieces and programs in HLSL (one HLSL emitter per piece
+// in shader/hlsl_pieces.hpp and hlsl_programs.hpp): a change to a piece's arithmetic here is made
+// there too (tests/test_shader_hlsl.cpp checks the function names and textures agree).
+//
 // The generated text is deterministic (same inputs → same bytes). docs/shaders.md describes the
 // texture layouts each piece expects and has an example of an engine shader.
 //

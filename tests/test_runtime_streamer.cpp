@@ -1,3 +1,4 @@
+// btflod-label: unit threads
 // Tests for runtime/streamer.hpp: the engine's per-frame object. Convergence and exact texels
 // against a direct decode of the container, page tables rebuilt from the outputs alone, no
 // allocation after creation (global operator new counted) and every buffer through the

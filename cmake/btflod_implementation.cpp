@@ -26,4 +26,6 @@
 #include "btflod/lod/feedback_trace.hpp"
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/hlsl_generator.hpp"
+#include "btflod/shader/hlsl_pieces.hpp"
+#include "btflod/shader/hlsl_programs.hpp"
 #include "btflod/vt/tile_pyramid.hpp"

@@ -41,41 +41,9 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr uint32_t kLights = 3, kViews = 4;
-
-// A smooth synthetic material of `components` eigen-textures, U′ light-major.
-EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
-  EigenTextures e;
-  e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
-  for (uint32_t y = 0; y < size; ++y)
-    for (uint32_t x = 0; x < size; ++x)
-      for (uint32_t c = 0; c < components; ++c)
-        e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
-            0.5f + 0.4f * std::sin(0.06f * (x + 1.0f) * (c + 1) + 0.04f * y * (seed + 1)) / (1.0f + c);
-  e.light_count = kLights;
-  e.view_count = kViews;
-  e.angular.resize(size_t{kLights} * kViews * 3 * components);
-  for (size_t i = 0; i < e.angular.size(); ++i) e.angular[i] = 0.1f + 0.01f * static_cast<float>((i * 5 + seed) % 60);
-  return e;
-}
-
-std::vector<float> directions(uint32_t n) {
-  std::vector<float> d;
-  for (uint32_t i = 0; i < n; ++i) {
-    const float a = 0.9f * i;
-    d.insert(d.end(), {0.3f * std::cos(a), 0.3f * std::sin(a), std::sqrt(1.0f - 0.09f)});
-  }
-  return d;
-}
-
-std::vector<uint8_t> build(const EigenTextures& e) {
-  BsvtfFromEigenOptions o;
-  o.tile_size = 32;
-  o.border = 4;
-  o.light_directions = directions(kLights);
-  o.view_directions = directions(kViews);
-  return build_bsvtf_from_eigen_textures(e, o).value();
-}
+// Materials: test_runtime_helpers.hpp's smooth synthetic eigen-textures and container builder.
+using btflod_test::build;
+using btflod_test::make_eigen;
 
 // The engine's I/O: one thread serving the reads of every material, in random order, after
 // random delays; a few reads fail (io_error) and a few deliver one flipped byte with success

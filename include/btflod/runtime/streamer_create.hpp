@@ -256,7 +256,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   // What is left: the Streamer object, the material, tile and packet tables, the page-table
   // mirror and queues (the create() temporaries are released when it returns: not counted).
   memory.total = ledger->live - set_bytes - layouts_bytes + sizeof(detail::AllocationLedger);
-  memory.allocations = ledger->count - set_allocations - 1 + 1;  // − the layouts, + the ledger
+  memory.allocations = ledger->count - set_allocations;  // the layouts out, the ledger in: one each
   memory.tables = memory.total - memory.tile_cache - memory.scheduler - memory.votes - memory.payload_cache -
                   memory.job_buffers - memory.decoders - memory.decoded_cache;
   im->memory = memory;

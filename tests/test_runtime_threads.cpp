@@ -22,7 +22,6 @@
 #include <mutex>
 #include <optional>
 #include <random>
-#include <set>
 #include <string>
 #include <thread>
 #include <utility>
@@ -33,11 +32,14 @@
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/bsvtf_build.hpp"
+#include "faulty_async_io.hpp"
 #include "test_runtime_helpers.hpp"
 
 using namespace btflod;
 using btflod_test::decode_direct;
 using Clock = std::chrono::steady_clock;
+using btflod_test::FaultyAsyncIo;
+using btflod_test::FaultyIoConfig;
 
 namespace {
 
@@ -45,136 +47,24 @@ namespace {
 using btflod_test::build;
 using btflod_test::make_eigen;
 
-// The engine's I/O: one thread serving the reads of every material, in random order, after
-// random delays; a few reads fail (io_error) and a few deliver one flipped byte with success
-// (the runtime's CRC check must catch them). start_read sometimes refuses when busy.
-class IoThread {
- public:
-  struct Source final : AsyncTileSource {
-    IoThread* io = nullptr;
-    const std::vector<uint8_t>* file = nullptr;
-    bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
-      return io->start(file, offset, out, ticket);
-    }
-  };
-
-  IoThread() : rng_(11) {}
-  ~IoThread() { stop(); }
-
-  /// Starts serving `streamer`; `on_complete` runs after each completion (wakes the workers).
-  void run(Streamer* streamer, void (*on_complete)(void*), void* user) {
-    streamer_ = streamer;
-    on_complete_ = on_complete;
-    user_ = user;
-    thread_ = std::thread([this] { loop(); });
-  }
-  /// Completes whatever is still queued as cancelled, then joins the thread.
-  void stop() {
-    {
-      std::lock_guard lock(mutex_);
-      stopping_ = true;
-    }
-    cv_.notify_all();
-    if (thread_.joinable()) thread_.join();
-  }
-  /// Reads started and not yet completed.
-  size_t outstanding() const {
-    std::lock_guard lock(mutex_);
-    return queue_.size() + busy_;
-  }
-  uint64_t failures() const { return failures_.load(); }
-  uint64_t corruptions() const { return corruptions_.load(); }
-  uint64_t completed() const { return completed_.load(); }
-  uint64_t cancelled() const { return cancelled_.load(); }
-  uint64_t refused() const {
-    std::lock_guard lock(mutex_);
-    return refused_;
-  }
-
- private:
-  struct Read {
-    const std::vector<uint8_t>* file;
-    uint64_t offset;
-    std::span<uint8_t> out;
-    uint64_t ticket;
-  };
-
-  bool start(const std::vector<uint8_t>* file, uint64_t offset, std::span<uint8_t> out, uint64_t ticket) {
-    {
-      std::lock_guard lock(mutex_);
-      if (queue_.size() >= 6 && rng_() % 4 == 0) {  // busy: the runtime retries on a later update
-        ++refused_;
-        return false;
-      }
-      queue_.push_back(Read{file, offset, out, ticket});
-    }
-    cv_.notify_one();
-    return true;
-  }
-
-  void loop() {
-    std::mt19937 rng(29);
-    for (;;) {
-      Read r{};
-      bool cancel = false;
-      {
-        std::unique_lock lock(mutex_);
-        cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-        if (queue_.empty()) return;  // stopping and nothing left
-        cancel = stopping_;
-        // Out of order: any queued read may be next.
-        const size_t pick = rng() % queue_.size();
-        r = queue_[pick];
-        queue_[pick] = queue_.back();
-        queue_.pop_back();
-        ++busy_;
-      }
-      Status status = Status::success;
-      if (cancel) {
-        status = Status::cancelled;
-        cancelled_.fetch_add(1);
-      } else {
-        if (rng() % 3 == 0) std::this_thread::sleep_for(std::chrono::microseconds(rng() % 400));
-        // A read that failed is served intact the next time, so a root or U′ packet (one read
-        // each) never exhausts the Streamer's start-up attempts and every material gets ready.
-        const auto key = std::make_pair(r.file, r.offset);
-        const uint32_t roll = failed_last_.erase(key) ? 100 : rng() % 100;
-        if (roll < 7) failed_last_.insert(key);
-        if (roll < 4) {
-          status = Status::io_error;
-          failures_.fetch_add(1);
-        } else {
-          std::memcpy(r.out.data(), r.file->data() + r.offset, r.out.size());
-          if (roll < 7 && !r.out.empty()) {
-            r.out[rng() % r.out.size()] ^= static_cast<uint8_t>(1u + rng() % 255);
-            corruptions_.fetch_add(1);
-          }
-        }
-      }
-      streamer_->complete_read(r.ticket, status);
-      completed_.fetch_add(1);
-      {
-        std::lock_guard lock(mutex_);
-        --busy_;
-      }
-      on_complete_(user_);
-    }
-  }
-
-  Streamer* streamer_ = nullptr;
-  void (*on_complete_)(void*) = nullptr;
-  void* user_ = nullptr;
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  std::vector<Read> queue_;
-  size_t busy_ = 0;
-  uint64_t refused_ = 0;
-  bool stopping_ = false;
-  std::mt19937 rng_;
-  std::set<std::pair<const std::vector<uint8_t>*, uint64_t>> failed_last_;  // I/O thread only
-  std::atomic<uint64_t> failures_{0}, corruptions_{0}, completed_{0}, cancelled_{0};
-  std::thread thread_;
-};
+// The engine's I/O (faulty_async_io.hpp): one thread serving the reads of every material, in
+// random order, a third of them after a delay of up to 0.4 ms; 4 % fail (io_error) and 3 %
+// deliver one damaged byte with success (the runtime's CRC check must catch them), a read that
+// faulted is served intact the next time (so every material gets ready), and start_read()
+// refuses a quarter of the time when six reads are queued.
+FaultyIoConfig io_config() {
+  FaultyIoConfig c;
+  c.seed = 11;
+  c.fail = 0.04;
+  c.corrupt = 0.03;
+  c.stall = 0;
+  c.delay = 1.0 / 3;
+  c.max_delay_us = 400;
+  c.refuse = 0.25;
+  c.refuse_from_depth = 6;
+  c.intact_after_fault = true;
+  return c;
+}
 
 // Engine-owned decode workers: each claims runnable jobs until none is left, then sleeps until
 // woken (the Streamer's job notify hook, or an I/O completion) or 1 ms passes.
@@ -363,12 +253,11 @@ void stream_and_drain(Executor kind) {
   std::vector<BsvtfDirectory> dirs;
   for (const auto& f : files) dirs.push_back(read_bsvtf(f).value());
 
-  IoThread io;
-  std::vector<IoThread::Source> sources(files.size());
+  FaultyAsyncIo io(io_config());
+  std::vector<FaultyAsyncIo::Source> sources;
+  for (const auto& f : files) sources.push_back(io.source(f));
   std::vector<StreamerMaterial> materials;
   for (size_t m = 0; m < files.size(); ++m) {
-    sources[m].io = &io;
-    sources[m].file = &files[m];
     materials.push_back(StreamerMaterial{&dirs[m], nullptr, &sources[m]});
   }
   StreamerConfig cfg;
@@ -388,16 +277,16 @@ void stream_and_drain(Executor kind) {
   if (kind == Executor::engine_workers) {
     workers.emplace(s.jobs(), 4);
     s.jobs().set_job_notify(&Workers::wake, &*workers);
-    io.run(&s, &Workers::wake, &*workers);
+    io.start(s, [](void* w, uint32_t) { static_cast<Workers*>(w)->notify(); }, &*workers);
   } else {
     executor.emplace(s.jobs(), 4);  // registers its own notify hook
-    io.run(&s, [](void* x) { static_cast<ThreadExecutor*>(x)->notify(); }, &*executor);
+    io.start(s, [](void* x, uint32_t) { static_cast<ThreadExecutor*>(x)->notify(); }, &*executor);
   }
   const auto jobs_run = [&] { return workers ? workers->jobs_run() : executor->jobs_run(); };
   // Before the Streamer is destroyed, even when an assertion ends the test early: the I/O
   // thread completes what is left (as cancelled) and exits, the workers finish and are joined.
   struct StopThreads {
-    IoThread& io;
+    FaultyAsyncIo& io;
     Streamer& s;
     std::optional<Workers>& workers;
     std::optional<ThreadExecutor>& executor;
@@ -453,7 +342,7 @@ void stream_and_drain(Executor kind) {
   EXPECT_EQ(io.outstanding(), 0u);
   EXPECT_EQ(s.jobs_in_flight(), 0u);
   stop_threads();
-  EXPECT_EQ(io.cancelled(), 0u);  // nothing was left to cancel
+  EXPECT_EQ(io.counters.cancelled.load(), 0u);  // nothing was left to cancel
 
   EXPECT_TRUE(s.material_ready(0));
   EXPECT_TRUE(s.material_ready(1));
@@ -468,15 +357,15 @@ void stream_and_drain(Executor kind) {
   if (workers) {
     EXPECT_GE(workers->busy_workers(), 2u);
   }
-  EXPECT_GT(io.completed(), 60u);
-  EXPECT_GT(io.failures() + io.corruptions(), 0u);
+  EXPECT_GT(io.counters.reads.load(), 60u);
+  EXPECT_GT(io.counters.failed.load() + io.counters.corrupted.load(), 0u);
   EXPECT_GT(e.failed_events, 0u);
   std::printf("frames %u, tiles checked %llu, jobs run %llu, reads %llu (failed %llu, corrupted %llu, refused %llu), "
               "failure events %llu, tiles given up %llu, swaps %llu\n",
               kFrames, static_cast<unsigned long long>(e.tiles_checked),
-              static_cast<unsigned long long>(jobs_run()), static_cast<unsigned long long>(io.completed()),
-              static_cast<unsigned long long>(io.failures()), static_cast<unsigned long long>(io.corruptions()),
-              static_cast<unsigned long long>(io.refused()), static_cast<unsigned long long>(e.failed_events),
+              static_cast<unsigned long long>(jobs_run()), static_cast<unsigned long long>(io.counters.reads.load()),
+              static_cast<unsigned long long>(io.counters.failed.load()), static_cast<unsigned long long>(io.counters.corrupted.load()),
+              static_cast<unsigned long long>(io.counters.refused.load()), static_cast<unsigned long long>(e.failed_events),
               static_cast<unsigned long long>(e.unavailable_events),
               static_cast<unsigned long long>(s.scheduler().total().swaps));
 }

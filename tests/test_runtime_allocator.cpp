@@ -91,7 +91,7 @@ TEST(RuntimeAllocator, CacheSchedulerAndSetAllocateOnlyThroughTheCallbacks) {
     auto cache = TileCache::create(set, TileCacheConfig{4, 4, 64}, al);
     ASSERT_TRUE(cache.ok()) << cache.message();
     const uint64_t cache_calls = counter.calls - set_calls;
-    EXPECT_GE(cache_calls, 10u + 2u * set.texture_count());  // its arrays, its set's copy, per-texture tables
+    EXPECT_GE(cache_calls, 12u);  // its arrays and its set's copy
     auto sched = Scheduler::create(*cache, SchedulerConfig{}, al);
     ASSERT_TRUE(sched.ok()) << sched.message();
     EXPECT_GE(counter.calls - set_calls - cache_calls, 20u);

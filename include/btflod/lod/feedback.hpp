@@ -48,6 +48,8 @@
 #include <vector>
 
 #include "btflod/core/allocator.hpp"
+#include "btflod/core/range_list.hpp"
+#include "btflod/core/result.hpp"
 #include "btflod/core/simd.hpp"
 
 namespace btflod {
@@ -128,6 +130,13 @@ struct VoteWindowConfig {
   uint32_t max_tiles_per_frame = 0;
 };
 
+/// Room a VoteCounter reserves for materials added later (add_material); 0: what the layouts
+/// given at construction need.
+struct VoteCapacity {
+  uint32_t materials = 0;  ///< material ids
+  uint32_t tiles = 0;      ///< Σ over live materials of their tiles (all levels)
+};
+
 /// Counts votes v(i, l) of paper 000 eq. 9 per material and tile, for one frame (count()) or
 /// summed over a sliding window of frames (accumulate()). Set-up allocates; count() and
 /// accumulate() do not. Not thread-safe (one counter per thread); deterministic. Hostile words
@@ -140,7 +149,7 @@ class VoteCounter {
   /// here through `allocator` (core/allocator.hpp; default: operator new), none later; a
   /// failing callback aborts (set-up memory is not optional).
   explicit VoteCounter(std::span<const VoteLayout> materials, VoteWindowConfig window = {},
-                       const RuntimeAllocator& allocator = {})
+                       const RuntimeAllocator& allocator = {}, const VoteCapacity& capacity = {})
       : materials_(Alloc<Material>(allocator)),
         votes_(Alloc<uint32_t>(allocator)),
         direct_(Alloc<uint32_t>(allocator)),
@@ -151,24 +160,20 @@ class VoteCounter {
         window_(Alloc<uint32_t>(allocator)),
         in_live_(Alloc<uint8_t>(allocator)),
         live_(Alloc<uint32_t>(allocator)),
-        live_words_(Alloc<uint32_t>(allocator)) {
-    materials_.reserve(materials.size());
-    uint32_t total = 0;
-    for (const VoteLayout& m : materials) {
-      Material mm;
-      mm.finest_level = std::min<uint32_t>(m.finest_level, 15);
-      mm.base = total;
-      uint32_t off = 0;
-      for (uint32_t l = 0; l <= mm.finest_level; ++l) {
-        const uint32_t s = mm.finest_level - l;
-        mm.tiles_x[l] = (m.tiles_x + (1u << s) - 1) >> s;
-        mm.tiles_y[l] = (m.tiles_y + (1u << s) - 1) >> s;
-        mm.offset[l] = off;
-        off += mm.tiles_x[l] * mm.tiles_y[l];
-      }
-      mm.offset[mm.finest_level + 1] = off;
-      total += off;
-      materials_.push_back(mm);
+        live_words_(Alloc<uint32_t>(allocator)),
+        free_tiles_(allocator) {
+    materials_.assign(std::max<size_t>(materials.size(), capacity.materials), Material{});
+    uint32_t needed = 0;
+    for (size_t i = 0; i < materials.size(); ++i) needed += shape(materials[i]).offset[16];
+    const uint32_t total = std::max<uint32_t>(needed, capacity.tiles);
+    free_tiles_.reset(total, materials_.size());
+    for (size_t i = 0; i < materials.size(); ++i) {
+      Material mm = shape(materials[i]);
+      const uint32_t tiles = mm.offset[16];
+      if (tiles == 0) continue;  // a free id
+      mm.base = static_cast<uint32_t>(free_tiles_.allocate(tiles));
+      mm.live = true;
+      materials_[i] = mm;
     }
     votes_.assign(total, 0);
     direct_.assign(total, 0);
@@ -184,6 +189,72 @@ class VoteCounter {
       live_.reserve(total);
       live_words_.reserve(total);
     }
+  }
+
+  /// Starts counting votes for material id `material` (free: never given or removed) with the
+  /// given shape, in tiles reserved at construction (VoteCapacity). insufficient_space when no
+  /// free range of its tiles is left, invalid_argument for an id out of range or live.
+  /// noexcept, no allocation.
+  Status add_material(uint32_t material, const VoteLayout& layout) noexcept {
+    if (material >= materials_.size() || materials_[material].live) return Status::invalid_argument;
+    Material mm = shape(layout);
+    const uint32_t tiles = mm.offset[16];
+    if (tiles == 0) return Status::invalid_argument;
+    const uint64_t base = free_tiles_.allocate(tiles);
+    if (base == ~0ull) return Status::insufficient_space;
+    mm.base = static_cast<uint32_t>(base);
+    mm.live = true;
+    materials_[material] = mm;
+    return Status::success;
+  }
+  /// Stops counting votes for a material: its tiles leave this frame's votes and the window
+  /// (words naming it are rejected from now on) and its range becomes free. invalid_argument
+  /// for an id that is not live. noexcept, no allocation; O(window entries + its tiles).
+  Status remove_material(uint32_t material) noexcept {
+    if (material >= materials_.size() || !materials_[material].live) return Status::invalid_argument;
+    const Material mm = materials_[material];
+    const uint32_t lo = mm.base, hi = mm.base + mm.offset[16];
+    const auto inside = [&](uint32_t idx) { return idx >= lo && idx < hi; };
+    size_t o = 0;
+    for (size_t i = 0; i < touched_.size(); ++i)
+      if (!inside(touched_[i])) {
+        touched_[o] = touched_[i];
+        touched_words_[o] = touched_words_[i];
+        ++o;
+      } else if (i < direct_tiles_) {
+        --direct_tiles_;
+      }
+    touched_.resize(o);  // shrinking: no allocation
+    touched_words_.resize(o);
+    if (window_frames_ > 1) {
+      for (uint32_t f = 0; f < window_frames_; ++f) {
+        WindowEntry* slot = ring_.data() + static_cast<size_t>(f) * ring_cap_;
+        uint32_t n = 0;
+        for (uint32_t k = 0; k < ring_size_[f]; ++k)
+          if (!inside(slot[k].index)) slot[n++] = slot[k];
+        ring_size_[f] = n;
+      }
+      o = 0;
+      for (size_t i = 0; i < live_.size(); ++i)
+        if (!inside(live_[i])) {
+          live_[o] = live_[i];
+          live_words_[o] = live_words_[i];
+          ++o;
+        }
+      live_.resize(o);
+      live_words_.resize(o);
+      std::fill(window_.begin() + lo, window_.begin() + hi, 0u);
+      std::fill(in_live_.begin() + lo, in_live_.begin() + hi, uint8_t{0});
+    }
+    std::fill(votes_.begin() + lo, votes_.begin() + hi, 0u);
+    std::fill(direct_.begin() + lo, direct_.begin() + hi, 0u);
+    free_tiles_.release(lo, hi - lo);
+    materials_[material] = Material{};
+    return Status::success;
+  }
+  /// True when material ids' votes are counted (constructed with a shape or added).
+  bool material_live(uint32_t material) const noexcept {
+    return material < materials_.size() && materials_[material].live;
   }
 
   /// Clears the previous frame and counts `words`. Each word adds `weight` votes (use the
@@ -334,7 +405,7 @@ class VoteCounter {
   uint32_t votes(uint32_t material, uint32_t level, uint32_t x, uint32_t y) const noexcept {
     if (material >= materials_.size()) return 0;
     const Material& m = materials_[material];
-    if (level > m.finest_level || x >= m.tiles_x[level] || y >= m.tiles_y[level]) return 0;
+    if (!m.live || level > m.finest_level || x >= m.tiles_x[level] || y >= m.tiles_y[level]) return 0;
     return votes_[m.base + m.offset[level] + y * m.tiles_x[level] + x];
   }
   /// Votes by flat index within a material (VtLevelTable order: coarse to fine, row-major).
@@ -365,10 +436,26 @@ class VoteCounter {
   struct Material {
     uint32_t finest_level = 0;
     uint32_t base = 0;
-    uint32_t offset[17] = {};
+    uint32_t offset[17] = {};  // offset[16]: tiles over all levels
     uint32_t tiles_x[16] = {};
     uint32_t tiles_y[16] = {};
+    bool live = false;
   };
+  // Levels, tile counts and offsets of a layout (base 0, not live); offset[16] = its tiles.
+  static Material shape(const VoteLayout& m) noexcept {
+    Material mm;
+    mm.finest_level = std::min<uint32_t>(m.finest_level, 15);
+    uint32_t off = 0;
+    for (uint32_t l = 0; l <= mm.finest_level; ++l) {
+      const uint32_t s = mm.finest_level - l;
+      mm.tiles_x[l] = (m.tiles_x + (1u << s) - 1) >> s;
+      mm.tiles_y[l] = (m.tiles_y + (1u << s) - 1) >> s;
+      mm.offset[l] = off;
+      off += mm.tiles_x[l] * mm.tiles_y[l];
+    }
+    for (uint32_t l = mm.finest_level + 1; l <= 16; ++l) mm.offset[l] = off;
+    return mm;
+  }
 
   void clear() noexcept {
     for (uint32_t idx : touched_) {
@@ -424,7 +511,7 @@ class VoteCounter {
     FeedbackTile t = unpack_feedback(word);
     if (t.material >= materials_.size()) return kNoIndex;
     const Material& m = materials_[t.material];
-    if (t.level > m.finest_level || t.x >= m.tiles_x[t.level] || t.y >= m.tiles_y[t.level]) return kNoIndex;
+    if (!m.live || t.level > m.finest_level || t.x >= m.tiles_x[t.level] || t.y >= m.tiles_y[t.level]) return kNoIndex;
     if (level_drop > 0) {
       const uint32_t drop = std::min(level_drop, t.level);
       t.level -= drop;
@@ -458,6 +545,7 @@ class VoteCounter {
   Vector<uint32_t> live_;        // tiles with window_ > 0, first-seen order
   Vector<uint32_t> live_words_;  // the same tiles as feedback words
   uint64_t window_overflow_ = 0;
+  detail::RangeList free_tiles_;  // free ranges of the tile arrays (VoteCapacity)
   MemoEntry memo_[kMemoSize];
 };
 

@@ -103,6 +103,21 @@ struct StreamerFailurePolicy {
   uint32_t held_tiles_capacity = 256;
 };
 
+/// Room reserved at creation for materials added while the Streamer runs (add_material()).
+/// Every field 0 (the default): exactly what the materials given to create() need, so nothing
+/// can be added until one is removed. A field below what create()'s materials need is an error.
+/// Every table is sized from these, so adding and removing materials allocates nothing.
+struct StreamerCapacity {
+  uint32_t materials = 0;         ///< material ids (≤ 1023, the feedback word's limit)
+  uint32_t textures = 0;          ///< virtual textures = page-table layers = U′ packets, over live materials
+  uint32_t tiles = 0;             ///< Σ over live materials of tiles per texture × textures
+  uint32_t max_level_count = 0;   ///< L + 1 of any material (page-table mips)
+  uint32_t max_finest_tiles = 0;  ///< finest-level tiles per side of any material (page-table size)
+  uint32_t max_tile_bytes = 0;    ///< largest tile payload of any material (decode chain buffers)
+  uint32_t max_packet_bytes = 0;  ///< largest U′ packet payload
+  uint32_t max_u_rows = 0;        ///< rows of the largest U′ packet (U′ texture height)
+};
+
 /// Everything fixed at creation.
 struct StreamerConfig {
   /// The cache (slots, layers, tile size, border); tile size and border must match every
@@ -135,6 +150,8 @@ struct StreamerConfig {
   uint32_t decode_workers = 4;
   /// Retries, back-off and give-up counts.
   StreamerFailurePolicy failure;
+  /// Room for materials added later (StreamerCapacity; default: none beyond create()'s).
+  StreamerCapacity capacity;
   /// Allocation callbacks for every buffer of the Streamer (tile cache, scheduler, vote counter,
   /// payload cache, jobs, tile decoders), except libdeflate's decompressor (see the file comment).
   RuntimeAllocator allocator;
@@ -170,6 +187,10 @@ enum class ResidencyEventKind : uint8_t {
   material_failed,     ///< a root or start-up U′ packet failed startup_attempts times (terminal until
                        ///< retry_material()); tile = the failing texture's root or packet
   packet_unavailable,  ///< a streamed U′ packet (§6) failed packet_attempts times: never requested again
+  material_removed,    ///< remove_material() took effect: page-table layers [tile.texture, tile.texture +
+                       ///< layers) and its cache slots are free; nothing of it is uploaded any more
+  material_released,   ///< the last job or read of a removed material ended: its sources may be
+                       ///< destroyed and its id is free for add_material()
 };
 
 /// Something the engine may want to react to.
@@ -178,6 +199,7 @@ struct ResidencyEvent {
   uint32_t material = 0;
   TileId tile;  ///< global texture id (tile events); {texture, 0, 0, 0} for packet events
   Status status = Status::success;
+  uint32_t layers = 0;  ///< material_removed: page-table layers freed from tile.texture on
 };
 
 /// Caller-owned outputs of one update(). Capacities: tile_uploads ≥ tile_uploads_bound(),
@@ -221,6 +243,8 @@ struct StreamerStats {
   StreamerMemory memory;
   uint64_t frame = 0;                   ///< update() calls so far
   uint32_t slots = 0, slots_used = 0;   ///< cache slots, of which hold a tile (roots included)
+  uint32_t materials_live = 0;          ///< materials added and not removed
+  uint32_t materials_removing = 0;      ///< removed materials whose jobs have not all ended
   uint32_t materials_ready = 0;         ///< materials whose roots (and U′ unless streamed) are loaded
   uint32_t materials_failed = 0;        ///< materials in the failed state now
   uint32_t jobs_reading = 0;            ///< jobs waiting for async reads
@@ -233,8 +257,11 @@ struct StreamerStats {
   uint64_t packet_failures = 0;         ///< U′ packet jobs that failed
   uint64_t retries = 0;                 ///< failed work started again (after its back-off)
   uint64_t cancelled = 0;               ///< jobs dropped because reads were cancelled (no failure counted)
+  uint64_t jobs_dropped = 0;            ///< jobs of removed materials that ended and were dropped
+  uint64_t materials_added = 0;         ///< add_material() successes (create()'s materials included)
+  uint64_t materials_removed = 0;       ///< remove_material() successes
   uint64_t feedback_ignored = 0;        ///< voted tiles (per frame) of materials not ready or failed
-  uint64_t feedback_rejected = 0;       ///< feedback words naming no material or no tile of it
+  uint64_t feedback_rejected = 0;       ///< feedback words naming no live material or no tile of it
   uint64_t bytes_read = 0;              ///< payload bytes read from sources
   uint64_t decoded_levels_skipped = 0;  ///< see Streamer::decoded_levels_skipped()
   uint64_t events_dropped = 0;          ///< events that did not fit the caller's span
@@ -307,6 +334,34 @@ class Streamer {
   /// noexcept, no allocation, deterministic for a given job completion order.
   Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept;
 
+  // --- materials that come and go --------------------------------------------------------
+  /// Adds a material to the running Streamer at any frame, in the room reserved by
+  /// StreamerConfig::capacity: it takes the lowest free material id (written to `id`; the
+  /// material field of its feedback words) and the first free run of ⌈C/4⌉ page-table layers
+  /// (first_texture(id)), both stable until it is removed. Its roots and U′ packets are queued
+  /// like create()'s; its page-table texels are written in full by the next update()s;
+  /// material_ready follows. When the cache has fewer free slots than the material has virtual
+  /// textures, the oldest leaf tiles of other materials are evicted to pin its roots (their
+  /// parents keep serving); nothing else of other materials changes.
+  /// Errors (nothing changes then; `why`, when given, points to a static explanation):
+  /// invalid_argument (no directory, not exactly one source, another tile size or border, an
+  /// unknown row order, rows ≠ lights × views × channels, a hierarchy the container does not
+  /// match), bad_data (a tile missing from the directory), insufficient_space (no free id, no
+  /// run of free layers, no free tile entries, a tile, packet, level count or page table larger
+  /// than the capacity allows, or too few evictable slots). Update thread; noexcept; no
+  /// allocation; O(tiles of the material + cache slots).
+  Status add_material(const StreamerMaterial& material, uint32_t& id, const char** why = nullptr) noexcept;
+  /// Removes a live material at any frame: its requests are cancelled, its queued work dropped,
+  /// its tiles leave the cache (slots free at once), its feedback words are rejected from now
+  /// on (stats().feedback_rejected), its page-table layers are free (ResidencyEventKind::
+  /// material_removed in the next update()). Jobs already reading or running for it end and
+  /// are dropped; once none is left, material_released says its sources may be destroyed and
+  /// the id may be reused. Other materials' resident tiles are not touched. invalid_argument
+  /// for an id that is not live. Update thread; noexcept; no allocation.
+  Status remove_material(uint32_t id) noexcept;
+  /// True when material id is live (created or added, not removed).
+  bool material_live(uint32_t id) const noexcept;
+
   /// Capacity outputs.tile_uploads needs: the scheduler's uploads per frame + root jobs.
   size_t tile_uploads_bound() const noexcept;
   /// Capacity outputs.packet_uploads needs: packet jobs.
@@ -361,8 +416,12 @@ class Streamer {
   const TileCache& cache() const noexcept;
   const Scheduler& scheduler() const noexcept;
   const VoteCounter& votes() const noexcept;
+  /// Material ids (live or not): StreamerConfig::capacity.materials.
   uint32_t material_count() const noexcept;
-  /// First global virtual texture (page-table layer) of a material, and its count ⌈C/4⌉.
+  /// Live materials.
+  uint32_t live_material_count() const noexcept;
+  /// First global virtual texture (page-table layer) of a material, and its count ⌈C/4⌉ (0
+  /// for an id that is not live).
   uint32_t first_texture(uint32_t material) const noexcept;
   uint32_t texture_count(uint32_t material) const noexcept;
   /// C of a material.

@@ -12,10 +12,6 @@
 namespace btflod {
 
 inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, const StreamerConfig& config) {
-  if (materials.empty()) return make_error(Status::invalid_argument, "streamer: no materials");
-  if (materials.size() > 1023)
-    return make_error(Status::invalid_argument, "streamer: %zu materials, the feedback word holds at most 1023",
-                      materials.size());
   if (!config.cache.valid())
     return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
                       config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,
@@ -27,6 +23,50 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   const StreamerFailurePolicy& fp = config.failure;
   if (fp.tile_attempts == 0 || fp.startup_attempts == 0 || fp.packet_attempts == 0)
     return make_error(Status::invalid_argument, "streamer: failure policy attempts must be ≥ 1");
+  // What create()'s materials need; the capacity is that unless the config reserves more.
+  StreamerCapacity need;
+  uint64_t tiles_needed = 0;
+  for (size_t m = 0; m < materials.size(); ++m) {
+    detail::StreamerMaterialNeeds n;
+    const char* why = "";
+    if (const Status s = detail::check_streamer_material(materials[m], config.cache, n, &why); s != Status::success)
+      return make_error(s, "streamer: material %zu (%s): %s", m,
+                        materials[m].directory != nullptr ? materials[m].directory->metadata.material_name.c_str() : "",
+                        why);
+    need.textures += n.textures;
+    tiles_needed += n.tiles;
+    need.max_level_count = std::max(need.max_level_count, n.level_count);
+    need.max_finest_tiles = std::max(need.max_finest_tiles, n.finest_tiles);
+    need.max_tile_bytes = std::max(need.max_tile_bytes, n.max_tile_bytes);
+    need.max_packet_bytes = std::max(need.max_packet_bytes, n.max_packet_bytes);
+    need.max_u_rows = std::max(need.max_u_rows, n.rows);
+  }
+  need.materials = static_cast<uint32_t>(std::min<size_t>(materials.size(), UINT32_MAX));
+  if (tiles_needed >= (1ull << 31)) return make_error(Status::invalid_argument, "streamer: too many tiles");
+  need.tiles = static_cast<uint32_t>(tiles_needed);
+  StreamerCapacity cap = config.capacity;
+  const auto resolve = [](uint32_t& field, uint32_t needed) {
+    if (field == 0) field = needed;
+    return field >= needed;
+  };
+  if (!resolve(cap.materials, need.materials) || !resolve(cap.textures, need.textures) ||
+      !resolve(cap.tiles, need.tiles) || !resolve(cap.max_level_count, need.max_level_count) ||
+      !resolve(cap.max_finest_tiles, need.max_finest_tiles) || !resolve(cap.max_tile_bytes, need.max_tile_bytes) ||
+      !resolve(cap.max_packet_bytes, need.max_packet_bytes) || !resolve(cap.max_u_rows, need.max_u_rows))
+    return make_error(Status::invalid_argument, "streamer: the capacity is below what the %zu materials given need",
+                      materials.size());
+  if (cap.materials == 0)
+    return make_error(Status::invalid_argument, "streamer: no materials and no capacity for any (StreamerConfig::capacity)");
+  if (cap.materials > kFeedbackMaxMaterials)
+    return make_error(Status::invalid_argument, "streamer: %u materials, the feedback word holds at most %u",
+                      cap.materials, kFeedbackMaxMaterials);
+  if (cap.textures == 0 || cap.tiles == 0 || cap.max_level_count == 0 || cap.max_level_count > kMaxTileLevel + 1)
+    return make_error(Status::invalid_argument,
+                      "streamer: a capacity without materials needs textures, tiles and max_level_count (≤ %u)",
+                      kMaxTileLevel + 1);
+  if (config.cache.slot_count() < need.textures)
+    return make_error(Status::insufficient_space, "streamer: %u cache slots cannot pin the roots of %u virtual textures",
+                      config.cache.slot_count(), need.textures);
   // Every allocation goes through a ledger over the engine's callbacks (StreamerStats::memory).
   void* ledger_memory =
       config.allocator.allocate_bytes(sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
@@ -43,53 +83,9 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   } ledger_guard{ledger};
   Streamer out;  // destroyed before the guard on every error path
   const RuntimeAllocator al = ledger->counting();
+  // An empty set with the reserved room: the materials are added below, as add_material() would.
   VtSet set(al);
-  uint32_t total_tiles = 0, max_levels = 0, max_payload = 0, max_packet = 0, max_rows = 0, max_texture_count = 0;
-  for (size_t m = 0; m < materials.size(); ++m) {
-    const StreamerMaterial& sm = materials[m];
-    if (sm.directory == nullptr || (sm.source == nullptr) == (sm.async_source == nullptr))
-      return make_error(Status::invalid_argument, "streamer: material %zu needs a directory and exactly one source", m);
-    const BsvtfMetadata& md = sm.directory->metadata;
-    if (md.tile_size != config.cache.tile_size || md.border != config.cache.border)
-      return make_error(Status::invalid_argument,
-                        "streamer: material %zu (%s) has %u-texel tiles with border %u, the cache %u and %u", m,
-                        md.material_name.c_str(), md.tile_size, md.border, config.cache.tile_size, config.cache.border);
-    const AngularRowOrder order =
-        md.u_row_order != AngularRowOrder::unspecified ? md.u_row_order : sm.assumed_row_order;
-    if (order == AngularRowOrder::unspecified)
-      return make_error(Status::invalid_argument,
-                        "streamer: material %zu (%s) is a version-%u container that does not store U's row order; set "
-                        "StreamerMaterial::assumed_row_order or rebuild it",
-                        m, md.material_name.c_str(), sm.directory->header.version);
-    const uint32_t lights = static_cast<uint32_t>(md.light_directions.size() / 3);
-    const uint32_t views = static_cast<uint32_t>(md.view_directions.size() / 3);
-    if (uint64_t{lights} * views * md.color_channels != md.u_rows)
-      return make_error(Status::invalid_argument,
-                        "streamer: material %zu: %u rows of U, but %u lights × %u views × %u channels", m, md.u_rows,
-                        lights, views, md.color_channels);
-    const VtGeometry g = VtGeometry::make(md.width, md.height, md.tile_size, md.border);
-    if (!g.valid() || g.level_count() != md.level_count)
-      return make_error(Status::bad_data, "streamer: material %zu: %ux%u texels need %u levels, the container has %u",
-                        m, md.width, md.height, g.level_count(), md.level_count);
-    const uint32_t mi = set.add_material(g, md.texture_count());
-    const VtMaterial& vm = set.material(mi);
-    for (uint32_t k = 0; k < vm.texture_count; ++k)
-      for (uint32_t i = 0; i < vm.levels.tile_count(); ++i) {
-        const BsvtfTileEntry* e = sm.directory->find(vm.levels.tile(k, i));
-        if (e == nullptr)
-          return make_error(Status::bad_data,
-                            "streamer: material %zu: tile %u of virtual texture %u missing from the container", m, i,
-                            k);
-        set.weights(vm.first_texture + k)[i] = Half(e->weight);
-        set.energies(vm.first_texture + k)[i] = Half(e->energy);
-        max_payload = std::max(max_payload, e->size);
-      }
-    for (const BsvtfPacketEntry& p : sm.directory->packets) max_packet = std::max(max_packet, p.size);
-    total_tiles += vm.levels.tile_count() * vm.texture_count;
-    max_levels = std::max(max_levels, md.level_count);
-    max_rows = std::max(max_rows, md.u_rows);
-    max_texture_count = std::max(max_texture_count, vm.texture_count);
-  }
+  set.reserve(VtCapacity{cap.materials, cap.textures, cap.tiles});
   const uint64_t set_bytes = ledger->live, set_allocations = ledger->count;  // a create() temporary
   StreamerMemory memory;
   uint64_t mark = ledger->live;
@@ -97,28 +93,12 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   if (!cache) return cache.error();
   memory.tile_cache = ledger->live - mark;
   mark = ledger->live;
-  SchedulerConfig sc = config.scheduler;
-  auto sched = Scheduler::create(cache.value(), sc, al);
+  auto sched = Scheduler::create(cache.value(), config.scheduler, al);
   if (!sched) return sched.error();
   memory.scheduler = ledger->live - mark;
-  // Real payload sizes for the byte budgets.
-  for (uint32_t m = 0; m < set.material_count(); ++m) {
-    const VtMaterial& vm = set.material(m);
-    for (uint32_t k = 0; k < vm.texture_count; ++k)
-      for (uint32_t i = 0; i < vm.levels.tile_count(); ++i)
-        sched->set_tile_bytes(vm.first_texture + k, i, materials[m].directory->find(vm.levels.tile(k, i))->size);
-    sched->set_u_packet_bytes(m, materials[m].directory->packets.empty() ? 0 : materials[m].directory->packets[0].size);
-  }
-  RuntimeArray<VoteLayout> layouts;  // a create() temporary too
-  const uint64_t layouts_bytes = uint64_t{sizeof(VoteLayout)} * set.material_count();
-  if (!layouts.allocate(al, set.material_count()))
-    return make_error(Status::insufficient_space, "streamer: allocator failed");
-  for (uint32_t m = 0; m < set.material_count(); ++m) {
-    const VtLevelTable& lv = set.material(m).levels;
-    layouts[m] = VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]};
-  }
   mark = ledger->live;
-  VoteCounter votes(layouts.span(), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, al);
+  VoteCounter votes(std::span<const VoteLayout>(), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, al,
+                    VoteCapacity{cap.materials, cap.tiles});
   memory.votes = ledger->live - mark;
 
   void* mem = al.allocate_bytes(sizeof(Impl), alignof(Impl));
@@ -128,6 +108,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   im->ledger = std::exchange(ledger_guard.ledger, nullptr);
   im->allocator = al;
   im->config = config;
+  im->capacity = cap;
   im->layout = TileLayout{config.cache.tile_size, config.cache.border, 4};
   mark = ledger->live;
   im->payloads = PayloadCache(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512}, al);
@@ -137,41 +118,12 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   const auto fail = [&](const char* what) {
     return make_error(Status::insufficient_space, "streamer: allocating %s failed", what);
   };
-  const uint32_t nm = static_cast<uint32_t>(materials.size());
-  if (!im->materials.allocate(al, nm) || !im->records.allocate(al, total_tiles) ||
-      !im->texture_material.allocate(al, set.texture_count()))
+  // Tables sized by the capacity: per material id, per tile entry (the VtSet's layout), per
+  // virtual texture (page-table layer).
+  if (!im->materials.allocate(al, cap.materials) || !im->records.allocate(al, cap.tiles) ||
+      !im->texture_material.allocate(al, cap.textures) || !im->packet_records.allocate(al, cap.textures))
     return fail("material tables");
-  uint32_t packets_total = 0;
-  for (uint32_t m = 0; m < nm; ++m) packets_total += set.material(m).texture_count;
-  if (!im->packet_records.allocate(al, packets_total)) return fail("packet table");
-  uint32_t record = 0, packet = 0;
-  for (uint32_t m = 0; m < nm; ++m) {
-    const VtMaterial& vm = set.material(m);
-    const BsvtfMetadata& md = materials[m].directory->metadata;
-    detail::StreamerMaterialState& ms = im->materials[m];
-    ms.source = materials[m].source;
-    ms.async_source = materials[m].async_source;
-    ms.first_texture = vm.first_texture;
-    ms.texture_count = vm.texture_count;
-    ms.components = md.component_count;
-    ms.tile_count = vm.levels.tile_count();
-    ms.record_base = record;
-    ms.lights = static_cast<uint32_t>(md.light_directions.size() / 3);
-    ms.views = static_cast<uint32_t>(md.view_directions.size() / 3);
-    ms.channels = md.color_channels;
-    ms.rows = md.u_rows;
-    ms.row_order = md.u_row_order != AngularRowOrder::unspecified ? md.u_row_order : materials[m].assumed_row_order;
-    ms.packet_base = packet;
-    for (uint32_t k = 0; k < vm.texture_count; ++k) {
-      im->texture_material[vm.first_texture + k] = m;
-      for (uint32_t i = 0; i < ms.tile_count; ++i) {
-        const BsvtfTileEntry* e = materials[m].directory->find(vm.levels.tile(k, i));
-        im->records[record++] = detail::TileRecord{e->offset, e->size, e->crc};
-      }
-      const BsvtfPacketEntry& p = materials[m].directory->packets[k];
-      im->packet_records[packet++] = detail::TileRecord{p.offset, p.size, p.crc};
-    }
-  }
+  std::fill(im->texture_material.data(), im->texture_material.data() + cap.textures, kNoMaterial);
   // Jobs: one per request in flight plus one per upload of a frame (a job whose texels were
   // handed out is reused only after the next update), root jobs, packet jobs.
   im->tile_jobs = config.scheduler.budgets.requests_in_flight + config.scheduler.budgets.uploads_per_frame;
@@ -179,9 +131,10 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   im->packet_jobs = config.packet_jobs;
   const uint32_t tile_like = im->tile_jobs + im->root_jobs;
   const uint32_t nj = tile_like + im->packet_jobs;
-  im->chain_bytes = static_cast<size_t>(max_levels) * max_payload;
-  im->packet_bytes = max_packet;
-  im->max_rows = max_rows;
+  im->chain_bytes = static_cast<size_t>(cap.max_level_count) * cap.max_tile_bytes;
+  im->packet_bytes = cap.max_packet_bytes;
+  im->max_rows = cap.max_u_rows;
+  const size_t max_packet = cap.max_packet_bytes, max_rows = cap.max_u_rows;
   const size_t samples = im->layout.sample_count();
   mark = ledger->live;
   if (!im->jobs.allocate(al, nj) ||
@@ -224,39 +177,32 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   for (uint32_t e = 0; e < config.decoded_cache_tiles; ++e)
     im->decoded[e].samples = im->decoded_floats.data() + size_t{e} * samples;
   memory.decoded_cache = ledger->live - mark;
-  // Failure bookkeeping.
-  const uint32_t textures = set.texture_count();
-  if (!im->tile_failures.allocate(al, total_tiles) || !im->packet_failures.allocate(al, packets_total) ||
-      !im->startup_failed.allocate(al, textures) || !im->held.allocate(al, config.failure.held_tiles_capacity))
+  // Failure bookkeeping, the start-up queue (each root and packet at most once) and the GPU
+  // page-table mirror with its write queue (one entry per tile of every level).
+  if (!im->tile_failures.allocate(al, cap.tiles) || !im->packet_failures.allocate(al, cap.textures) ||
+      !im->startup_failed.allocate(al, cap.textures) || !im->held.allocate(al, config.failure.held_tiles_capacity))
     return fail("failure tables");
-  // Start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
-  // A material's tiles are scheduled once it is ready (its roots verified and uploaded).
-  if (!im->startup.allocate(al, size_t{textures} * 2)) return fail("start-up queue");
-  for (uint32_t t = 0; t < textures; ++t) im->push_startup(t << 1);
-  if (!config.scheduler.stream_u_columns)
-    for (uint32_t t = 0; t < textures; ++t) im->push_startup(t << 1 | 1);
-  for (uint32_t m = 0; m < nm; ++m) im->scheduler.set_material_enabled(m, false);
-  // GPU page-table mirror: every texel queued once (the initial full upload).
-  if (!im->texture_tile_base.allocate(al, textures) || !im->mirror.allocate(al, total_tiles) ||
-      !im->queued.allocate(al, total_tiles) || !im->queue.allocate(al, std::max<uint32_t>(total_tiles, 1)) ||
-      !im->mirror_texture.allocate(al, total_tiles))
+  if (!im->startup.allocate(al, size_t{cap.textures} * 2)) return fail("start-up queue");
+  if (!im->texture_tile_base.allocate(al, cap.textures) || !im->mirror.allocate(al, cap.tiles) ||
+      !im->queued.allocate(al, cap.tiles) || !im->queue.allocate(al, cap.tiles) ||
+      !im->mirror_texture.allocate(al, cap.tiles))
     return fail("page-table mirror");
-  uint32_t base = 0;
-  for (uint32_t t = 0; t < textures; ++t) {
-    im->texture_tile_base[t] = base;
-    const VtLevelTable& lv = im->cache.set().levels_of(t);
-    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
-      im->mirror_texture[base + i] = t;
-      im->mirror[base + i] = 0xffffffffu;  // never a valid entry: the first write always goes out
-      im->queue_write(t, i, gpu_page_entry(im->cache, lv.tile(t, i)));
-    }
-    base += lv.tile_count();
+  // create()'s materials, as add_material() adds them (ids 0 … n − 1, layers in order), then
+  // the start-up queue: every root, then every U′ packet unless the scheduler streams them (§6).
+  for (size_t m = 0; m < materials.size(); ++m) {
+    uint32_t id = kNoMaterial;
+    const char* why = "";
+    if (const Status s = im->add_material(materials[m], id, false, &why); s != Status::success)
+      return make_error(s, "streamer: material %zu: %s", m, why);
   }
-  im->cache.clear_deltas();
+  for (uint32_t t = 0; t < need.textures; ++t) im->push_startup(t << 1);
+  if (!config.scheduler.stream_u_columns)
+    for (uint32_t t = 0; t < need.textures; ++t) im->push_startup(t << 1 | 1);
+  im->cache.clear_deltas();  // the mirror queued every texel already
   // What is left: the Streamer object, the material, tile and packet tables, the page-table
   // mirror and queues (the create() temporaries are released when it returns: not counted).
-  memory.total = ledger->live - set_bytes - layouts_bytes + sizeof(detail::AllocationLedger);
-  memory.allocations = ledger->count - set_allocations;  // the layouts out, the ledger in: one each
+  memory.total = ledger->live - set_bytes + sizeof(detail::AllocationLedger);
+  memory.allocations = ledger->count - set_allocations + 1;  // the ledger itself: one more
   memory.tables = memory.total - memory.tile_cache - memory.scheduler - memory.votes - memory.payload_cache -
                   memory.job_buffers - memory.decoders - memory.decoded_cache;
   im->memory = memory;
@@ -307,6 +253,14 @@ inline bool Streamer::idle() const noexcept {
   }
   return true;
 }
+inline Status Streamer::add_material(const StreamerMaterial& material, uint32_t& id, const char** why) noexcept {
+  return impl_->add_material(material, id, true, why);
+}
+inline Status Streamer::remove_material(uint32_t id) noexcept { return impl_->remove_material(id); }
+inline bool Streamer::material_live(uint32_t id) const noexcept {
+  return id < impl_->materials.size() && impl_->materials[id].life == detail::kMaterialLive;
+}
+inline uint32_t Streamer::live_material_count() const noexcept { return impl_->live_materials; }
 inline bool Streamer::material_failed(uint32_t m) const noexcept {
   return m < impl_->materials.size() && impl_->materials[m].failed;
 }
@@ -318,7 +272,14 @@ inline StreamerStats Streamer::stats() const noexcept {
   st.frame = im.frame;
   st.slots = im.cache.slot_count();
   st.slots_used = im.cache.used_count();
-  for (uint32_t m = 0; m < im.materials.size(); ++m) st.materials_ready += im.materials[m].ready ? 1u : 0u;
+  for (uint32_t m = 0; m < im.materials.size(); ++m) {
+    st.materials_ready += im.materials[m].ready ? 1u : 0u;
+    st.materials_removing += im.materials[m].life == detail::kMaterialRemoving ? 1u : 0u;
+  }
+  st.materials_live = im.live_materials;
+  st.jobs_dropped = im.jobs_dropped;
+  st.materials_added = im.materials_added;
+  st.materials_removed = im.materials_removed_count;
   st.materials_failed = im.materials_failed_now;
   for (uint32_t j = 0; j < im.jobs.size(); ++j) {
     const uint8_t s = im.jobs[j].state.load(std::memory_order_relaxed);
@@ -350,25 +311,40 @@ inline StreamerGpuLayout Streamer::gpu_layout() const noexcept {
   g.cache_width = c.slots_x * stored;
   g.cache_height = c.slots_y * stored;
   g.cache_layers = c.cache_layers;
+  // Sized by the capacity, so materials added later fit the same resources.
+  g.page_table_layers = g.u_packets = im.capacity.textures;
+  g.page_table_width = g.page_table_height = 0;
+  g.page_table_levels = im.capacity.max_level_count;
+  g.u_rows = im.capacity.max_u_rows;
+  // The finest level of the deepest material is at most max_finest_tiles wide; the live
+  // materials' actual extents (never more).
   const VtSet& set = im.cache.set();
-  g.page_table_layers = g.u_packets = set.texture_count();
   for (uint32_t m = 0; m < set.material_count(); ++m) {
+    if (!set.material_live(m)) continue;
     const VtLevelTable& lv = set.material(m).levels;
     g.page_table_width = std::max(g.page_table_width, lv.tiles_x[lv.finest_level()]);
     g.page_table_height = std::max(g.page_table_height, lv.tiles_y[lv.finest_level()]);
-    g.page_table_levels = std::max(g.page_table_levels, lv.finest_level() + 1);
-    g.u_rows = std::max(g.u_rows, im.materials[m].rows);
   }
+  g.page_table_width = std::max(g.page_table_width, im.capacity.max_finest_tiles);
+  g.page_table_height = std::max(g.page_table_height, im.capacity.max_finest_tiles);
   return g;
 }
 inline const TileCache& Streamer::cache() const noexcept { return impl_->cache; }
 inline const Scheduler& Streamer::scheduler() const noexcept { return impl_->scheduler; }
 inline const VoteCounter& Streamer::votes() const noexcept { return impl_->votes; }
 inline uint32_t Streamer::material_count() const noexcept { return static_cast<uint32_t>(impl_->materials.size()); }
-inline uint32_t Streamer::first_texture(uint32_t m) const noexcept { return impl_->materials[m].first_texture; }
-inline uint32_t Streamer::texture_count(uint32_t m) const noexcept { return impl_->materials[m].texture_count; }
-inline uint32_t Streamer::component_count(uint32_t m) const noexcept { return impl_->materials[m].components; }
-inline bool Streamer::material_ready(uint32_t m) const noexcept { return impl_->materials[m].ready; }
+inline uint32_t Streamer::first_texture(uint32_t m) const noexcept {
+  return material_live(m) ? impl_->materials[m].first_texture : 0;
+}
+inline uint32_t Streamer::texture_count(uint32_t m) const noexcept {
+  return material_live(m) ? impl_->materials[m].texture_count : 0;
+}
+inline uint32_t Streamer::component_count(uint32_t m) const noexcept {
+  return material_live(m) ? impl_->materials[m].components : 0;
+}
+inline bool Streamer::material_ready(uint32_t m) const noexcept {
+  return m < impl_->materials.size() && impl_->materials[m].ready;
+}
 inline size_t Streamer::pending_page_table_writes() const noexcept { return impl_->queue_count; }
 inline uint64_t Streamer::events_dropped() const noexcept { return impl_->dropped_events; }
 inline uint64_t Streamer::bytes_read() const noexcept { return impl_->bytes_read.load(std::memory_order_relaxed); }

@@ -35,15 +35,24 @@ struct TileRecord {  // one tile of a container: where its payload is
   uint32_t crc = 0;
 };
 
+enum MaterialLife : uint8_t {
+  kMaterialFree,      // the id is free
+  kMaterialLive,      // added, not removed
+  kMaterialRemoving,  // removed; jobs launched for it have not all ended (the id is not reused yet)
+};
+
 struct StreamerMaterialState {
   TileSource* source = nullptr;
   AsyncTileSource* async_source = nullptr;
   uint32_t first_texture = 0, texture_count = 0, components = 0;
   uint32_t tile_count = 0;   // per virtual texture
-  uint32_t record_base = 0;  // index of (texture 0, flat 0) in the records array
+  uint32_t record_base = 0;  // index of (texture 0, flat 0) in the records array (the VtSet entry base)
+  uint32_t generation = 0;   // bumped by every add of this id: jobs of an earlier one are stale
+  uint8_t life = kMaterialFree;
+  uint8_t announce_removed = 0;  // material_removed not yet emitted
   uint32_t lights = 0, views = 0, channels = 0, rows = 0;
   AngularRowOrder row_order = AngularRowOrder::light_major;
-  uint32_t packet_base = 0;  // index of packet 0 in the packet records
+  uint32_t packet_base = 0;  // index of packet 0 in the packet records (= first_texture)
   uint32_t roots_loaded = 0, packets_loaded = 0;
   bool ready = false;
   bool failed = false;  // a root or start-up packet was given up (material_failed)
@@ -55,12 +64,19 @@ struct StreamerJob {
   std::atomic<uint8_t> read_status{0};
   uint8_t kind = kTileJob;
   uint32_t material = 0;
+  uint32_t generation = 0;  // the material's generation at launch (stale when it differs)
+  // Everything run_job() reads is captured at launch, so a worker never reads the tables the
+  // update thread changes when materials come and go.
+  TileSource* source = nullptr;  // blocking source (null: the reads are async)
+  uint32_t packet_rows = 0, packet_na = 0, packet_nb = 0, packet_channels = 0;
+  uint8_t packet_swap = 0;
   uint32_t request = 0;  // scheduler request id (tile and scheduler packet jobs); kNoJob: start-up
   TileId tile;           // global id; for packets {texture, 0, 0, 0}
   uint32_t chain = 0;    // tiles root … tile
   uint32_t next_read = 0;
   TileId chain_tile[kMaxTileLevel + 1];
   uint32_t chain_offset[kMaxTileLevel + 1] = {};  // offset into bytes
+  TileRecord chain_record[kMaxTileLevel + 1];     // where each chain tile's payload is (packets: [0])
   uint8_t chain_cached[kMaxTileLevel + 1] = {};   // bytes came from the payload cache
   uint32_t chain_start = 0;                       // first chain level decoded (those above come from `base`)
   const float* base = nullptr;                    // decoded ancestor chain_start − 1 (a pinned cache entry)
@@ -138,6 +154,10 @@ struct Streamer::Impl final : StreamerJobQueue {
   uint64_t tile_failure_count = 0, packet_failure_count = 0, retry_count = 0, cancelled_count = 0;
   uint64_t feedback_ignored = 0;
   bool quiescing = false;
+  // Materials that come and go (runtime/streamer_materials.hpp).
+  StreamerCapacity capacity;  // resolved at create()
+  uint32_t live_materials = 0;
+  uint64_t materials_added = 0, materials_removed_count = 0, jobs_dropped = 0;
   StreamerMemory memory;
   size_t chain_bytes = 0, packet_bytes = 0, max_rows = 0;
   // Start-up queue: a ring of (global texture << 1 | is_packet), roots first; items a
@@ -175,6 +195,14 @@ struct Streamer::Impl final : StreamerJobQueue {
   std::atomic<uint64_t> bytes_read{0};
   void (*notify)(void*) = nullptr;
   void* notify_user = nullptr;
+
+  Status add_material(const StreamerMaterial& sm, uint32_t& id, bool queue_startup, const char** why) noexcept;
+  Status remove_material(uint32_t m) noexcept;
+  bool stale(const detail::StreamerJob& job) const noexcept;
+  void abandon_reads(uint32_t j) noexcept;
+  bool evict_leaf() noexcept;
+  void purge_cached(uint32_t m) noexcept;
+  void announce_materials(StreamerOutputs& out) noexcept;
 
   Impl(TileCache&& c, Scheduler&& s, VoteCounter&& v)
       : cache(std::move(c)), scheduler(std::move(s)), votes(std::move(v)) {}
@@ -248,7 +276,7 @@ struct Streamer::Impl final : StreamerJobQueue {
 
   // Reads the payloads the job does not have yet through the blocking source.
   Status read_blocking(detail::StreamerJob& job, std::span<uint8_t> dst, uint64_t offset) noexcept {
-    TileSource* src = materials[job.material].source;
+    TileSource* src = job.source;
     if (src == nullptr) return Status::invalid_argument;
     auto r = src->read(offset, dst);
     if (!r) return r.status();
@@ -257,9 +285,6 @@ struct Streamer::Impl final : StreamerJobQueue {
   }
 
   Status run_tile(detail::StreamerJob& job, TileDecoder& decoder) noexcept {
-    const uint32_t m = job.material;
-    const uint32_t k = local_texture(job.tile);
-    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
     // Decode chain_start … tile, each level against the previous one (the first against the
     // cached ancestor `base`, or nothing for the root), alternating between the two buffers.
     float* buffers[2] = {job.out, job.parent};
@@ -267,9 +292,9 @@ struct Streamer::Impl final : StreamerJobQueue {
     uint32_t current = 0;
     for (uint32_t i = job.chain_start; i < job.chain; ++i) {
       const TileId t = job.chain_tile[i];
-      const detail::TileRecord& rec = record_of(m, k, lv.index(t));
+      const detail::TileRecord& rec = job.chain_record[i];
       std::span<uint8_t> dst(job.bytes + job.chain_offset[i], rec.size);
-      if (!job.chain_cached[i] && materials[m].async_source == nullptr) {
+      if (!job.chain_cached[i] && job.source != nullptr) {
         const Status s = read_blocking(job, dst, rec.offset);
         if (s != Status::success) return s;
       }
@@ -290,24 +315,21 @@ struct Streamer::Impl final : StreamerJobQueue {
   }
 
   Status run_packet(detail::StreamerJob& job) noexcept {
-    const detail::StreamerMaterialState& ms = materials[job.material];
-    const uint32_t g = local_texture(job.tile);
-    const detail::TileRecord& rec = packet_records[ms.packet_base + g];
+    const detail::TileRecord& rec = job.chain_record[0];
     std::span<uint8_t> dst(job.bytes, rec.size);
-    if (ms.async_source == nullptr) {
+    if (job.source != nullptr) {
       const Status s = read_blocking(job, dst, rec.offset);
       if (s != Status::success) return s;
     }
     if (verify_bsvtf_payload(rec.size, rec.crc, dst) != Status::success) return Status::bad_data;
     // Rows (a · n_b + b) · channels + colour; reorder when the container's order differs.
-    const bool swap = ms.row_order != config.u_row_order;
-    const uint32_t na = ms.row_order == AngularRowOrder::light_major ? ms.lights : ms.views;
-    const uint32_t nb = ms.row_order == AngularRowOrder::light_major ? ms.views : ms.lights;
+    const bool swap = job.packet_swap != 0;
+    const uint32_t na = job.packet_na, nb = job.packet_nb, channels = job.packet_channels;
     for (uint32_t a = 0; a < na; ++a)
       for (uint32_t b = 0; b < nb; ++b)
-        for (uint32_t c = 0; c < ms.channels; ++c) {
-          const size_t src_row = (static_cast<size_t>(a) * nb + b) * ms.channels + c;
-          const size_t dst_row = swap ? (static_cast<size_t>(b) * na + a) * ms.channels + c : src_row;
+        for (uint32_t c = 0; c < channels; ++c) {
+          const size_t src_row = (static_cast<size_t>(a) * nb + b) * channels + c;
+          const size_t dst_row = swap ? (static_cast<size_t>(b) * na + a) * channels + c : src_row;
           std::memcpy(job.halves + dst_row * 4, job.bytes + src_row * 8, 8);
         }
     return Status::success;
@@ -351,6 +373,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       const TileId t = job.tile.ancestor(i);
       job.chain_tile[i] = t;
       job.chain_offset[i] = offset;
+      job.chain_record[i] = record_of(m, k, lv.index(t));
       if (i < job.chain_start) {  // not decoded: no payload needed
         job.chain_cached[i] = 1;
         continue;
@@ -415,18 +438,16 @@ struct Streamer::Impl final : StreamerJobQueue {
     AsyncTileSource* src = materials[job.material].async_source;
     if (job.kind == detail::kPacketJob) {
       if (job.next_read > 0) return true;
-      const detail::TileRecord& rec = packet_records[materials[job.material].packet_base + local_texture(job.tile)];
+      const detail::TileRecord& rec = job.chain_record[0];
       if (!src->start_read(rec.offset, std::span<uint8_t>(job.bytes, rec.size), ticket_of(j, 0))) return false;
       bytes_read.fetch_add(rec.size, std::memory_order_relaxed);
       job.next_read = 1;
       return true;
     }
-    const uint32_t k = local_texture(job.tile);
-    const VtLevelTable& lv = cache.set().levels_of(job.tile.texture);
     for (; job.next_read < job.chain; ++job.next_read) {
       const uint32_t i = job.next_read;
       if (job.chain_cached[i]) continue;
-      const detail::TileRecord& rec = record_of(job.material, k, lv.index(job.chain_tile[i]));
+      const detail::TileRecord& rec = job.chain_record[i];
       if (!src->start_read(rec.offset, std::span<uint8_t>(job.bytes + job.chain_offset[i], rec.size), ticket_of(j, i)))
         return false;
       bytes_read.fetch_add(rec.size, std::memory_order_relaxed);
@@ -471,6 +492,8 @@ struct Streamer::Impl final : StreamerJobQueue {
     job.request = request;
     job.tile = global;
     job.material = texture_material[global.texture];
+    job.generation = materials[job.material].generation;
+    job.source = materials[job.material].source;
     launch(j, prepare_chain(job));
   }
   void start_packet_job(uint32_t j, uint32_t request, uint32_t texture) noexcept {
@@ -479,6 +502,15 @@ struct Streamer::Impl final : StreamerJobQueue {
     job.request = request;
     job.tile = TileId{texture, 0, 0, 0};
     job.material = texture_material[texture];
+    const detail::StreamerMaterialState& ms = materials[job.material];
+    job.generation = ms.generation;
+    job.source = ms.source;
+    job.chain_record[0] = packet_records[ms.packet_base + (texture - ms.first_texture)];
+    job.packet_rows = ms.rows;
+    job.packet_swap = ms.row_order != config.u_row_order ? 1 : 0;
+    job.packet_na = ms.row_order == AngularRowOrder::light_major ? ms.lights : ms.views;
+    job.packet_nb = ms.row_order == AngularRowOrder::light_major ? ms.views : ms.lights;
+    job.packet_channels = ms.channels;
     job.next_read = 0;
     launch(j, 1);
   }
@@ -644,7 +676,7 @@ struct Streamer::Impl final : StreamerJobQueue {
   }
 
   Status retry_material(uint32_t m) noexcept {
-    if (m >= materials.size()) return Status::invalid_argument;
+    if (m >= materials.size() || materials[m].life != detail::kMaterialLive) return Status::invalid_argument;
     detail::StreamerMaterialState& ms = materials[m];
     for (uint32_t k = 0; k < ms.texture_count; ++k) {
       const uint32_t t = ms.first_texture + k;
@@ -689,16 +721,27 @@ struct Streamer::Impl final : StreamerJobQueue {
     for (uint32_t j = 0; j < jobs.size(); ++j)
       if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobHanded)
         jobs[j].state.store(detail::kJobFree, std::memory_order_relaxed);
-    // Retry async reads a source refused.
-    if (!quiescing)
-      for (uint32_t j = 0; j < jobs.size(); ++j)
-        if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobReading) start_reads(j);
+    // Retry async reads a source refused (a removed material's are abandoned instead).
+    for (uint32_t j = 0; j < jobs.size(); ++j) {
+      if (jobs[j].state.load(std::memory_order_acquire) != detail::kJobReading) continue;
+      if (stale(jobs[j]))
+        abandon_reads(j);
+      else if (!quiescing)
+        start_reads(j);
+    }
     // 2. Finished jobs.
     for (uint32_t j = 0; j < jobs.size(); ++j) {
       detail::StreamerJob& job = jobs[j];
       const uint8_t st = job.state.load(std::memory_order_acquire);
       if (st != detail::kJobDone && st != detail::kJobFailed) continue;
       const bool ok = st == detail::kJobDone;
+      if (stale(job)) {  // its material was removed: dropped
+        release_decoded(job);
+        job.decoded_kept = 1;
+        job.state.store(detail::kJobFree, std::memory_order_relaxed);
+        ++jobs_dropped;
+        continue;
+      }
       if (job.kind != detail::kPacketJob) keep_decoded(job, ok);
       if (job.kind == detail::kRootJob) {
         if (ok && out.tile_upload_count < out.tile_uploads.size()) {
@@ -811,6 +854,11 @@ struct Streamer::Impl final : StreamerJobQueue {
     // Start-up: roots, then packets (then what retry_material() queued again).
     while (startup_count > 0) {
       const uint32_t item = startup[startup_head];
+      if (texture_material[item >> 1] == kNoMaterial) {  // cannot happen: removals purge the queue
+        startup_head = (startup_head + 1) % static_cast<uint32_t>(startup.size());
+        --startup_count;
+        continue;
+      }
       const bool root = (item & 1u) == 0;
       const uint32_t j =
           root ? free_job(tile_jobs, tile_jobs + root_jobs) : free_job(packet_begin, packet_begin + packet_jobs);
@@ -825,8 +873,10 @@ struct Streamer::Impl final : StreamerJobQueue {
     return finish_update(out);
   }
 
-  // 5. Page-table texels changed by this frame's operations, then the runnable jobs.
+  // 5. Page-table texels changed by this frame's operations, removed materials, then the
+  // runnable jobs.
   Status finish_update(StreamerOutputs& out) noexcept {
+    announce_materials(out);
     for_each_frame_page_table_write(cache, [&](const PageTableWrite& w) {
       queue_write(w.tile.texture, cache.set().levels_of(w.tile.texture).index(w.tile), w.entry);
     });
@@ -862,4 +912,5 @@ struct Streamer::Impl final : StreamerJobQueue {
 
 }  // namespace btflod
 
+#include "btflod/runtime/streamer_materials.hpp"
 #include "btflod/runtime/streamer_create.hpp"

@@ -136,6 +136,22 @@ class PayloadCache {
     return true;
   }
 
+  /// Removes every entry whose key satisfies pred(key) (e.g. the payloads of a material that
+  /// left). Returns how many were removed. noexcept as pred is; no allocation; O(entries).
+  template <class Pred>
+  size_t erase_if(Pred&& pred) noexcept {
+    size_t n = 0;
+    for (uint32_t e = head_; e != kNone;) {
+      const uint32_t next = entries_[e].next;
+      if (pred(entries_[e].key)) {
+        remove(e);
+        ++n;
+      }
+      e = next;
+    }
+    return n;
+  }
+
   /// Calls f(key, size) from the most to the least recently used entry (tests, diagnostics).
   template <class F>
   void for_each_mru(F&& f) const {

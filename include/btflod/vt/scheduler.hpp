@@ -144,49 +144,32 @@ class Scheduler {
     s.pending_.assign(b.requests_in_flight, Pending{});
     s.free_requests_.reserve(b.requests_in_flight);
     for (uint32_t i = b.requests_in_flight; i-- > 0;) s.free_requests_.push_back(i);
-    // Per-tile arrays are tile-major per material (index = base + flat · K + k), like the
-    // cache's slot table, so one material tile's K virtual textures share a cache line.
-    s.material_base_.assign(set.material_count() + 1, 0);
-    for (uint32_t m = 0; m < set.material_count(); ++m)
-      s.material_base_[m + 1] =
-          s.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
+    // Per-tile arrays are tile-major per material (index = entry_base + flat · K + k), like
+    // the cache's slot table, so one material tile's K virtual textures share a cache line;
+    // sized by the set's entries (its reservation, if any), per material and per texture id.
+    s.material_base_.assign(set.material_count(), 0);
+    s.material_textures_.assign(set.material_count(), 0);
+    s.material_tiles_.assign(set.material_count(), 0);
     s.texture_base_.assign(set.texture_count(), 0);
     s.texture_stride_.assign(set.texture_count(), 1);
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const uint32_t m = set.material_of(t);
-      s.texture_base_[t] = s.material_base_[m] + (t - set.material(m).first_texture);
-      s.texture_stride_[t] = set.material(m).texture_count;
-    }
-    s.requested_.assign(s.material_base_.back(), 0);
-    s.set_weights_.assign(s.material_base_.back(), 1.0f);
-    s.weights_.assign(s.material_base_.back(), 1.0f);
-    s.energies_.assign(s.material_base_.back(), 0.0f);
-    s.tile_bytes_.assign(s.material_base_.back(),
-                         static_cast<uint32_t>(std::min<uint64_t>(config.tile_bytes, UINT32_MAX)));
+    s.texture_material_.assign(set.texture_count(), kNoMaterial);
+    s.requested_.assign(set.entry_count(), 0);
+    s.set_weights_.assign(set.entry_count(), 1.0f);
+    s.weights_.assign(set.entry_count(), 1.0f);
+    s.energies_.assign(set.entry_count(), 0.0f);
+    s.tile_bytes_.assign(set.entry_count(), static_cast<uint32_t>(std::min<uint64_t>(config.tile_bytes, UINT32_MAX)));
+    s.max_weights_.assign(set.entry_count(), 0.0f);  // per material tile: [entry_base + flat]
     s.u_packet_bytes_.assign(set.material_count(), config.u_packet_bytes);
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const std::span<const Half> w = set.weights(t);
-      const std::span<const Half> e = set.energies(t);
-      for (uint32_t i = 0; i < w.size(); ++i) s.set_weights_[s.index(t, i)] = w[i].to_float();
-      for (uint32_t i = 0; i < e.size(); ++i) s.energies_[s.index(t, i)] = e[i].to_float();
-    }
-    s.texture_material_.assign(set.texture_count(), 0);
-    for (uint32_t t = 0; t < set.texture_count(); ++t) s.texture_material_[t] = set.material_of(t);
-    s.tile_base_.assign(set.material_count() + 1, 0);
-    for (uint32_t m = 0; m < set.material_count(); ++m)
-      s.tile_base_[m + 1] = s.tile_base_[m] + set.material(m).levels.tile_count();
-    s.max_weights_.assign(s.tile_base_.back(), 0.0f);
-    s.apply_mode();
     s.u_loaded_.assign(set.material_count(), 0);
     s.u_requested_.assign(set.material_count(), 0);
-    for (uint32_t m = 0; m < set.material_count(); ++m)
-      s.u_loaded_[m] = config.stream_u_columns ? 0 : set.material(m).texture_count;
     s.u_priority_.assign(set.material_count(), 0.0);
-    s.material_enabled_.assign(set.material_count(), 1);
+    s.material_enabled_.assign(set.material_count(), 0);
     s.u_held_.assign(set.material_count(), 0);
-    s.adds_.reserve(b.requests_in_flight + 2);
     s.leaves_.assign(static_cast<size_t>(set.texture_count()) * kLeavesPerTexture, Leaf{});
     s.leaf_count_.assign(set.texture_count(), 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      if (set.material_live(m)) s.init_material(set, m);
+    s.adds_.reserve(b.requests_in_flight + 2);
     s.leaf_textures_.reserve(set.texture_count());
     s.pairs_.reserve(static_cast<size_t>(set.texture_count()) * 2);
     s.requests_out_.reserve(b.requests_in_flight);
@@ -198,7 +181,7 @@ class Scheduler {
   /// a container's tile index). In votes_only mode the priority keeps using 1. Out-of-range ids
   /// are ignored. noexcept, no allocation.
   void set_weight(uint32_t texture, uint32_t flat, float w) noexcept {
-    if (texture >= texture_base_.size()) return;
+    if (!texture_live(texture)) return;
     const size_t i = index(texture, flat);
     if (i >= set_weights_.size()) return;
     set_weights_[i] = w;
@@ -207,14 +190,14 @@ class Scheduler {
   }
   /// Sets ‖T‖²_F / T² of a tile (paper 000 §6's U'-packet priority). Out-of-range ids ignored.
   void set_energy(uint32_t texture, uint32_t flat, float e) noexcept {
-    if (texture >= texture_base_.size()) return;
+    if (!texture_live(texture)) return;
     const size_t i = index(texture, flat);
     if (i < energies_.size()) energies_[i] = e;
   }
   /// Sets the bytes a request for this tile counts against bytes_in_flight (its real payload
   /// size). Out-of-range ids are ignored. noexcept.
   void set_tile_bytes(uint32_t texture, uint32_t flat, uint32_t bytes) noexcept {
-    if (texture >= texture_base_.size()) return;
+    if (!texture_live(texture)) return;
     const size_t i = index(texture, flat);
     if (i < tile_bytes_.size()) tile_bytes_[i] = bytes;
   }
@@ -227,14 +210,14 @@ class Scheduler {
   /// tile with a request in flight is not changed (cancel() the request first). Out-of-range
   /// ids are ignored. noexcept, no allocation.
   void hold_tile(uint32_t texture, uint32_t flat, bool held) noexcept {
-    if (texture >= texture_base_.size()) return;
+    if (!texture_live(texture)) return;
     const size_t i = index(texture, flat);
     if (i >= requested_.size() || requested_[i] == kRequested) return;
     requested_[i] = held ? kHeld : 0;
   }
   /// True when the tile is held back (hold_tile). Out-of-range ids: false.
   bool tile_held(uint32_t texture, uint32_t flat) const noexcept {
-    if (texture >= texture_base_.size()) return false;
+    if (!texture_live(texture)) return false;
     const size_t i = index(texture, flat);
     return i < requested_.size() && requested_[i] == kHeld;
   }
@@ -251,6 +234,36 @@ class Scheduler {
   /// Holds back (or releases) the §6 U′ packet requests of a material. Out of range: ignored.
   void hold_u_packets(uint32_t material, bool held) noexcept {
     if (material < u_held_.size()) u_held_[material] = held ? 1 : 0;
+  }
+
+  /// Adds a material to the cache (TileCache::add_material, which needs a VtSet reservation)
+  /// and to the scheduler: its tiles start with weight 1, energy 0 and config().tile_bytes
+  /// (set_weight / set_energy / set_tile_bytes give the real values), scheduling enabled.
+  /// Writes the material id. Errors as TileCache::add_material. noexcept, no allocation.
+  Status add_material(TileCache& cache, const VtGeometry& geometry, uint32_t texture_count, uint32_t& material) noexcept {
+    const Status st = cache.add_material(geometry, texture_count, material);
+    if (st == Status::success) init_material(cache.set(), material);
+    return st;
+  }
+  /// Removes a material: cancels its requests in flight (their reserved slots are freed), then
+  /// removes it from the cache (TileCache::remove_material: its slots are freed, its ids become
+  /// free). Other materials' requests and tiles are not touched. invalid_argument for a
+  /// material that is not live. noexcept, no allocation.
+  Status remove_material(TileCache& cache, uint32_t material) noexcept {
+    const VtSet& set = cache.set();
+    if (!set.material_live(material)) return Status::invalid_argument;
+    for (uint32_t id = 0; id < pending_.size(); ++id)
+      if (pending_[id].state != State::idle && set.material_of(pending_[id].tile.texture) == material)
+        cancel(cache, id);
+    const VtMaterial vm = set.material(material);
+    for (uint32_t k = 0; k < vm.texture_count; ++k) {
+      texture_material_[vm.first_texture + k] = kNoMaterial;
+      leaf_count_[vm.first_texture + k] = 0;
+    }
+    material_enabled_[material] = 0;
+    u_loaded_[material] = u_requested_[material] = u_held_[material] = 0;
+    u_priority_[material] = 0.0;
+    return cache.remove_material(material);
   }
 
   /// Bytes a request for the tile counts (set_tile_bytes or config().tile_bytes).
@@ -392,6 +405,8 @@ class Scheduler {
       : pending_(a),
         free_requests_(a),
         material_base_(a),
+        material_textures_(a),
+        material_tiles_(a),
         requested_(a),
         texture_base_(a),
         texture_stride_(a),
@@ -413,7 +428,6 @@ class Scheduler {
         requests_out_(a),
         protected_stamp_(a),
         texture_material_(a),
-        tile_base_(a),
         max_weights_(a) {}
 
   static constexpr uint32_t kLeavesPerTexture = 4;
@@ -448,22 +462,50 @@ class Scheduler {
   size_t index(uint32_t texture, uint32_t flat) const noexcept {
     return texture_base_[texture] + static_cast<size_t>(flat) * texture_stride_[texture];
   }
-  void apply_mode() noexcept {
-    for (size_t i = 0; i < weights_.size(); ++i)
-      weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : set_weights_[i];
-    for (uint32_t m = 0; m + 1 < tile_base_.size(); ++m)
-      for (uint32_t flat = 0; flat < tile_base_[m + 1] - tile_base_[m]; ++flat) update_max_weight(m, flat);
+  bool texture_live(uint32_t texture) const noexcept {
+    return texture < texture_material_.size() && texture_material_[texture] != kNoMaterial;
+  }
+  // A live material's per-tile, per-material and per-texture entries (at create or add).
+  void init_material(const VtSet& set, uint32_t m) noexcept {
+    const VtMaterial& vm = set.material(m);
+    const uint32_t K = vm.texture_count, tiles = vm.levels.tile_count();
+    material_base_[m] = vm.entry_base;
+    material_textures_[m] = K;
+    material_tiles_[m] = tiles;
+    for (uint32_t k = 0; k < K; ++k) {
+      const uint32_t t = vm.first_texture + k;
+      texture_base_[t] = vm.entry_base + k;
+      texture_stride_[t] = K;
+      texture_material_[t] = m;
+      leaf_count_[t] = 0;
+      const std::span<const Half> w = set.weights(t);
+      const std::span<const Half> e = set.energies(t);
+      for (uint32_t i = 0; i < tiles; ++i) {
+        const size_t x = index(t, i);
+        requested_[x] = 0;
+        set_weights_[x] = w[i].to_float();
+        weights_[x] = config_.mode == PriorityMode::votes_only ? 1.0f : set_weights_[x];
+        energies_[x] = e[i].to_float();
+        tile_bytes_[x] = static_cast<uint32_t>(std::min<uint64_t>(config_.tile_bytes, UINT32_MAX));
+      }
+    }
+    for (uint32_t flat = 0; flat < tiles; ++flat) update_max_weight(m, flat);
+    u_packet_bytes_[m] = config_.u_packet_bytes;
+    u_loaded_[m] = config_.stream_u_columns ? 0 : K;
+    u_requested_[m] = 0;
+    u_priority_[m] = 0.0;
+    material_enabled_[m] = 1;
+    u_held_[m] = 0;
   }
   // The bound collect_adds() uses: no add candidate of this material tile has a priority above
   // max_weights_ · v (NaN weights are left out: their candidates are never kept once the list
   // is full either).
   void update_max_weight(uint32_t material, uint32_t flat) noexcept {
-    const uint32_t K =
-        (material_base_[material + 1] - material_base_[material]) / (tile_base_[material + 1] - tile_base_[material]);
+    const uint32_t K = material_textures_[material];
     const float* w = weights_.data() + material_base_[material] + static_cast<size_t>(flat) * K;
     float mx = 0.0f;
     for (uint32_t k = 0; k < K; ++k) mx = std::max(mx, w[k]);
-    max_weights_[tile_base_[material] + flat] = mx;
+    max_weights_[material_base_[material] + flat] = mx;
   }
   float weight(uint32_t texture, uint32_t flat) const noexcept { return weights_[index(texture, flat)]; }
 
@@ -499,7 +541,7 @@ class Scheduler {
       // Once the list is full, a tile whose best possible priority is below its last entry adds
       // nothing (add_before() is false for every candidate): only its missing count matters.
       if (adds_.size() == keep &&
-          static_cast<double>(max_weights_[tile_base_[ft.material] + flat]) * v < adds_.back().priority) {
+          static_cast<double>(max_weights_[material_base_[ft.material] + flat]) * v < adds_.back().priority) {
         if (voted) {
           uint32_t missing = 0;
           for (uint32_t k = 0; k < usable; ++k) missing += static_cast<uint32_t>(slots[k] == kNoSlot);
@@ -762,7 +804,9 @@ class Scheduler {
   SchedulerCounters total_counters_;
   Vec<Pending> pending_;
   Vec<uint32_t> free_requests_;
-  Vec<uint32_t> material_base_;   // per material (+ total), tile-major arrays below
+  Vec<uint32_t> material_base_;   // per material: its entry_base in the tile-major arrays below
+  Vec<uint32_t> material_textures_;  // per material: K (0 for a free id)
+  Vec<uint32_t> material_tiles_;     // per material: tiles per virtual texture
   Vec<uint8_t> requested_;        // per tile: 0, kRequested (a request is pending) or kHeld
   Vec<uint32_t> texture_base_;    // per texture: index of its flat tile 0
   Vec<uint32_t> texture_stride_;  // per texture: virtual textures of its material
@@ -783,9 +827,8 @@ class Scheduler {
   Vec<Pair> pairs_;
   Vec<TileRequest> requests_out_;
   Vec<uint64_t> protected_stamp_;
-  Vec<uint32_t> texture_material_;  // per texture: its material
-  Vec<uint32_t> tile_base_;         // per material: index of its flat tile 0 in max_weights_
-  Vec<float> max_weights_;          // per material tile: max(0, max over its textures of w as used)
+  Vec<uint32_t> texture_material_;  // per texture: its material (kNoMaterial: free)
+  Vec<float> max_weights_;          // per material tile [entry_base + flat]: max(0, max over its textures of w as used)
   size_t next_pair_ = 0;
   uint32_t pairs_sorted_ = 0;
   uint32_t leaves_ready_ = 0;  // collect_leaves() ran this frame

@@ -95,21 +95,31 @@ class TileCache {
   static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {},
                                   const RuntimeAllocator& allocator = {}) {
     const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
-    if (set.texture_count() == 0 || slots == 0 || slots >= (1u << 24))
+    uint32_t live_textures = 0, first = kNoMaterial;
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      if (set.material_live(m)) {
+        live_textures += set.material(m).texture_count;
+        if (first == kNoMaterial) first = m;
+      }
+    if ((live_textures == 0 && !set.reserved()) || slots == 0 || slots >= (1u << 24))
       return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
-                        set.texture_count(), static_cast<unsigned long long>(slots));
-    if (slots < set.texture_count())
+                        live_textures, static_cast<unsigned long long>(slots));
+    if (slots < live_textures)
       return make_error(Status::insufficient_space,
                         "tile cache: %llu slots cannot pin the root tiles of %u virtual textures",
-                        static_cast<unsigned long long>(slots), set.texture_count());
-    const VtGeometry& g0 = set.material(0).levels.geometry;
-    for (uint32_t m = 1; m < set.material_count(); ++m) {
+                        static_cast<unsigned long long>(slots), live_textures);
+    // The tile size and border: the materials' (all equal), or the configuration's for an empty
+    // reserved set.
+    const VtGeometry g0 = first != kNoMaterial ? set.material(first).levels.geometry
+                                               : VtGeometry{0, 0, config.tile_size, config.border, 0};
+    for (uint32_t m = 0; m < set.material_count(); ++m) {
+      if (!set.material_live(m)) continue;
       const VtGeometry& g = set.material(m).levels.geometry;
       if (g.tile_size != g0.tile_size || g.border != g0.border)
         return make_error(Status::invalid_argument,
-                          "tile cache: material %u has tiles of %u texels with border %u, material 0 of %u with %u "
+                          "tile cache: material %u has tiles of %u texels with border %u, material %u of %u with %u "
                           "(one cache holds one tile size)",
-                          m, g.tile_size, g.border, g0.tile_size, g0.border);
+                          m, g.tile_size, g.border, first, g0.tile_size, g0.border);
     }
     TileCache c{allocator, set};
     c.config_ = config;
@@ -119,39 +129,69 @@ class TileCache {
     c.visible_.assign(slots, 0);
     c.free_.reserve(slots);
     for (uint64_t s = slots; s-- > 0;) c.free_.push_back(static_cast<uint32_t>(s));  // lowest slot on top
-    c.textures_.reserve(set.texture_count());
-    for (uint32_t t = 0; t < set.texture_count(); ++t) c.textures_.emplace_back(CallbackAllocator<uint32_t>(allocator));
-    c.material_base_.resize(set.material_count() + 1, 0);
-    for (uint32_t m = 0; m < set.material_count(); ++m)
-      c.material_base_[m + 1] =
-          c.material_base_[m] + set.material(m).levels.tile_count() * set.material(m).texture_count;
-    c.slot_of_.assign(c.material_base_.back(), kNoSlot);
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const VtLevelTable& lv = set.levels_of(t);
-      Texture& tx = c.textures_[t];
-      const VtMaterial& mat = set.material(set.material_of(t));
-      tx.base = c.material_base(set, set.material_of(t)) + (t - mat.first_texture);
-      tx.stride = mat.texture_count;
-      tx.resident_below.assign(lv.tile_count(), 0);
-      const uint32_t L = lv.finest_level();
-      tx.page_table.assign(static_cast<size_t>(lv.tiles_x[L]) * lv.tiles_y[L], make_page_entry(0, kNoSlot & 0xffffffu));
-    }
+    c.textures_.assign(set.texture_count(), Texture{});
+    c.slot_of_.assign(set.entry_count(), kNoSlot);
+    c.resident_below_.assign(set.entry_count(), 0);
+    c.page_table_.assign(set.entry_count(), make_page_entry(0, kNoSlot & 0xffffffu));
     c.deltas_.reserve(config.delta_capacity);
     c.touched_.reserve(config.delta_capacity);
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const uint32_t slot = c.reserve_slot();
-      const uint32_t L = set.levels_of(t).finest_level();
-      // The root covers everything: set the whole table directly, then count visibility.
-      Texture& tx = c.textures_[t];
-      c.slot_of_[tx.base] = slot;
-      c.slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
-      ++c.used_;
-      std::fill(tx.page_table.begin(), tx.page_table.end(), make_page_entry(0, slot));
-      c.visible_[slot] = static_cast<uint32_t>(tx.page_table.size());
-      c.push_delta(
-          PageTableDelta{t, 0, 0, set.levels_of(t).tiles_x[L], set.levels_of(t).tiles_y[L], make_page_entry(0, slot)});
-    }
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      if (set.material_live(m)) c.pin_roots(m);
     return c;
+  }
+
+  /// Adds a material to a cache whose VtSet has a reservation (VtSet::reserve): takes a
+  /// material id and ranges from the set (VtSet::add_material) and pins its root tiles in the
+  /// lowest free slots, reported like create()'s (deltas). `material`: in, the free id to take
+  /// or kNoMaterial for the lowest free one; out, the id (kNoMaterial on failure).
+  /// insufficient_space when fewer slots are free than it has virtual textures or the set has
+  /// no room; invalid_argument without a reservation or for another tile size or border.
+  /// Other materials' tiles are not touched. noexcept, no allocation.
+  Status add_material(const VtGeometry& geometry, uint32_t texture_count, uint32_t& material) noexcept {
+    const uint32_t wanted = material;
+    material = kNoMaterial;
+    if (!set_.reserved() || !geometry.valid() || texture_count == 0 || geometry.tile_size != config_.tile_size ||
+        geometry.border != config_.border)
+      return Status::invalid_argument;
+    if (free_.size() < texture_count) return Status::insufficient_space;
+    const uint32_t m = set_.add_material(geometry, texture_count, wanted);
+    if (m == kNoMaterial) return Status::insufficient_space;
+    const VtMaterial& vm = set_.material(m);
+    const size_t entries = size_t{vm.levels.tile_count()} * texture_count;
+    std::fill_n(slot_of_.begin() + vm.entry_base, entries, kNoSlot);
+    std::fill_n(resident_below_.begin() + vm.entry_base, entries, 0u);
+    pin_roots(m);
+    material = m;
+    return Status::success;
+  }
+
+  /// Removes a material: every tile of its virtual textures (roots included) leaves the cache
+  /// and its slot becomes free; its page tables, deltas and touched tiles are dropped (the
+  /// layers are free for the engine). Slots reserved for its tiles must have been released
+  /// first (Scheduler::remove_material does). invalid_argument for a material that is not
+  /// live. Other materials' tiles are not touched. noexcept, no allocation, O(its tiles + slots).
+  Status remove_material(uint32_t material) noexcept {
+    if (!set_.material_live(material)) return Status::invalid_argument;
+    const VtMaterial vm = set_.material(material);
+    const size_t entries = size_t{vm.levels.tile_count()} * vm.texture_count;
+    for (size_t e = vm.entry_base; e < vm.entry_base + entries; ++e) {
+      const uint32_t s = slot_of_[e];
+      if (s == kNoSlot) continue;
+      slot_of_[e] = kNoSlot;
+      visible_[s] = 0;
+      --used_;
+      free_slot(s);
+    }
+    const uint32_t t0 = vm.first_texture, t1 = vm.first_texture + vm.texture_count;
+    size_t o = 0;
+    for (const PageTableDelta& d : deltas_)
+      if (d.texture < t0 || d.texture >= t1) deltas_[o++] = d;
+    deltas_.resize(o);  // shrinking: no allocation
+    o = 0;
+    for (const TileId& t : touched_)
+      if (t.texture < t0 || t.texture >= t1) touched_[o++] = t;
+    touched_.resize(o);
+    return set_.remove_material(material);
   }
 
   /// S, all slots.
@@ -193,18 +233,21 @@ class TileCache {
   /// (kNoSlot where not resident), contiguous, so the scheduler reads them in one cache line.
   /// Precondition: material and index in range.
   const uint32_t* material_slots(uint32_t material, uint32_t flat_index) const noexcept {
-    return slot_of_.data() + material_base_[material] +
-           static_cast<size_t>(flat_index) * set_.material(material).texture_count;
+    const VtMaterial& m = set_.material(material);
+    return slot_of_.data() + m.entry_base + static_cast<size_t>(flat_index) * m.texture_count;
   }
   /// True when t is in the cache (false for ids outside the hierarchy).
   bool resident(const TileId& t) const noexcept { return slot_of(t) != kNoSlot; }
   /// Resident strict descendants of a tile (0 = it is a leaf of the resident tree).
   /// Precondition: texture and index in range.
   uint32_t resident_below_at(uint32_t texture, uint32_t flat_index) const noexcept {
-    return textures_[texture].resident_below[flat_index];
+    return resident_below_[textures_[texture].base + flat_index * textures_[texture].stride];
   }
   /// Page table of a virtual texture: tiles_x(L) × tiles_y(L) entries, row-major.
-  std::span<const uint32_t> page_table(uint32_t texture) const noexcept { return textures_[texture].page_table; }
+  /// Empty for a texture of no live material.
+  std::span<const uint32_t> page_table(uint32_t texture) const noexcept {
+    return {page_table_.data() + textures_[texture].page, textures_[texture].page_entries};
+  }
 
   /// Takes the lowest free slot out of the free list (state reserved). Returns kNoSlot when full.
   uint32_t reserve_slot() noexcept {
@@ -235,7 +278,7 @@ class TileCache {
     ++used_;
     for (TileId a = t; a.level > 0;) {
       a = a.parent();
-      ++tx.resident_below[lv.index(a)];
+      ++below(tx, lv.index(a));
     }
     refresh(t, make_page_entry(t.level, s));
     push_touched(t);
@@ -280,7 +323,7 @@ class TileCache {
     for (TileId a = t; a.level > 0;) {
       a = a.parent();
       const uint32_t ai = lv.index(a);
-      --tx.resident_below[ai];
+      --below(tx, ai);
       if (best == kNoSlot && c_slot(tx, ai) != kNoSlot) {
         best = c_slot(tx, ai);
         best_level = a.level;
@@ -357,6 +400,7 @@ class TileCache {
     for (uint32_t s = 0; s < slots_.size(); ++s)
       if (slots_[s].state == SlotInfo::State::free && !in_free[s]) return fail(format_message("slot %u lost", s));
     for (uint32_t t = 0; t < textures_.size(); ++t) {
+      if (!set_.texture_live(t)) continue;
       const VtLevelTable& lv = set_.levels_of(t);
       const Texture& tx = textures_[t];
       if (c_slot(tx, 0) == kNoSlot) return fail(format_message("texture %u: root not resident", t));
@@ -367,8 +411,9 @@ class TileCache {
         if (id.level < L)
           for (uint32_t j = lv.offset[id.level + 1]; j < lv.tile_count(); ++j)
             if (c_slot(tx, j) != kNoSlot && id.covers(lv.tile(t, j))) ++below;
-        if (below != tx.resident_below[i])
-          return fail(format_message("texture %u tile %u: resident_below %u != %u", t, i, tx.resident_below[i], below));
+        if (below != resident_below_[tx.base + i * tx.stride])
+          return fail(format_message("texture %u tile %u: resident_below %u != %u", t, i,
+                                     resident_below_[tx.base + i * tx.stride], below));
       }
       for (uint32_t y = 0; y < lv.tiles_y[L]; ++y)
         for (uint32_t x = 0; x < lv.tiles_x[L]; ++x) {
@@ -383,13 +428,16 @@ class TileCache {
             }
           }
           if (want == kNoSlot) return fail(format_message("texture %u finest tile (%u,%u) uncovered", t, x, y));
-          const uint32_t e = tx.page_table[static_cast<size_t>(y) * lv.tiles_x[L] + x];
+          const uint32_t e = page_table_[tx.page + static_cast<size_t>(y) * lv.tiles_x[L] + x];
           if (e != make_page_entry(want_level, want))
             return fail(format_message("texture %u entry (%u,%u) = level %u slot %u, expected level %u slot %u", t, x,
                                        y, page_entry_level(e), page_entry_slot(e), want_level, want));
           ++visible[want];
         }
     }
+    for (uint32_t s = 0; s < slots_.size(); ++s)
+      if (slots_[s].state == SlotInfo::State::used && !set_.texture_live(slots_[s].tile.texture))
+        return fail(format_message("slot %u holds a tile of free texture %u", s, slots_[s].tile.texture));
     for (uint32_t s = 0; s < slots_.size(); ++s)
       if (visible[s] != visible_[s])
         return fail(format_message("slot %u: visible %u != %u", s, visible_[s], visible[s]));
@@ -400,24 +448,48 @@ class TileCache {
   template <class T>
   using Vec = std::vector<T, CallbackAllocator<T>>;  // every array through the creator's callbacks
 
-  struct Texture {
-    explicit Texture(const CallbackAllocator<uint32_t>& a) : resident_below(a), page_table(a) {}
-    uint32_t base = 0;             // slot_of_[base + flat · stride]
-    uint32_t stride = 1;           // virtual textures of the material (tile-major layout)
-    Vec<uint32_t> resident_below;  // per tile: resident strict descendants
-    Vec<uint32_t> page_table;      // per finest tile
+  struct Texture {                // where a virtual texture's tiles live in the arrays below
+    uint32_t base = 0;            // slot_of_ / resident_below_ [base + flat · stride]
+    uint32_t stride = 1;          // virtual textures of the material (tile-major layout)
+    uint32_t page = 0;            // page_table_ [page + y · tiles_x(L) + x]
+    uint32_t page_entries = 0;    // finest-level tiles (0: a free texture)
   };
 
   TileCache(const RuntimeAllocator& al, const VtSet& set)
       : set_(set, al),
         slot_of_(CallbackAllocator<uint32_t>(al)),
-        material_base_(CallbackAllocator<uint32_t>(al)),
+        resident_below_(CallbackAllocator<uint32_t>(al)),
+        page_table_(CallbackAllocator<uint32_t>(al)),
         slots_(CallbackAllocator<SlotInfo>(al)),
         visible_(CallbackAllocator<uint32_t>(al)),
         free_(CallbackAllocator<uint32_t>(al)),
         textures_(CallbackAllocator<Texture>(al)),
         deltas_(CallbackAllocator<PageTableDelta>(al)),
         touched_(CallbackAllocator<TileId>(al)) {}
+
+  // Sets up a live material's textures and makes their roots resident in the lowest free
+  // slots (the caller checked there are enough).
+  void pin_roots(uint32_t m) noexcept {
+    const VtMaterial& vm = set_.material(m);
+    const VtLevelTable& lv = vm.levels;
+    const uint32_t L = lv.finest_level();
+    for (uint32_t k = 0; k < vm.texture_count; ++k) {
+      const uint32_t t = vm.first_texture + k;
+      Texture& tx = textures_[t];
+      tx.base = vm.entry_base + k;
+      tx.stride = vm.texture_count;
+      tx.page = set_.texture_offset(t);
+      tx.page_entries = lv.tiles_x[L] * lv.tiles_y[L];
+      const uint32_t slot = reserve_slot();
+      // The root covers everything: set the whole table directly, then count visibility.
+      c_slot(tx, 0) = slot;
+      slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
+      ++used_;
+      std::fill_n(page_table_.begin() + tx.page, tx.page_entries, make_page_entry(0, slot));
+      visible_[slot] = tx.page_entries;
+      push_delta(PageTableDelta{t, 0, 0, lv.tiles_x[L], lv.tiles_y[L], make_page_entry(0, slot)});
+    }
+  }
 
   void free_slot(uint32_t s) noexcept {
     slots_[s] = SlotInfo{};
@@ -448,14 +520,14 @@ class TileCache {
     const uint32_t idx = lv.index(t);
     if (c_slot(tx, idx) != kNoSlot) best = make_page_entry(t.level, c_slot(tx, idx));
     const uint32_t L = lv.finest_level();
-    if (t.level == L || tx.resident_below[idx] == 0) {
+    if (t.level == L || below(tx, idx) == 0) {
       const uint32_t shift = L - t.level;
       const uint32_t x0 = t.x << shift, y0 = t.y << shift;
       const uint32_t x1 = std::min(x0 + (1u << shift), lv.tiles_x[L]);
       const uint32_t y1 = std::min(y0 + (1u << shift), lv.tiles_y[L]);
       bool changed = false;
       for (uint32_t y = y0; y < y1; ++y) {
-        uint32_t* row = tx.page_table.data() + static_cast<size_t>(y) * lv.tiles_x[L];
+        uint32_t* row = page_table_.data() + tx.page + static_cast<size_t>(y) * lv.tiles_x[L];
         for (uint32_t x = x0; x < x1; ++x) {
           if (row[x] == best) continue;
           const uint32_t old_slot = page_entry_slot(row[x]);
@@ -474,13 +546,14 @@ class TileCache {
     }
   }
 
-  uint32_t material_base(const VtSet&, uint32_t m) const noexcept { return material_base_[m]; }
+  uint32_t& below(const Texture& tx, uint32_t flat) noexcept { return resident_below_[tx.base + flat * tx.stride]; }
   uint32_t& c_slot(const Texture& tx, uint32_t flat) noexcept { return slot_of_[tx.base + flat * tx.stride]; }
   uint32_t c_slot(const Texture& tx, uint32_t flat) const noexcept { return slot_of_[tx.base + flat * tx.stride]; }
 
   VtSet set_;
-  Vec<uint32_t> slot_of_;        // tile-major per material: [material base + flat · K + k]
-  Vec<uint32_t> material_base_;  // per material, + total
+  Vec<uint32_t> slot_of_;         // per entry, tile-major per material: [entry_base + flat · K + k]
+  Vec<uint32_t> resident_below_;  // per entry (same layout): resident strict descendants
+  Vec<uint32_t> page_table_;      // per entry, texture-major: VtSet::texture_offset(t) + finest tile
   TileCacheConfig config_;
   Vec<SlotInfo> slots_;
   Vec<uint32_t> visible_;

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "btflod/core/allocator.hpp"
+#include "btflod/core/range_list.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
 #include "btflod/lod/feedback.hpp"
@@ -158,18 +159,39 @@ struct EigenTextures {
   }
 };
 
-/// One material in a VtSet: its geometry and the range of virtual textures it owns.
+/// One material in a VtSet: its geometry and the range of virtual textures it owns. A removed
+/// (or never used) material id has texture_count 0 and an empty hierarchy.
 struct VtMaterial {
   VtLevelTable levels;
   uint32_t first_texture = 0;  ///< index of its first virtual texture in the set
   uint32_t texture_count = 0;  ///< ⌈C/4⌉
+  uint32_t entry_base = 0;     ///< first of its texture_count · tile_count per-tile entries
+  bool live = false;
 };
+
+inline constexpr uint32_t kNoMaterial = 0xffffffffu;
+
+/// Room a VtSet (and the tile cache, scheduler and runtime built on it) reserves for materials
+/// added and removed while running. Every id and range is handed out from it without
+/// allocating; 0 everywhere: no reservation (the set grows as materials are added, set-up only).
+struct VtCapacity {
+  uint32_t materials = 0;     ///< material ids (the feedback word holds at most 1023)
+  uint32_t textures = 0;      ///< virtual textures = page-table layers and U′ packets
+  uint64_t tile_entries = 0;  ///< Σ over live materials of tile_count · texture_count
+};
+
 
 /// Every virtual texture that shares one tile cache, grouped by material, with the per-tile
 /// values the scheduler needs (no texel data): w(i, l, l−1) of paper 000 eq. 8 and the mean
 /// squared norm of the tile ‖T‖²_F / T² (§6), both stored as half as in §7.
-/// Built at set-up (allocates, through the RuntimeAllocator given at construction or operator
-/// new); read-only and thread-safe afterwards.
+///
+/// Per-tile values live in one array of "entries": material m owns texture_count · tile_count
+/// consecutive entries from material(m).entry_base (texture k's tiles from texture_offset()).
+/// Without a reservation the set grows as materials are added (set-up, allocates through the
+/// RuntimeAllocator given at construction or operator new). With reserve(VtCapacity) every
+/// material id, texture range and entry range is handed out from the reserved room: then
+/// add_material() and remove_material() allocate nothing, ids are the lowest free ones and
+/// ranges first-fit, so a live material's ids never move.
 class VtSet {
  public:
   /// An empty set allocating through operator new.
@@ -178,71 +200,158 @@ class VtSet {
   explicit VtSet(const RuntimeAllocator& allocator)
       : materials_(CallbackAllocator<VtMaterial>(allocator)),
         texture_material_(CallbackAllocator<uint32_t>(allocator)),
-        texture_offset_(CallbackAllocator<uint32_t>(allocator)),
         weights_(CallbackAllocator<Half>(allocator)),
-        energies_(CallbackAllocator<Half>(allocator)) {}
-  /// A copy of `other` allocating through `allocator`.
-  VtSet(const VtSet& other, const RuntimeAllocator& allocator) : VtSet(allocator) {
+        energies_(CallbackAllocator<Half>(allocator)),
+        free_textures_(allocator),
+        free_entries_(allocator) {}
+  /// A copy of `other` (with its reservation) allocating through `allocator`.
+  VtSet(const VtSet& other, const RuntimeAllocator& allocator)
+      : materials_(CallbackAllocator<VtMaterial>(allocator)),
+        texture_material_(CallbackAllocator<uint32_t>(allocator)),
+        weights_(CallbackAllocator<Half>(allocator)),
+        energies_(CallbackAllocator<Half>(allocator)),
+        free_textures_(other.free_textures_, allocator),
+        free_entries_(other.free_entries_, allocator),
+        fixed_(other.fixed_),
+        live_materials_(other.live_materials_) {
     materials_.assign(other.materials_.begin(), other.materials_.end());
     texture_material_.assign(other.texture_material_.begin(), other.texture_material_.end());
-    texture_offset_.assign(other.texture_offset_.begin(), other.texture_offset_.end());
     weights_.assign(other.weights_.begin(), other.weights_.end());
     energies_.assign(other.energies_.begin(), other.energies_.end());
   }
 
-  /// Adds a material of `texture_count` virtual textures; weights start at 1 and energies at 0.
-  /// Returns the material index. Precondition: geometry.valid(), texture_count > 0.
-  /// Spans from weights() / energies() taken before this call are invalidated.
-  uint32_t add_material(const VtGeometry& geometry, uint32_t texture_count) {
-    VtMaterial m;
-    m.levels = VtLevelTable(geometry);
-    m.first_texture = static_cast<uint32_t>(texture_material_.size());
-    m.texture_count = texture_count;
-    for (uint32_t k = 0; k < texture_count; ++k) {
-      texture_material_.push_back(static_cast<uint32_t>(materials_.size()));
-      texture_offset_.push_back(static_cast<uint32_t>(weights_.size()));
-      weights_.insert(weights_.end(), m.levels.tile_count(), Half(1.0f));
-      energies_.insert(energies_.end(), m.levels.tile_count(), Half(0.0f));
-    }
-    materials_.push_back(m);
-    return static_cast<uint32_t>(materials_.size() - 1);
+  /// Reserves room for materials added and removed later (see the class comment). Only on an
+  /// empty set; invalid_argument otherwise or when a capacity is 0. Set-up (allocates).
+  Status reserve(const VtCapacity& capacity) {
+    if (!materials_.empty() || capacity.materials == 0 || capacity.textures == 0 || capacity.tile_entries == 0 ||
+        capacity.tile_entries >= (1ull << 32))
+      return Status::invalid_argument;
+    materials_.assign(capacity.materials, VtMaterial{});
+    texture_material_.assign(capacity.textures, kNoMaterial);
+    weights_.assign(capacity.tile_entries, Half(1.0f));
+    energies_.assign(capacity.tile_entries, Half(0.0f));
+    free_textures_.reset(capacity.textures, capacity.materials);
+    free_entries_.reset(capacity.tile_entries, capacity.materials);
+    fixed_ = true;
+    return Status::success;
   }
-  /// Materials added so far.
+  /// True after reserve(): add/remove allocate nothing.
+  bool reserved() const noexcept { return fixed_; }
+
+  /// Adds a material of `texture_count` virtual textures; weights start at 1 and energies at 0.
+  /// Returns the material index, or kNoMaterial when the reservation has no free material id,
+  /// no texture_count consecutive free textures or no free entry range large enough.
+  /// Precondition: geometry.valid(), texture_count > 0. Spans from weights() / energies() taken
+  /// before this call are invalidated when the set grows (no reservation). With a reservation
+  /// noexcept in effect (no allocation).
+  /// With a reservation, `wanted` may name the free id to take (kNoMaterial: the lowest free).
+  uint32_t add_material(const VtGeometry& geometry, uint32_t texture_count, uint32_t wanted = kNoMaterial) {
+    const VtLevelTable levels(geometry);
+    const uint64_t entries = uint64_t{levels.tile_count()} * texture_count;
+    uint32_t id = kNoMaterial;
+    if (fixed_) {
+      if (wanted != kNoMaterial) {
+        if (wanted >= materials_.size() || materials_[wanted].live) return kNoMaterial;
+        id = wanted;
+      }
+      for (uint32_t m = 0; m < materials_.size() && id == kNoMaterial; ++m)
+        if (!materials_[m].live) id = m;
+      if (id == kNoMaterial) return kNoMaterial;
+    } else {  // grow: room at the end
+      id = static_cast<uint32_t>(materials_.size());
+      materials_.push_back(VtMaterial{});
+      free_textures_.grow(texture_material_.size(), texture_count);
+      texture_material_.resize(texture_material_.size() + texture_count, kNoMaterial);
+      free_entries_.grow(weights_.size(), entries);
+      weights_.resize(weights_.size() + entries, Half(1.0f));
+      energies_.resize(energies_.size() + entries, Half(0.0f));
+    }
+    const uint64_t first = free_textures_.allocate(texture_count);
+    if (first == ~0ull) return kNoMaterial;
+    const uint64_t base = free_entries_.allocate(entries);
+    if (base == ~0ull) {
+      free_textures_.release(first, texture_count);
+      return kNoMaterial;
+    }
+    VtMaterial& m = materials_[id];
+    m = VtMaterial{levels, static_cast<uint32_t>(first), texture_count, static_cast<uint32_t>(base), true};
+    for (uint32_t k = 0; k < texture_count; ++k) texture_material_[first + k] = id;
+    std::fill(weights_.begin() + static_cast<ptrdiff_t>(base), weights_.begin() + static_cast<ptrdiff_t>(base + entries),
+              Half(1.0f));
+    std::fill(energies_.begin() + static_cast<ptrdiff_t>(base),
+              energies_.begin() + static_cast<ptrdiff_t>(base + entries), Half(0.0f));
+    ++live_materials_;
+    return id;
+  }
+  /// Removes a material: its id, textures and entries become free (reused by later adds).
+  /// invalid_argument for an id that is not live. noexcept, no allocation.
+  Status remove_material(uint32_t id) noexcept {
+    if (id >= materials_.size() || !materials_[id].live) return Status::invalid_argument;
+    VtMaterial& m = materials_[id];
+    for (uint32_t k = 0; k < m.texture_count; ++k) texture_material_[m.first_texture + k] = kNoMaterial;
+    free_textures_.release(m.first_texture, m.texture_count);
+    free_entries_.release(m.entry_base, uint64_t{m.levels.tile_count()} * m.texture_count);
+    m = VtMaterial{};
+    --live_materials_;
+    return Status::success;
+  }
+
+  /// Material ids (live or not): the reservation, or the materials added so far.
   uint32_t material_count() const noexcept { return static_cast<uint32_t>(materials_.size()); }
-  /// Virtual textures over all materials (indices are stable).
+  /// Live materials.
+  uint32_t live_material_count() const noexcept { return live_materials_; }
+  /// Virtual texture ids (live or not). Indices of live textures are stable.
   uint32_t texture_count() const noexcept { return static_cast<uint32_t>(texture_material_.size()); }
-  /// Material m. Precondition: m < material_count().
+  /// Size of the per-tile entry arrays (the reservation, or every material's tiles).
+  uint32_t entry_count() const noexcept { return static_cast<uint32_t>(weights_.size()); }
+  /// True when material m exists now.
+  bool material_live(uint32_t m) const noexcept { return m < materials_.size() && materials_[m].live; }
+  /// True when virtual texture t belongs to a live material.
+  bool texture_live(uint32_t t) const noexcept { return t < texture_material_.size() && texture_material_[t] != kNoMaterial; }
+  /// Material m (an empty one, texture_count 0, when not live). Precondition: m < material_count().
   const VtMaterial& material(uint32_t m) const noexcept { return materials_[m]; }
-  /// Material owning a virtual texture. Precondition: texture < texture_count().
+  /// Material owning a virtual texture (kNoMaterial for a free one). Precondition: texture < texture_count().
   uint32_t material_of(uint32_t texture) const noexcept { return texture_material_[texture]; }
-  /// Hierarchy of a virtual texture (its material's). Precondition: texture in range.
+  /// Hierarchy of a virtual texture (its material's; an empty one, 0 tiles, for a free texture).
   const VtLevelTable& levels_of(uint32_t texture) const noexcept {
-    return materials_[texture_material_[texture]].levels;
+    const uint32_t m = texture_material_[texture];
+    return m != kNoMaterial ? materials_[m].levels : none_.levels;
+  }
+  /// First entry of a live virtual texture's tiles in the per-tile arrays (texture-major:
+  /// entry_base + k · tile_count). Precondition: texture_live(texture).
+  uint32_t texture_offset(uint32_t texture) const noexcept {
+    const VtMaterial& m = materials_[texture_material_[texture]];
+    return m.entry_base + (texture - m.first_texture) * m.levels.tile_count();
   }
   /// w(i, l, l−1) per tile (flat index), paper 000 eq. 8. For the root: mean squared norm.
-  std::span<Half> weights(uint32_t texture) noexcept {
-    return {weights_.data() + texture_offset_[texture], tiles(texture)};
-  }
-  /// Read-only w per tile. Precondition: texture in range.
+  std::span<Half> weights(uint32_t texture) noexcept { return {weights_.data() + texture_offset(texture), tiles(texture)}; }
+  /// Read-only w per tile. Precondition: texture_live(texture).
   std::span<const Half> weights(uint32_t texture) const noexcept {
-    return {weights_.data() + texture_offset_[texture], tiles(texture)};
+    return {weights_.data() + texture_offset(texture), tiles(texture)};
   }
   /// ‖T‖²_F / T² per tile (flat index), paper 000 §6.
   std::span<Half> energies(uint32_t texture) noexcept {
-    return {energies_.data() + texture_offset_[texture], tiles(texture)};
+    return {energies_.data() + texture_offset(texture), tiles(texture)};
   }
-  /// Read-only ‖T‖²_F / T² per tile. Precondition: texture in range.
+  /// Read-only ‖T‖²_F / T² per tile. Precondition: texture_live(texture).
   std::span<const Half> energies(uint32_t texture) const noexcept {
-    return {energies_.data() + texture_offset_[texture], tiles(texture)};
+    return {energies_.data() + texture_offset(texture), tiles(texture)};
   }
+  /// The largest number of consecutive free textures / entries (what one add can still take).
+  uint64_t largest_free_textures() const noexcept { return free_textures_.largest(); }
+  uint64_t largest_free_entries() const noexcept { return free_entries_.largest(); }
 
  private:
   size_t tiles(uint32_t texture) const noexcept { return levels_of(texture).tile_count(); }
   std::vector<VtMaterial, CallbackAllocator<VtMaterial>> materials_;
-  std::vector<uint32_t, CallbackAllocator<uint32_t>> texture_material_;
-  std::vector<uint32_t, CallbackAllocator<uint32_t>> texture_offset_;  // per texture: first tile in weights_
-  std::vector<Half, CallbackAllocator<Half>> weights_;                 // every texture's tiles, in order
+  std::vector<uint32_t, CallbackAllocator<uint32_t>> texture_material_;  // kNoMaterial: free
+  std::vector<Half, CallbackAllocator<Half>> weights_;                   // per entry
   std::vector<Half, CallbackAllocator<Half>> energies_;
+  detail::RangeList free_textures_;
+  detail::RangeList free_entries_;
+  bool fixed_ = false;
+  uint32_t live_materials_ = 0;
+  VtMaterial none_;
 };
 
 /// The shape a VoteCounter needs for one material, one entry per material of the set, in order.
@@ -250,7 +359,7 @@ class VtSet {
 inline std::vector<VoteLayout> vote_layouts(const VtSet& set) {
   std::vector<VoteLayout> out;
   for (uint32_t m = 0; m < set.material_count(); ++m) {
-    const VtLevelTable& lv = set.material(m).levels;
+    const VtLevelTable& lv = set.material(m).levels;  // (an empty layout for a free id)
     out.push_back(VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]});
   }
   return out;

@@ -10,8 +10,9 @@
 #   ./run.sh raytrace [args...]   Embree ray tracer with BTF materials on built-in data, into
 #                                 out/raytrace/ (docs/raytrace.md)
 #   ./run.sh soak [minutes]       stream a world through faulty I/O for the given minutes
-#                                 (default 10), checking the engine's invariants every frame
-#                                 (docs/reliability.md); a report in out/soak.json
+#                                 (default 10), then as long over HTTP from an nginx restarted
+#                                 every 10 s (when installed), checking the engine's invariants
+#                                 every frame (docs/reliability.md); reports in out/soak*.json
 #   ./run.sh fuzz [minutes]       fuzzing campaign: every libFuzzer target for the given minutes
 #                                 (default 10), corpus merged into fuzz/corpus/, a table per
 #                                 target; then the random-operation tests with 10^6 operations
@@ -173,7 +174,16 @@ case "$cmd" in
     BTFLOD_TARGET=btflod-soak configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
       -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     mkdir -p out
-    "$BUILD"/samples/soak/btflod-soak --minutes "$minutes" --json out/soak.json
+    status=0
+    "$BUILD"/samples/soak/btflod-soak --minutes "$minutes" --json out/soak.json || status=1
+    # The same world over HTTP from a private nginx restarted every 10 s (skipped with a message
+    # when nginx is not installed).
+    if [ -x /usr/sbin/nginx ]; then
+      "$BUILD"/samples/soak/btflod-soak --http --minutes "$minutes" --json out/soak_http.json || status=1
+    else
+      echo "btflod: no /usr/sbin/nginx (Debian: nginx-light): skipping the HTTP soak"
+    fi
+    exit $status
     ;;
   *)
     echo "usage: ./run.sh demo|test|bench|web|raytrace|fuzz|soak|svd-compare" >&2

@@ -14,15 +14,22 @@
 // destroyed. Exit 0 when no invariant failed, no allocation happened after warm-up, RSS stayed
 // within --rss-tolerance of its post-warm-up value, and every corrupted read was caught.
 //
+// With --http the containers are served by a private nginx and read through HttpSource (libcurl)
+// on the same faulty I/O thread, and the nginx is killed and started again every
+// --restart-every seconds: the reads of each outage must fail (detected), reads must succeed
+// again afterwards (recovered), and no tile or material may be given up.
+//
 //   btflod-soak [--seconds N | --minutes N] [--seed S] [--workers N] [--json FILE]
+//               [--http [--restart-every SECONDS] [--nginx PATH]]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <condition_variable>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <new>
@@ -32,17 +39,26 @@
 #include <vector>
 
 #include "btflod/runtime/streamer.hpp"
+#if BTFLOD_SOAK_HTTP
+#include "btflod/stream/http_source.hpp"
+#endif
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/vt/bsvtf_build.hpp"
+#include "faulty_async_io.hpp"  // tests/: the engine's faulty I/O thread, shared with the thread tests
+#include "nginx_server.hpp"
 
 // Heap allocations of the whole process (every thread, every form of operator new), to prove
 // that none happen per frame. Not inlined: GCC would otherwise see free() applied to the result
 // of a new-expression in every caller (-Wmismatched-new-delete).
 static std::atomic<uint64_t> g_allocations{0};
 static std::atomic<bool> g_trap{false};  // debugging: abort on the first allocation after warm-up
+// Set on a thread while it runs code that is the engine's, not btflod's runtime: the HTTP
+// client's reads (HttpSource builds error messages, libcurl keeps connections) and the
+// restarts of the server. Their allocations are not counted.
+static thread_local bool t_uncounted = false;
 [[gnu::noinline]] void* operator new(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (g_trap.load(std::memory_order_relaxed)) std::abort();
+  if (!t_uncounted) g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (!t_uncounted && g_trap.load(std::memory_order_relaxed)) std::abort();
   if (void* p = std::malloc(n ? n : 1)) return p;
   throw std::bad_alloc();
 }
@@ -52,13 +68,13 @@ static std::atomic<bool> g_trap{false};  // debugging: abort on the first alloca
 [[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 [[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 [[gnu::noinline]] void* operator new(std::size_t n, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (!t_uncounted) g_allocations.fetch_add(1, std::memory_order_relaxed);
   return std::malloc(n ? n : 1);
 }
 [[gnu::noinline]] void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
 // The aligned forms (the runtime's default allocator uses them).
 [[gnu::noinline]] void* operator new(std::size_t n, std::align_val_t a, const std::nothrow_t&) noexcept {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (!t_uncounted) g_allocations.fetch_add(1, std::memory_order_relaxed);
   const std::size_t al = std::max(static_cast<std::size_t>(a), sizeof(void*));
   return std::aligned_alloc(al, (std::max<std::size_t>(n, 1) + al - 1) / al * al);
 }
@@ -71,6 +87,8 @@ static std::atomic<bool> g_trap{false};  // debugging: abort on the first alloca
 [[gnu::noinline]] void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept { std::free(p); }
 
 using namespace btflod;
+using btflod_test::FaultyAsyncIo;
+using btflod_test::FaultyIoConfig;
 
 namespace {
 
@@ -82,11 +100,18 @@ struct Options {
   uint32_t workers = 2;
   double rss_tolerance = 0.01;
   std::string json;
+  bool http = false;                   // read through HttpSource from a private nginx, restarted
+  double restart_every = 10;           // seconds between nginx restarts (--http)
+  std::string nginx = "/usr/sbin/nginx";
 };
 
 bool parse(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--http") {
+      o.http = true;
+      continue;
+    }
     const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
     if (v == nullptr) return std::fprintf(stderr, "btflod-soak: %s needs a value\n", a.c_str()), false;
     char* end = nullptr;
@@ -94,6 +119,8 @@ bool parse(int argc, char** argv, Options& o) {
     const bool number = end != v && *end == '\0' && std::isfinite(x) && x >= 0;
     if (a == "--json") {
       o.json = v;
+    } else if (a == "--nginx") {
+      o.nginx = v;
     } else if (!number) {
       return std::fprintf(stderr, "btflod-soak: %s takes a number ≥ 0, not '%s'\n", a.c_str(), v), false;
     } else if (a == "--seconds") {
@@ -104,6 +131,8 @@ bool parse(int argc, char** argv, Options& o) {
       o.seed = static_cast<uint32_t>(x);
     } else if (a == "--workers") {
       o.workers = std::max(1u, static_cast<uint32_t>(x));
+    } else if (a == "--restart-every") {
+      o.restart_every = std::max(0.5, x);
     } else if (a == "--rss-tolerance") {
       o.rss_tolerance = x;
     } else {
@@ -146,21 +175,38 @@ std::vector<uint8_t> make_container(uint32_t size, uint32_t components, uint32_t
   return file ? std::move(*file) : std::vector<uint8_t>{};
 }
 
-// The engine's I/O: reads queued by the Streamer (any material), served by one thread in random
-// order after random delays, with faults. A fixed ring: nothing allocates after start-up.
-class FaultyIo {
- public:
-  struct Counters {
-    std::atomic<uint64_t> reads{0}, failed{0}, corrupted{0}, stalled{0}, refused{0};
-  };
-  FaultyIo(const std::vector<std::vector<uint8_t>>& files, uint32_t seed, size_t capacity)
-      : files_(files), ring_(capacity), rng_(seed) {}
-  ~FaultyIo() { stop(); }
-  void start(Streamer& s, ThreadExecutor& executor) {
-    streamer_ = &s;
-    executor_ = &executor;
-    thread_ = std::thread([this] { loop(); });
+#if BTFLOD_SOAK_HTTP
+// HttpSource as the engine's I/O thread uses it: what it and libcurl allocate is the engine's
+// business, not the runtime's, so those allocations are not counted.
+struct EngineHttpSource final : TileSource {
+  HttpSource http;
+  EngineHttpSource(std::string url, HttpSourceOptions o) : http(std::move(url), o) {}
+  Result<uint64_t> size() override { return http.size(); }
+  VoidResult read(uint64_t offset, std::span<uint8_t> out, const std::atomic<bool>* cancel) override {
+    t_uncounted = true;
+    VoidResult r = http.read(offset, out, cancel);
+    t_uncounted = false;
+    return r;
   }
+  std::string describe() const override { return http.describe(); }
+};
+#else
+struct EngineHttpSource final : TileSource {};  // built without libcurl: --http is skipped
+#endif
+
+// Restarts the nginx every `every` seconds: it is killed (SIGKILL and SIGTERM in turn), stays
+// down for 50–300 ms, and is started again on the same port. Per restart: the HTTP reads
+// attempted while it was down must have failed (detected: each is reported to the Streamer as
+// io_error), and a read must succeed again after it is back (recovered) within 10 s.
+class Restarter {
+ public:
+  std::atomic<uint64_t> restarts{0}, idle{0}, undetected{0}, recovered{0}, start_failures{0}, outage_failures{0};
+  std::atomic<uint64_t> max_recovery_us{0}, total_recovery_us{0};
+
+  Restarter(soak::NginxServer& server, const FaultyAsyncIo& io, double every, uint32_t seed)
+      : server_(server), io_(io), every_(every), rng_(seed ^ 0x9e3779b9u) {}
+  ~Restarter() { stop(); }
+  void start() { thread_ = std::thread([this] { loop(); }); }
   void stop() {
     {
       std::lock_guard lock(mutex_);
@@ -169,95 +215,55 @@ class FaultyIo {
     cv_.notify_all();
     if (thread_.joinable()) thread_.join();
   }
-  // start_read of material m's source (update thread).
-  bool enqueue(size_t m, uint64_t offset, std::span<uint8_t> out, uint64_t ticket) {
-    std::lock_guard lock(mutex_);
-    if (refuse_(rng_) || count_ == ring_.size()) {
-      ++counters.refused;
-      return false;
-    }
-    ring_[(head_ + count_) % ring_.size()] = Read{m, offset, out, ticket, Clock::now()};
-    ++count_;
-    cv_.notify_one();
-    return true;
-  }
-  // Cancels every queued read (quiescing): reported as Status::cancelled.
-  void cancel_all() {
-    std::lock_guard lock(mutex_);
-    for (; count_ > 0; --count_, head_ = (head_ + 1) % ring_.size())
-      streamer_->complete_read(ring_[head_].ticket, Status::cancelled);
-  }
-  size_t pending() const {
-    std::lock_guard lock(mutex_);
-    return count_ + serving_;
-  }
-  Counters counters;
 
  private:
-  struct Read {
-    size_t material = 0;
-    uint64_t offset = 0;
-    std::span<uint8_t> out;
-    uint64_t ticket = 0;
-    Clock::time_point queued;
-  };
-  void loop() {
+  bool wait(std::chrono::microseconds d) {  // false when stopping
     std::unique_lock lock(mutex_);
-    for (;;) {
-      cv_.wait_for(lock, std::chrono::milliseconds(1), [&] { return stopping_ || count_ > 0; });
-      if (stopping_) return;
-      if (count_ == 0) continue;
-      // Out of order: a random queued read, swapped to the front.
-      const size_t pick = (head_ + std::uniform_int_distribution<size_t>(0, count_ - 1)(rng_)) % ring_.size();
-      std::swap(ring_[pick], ring_[head_]);
-      Read r = ring_[head_];
-      head_ = (head_ + 1) % ring_.size();
-      --count_;
-      ++serving_;
-      const double u = unit_(rng_);
-      lock.unlock();
-      Status status = Status::success;
-      if (u < 0.002) {  // a stall: this read takes 40 ms
-        ++counters.stalled;
-        std::this_thread::sleep_for(std::chrono::milliseconds(40));
+    return !cv_.wait_for(lock, d, [&] { return stopping_; });
+  }
+  void loop() {
+    t_uncounted = true;  // the engine's operations, not the runtime
+    const auto& c = io_.counters;
+    while (wait(std::chrono::microseconds(static_cast<int64_t>(every_ * 1e6)))) {
+      const uint64_t failed0 = c.source_failed.load(), ok0 = c.source_ok.load();
+      server_.stop(restarts.load() % 2 == 0 ? SIGKILL : SIGTERM);
+      std::this_thread::sleep_for(std::chrono::milliseconds(50 + rng_() % 251));
+      if (!server_.spawn()) {
+        ++start_failures;
+        return;
       }
-      if (u >= 0.002 && u < 0.012) {
-        ++counters.failed;
-        status = Status::io_error;
-      } else {
-        std::memcpy(r.out.data(), files_[r.material].data() + r.offset, r.out.size());
-        if (u >= 0.012 && u < 0.022 && !r.out.empty()) {  // bytes damaged on the way
-          r.out[r.out.size() / 3] ^= 0x10;
-          ++counters.corrupted;
-        }
+      const auto up = Clock::now();
+      const uint64_t failed1 = c.source_failed.load(), ok1 = c.source_ok.load();
+      // Reads attempted while it was down (a read that began before the kill may still have
+      // succeeded): some must have failed.
+      const uint64_t attempts = failed1 - failed0 + ok1 - ok0, failures = failed1 - failed0;
+      idle += attempts == 0;
+      undetected += attempts > 0 && failures == 0;
+      outage_failures += failures;
+      bool back = false, stopping = false;
+      while (!back && !stopping && Clock::now() - up < std::chrono::seconds(10)) {
+        stopping = !wait(std::chrono::microseconds(200));
+        back = c.source_ok.load() > ok1;
       }
-      ++counters.reads;
-      const uint32_t job = streamer_->complete_read(r.ticket, status);
-      if (job != Streamer::kNoJob) executor_->notify();  // the job it made runnable
-      lock.lock();
-      --serving_;
+      if (stopping && !back) return;  // the run ended before a read was due: not counted
+      if (back) {
+        ++recovered;
+        const auto us = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - up).count());
+        total_recovery_us += us;
+        if (us > max_recovery_us.load()) max_recovery_us = us;
+      }
+      ++restarts;
+      if (!back) return;  // stopping, or it did not come back: the run fails
     }
   }
-  const std::vector<std::vector<uint8_t>>& files_;
-  std::vector<Read> ring_;
-  size_t head_ = 0, count_ = 0, serving_ = 0;
+  soak::NginxServer& server_;
+  const FaultyAsyncIo& io_;
+  double every_;
   std::mt19937 rng_;
-  std::uniform_real_distribution<double> unit_{0.0, 1.0};
-  std::bernoulli_distribution refuse_{0.003};
-  mutable std::mutex mutex_;
+  std::mutex mutex_;
   std::condition_variable cv_;
   bool stopping_ = false;
   std::thread thread_;
-  Streamer* streamer_ = nullptr;
-  ThreadExecutor* executor_ = nullptr;
-};
-
-struct MaterialSource final : AsyncTileSource {
-  FaultyIo* io = nullptr;
-  size_t material = 0;
-  bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
-    return io->enqueue(material, offset, out, ticket);
-  }
 };
 
 // A camera over a 2×2 grid of materials: pans, zooms, and cuts to a new place every 240 frames.
@@ -315,6 +321,39 @@ int main(int argc, char** argv) {
     if (!d) return std::fprintf(stderr, "btflod-soak: container: %s\n", d.message().c_str()), 1;
     dirs.push_back(std::move(*d));
   }
+  // --http: the containers are served by a private nginx and read through HttpSource (the
+  // directory stays the one read from memory); the nginx is restarted every --restart-every s.
+  soak::NginxServer nginx;
+  std::vector<std::unique_ptr<EngineHttpSource>> http_sources;
+  if (opt.http) {
+#if !BTFLOD_SOAK_HTTP
+    std::printf("btflod-soak: built without libcurl (HttpSource): soak: skipped\n");
+    return 0;
+#else
+    if (::access(opt.nginx.c_str(), X_OK) != 0) {
+      std::printf("btflod-soak: no nginx at %s (Debian: nginx-light): soak: skipped\n", opt.nginx.c_str());
+      return 0;
+    }
+    std::string why;
+    const auto dir = std::filesystem::temp_directory_path() / ("btflod-soak-" + std::to_string(::getpid()));
+    if (!nginx.start(opt.nginx, dir, why)) return std::fprintf(stderr, "btflod-soak: %s\n", why.c_str()), 1;
+    HttpSourceOptions ho;
+    // A server we run ourselves: handles (keep-alive connections) are reused, so every restart
+    // also leaves the client with dead connections to notice.
+    ho.reuse_handles = true;
+    ho.connect_timeout_ms = 2000;
+    ho.timeout_ms = 10000;
+    ho.low_speed_seconds = 5;
+    for (uint32_t m = 0; m < 4; ++m) {
+      const std::string name = "material" + std::to_string(m) + ".bsvtf";
+      std::FILE* f = std::fopen((nginx.www() / name).c_str(), "wb");
+      const bool written = f != nullptr && std::fwrite(files[m].data(), 1, files[m].size(), f) == files[m].size();
+      if (f != nullptr) std::fclose(f);
+      if (!written) return std::fprintf(stderr, "btflod-soak: cannot write %s\n", name.c_str()), 1;
+      http_sources.push_back(std::make_unique<EngineHttpSource>(nginx.url(name), ho));
+    }
+#endif
+  }
   StreamerConfig config;
   config.cache = CacheConfig{12, 12, 1u << 14, 32, 4, 1};  // 144 slots: swaps all the time
   config.scheduler.budgets.uploads_per_frame = 8;
@@ -325,12 +364,27 @@ int main(int argc, char** argv) {
   // all the time instead of being served from memory after the first minute.
   config.payload_cache_bytes = 64u << 10;
   config.decoded_cache_tiles = 4;
-  FaultyIo io(files, opt.seed, 4096);
-  std::vector<MaterialSource> sources(4);
+  if (opt.http) {
+    // An engine streaming over the network retries through an outage: with the back-off capped
+    // at 120 frames, 16 consecutive failures span about 1,300 frames (1–3 s here).
+    config.failure.tile_attempts = config.failure.startup_attempts = config.failure.packet_attempts = 16;
+  }
+  // The engine's I/O thread (tests/faulty_async_io.hpp), per read: 1 % fail, 1 % arrive with a
+  // damaged byte, 0.2 % stall for 40 ms; 0.3 % of start_read calls are refused.
+  FaultyIoConfig io_config;
+  io_config.seed = opt.seed;
+  io_config.capacity = 4096;
+  io_config.fail = 0.01;
+  io_config.corrupt = 0.01;
+  io_config.stall = 0.002;
+  io_config.stall_ms = 40;
+  io_config.refuse = 0.003;
+  FaultyAsyncIo io(io_config);
+  std::vector<FaultyAsyncIo::Source> sources;
+  for (uint32_t m = 0; m < 4; ++m) sources.push_back(io.source(files[m], opt.http ? http_sources[m].get() : nullptr));
+  Restarter restarter(nginx, io, opt.restart_every, opt.seed);
   std::vector<StreamerMaterial> materials;
   for (uint32_t m = 0; m < 4; ++m) {
-    sources[m].io = &io;
-    sources[m].material = m;
     materials.push_back(StreamerMaterial{&dirs[m], nullptr, &sources[m]});
   }
   auto created = Streamer::create(materials, config);
@@ -363,8 +417,8 @@ int main(int argc, char** argv) {
   uint64_t allocations_at_warmup = 0;
   const auto start = Clock::now();
   auto last_report = start;
-  std::printf("btflod-soak: %u materials, %u slots, %u workers, %.0f s (seed %u)\n", 4u, cache.slot_count(),
-              opt.workers, opt.seconds, opt.seed);
+  std::printf("btflod-soak: %u materials, %u slots, %u workers, %.0f s (seed %u)%s\n", 4u, cache.slot_count(),
+              opt.workers, opt.seconds, opt.seed, opt.http ? ", over HTTP from a restarted nginx" : "");
   std::printf("%8s %9s %9s %8s %9s %8s %8s %8s %10s\n", "seconds", "frames", "uploads", "rss_MiB", "allocs", "bad_data",
               "io_err", "retries", "invariants");
   const auto print_row = [&](double elapsed) {
@@ -379,7 +433,11 @@ int main(int argc, char** argv) {
   };
   {
     ThreadExecutor workers(streamer.jobs(), opt.workers);
-    io.start(streamer, workers);
+    // When a completion makes a job runnable, wake the workers with it.
+    io.start(streamer, [](void* w, uint32_t job) {
+      if (job != Streamer::kNoJob) static_cast<ThreadExecutor*>(w)->notify();
+    }, &workers);
+    if (opt.http) restarter.start();
     for (;;) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       if (elapsed >= opt.seconds) break;
@@ -448,11 +506,12 @@ int main(int argc, char** argv) {
       }
     }
     print_row(std::chrono::duration<double>(Clock::now() - start).count());
+    restarter.stop();
     // Quiesce: nothing new starts, the engine cancels its queued reads, jobs drain.
     streamer.quiesce();
     const auto drain_deadline = Clock::now() + std::chrono::seconds(30);
     while (!streamer.idle() && Clock::now() < drain_deadline) {
-      io.cancel_all();
+      io.cancel_queued();
       workers.notify();
       StreamerOutputs out{tiles, packets, writes, events};
       streamer.update({}, out);
@@ -460,15 +519,23 @@ int main(int argc, char** argv) {
     }
     io.stop();
   }
-  const bool drained = streamer.idle() && io.pending() == 0;
+  const bool drained = streamer.idle() && io.outstanding() == 0;
   const StreamerStats st = streamer.stats();
   const uint64_t corrupted = io.counters.corrupted.load();
   // Every corrupted read was caught: no wrong upload, and corruption produced bad_data
   // failures (a job reads up to L + 1 payloads, so several damaged reads can fail one job).
   const bool caught = wrong_uploads == 0 && (corrupted == 0 || bad_data_events > 0) && bad_data_events <= corrupted;
   const double rss_growth = rss_warm > 0 ? static_cast<double>(rss_max) / static_cast<double>(rss_warm) - 1.0 : 0.0;
+  // --http: every restart during which reads were attempted was detected (they failed), every
+  // restart recovered (reads succeeded again), and the outages cost no tile and no material.
+  const uint64_t restarts = restarter.restarts.load();
+  const bool http_ok = !opt.http || (restarter.undetected.load() == 0 && restarter.recovered.load() == restarts &&
+                                     restarter.start_failures.load() == 0 && unavailable == 0 && material_failures == 0 &&
+                                     (restarts > 0 || opt.seconds < opt.restart_every + 2) &&
+                                     (restarter.outage_failures.load() == 0 || io_error_events > 0));
   const bool ok = wrong_uploads == 0 && wrong_page_texels == 0 && budget_breaches == 0 && cache_breaches == 0 &&
-                  allocations_after_warmup == 0 && rss_growth <= opt.rss_tolerance && caught && drained && warm;
+                  allocations_after_warmup == 0 && rss_growth <= opt.rss_tolerance && caught && drained && warm &&
+                  http_ok;
   std::printf(
       "frames %llu, uploads %llu; reads %llu: %llu failed, %llu corrupted, %llu stalled, %llu refused; "
       "events: %llu bad_data, %llu io_error, %llu given up, %llu materials failed; retries %llu, cancelled %llu\n",
@@ -487,13 +554,29 @@ int main(int argc, char** argv) {
               static_cast<double>(st.memory.total) / 1048576.0, static_cast<double>(rss_warm) / 1048576.0,
               static_cast<double>(rss_max) / 1048576.0, 100.0 * rss_growth,
               static_cast<unsigned long long>(allocations_after_warmup), drained ? "yes" : "no");
+  if (opt.http)
+    std::printf("http: %llu nginx restarts (SIGKILL and SIGTERM in turn, 50-300 ms down): %llu with reads during "
+                "the outage, %llu of them without a failed read; %llu HTTP reads failed in outages, %llu in all; %llu recovered "
+                "(first good read %.1f ms after the restart on average, %.1f ms at most); %llu failed to start\n",
+                static_cast<unsigned long long>(restarts),
+                static_cast<unsigned long long>(restarts - restarter.idle.load()),
+                static_cast<unsigned long long>(restarter.undetected.load()),
+                static_cast<unsigned long long>(restarter.outage_failures.load()),
+                static_cast<unsigned long long>(io.counters.source_failed.load()),
+                static_cast<unsigned long long>(restarter.recovered.load()),
+                restarter.recovered.load() > 0
+                    ? static_cast<double>(restarter.total_recovery_us.load()) / 1e3 / static_cast<double>(restarter.recovered.load())
+                    : 0.0,
+                static_cast<double>(restarter.max_recovery_us.load()) / 1e3,
+                static_cast<unsigned long long>(restarter.start_failures.load()));
   if (!opt.json.empty()) {
     if (std::FILE* f = std::fopen(opt.json.c_str(), "w")) {
       std::fprintf(f,
                    "{\"seconds\": %.1f, \"frames\": %llu, \"uploads\": %llu, \"reads\": %llu, \"corrupted\": %llu, "
                    "\"failed_reads\": %llu, \"bad_data_events\": %llu, \"wrong_uploads\": %llu, "
                    "\"wrong_page_texels\": %llu, \"allocations_after_warmup\": %llu, \"rss_warm\": %llu, "
-                   "\"rss_max\": %llu, \"ok\": %s}\n",
+                   "\"rss_max\": %llu, \"http\": %s, \"restarts\": %llu, \"restarts_undetected\": %llu, "
+                   "\"restarts_recovered\": %llu, \"http_reads_failed\": %llu, \"tiles_given_up\": %llu, \"ok\": %s}\n",
                    opt.seconds, static_cast<unsigned long long>(frame), static_cast<unsigned long long>(uploads),
                    static_cast<unsigned long long>(io.counters.reads.load()),
                    static_cast<unsigned long long>(corrupted),
@@ -501,7 +584,11 @@ int main(int argc, char** argv) {
                    static_cast<unsigned long long>(bad_data_events), static_cast<unsigned long long>(wrong_uploads),
                    static_cast<unsigned long long>(wrong_page_texels),
                    static_cast<unsigned long long>(allocations_after_warmup), static_cast<unsigned long long>(rss_warm),
-                   static_cast<unsigned long long>(rss_max), ok ? "true" : "false");
+                   static_cast<unsigned long long>(rss_max), opt.http ? "true" : "false",
+                   static_cast<unsigned long long>(restarts), static_cast<unsigned long long>(restarter.undetected.load()),
+                   static_cast<unsigned long long>(restarter.recovered.load()),
+                   static_cast<unsigned long long>(io.counters.source_failed.load()),
+                   static_cast<unsigned long long>(unavailable), ok ? "true" : "false");
       std::fclose(f);
     }
   }

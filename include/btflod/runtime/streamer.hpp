@@ -118,6 +118,14 @@ struct StreamerCapacity {
   uint32_t max_u_rows = 0;        ///< rows of the largest U′ packet (U′ texture height)
 };
 
+/// The room to reserve so that any `live_at_once` of `candidates` (the materials a world may
+/// stream, e.g. every level's) can be live together: the ids, and the layers and tile entries of
+/// the `live_at_once` largest, the largest tile, packet, row count and hierarchy of all. Ranges
+/// are handed out first-fit, so after many adds and removes of different sizes an add can find
+/// the room in total but not in one piece (insufficient_space): reserve headroom when materials
+/// churn. Candidates that fail the Streamer's checks are skipped. Set-up helper (allocates).
+StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once);
+
 /// Everything fixed at creation.
 struct StreamerConfig {
   /// The cache (slots, layers, tile size, border); tile size and border must match every

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <vector>
 
 #include "btflod/runtime/streamer_impl.hpp"
 
@@ -68,6 +69,32 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
 }
 
 }  // namespace detail
+
+inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once) {
+  StreamerCapacity cap;
+  std::vector<uint32_t> textures, tiles;
+  for (const StreamerMaterial& sm : candidates) {
+    if (sm.directory == nullptr) continue;
+    CacheConfig own;
+    own.tile_size = sm.directory->metadata.tile_size;
+    own.border = sm.directory->metadata.border;
+    detail::StreamerMaterialNeeds n;
+    if (detail::check_streamer_material(sm, own, n, nullptr) != Status::success) continue;
+    textures.push_back(n.textures);
+    tiles.push_back(n.tiles);
+    cap.max_level_count = std::max(cap.max_level_count, n.level_count);
+    cap.max_finest_tiles = std::max(cap.max_finest_tiles, n.finest_tiles);
+    cap.max_tile_bytes = std::max(cap.max_tile_bytes, n.max_tile_bytes);
+    cap.max_packet_bytes = std::max(cap.max_packet_bytes, n.max_packet_bytes);
+    cap.max_u_rows = std::max(cap.max_u_rows, n.rows);
+  }
+  const size_t n = std::min<size_t>(live_at_once, textures.size());
+  std::sort(textures.rbegin(), textures.rend());
+  std::sort(tiles.rbegin(), tiles.rend());
+  cap.materials = static_cast<uint32_t>(n);
+  for (size_t i = 0; i < n; ++i) cap.textures += textures[i], cap.tiles += tiles[i];
+  return cap;
+}
 
 inline bool Streamer::Impl::stale(const detail::StreamerJob& job) const noexcept {
   const detail::StreamerMaterialState& ms = materials[job.material];

@@ -1,0 +1,88 @@
+// Filament boilerplate of the sample, nothing btflod-specific: a headless OpenGL engine with two
+// views of one camera (the colour view into an RGBA16F render target, as an engine's HDR target,
+// the feedback view into a small RGBA8 one), both cleared by a black skybox (render targets ignore
+// the renderer's clear options), meshes with Filament's tangent frames, textures, and a
+// synchronous readback.
+// main.cpp holds everything that concerns btflod.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <filament/Camera.h>
+#include <filament/Engine.h>
+#include <filament/IndexBuffer.h>
+#include <filament/Material.h>
+#include <filament/MaterialInstance.h>
+#include <filament/RenderTarget.h>
+#include <filament/Renderer.h>
+#include <filament/Scene.h>
+#include <filament/Skybox.h>
+#include <filament/SwapChain.h>
+#include <filament/Texture.h>
+#include <filament/TextureSampler.h>
+#include <filament/VertexBuffer.h>
+#include <filament/View.h>
+#include <utils/Entity.h>
+
+#include "btflod/render/primitives.hpp"
+
+namespace host {
+
+struct Host {
+  filament::Engine* engine = nullptr;
+  filament::SwapChain* swap_chain = nullptr;
+  filament::Renderer* renderer = nullptr;
+  filament::Camera* camera = nullptr;
+  utils::Entity camera_entity;
+  filament::Scene* color_scene = nullptr;     // what the player sees
+  filament::Scene* feedback_scene = nullptr;  // the same meshes with the feedback material
+  filament::View* color_view = nullptr;
+  filament::View* feedback_view = nullptr;
+  filament::Texture* color_texture = nullptr;  // RGBA16F: btflod's linear radiance, unclamped
+  filament::Texture* color_depth = nullptr;
+  filament::RenderTarget* color_target = nullptr;
+  filament::Texture* feedback_color = nullptr;
+  filament::Texture* feedback_depth = nullptr;
+  filament::RenderTarget* feedback_target = nullptr;
+  filament::Skybox* skybox = nullptr;
+  uint32_t width = 0, height = 0, feedback_width = 0, feedback_height = 0;
+  std::vector<filament::VertexBuffer*> vertex_buffers;
+  std::vector<filament::IndexBuffer*> index_buffers;
+  std::vector<utils::Entity> renderables;
+};
+
+/// Creates the engine (OpenGL backend), a headless swap chain of width × height, the two views
+/// with post-processing, anti-aliasing and dithering off, and the feedback target. Returns false
+/// (with a message on stderr) when Filament cannot start (no X display, no GL).
+bool create(Host& h, uint32_t width, uint32_t height, uint32_t feedback_width, uint32_t feedback_height);
+/// Destroys the meshes' renderables and buffers (before the material instances they use).
+void destroy_meshes(Host& h);
+/// Destroys the rest and the engine (after every texture, material and instance of the caller).
+void destroy(Host& h);
+
+/// Loads a material compiled by matc.
+filament::Material* load_material(Host& h, const std::string& path);
+
+/// Adds `mesh` twice: drawn with `color` in the colour scene and with `feedback` in the
+/// feedback scene (Filament tangent frames from the mesh's normals and tangents).
+void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, filament::MaterialInstance* color,
+              filament::MaterialInstance* feedback);
+
+/// Sets the camera of both views (vertical field of view in degrees).
+void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fov_y_degrees);
+
+/// Copies `bytes` and hands them to Texture::setImage for the sub-box (x, y, z) + (w, h, d) of
+/// mip `level` (Filament frees the copy once the driver consumed it).
+void set_image(Host& h, filament::Texture* t, uint32_t level, uint32_t x, uint32_t y, uint32_t z, uint32_t w,
+               uint32_t hgt, uint32_t d, const void* bytes, size_t size, filament::Texture::Format format,
+               filament::Texture::Type type);
+
+/// Renders both views and reads back the feedback target (RGBA8) and, when `color` is not null,
+/// the colour view (RGBA float, linear). Rows come top row first: Filament renders into render
+/// targets upside down relative to OpenGL's convention, so its readback of one is top-down.
+/// Waits for the GPU.
+void render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color);
+
+}  // namespace host

@@ -1,0 +1,122 @@
+#include "reference_check.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "btflod/core/image.hpp"
+#include "btflod/core/image_io.hpp"
+#include "btflod/lod/lod_selector.hpp"
+
+using namespace btflod;
+
+namespace sample {
+
+ReferenceCheck::ReferenceCheck(const Streamer& s, std::vector<const BsvtfAngularTables*> tables)
+    : streamer_(s), tables_(std::move(tables)), cache_(s.cache()), u_(tables_.size()) {
+  for (size_t m = 0; m < u_.size(); ++m) {
+    u_[m].light_count = tables_[m]->light_count;
+    u_[m].view_count = tables_[m]->view_count;
+    u_[m].textures = Image<float>(1, 1, static_cast<int>(s.component_count(static_cast<uint32_t>(m))));  // sets C
+    u_[m].angular.assign(size_t{tables_[m]->light_count} * tables_[m]->view_count * 3 *
+                             s.component_count(static_cast<uint32_t>(m)), 0.0f);
+  }
+}
+
+void ReferenceCheck::mirror(const StreamerOutputs& out) {
+  for (size_t i = 0; i < out.tile_upload_count; ++i)
+    cache_.upload(streamer_.cache(), out.tile_uploads[i].slot, out.tile_uploads[i].texels);
+  for (size_t i = 0; i < out.packet_upload_count; ++i) {
+    const StreamerPacketUpload& p = out.packet_uploads[i];
+    EigenTextures& e = u_[p.material];
+    write_u_packet(to_u_packet_upload(p), e.light_count, e.view_count, streamer_.component_count(p.material), e.angular);
+  }
+}
+
+namespace {
+AngularSample lookup(const BsvtfAngularTables& t, const std::vector<uint32_t>& index, const std::vector<float>& weight,
+                     glm::vec3 d) {
+  const Int2 texel = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, Float3(d.x, d.y, d.z)),
+                                        t.resolution);
+  const size_t k = (static_cast<size_t>(texel.y) * t.resolution + static_cast<size_t>(texel.x)) * 3;
+  AngularSample s;
+  for (int i = 0; i < 3; ++i) {
+    s.index[i] = index[k + i];
+    s.weight[i] = weight[k + i];
+  }
+  return s;
+}
+}  // namespace
+
+bool ReferenceCheck::run(const Scene& scene, const Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+                         float lod_bias, std::span<const float> rgba, std::span<const uint32_t> words,
+                         uint32_t decimation, double min_psnr, const std::string& out_dir) {
+  const TileCache& cache = streamer_.cache();
+  Image<float> ref(static_cast<int>(cam.width), static_cast<int>(cam.height), 4, 0.0f);
+  double se = 0.0, peak = 0.0;
+  uint64_t pixels = 0, finest = 0;
+  std::vector<float> comps(32);
+  for (uint32_t y = 0; y < cam.height; ++y)
+    for (uint32_t x = 0; x < cam.width; ++x) {
+      const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
+      const SurfaceHit hit = scene.intersect(cam.ray(px, py));
+      glm::vec3 rgb(0.0f);
+      if (hit.hit) {
+        const uint32_t m = hit.material, first = streamer_.first_texture(m), n = streamer_.texture_count(m);
+        comps.assign(4 * n, 0.0f);
+        for (uint32_t k = 0; k < n; ++k) {
+          const uint32_t level = cache_.sample(cache, first + k, hit.texcoord.x, hit.texcoord.y, &comps[4 * k]);
+          if (k == 0 && level == cache.set().levels_of(first).finest_level()) ++finest;
+        }
+        comps.resize(streamer_.component_count(m));
+        const glm::vec3 wl = to_local(hit, glm::normalize(to_light));
+        const glm::vec3 wv = to_local(hit, glm::normalize(cam.position - hit.position));
+        const BsvtfAngularTables& t = *tables_[m];
+        rgb = shade_fmf(u_[m], lookup(t, t.light_index, t.light_weight, wl), lookup(t, t.view_index, t.view_weight, wv),
+                        comps) * light_color;
+        ++pixels;
+      }
+      for (int c = 0; c < 3; ++c) {
+        ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
+        const double d = rgb[c] - rgba[(size_t{y} * cam.width + x) * 4 + c];
+        se += d * d;
+        peak = std::max(peak, static_cast<double>(rgb[c]));
+      }
+      ref.at(static_cast<int>(x), static_cast<int>(y), 3) = 1.0f;
+    }
+  const double mse = se / (3.0 * cam.width * cam.height);
+  const double psnr = mse > 0 ? 10.0 * std::log10(peak * peak / mse) : 200.0;
+  (void)write_png_srgb(out_dir + "/reference.png", ref.view());
+
+  // Feedback: the CPU's word at each feedback pixel centre of a camera with decimation× fewer
+  // pixels; the Filament pass adds log2(decimation) levels to its λ, the CPU's bias subtracts them.
+  Camera fcam = cam;
+  fcam.width = cam.width / decimation;
+  fcam.height = cam.height / decimation;
+  const DerivativeLod selector{lod_bias - std::log2(static_cast<float>(decimation))};
+  uint64_t equal = 0, one_level = 0, other = 0;
+  for (uint32_t y = 0; y < fcam.height; ++y)
+    for (uint32_t x = 0; x < fcam.width; ++x) {
+      const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
+      const uint32_t cpu = feedback_word(fcam, scene.intersect(fcam.ray(px, py)), px, py, cache.set(), selector);
+      const uint32_t gpu = words[size_t{y} * fcam.width + x];
+      if (cpu == gpu) {
+        ++equal;
+        continue;
+      }
+      const FeedbackTile a = unpack_feedback(cpu), b = unpack_feedback(gpu);
+      const bool near = cpu != kFeedbackNone && gpu != kFeedbackNone && a.material == b.material &&
+                        (a.level + 1 == b.level || b.level + 1 == a.level);
+      ++(near ? one_level : other);
+    }
+  const uint64_t total = equal + one_level + other;
+  std::printf("check: PSNR %.2f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
+              psnr, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
+  std::printf("check: feedback words %llu of %llu equal to the CPU's, %llu one level apart, %llu other\n",
+              static_cast<unsigned long long>(equal), static_cast<unsigned long long>(total),
+              static_cast<unsigned long long>(one_level), static_cast<unsigned long long>(other));
+  bool ok = psnr >= min_psnr && pixels > 0 && finest * 10 >= pixels * 9;
+  ok = ok && equal * 100 >= total * 95 && other * 1000 <= total;  // bounds: docs/filament.md
+  return ok;
+}
+
+}  // namespace sample

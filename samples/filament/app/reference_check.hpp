@@ -1,0 +1,44 @@
+// --check: the converged Filament frame and feedback against btflod's CPU reference
+// (backend/cpu_reference.hpp) at the same view. Not part of an integration: a test of one.
+//
+// The CPU side mirrors what the GPU received (every tile upload into a CpuCacheTexture, every U′
+// packet into U), ray-casts the same shapes with the same camera, samples V′ through the tile
+// cache's own page table (deepest resident tile, bilinear in the bordered tile) and shades eq. 5
+// with the same angular tables. The check view magnifies the texture everywhere (λ ≥ L), so the
+// GPU also reads the deepest resident tile and both must agree up to half-float and rasteriser
+// rounding. Feedback words are computed by the CPU at the feedback view's pixel centres (ray
+// differentials instead of the GPU's finite differences).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "btflod/backend/bsvtf_angular_tables.hpp"
+#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/backend/cpu_reference.hpp"
+#include "btflod/runtime/streamer.hpp"
+
+namespace sample {
+
+class ReferenceCheck {
+ public:
+  ReferenceCheck(const btflod::Streamer& s, std::vector<const btflod::BsvtfAngularTables*> tables);
+  /// Mirrors one frame's uploads (call with the same outputs the GPU got).
+  void mirror(const btflod::StreamerOutputs& out);
+  /// Compares; prints the numbers; returns true when every bound holds. rgba: the Filament frame
+  /// (cam.width × cam.height × 4 floats, top row first); words: the feedback view's words
+  /// (top row first) of a view with `decimation`× fewer pixels per side.
+  bool run(const btflod::Scene& scene, const btflod::Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+           float lod_bias, std::span<const float> rgba, std::span<const uint32_t> words, uint32_t decimation,
+           double min_psnr, const std::string& out_dir);
+
+ private:
+  const btflod::Streamer& streamer_;
+  std::vector<const btflod::BsvtfAngularTables*> tables_;
+  btflod::CpuCacheTexture cache_;
+  std::vector<btflod::EigenTextures> u_;  // U′ per material (light-major rows), V unused
+};
+
+}  // namespace sample

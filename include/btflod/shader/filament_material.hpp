@@ -26,8 +26,14 @@
 // visible to unlit ones. The light therefore comes in as parameters (btflod_light: xyz direction
 // towards the light, w = 0, or position, w = 1; btflod_light_color), which the engine copies from
 // its light each frame — the same values btflod's own programs read (ShaderParams::light). The
-// result is written to baseColor (alpha 1); Filament's exposure and tone mapping do not apply to
-// unlit baseColor, so the colour is btflod's linear radiance.
+// result is written to baseColor (alpha 1): with post-processing off the target receives btflod's
+// linear radiance (samples/filament measures it against the CPU reference); with it on, Filament's
+// colour grading and tone mapping apply as to any unlit material.
+//
+// Filament details the generated material handles: unlit materials get no tangent frame from
+// Filament (getWorldTangentFrame() is only set up for lit ones), so a vertex block decodes the
+// mesh's tangent quaternion into two variables; `flipUV : false` keeps the mesh's uv (tile ids and
+// page-table addresses depend on it).
 //
 // Everything here is set-up code (string building) and allocates. Thread-safe, no shared state.
 #pragma once

@@ -73,6 +73,22 @@ void camera_at(uint32_t frame, uint32_t frames, glm::vec3& eye, glm::vec3& targe
   target = glm::mix(glm::vec3(0.0f, 0.6f, -1.0f), kCheckTarget, s);
 }
 
+// The CPU reference's twins of the scene and the camera (--check).
+btflod::Scene cpu_scene(const std::vector<WorldShape>& shapes) {
+  btflod::Scene scene;
+  for (const WorldShape& s : shapes) scene.add(s.cpu);
+  return scene;
+}
+btflod::Camera check_camera(glm::vec3 eye, glm::vec3 target) {
+  btflod::Camera cam;
+  cam.position = eye;
+  cam.target = target;
+  cam.fov_y_degrees = 45.0f;
+  cam.width = kWidth;
+  cam.height = kHeight;
+  return cam;
+}
+
 // One btflod material on the GPU: U′ (eigen-ABRDFs, filled by the Streamer's packets), angular
 // tables, and the two Filament material instances that draw it.
 struct GpuMaterial {
@@ -217,6 +233,7 @@ int main(int argc, char** argv) {
   // Decode jobs on two threads (an engine hands them to its own workers: StreamerOutputs::runnable_jobs).
   auto workers = std::make_unique<ThreadExecutor>(streamer.jobs(), 2);
   uint64_t uploads = 0, quiet_frames = 0;
+  bool ok = true;
   uint32_t frame = 0;
   const uint32_t max_frames = frames + 400;  // the camera stops at `frames`; then wait for convergence
   for (; frame < max_frames; ++frame) {
@@ -267,6 +284,9 @@ int main(int argc, char** argv) {
     feedback_words_from_rgba8(feedback_rgba, h.feedback_width, h.feedback_height, false, words,
                               shader.vt.feedback.empty_word);
     if (keep) write_frame(out_dir + "/frame_" + std::to_string(frame) + ".png", color);
+    if (check && frame == frames / 3)  // mid-flight: many levels, three shapes, silhouettes
+      ok = reference.compare_feedback("mid-flight", cpu_scene(shapes), check_camera(eye, target), kLodBias, words,
+                                      kDecimation, 0.95, 0.005) && ok;
 
     // Converged: the camera stopped, nothing was uploaded or written for 4 frames and no job runs.
     const bool quiet = out.tile_upload_count == 0 && out.page_table_write_count == 0 && streamer.idle();
@@ -278,22 +298,14 @@ int main(int argc, char** argv) {
   std::printf("btflod-filament: %u frames, %llu tile uploads, %u of %u slots used, %llu bytes read, converged: %s\n",
               frame + 1, static_cast<unsigned long long>(uploads), st.slots_used, st.slots,
               static_cast<unsigned long long>(st.bytes_read), frame < max_frames ? "yes" : "no");
-  bool ok = frame < max_frames;
+  ok = frame < max_frames && ok;
 
   // The converged frame at the check view, and (--check) the CPU reference of the same view.
   host::render(h, feedback_rgba, &color);
   write_frame(out_dir + "/converged.png", color);
-  if (check) {
-    btflod::Scene scene;
-    for (const WorldShape& s : shapes) scene.add(s.cpu);
-    btflod::Camera cam;
-    cam.position = kCheckEye;
-    cam.target = kCheckTarget;
-    cam.fov_y_degrees = 45.0f;
-    cam.width = kWidth;
-    cam.height = kHeight;
-    ok = reference.run(scene, cam, kToLight, kLightColor, kLodBias, color, words, kDecimation, 40.0, out_dir) && ok;
-  }
+  if (check)
+    ok = reference.run(cpu_scene(shapes), check_camera(kCheckEye, kCheckTarget), kToLight, kLightColor, kLodBias, color,
+                       words, kDecimation, 40.0, out_dir) && ok;
   host::destroy_meshes(h);  // the renderables use the instances, the instances the textures
   for (GpuMaterial& g : gpu) {
     engine.destroy(g.color);

@@ -27,6 +27,12 @@ class ReferenceCheck {
   ReferenceCheck(const btflod::Streamer& s, std::vector<const btflod::BsvtfAngularTables*> tables);
   /// Mirrors one frame's uploads (call with the same outputs the GPU got).
   void mirror(const btflod::StreamerOutputs& out);
+  /// Feedback words of the Filament feedback view (top row first, a view with `decimation`×
+  /// fewer pixels per side than `cam`) against the CPU's at the same pixel centres. Prints the
+  /// counts under `label`; returns true when ≥ min_equal of them are equal and at most
+  /// max_other differ by more than one level (or in material or tile at the same level).
+  bool compare_feedback(const char* label, const btflod::Scene& scene, const btflod::Camera& cam, float lod_bias,
+                        std::span<const uint32_t> words, uint32_t decimation, double min_equal, double max_other) const;
   /// Compares; prints the numbers; returns true when every bound holds. rgba: the Filament frame
   /// (cam.width × cam.height × 4 floats, top row first); words: the feedback view's words
   /// (top row first) of a view with `decimation`× fewer pixels per side.

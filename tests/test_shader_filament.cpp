@@ -104,7 +104,7 @@ TEST(ShaderFilament, StaysWithinFilamentLimitsMatcDoesNotEnforce) {
         EXPECT_TRUE(declared.count(filament_sampler_parameter(role))) << shader_binding_name(role);
       // Material code: GLSL 4.10 / ESSL 3.00, no declarations Filament makes itself.
       const std::string code = fragment_block(*mat);
-      for (const char* banned : {"#version", "textureQueryLevels", "layout(", "buffer ", "uniform ", "precision "})
+      for (const char* banned : {"#version", "textureQueryLevels", "layout(", "\nbuffer ", "\nuniform ", "\nprecision "})
         EXPECT_EQ(code.find(banned), std::string::npos) << config_name << " " << filament_material_kind_name(kind)
                                                         << " uses " << banned;
       // Every sampler the code reads is one of the declared parameters.

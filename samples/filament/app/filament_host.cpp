@@ -166,6 +166,11 @@ void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, MaterialInstance* c
   }
 }
 
+void set_color_material(Host& h, size_t mesh, MaterialInstance* color) {
+  RenderableManager& rm = h.engine->getRenderableManager();
+  rm.setMaterialInstanceAt(rm.getInstance(h.renderables[2 * mesh]), 0, color);
+}
+
 void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fov_y_degrees) {
   h.camera->setProjection(fov_y_degrees, double(h.width) / h.height, 0.05, 50.0, Camera::Fov::VERTICAL);
   h.camera->lookAt({eye.x, eye.y, eye.z}, {target.x, target.y, target.z}, {up.x, up.y, up.z});

@@ -70,6 +70,9 @@ filament::Material* load_material(Host& h, const std::string& path);
 void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, filament::MaterialInstance* color,
               filament::MaterialInstance* feedback);
 
+/// Draws mesh `mesh` (in add_mesh order) of the colour scene with another material instance.
+void set_color_material(Host& h, size_t mesh, filament::MaterialInstance* color);
+
 /// Sets the camera of both views (vertical field of view in degrees).
 void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fov_y_degrees);
 

@@ -13,7 +13,8 @@
 //      pixel's feedback word into RGBA8; the words read back go into the next update().
 //
 // Filament boilerplate (engine, views, meshes, readback) is in filament_host.cpp; the comparison
-// with btflod's CPU reference (--check) in reference_check.cpp.
+// with btflod's CPU reference (--check) in reference_check.cpp. --check also draws the floor once
+// with the fmf material (a resident material: V′ from an ordinary texture) and checks it.
 //
 // usage: btflod-filament MATERIAL.bsvtf... [--out DIR] [--frames N] [--check]
 #include <cmath>
@@ -37,6 +38,7 @@
 #include "btflod/stream/file_source.hpp"
 #include "btflod/stream/thread_executor.hpp"
 #include "filament_host.hpp"
+#include "procedural_materials.hpp"
 #include "reference_check.hpp"
 #include "sample_config.hpp"
 
@@ -306,12 +308,52 @@ int main(int argc, char** argv) {
   if (check)
     ok = reference.run(cpu_scene(shapes), check_camera(kCheckEye, kCheckTarget), kToLight, kLightColor, kLodBias, color,
                        words, kDecimation, 40.0, out_dir) && ok;
+
+  // A resident (not streamed) material uses the fmf material: the same U′ and angular tables, V′
+  // from an ordinary filtered texture (⌈C/4⌉ RGBA layers, repeat). Shown (and checked) on the
+  // floor with its own eigen-textures, which the offline step made the .bsvtf from.
+  filament::Material* fmf_material = nullptr;
+  filament::MaterialInstance* fmf = nullptr;
+  Texture* eigen_textures = nullptr;
+  if (check) {
+    std::vector<float> directions;
+    const EigenTextures floor = sample::make_eigen(0, directions);
+    const std::vector<float> v = pack_eigen_textures_rgba(floor.textures.view());
+    const uint32_t groups = shader.component_groups();
+    eigen_textures = Texture::Builder().width(sample::kTexels).height(sample::kTexels).depth(groups)
+                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY).format(Texture::InternalFormat::RGBA32F).build(engine);
+    host::set_image(h, eigen_textures, 0, 0, 0, 0, sample::kTexels, sample::kTexels, groups, v.data(), v.size() * 4,
+                    Texture::Format::RGBA, Texture::Type::FLOAT);
+    fmf_material = host::load_material(h, BTFLOD_FILAMATS_DIR "/btflod_fmf.filamat");
+    if (!fmf_material) return 1;
+    fmf = fmf_material->createInstance();
+    const BsvtfMetadata& md = directories[0].metadata;
+    fmf->setParameter(kFilamentParamVtExtent, fm::float4(md.width, md.height, md.level_count - 1, 0));
+    fmf->setParameter(kFilamentParamLod, fm::float4(kLodBias, 0, 1, 0));
+    fmf->setParameter(kFilamentParamIds, fm::uint4(0, 0, 0, 0));
+    fmf->setParameter(kFilamentParamLight, fm::float4(kToLight.x, kToLight.y, kToLight.z, 0));
+    fmf->setParameter(kFilamentParamLightColor, fm::float4(kLightColor.x, kLightColor.y, kLightColor.z, 1));
+    fmf->setParameter(param(ShaderBinding::eigen_abrdfs).c_str(), gpu[0].eigen_abrdfs, nearest);
+    fmf->setParameter(param(ShaderBinding::angular_index).c_str(), gpu[0].angular_index, nearest);
+    fmf->setParameter(param(ShaderBinding::angular_weight).c_str(), gpu[0].angular_weight, nearest);
+    const TextureSampler repeat(TextureSampler::MinFilter::LINEAR, TextureSampler::MagFilter::LINEAR,
+                                TextureSampler::WrapMode::REPEAT);
+    fmf->setParameter(param(ShaderBinding::eigen_textures).c_str(), eigen_textures, repeat);
+    host::set_color_material(h, 0, fmf);
+    host::render(h, feedback_rgba, &color);
+    write_frame(out_dir + "/fmf.png", color);
+    ok = reference.run_fmf(cpu_scene(shapes), check_camera(kCheckEye, kCheckTarget), kToLight, kLightColor, 0,
+                           floor.textures, color, 40.0, out_dir) && ok;
+  }
   host::destroy_meshes(h);  // the renderables use the instances, the instances the textures
   for (GpuMaterial& g : gpu) {
     engine.destroy(g.color);
     engine.destroy(g.feedback);
     for (Texture* t : {g.eigen_abrdfs, g.angular_index, g.angular_weight}) engine.destroy(t);
   }
+  if (fmf) engine.destroy(fmf);
+  if (fmf_material) engine.destroy(fmf_material);
+  if (eigen_textures) engine.destroy(eigen_textures);
   engine.destroy(cache);
   engine.destroy(page_table);
   engine.destroy(bsvtf_material);

@@ -47,50 +47,89 @@ AngularSample lookup(const BsvtfAngularTables& t, const std::vector<uint32_t>& i
 }
 }  // namespace
 
+glm::vec3 ReferenceCheck::shade(const SurfaceHit& hit, const Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+                                std::span<const float> v) const {
+  const glm::vec3 wl = to_local(hit, glm::normalize(to_light));
+  const glm::vec3 wv = to_local(hit, glm::normalize(cam.position - hit.position));
+  const BsvtfAngularTables& t = *tables_[hit.material];
+  return shade_fmf(u_[hit.material], lookup(t, t.light_index, t.light_weight, wl),
+                   lookup(t, t.view_index, t.view_weight, wv), v) * light_color;
+}
+
+double ReferenceCheck::psnr(const Image<float>& ref, std::span<const float> rgba, const std::string& png) {
+  double se = 0.0, peak = 0.0;
+  for (int y = 0; y < ref.height(); ++y)
+    for (int x = 0; x < ref.width(); ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double d = ref.at(x, y, c) - rgba[(static_cast<size_t>(y) * ref.width() + x) * 4 + c];
+        se += d * d;
+        peak = std::max(peak, static_cast<double>(ref.at(x, y, c)));
+      }
+  (void)write_png_srgb(png, ref.view());
+  const double mse = se / (3.0 * ref.width() * ref.height());
+  return mse > 0 ? 10.0 * std::log10(peak * peak / mse) : 200.0;
+}
+
 bool ReferenceCheck::run(const Scene& scene, const Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
                          float lod_bias, std::span<const float> rgba, std::span<const uint32_t> words,
                          uint32_t decimation, double min_psnr, const std::string& out_dir) {
   const TileCache& cache = streamer_.cache();
   Image<float> ref(static_cast<int>(cam.width), static_cast<int>(cam.height), 4, 0.0f);
-  double se = 0.0, peak = 0.0;
   uint64_t pixels = 0, finest = 0;
-  std::vector<float> comps(32);
+  std::vector<float> comps;
   for (uint32_t y = 0; y < cam.height; ++y)
     for (uint32_t x = 0; x < cam.width; ++x) {
-      const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
-      const SurfaceHit hit = scene.intersect(cam.ray(px, py));
-      glm::vec3 rgb(0.0f);
-      if (hit.hit) {
-        const uint32_t m = hit.material, first = streamer_.first_texture(m), n = streamer_.texture_count(m);
-        comps.assign(4 * n, 0.0f);
-        for (uint32_t k = 0; k < n; ++k) {
-          const uint32_t level = cache_.sample(cache, first + k, hit.texcoord.x, hit.texcoord.y, &comps[4 * k]);
-          if (k == 0 && level == cache.set().levels_of(first).finest_level()) ++finest;
-        }
-        comps.resize(streamer_.component_count(m));
-        const glm::vec3 wl = to_local(hit, glm::normalize(to_light));
-        const glm::vec3 wv = to_local(hit, glm::normalize(cam.position - hit.position));
-        const BsvtfAngularTables& t = *tables_[m];
-        rgb = shade_fmf(u_[m], lookup(t, t.light_index, t.light_weight, wl), lookup(t, t.view_index, t.view_weight, wv),
-                        comps) * light_color;
-        ++pixels;
+      const SurfaceHit hit = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+      if (!hit.hit) continue;
+      // V′ through the tile cache's own page table: the deepest resident tile, bilinear.
+      const uint32_t m = hit.material, first = streamer_.first_texture(m), n = streamer_.texture_count(m);
+      comps.assign(4 * n, 0.0f);
+      for (uint32_t k = 0; k < n; ++k) {
+        const uint32_t level = cache_.sample(cache, first + k, hit.texcoord.x, hit.texcoord.y, &comps[4 * k]);
+        if (k == 0 && level == cache.set().levels_of(first).finest_level()) ++finest;
       }
-      for (int c = 0; c < 3; ++c) {
-        ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
-        const double d = rgb[c] - rgba[(size_t{y} * cam.width + x) * 4 + c];
-        se += d * d;
-        peak = std::max(peak, static_cast<double>(rgb[c]));
-      }
-      ref.at(static_cast<int>(x), static_cast<int>(y), 3) = 1.0f;
+      comps.resize(streamer_.component_count(m));
+      const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
+      for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
+      ++pixels;
     }
-  const double mse = se / (3.0 * cam.width * cam.height);
-  const double psnr = mse > 0 ? 10.0 * std::log10(peak * peak / mse) : 200.0;
-  (void)write_png_srgb(out_dir + "/reference.png", ref.view());
-
-  std::printf("check: PSNR %.2f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
-              psnr, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
+  const double db = psnr(ref, rgba, out_dir + "/reference.png");
+  std::printf("check: bsvtf: PSNR %.2f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
+              db, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
   const bool feedback_ok = compare_feedback("converged view", scene, cam, lod_bias, words, decimation, 0.95, 0.001);
-  return psnr >= min_psnr && pixels > 0 && finest * 10 >= pixels * 9 && feedback_ok;  // bounds: docs/filament.md
+  return db >= min_psnr && pixels > 0 && finest * 10 >= pixels * 9 && feedback_ok;  // bounds: docs/filament.md
+}
+
+bool ReferenceCheck::run_fmf(const Scene& scene, const Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+                             uint32_t material, const Image<float>& v, std::span<const float> rgba, double min_psnr,
+                             const std::string& out_dir) {
+  Image<float> ref(static_cast<int>(cam.width), static_cast<int>(cam.height), 4, 0.0f);
+  std::vector<float> comps(static_cast<size_t>(v.channels()));
+  uint64_t pixels = 0;
+  for (uint32_t y = 0; y < cam.height; ++y)
+    for (uint32_t x = 0; x < cam.width; ++x) {
+      const SurfaceHit hit = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
+      if (!hit.hit || hit.material != material) continue;
+      // Bilinear with repeat, texel centres at half-integers (GL_LINEAR, GL_REPEAT).
+      const float sx = hit.texcoord.x * static_cast<float>(v.width()) - 0.5f;
+      const float sy = hit.texcoord.y * static_cast<float>(v.height()) - 0.5f;
+      const float fx = std::floor(sx), fy = std::floor(sy), ax = sx - fx, ay = sy - fy;
+      const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
+      const int x0 = wrap(static_cast<int>(fx), v.width()), x1 = wrap(static_cast<int>(fx) + 1, v.width());
+      const int y0 = wrap(static_cast<int>(fy), v.height()), y1 = wrap(static_cast<int>(fy) + 1, v.height());
+      for (int c = 0; c < v.channels(); ++c) {
+        const float top = v.at(x0, y0, c) + (v.at(x1, y0, c) - v.at(x0, y0, c)) * ax;
+        const float bot = v.at(x0, y1, c) + (v.at(x1, y1, c) - v.at(x0, y1, c)) * ax;
+        comps[static_cast<size_t>(c)] = top + (bot - top) * ay;
+      }
+      const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
+      for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
+      ++pixels;
+    }
+  const double db = psnr(ref, rgba, out_dir + "/reference_fmf.png");
+  std::printf("check: fmf (resident V'): PSNR %.2f dB vs the CPU reference (bound %.1f), %llu pixels\n", db, min_psnr,
+              static_cast<unsigned long long>(pixels));
+  return db >= min_psnr && pixels > 0;
 }
 
 bool ReferenceCheck::compare_feedback(const char* label, const Scene& scene, const Camera& cam, float lod_bias,

@@ -18,6 +18,7 @@
 #include "btflod/backend/bsvtf_angular_tables.hpp"
 #include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/backend/cpu_reference.hpp"
+#include "btflod/core/image.hpp"
 #include "btflod/runtime/streamer.hpp"
 
 namespace sample {
@@ -39,8 +40,19 @@ class ReferenceCheck {
   bool run(const btflod::Scene& scene, const btflod::Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
            float lod_bias, std::span<const float> rgba, std::span<const uint32_t> words, uint32_t decimation,
            double min_psnr, const std::string& out_dir);
+  /// The fmf material's frame (resident V′ = `v` on material `material`'s shapes, bilinear with
+  /// repeat at the finest level, the GPU's sampling when the view magnifies) against the CPU's.
+  bool run_fmf(const btflod::Scene& scene, const btflod::Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+               uint32_t material, const btflod::Image<float>& v, std::span<const float> rgba, double min_psnr,
+               const std::string& out_dir);
 
  private:
+  // Shades one pixel with eq. 5 from components `v` (C values); black where nothing is hit.
+  glm::vec3 shade(const btflod::SurfaceHit& hit, const btflod::Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
+                  std::span<const float> v) const;
+  // PSNR of `rgba` against `ref` (rgb, peak = the reference's maximum); writes ref as PNG.
+  static double psnr(const btflod::Image<float>& ref, std::span<const float> rgba, const std::string& png);
+
   const btflod::Streamer& streamer_;
   std::vector<const btflod::BsvtfAngularTables*> tables_;
   btflod::CpuCacheTexture cache_;

@@ -94,7 +94,7 @@ bool ReferenceCheck::run(const Scene& scene, const Camera& cam, glm::vec3 to_lig
       ++pixels;
     }
   const double db = psnr(ref, rgba, out_dir + "/reference.png");
-  std::printf("check: bsvtf: PSNR %.2f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
+  std::printf("check: bsvtf: PSNR %.3f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
               db, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
   const bool feedback_ok = compare_feedback("converged view", scene, cam, lod_bias, words, decimation, 0.95, 0.001);
   return db >= min_psnr && pixels > 0 && finest * 10 >= pixels * 9 && feedback_ok;  // bounds: docs/filament.md
@@ -127,7 +127,7 @@ bool ReferenceCheck::run_fmf(const Scene& scene, const Camera& cam, glm::vec3 to
       ++pixels;
     }
   const double db = psnr(ref, rgba, out_dir + "/reference_fmf.png");
-  std::printf("check: fmf (resident V'): PSNR %.2f dB vs the CPU reference (bound %.1f), %llu pixels\n", db, min_psnr,
+  std::printf("check: fmf (resident V'): PSNR %.3f dB vs the CPU reference (bound %.1f), %llu pixels\n", db, min_psnr,
               static_cast<unsigned long long>(pixels));
   return db >= min_psnr && pixels > 0;
 }

@@ -60,9 +60,11 @@ std::string matc_path() {
 // Runs matc on `source`; returns its exit status and output (stdout + stderr).
 int run_matc(const std::string& matc, const std::string& name, const std::string& source, std::string& output) {
   const std::string dir = ::testing::TempDir();
-  const std::string in = dir + "/" + name + ".mat", out = dir + "/" + name + ".filamat", log = dir + "/" + name + ".log";
+  const std::string in = dir + "/" + name + ".mat", out = dir + "/" + name + ".filamat",
+                    log = dir + "/" + name + ".log";
   std::ofstream(in, std::ios::binary) << source;
-  const int rc = std::system(("'" + matc + "' -p all -a opengl -o '" + out + "' '" + in + "' > '" + log + "' 2>&1").c_str());
+  const int rc =
+      std::system(("'" + matc + "' -p all -a opengl -o '" + out + "' '" + in + "' > '" + log + "' 2>&1").c_str());
   std::ifstream l(log);
   output.assign(std::istreambuf_iterator<char>(l), std::istreambuf_iterator<char>());
   return rc;
@@ -104,9 +106,10 @@ TEST(ShaderFilament, StaysWithinFilamentLimitsMatcDoesNotEnforce) {
         EXPECT_TRUE(declared.count(filament_sampler_parameter(role))) << shader_binding_name(role);
       // Material code: GLSL 4.10 / ESSL 3.00, no declarations Filament makes itself.
       const std::string code = fragment_block(*mat);
-      for (const char* banned : {"#version", "textureQueryLevels", "layout(", "\nbuffer ", "\nuniform ", "\nprecision "})
-        EXPECT_EQ(code.find(banned), std::string::npos) << config_name << " " << filament_material_kind_name(kind)
-                                                        << " uses " << banned;
+      for (const char* banned :
+           {"#version", "textureQueryLevels", "layout(", "\nbuffer ", "\nuniform ", "\nprecision "})
+        EXPECT_EQ(code.find(banned), std::string::npos)
+            << config_name << " " << filament_material_kind_name(kind) << " uses " << banned;
       // Every sampler the code reads is one of the declared parameters.
       const std::regex used(R"(materialParams_(\w+))");
       for (auto it = std::sregex_iterator(code.begin(), code.end(), used); it != std::sregex_iterator(); ++it)
@@ -121,8 +124,8 @@ TEST(ShaderFilament, StaysWithinFilamentLimitsMatcDoesNotEnforce) {
 TEST(ShaderFilament, LitMaterialsTakeTheLightAndTheMeshFrameAsDocumented) {
   auto mat = generate_filament_material(FilamentMaterialKind::bsvtf, ShaderConfig{});
   ASSERT_TRUE(mat.ok());
-  for (const char* p : {kFilamentParamVtExtent, kFilamentParamLod, kFilamentParamIds, kFilamentParamLight,
-                        kFilamentParamLightColor})
+  for (const char* p :
+       {kFilamentParamVtExtent, kFilamentParamLod, kFilamentParamIds, kFilamentParamLight, kFilamentParamLightColor})
     EXPECT_NE(mat->find(std::string("name : ") + p), std::string::npos) << p;
   EXPECT_NE(mat->find("requires : [ uv0, tangents ]"), std::string::npos);
   EXPECT_NE(mat->find("toTangentFrame(mesh_tangents"), std::string::npos);

@@ -33,20 +33,38 @@ bool create(Host& h, uint32_t width, uint32_t height, uint32_t fw, uint32_t fh) 
   h.camera = h.engine->createCamera(h.camera_entity);
   h.color_scene = h.engine->createScene();
   h.feedback_scene = h.engine->createScene();
-  h.color_texture = Texture::Builder().width(width).height(height).levels(1)
+  h.color_texture = Texture::Builder()
+                        .width(width)
+                        .height(height)
+                        .levels(1)
                         .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
-                        .format(Texture::InternalFormat::RGBA16F).build(*h.engine);
-  h.color_depth = Texture::Builder().width(width).height(height).levels(1).usage(Texture::Usage::DEPTH_ATTACHMENT)
-                      .format(Texture::InternalFormat::DEPTH24).build(*h.engine);
+                        .format(Texture::InternalFormat::RGBA16F)
+                        .build(*h.engine);
+  h.color_depth = Texture::Builder()
+                      .width(width)
+                      .height(height)
+                      .levels(1)
+                      .usage(Texture::Usage::DEPTH_ATTACHMENT)
+                      .format(Texture::InternalFormat::DEPTH24)
+                      .build(*h.engine);
   h.color_target = RenderTarget::Builder()
                        .texture(RenderTarget::AttachmentPoint::COLOR, h.color_texture)
                        .texture(RenderTarget::AttachmentPoint::DEPTH, h.color_depth)
                        .build(*h.engine);
-  h.feedback_color = Texture::Builder().width(fw).height(fh).levels(1)
+  h.feedback_color = Texture::Builder()
+                         .width(fw)
+                         .height(fh)
+                         .levels(1)
                          .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
-                         .format(Texture::InternalFormat::RGBA8).build(*h.engine);
-  h.feedback_depth = Texture::Builder().width(fw).height(fh).levels(1).usage(Texture::Usage::DEPTH_ATTACHMENT)
-                         .format(Texture::InternalFormat::DEPTH24).build(*h.engine);
+                         .format(Texture::InternalFormat::RGBA8)
+                         .build(*h.engine);
+  h.feedback_depth = Texture::Builder()
+                         .width(fw)
+                         .height(fh)
+                         .levels(1)
+                         .usage(Texture::Usage::DEPTH_ATTACHMENT)
+                         .format(Texture::InternalFormat::DEPTH24)
+                         .build(*h.engine);
   h.feedback_target = RenderTarget::Builder()
                           .texture(RenderTarget::AttachmentPoint::COLOR, h.feedback_color)
                           .texture(RenderTarget::AttachmentPoint::DEPTH, h.feedback_depth)
@@ -124,9 +142,8 @@ void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, MaterialInstance* c
     normals[i] = {v.normal[0], v.normal[1], v.normal[2]};
     tangents[i] = {v.tangent[0], v.tangent[1], v.tangent[2], v.tangent[3]};
   }
-  geometry::SurfaceOrientation* orientation = geometry::SurfaceOrientation::Builder()
-                                                  .vertexCount(n).normals(normals.data()).tangents(tangents.data())
-                                                  .build();
+  geometry::SurfaceOrientation* orientation =
+      geometry::SurfaceOrientation::Builder().vertexCount(n).normals(normals.data()).tangents(tangents.data()).build();
   std::vector<math::quatf> quats(n);
   orientation->getQuats(quats.data(), n);
   delete orientation;
@@ -141,15 +158,19 @@ void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, MaterialInstance* c
   auto* indices = static_cast<uint32_t*>(std::malloc(mesh.indices.size() * 4));
   std::memcpy(indices, mesh.indices.data(), mesh.indices.size() * 4);
   const auto release = [](void* p, size_t, void*) { std::free(p); };
-  VertexBuffer* vb = VertexBuffer::Builder()
-                         .vertexCount(static_cast<uint32_t>(n)).bufferCount(1)
-                         .attribute(VertexAttribute::POSITION, 0, VertexBuffer::AttributeType::FLOAT3, 0, sizeof(Vertex))
-                         .attribute(VertexAttribute::TANGENTS, 0, VertexBuffer::AttributeType::FLOAT4, 12, sizeof(Vertex))
-                         .attribute(VertexAttribute::UV0, 0, VertexBuffer::AttributeType::FLOAT2, 28, sizeof(Vertex))
-                         .build(*h.engine);
+  VertexBuffer* vb =
+      VertexBuffer::Builder()
+          .vertexCount(static_cast<uint32_t>(n))
+          .bufferCount(1)
+          .attribute(VertexAttribute::POSITION, 0, VertexBuffer::AttributeType::FLOAT3, 0, sizeof(Vertex))
+          .attribute(VertexAttribute::TANGENTS, 0, VertexBuffer::AttributeType::FLOAT4, 12, sizeof(Vertex))
+          .attribute(VertexAttribute::UV0, 0, VertexBuffer::AttributeType::FLOAT2, 28, sizeof(Vertex))
+          .build(*h.engine);
   vb->setBufferAt(*h.engine, 0, VertexBuffer::BufferDescriptor(verts, n * sizeof(Vertex), release));
-  IndexBuffer* ib = IndexBuffer::Builder().indexCount(static_cast<uint32_t>(mesh.indices.size()))
-                        .bufferType(IndexBuffer::IndexType::UINT).build(*h.engine);
+  IndexBuffer* ib = IndexBuffer::Builder()
+                        .indexCount(static_cast<uint32_t>(mesh.indices.size()))
+                        .bufferType(IndexBuffer::IndexType::UINT)
+                        .build(*h.engine);
   ib->setBuffer(*h.engine, IndexBuffer::BufferDescriptor(indices, mesh.indices.size() * 4, release));
   h.vertex_buffers.push_back(vb);
   h.index_buffers.push_back(ib);
@@ -159,7 +180,9 @@ void add_mesh(Host& h, const btflod::TriangleMeshData& mesh, MaterialInstance* c
         .boundingBox({(lo + hi) * 0.5f, (hi - lo) * 0.5f + 1e-3f})
         .material(0, k == 0 ? color : feedback)
         .geometry(0, RenderableManager::PrimitiveType::TRIANGLES, vb, ib)
-        .culling(false).castShadows(false).receiveShadows(false)
+        .culling(false)
+        .castShadows(false)
+        .receiveShadows(false)
         .build(*h.engine, e);
     (k == 0 ? h.color_scene : h.feedback_scene)->addEntity(e);
     h.renderables.push_back(e);
@@ -192,13 +215,14 @@ void render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* co
   while (!h.renderer->beginFrame(h.swap_chain)) {
   }
   h.renderer->render(h.feedback_view);
-  h.renderer->readPixels(h.feedback_target, 0, 0, h.feedback_width, h.feedback_height,
-                         {feedback_rgba.data(), feedback_rgba.size(), Texture::Format::RGBA, Texture::Type::UBYTE,
-                          done, &pending});
+  h.renderer->readPixels(
+      h.feedback_target, 0, 0, h.feedback_width, h.feedback_height,
+      {feedback_rgba.data(), feedback_rgba.size(), Texture::Format::RGBA, Texture::Type::UBYTE, done, &pending});
   h.renderer->render(h.color_view);
   if (color)
-    h.renderer->readPixels(h.color_target, 0, 0, h.width, h.height,
-                           {color->data(), color->size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT, done, &pending});
+    h.renderer->readPixels(
+        h.color_target, 0, 0, h.width, h.height,
+        {color->data(), color->size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT, done, &pending});
   h.renderer->endFrame();
   while (pending > 0) h.engine->flushAndWait();  // readPixels callbacks run on this thread
 }

@@ -116,13 +116,20 @@ int main(int argc, char** argv) {
   uint32_t frames = 48;
   bool check = false;
   for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc) frames = static_cast<uint32_t>(std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--check")) check = true;
-    else paths.push_back(argv[i]);
+    if (!std::strcmp(argv[i], "--out") && i + 1 < argc)
+      out_dir = argv[++i];
+    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc)
+      frames = static_cast<uint32_t>(std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--check"))
+      check = true;
+    else
+      paths.push_back(argv[i]);
   }
   if (paths.size() != 3 || frames < 4)
-    return std::fprintf(stderr, "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"), 2;
+    return std::fprintf(
+               stderr,
+               "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"),
+           2;
 
   std::filesystem::create_directories(out_dir);
 
@@ -144,10 +151,12 @@ int main(int argc, char** argv) {
     auto bytes = read_file_bytes(p);  // the directory: the file's first bytes (small files: all of it)
     auto dir = bytes ? read_bsvtf(*bytes) : Result<BsvtfDirectory>(bytes.error());
     auto src = FileSource::open(p);
-    if (!dir || !src) return std::fprintf(stderr, "%s: %s\n", p.c_str(), (dir ? src.message() : dir.message()).c_str()), 1;
+    if (!dir || !src)
+      return std::fprintf(stderr, "%s: %s\n", p.c_str(), (dir ? src.message() : dir.message()).c_str()), 1;
     if (dir->metadata.component_count != shader.components)  // C is compiled into the material
       return std::fprintf(stderr, "%s: C = %u, the material was generated for C = %u\n", p.c_str(),
-                          dir->metadata.component_count, shader.components), 1;
+                          dir->metadata.component_count, shader.components),
+             1;
     directories.push_back(std::move(*dir));
     sources.push_back(std::move(*src));
   }
@@ -164,11 +173,21 @@ int main(int argc, char** argv) {
 
   // --- the textures the generated shaders read, shaped by gpu_layout() -------------------------
   const StreamerGpuLayout layout = streamer.gpu_layout();
-  Texture* cache = Texture::Builder().width(layout.cache_width).height(layout.cache_height).depth(layout.cache_layers)
-                       .sampler(Texture::Sampler::SAMPLER_2D_ARRAY).format(Texture::InternalFormat::RGBA16F).build(engine);
-  Texture* page_table = Texture::Builder().width(layout.page_table_width).height(layout.page_table_height)
-                            .depth(layout.page_table_layers).levels(static_cast<uint8_t>(layout.page_table_levels))
-                            .sampler(Texture::Sampler::SAMPLER_2D_ARRAY).format(Texture::InternalFormat::R32UI).build(engine);
+  Texture* cache = Texture::Builder()
+                       .width(layout.cache_width)
+                       .height(layout.cache_height)
+                       .depth(layout.cache_layers)
+                       .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                       .format(Texture::InternalFormat::RGBA16F)
+                       .build(engine);
+  Texture* page_table = Texture::Builder()
+                            .width(layout.page_table_width)
+                            .height(layout.page_table_height)
+                            .depth(layout.page_table_layers)
+                            .levels(static_cast<uint8_t>(layout.page_table_levels))
+                            .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                            .format(Texture::InternalFormat::R32UI)
+                            .build(engine);
   for (uint32_t mip = 0; mip < layout.page_table_levels; ++mip) {  // entry 0 until the Streamer writes one
     const uint32_t w = std::max(1u, layout.page_table_width >> mip), hh = std::max(1u, layout.page_table_height >> mip);
     const std::vector<uint32_t> zeros(size_t{w} * hh * layout.page_table_layers, 0u);
@@ -186,17 +205,31 @@ int main(int argc, char** argv) {
     if (!tables) return std::fprintf(stderr, "%s: %s\n", paths[m].c_str(), tables.message().c_str()), 1;
     g.angular = std::move(*tables);
     const uint32_t res = shader.angular.resolution;
-    g.angular_index = Texture::Builder().width(res).height(res).depth(2).sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                          .format(Texture::InternalFormat::RGBA32UI).build(engine);
-    g.angular_weight = Texture::Builder().width(res).height(res).depth(2).sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                           .format(Texture::InternalFormat::RGBA32F).build(engine);
+    g.angular_index = Texture::Builder()
+                          .width(res)
+                          .height(res)
+                          .depth(2)
+                          .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                          .format(Texture::InternalFormat::RGBA32UI)
+                          .build(engine);
+    g.angular_weight = Texture::Builder()
+                           .width(res)
+                           .height(res)
+                           .depth(2)
+                           .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                           .format(Texture::InternalFormat::RGBA32F)
+                           .build(engine);
     host::set_image(h, g.angular_index, 0, 0, 0, 0, res, res, 2, g.angular.index_rgba.data(),
                     g.angular.index_rgba.size() * 4, Texture::Format::RGBA_INTEGER, Texture::Type::UINT);
     host::set_image(h, g.angular_weight, 0, 0, 0, 0, res, res, 2, g.angular.weight_rgba.data(),
                     g.angular.weight_rgba.size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT);
-    g.eigen_abrdfs = Texture::Builder().width(g.angular.light_count).height(g.angular.view_count)
-                         .depth(shader.components).sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                         .format(Texture::InternalFormat::RGBA32F).build(engine);
+    g.eigen_abrdfs = Texture::Builder()
+                         .width(g.angular.light_count)
+                         .height(g.angular.view_count)
+                         .depth(shader.components)
+                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                         .format(Texture::InternalFormat::RGBA32F)
+                         .build(engine);
     // Per instance (= per btflod material), ShaderParams' values: vt_extent = (M, N, L_m),
     // lod = (bias, log2(screen / feedback size)), ids = (first page-table layer, feedback id).
     const BsvtfMetadata& md = directories[m].metadata;
@@ -261,8 +294,8 @@ int main(int argc, char** argv) {
         [&](const StreamerPacketUpload& p) noexcept {  // U′ components 4g … 4g+3 as texture layers
           GpuMaterial& g = gpu[p.material];
           u_layers.resize(size_t{g.angular.light_count} * g.angular.view_count * 4 * 4);
-          const uint32_t n = u_packet_to_rgba_layers(to_u_packet_upload(p), g.angular.light_count,
-                                                     g.angular.view_count, shader.components, u_layers);
+          const uint32_t n = u_packet_to_rgba_layers(to_u_packet_upload(p), g.angular.light_count, g.angular.view_count,
+                                                     shader.components, u_layers);
           if (n == 0) return Status::invalid_argument;
           host::set_image(h, g.eigen_abrdfs, 0, 0, 0, 4 * p.packet, g.angular.light_count, g.angular.view_count, n,
                           u_layers.data(), size_t{g.angular.light_count} * g.angular.view_count * n * 16,
@@ -288,7 +321,8 @@ int main(int argc, char** argv) {
     if (keep) write_frame(out_dir + "/frame_" + std::to_string(frame) + ".png", color);
     if (check && frame == frames / 3)  // mid-flight: many levels, three shapes, silhouettes
       ok = reference.compare_feedback("mid-flight", cpu_scene(shapes), check_camera(eye, target), kLodBias, words,
-                                      kDecimation, 0.95, 0.005) && ok;
+                                      kDecimation, 0.95, 0.005) &&
+           ok;
 
     // Converged: the camera stopped, nothing was uploaded or written for 4 frames and no job runs.
     const bool quiet = out.tile_upload_count == 0 && out.page_table_write_count == 0 && streamer.idle();
@@ -307,7 +341,8 @@ int main(int argc, char** argv) {
   write_frame(out_dir + "/converged.png", color);
   if (check)
     ok = reference.run(cpu_scene(shapes), check_camera(kCheckEye, kCheckTarget), kToLight, kLightColor, kLodBias, color,
-                       words, kDecimation, 40.0, out_dir) && ok;
+                       words, kDecimation, 40.0, out_dir) &&
+         ok;
 
   // A resident (not streamed) material uses the fmf material: the same U′ and angular tables, V′
   // from an ordinary filtered texture (⌈C/4⌉ RGBA layers, repeat). Shown (and checked) on the
@@ -320,8 +355,13 @@ int main(int argc, char** argv) {
     const EigenTextures floor = sample::make_eigen(0, directions);
     const std::vector<float> v = pack_eigen_textures_rgba(floor.textures.view());
     const uint32_t groups = shader.component_groups();
-    eigen_textures = Texture::Builder().width(sample::kTexels).height(sample::kTexels).depth(groups)
-                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY).format(Texture::InternalFormat::RGBA32F).build(engine);
+    eigen_textures = Texture::Builder()
+                         .width(sample::kTexels)
+                         .height(sample::kTexels)
+                         .depth(groups)
+                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+                         .format(Texture::InternalFormat::RGBA32F)
+                         .build(engine);
     host::set_image(h, eigen_textures, 0, 0, 0, 0, sample::kTexels, sample::kTexels, groups, v.data(), v.size() * 4,
                     Texture::Format::RGBA, Texture::Type::FLOAT);
     fmf_material = host::load_material(h, BTFLOD_FILAMATS_DIR "/btflod_fmf.filamat");
@@ -343,7 +383,8 @@ int main(int argc, char** argv) {
     host::render(h, feedback_rgba, &color);
     write_frame(out_dir + "/fmf.png", color);
     ok = reference.run_fmf(cpu_scene(shapes), check_camera(kCheckEye, kCheckTarget), kToLight, kLightColor, 0,
-                           floor.textures, color, 40.0, out_dir) && ok;
+                           floor.textures, color, 40.0, out_dir) &&
+         ok;
   }
   host::destroy_meshes(h);  // the renderables use the instances, the instances the textures
   for (GpuMaterial& g : gpu) {

@@ -12,9 +12,12 @@ int main(int argc, char** argv) {
   if (argc != 3) return std::fprintf(stderr, "usage: btflod-filament-matgen bsvtf|fmf|feedback OUT.mat\n"), 2;
   const std::string kind = argv[1];
   FilamentMaterialKind k = FilamentMaterialKind::bsvtf;
-  if (kind == "fmf") k = FilamentMaterialKind::fmf;
-  else if (kind == "feedback") k = FilamentMaterialKind::feedback;
-  else if (kind != "bsvtf") return std::fprintf(stderr, "unknown material kind %s\n", argv[1]), 2;
+  if (kind == "fmf")
+    k = FilamentMaterialKind::fmf;
+  else if (kind == "feedback")
+    k = FilamentMaterialKind::feedback;
+  else if (kind != "bsvtf")
+    return std::fprintf(stderr, "unknown material kind %s\n", argv[1]), 2;
   Result<std::string> mat = generate_filament_material(k, sample::shader_config());
   if (!mat) return std::fprintf(stderr, "%s\n", mat.message().c_str()), 1;
   std::FILE* f = std::fopen(argv[2], "wb");

@@ -17,8 +17,9 @@ ReferenceCheck::ReferenceCheck(const Streamer& s, std::vector<const BsvtfAngular
     u_[m].light_count = tables_[m]->light_count;
     u_[m].view_count = tables_[m]->view_count;
     u_[m].textures = Image<float>(1, 1, static_cast<int>(s.component_count(static_cast<uint32_t>(m))));  // sets C
-    u_[m].angular.assign(size_t{tables_[m]->light_count} * tables_[m]->view_count * 3 *
-                             s.component_count(static_cast<uint32_t>(m)), 0.0f);
+    u_[m].angular.assign(
+        size_t{tables_[m]->light_count} * tables_[m]->view_count * 3 * s.component_count(static_cast<uint32_t>(m)),
+        0.0f);
   }
 }
 
@@ -28,15 +29,16 @@ void ReferenceCheck::mirror(const StreamerOutputs& out) {
   for (size_t i = 0; i < out.packet_upload_count; ++i) {
     const StreamerPacketUpload& p = out.packet_uploads[i];
     EigenTextures& e = u_[p.material];
-    write_u_packet(to_u_packet_upload(p), e.light_count, e.view_count, streamer_.component_count(p.material), e.angular);
+    write_u_packet(to_u_packet_upload(p), e.light_count, e.view_count, streamer_.component_count(p.material),
+                   e.angular);
   }
 }
 
 namespace {
 AngularSample lookup(const BsvtfAngularTables& t, const std::vector<uint32_t>& index, const std::vector<float>& weight,
                      glm::vec3 d) {
-  const Int2 texel = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, Float3(d.x, d.y, d.z)),
-                                        t.resolution);
+  const Int2 texel = shader_table_texel(
+      shader_direction_to_unit_square(DirectionParameterisation::parabolic, Float3(d.x, d.y, d.z)), t.resolution);
   const size_t k = (static_cast<size_t>(texel.y) * t.resolution + static_cast<size_t>(texel.x)) * 3;
   AngularSample s;
   for (int i = 0; i < 3; ++i) {
@@ -53,7 +55,8 @@ glm::vec3 ReferenceCheck::shade(const SurfaceHit& hit, const Camera& cam, glm::v
   const glm::vec3 wv = to_local(hit, glm::normalize(cam.position - hit.position));
   const BsvtfAngularTables& t = *tables_[hit.material];
   return shade_fmf(u_[hit.material], lookup(t, t.light_index, t.light_weight, wl),
-                   lookup(t, t.view_index, t.view_weight, wv), v) * light_color;
+                   lookup(t, t.view_index, t.view_weight, wv), v) *
+         light_color;
 }
 
 double ReferenceCheck::psnr(const Image<float>& ref, std::span<const float> rgba, const std::string& png) {
@@ -94,8 +97,9 @@ bool ReferenceCheck::run(const Scene& scene, const Camera& cam, glm::vec3 to_lig
       ++pixels;
     }
   const double db = psnr(ref, rgba, out_dir + "/reference.png");
-  std::printf("check: bsvtf: PSNR %.3f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
-              db, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
+  std::printf(
+      "check: bsvtf: PSNR %.3f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
+      db, min_psnr, static_cast<unsigned long long>(finest), static_cast<unsigned long long>(pixels));
   const bool feedback_ok = compare_feedback("converged view", scene, cam, lod_bias, words, decimation, 0.95, 0.001);
   return db >= min_psnr && pixels > 0 && finest * 10 >= pixels * 9 && feedback_ok;  // bounds: docs/filament.md
 }
@@ -145,7 +149,8 @@ bool ReferenceCheck::compare_feedback(const char* label, const Scene& scene, con
   for (uint32_t y = 0; y < fcam.height; ++y)
     for (uint32_t x = 0; x < fcam.width; ++x) {
       const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
-      const uint32_t cpu = feedback_word(fcam, scene.intersect(fcam.ray(px, py)), px, py, streamer_.cache().set(), selector);
+      const uint32_t cpu =
+          feedback_word(fcam, scene.intersect(fcam.ray(px, py)), px, py, streamer_.cache().set(), selector);
       const uint32_t gpu = words[size_t{y} * fcam.width + x];
       if (cpu == gpu) {
         ++equal;
@@ -157,9 +162,11 @@ bool ReferenceCheck::compare_feedback(const char* label, const Scene& scene, con
       ++(near ? one_level : other);
     }
   const double total = static_cast<double>(equal + one_level + other);
-  std::printf("check: %s: feedback words %llu of %.0f equal to the CPU's (bound %.0f %%), %llu one level apart, "
-              "%llu other (bound %.1f %%)\n", label, static_cast<unsigned long long>(equal), total, 100 * min_equal,
-              static_cast<unsigned long long>(one_level), static_cast<unsigned long long>(other), 100 * max_other);
+  std::printf(
+      "check: %s: feedback words %llu of %.0f equal to the CPU's (bound %.0f %%), %llu one level apart, "
+      "%llu other (bound %.1f %%)\n",
+      label, static_cast<unsigned long long>(equal), total, 100 * min_equal, static_cast<unsigned long long>(one_level),
+      static_cast<unsigned long long>(other), 100 * max_other);
   return static_cast<double>(equal) >= min_equal * total && static_cast<double>(other) <= max_other * total;
 }
 

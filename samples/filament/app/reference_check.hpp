@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "btflod/backend/bsvtf_angular_tables.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/backend/cpu_reference.hpp"
+#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/core/image.hpp"
 #include "btflod/runtime/streamer.hpp"
 

@@ -7,9 +7,9 @@
 
 namespace sample {
 
-inline constexpr uint32_t kComponents = 8;    // C of every material (one Filament material per C)
-inline constexpr uint32_t kTexels = 256;      // M = N of the procedural materials
-inline constexpr uint32_t kTileSize = 32;     // T → finest level 3 (8 × 8 tiles)
+inline constexpr uint32_t kComponents = 8;  // C of every material (one Filament material per C)
+inline constexpr uint32_t kTexels = 256;    // M = N of the procedural materials
+inline constexpr uint32_t kTileSize = 32;   // T → finest level 3 (8 × 8 tiles)
 inline constexpr uint32_t kFinestLevel = 3;
 
 inline btflod::ShaderConfig shader_config() {

@@ -38,7 +38,7 @@ bool create(Host& h, uint32_t width, uint32_t height, uint32_t fw, uint32_t fh) 
                         .height(height)
                         .levels(1)
                         .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
-                        .format(Texture::InternalFormat::RGBA16F)
+                        .format(Texture::InternalFormat::RGBA32F)
                         .build(*h.engine);
   h.color_depth = Texture::Builder()
                       .width(width)

@@ -1,5 +1,6 @@
 // Filament boilerplate of the sample, nothing btflod-specific: a headless OpenGL engine with two
-// views of one camera (the colour view into an RGBA16F render target, as an engine's HDR target,
+// views of one camera (the colour view into an RGBA32F render target, so that the check sees the
+// shader's values unrounded; an engine's HDR target would be RGBA16F,
 // the feedback view into a small RGBA8 one), both cleared by a black skybox (render targets ignore
 // the renderer's clear options), meshes with Filament's tangent frames, textures, and a
 // synchronous readback.
@@ -40,7 +41,7 @@ struct Host {
   filament::Scene* feedback_scene = nullptr;  // the same meshes with the feedback material
   filament::View* color_view = nullptr;
   filament::View* feedback_view = nullptr;
-  filament::Texture* color_texture = nullptr;  // RGBA16F: btflod's linear radiance, unclamped
+  filament::Texture* color_texture = nullptr;  // RGBA32F: the shader's values, unrounded (an engine: RGBA16F)
   filament::Texture* color_depth = nullptr;
   filament::RenderTarget* color_target = nullptr;
   filament::Texture* feedback_color = nullptr;

@@ -13,7 +13,7 @@
 //
 // Materials (FilamentMaterialKind):
 //   bsvtf     the streamed virtual texture (paper 000): page table + tile cache + U′ (5 samplers)
-//   fmf       the resident FMF (eigen-textures V′ as one mipmapped 2D array; 4 samplers)
+//   fmf       the resident FMF (eigen-textures V′ as one filtered 2D array, ⌈C/4⌉ RGBA layers; 4 samplers)
 //   feedback  the feedback pass: the packed word (paper 000 eq. 1–2) written as RGBA8, byte k
 //             of (word XOR FeedbackWordLayout::empty_word) in channel k, so that a target
 //             cleared to 0 reads back as the empty word (feedback_word_from_rgba8() undoes it);

@@ -16,7 +16,8 @@
 // with btflod's CPU reference (--check) in reference_check.cpp. --check also draws the floor once
 // with the fmf material (a resident material: V′ from an ordinary texture) and checks it.
 //
-// usage: btflod-filament MATERIAL.bsvtf... [--out DIR] [--frames N] [--check]
+// usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N] [--check]
+// (one material per shape of the scene: the floor, the sphere, the wall)
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>

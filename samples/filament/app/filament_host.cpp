@@ -207,24 +207,56 @@ void set_image(Host& h, Texture* t, uint32_t level, uint32_t x, uint32_t y, uint
               Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); }));
 }
 
-void render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color) {
-  feedback_rgba.assign(size_t{h.feedback_width} * h.feedback_height * 4, 0);
-  if (color) color->assign(size_t{h.width} * h.height * 4, 0.0f);
-  int pending = color ? 2 : 1;
-  const auto done = [](void*, size_t, void* user) { --*static_cast<int*>(user); };
+bool render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color) {
+  const size_t feedback_bytes = size_t{h.feedback_width} * h.feedback_height * 4;
+  if (color) {  // a frame to write or check: drain the ring so that this frame's feedback is returned
+    for (Host::Readback& r : h.readbacks)
+      while (r.in_flight) h.engine->flushAndWait();
+    for (Host::Readback& r : h.readbacks) r.ready = false;
+  }
+  // A free ring slot for this frame's feedback readback (none free: this frame reads nothing back).
+  Host::Readback* slot = nullptr;
+  for (Host::Readback& r : h.readbacks)
+    if (!r.in_flight && !r.ready) slot = &r;
+  int color_pending = 0;
+  const auto landed = [](void*, size_t, void* user) {  // on this thread, in a later beginFrame/flush
+    auto* r = static_cast<Host::Readback*>(user);
+    r->in_flight = false;
+    r->ready = true;
+  };
   while (!h.renderer->beginFrame(h.swap_chain)) {
   }
   h.renderer->render(h.feedback_view);
-  h.renderer->readPixels(
-      h.feedback_target, 0, 0, h.feedback_width, h.feedback_height,
-      {feedback_rgba.data(), feedback_rgba.size(), Texture::Format::RGBA, Texture::Type::UBYTE, done, &pending});
-  h.renderer->render(h.color_view);
-  if (color)
+  if (slot) {
+    slot->bytes.resize(feedback_bytes);
+    slot->frame = h.frame;
+    slot->in_flight = true;
     h.renderer->readPixels(
-        h.color_target, 0, 0, h.width, h.height,
-        {color->data(), color->size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT, done, &pending});
+        h.feedback_target, 0, 0, h.feedback_width, h.feedback_height,
+        {slot->bytes.data(), feedback_bytes, Texture::Format::RGBA, Texture::Type::UBYTE, landed, slot});
+  }
+  h.renderer->render(h.color_view);
+  if (color) {
+    color->assign(size_t{h.width} * h.height * 4, 0.0f);
+    color_pending = 1;
+    h.renderer->readPixels(h.color_target, 0, 0, h.width, h.height,
+                           {color->data(), color->size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT,
+                            [](void*, size_t, void* user) { --*static_cast<int*>(user); }, &color_pending});
+  }
   h.renderer->endFrame();
-  while (pending > 0) h.engine->flushAndWait();  // readPixels callbacks run on this thread
+  ++h.frame;
+  // A colour readback is waited for (a frame to write, or to check): then this frame's feedback
+  // is the newest too.
+  while (color_pending > 0 || (color && slot && slot->in_flight)) h.engine->flushAndWait();
+  // The newest landed feedback image, if any; older landed ones are stale and dropped.
+  Host::Readback* newest = nullptr;
+  for (Host::Readback& r : h.readbacks)
+    if (r.ready && (!newest || r.frame > newest->frame)) newest = &r;
+  if (!newest) return false;
+  feedback_rgba.swap(newest->bytes);
+  for (Host::Readback& r : h.readbacks)
+    if (r.ready) r.ready = false;
+  return true;
 }
 
 }  // namespace host

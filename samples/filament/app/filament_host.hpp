@@ -52,6 +52,15 @@ struct Host {
   std::vector<filament::VertexBuffer*> vertex_buffers;
   std::vector<filament::IndexBuffer*> index_buffers;
   std::vector<utils::Entity> renderables;
+  // Feedback readbacks in flight: a ring polled every frame, never waited on (DESIGN.md).
+  struct Readback {
+    std::vector<uint8_t> bytes;
+    uint64_t frame = 0;
+    bool in_flight = false, ready = false;
+  };
+  static constexpr int kReadbacks = 3;
+  Readback readbacks[kReadbacks];
+  uint64_t frame = 0;
 };
 
 /// Creates the engine (OpenGL backend), a headless swap chain of width × height, the two views
@@ -83,10 +92,13 @@ void set_image(Host& h, filament::Texture* t, uint32_t level, uint32_t x, uint32
                uint32_t hgt, uint32_t d, const void* bytes, size_t size, filament::Texture::Format format,
                filament::Texture::Type type);
 
-/// Renders both views and reads back the feedback target (RGBA8) and, when `color` is not null,
-/// the colour view (RGBA float, linear). Rows come top row first: Filament renders into render
-/// targets upside down relative to OpenGL's convention, so its readback of one is top-down.
-/// Waits for the GPU.
-void render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color);
+/// Renders both views and starts a readback of the feedback target (RGBA8) into a ring of
+/// kReadbacks buffers; never waits for it. Returns true with the newest feedback image that has
+/// landed since the last call in `feedback_rgba` (typically one or two frames old), false when none
+/// has. When `color` is not null, also reads back the colour view (RGBA float, linear) and waits
+/// for it and for this frame's feedback (a frame to write or check: both then show this frame).
+/// Rows come top row first: Filament renders into render targets upside down relative to
+/// OpenGL's convention, so its readback of one is top-down.
+bool render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color);
 
 }  // namespace host

@@ -10,11 +10,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdio>
+#include <atomic>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <map>
+#include <mutex>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "btflod/runtime/streamer.hpp"
@@ -439,4 +443,143 @@ TEST(StreamerMaterials, AddsThatDoNotFitFailCleanly) {
   auto refused = Streamer::create(std::span<const StreamerMaterial>(w.materials.data() + 1, 1), small);
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.message().find("capacity"), std::string::npos) << refused.message();
+}
+
+namespace {
+
+// The engine's I/O for the threaded test: reads queued by the update thread, completed by an
+// I/O thread in random order (one queue for every file, each read knows its file).
+struct ThreadedIo {
+  struct Read {
+    const std::vector<uint8_t>* file;
+    uint64_t offset;
+    std::span<uint8_t> out;
+    uint64_t ticket;
+  };
+  std::mutex mutex;
+  std::vector<Read> reads;
+  struct Source final : AsyncTileSource {
+    ThreadedIo* io = nullptr;
+    const std::vector<uint8_t>* file = nullptr;
+    bool start_read(uint64_t offset, std::span<uint8_t> out, uint64_t ticket) noexcept override {
+      std::lock_guard<std::mutex> lock(io->mutex);
+      io->reads.push_back(Read{file, offset, out, ticket});
+      return true;
+    }
+  };
+  // Completes one read (a random one); false when none is queued.
+  bool complete_one(Streamer& s, std::mt19937& rng) {
+    Read r;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (reads.empty()) return false;
+      const size_t i = rng() % reads.size();
+      r = reads[i];
+      reads[i] = reads.back();
+      reads.pop_back();
+    }
+    std::memcpy(r.out.data(), r.file->data() + r.offset, r.out.size());
+    s.complete_read(r.ticket, Status::success);
+    return true;
+  }
+  void complete_all_for_test(Streamer& s) {
+    std::mt19937 rng(1);
+    while (complete_one(s, rng)) {
+    }
+  }
+};
+
+}  // namespace
+
+// Four engine workers run jobs and an I/O thread completes reads out of order while the update
+// thread adds and removes materials: ThreadSanitizer checks that removal never races a job.
+TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
+  World w = make_world();
+  ThreadedIo io;
+  std::vector<ThreadedIo::Source> sources(w.files.size());
+  std::vector<StreamerMaterial> materials;
+  for (size_t f = 0; f < w.files.size(); ++f) {
+    sources[f].io = &io;
+    sources[f].file = &w.files[f];
+  }
+  for (size_t f = 0; f < w.files.size(); ++f) materials.push_back(StreamerMaterial{&w.dirs[f], nullptr, &sources[f]});
+  StreamerConfig cfg = small_config();
+  cfg.capacity = streamer_capacity_for(materials, 3);
+  cfg.decode_workers = 4;
+  auto created = Streamer::create(std::span<const StreamerMaterial>(materials.data(), 2), cfg);
+  ASSERT_TRUE(created.ok()) << created.message();
+  Streamer& s = *created;
+  LiveEngine e(s, largest_tile_count(w));
+  std::map<uint32_t, size_t> file_of{{0, 0}, {1, 1}};
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> workers;
+  for (int t = 0; t < 4; ++t)
+    workers.emplace_back([&] {
+      while (!stop.load(std::memory_order_relaxed)) {
+        const uint32_t j = s.acquire_job();
+        if (j == Streamer::kNoJob)
+          std::this_thread::yield();
+        else
+          s.run_job(j);
+      }
+    });
+  std::thread io_thread([&] {
+    std::mt19937 rng(7);
+    while (!stop.load(std::memory_order_relaxed))
+      if (!io.complete_one(s, rng)) std::this_thread::yield();
+  });
+  std::mt19937 rng(11);
+  std::vector<uint32_t> fb;
+  fb.reserve(1u << 14);
+  uint32_t adds = 0, removes = 0;
+  for (uint32_t frame = 0; frame < 3000; ++frame) {
+    const uint32_t r = rng() % 100;
+    if (r < 4 && !file_of.empty()) {
+      auto it = file_of.begin();
+      std::advance(it, rng() % file_of.size());
+      ASSERT_EQ(s.remove_material(it->first), Status::success);
+      file_of.erase(it);
+      ++removes;
+    } else if (r < 9) {
+      const size_t f = rng() % w.files.size();
+      uint32_t id = kNoMaterial;
+      if (s.add_material(materials[f], id) == Status::success) {
+        file_of[id] = f;
+        ++adds;
+      }
+    }
+    fb.clear();
+    append_feedback(s, fb);
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    if (frame % 100 == 0) check_live_engine(w, s, e, file_of, true);
+    if (HasFatalFailure()) break;
+  }
+  // Drain: no new work, every read completed, every job ended; then the threads stop.
+  s.quiesce();
+  for (int f = 0; f < 100000 && !s.idle(); ++f) {
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update({}, o), Status::success);
+    e.apply(s, o);
+    std::this_thread::yield();
+  }
+  stop = true;
+  for (std::thread& t : workers) t.join();
+  io_thread.join();
+  EXPECT_TRUE(s.idle());
+  EXPECT_GT(adds, 10u);  // (an add waits for a free id: removed materials keep theirs until drained)
+  EXPECT_GT(removes, 10u);
+  EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
+  s.resume();
+  for (int f = 0; f < 100; ++f) {  // settle on this thread and check the texels
+    fb.clear();
+    append_feedback(s, fb);
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    s.pump();
+    io.complete_all_for_test(s);
+  }
+  check_live_engine(w, s, e, file_of, true);
 }

@@ -363,8 +363,9 @@ class Streamer {
   /// its tiles leave the cache (slots free at once), its feedback words are rejected from now
   /// on (stats().feedback_rejected), its page-table layers are free (ResidencyEventKind::
   /// material_removed in the next update()). Jobs already reading or running for it end and
-  /// are dropped; once none is left, material_released says its sources may be destroyed and
-  /// the id may be reused. Other materials' resident tiles are not touched. invalid_argument
+  /// are dropped; once none is left (at once when nothing of it was in flight), its id is free
+  /// for add_material() and material_released says its sources may be destroyed. Other
+  /// materials' resident tiles are not touched. invalid_argument
   /// for an id that is not live. Update thread; noexcept; no allocation.
   Status remove_material(uint32_t id) noexcept;
   /// True when material id is live (created or added, not removed).

@@ -183,6 +183,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
       !im->startup_failed.allocate(al, cap.textures) || !im->held.allocate(al, config.failure.held_tiles_capacity))
     return fail("failure tables");
   if (!im->startup.allocate(al, size_t{cap.textures} * 2)) return fail("start-up queue");
+  if (!im->notices.allocate(al, size_t{cap.materials} * 2 + 2)) return fail("material events");
   if (!im->texture_tile_base.allocate(al, cap.textures) || !im->mirror.allocate(al, cap.tiles) ||
       !im->queued.allocate(al, cap.tiles) || !im->queue.allocate(al, cap.tiles) ||
       !im->mirror_texture.allocate(al, cap.tiles))

@@ -49,7 +49,6 @@ struct StreamerMaterialState {
   uint32_t record_base = 0;  // index of (texture 0, flat 0) in the records array (the VtSet entry base)
   uint32_t generation = 0;   // bumped by every add of this id: jobs of an earlier one are stale
   uint8_t life = kMaterialFree;
-  uint8_t announce_removed = 0;  // material_removed not yet emitted
   uint32_t lights = 0, views = 0, channels = 0, rows = 0;
   AngularRowOrder row_order = AngularRowOrder::light_major;
   uint32_t packet_base = 0;  // index of packet 0 in the packet records (= first_texture)
@@ -158,6 +157,8 @@ struct Streamer::Impl final : StreamerJobQueue {
   StreamerCapacity capacity;  // resolved at create()
   uint32_t live_materials = 0;
   uint64_t materials_added = 0, materials_removed_count = 0, jobs_dropped = 0;
+  RuntimeArray<ResidencyEvent> notices;  // ring of material events for the next update()
+  uint32_t notice_head = 0, notice_count = 0;
   StreamerMemory memory;
   size_t chain_bytes = 0, packet_bytes = 0, max_rows = 0;
   // Start-up queue: a ring of (global texture << 1 | is_packet), roots first; items a
@@ -203,6 +204,9 @@ struct Streamer::Impl final : StreamerJobQueue {
   bool evict_leaf() noexcept;
   void purge_cached(uint32_t m) noexcept;
   void announce_materials(StreamerOutputs& out) noexcept;
+  void notice(const ResidencyEvent& e) noexcept;
+  bool material_busy(uint32_t m) const noexcept;
+  void release_material(uint32_t m) noexcept;
 
   Impl(TileCache&& c, Scheduler&& s, VoteCounter&& v)
       : cache(std::move(c)), scheduler(std::move(s)), votes(std::move(v)) {}
@@ -379,7 +383,7 @@ struct Streamer::Impl final : StreamerJobQueue {
         continue;
       }
       const detail::TileRecord& rec = record_of(m, k, lv.index(t));
-      const uint64_t key = (static_cast<uint64_t>(m) << 48) ^ TileId { k, t.level, t.x, t.y }.key();
+      const uint64_t key = decoded_key(m, k, t);
       job.chain_cached[i] = payloads.get(key, std::span<uint8_t>(job.bytes + offset, rec.size)) == rec.size ? 1 : 0;
       if (!job.chain_cached[i]) ++reads;
       offset += rec.size;
@@ -388,9 +392,14 @@ struct Streamer::Impl final : StreamerJobQueue {
     return reads;
   }
 
+  // Key of a material's tile in the payload and decoded caches: the material id above the
+  // container-local tile key (a local texture < 2^14 for C ≤ 65536 fills bits 40–53; ids < 2^10
+  // take bits 54–63), so keys of different materials never meet and a material's are found by
+  // key_material().
   static uint64_t decoded_key(uint32_t material, uint32_t local_texture, const TileId& t) noexcept {
-    return (static_cast<uint64_t>(material) << 48) ^ TileId { local_texture, t.level, t.x, t.y }.key();
+    return (static_cast<uint64_t>(material) << 54) | TileId{local_texture, t.level, t.x, t.y}.key();
   }
+  static uint32_t key_material(uint64_t key) noexcept { return static_cast<uint32_t>(key >> 54); }
   uint32_t find_decoded(uint64_t key) const noexcept {
     for (uint32_t e = 0; e < decoded.size(); ++e)
       if (decoded[e].key == key) return e;
@@ -528,7 +537,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       if (job.chain_cached[i]) continue;
       const TileId t = job.chain_tile[i];
       const detail::TileRecord& rec = record_of(job.material, k, lv.index(t));
-      const uint64_t key = (static_cast<uint64_t>(job.material) << 48) ^ TileId { k, t.level, t.x, t.y }.key();
+      const uint64_t key = decoded_key(job.material, k, t);
       payloads.put(key, std::span<const uint8_t>(job.bytes + job.chain_offset[i], rec.size));
     }
   }

@@ -293,7 +293,10 @@ inline Status Streamer::Impl::remove_material(uint32_t m) noexcept {
   if (ms.failed) --materials_failed_now;
   ms.failed = ms.ready = false;
   ms.life = detail::kMaterialRemoving;
-  ms.announce_removed = 1;
+  ResidencyEvent removed{ResidencyEventKind::material_removed, m, TileId{t0, 0, 0, 0}, Status::success};
+  removed.layers = t1 - t0;
+  notice(removed);
+  if (!material_busy(m)) release_material(m);  // nothing in flight: its id is free at once
   --live_materials;
   ++materials_removed_count;
   return Status::success;
@@ -302,36 +305,55 @@ inline Status Streamer::Impl::remove_material(uint32_t m) noexcept {
 // Forgets a material's payloads and unpinned decoded tiles (its id may be reused later).
 inline void Streamer::Impl::purge_cached(uint32_t m) noexcept {
   for (uint32_t e = 0; e < decoded.size(); ++e)
-    if (decoded[e].key != ~0ull && (decoded[e].key >> 48) == m && decoded[e].pins == 0) decoded[e].key = ~0ull;
-  payloads.erase_if([m](uint64_t key) { return (key >> 48) == m; });
+    if (decoded[e].key != ~0ull && key_material(decoded[e].key) == m && decoded[e].pins == 0) decoded[e].key = ~0ull;
+  payloads.erase_if([m](uint64_t key) { return key_material(key) == m; });
 }
 
-// After a frame's jobs were collected: removed materials announce their freed layers, and
-// those with no job left are released (their id may be reused).
+// Queues a material event for the next update()'s outputs (the oldest is dropped, and
+// counted, in the unlikely case that more are waiting than the ring holds).
+inline void Streamer::Impl::notice(const ResidencyEvent& e) noexcept {
+  if (notices.size() == 0) return;
+  if (notice_count == notices.size()) {
+    notice_head = (notice_head + 1) % static_cast<uint32_t>(notices.size());
+    --notice_count;
+    ++dropped_events;
+  }
+  notices[(notice_head + notice_count) % notices.size()] = e;
+  ++notice_count;
+}
+
+// True while a job launched for material m's current generation may still read or run.
+inline bool Streamer::Impl::material_busy(uint32_t m) const noexcept {
+  const detail::StreamerMaterialState& ms = materials[m];
+  for (uint32_t j = 0; j < jobs.size(); ++j) {
+    const detail::StreamerJob& job = jobs[j];
+    const uint8_t st = job.state.load(std::memory_order_acquire);
+    if (job.material == m && job.generation == ms.generation && st != detail::kJobFree &&
+        st != detail::kJobHanded && st != detail::kJobWaiting)
+      return true;
+  }
+  return false;
+}
+
+// A removed material with no job left: its id is free and its sources may go.
+inline void Streamer::Impl::release_material(uint32_t m) noexcept {
+  detail::StreamerMaterialState& ms = materials[m];
+  purge_cached(m);  // entries pinned by its last jobs are free now
+  notice(ResidencyEvent{ResidencyEventKind::material_released, m, TileId{ms.first_texture, 0, 0, 0}, Status::success});
+  ms.life = detail::kMaterialFree;
+  ms.source = nullptr;
+  ms.async_source = nullptr;
+}
+
+// After a frame's jobs were collected: removed materials whose last job ended are released,
+// then the waiting material events go out (what does not fit waits for the next frame).
 inline void Streamer::Impl::announce_materials(StreamerOutputs& out) noexcept {
-  for (uint32_t m = 0; m < materials.size(); ++m) {
-    detail::StreamerMaterialState& ms = materials[m];
-    if (ms.life != detail::kMaterialRemoving) continue;
-    if (ms.announce_removed) {
-      ResidencyEvent e{ResidencyEventKind::material_removed, m, TileId{ms.first_texture, 0, 0, 0}, Status::success};
-      e.layers = ms.texture_count;
-      if (!push_event(out, e)) continue;  // no room: announced next frame
-      ms.announce_removed = 0;
-    }
-    bool busy = false;
-    for (uint32_t j = 0; j < jobs.size() && !busy; ++j) {
-      const detail::StreamerJob& job = jobs[j];
-      const uint8_t st = job.state.load(std::memory_order_acquire);
-      busy = job.material == m && job.generation == ms.generation && st != detail::kJobFree &&
-             st != detail::kJobHanded && st != detail::kJobWaiting;
-    }
-    if (busy) continue;
-    ResidencyEvent e{ResidencyEventKind::material_released, m, TileId{ms.first_texture, 0, 0, 0}, Status::success};
-    if (!push_event(out, e)) continue;
-    purge_cached(m);  // entries pinned by its last jobs are free now
-    ms.life = detail::kMaterialFree;
-    ms.source = nullptr;
-    ms.async_source = nullptr;
+  for (uint32_t m = 0; m < materials.size(); ++m)
+    if (materials[m].life == detail::kMaterialRemoving && !material_busy(m)) release_material(m);
+  while (notice_count > 0 && out.event_count < out.events.size()) {
+    out.events[out.event_count++] = notices[notice_head];
+    notice_head = (notice_head + 1) % static_cast<uint32_t>(notices.size());
+    --notice_count;
   }
 }
 

@@ -521,6 +521,10 @@ int main(int argc, char** argv) {
   }
   const bool drained = streamer.idle() && io.outstanding() == 0;
   const StreamerStats st = streamer.stats();
+  if (!drained)  // what kept it busy: a job still reading with no read left at the I/O thread never ends
+    std::printf("not drained 30 s after quiesce(): %u jobs reading, %u runnable, %u running; %zu reads at the I/O "
+                "thread\n",
+                st.jobs_reading, st.jobs_runnable, st.jobs_running, io.outstanding());
   const uint64_t corrupted = io.counters.corrupted.load();
   // Every corrupted read was caught: no wrong upload, and corruption produced bad_data
   // failures (a job reads up to L + 1 payloads, so several damaged reads can fail one job).

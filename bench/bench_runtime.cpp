@@ -84,6 +84,8 @@ struct Setup {
   std::vector<PageTableWrite> writes;
   std::vector<ResidencyEvent> events;
   std::vector<std::vector<uint32_t>> frames;
+  std::vector<StreamerMaterial> materials;
+  StreamerConfig config;
   StreamerOutputs outputs() { return StreamerOutputs{tiles, packets, writes, events}; }
 };
 
@@ -100,6 +102,8 @@ std::unique_ptr<Setup> make_setup(uint32_t width, uint32_t height, uint32_t deco
   cfg.packet_jobs = 4;
   cfg.decoded_cache_tiles = decoded_cache_tiles;
   s->streamer = std::move(Streamer::create(materials, cfg).value());
+  s->materials = materials;
+  s->config = cfg;
   s->tiles.resize(s->streamer.tile_uploads_bound());
   s->packets.resize(s->streamer.packet_uploads_bound());
   s->writes.resize(1u << 20);
@@ -158,7 +162,60 @@ void BM_RuntimeUpdate(benchmark::State& state) {
   state.counters["job_buffer_mib"] = static_cast<double>(mem.job_buffers) / (1 << 20);
 }
 
+// A level change on the running world: one material removed and another added in its place
+// (remove_material + add_material, then the next update(), which queues the new material's
+// page-table texels, and the jobs of its roots and U′ packets), against re-creating the whole
+// Streamer for the same world (what changing the material set cost without live materials).
+void BM_RuntimeAddRemove(benchmark::State& state) {
+  auto s = make_setup(320, 180, 16);
+  uint64_t frame = 0;
+  for (int i = 0; i < 300; ++i, ++frame) {
+    StreamerOutputs o = s->outputs();
+    s->streamer.update(s->frames[frame % kFrames], o);
+    s->streamer.pump();
+  }
+  double remove_ns = 0, add_ns = 0, next_update_ns = 0, jobs_ns = 0;
+  uint64_t iterations = 0, writes = 0, failures = 0;
+  for (auto _ : state) {
+    const uint32_t m = static_cast<uint32_t>(frame % kMaterials);
+    const double t0 = cpu_ns();
+    failures += s->streamer.remove_material(m) != Status::success;
+    const double t1 = cpu_ns();
+    uint32_t id = 0;
+    failures += s->streamer.add_material(s->materials[m], id) != Status::success;
+    const double t2 = cpu_ns();
+    StreamerOutputs o = s->outputs();
+    s->streamer.update(s->frames[frame % kFrames], o);
+    const double t3 = cpu_ns();
+    remove_ns += t1 - t0;
+    add_ns += t2 - t1;
+    next_update_ns += t3 - t2;
+    writes += o.page_table_write_count;
+    state.PauseTiming();
+    const double p0 = cpu_ns();
+    s->streamer.pump();
+    jobs_ns += cpu_ns() - p0;
+    state.ResumeTiming();
+    ++frame;
+    ++iterations;
+  }
+  const double t0 = cpu_ns();
+  auto recreated = Streamer::create(s->materials, s->config);
+  const double recreate_ns = cpu_ns() - t0;
+  const double n = static_cast<double>(iterations);
+  state.counters["remove_us"] = remove_ns / n / 1000.0;
+  state.counters["add_us"] = add_ns / n / 1000.0;
+  state.counters["next_update_us"] = next_update_ns / n / 1000.0;
+  state.counters["pt_writes_next_update"] = static_cast<double>(writes) / n;
+  state.counters["jobs_cpu_us"] = jobs_ns / n / 1000.0;
+  state.counters["recreate_ms"] = recreate_ns / 1e6;
+  state.counters["x_recreate"] = (remove_ns + add_ns) / n / recreate_ns;
+  state.counters["failures"] = static_cast<double>(failures) + (recreated.ok() ? 0.0 : 1.0);
+}
+
 }  // namespace
+
+BENCHMARK(BM_RuntimeAddRemove)->Unit(benchmark::kMicrosecond)->Iterations(50);
 
 // Second argument: StreamerConfig::decoded_cache_tiles (0: every job decodes its chain from the
 // root; jobs_cpu_us and read_kib_per_frame show what the decoded-ancestor cache saves).

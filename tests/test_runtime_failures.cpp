@@ -352,6 +352,44 @@ TEST(RuntimeFailures, QuiesceWithCancelledReadsDrainsWithoutFailures) {
   check_engine(w, s, e);
 }
 
+// A read the source refused is not retried while quiescing: its job ends (cancelled) so the
+// Streamer still drains, and after resume() the work is asked for again.
+TEST(RuntimeFailures, QuiesceDrainsWhenTheSourceRefusedAReadAndResumeLoads) {
+  World w;
+  w.add(build(make_eigen(128, 6, 6)));
+  QueueSource q;
+  q.files = &w.files;
+  q.refuse_next = true;  // the first read of the first update is refused
+  w.finish(&q);
+  auto s = std::move(Streamer::create(w.materials, small_config()).value());
+  Engine e(s);
+  const auto fb = full_feedback(s);
+  StreamerOutputs o = e.outputs();
+  ASSERT_EQ(s.update(fb, o), Status::success);
+  e.apply(s, o);
+  s.quiesce();
+  for (int f = 0; f < 5 && !s.idle(); ++f) {
+    q.complete_all(s);  // the reads that were started complete
+    o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    s.pump();
+  }
+  EXPECT_TRUE(s.idle()) << "a job waiting for a refused read never ended";
+  EXPECT_TRUE(q.reads.empty());
+  EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
+  s.resume();
+  for (int f = 0; f < 40; ++f) {
+    o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    q.complete_all(s);
+    s.pump();
+  }
+  EXPECT_TRUE(s.material_ready(0));
+  check_engine(w, s, e);
+}
+
 TEST(RuntimeFailures, DestroyedWithReadsOutstandingReturnsEveryByte) {
   World w;
   w.add(build(make_eigen(128, 6, 7)));

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -518,7 +519,7 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
       while (!stop.load(std::memory_order_relaxed)) {
         const uint32_t j = s.acquire_job();
         if (j == Streamer::kNoJob)
-          std::this_thread::yield();
+          std::this_thread::sleep_for(std::chrono::microseconds(50));
         else
           s.run_job(j);
       }
@@ -526,12 +527,13 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
   std::thread io_thread([&] {
     std::mt19937 rng(7);
     while (!stop.load(std::memory_order_relaxed))
-      if (!io.complete_one(s, rng)) std::this_thread::yield();
+      if (!io.complete_one(s, rng)) std::this_thread::sleep_for(std::chrono::microseconds(50));
   });
   std::mt19937 rng(11);
   std::vector<uint32_t> fb;
   fb.reserve(1u << 14);
   uint32_t adds = 0, removes = 0;
+  std::map<std::string, uint32_t> refused;  // why adds were refused
   for (uint32_t frame = 0; frame < 3000; ++frame) {
     const uint32_t r = rng() % 100;
     if (r < 4 && !file_of.empty()) {
@@ -543,9 +545,12 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
     } else if (r < 9) {
       const size_t f = rng() % w.files.size();
       uint32_t id = kNoMaterial;
-      if (s.add_material(materials[f], id) == Status::success) {
+      const char* why = "";
+      if (s.add_material(materials[f], id, &why) == Status::success) {
         file_of[id] = f;
         ++adds;
+      } else {
+        ++refused[why];
       }
     }
     fb.clear();
@@ -554,6 +559,7 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
     ASSERT_EQ(s.update(fb, o), Status::success);
     e.apply(s, o);
     if (frame % 100 == 0) check_live_engine(w, s, e, file_of, true);
+    std::this_thread::sleep_for(std::chrono::microseconds(100));  // the rest of the engine's frame
     if (HasFatalFailure()) break;
   }
   // Drain: no new work, every read completed, every job ended; then the threads stop.
@@ -570,6 +576,7 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
   EXPECT_TRUE(s.idle());
   EXPECT_GT(adds, 10u);  // (an add waits for a free id: removed materials keep theirs until drained)
   EXPECT_GT(removes, 10u);
+  for (const auto& [why, n] : refused) std::printf("add refused %u times: %s\n", n, why.c_str());
   EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
   s.resume();
   for (int f = 0; f < 100; ++f) {  // settle on this thread and check the texels

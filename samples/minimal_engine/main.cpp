@@ -5,8 +5,9 @@
 // from a camera sliding over two materials; a real engine renders the generated shaders' feedback
 // pass instead (docs/shaders.md). Decode jobs run on btflod's ThreadExecutor first, then on the
 // engine's own loop from the handles update() hands out (StreamerOutputs::runnable_jobs). A third
-// material arrives damaged (its root tile fails its checksum): it fails cleanly, once, and the
-// rest of the world streams on.
+// material arrives damaged (its root tile fails its checksum): it fails cleanly, once, the rest
+// of the world streams on, and at frame 60 the engine removes it and adds a fourth material in
+// its place on the running Streamer (a level streaming in; ids and layers of the others stay).
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -70,7 +71,7 @@ std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
 int main() {
   // 2. Containers and their sources (a file, an HTTP range source or memory, as here).
   std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f),
-                                             make_container(4, 0.02f)};
+                                             make_container(4, 0.02f), make_container(6, 0.07f)};
   files[2][read_bsvtf(files[2])->find(TileId{0, 0, 0, 0})->offset + 9] ^= 0xff;  // damaged in transit
   std::vector<BsvtfDirectory> directories;
   std::vector<MemorySource> sources;
@@ -83,6 +84,7 @@ int main() {
   }
   std::vector<StreamerMaterial> materials;
   for (size_t i = 0; i < files.size(); ++i) materials.push_back({&directories[i], &sources[i], nullptr});
+  const std::span<const StreamerMaterial> first_three(materials.data(), 3);
 
   // 3. One Streamer for the world. The CacheConfig is also the shaders' VirtualTextureConfig.
   StreamerConfig config;
@@ -91,7 +93,8 @@ int main() {
   config.vote_window_frames = 1;
   config.decode_workers = 2;              // the most threads that run jobs at once
   config.failure.startup_attempts = 3;    // a root that fails 3 times fails its material
-  auto created = Streamer::create(materials, config);
+  config.capacity = streamer_capacity_for(materials, 3);  // room for any three, added and removed live
+  auto created = Streamer::create(first_three, config);
   if (!created) return std::fprintf(stderr, "streamer: %s\n", created.message().c_str()), 1;
   Streamer streamer = std::move(*created);
 
@@ -102,10 +105,10 @@ int main() {
   std::vector<ResidencyEvent> events(64);
   std::vector<uint32_t> jobs(64);  // decode jobs update() claims for the engine
   FakeGpu gpu;
-  gpu.slots.resize(streamer.cache().slot_count());
-  for (uint32_t t = 0; t < streamer.cache().set().texture_count(); ++t)
+  gpu.slots.resize(streamer.cache().slot_count());  // shapes: streamer.gpu_layout()
+  for (uint32_t t = 0; t < streamer.gpu_layout().page_table_layers; ++t)
     gpu.page_tables.emplace_back(streamer.cache().set().levels_of(t).tile_count(), 0u);
-  gpu.u_packets.resize(streamer.cache().set().texture_count());
+  gpu.u_packets.resize(streamer.gpu_layout().u_packets);
 
   // 5. The frame loop: feedback in, outputs copied to the GPU.
   uint64_t uploads = 0, page_writes = 0;
@@ -137,6 +140,9 @@ int main() {
       else if (events[i].kind == ResidencyEventKind::material_failed)  // retry_material() after a repair
         std::printf("frame %3u: material %u failed (%s); its tiles are not requested\n", frame, events[i].material,
                     status_name(events[i].status));
+      else if (events[i].kind == ResidencyEventKind::material_removed)
+        std::printf("frame %3u: material %u removed, page-table layers %u-%u free\n", frame, events[i].material,
+                    events[i].tile.texture, events[i].tile.texture + events[i].layers - 1);
     for (size_t i = 0; i < out.runnable_job_count; ++i) streamer.run_job(jobs[i]);  // the engine's workers
     uploads += out.tile_upload_count;
     page_writes += out.page_table_write_count;
@@ -146,8 +152,17 @@ int main() {
   };
   {
     ThreadExecutor workers(streamer.jobs(), 2);
-    for (uint32_t frame = 0; frame < 120; ++frame)
+    for (uint32_t frame = 0; frame < 120; ++frame) {
       if (frame_update(frame) != Status::success) return 1;
+      if (frame != 60) continue;  // a level change: the damaged material goes, a new one comes
+      uint32_t id = 0;
+      const char* why = "";
+      if (streamer.remove_material(2) != Status::success || streamer.add_material(materials[3], id, &why) != Status::success)
+        return std::fprintf(stderr, "add: %s\n", why), 1;
+      for (uint32_t t = streamer.first_texture(id); t < streamer.first_texture(id) + streamer.texture_count(id); ++t)
+        gpu.page_tables[t].assign(streamer.cache().set().levels_of(t).tile_count(), 0u);  // the layer's new shape
+      std::printf("frame %3u: material %u added (id %u, layers from %u)\n", frame, 3u, id, streamer.first_texture(id));
+    }
   }  // the workers stop with the executor
   // The camera stops: frames go on, decode jobs now run on this thread (Streamer::pump), until
   // every requested tile of the last view has arrived (how long the workers took above varies).
@@ -168,15 +183,11 @@ int main() {
       const TileId id = lv.tile(t, i);
       const uint32_t slot = cache.slot_of(id);
       if (slot == kNoSlot) continue;
-      if (streamer.material_failed(cache.set().material_of(t))) {  // only its (pinned, empty) root
-        bad += id.level > 0;
-        continue;
-      }
       ++resident;
       if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != make_page_entry(id.level, slot)) ++bad;
     }
   }
-  const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_failed(2);
+  const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_ready(2);
   const StreamerStats st = streamer.stats();  // cheap enough for every frame
   std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used, %llu bytes read\n",
               static_cast<unsigned long long>(uploads), static_cast<unsigned long long>(page_writes), resident,

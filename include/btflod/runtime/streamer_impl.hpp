@@ -118,6 +118,59 @@ struct HeldWork {
   uint8_t packet = 0;
 };
 
+// What one container needs of the Streamer's reserved room.
+struct StreamerMaterialNeeds {
+  VtGeometry geometry;
+  uint32_t textures = 0, tiles = 0;  // tiles: per texture × textures
+  uint32_t level_count = 0, finest_tiles = 0;
+  uint32_t max_tile_bytes = 0, max_packet_bytes = 0, rows = 0;
+  AngularRowOrder row_order = AngularRowOrder::unspecified;
+};
+
+// Checks a material against the cache shape and measures what it needs. No allocation.
+inline Status check_streamer_material(const StreamerMaterial& sm, const CacheConfig& cache,
+                                      StreamerMaterialNeeds& needs, const char** why) noexcept {
+  const auto fail = [&](Status s, const char* text) {
+    if (why != nullptr) *why = text;
+    return s;
+  };
+  if (sm.directory == nullptr || (sm.source == nullptr) == (sm.async_source == nullptr))
+    return fail(Status::invalid_argument, "a material needs a directory and exactly one source");
+  const BsvtfMetadata& md = sm.directory->metadata;
+  if (md.tile_size != cache.tile_size || md.border != cache.border)
+    return fail(Status::invalid_argument, "the container's tile size or border differs from the cache's");
+  needs.row_order = md.u_row_order != AngularRowOrder::unspecified ? md.u_row_order : sm.assumed_row_order;
+  if (needs.row_order == AngularRowOrder::unspecified)
+    return fail(Status::invalid_argument,
+                "a version-2 container does not store U's row order: set StreamerMaterial::assumed_row_order or "
+                "rebuild it");
+  const uint32_t lights = static_cast<uint32_t>(md.light_directions.size() / 3);
+  const uint32_t views = static_cast<uint32_t>(md.view_directions.size() / 3);
+  if (uint64_t{lights} * views * md.color_channels != md.u_rows)
+    return fail(Status::invalid_argument, "the rows of U are not lights × views × colour channels");
+  needs.geometry = VtGeometry::make(md.width, md.height, md.tile_size, md.border);
+  if (!needs.geometry.valid() || needs.geometry.level_count() != md.level_count)
+    return fail(Status::bad_data, "the container's level count does not match its size");
+  needs.textures = md.texture_count();
+  if (needs.textures == 0 || sm.directory->packets.size() < needs.textures)
+    return fail(Status::bad_data, "the container has no U′ packet for each virtual texture");
+  const VtLevelTable lv(needs.geometry);
+  needs.tiles = lv.tile_count() * needs.textures;
+  needs.level_count = md.level_count;
+  needs.finest_tiles = std::max(lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]);
+  needs.rows = md.u_rows;
+  needs.max_tile_bytes = needs.max_packet_bytes = 0;
+  for (uint32_t k = 0; k < needs.textures; ++k)
+    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
+      const BsvtfTileEntry* e = sm.directory->find(lv.tile(k, i));
+      if (e == nullptr) return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
+      needs.max_tile_bytes = std::max(needs.max_tile_bytes, e->size);
+    }
+  for (uint32_t k = 0; k < needs.textures; ++k)
+    needs.max_packet_bytes = std::max(needs.max_packet_bytes, sm.directory->packets[k].size);
+  return Status::success;
+}
+
 }  // namespace detail
 
 
@@ -597,128 +650,12 @@ struct Streamer::Impl final : StreamerJobQueue {
     ++startup_count;
   }
 
-  // A root or start-up U′ packet job failed: back off, or fail the material.
-  void startup_failed_job(uint32_t j, StreamerOutputs& out) noexcept {
-    detail::StreamerJob& job = jobs[j];
-    const uint32_t m = job.material, t = job.tile.texture;
-    detail::StreamerMaterialState& ms = materials[m];
-    const bool packet = job.kind == detail::kPacketJob;
-    if (job.status == Status::cancelled) {  // the engine cancelled the read: not a failure
-      ++cancelled_count;
-      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
-      job.retry_frame = frame + 1;
-      return;
-    }
-    const uint32_t k = t - ms.first_texture;
-    uint8_t& fails = packet ? packet_failures[ms.packet_base + k] : tile_failures[record_index(m, k, 0)];
-    packet ? ++packet_failure_count : ++tile_failure_count;
-    push_event(out, ResidencyEvent{packet ? ResidencyEventKind::packet_failed : ResidencyEventKind::tile_failed, m,
-                                   job.tile, job.status});
-    if (bump(fails) < config.failure.startup_attempts) {
-      job.state.store(detail::kJobWaiting, std::memory_order_relaxed);
-      job.retry_frame = frame + backoff_frames(fails);
-      return;
-    }
-    startup_failed[t] |= packet ? 2 : 1;
-    job.state.store(detail::kJobFree, std::memory_order_relaxed);
-    if (!ms.failed) {
-      ms.failed = true;
-      ++materials_failed_now;
-      scheduler.set_material_enabled(m, false);
-      push_event(out, ResidencyEvent{ResidencyEventKind::material_failed, m, job.tile, job.status});
-    }
-  }
+  // Failures (runtime/streamer_failures.hpp).
+  void startup_failed_job(uint32_t j, StreamerOutputs& out) noexcept;
+  void request_failed_job(const detail::StreamerJob& job, StreamerOutputs& out) noexcept;
+  void release_held() noexcept;
+  Status retry_material(uint32_t m) noexcept;
 
-  // A scheduler request failed (its request is cancelled already): hold the tile or packet back
-  // for its back-off, or give it up.
-  void request_failed_job(const detail::StreamerJob& job, StreamerOutputs& out) noexcept {
-    const uint32_t m = job.material;
-    const detail::StreamerMaterialState& ms = materials[m];
-    const uint32_t k = job.tile.texture - ms.first_texture;
-    if (job.status == Status::cancelled) {
-      ++cancelled_count;
-      return;
-    }
-    if (job.kind == detail::kPacketJob) {
-      ++packet_failure_count;
-      push_event(out, ResidencyEvent{ResidencyEventKind::packet_failed, m, job.tile, job.status});
-      const uint32_t fails = bump(packet_failures[ms.packet_base + k]);
-      scheduler.hold_u_packets(m, true);
-      if (fails >= config.failure.packet_attempts) {
-        push_event(out, ResidencyEvent{ResidencyEventKind::packet_unavailable, m, job.tile, job.status});
-      } else if (held_count < held.size()) {
-        held[held_count++] = detail::HeldWork{m, k, frame + backoff_frames(fails), 1};
-      } else {
-        scheduler.hold_u_packets(m, false);
-      }
-      return;
-    }
-    ++tile_failure_count;
-    push_event(out, ResidencyEvent{ResidencyEventKind::tile_failed, m, job.tile, job.status});
-    const uint32_t flat = cache.set().levels_of(job.tile.texture).index(job.tile);
-    const uint32_t fails = bump(tile_failures[record_index(m, k, flat)]);
-    if (fails >= config.failure.tile_attempts) {
-      scheduler.hold_tile(job.tile.texture, flat, true);
-      ++tiles_unavailable;
-      push_event(out, ResidencyEvent{ResidencyEventKind::tile_unavailable, m, job.tile, job.status});
-    } else if (held_count < held.size()) {
-      scheduler.hold_tile(job.tile.texture, flat, true);
-      held[held_count++] = detail::HeldWork{job.tile.texture, flat, frame + backoff_frames(fails), 0};
-    }
-  }
-
-  // Held work whose back-off ended may be requested again.
-  void release_held() noexcept {
-    for (uint32_t i = 0; i < held_count;) {
-      const detail::HeldWork h = held[i];
-      if (h.until > frame) {
-        ++i;
-        continue;
-      }
-      if (h.packet)
-        scheduler.hold_u_packets(h.texture, false);
-      else
-        scheduler.hold_tile(h.texture, h.flat, false);
-      ++retry_count;
-      held[i] = held[--held_count];
-    }
-  }
-
-  Status retry_material(uint32_t m) noexcept {
-    if (m >= materials.size() || materials[m].life != detail::kMaterialLive) return Status::invalid_argument;
-    detail::StreamerMaterialState& ms = materials[m];
-    for (uint32_t k = 0; k < ms.texture_count; ++k) {
-      const uint32_t t = ms.first_texture + k;
-      for (uint32_t flat = 0; flat < ms.tile_count; ++flat) {
-        uint8_t& f = tile_failures[record_index(m, k, flat)];
-        if (f >= config.failure.tile_attempts && flat > 0 && scheduler.tile_held(t, flat)) {
-          scheduler.hold_tile(t, flat, false);
-          --tiles_unavailable;
-        }
-        f = 0;
-      }
-      packet_failures[ms.packet_base + k] = 0;
-      if (startup_failed[t] & 1) push_startup(t << 1);
-      if (startup_failed[t] & 2) push_startup(t << 1 | 1);
-      startup_failed[t] = 0;
-    }
-    for (uint32_t i = 0; i < held_count;) {  // held work of this material: released now
-      const detail::HeldWork h = held[i];
-      const bool mine = h.packet ? h.texture == m : texture_material[h.texture] == m;
-      if (!mine) {
-        ++i;
-        continue;
-      }
-      if (!h.packet) scheduler.hold_tile(h.texture, h.flat, false);
-      held[i] = held[--held_count];
-    }
-    scheduler.hold_u_packets(m, false);
-    if (ms.failed) {
-      ms.failed = false;
-      --materials_failed_now;
-    }
-    return Status::success;
-  }
 
   Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
     if (out.tile_uploads.size() < tile_uploads_bound() || out.packet_uploads.size() < packet_uploads_bound())
@@ -730,12 +667,14 @@ struct Streamer::Impl final : StreamerJobQueue {
     for (uint32_t j = 0; j < jobs.size(); ++j)
       if (jobs[j].state.load(std::memory_order_acquire) == detail::kJobHanded)
         jobs[j].state.store(detail::kJobFree, std::memory_order_relaxed);
-    // Retry async reads a source refused (a removed material's are abandoned instead).
+    // Retry async reads a source refused. A removed material's, and every job's while
+    // quiescing, are abandoned instead: the job ends (cancelled) with its last started read, so
+    // a quiesced Streamer drains even when the source refused reads.
     for (uint32_t j = 0; j < jobs.size(); ++j) {
       if (jobs[j].state.load(std::memory_order_acquire) != detail::kJobReading) continue;
-      if (stale(jobs[j]))
+      if (quiescing || stale(jobs[j]))
         abandon_reads(j);
-      else if (!quiescing)
+      else
         start_reads(j);
     }
     // 2. Finished jobs.
@@ -921,5 +860,6 @@ struct Streamer::Impl final : StreamerJobQueue {
 
 }  // namespace btflod
 
+#include "btflod/runtime/streamer_failures.hpp"
 #include "btflod/runtime/streamer_materials.hpp"
 #include "btflod/runtime/streamer_create.hpp"

@@ -13,62 +13,6 @@
 #include "btflod/runtime/streamer_impl.hpp"
 
 namespace btflod {
-namespace detail {
-
-// What one container needs of the Streamer's reserved room.
-struct StreamerMaterialNeeds {
-  VtGeometry geometry;
-  uint32_t textures = 0, tiles = 0;  // tiles: per texture × textures
-  uint32_t level_count = 0, finest_tiles = 0;
-  uint32_t max_tile_bytes = 0, max_packet_bytes = 0, rows = 0;
-  AngularRowOrder row_order = AngularRowOrder::unspecified;
-};
-
-// Checks a material against the cache shape and measures what it needs. No allocation.
-inline Status check_streamer_material(const StreamerMaterial& sm, const CacheConfig& cache,
-                                      StreamerMaterialNeeds& needs, const char** why) noexcept {
-  const auto fail = [&](Status s, const char* text) {
-    if (why != nullptr) *why = text;
-    return s;
-  };
-  if (sm.directory == nullptr || (sm.source == nullptr) == (sm.async_source == nullptr))
-    return fail(Status::invalid_argument, "a material needs a directory and exactly one source");
-  const BsvtfMetadata& md = sm.directory->metadata;
-  if (md.tile_size != cache.tile_size || md.border != cache.border)
-    return fail(Status::invalid_argument, "the container's tile size or border differs from the cache's");
-  needs.row_order = md.u_row_order != AngularRowOrder::unspecified ? md.u_row_order : sm.assumed_row_order;
-  if (needs.row_order == AngularRowOrder::unspecified)
-    return fail(Status::invalid_argument,
-                "a version-2 container does not store U's row order: set StreamerMaterial::assumed_row_order or "
-                "rebuild it");
-  const uint32_t lights = static_cast<uint32_t>(md.light_directions.size() / 3);
-  const uint32_t views = static_cast<uint32_t>(md.view_directions.size() / 3);
-  if (uint64_t{lights} * views * md.color_channels != md.u_rows)
-    return fail(Status::invalid_argument, "the rows of U are not lights × views × colour channels");
-  needs.geometry = VtGeometry::make(md.width, md.height, md.tile_size, md.border);
-  if (!needs.geometry.valid() || needs.geometry.level_count() != md.level_count)
-    return fail(Status::bad_data, "the container's level count does not match its size");
-  needs.textures = md.texture_count();
-  if (needs.textures == 0 || sm.directory->packets.size() < needs.textures)
-    return fail(Status::bad_data, "the container has no U′ packet for each virtual texture");
-  const VtLevelTable lv(needs.geometry);
-  needs.tiles = lv.tile_count() * needs.textures;
-  needs.level_count = md.level_count;
-  needs.finest_tiles = std::max(lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]);
-  needs.rows = md.u_rows;
-  needs.max_tile_bytes = needs.max_packet_bytes = 0;
-  for (uint32_t k = 0; k < needs.textures; ++k)
-    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
-      const BsvtfTileEntry* e = sm.directory->find(lv.tile(k, i));
-      if (e == nullptr) return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
-      needs.max_tile_bytes = std::max(needs.max_tile_bytes, e->size);
-    }
-  for (uint32_t k = 0; k < needs.textures; ++k)
-    needs.max_packet_bytes = std::max(needs.max_packet_bytes, sm.directory->packets[k].size);
-  return Status::success;
-}
-
-}  // namespace detail
 
 inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once) {
   StreamerCapacity cap;
@@ -101,8 +45,9 @@ inline bool Streamer::Impl::stale(const detail::StreamerJob& job) const noexcept
   return ms.life != detail::kMaterialLive || ms.generation != job.generation;
 }
 
-// A reading job of a removed material: its reads not started yet are never started; the job
-// ends (failed, cancelled) with its last outstanding completion, or now if none is left.
+// A reading job of a removed material (or any, while quiescing): its reads not started yet
+// are never started; the job ends (failed, cancelled: its work is asked for again later) with
+// its last outstanding completion, or now if none is left.
 inline void Streamer::Impl::abandon_reads(uint32_t j) noexcept {
   detail::StreamerJob& job = jobs[j];
   uint32_t unstarted = 0;

@@ -252,6 +252,8 @@ class VoteCounter {
     materials_[material] = Material{};
     return Status::success;
   }
+  /// The most tiles one add_material() can still take (the largest free range).
+  uint64_t largest_free_tiles() const noexcept { return free_tiles_.largest(); }
   /// True when material ids' votes are counted (constructed with a shape or added).
   bool material_live(uint32_t material) const noexcept {
     return material < materials_.size() && materials_[material].live;

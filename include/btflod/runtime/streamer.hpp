@@ -111,6 +111,8 @@ struct StreamerCapacity {
   uint32_t materials = 0;         ///< material ids (≤ 1023, the feedback word's limit)
   uint32_t textures = 0;          ///< virtual textures = page-table layers = U′ packets, over live materials
   uint32_t tiles = 0;             ///< Σ over live materials of tiles per texture × textures
+  uint32_t material_tiles = 0;    ///< Σ over live materials of tiles per texture (the vote counter's
+                                  ///< room; 0: create()'s when `tiles` is 0, else `tiles`)
   uint32_t max_level_count = 0;   ///< L + 1 of any material (page-table mips)
   uint32_t max_finest_tiles = 0;  ///< finest-level tiles per side of any material (page-table size)
   uint32_t max_tile_bytes = 0;    ///< largest tile payload of any material (decode chain buffers)

@@ -35,6 +35,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
                         why);
     need.textures += n.textures;
     tiles_needed += n.tiles;
+    need.material_tiles += n.tiles / n.textures;
     need.max_level_count = std::max(need.max_level_count, n.level_count);
     need.max_finest_tiles = std::max(need.max_finest_tiles, n.finest_tiles);
     need.max_tile_bytes = std::max(need.max_tile_bytes, n.max_tile_bytes);
@@ -49,8 +50,10 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
     if (field == 0) field = needed;
     return field >= needed;
   };
+  if (cap.material_tiles == 0) cap.material_tiles = cap.tiles == 0 ? need.material_tiles : cap.tiles;
   if (!resolve(cap.materials, need.materials) || !resolve(cap.textures, need.textures) ||
-      !resolve(cap.tiles, need.tiles) || !resolve(cap.max_level_count, need.max_level_count) ||
+      !resolve(cap.tiles, need.tiles) || !resolve(cap.material_tiles, need.material_tiles) ||
+      !resolve(cap.max_level_count, need.max_level_count) ||
       !resolve(cap.max_finest_tiles, need.max_finest_tiles) || !resolve(cap.max_tile_bytes, need.max_tile_bytes) ||
       !resolve(cap.max_packet_bytes, need.max_packet_bytes) || !resolve(cap.max_u_rows, need.max_u_rows))
     return make_error(Status::invalid_argument, "streamer: the capacity is below what the %zu materials given need",
@@ -98,7 +101,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   memory.scheduler = ledger->live - mark;
   mark = ledger->live;
   VoteCounter votes(std::span<const VoteLayout>(), VoteWindowConfig{std::max(1u, config.vote_window_frames), 0}, al,
-                    VoteCapacity{cap.materials, cap.tiles});
+                    VoteCapacity{cap.materials, cap.material_tiles});
   memory.votes = ledger->live - mark;
 
   void* mem = al.allocate_bytes(sizeof(Impl), alignof(Impl));

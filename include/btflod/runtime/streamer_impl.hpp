@@ -160,12 +160,16 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
   needs.finest_tiles = std::max(lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]);
   needs.rows = md.u_rows;
   needs.max_tile_bytes = needs.max_packet_bytes = 0;
-  for (uint32_t k = 0; k < needs.textures; ++k)
-    for (uint32_t i = 0; i < lv.tile_count(); ++i) {
-      const BsvtfTileEntry* e = sm.directory->find(lv.tile(k, i));
-      if (e == nullptr) return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
-      needs.max_tile_bytes = std::max(needs.max_tile_bytes, e->size);
-    }
+  // The directory's entries are unique and sorted (codec/container.hpp): the hierarchy is
+  // complete when as many of them lie in it as it has tiles (one linear pass, no lookups).
+  uint64_t inside = 0;
+  for (const BsvtfTileEntry& e : sm.directory->tiles) {
+    if (e.id.texture >= needs.textures || !lv.geometry.contains(e.id)) continue;
+    ++inside;
+    needs.max_tile_bytes = std::max(needs.max_tile_bytes, e.size);
+  }
+  if (inside != needs.tiles)
+    return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
   for (uint32_t k = 0; k < needs.textures; ++k)
     needs.max_packet_bytes = std::max(needs.max_packet_bytes, sm.directory->packets[k].size);
   return Status::success;
@@ -458,6 +462,13 @@ struct Streamer::Impl final : StreamerJobQueue {
       if (decoded[e].key == key) return e;
     return kNoJob;
   }
+  // A stale job's pin: released, and the entry forgotten (it holds a removed material's tile,
+  // whose id may already name another material).
+  void drop_stale_pin(detail::StreamerJob& job) noexcept {
+    const uint32_t e = job.pinned;
+    release_decoded(job);
+    if (e != kNoJob && decoded[e].pins == 0) decoded[e].key = ~0ull;
+  }
   // Releases the job's pin on the decoded cache (update thread).
   void release_decoded(detail::StreamerJob& job) noexcept {
     if (job.pinned != kNoJob) --decoded[job.pinned].pins;
@@ -684,7 +695,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       if (st != detail::kJobDone && st != detail::kJobFailed) continue;
       const bool ok = st == detail::kJobDone;
       if (stale(job)) {  // its material was removed: dropped
-        release_decoded(job);
+        drop_stale_pin(job);
         job.decoded_kept = 1;
         job.state.store(detail::kJobFree, std::memory_order_relaxed);
         ++jobs_dropped;

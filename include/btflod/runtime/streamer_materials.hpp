@@ -16,7 +16,7 @@ namespace btflod {
 
 inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once) {
   StreamerCapacity cap;
-  std::vector<uint32_t> textures, tiles;
+  std::vector<uint32_t> textures, tiles, material_tiles;
   for (const StreamerMaterial& sm : candidates) {
     if (sm.directory == nullptr) continue;
     CacheConfig own;
@@ -26,6 +26,7 @@ inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> 
     if (detail::check_streamer_material(sm, own, n, nullptr) != Status::success) continue;
     textures.push_back(n.textures);
     tiles.push_back(n.tiles);
+    material_tiles.push_back(n.tiles / n.textures);
     cap.max_level_count = std::max(cap.max_level_count, n.level_count);
     cap.max_finest_tiles = std::max(cap.max_finest_tiles, n.finest_tiles);
     cap.max_tile_bytes = std::max(cap.max_tile_bytes, n.max_tile_bytes);
@@ -35,8 +36,9 @@ inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> 
   const size_t n = std::min<size_t>(live_at_once, textures.size());
   std::sort(textures.rbegin(), textures.rend());
   std::sort(tiles.rbegin(), tiles.rend());
+  std::sort(material_tiles.rbegin(), material_tiles.rend());
   cap.materials = static_cast<uint32_t>(n);
-  for (size_t i = 0; i < n; ++i) cap.textures += textures[i], cap.tiles += tiles[i];
+  for (size_t i = 0; i < n; ++i) cap.textures += textures[i], cap.tiles += tiles[i], cap.material_tiles += material_tiles[i];
   return cap;
 }
 
@@ -100,7 +102,8 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
     if (materials[i].life == detail::kMaterialFree) m = i;
   if (m == kNoMaterial) return fail(Status::insufficient_space, "no free material id (capacity.materials)");
   const VtSet& set = cache.set();
-  if (set.largest_free_textures() < needs.textures || set.largest_free_entries() < needs.tiles)
+  if (set.largest_free_textures() < needs.textures || set.largest_free_entries() < needs.tiles ||
+      votes.largest_free_tiles() < needs.tiles / needs.textures)
     return fail(Status::insufficient_space, "no run of free page-table layers or tile entries is large enough");
   while (cache.free_count() < needs.textures)
     if (!evict_leaf()) return fail(Status::insufficient_space, "too few cache slots to pin the material's roots");
@@ -138,21 +141,27 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
     const uint32_t t = vm.first_texture + k;
     texture_material[t] = m;
     texture_tile_base[t] = set.texture_offset(t);
-    for (uint32_t i = 0; i < ms.tile_count; ++i) {
-      const BsvtfTileEntry* e = sm.directory->find(lv.tile(k, i));
-      records[ms.record_base + k * ms.tile_count + i] = detail::TileRecord{e->offset, e->size, e->crc};
-      tile_failures[ms.record_base + k * ms.tile_count + i] = 0;
-      // The scheduler's values go through half, as the container index stores them (§7).
-      scheduler.set_weight(t, i, Half(e->weight).to_float());
-      scheduler.set_energy(t, i, Half(e->energy).to_float());
-      scheduler.set_tile_bytes(t, i, e->size);
-    }
     const BsvtfPacketEntry& p = sm.directory->packets[k];
     packet_records[t] = detail::TileRecord{p.offset, p.size, p.crc};
     packet_failures[t] = 0;
     startup_failed[t] = 0;
-    // Its page-table texels, every level, go out in full (the layers may hold another
-    // material's entries).
+  }
+  // Its tiles' records and scheduler values, from one pass over the directory (its entries in
+  // the hierarchy are exactly its tiles: check_streamer_material counted them). The
+  // scheduler's values go through half, as the container index stores them (§7).
+  for (const BsvtfTileEntry& e : sm.directory->tiles) {
+    if (e.id.texture >= vm.texture_count || !lv.geometry.contains(e.id)) continue;
+    const uint32_t k = e.id.texture, i = lv.index(e.id);
+    const size_t r = ms.record_base + size_t{k} * ms.tile_count + i;
+    records[r] = detail::TileRecord{e.offset, e.size, e.crc};
+    tile_failures[r] = 0;
+    scheduler.set_tile_values(vm.first_texture + k, i, Half(e.weight).to_float(), Half(e.energy).to_float(), e.size);
+  }
+  scheduler.refresh_weight_bounds(m);
+  // Its page-table texels, every level, go out in full (the layers may hold another material's
+  // entries).
+  for (uint32_t k = 0; k < vm.texture_count; ++k) {
+    const uint32_t t = vm.first_texture + k;
     for (uint32_t i = 0; i < ms.tile_count; ++i) {
       mirror_texture[texture_tile_base[t] + i] = t;
       mirror[texture_tile_base[t] + i] = 0xffffffffu;
@@ -190,7 +199,7 @@ inline Status Streamer::Impl::remove_material(uint32_t m) noexcept {
     }
     if (st == detail::kJobRunnable &&
         job.state.compare_exchange_strong(st, detail::kJobFree, std::memory_order_acq_rel)) {
-      release_decoded(job);
+      drop_stale_pin(job);
       ++jobs_dropped;
     }
   }
@@ -273,8 +282,10 @@ inline bool Streamer::Impl::material_busy(uint32_t m) const noexcept {
   for (uint32_t j = 0; j < jobs.size(); ++j) {
     const detail::StreamerJob& job = jobs[j];
     const uint8_t st = job.state.load(std::memory_order_acquire);
-    if (job.material == m && job.generation == ms.generation && st != detail::kJobFree &&
-        st != detail::kJobHanded && st != detail::kJobWaiting)
+    // Only jobs that may still read its source or run count: finished ones are dropped when
+    // collected (their generation no longer matches, whatever the id names by then).
+    if (job.material == m && job.generation == ms.generation &&
+        (st == detail::kJobReading || st == detail::kJobRunnable || st == detail::kJobRunning))
       return true;
   }
   return false;

@@ -188,6 +188,23 @@ class Scheduler {
     weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : w;
     update_max_weight(texture_material_[texture], flat);
   }
+  /// Sets a tile's w, ‖T‖²_F / T² and request bytes at once without refreshing the material's
+  /// add bound (a new material's tiles, in bulk): call refresh_weight_bounds(material) after
+  /// the last. Out-of-range ids are ignored. noexcept, no allocation.
+  void set_tile_values(uint32_t texture, uint32_t flat, float w, float e, uint32_t bytes) noexcept {
+    if (!texture_live(texture)) return;
+    const size_t i = index(texture, flat);
+    if (i >= set_weights_.size()) return;
+    set_weights_[i] = w;
+    weights_[i] = config_.mode == PriorityMode::votes_only ? 1.0f : w;
+    energies_[i] = e;
+    tile_bytes_[i] = bytes;
+  }
+  /// Recomputes the add bound of every tile of a material (after set_tile_values). noexcept.
+  void refresh_weight_bounds(uint32_t material) noexcept {
+    if (material >= material_tiles_.size()) return;
+    for (uint32_t flat = 0; flat < material_tiles_[material]; ++flat) update_max_weight(material, flat);
+  }
   /// Sets ‖T‖²_F / T² of a tile (paper 000 §6's U'-packet priority). Out-of-range ids ignored.
   void set_energy(uint32_t texture, uint32_t flat, float e) noexcept {
     if (!texture_live(texture)) return;

@@ -71,7 +71,9 @@ configure_and_build() {  # dir, extra cmake args... (BTFLOD_TARGET: build only t
   # minutes). A folder configured before keeps its generator.
   local generator=()
   [ -f "$dir/CMakeCache.txt" ] || generator=(-G Ninja)
-  cmake -S . -B "$dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  # Release at -O2 (CMake's default is -O3): the same code paths and floating-point results
+  # (no -ffast-math), about a third less compile time for the ~290 targets on 2 cores.
+  cmake -S . -B "$dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O2 -DNDEBUG" "$@" >/dev/null
   cmake --build "$dir" -j "$JOBS" ${BTFLOD_TARGET:+--target "$BTFLOD_TARGET"}
 }
 

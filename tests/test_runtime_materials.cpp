@@ -92,6 +92,25 @@ void append_feedback(const Streamer& s, std::vector<uint32_t>& out) {
   }
 }
 
+// `frames` frames whose feedback votes every finest tile of every live material, each followed
+// by the jobs run here and `after()` (e.g. the engine's I/O completing reads).
+template <class After>
+void stream_frames(Streamer& s, LiveEngine& e, uint32_t frames, After&& after) {
+  std::vector<uint32_t> fb;
+  for (uint32_t f = 0; f < frames; ++f) {
+    fb.clear();
+    append_feedback(s, fb);
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.update(fb, o), Status::success);
+    e.apply(s, o);
+    s.pump();
+    after();
+  }
+}
+void stream_frames(Streamer& s, LiveEngine& e, uint32_t frames) {
+  stream_frames(s, e, frames, [] {});
+}
+
 // The engine's cache texels and page tables against the Streamer's cache; `file_of` maps a
 // live material id to its container.
 void check_live_engine(const World& w, const Streamer& s, const LiveEngine& e, const std::map<uint32_t, size_t>& file_of,
@@ -253,14 +272,7 @@ TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
     if (HasFatalFailure()) return;
   }
   // Drain: the live materials settle, every removed one is released.
-  for (int f = 0; f < 200; ++f) {
-    feedback.clear();
-    append_feedback(s, feedback);
-    StreamerOutputs o = e.outputs();
-    ASSERT_EQ(s.update(feedback, o), Status::success);
-    e.apply(s, o);
-    s.pump();
-  }
+  stream_frames(s, e, 200);
   check_live_engine(w, s, e, file_of, true);
   EXPECT_EQ(stray_allocations, 0u) << "an operation allocated after create()";
   EXPECT_GT(adds, ops / 50);
@@ -343,14 +355,7 @@ TEST(StreamerMaterials, RemovalFreesSlotsLayersAndVotesAndLeavesOthersAlone) {
   ASSERT_EQ(s.add_material(w.materials[1], id), Status::success);
   EXPECT_EQ(id, 0u);
   EXPECT_EQ(s.first_texture(id), layer);
-  for (int f = 0; f < 60; ++f) {
-    fb.clear();
-    append_feedback(s, fb);
-    StreamerOutputs oo = e.outputs();
-    ASSERT_EQ(s.update(fb, oo), Status::success);
-    e.apply(s, oo);
-    s.pump();
-  }
+  stream_frames(s, e, 60);
   EXPECT_TRUE(s.material_ready(0));
   check_live_engine(w, s, e, {{0, 1}, {1, 2}}, true);
 }
@@ -400,15 +405,7 @@ TEST(StreamerMaterials, ReadsOutstandingAtRemovalDrainBeforeTheIdIsReleased) {
   EXPECT_GT(s.stats().jobs_dropped, 0u);
   EXPECT_TRUE(io0.reads.empty());
   // The new material streams normally; a Streamer destroyed now leaks nothing (ASan).
-  for (int f = 0; f < 60; ++f) {
-    fb.clear();
-    append_feedback(s, fb);
-    o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
-    s.pump();
-    io2.complete_all(s);
-  }
+  stream_frames(s, e, 60, [&] { io2.complete_all(s); });
   EXPECT_TRUE(s.material_ready(1));
   EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
   check_live_engine(w, s, e, {{1, 2}}, true);
@@ -579,14 +576,6 @@ TEST(StreamerMaterials, AddAndRemoveWithEngineWorkersAndAnIoThread) {
   for (const auto& [why, n] : refused) std::printf("add refused %u times: %s\n", n, why.c_str());
   EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
   s.resume();
-  for (int f = 0; f < 100; ++f) {  // settle on this thread and check the texels
-    fb.clear();
-    append_feedback(s, fb);
-    StreamerOutputs o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
-    s.pump();
-    io.complete_all_for_test(s);
-  }
+  stream_frames(s, e, 100, [&] { io.complete_all_for_test(s); });  // settle on this thread
   check_live_engine(w, s, e, file_of, true);
 }

@@ -1,22 +1,25 @@
 // btflod — umbrella header: includes every public header of the library.
 // Engines may include the per-area headers instead to keep compile times down.
 //
-// The implementation TU. btflod is header-only, but its non-inline code — SIMD kernels and their
-// CPU dispatch (core/simd.hpp), CRC-32 and the inflate/deflate back ends (zlib; libdeflate when
-// BTFLOD_TILE_CODEC_LIBDEFLATE is defined there), and offline numerics too heavy to instantiate in
-// every TU (the truncated SVD's Eigen decompositions) — is compiled in exactly ONE translation
-// unit of each program, the one that defines BTFLOD_IMPLEMENTATION before including this header
-// (the VMA_IMPLEMENTATION / STB_IMAGE_IMPLEMENTATION pattern):
+// The implementation. btflod is header-only, but its non-inline code is compiled once per
+// program (the VMA_IMPLEMENTATION / STB_IMAGE_IMPLEMENTATION pattern), in two halves:
+//   BTFLOD_RUNTIME_IMPLEMENTATION  SIMD kernels and their CPU dispatch (core/simd.hpp), CRC-32,
+//                                  the inflate/deflate back ends (zlib; libdeflate when
+//                                  BTFLOD_TILE_CODEC_LIBDEFLATE is defined), the codecs, container
+//                                  reader and writer, shader generators, tile-pyramid builder
+//   BTFLOD_FACTOR_IMPLEMENTATION   the Eigen decompositions too heavy to instantiate in every TU
+//                                  (SVDs, PCAs, SPMM)
+// BTFLOD_IMPLEMENTATION defines both:
 //
 //   // btflod_implementation.cpp — one per program
 //   #define BTFLOD_IMPLEMENTATION
 //   #include <btflod/btflod.hpp>
 //
-// With CMake, linking btflod::implementation adds that file (cmake/btflod_implementation.cpp) to
-// the executable or shared library. Every other TU includes any header without the macro and
-// sees declarations only; a program without the implementation TU fails to link (undefined
-// btflod::… symbols), never misbehaves. The macro changes no type: only function definitions
-// are added.
+// With CMake, linking btflod::runtime_implementation (the runtime half) or btflod::implementation
+// (both) adds cmake/btflod_*_implementation.cpp to the executable or shared library. Every other
+// TU includes any header without the macros and sees declarations only; a program without the
+// implementation fails to link (undefined btflod::… symbols), never misbehaves. The macros change
+// no type: only function definitions are added.
 #pragma once
 
 // core

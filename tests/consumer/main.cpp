@@ -1,5 +1,14 @@
-// A tiny engine-side consumer: proves the installed package is usable with find_package.
+// A tiny consumer: proves the installed package is usable with find_package. Built as an engine
+// (btflod::runtime, runtime headers only, the runtime half of the implementation) and, on demand,
+// as a tool (btflod::btflod, every header, both halves; BTFLOD_CONSUMER_WHOLE_LIBRARY).
+#if defined(BTFLOD_CONSUMER_WHOLE_LIBRARY)
 #include <btflod/btflod.hpp>
+#else
+#include <btflod/btf/directions.hpp>
+#include <btflod/codec/tile_codec.hpp>
+#include <btflod/core/half.hpp>
+#include <btflod/runtime/streamer.hpp>
+#endif
 
 #include <cstdio>
 
@@ -9,7 +18,7 @@ int main() {
   std::printf("btflod consumer: %zu directions, half(0.5) = %g\n", set.size(), static_cast<double>(h.to_float()));
   // The installed package carries the inflate backend it was built with (BTFLOD_WITH_LIBDEFLATE):
   // the define (read by the implementation TU only) and libdeflate's link come through
-  // find_package and btflod::implementation, nothing set here.
+  // find_package and the implementation target, nothing set here.
   const btflod::TileDecoder decoder(btflod::TileLayout{16, 4, 4});
 #if defined(BTFLOD_EXPECT_LIBDEFLATE)
   const bool backend_ok = decoder.backend() == btflod::InflateBackend::libdeflate;
@@ -17,5 +26,8 @@ int main() {
   const bool backend_ok = decoder.backend() == btflod::InflateBackend::zlib;
 #endif
   std::printf("btflod consumer: tile inflate backend %s\n", decoder.backend() == btflod::InflateBackend::libdeflate ? "libdeflate" : "zlib");
-  return set.size() == 81 && h.to_float() == 0.5f && backend_ok ? 0 : 1;
+  // The runtime links: a Streamer refuses an empty world with a message (no allocation made).
+  btflod::StreamerConfig config;
+  const bool refused = !btflod::Streamer::create({}, config);
+  return set.size() == 81 && h.to_float() == 0.5f && backend_ok && refused ? 0 : 1;
 }

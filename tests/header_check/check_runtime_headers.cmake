@@ -100,14 +100,35 @@ foreach(h IN LISTS runtime_headers)
   endforeach()
 endforeach()
 
-# 0. Every header with an implementation section is compiled by cmake/btflod_implementation.cpp
-#    (otherwise its definitions would be missing from programs that link btflod::implementation).
+# 0. Every header with an implementation section is compiled by the implementation file of its
+#    half: BTFLOD_RUNTIME_IMPLEMENTATION sections by cmake/btflod_runtime_implementation.cpp,
+#    BTFLOD_FACTOR_IMPLEMENTATION sections by cmake/btflod_factor_implementation.cpp (otherwise
+#    its definitions would be missing from programs that link btflod::runtime_implementation or
+#    btflod::implementation); every section names exactly one half.
 file(GLOB_RECURSE all_headers RELATIVE ${inc} ${inc}/btflod/*.hpp)
-file(READ ${SOURCE_DIR}/cmake/btflod_implementation.cpp impl_tu)
+foreach(half IN ITEMS RUNTIME FACTOR)
+  string(TOLOWER ${half} lower)
+  file(READ ${SOURCE_DIR}/cmake/btflod_${lower}_implementation.cpp impl_tu_${half})
+endforeach()
 foreach(h IN LISTS all_headers)
-  file(STRINGS ${inc}/${h} impl_lines REGEX "^#if defined\\(BTFLOD_IMPLEMENTATION\\)")
-  if(impl_lines AND NOT impl_tu MATCHES "#include \"${h}\"")
-    list(APPEND failures "${h} has an implementation section but cmake/btflod_implementation.cpp does not include it")
+  file(STRINGS ${inc}/${h} any_section REGEX "^#if.*BTFLOD_IMPLEMENTATION")
+  if(NOT any_section)
+    continue()
+  endif()
+  set(halves 0)
+  foreach(half IN ITEMS RUNTIME FACTOR)
+    file(STRINGS ${inc}/${h} impl_lines
+         REGEX "^#if defined\\(BTFLOD_IMPLEMENTATION\\) \\|\\| defined\\(BTFLOD_${half}_IMPLEMENTATION\\)$")
+    if(impl_lines)
+      math(EXPR halves "${halves} + 1")
+      string(TOLOWER ${half} lower)
+      if(NOT impl_tu_${half} MATCHES "#include \"${h}\"")
+        list(APPEND failures "${h} has a ${lower} implementation section but cmake/btflod_${lower}_implementation.cpp does not include it")
+      endif()
+    endif()
+  endforeach()
+  if(NOT halves EQUAL 1)
+    list(APPEND failures "${h}: its implementation section must be guarded by `#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)` or `... || defined(BTFLOD_FACTOR_IMPLEMENTATION)`")
   endif()
 endforeach()
 

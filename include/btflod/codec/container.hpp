@@ -286,7 +286,7 @@ Result<std::vector<uint8_t>> build_bsvtf(BsvtfMetadata metadata, std::span<const
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 // build_bsvtf encodes the tiles of a level on a ThreadPool: <thread>, <future> and <mutex> are
 // included here only, so that reading containers stays cheap to include.
 #include <mutex>

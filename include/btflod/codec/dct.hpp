@@ -146,7 +146,7 @@ inline void tile_idct_add4(const TileCoefBlock* b, float* dst, size_t row_stride
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 // The kernels, their tables and dct8_forward_avx2 / dct8_inverse_avx2.
 #include "btflod/core/simd_kernels.hpp"
 #endif  // BTFLOD_IMPLEMENTATION

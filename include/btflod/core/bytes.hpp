@@ -152,7 +152,7 @@ class ByteWriter {
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <zlib.h>
 
 namespace btflod {

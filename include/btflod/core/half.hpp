@@ -119,7 +119,7 @@ inline void half_to_float(std::span<const uint16_t> in, std::span<float> out) no
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 // The kernels and float_to_half_f16c / half_to_float_f16c are defined in core/simd_kernels.hpp,
 // which codec/dct.hpp's implementation section includes.
 #include "btflod/codec/dct.hpp"

@@ -130,7 +130,7 @@ bool cpu_has_avx2_fma() noexcept;
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <atomic>
 #include <cstdlib>
 #include <cstring>

@@ -12,7 +12,7 @@
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <cstring>
 #if BTFLOD_HAS_X86_DISPATCH
 #include <immintrin.h>

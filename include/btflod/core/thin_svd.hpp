@@ -24,7 +24,7 @@ ThinSvd exact_thin_svd(const Eigen::MatrixXf& a);
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_FACTOR_IMPLEMENTATION)
 namespace btflod {
 
 ThinSvd exact_thin_svd(const Eigen::MatrixXf& a) {

@@ -290,7 +290,7 @@ Result<LaplacianPca> factorize_laplacian_pca(const BtfFloat& btf, const Laplacia
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_FACTOR_IMPLEMENTATION)
 // The Levenberg–Marquardt Phong fit (Eigen's LevenbergMarquardt) and the factorisation are compiled once, in the
 // implementation TU.
 namespace btflod {

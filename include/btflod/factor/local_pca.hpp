@@ -180,7 +180,7 @@ Result<LocalPca> factorize_local_pca(const BtfFloat& btf, const LocalPcaOptions&
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_FACTOR_IMPLEMENTATION)
 // factorize_local_pca instantiates Eigen's SelfAdjointEigenSolver and the blocked truncated SVD:
 // compiled once, in the implementation TU.
 namespace btflod {

@@ -687,7 +687,7 @@ Result<Spmm> factorize_spmm(const BtfFloat& btf, const SpmmOptions& options = {}
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_FACTOR_IMPLEMENTATION)
 // The Levenberg–Marquardt fits (Eigen's LevenbergMarquardt) and the factorisation are compiled once, in the
 // implementation TU.
 namespace btflod {

@@ -263,7 +263,7 @@ Result<TruncatedSvd> truncated_svd(const Eigen::MatrixXf& a, int rank, const Svd
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_FACTOR_IMPLEMENTATION)
 #if defined(BTFLOD_WITH_OPENBLAS)
 extern "C" void openblas_set_num_threads(int);  // OpenBLAS's own API (cblas.h declares them too)
 extern "C" int openblas_get_num_threads(void);

@@ -505,7 +505,7 @@ inline Result<std::vector<uint8_t>> write_feedback_trace(std::span<const Feedbac
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <zlib.h>
 
 namespace btflod::detail {

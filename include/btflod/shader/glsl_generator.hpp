@@ -371,7 +371,7 @@ Result<GlslProgramSource> generate_program(ShaderProgram program, GlslTarget tar
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 // The generator: string building at set-up time, compiled once in the implementation TU.
 namespace btflod {
 

@@ -90,6 +90,6 @@ Result<HlslProgramSource> generate_hlsl_program(ShaderProgram program, const Sha
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include "btflod/shader/hlsl_pieces.hpp"
 #endif  // BTFLOD_IMPLEMENTATION

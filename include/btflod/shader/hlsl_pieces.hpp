@@ -8,7 +8,7 @@
 
 #include "btflod/shader/hlsl_generator.hpp"
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <string>
 #include <string_view>
 #include <vector>

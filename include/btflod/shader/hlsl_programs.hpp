@@ -4,7 +4,7 @@
 
 #include "btflod/shader/hlsl_pieces.hpp"
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include <string>
 #include <utility>
 

@@ -115,7 +115,7 @@ class TilePyramid {
 
 }  // namespace btflod
 
-#if defined(BTFLOD_IMPLEMENTATION)
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 namespace btflod {
 
 Result<TilePyramid> TilePyramid::build(const EigenTextures& input, uint32_t tile_size, uint32_t border, TileEdge edge) {

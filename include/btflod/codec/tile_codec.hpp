@@ -527,6 +527,13 @@ class TileDecoder {
   TileDecoder(const TileDecoder&) = delete;
   TileDecoder& operator=(const TileDecoder&) = delete;
 
+  /// What the constructor allocates through its allocator for `layout` and `backend`: the
+  /// symbol buffer, the inflate state (zlib's window included) and the zstd context, not
+  /// libdeflate's own state (RawInflater::create). zlib's and zstd's state sizes are private to
+  /// those libraries, so this builds one decoder with a counting allocator over operator new
+  /// (about 130 KB, released before returning). Set-up only; noexcept (0 when that fails).
+  static AllocationTally memory_required(TileLayout layout, InflateBackend backend = default_inflate_backend()) noexcept;
+
   /// The inflate implementation in use.
   InflateBackend backend() const noexcept { return inflater_.backend(); }
 
@@ -746,6 +753,29 @@ class TileDecoder {
   bool simd_allowed_ = true;
   const char* message_ = "";
 };
+
+inline AllocationTally TileDecoder::memory_required(TileLayout layout, InflateBackend backend) noexcept {
+  struct Counter {
+    AllocationTally live;
+    static void* allocate(void* user, size_t bytes, size_t alignment) {
+      void* p = RuntimeAllocator{}.allocate_bytes(bytes, alignment);
+      if (p != nullptr) static_cast<Counter*>(user)->live.block(bytes);
+      return p;
+    }
+    static void deallocate(void* user, void* p, size_t bytes, size_t alignment) {
+      RuntimeAllocator{}.deallocate_bytes(p, bytes, alignment);
+      Counter& c = *static_cast<Counter*>(user);
+      c.live.bytes -= bytes;
+      --c.live.allocations;
+    }
+  } counter;
+  AllocationTally held;
+  {
+    const TileDecoder probe(layout, backend, RuntimeAllocator{&Counter::allocate, &Counter::deallocate, &counter});
+    held = counter.live;
+  }
+  return held;
+}
 
 /// Tile encoder: owns its deflate state, scratch buffers and a TileDecoder (for the closed-loop
 /// reconstruction). Offline code, but encode() itself does not allocate. One object per thread.

@@ -81,6 +81,7 @@ struct CallbackAllocator {
 template <class T>
 class RuntimeArray {
  public:
+  using value_type = T;
   RuntimeArray() = default;
   RuntimeArray(const RuntimeArray&) = delete;
   RuntimeArray& operator=(const RuntimeArray&) = delete;
@@ -133,6 +134,31 @@ class RuntimeArray {
   T* data_ = nullptr;
   size_t size_ = 0;
   RuntimeAllocator allocator_;
+};
+
+/// Bytes and allocations a set-up makes, computed without making them: the memory queries of
+/// the runtime objects (Streamer::memory_required(), TileCache::memory_required(), …) add up
+/// their arrays with it, in the sizes their create() allocates.
+struct AllocationTally {
+  uint64_t bytes = 0;
+  uint64_t allocations = 0;
+  /// One array of n elements of a container's value type (std::vector assign/reserve or
+  /// RuntimeArray::allocate); nothing when n is 0.
+  template <class Container>
+  constexpr void array(uint64_t n) noexcept {
+    block(n * sizeof(typename Container::value_type));
+  }
+  /// One allocation of `size` bytes; nothing when size is 0.
+  constexpr void block(uint64_t size) noexcept {
+    if (size == 0) return;
+    bytes += size;
+    ++allocations;
+  }
+  constexpr AllocationTally& operator+=(const AllocationTally& o) noexcept {
+    bytes += o.bytes;
+    allocations += o.allocations;
+    return *this;
+  }
 };
 
 }  // namespace btflod

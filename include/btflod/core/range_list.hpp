@@ -24,6 +24,12 @@ class RangeList {
     ranges_.reserve(o.ranges_.capacity());
     ranges_.assign(o.ranges_.begin(), o.ranges_.end());
   }
+  // What reset(…, max_ranges) allocates (and a copy of such a list).
+  static AllocationTally reserved_memory(size_t max_ranges) noexcept {
+    AllocationTally t;
+    t.array<decltype(ranges_)>(max_ranges + 1);
+    return t;
+  }
   void reset(uint64_t capacity, size_t max_ranges) {
     ranges_.clear();
     ranges_.reserve(max_ranges + 1);

@@ -191,6 +191,30 @@ class VoteCounter {
     }
   }
 
+  /// What the constructor allocates for no initial materials and `capacity` (the runtime's
+  /// case: materials are added later). No allocation.
+  static AllocationTally memory_required(const VoteCapacity& capacity, VoteWindowConfig window = {}) noexcept {
+    const uint64_t total = capacity.tiles;
+    AllocationTally t;
+    t.array<decltype(materials_)>(capacity.materials);
+    t += detail::RangeList::reserved_memory(capacity.materials);
+    t.array<decltype(votes_)>(total);
+    t.array<decltype(direct_)>(total);
+    t.array<decltype(touched_)>(total);
+    t.array<decltype(touched_words_)>(total);
+    const uint64_t frames = std::max<uint32_t>(window.frames, 1);
+    if (frames > 1) {
+      const uint64_t ring = window.max_tiles_per_frame == 0 ? total : std::min<uint64_t>(window.max_tiles_per_frame, total);
+      t.array<decltype(ring_)>(frames * ring);
+      t.array<decltype(ring_size_)>(frames);
+      t.array<decltype(window_)>(total);
+      t.array<decltype(in_live_)>(total);
+      t.array<decltype(live_)>(total);
+      t.array<decltype(live_words_)>(total);
+    }
+    return t;
+  }
+
   /// Starts counting votes for material id `material` (free: never given or removed) with the
   /// given shape, in tiles reserved at construction (VoteCapacity). insufficient_space when no
   /// free range of its tiles is left, invalid_argument for an id out of range or live.

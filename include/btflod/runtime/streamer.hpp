@@ -338,6 +338,18 @@ class Streamer {
   /// tile of its hierarchy). Set-up only (allocates).
   static Result<Streamer> create(std::span<const StreamerMaterial> materials, const StreamerConfig& config = {});
 
+  /// What create(materials, config) would allocate through config.allocator, by category, in
+  /// the figures stats().memory reports after creation (every buffer is sized by the config's
+  /// budgets and the resolved StreamerCapacity, so adding and removing materials later changes
+  /// nothing). Computed without creating the Streamer: the only allocation is one probe tile
+  /// decoder through operator new (TileDecoder::memory_required: zlib's and zstd's state sizes
+  /// are private to them), about 130 KB, released before returning. Scans the directories as
+  /// create() does, so costs O(tiles) for materials given here; with no materials (a world
+  /// that adds them later) it is O(1) beyond the probe. Errors: those of create() that the
+  /// config and directories decide (not allocator failures). Set-up only.
+  static Result<StreamerMemory> memory_required(std::span<const StreamerMaterial> materials,
+                                                const StreamerConfig& config = {});
+
   /// One frame: see the file comment. `feedback`: this frame's packed feedback words
   /// (lod/feedback.hpp; material = index in the create() list); empty = no new votes.
   /// Returns invalid_argument when an output span is below its bound (nothing done then).
@@ -453,6 +465,9 @@ class Streamer {
 
  private:
   struct Impl;
+  struct Room;  // the capacity create() resolves and what its materials need
+  static Result<Room> resolve_room(std::span<const StreamerMaterial> materials, const StreamerConfig& config);
+  static StreamerMemory memory_for(const StreamerConfig& config, const StreamerCapacity& capacity) noexcept;
   void destroy() noexcept;
   Impl* impl_ = nullptr;
 };

@@ -11,7 +11,13 @@
 
 namespace btflod {
 
-inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, const StreamerConfig& config) {
+struct Streamer::Room {
+  StreamerCapacity need;      // what the materials given need
+  StreamerCapacity capacity;  // need, raised to config.capacity where that reserves more
+};
+
+inline Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> materials,
+                                                     const StreamerConfig& config) {
   if (!config.cache.valid())
     return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
                       config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,
@@ -70,6 +76,13 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   if (config.cache.slot_count() < need.textures)
     return make_error(Status::insufficient_space, "streamer: %u cache slots cannot pin the roots of %u virtual textures",
                       config.cache.slot_count(), need.textures);
+  return Room{need, cap};
+}
+
+inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, const StreamerConfig& config) {
+  auto room = resolve_room(materials, config);
+  if (!room) return room.error();
+  const StreamerCapacity need = room.value().need, cap = room.value().capacity;
   // Every allocation goes through a ledger over the engine's callbacks (StreamerStats::memory).
   void* ledger_memory =
       config.allocator.allocate_bytes(sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
@@ -211,6 +224,76 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
                   memory.job_buffers - memory.decoders - memory.decoded_cache;
   im->memory = memory;
   return out;
+}
+
+inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const StreamerCapacity& cap) noexcept {
+  // The arrays create() allocates, in the same sizes (tests/test_runtime_memory.cpp checks that
+  // every category equals what a created Streamer reports).
+  const VtCapacity set{cap.materials, cap.textures, cap.tiles};
+  const AllocationTally cache = TileCache::memory_required(set, config.cache);
+  const AllocationTally sched = Scheduler::memory_required(set, config.cache.slot_count(), config.scheduler);
+  const AllocationTally votes = VoteCounter::memory_required(VoteCapacity{cap.materials, cap.material_tiles},
+                                                             VoteWindowConfig{std::max(1u, config.vote_window_frames), 0});
+  const AllocationTally payloads = PayloadCache::memory_required(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512});
+  const TileLayout layout{config.cache.tile_size, config.cache.border, 4};
+  const uint64_t samples = layout.sample_count();
+  const uint64_t requests = config.scheduler.budgets.requests_in_flight;
+  const uint64_t tile_like = requests + config.scheduler.budgets.uploads_per_frame + config.root_jobs;
+  const uint64_t packet_jobs = config.packet_jobs;
+  const uint64_t chain_bytes = uint64_t{cap.max_level_count} * cap.max_tile_bytes;
+  AllocationTally jobs;
+  jobs.array<decltype(Impl::jobs)>(tile_like + packet_jobs);
+  jobs.array<decltype(Impl::job_bytes)>(tile_like * chain_bytes + packet_jobs * cap.max_packet_bytes);
+  jobs.array<decltype(Impl::job_floats)>(tile_like * samples * 2);
+  jobs.array<decltype(Impl::job_halves)>(tile_like * samples + packet_jobs * cap.max_u_rows * 4);
+  jobs.array<decltype(Impl::job_of_request)>(requests);
+  jobs.array<decltype(Impl::waiting_packets)>(requests);
+  AllocationTally decoders;
+  decoders.array<decltype(Impl::decoder_storage)>(uint64_t{config.decode_workers} * sizeof(TileDecoder) + alignof(TileDecoder));
+  decoders.array<decltype(Impl::decoder_busy)>(config.decode_workers);
+  const AllocationTally one_decoder = TileDecoder::memory_required(layout, config.inflate_backend);
+  for (uint32_t d = 0; d < config.decode_workers; ++d) decoders += one_decoder;
+  AllocationTally decoded;
+  decoded.array<decltype(Impl::decoded)>(config.decoded_cache_tiles);
+  decoded.array<decltype(Impl::decoded_floats)>(uint64_t{config.decoded_cache_tiles} * samples);
+  AllocationTally tables;
+  tables.block(sizeof(detail::AllocationLedger));
+  tables.block(sizeof(Impl));
+  tables.array<decltype(Impl::materials)>(cap.materials);
+  tables.array<decltype(Impl::records)>(cap.tiles);
+  tables.array<decltype(Impl::texture_material)>(cap.textures);
+  tables.array<decltype(Impl::packet_records)>(cap.textures);
+  tables.array<decltype(Impl::tile_failures)>(cap.tiles);
+  tables.array<decltype(Impl::packet_failures)>(cap.textures);
+  tables.array<decltype(Impl::startup_failed)>(cap.textures);
+  tables.array<decltype(Impl::held)>(config.failure.held_tiles_capacity);
+  tables.array<decltype(Impl::startup)>(uint64_t{cap.textures} * 2);
+  tables.array<decltype(Impl::notices)>(uint64_t{cap.materials} * 2 + 2);
+  tables.array<decltype(Impl::texture_tile_base)>(cap.textures);
+  tables.array<decltype(Impl::mirror)>(cap.tiles);
+  tables.array<decltype(Impl::queued)>(cap.tiles);
+  tables.array<decltype(Impl::queue)>(cap.tiles);
+  tables.array<decltype(Impl::mirror_texture)>(cap.tiles);
+  StreamerMemory m;
+  m.tile_cache = cache.bytes;
+  m.scheduler = sched.bytes;
+  m.votes = votes.bytes;
+  m.payload_cache = payloads.bytes;
+  m.job_buffers = jobs.bytes;
+  m.decoders = decoders.bytes;
+  m.decoded_cache = decoded.bytes;
+  m.tables = tables.bytes;
+  m.total = m.tile_cache + m.scheduler + m.votes + m.payload_cache + m.job_buffers + m.decoders + m.decoded_cache + m.tables;
+  m.allocations = cache.allocations + sched.allocations + votes.allocations + payloads.allocations + jobs.allocations +
+                  decoders.allocations + decoded.allocations + tables.allocations;
+  return m;
+}
+
+inline Result<StreamerMemory> Streamer::memory_required(std::span<const StreamerMaterial> materials,
+                                                        const StreamerConfig& config) {
+  auto room = resolve_room(materials, config);
+  if (!room) return room.error();
+  return memory_for(config, room.value().capacity);
 }
 
 inline void Streamer::destroy() noexcept {

@@ -39,6 +39,21 @@ class PayloadCache {
  public:
   /// An empty cache that holds nothing (every put() is rejected).
   PayloadCache() = default;
+  /// What the constructor allocates for `config`. No allocation.
+  static AllocationTally memory_required(const PayloadCacheConfig& config) noexcept {
+    const size_t chunk = std::max<size_t>(config.chunk_bytes, 16);
+    const size_t chunks = std::min<size_t>(config.byte_budget / chunk, kNone - 1);
+    const size_t entries = std::min(config.max_entries, chunks);
+    AllocationTally t;
+    if (chunks == 0 || entries == 0) return t;
+    size_t index_size = 4;
+    while (index_size < 2 * entries) index_size *= 2;
+    t.array<decltype(arena_)>(chunks * chunk);
+    t.array<decltype(next_chunk_)>(chunks);
+    t.array<decltype(entries_)>(entries);
+    t.array<decltype(index_)>(index_size);
+    return t;
+  }
   /// Allocates the arena, the entry records and the index for `config` through `allocator`
   /// (chunk_bytes is raised to at least 16; a budget below one chunk or max_entries 0 make a
   /// cache that holds nothing). When an allocation fails the cache holds nothing and

@@ -177,6 +177,43 @@ class Scheduler {
     return s;
   }
 
+  /// What create() allocates for a cache over a set reserved with `capacity` (VtSet::reserve),
+  /// with `slots` cache slots, and `config`. No allocation.
+  static AllocationTally memory_required(const VtCapacity& capacity, uint64_t slots,
+                                         const SchedulerConfig& config = {}) noexcept {
+    const uint64_t requests = config.budgets.requests_in_flight, materials = capacity.materials,
+                   textures = capacity.textures, entries = capacity.tile_entries;
+    AllocationTally t;
+    t.array<decltype(pending_)>(requests);
+    t.array<decltype(free_requests_)>(requests);
+    t.array<decltype(material_base_)>(materials);
+    t.array<decltype(material_textures_)>(materials);
+    t.array<decltype(material_tiles_)>(materials);
+    t.array<decltype(texture_base_)>(textures);
+    t.array<decltype(texture_stride_)>(textures);
+    t.array<decltype(texture_material_)>(textures);
+    t.array<decltype(requested_)>(entries);
+    t.array<decltype(set_weights_)>(entries);
+    t.array<decltype(weights_)>(entries);
+    t.array<decltype(energies_)>(entries);
+    t.array<decltype(tile_bytes_)>(entries);
+    t.array<decltype(max_weights_)>(entries);
+    t.array<decltype(u_packet_bytes_)>(materials);
+    t.array<decltype(u_loaded_)>(materials);
+    t.array<decltype(u_requested_)>(materials);
+    t.array<decltype(u_priority_)>(materials);
+    t.array<decltype(material_enabled_)>(materials);
+    t.array<decltype(u_held_)>(materials);
+    t.array<decltype(leaves_)>(textures * kLeavesPerTexture);
+    t.array<decltype(leaf_count_)>(textures);
+    t.array<decltype(adds_)>(requests + 2);
+    t.array<decltype(leaf_textures_)>(textures);
+    t.array<decltype(pairs_)>(textures * 2);
+    t.array<decltype(requests_out_)>(requests);
+    t.array<decltype(protected_stamp_)>(slots);
+    return t;
+  }
+
   /// Sets w(i, l, l−1) of tile `flat` of virtual texture `texture` (paper 000 eq. 8; e.g. from
   /// a container's tile index). In votes_only mode the priority keeps using 1. Out-of-range ids
   /// are ignored. noexcept, no allocation.

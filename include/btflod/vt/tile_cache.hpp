@@ -140,6 +140,24 @@ class TileCache {
     return c;
   }
 
+  /// What create() allocates for a set reserved with `capacity` (VtSet::reserve) and `config`:
+  /// the set's copy, the slot table, the per-entry and per-texture arrays and the delta
+  /// buffers. No allocation.
+  static AllocationTally memory_required(const VtCapacity& capacity, const TileCacheConfig& config) noexcept {
+    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
+    AllocationTally t = VtSet::reserved_memory(capacity);
+    t.array<decltype(slots_)>(slots);
+    t.array<decltype(visible_)>(slots);
+    t.array<decltype(free_)>(slots);
+    t.array<decltype(textures_)>(capacity.textures);
+    t.array<decltype(slot_of_)>(capacity.tile_entries);
+    t.array<decltype(resident_below_)>(capacity.tile_entries);
+    t.array<decltype(page_table_)>(capacity.tile_entries);
+    t.array<decltype(deltas_)>(config.delta_capacity);
+    t.array<decltype(touched_)>(config.delta_capacity);
+    return t;
+  }
+
   /// Adds a material to a cache whose VtSet has a reservation (VtSet::reserve): takes a
   /// material id and ranges from the set (VtSet::add_material) and pins its root tiles in the
   /// lowest free slots, reported like create()'s (deltas). `material`: in, the free id to take

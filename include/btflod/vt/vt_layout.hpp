@@ -235,6 +235,18 @@ class VtSet {
     fixed_ = true;
     return Status::success;
   }
+  /// What reserve(capacity) allocates, and what a copy of such a set (VtSet(const VtSet&,
+  /// allocator)) holds. No allocation.
+  static AllocationTally reserved_memory(const VtCapacity& capacity) noexcept {
+    AllocationTally t;
+    t.array<decltype(materials_)>(capacity.materials);
+    t.array<decltype(texture_material_)>(capacity.textures);
+    t.array<decltype(weights_)>(capacity.tile_entries);
+    t.array<decltype(energies_)>(capacity.tile_entries);
+    t += detail::RangeList::reserved_memory(capacity.materials);
+    t += detail::RangeList::reserved_memory(capacity.materials);
+    return t;
+  }
   /// True after reserve(): add/remove allocate nothing.
   bool reserved() const noexcept { return fixed_; }
 

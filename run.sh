@@ -4,7 +4,8 @@
 #   ./run.sh test                 install what is missing, build and run every test
 #                                 (release with -Werror, then ASan+UBSan, then TSan on the tests
 #                                 that start threads, then fuzz smoke runs)
-#   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/
+#   ./run.sh bench [filter]       build and run the benchmarks, JSON into build/bench-results/ (no
+#                                 filter: also the demo's frames to converge after a camera cut)
 #   ./run.sh web [--port P]       build the WebAssembly client and the materials, serve them with
 #                                 nginx on 127.0.0.1 and print the URL to open (samples/web/)
 #   ./run.sh raytrace [args...]   Embree ray tracer with BTF materials on built-in data, into
@@ -138,13 +139,18 @@ case "$cmd" in
     ;;
   bench)
     install_packages
-    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    configure_and_build "$BUILD" -DBTFLOD_BUILD_BENCH=ON -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     mkdir -p "$BUILD/bench-results"
     for b in "$BUILD"/bench/bench_*; do
       [ -x "$b" ] || continue
       name=$(basename "$b")
       "$b" --benchmark_filter="${1:-.}" --benchmark_out="$BUILD/bench-results/$name.json" --benchmark_out_format=json
     done
+    # Frames to converge after a camera cut: the demo scene at its default link budget (about
+    # 3 minutes; docs/benchmarking.md). Skipped when a filter is given.
+    if [ -z "${1:-}" ]; then
+      "$BUILD"/samples/demo/btflod-demo --out "$BUILD/bench-results/demo_cut" --cut --quiet | grep -E "^  (cut|settle|renderer)|btflod demo: renderer"
+    fi
     ;;
   web)
     install_packages

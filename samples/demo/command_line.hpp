@@ -22,6 +22,9 @@ struct DemoConfig {
   std::string backend = "gl";                     ///< --backend gl|cpu
   double bandwidth_kib = 96.0;                    ///< --bandwidth KiB/s of the throttled link
   int settle = 60;                                ///< --settle N: max frames at the last view
+  /// --cut: after the settle, cut to the first view and measure frames and bytes until the image
+  /// stays within SSIM 0.99 of its converged frame (cut_convergence.hpp).
+  bool cut = false;
   /// --material NAME: every material is synthesised as NAME (seed + index still differs);
   /// unset: cloth, stone, leather, tiles in turn.
   std::optional<SynthMaterial> material;
@@ -72,7 +75,7 @@ inline constexpr const char* kDemoUsage =
     "                   [--bandwidth KIB_PER_S] [--settle N] [--seed N] [--window] [--quiet]\n"
     "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH] [--components C]\n"
-    "                   [--material cloth|stone|leather|tiles] [--interreflection]\n"
+    "                   [--material cloth|stone|leather|tiles] [--interreflection] [--cut]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF of rank C = --components, default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
     "  .bsvtf container each, then flies a camera through a scene of BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
@@ -81,6 +84,9 @@ inline constexpr const char* kDemoUsage =
     "  DIR/report.html and DIR/report.json.\n"
     "  After the flight the camera holds the last view for up to --settle frames (60) while the\n"
     "  remaining tiles arrive; the demo fails unless SSIM rises over that phase.\n"
+    "  --cut then cuts the camera to the first view and holds it until streaming is quiet:\n"
+    "  frames, bytes and seconds until the image stays within SSIM 0.99 of its converged frame\n"
+    "  (report.json \"cut\", docs/benchmarking.md).\n"
     "  --window shows each BSVTF frame in an X11 window (GL backend, needs DISPLAY; headless\n"
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
     "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
@@ -139,6 +145,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
     if (a == "--window") {
       cfg.window = true;
+      continue;
+    }
+    if (a == "--cut") {
+      cfg.cut = true;
       continue;
     }
     if (a == "--deflate") {

@@ -430,6 +430,23 @@ int main(int argc, char** argv) {
   run.full_page_table_size = (*streamer)->full_page_table_size();
   run.full_rewrites = (*streamer)->full_rewrites();
 
+  // --cut: from the settled last view to the first one, held until streaming is quiet (after
+  // every check of the last view: it changes what is resident).
+  if (cfg->cut && frames > 1 && !run.frames.empty() && !window_closed()) {
+    const uint32_t first = run.frames.back().frame + 1;
+    Image<float> cut_bsvtf(static_cast<int>(ss.width), static_cast<int>(ss.height), 4), cut_fmf = cut_bsvtf;
+    auto cut = demo::measure_cut_convergence(**streamer, first, frames - 1, 0, frames, 600,
+                                             run.frames.back().bytes_received, cut_bsvtf, cut_fmf);
+    if (!cut) return fail("--cut", cut.message());
+    run.cut = std::move(*cut);
+    std::printf("  cut         view %u -> %u: within SSIM %.2f of the converged frame after %u frames, %u tiles, "
+                "%.1f KiB read, %.2f s (first frame %.4f; quiet after %u frames%s, %.1f KiB read)\n",
+                run.cut.from_view, run.cut.to_view, run.cut.threshold, run.cut.frames_to_threshold,
+                run.cut.tiles_to_threshold, static_cast<double>(run.cut.bytes_to_threshold) / 1024.0,
+                run.cut.seconds_to_threshold, run.cut.first_ssim, run.cut.frames_run, run.cut.quiet ? "" : ", the cap",
+                static_cast<double>(run.cut.bytes_to_quiet) / 1024.0);
+  }
+
   // 4. Outputs.
   if (auto w = demo::write_frame_sheet((out / "contact_sheet_frames.png").string(), sheet); !w)
     return fail("contact sheet", w.message());

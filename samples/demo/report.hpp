@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "btflod/core/image_io.hpp"
+#include "cut_convergence.hpp"
 #include "raw_reference.hpp"
 #include "stream_render.hpp"
 
@@ -47,6 +48,8 @@ struct RunSummary {
   bool transient_stores = false;  ///< each store deleted after its raw-BTF pass (paper profile)
   uint64_t disk_peak_bytes = 0;   ///< peak bytes in the output folder (demo::DiskMeter)
   uint64_t disk_min_free_bytes = 0;
+  /// --cut: frames, bytes and seconds to converge after a camera cut (cut_convergence.hpp).
+  CutConvergence cut;
   /// The last view against a render of the RAW tabulated BTF (raw_reference.hpp).
   struct RawComparison {
     bool done = false;
@@ -493,6 +496,21 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
                 r.page_table_check.c_str());
   o << b;
   o << detail_report::config_and_raw_json(r);
+  if (r.cut.done) {
+    const CutConvergence& c = r.cut;
+    std::snprintf(b, sizeof b,
+                  "  \"cut\": {\"from_view\": %u, \"to_view\": %u, \"ssim_threshold\": %.2f, \"frames_to_threshold\": %u, "
+                  "\"bytes_to_threshold\": %llu, \"tiles_to_threshold\": %u, \"seconds_to_threshold\": %.3f, \"frames_run\": %u, "
+                  "\"quiet\": %s, "
+                  "\"bytes_to_quiet\": %llu, \"first_frame_ssim\": %.5f, \"ssim\": [",
+                  c.from_view, c.to_view, c.threshold, c.frames_to_threshold,
+                  static_cast<unsigned long long>(c.bytes_to_threshold), c.tiles_to_threshold, c.seconds_to_threshold,
+                  c.frames_run,
+                  c.quiet ? "true" : "false", static_cast<unsigned long long>(c.bytes_to_quiet), c.first_ssim);
+    o << b;
+    for (size_t i = 0; i < c.ssim.size(); ++i) o << (i ? ", " : "") << detail_report::fmt(c.ssim[i]);
+    o << "]},\n";
+  }
   o << "  \"frames\": [\n";
   for (size_t i = 0; i < r.frames.size(); ++i) {
     const FrameRecord& f = r.frames[i];

@@ -27,8 +27,9 @@
 
 #include "btflod/core/file_io.hpp"
 #include "btflod/stream/http_source.hpp"
-#include "btflod/stream/pipeline.hpp"
+#include "btflod/runtime/streamer.hpp"
 #include "loopback_http_server.hpp"
+#include "test_runtime_helpers.hpp"
 
 namespace {
 
@@ -61,7 +62,7 @@ bool port_open(int port) {
   return ok;
 }
 
-// A small container: T = 16, B = 4, 3 levels, 4 components.
+// A small container: T = 16, B = 4, 3 levels, 4 components, U′ of 2 lights × 2 views × RGB.
 std::vector<uint8_t> make_container() {
   BsvtfMetadata md;
   md.material_name = "http";
@@ -70,8 +71,11 @@ std::vector<uint8_t> make_container() {
   md.level_count = 3;
   md.width = md.height = 64;
   md.component_count = 4;
-  md.u_rows = 8;
-  std::vector<float> u(32, 0.25f);
+  md.light_directions = {0, 0, 1, 0.6f, 0, 0.8f};
+  md.view_directions = {0, 0, 1, 0, 0.6f, 0.8f};
+  md.u_rows = 2 * 2 * 3;
+  md.u_row_order = AngularRowOrder::light_major;
+  std::vector<float> u(size_t{md.u_rows} * md.component_count, 0.25f);
   const TileLayout layout = md.layout();
   std::vector<std::vector<float>> samples;
   std::vector<BsvtfTileInput> tiles;
@@ -230,30 +234,42 @@ TEST_F(StreamHttp, RangeReadsFromNginxMatchTheFile) {
   EXPECT_EQ(missing.size().status(), Status::io_error);
 }
 
-TEST_F(StreamHttp, PipelineStreamsAWholeMaterialFromNginx) {
+// A cache with room for every tile of the container (21), for the Streamer tests below.
+StreamerConfig whole_material_config() {
+  StreamerConfig c;
+  c.cache = CacheConfig{8, 4, 1u << 12, 16, 4, 1};
+  c.vote_window_frames = 1;
+  c.decode_workers = 1;
+  return c;
+}
+
+TEST_F(StreamHttp, StreamerStreamsAWholeMaterialFromNginx) {
   start_nginx();
   if (IsSkipped()) return;
   HttpSource http(nginx_.url("material.bsvtf"));
-  MemorySource mem{std::span<const uint8_t>(*container_)};
-  auto remote = StreamingPipeline::open(http);
-  ASSERT_TRUE(remote.ok()) << remote.message();
-  auto local = StreamingPipeline::open(mem);
-  ASSERT_TRUE(local.ok());
-  std::vector<StreamItem> wanted;
-  for (const auto& e : remote.value()->directory().tiles) wanted.push_back(StreamItem::for_tile(e.id));
-  wanted.push_back(StreamItem::for_packet(0));
-  remote.value()->request(wanted);
-  local.value()->request(wanted);
-  std::map<uint64_t, std::vector<float>> a, b;
+  btflod_test::World w;  // the directory is parsed from memory; every payload comes from nginx
+  w.add(*container_);
+  w.finish();
+  w.materials[0].source = &http;
+  auto s = Streamer::create(w.materials, whole_material_config());
+  ASSERT_TRUE(s) << s.error().message;
+  btflod_test::Engine e(s.value());
+  const std::vector<uint32_t> all = btflod_test::full_feedback(s.value());
+  const uint32_t tiles = s.value().cache().set().levels_of(0).tile_count();
   const auto deadline = std::chrono::steady_clock::now() + 20s;
-  while ((a.size() < wanted.size() || b.size() < wanted.size()) && std::chrono::steady_clock::now() < deadline) {
-    remote.value()->deliver(8, [&](const StreamDelivery& d) { a[d.item.key()].assign(d.samples.begin(), d.samples.end()); });
-    local.value()->deliver(8, [&](const StreamDelivery& d) { b[d.item.key()].assign(d.samples.begin(), d.samples.end()); });
-    std::this_thread::sleep_for(1ms);
-  }
-  ASSERT_EQ(a.size(), wanted.size());
-  EXPECT_EQ(a, b) << "HTTP and memory sources must deliver identical tiles";
-  EXPECT_EQ(remote.value()->progress().source_errors, 0u);
+  while (s.value().cache().used_count() < tiles && std::chrono::steady_clock::now() < deadline)
+    btflod_test::run(s.value(), e, all, 1);  // the decode jobs read through HTTP on this thread
+  btflod_test::run(s.value(), e, all, 2);    // the last uploads and page-table texels
+  ASSERT_EQ(s.value().cache().used_count(), tiles);
+  ASSERT_TRUE(s.value().material_ready(0));
+  // Every slot holds exactly the texels of a fresh decode of the same container in memory.
+  btflod_test::check_engine(w, s.value(), e);
+  const StreamerStats st = s.value().stats();
+  EXPECT_EQ(st.tile_failures + st.packet_failures, 0u);
+  uint64_t payload = 0;  // each payload read once (the payload cache keeps the ancestors)
+  for (const BsvtfTileEntry& t : w.dirs[0].tiles) payload += t.size;
+  for (const BsvtfPacketEntry& p : w.dirs[0].packets) payload += p.size;
+  EXPECT_EQ(st.bytes_read, payload);
 }
 
 TEST_F(StreamHttp, ServerDroppingTheConnectionMidTransferIsShortOutput) {
@@ -265,41 +281,42 @@ TEST_F(StreamHttp, ServerDroppingTheConnectionMidTransferIsShortOutput) {
   EXPECT_NE(r.message().find("closed after 2000 of 4000"), std::string::npos) << r.message();
 }
 
-TEST_F(StreamHttp, PipelineSurvivesAServerThatDropsConnections) {
-  // The directory comes from a good source; every payload read is cut mid-transfer.
+TEST_F(StreamHttp, StreamerFailsTheMaterialWhenTheServerDropsEveryTransfer) {
+  // The directory comes from memory; every payload read is cut mid-transfer: the root and the
+  // U′ packet fail startup_attempts times each, then the material fails once and for all.
   BadServer server(*container_, BadServer::Mode::drop_mid_transfer);
   HttpSource http(server.url());
-  MemorySource mem{std::span<const uint8_t>(*container_)};
-  const uint64_t directory = read_bsvtf(*container_).value().header.directory_size;
-  struct Split final : TileSource {
-    TileSource& a;
-    TileSource& b;
-    uint64_t cut;
-    Split(TileSource& x, TileSource& y, uint64_t c) : a(x), b(y), cut(c) {}
-    Result<uint64_t> size() override { return a.size(); }
-    VoidResult read(uint64_t o, std::span<uint8_t> out, const std::atomic<bool>* c) override {
-      return o < cut ? a.read(o, out, c) : b.read(o, out, c);
-    }
-    std::string describe() const override { return "split"; }
-  } split(mem, http, directory);
-  PipelineConfig cfg;
-  cfg.max_retries = 1;
-  auto p = StreamingPipeline::open(split, cfg);
-  ASSERT_TRUE(p.ok()) << p.message();
-  const std::vector<StreamItem> wanted = {StreamItem::for_tile({0, 1, 0, 0}), StreamItem::for_packet(0)};
-  p.value()->request(wanted);
+  btflod_test::World w;
+  w.add(*container_);
+  w.finish();
+  w.materials[0].source = &http;
+  StreamerConfig c = whole_material_config();
+  c.failure.startup_attempts = 2;
+  c.failure.first_backoff_frames = 0;
+  auto s = Streamer::create(w.materials, c);
+  ASSERT_TRUE(s) << s.error().message;
+  btflod_test::Engine e(s.value());
+  const std::vector<uint32_t> all = btflod_test::full_feedback(s.value());
+  uint32_t failed_events = 0, uploads = 0;
   const auto deadline = std::chrono::steady_clock::now() + 20s;
-  size_t delivered = 0;
-  while (!p.value()->idle() && std::chrono::steady_clock::now() < deadline) {
-    delivered += p.value()->deliver(8, [](const StreamDelivery&) {});
-    std::this_thread::sleep_for(1ms);
+  for (int f = 0; f < 40 && std::chrono::steady_clock::now() < deadline; ++f) {
+    StreamerOutputs o = e.outputs();
+    ASSERT_EQ(s.value().update(all, o), Status::success);
+    uploads += static_cast<uint32_t>(o.tile_upload_count);
+    for (size_t i = 0; i < o.event_count; ++i)
+      if (o.events[i].kind == ResidencyEventKind::material_failed) {
+        ++failed_events;
+        EXPECT_EQ(o.events[i].status, Status::short_output);
+      }
+    s.value().pump();
   }
-  EXPECT_EQ(delivered, 0u);
-  const auto pr = p.value()->progress();
-  EXPECT_EQ(pr.skipped, 2u);
-  EXPECT_EQ(pr.source_errors, 4u);  // 2 items × (1 try + 1 retry)
-  size_t events = p.value()->drain_events([](const PipelineEvent& e) { EXPECT_EQ(e.status, Status::short_output) << e.message; });
-  EXPECT_EQ(events, 4u);
+  EXPECT_EQ(failed_events, 1u);
+  EXPECT_TRUE(s.value().material_failed(0));
+  EXPECT_EQ(uploads, 0u);  // nothing unverified reached the cache
+  const StreamerStats st = s.value().stats();
+  EXPECT_GE(st.tile_failures + st.packet_failures, 2u);
+  EXPECT_LE(st.tile_failures + st.packet_failures, 4u);  // root and packet, 2 attempts each at most
+  EXPECT_EQ(s.value().jobs_in_flight(), 0u);            // its children were never scheduled
 }
 
 TEST_F(StreamHttp, MisbehavingServersAreDetected) {

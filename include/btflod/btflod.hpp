@@ -103,7 +103,6 @@
 
 // stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
 #include "btflod/stream/payload_cache.hpp"
-#include "btflod/stream/pipeline.hpp"
 #include "btflod/stream/file_source.hpp"
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"

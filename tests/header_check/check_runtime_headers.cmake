@@ -44,8 +44,6 @@ set(em_exceptions "")
 set(convenience_headers
     # A thread pool running the Streamer's decode jobs: <thread>, <mutex>, <condition_variable>.
     btflod/stream/thread_executor.hpp
-    # The streaming pipeline with its own worker threads (the demo's loop).
-    btflod/stream/pipeline.hpp
     # POSIX pread and a throttled source that sleeps (<chrono>, <thread>).
     btflod/stream/file_source.hpp)
 # Standard headers a per-frame header must not reach (check 4), as the file names the

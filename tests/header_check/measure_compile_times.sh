@@ -21,7 +21,7 @@ per_frame_tu() {
   for d in lod vt stream runtime shader; do
     for h in "$1"/btflod/$d/*.hpp; do
       [ -e "$h" ] || continue
-      case "$h" in */stream/http_source.hpp | */stream/pipeline.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp) continue ;; esac
+      case "$h" in */stream/http_source.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp) continue ;; esac
       echo "#include \"btflod/$d/$(basename "$h")\""
     done
   done
@@ -35,7 +35,7 @@ per_frame_tu "$ROOT/include" > "$DIR/runtime.cpp"
 if [ -n "${COMPARE_INCLUDE:-}" ]; then
   per_frame_tu "$COMPARE_INCLUDE" > "$DIR/runtime_before.cpp"
 fi
-printf '#include "btflod/stream/pipeline.hpp"\n#include "btflod/stream/thread_executor.hpp"\n#include "btflod/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
+printf '#include "btflod/stream/thread_executor.hpp"\n#include "btflod/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
 for h in runtime/streamer stream/payload_cache codec/container shader/glsl_generator backend/backend vt/scheduler; do
   printf '#include "btflod/%s.hpp"\nint main() { return 0; }\n' "$h" > "$DIR/$(basename "$h").cpp"
 done

@@ -73,7 +73,7 @@ class FileSource final : public TileSource {
 /// Bandwidth and latency simulation around another source, for tests and the demo: every read
 /// waits `latency` and then its share of a link of `bytes_per_second` shared by all threads
 /// (requests queue behind each other like on one connection). Waits poll `cancel` every
-/// millisecond, so a cancelled or shut-down pipeline never waits out a slow transfer.
+/// millisecond, so a cancelled read never waits out a slow transfer.
 class ThrottledSource final : public TileSource {
  public:
   /// `inner` must outlive this object. bytes_per_second ≤ 0 means unlimited bandwidth.

@@ -10,7 +10,7 @@
 // else is an error with a message: a server that ignores Range (200), a 206 without that exact
 // Content-Range (bad_data), a server that sends more or fewer bytes, closes the connection
 // mid-transfer (short_output) or times out. Reads are cancellable through the
-// pipeline's cancel flag (libcurl's progress callback polls it). Curl handles are pooled so
+// caller's cancel flag (libcurl's progress callback polls it). Curl handles are pooled so
 // that keep-alive connections are reused (see HttpSourceOptions::reuse_handles for the libcurl
 // versions where that is not safe); read() is thread-safe.
 #pragma once

@@ -1,7 +1,7 @@
 // btflod — a byte-budgeted LRU cache of compressed payloads in storage fixed at set-up (the
 // client-side RAM cache of paper 000 §6: "a least recently used caching strategy to keep as many
-// tiles that have been received as possible"). stream/pipeline.hpp keeps its verified payloads
-// here; get() and put() never allocate, so worker threads insert without touching the heap.
+// tiles that have been received as possible"). The Streamer keeps its verified ancestors' payloads
+// here, so a child's decode chain rarely reads again; get() and put() never allocate.
 //
 // Storage, all allocated by the constructor from the configuration, through the RuntimeAllocator
 // it is given (core/allocator.hpp; operator new by default):
@@ -33,7 +33,7 @@ struct PayloadCacheConfig {
 };
 
 /// Byte-budgeted LRU of byte strings keyed by a 64-bit key. Not thread-safe: the owner
-/// serialises calls (the pipeline holds its mutex). No call after construction allocates or
+/// serialises calls (the Streamer calls it from its update thread). No call after construction allocates or
 /// throws. Keys are any uint64_t; payloads are copied in and out.
 class PayloadCache {
  public:

@@ -21,7 +21,7 @@
 namespace btflod {
 
 /// A random-access byte source. Implementations must allow concurrent read() calls from several
-/// threads (the pipeline's workers). `cancel`, when given, is polled by slow sources; once it
+/// threads (the engine's decode workers). `cancel`, when given, is polled by slow sources; once it
 /// reads true they return Status::cancelled as soon as they can.
 class TileSource {
  public:

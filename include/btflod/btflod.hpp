@@ -42,6 +42,7 @@
 
 // btf
 #include "btflod/btf/bonn_btf.hpp"
+#include "btflod/btf/btf_files.hpp"
 #include "btflod/btf/btf_store.hpp"
 #include "btflod/btf/directions.hpp"
 #include "btflod/btf/heightfield.hpp"

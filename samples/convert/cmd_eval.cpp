@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "command.hpp"
-#include "common/btf_files.hpp"
+#include "btflod/btf/btf_files.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
@@ -158,7 +158,7 @@ int run_eval(int argc, char** argv) {
   }
   if (convert::is_store_path(opt.positional()[1]))
     return eval_against_store(*f, opt.positional()[1], {lambda, range, pca, no_residual, *memory});
-  auto src = samples::load_btf(opt.positional()[1]);
+  auto src = load_btf(opt.positional()[1]);
   if (!src) {
     std::fprintf(stderr, "btflod-convert eval: %s\n", src.message().c_str());
     return convert::kExitFailure;

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "command.hpp"
-#include "common/btf_files.hpp"
+#include "btflod/btf/btf_files.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
@@ -124,7 +124,7 @@ int run_factor(int argc, char** argv) {
     return convert::run_factor_store(a);
   }
 
-  auto btf = samples::load_btf(in);
+  auto btf = load_btf(in);
   if (!btf) {
     std::fprintf(stderr, "btflod-convert factor: %s\n", btf.message().c_str());
     return convert::kExitFailure;

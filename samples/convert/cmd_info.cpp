@@ -11,12 +11,12 @@
 #include "btflod/codec/container.hpp"
 
 #include "command.hpp"
-#include "common/btf_files.hpp"
+#include "btflod/btf/btf_files.hpp"
 
 namespace {
 
 using namespace btflod;
-using btflod::samples::BtfFileKind;
+using btflod::BtfFileKind;
 
 void print_directions(const char* what, const DirectionSet& d) {
   float max_theta = 0.0f;
@@ -180,7 +180,6 @@ int info_bsvtf(const std::string& path, bool values) {
   return (bad_crc || bad_decode) ? convert::kExitFailure : convert::kExitOk;
 }
 
-#if BTFLOD_SAMPLES_HAVE_BONN
 int info_bonn(const std::string& path, bool values) {
   auto file = read_bonn_btf(path);
   if (!file) {
@@ -214,9 +213,7 @@ int info_bonn(const std::string& path, bool values) {
   }
   return convert::kExitOk;
 }
-#endif
 
-#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
 int info_folder(const std::string& path) {
   auto folder = read_ubo2003_folder(path);
   if (!folder) {
@@ -234,15 +231,14 @@ int info_folder(const std::string& path) {
   for (const auto& w : folder->warnings) std::printf("  warning %s\n", w.c_str());
   return convert::kExitOk;
 }
-#endif
 
 [[maybe_unused]] int info_generic(const std::string& path) {
-  auto btf = samples::load_btf(path);
+  auto btf = load_btf(path);
   if (!btf) {
     std::fprintf(stderr, "btflod-convert info: %s\n", btf.message().c_str());
     return convert::kExitFailure;
   }
-  std::printf("%s: %s\n", path.c_str(), samples::file_kind_name(samples::detect_btf_file(path)));
+  std::printf("%s: %s\n", path.c_str(), btf_file_kind_name(detect_btf_file(path)));
   std::printf("  texels  %d x %d\n", btf->width(), btf->height());
   print_directions("views", btf->views());
   print_directions("lights", btf->lights());
@@ -277,7 +273,7 @@ int run_info(int argc, char** argv) {
       if (r != convert::kExitOk) result = r;
       continue;
     }
-    switch (samples::detect_btf_file(path)) {
+    switch (detect_btf_file(path)) {
       case BtfFileKind::missing:
         std::fprintf(stderr, "btflod-convert info: %s: cannot open (missing or unreadable)\n", path.c_str());
         break;
@@ -286,23 +282,14 @@ int run_info(int argc, char** argv) {
         break;
       case BtfFileKind::mbsdf: r = info_mbsdf(path); break;
       case BtfFileKind::bonn:
-#if BTFLOD_SAMPLES_HAVE_BONN
         r = info_bonn(path, values);
-#else
-        r = info_generic(path);
-#endif
         break;
       case BtfFileKind::image_folder:
-#if BTFLOD_SAMPLES_HAVE_UBO_FOLDER
         r = info_folder(path);
-#else
-        r = info_generic(path);
-#endif
         break;
     }
     if (r != convert::kExitOk) result = r;
   }
-  (void)values;
   return result;
 }
 

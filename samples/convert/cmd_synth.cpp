@@ -5,7 +5,7 @@
 #include <string>
 
 #include "command.hpp"
-#include "common/btf_files.hpp"
+#include "btflod/btf/btf_files.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
@@ -116,10 +116,10 @@ int run_synth(int argc, char** argv) {
     std::fprintf(stderr, "synth: %s %dx%d, %zu views x %zu lights in %.2f s (%u threads)\n", material_text.c_str(),
                  size, size, btf->view_count(), btf->light_count(), seconds, default_thread_pool().thread_count());
   samples::ProgressBar write_bar("write", stderr, !quiet);
-  samples::SaveOptions save;
+  BtfSaveOptions save;
   save.components = components;
   save.progress = write_bar.callback();
-  auto saved = samples::save_btf(*btf, *out, save);
+  auto saved = save_btf(*btf, *out, save);
   write_bar.finish();
   if (!saved) {
     std::fprintf(stderr, "btflod-convert synth: %s\n", saved.message().c_str());

@@ -66,6 +66,7 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
+#include "btflod/factor/fmf_stream.hpp"
 #include "btflod/factor/fmf_out_of_core.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
 #include "btflod/factor/levenberg_marquardt.hpp"

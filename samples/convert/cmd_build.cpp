@@ -15,6 +15,7 @@
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/factor/fmf.hpp"
+#include "btflod/factor/fmf_stream.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 
 namespace {
@@ -96,15 +97,8 @@ int run_build(int argc, char** argv) {
   const auto comps = static_cast<uint32_t>(fmf->components);
   const int w = fmf->shape.width, h = fmf->shape.height;
 
-  EigenTextures eigen;
-  eigen.textures.resize(w, h, static_cast<int>(comps));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (uint32_t c = 0; c < comps; ++c)
-        eigen.textures.at(x, y, static_cast<int>(c)) = fmf->v[(static_cast<size_t>(y) * w + x) * comps + c];
-  eigen.angular = fmf->u;  // stored in the producer's row order (FMF: (view · n_light + light) · 3 + colour)
-  eigen.light_count = static_cast<uint32_t>(fmf->shape.light_count());
-  eigen.view_count = static_cast<uint32_t>(fmf->shape.view_count());
+  // U stays in the FMF's view-major row order, which the metadata below records.
+  const EigenTextures eigen = eigen_textures_from_fmf(*fmf);
   auto pyramid = TilePyramid::build(eigen, tile, border, wrap ? TileEdge::wrap : TileEdge::clamp);
   if (!pyramid) {
     std::fprintf(stderr, "btflod-convert build: %s\n", pyramid.message().c_str());

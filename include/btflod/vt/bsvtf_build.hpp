@@ -82,6 +82,7 @@ struct BsvtfFromEigenOptions {
   std::string material_name;
   std::vector<float> light_directions;  ///< xyz per light (e.light_count triples)
   std::vector<float> view_directions;   ///< xyz per view (e.view_count triples)
+  std::string light_set, view_set;      ///< the direction sets' names (stored in the container)
   BsvtfBuildOptions build;              ///< quality, tolerances, threads, progress
 };
 
@@ -103,6 +104,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf_from_eigen_textures(const EigenT
   if (!pyramid) return pyramid.error();
   BsvtfMetadata md = bsvtf_metadata_for(e, *pyramid, options.row_order, options.light_directions,
                                         options.view_directions, options.material_name);
+  md.light_set = options.light_set;
+  md.view_set = options.view_set;
   const BsvtfTileInputs inputs = bsvtf_tiles_from_pyramid(*pyramid, md.level_count);
   return build_bsvtf(md, e.angular, inputs.tiles, options.build);
 }

@@ -56,23 +56,6 @@ void run_logged(Streamer& s, Engine& e, EventLog& log, uint32_t frames) {
   }
 }
 
-// An allocator that counts the bytes it holds.
-struct Ledger {
-  int64_t bytes = 0, blocks = 0;
-  static void* allocate(void* user, size_t n, size_t alignment) {
-    auto* l = static_cast<Ledger*>(user);
-    l->bytes += static_cast<int64_t>(n);
-    ++l->blocks;
-    return ::operator new(n, std::align_val_t(alignment));
-  }
-  static void deallocate(void* user, void* p, size_t n, size_t alignment) {
-    auto* l = static_cast<Ledger*>(user);
-    l->bytes -= static_cast<int64_t>(n);
-    --l->blocks;
-    ::operator delete(p, std::align_val_t(alignment));
-  }
-  RuntimeAllocator callbacks() { return RuntimeAllocator{&allocate, &deallocate, this}; }
-};
 
 }  // namespace
 
@@ -397,7 +380,7 @@ TEST(RuntimeFailures, DestroyedWithReadsOutstandingReturnsEveryByte) {
   q.files = &w.files;
   q.refuse_next = false;
   w.finish(&q);
-  Ledger ledger;
+  CountingHeap ledger;
   {
     StreamerConfig cfg = small_config();
     cfg.allocator = ledger.callbacks();
@@ -418,7 +401,7 @@ TEST(RuntimeFailures, MemoryReportEqualsWhatTheAllocatorHoldsWithOneDecoderPerWo
   w.add(build(make_eigen(128, 6, 8)));
   w.add(build(make_eigen(64, 3, 9)));
   w.finish();
-  const auto report = [&](uint32_t workers, Ledger& ledger) {
+  const auto report = [&](uint32_t workers, CountingHeap& ledger) {
     StreamerConfig cfg = small_config();
     cfg.allocator = ledger.callbacks();
     cfg.decode_workers = workers;
@@ -432,7 +415,7 @@ TEST(RuntimeFailures, MemoryReportEqualsWhatTheAllocatorHoldsWithOneDecoderPerWo
     EXPECT_GE(m.decoded_cache, uint64_t{cfg.decoded_cache_tiles} * 40 * 40 * 4 * sizeof(float));
     return m;
   };
-  Ledger a, b;
+  CountingHeap a, b;
   const StreamerMemory one = report(1, a), four = report(4, b);
   EXPECT_GT(one.decoders, 0u);
   // Decoders scale with the declared workers only; nothing else changes.

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <deque>
 #include <memory>
+#include <new>
 #include <span>
 #include <utility>
 #include <vector>
@@ -129,6 +130,24 @@ inline StreamerConfig small_config() {
   c.vote_window_frames = 1;
   return c;
 }
+
+// The engine's allocator callbacks, counting the bytes and blocks they hold.
+struct CountingHeap {
+  int64_t bytes = 0, blocks = 0;
+  static void* allocate(void* user, size_t n, size_t alignment) {
+    auto* l = static_cast<CountingHeap*>(user);
+    l->bytes += static_cast<int64_t>(n);
+    ++l->blocks;
+    return ::operator new(n, std::align_val_t(alignment));
+  }
+  static void deallocate(void* user, void* p, size_t n, size_t alignment) {
+    auto* l = static_cast<CountingHeap*>(user);
+    l->bytes -= static_cast<int64_t>(n);
+    --l->blocks;
+    ::operator delete(p, std::align_val_t(alignment));
+  }
+  RuntimeAllocator callbacks() { return RuntimeAllocator{&allocate, &deallocate, this}; }
+};
 
 // Every finest tile of every material voted once per frame.
 inline std::vector<uint32_t> full_feedback(const Streamer& s) {

@@ -6,9 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
-#include <cstdlib>
-#include <functional>
-#include <new>
 #include <vector>
 
 #include "btflod/runtime/streamer.hpp"
@@ -19,22 +16,6 @@ using namespace btflod_test;
 
 namespace {
 
-// The engine's allocator: counts the bytes and blocks it holds.
-struct EngineHeap {
-  uint64_t live = 0, blocks = 0;
-  static void* allocate(void* user, size_t bytes, size_t alignment) {
-    auto& h = *static_cast<EngineHeap*>(user);
-    void* p = ::operator new(bytes, std::align_val_t(alignment), std::nothrow);
-    if (p != nullptr) h.live += bytes, ++h.blocks;
-    return p;
-  }
-  static void deallocate(void* user, void* p, size_t bytes, size_t alignment) {
-    auto& h = *static_cast<EngineHeap*>(user);
-    ::operator delete(p, std::align_val_t(alignment));
-    h.live -= bytes, --h.blocks;
-  }
-  RuntimeAllocator callbacks() { return RuntimeAllocator{&allocate, &deallocate, this}; }
-};
 
 World two_materials() {
   World w;
@@ -63,16 +44,16 @@ void check(std::span<const StreamerMaterial> materials, StreamerConfig config, c
   SCOPED_TRACE(what);
   auto predicted = Streamer::memory_required(materials, config);
   ASSERT_TRUE(predicted) << predicted.error().message;
-  EngineHeap heap;
+  CountingHeap heap;
   config.allocator = heap.callbacks();
   {
     auto s = Streamer::create(materials, config);
     ASSERT_TRUE(s) << s.error().message;
     expect_same(predicted.value(), s.value().stats().memory);
-    EXPECT_EQ(predicted.value().total, heap.live);
-    EXPECT_EQ(predicted.value().allocations, heap.blocks);
+    EXPECT_EQ(static_cast<int64_t>(predicted.value().total), heap.bytes);
+    EXPECT_EQ(static_cast<int64_t>(predicted.value().allocations), heap.blocks);
   }
-  EXPECT_EQ(heap.live, 0u);
+  EXPECT_EQ(heap.bytes, 0);
 }
 
 }  // namespace

@@ -3,7 +3,8 @@
 // PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache, and for
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
-// (test_golden_representations.hpp).
+// (test_golden_representations.hpp); a live Streamer's materials removed and added on the backend
+// render like a fresh Streamer's (test_golden_streamer.hpp).
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_gl_backend
 // btflod-label: gpu
@@ -12,6 +13,7 @@
 #include "gl_backend.hpp"
 #include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
+#include "test_golden_streamer.hpp"
 
 namespace {
 
@@ -31,6 +33,9 @@ TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) {
   btflod::golden::golden_fmf_u_packets(make_backend);
 }
 TEST(GoldenGl, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
+TEST(GoldenGl, StreamerMaterialsComeAndGoOnTheGpu) {
+  btflod::golden::golden_streamer_materials_come_and_go(make_backend);
+}
 TEST(GoldenGl, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
 TEST(GoldenGl, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
 TEST(GoldenGl, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }

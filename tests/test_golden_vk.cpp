@@ -3,7 +3,8 @@
 // PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache, and for
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
-// (test_golden_representations.hpp).
+// (test_golden_representations.hpp); a live Streamer's materials removed and added on the backend
+// render like a fresh Streamer's (test_golden_streamer.hpp).
 // The HLSL programs (VkBackendOptions::hlsl_programs, SPIR-V from glslang's HLSL front end)
 // render the FMF and the partial-cache BSVTF scenes like the Vulkan GLSL programs (>= 60 dB), and
 // pass every golden test above against the same CPU references.
@@ -15,6 +16,7 @@
 #include "vk_backend.hpp"
 #include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
+#include "test_golden_streamer.hpp"
 
 namespace {
 
@@ -86,6 +88,9 @@ TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) {
   btflod::golden::golden_fmf_u_packets(make_backend);
 }
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
+TEST(GoldenVk, StreamerMaterialsComeAndGoOnTheGpu) {
+  btflod::golden::golden_streamer_materials_come_and_go(make_backend);
+}
 TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
 TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
 TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }

@@ -471,6 +471,11 @@ class RecordingBackend final : public Backend {
                             std::vector<float>(d.eigen_abrdfs.begin(), d.eigen_abrdfs.end()), 0});
     return MaterialHandle{static_cast<uint32_t>(materials.size())};
   }
+  Status destroy_material(MaterialHandle h) override {
+    if (h.id == 0 || h.id > materials.size() || materials[h.id - 1].components == 0) return Status::invalid_argument;
+    materials[h.id - 1] = Mat{};
+    return Status::success;
+  }
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     for (const TileUpload& t : tiles) slots[t.slot].assign(t.texels.begin(), t.texels.end());
     order.push_back('t');

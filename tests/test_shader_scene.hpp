@@ -110,8 +110,9 @@ struct Material {
   }
 };
 
-/// C = 5 (two component groups, the second partial), smooth random eigen-textures.
-inline Material make_material(const ShaderConfig& config, int width, int height) {
+/// C = 5 (two component groups, the second partial), smooth random eigen-textures; `seed`
+/// varies U′, the phases of V′ and its noise.
+inline Material make_material(const ShaderConfig& config, int width, int height, uint32_t seed = 7u) {
   Material m;
   m.config = config;
   const std::vector<glm::vec3> ld = direction_set(2, 5, 0.3f);  // 11 lights
@@ -119,7 +120,8 @@ inline Material make_material(const ShaderConfig& config, int width, int height)
   m.lights = static_cast<uint32_t>(ld.size());
   m.views = static_cast<uint32_t>(vd.size());
   const uint32_t C = config.components;
-  uint32_t s = 7u;
+  uint32_t s = seed;
+  const float phase = 0.37f * static_cast<float>(static_cast<int>(seed) - 7);
   m.u.resize(static_cast<size_t>(m.lights) * m.views * 3 * C);
   for (float& x : m.u) x = rnd01(s) * (1.0f / static_cast<float>(C));
   m.v = Image<float>(width, height, static_cast<int>(C));
@@ -127,7 +129,7 @@ inline Material make_material(const ShaderConfig& config, int width, int height)
     for (int x = 0; x < width; ++x)
       for (int c = 0; c < static_cast<int>(C); ++c) {
         const float fx = static_cast<float>(x) / static_cast<float>(width), fy = static_cast<float>(y) / static_cast<float>(height);
-        m.v.at(x, y, c) = 0.6f + 0.4f * std::sin(6.2831853f * (fx * static_cast<float>(c + 1) + 2.0f * fy) + static_cast<float>(c)) +
+        m.v.at(x, y, c) = 0.6f + 0.4f * std::sin(6.2831853f * (fx * static_cast<float>(c + 1) + 2.0f * fy) + static_cast<float>(c) + phase) +
                           0.1f * rnd01(s);
       }
   build_table(ld, config.angular.parameterisation, config.angular.resolution, m.light_index, m.light_weight);

@@ -29,6 +29,7 @@ struct GlMaterial {
   int representation = -1;  ///< index into reps_ for a laplacian / lpca / pca_views material
   uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
   std::vector<float> packet_layers;  // upload_u_packets staging (4 layers of U′)
+  bool live = true;                  ///< false once destroy_material() released it
 };
 
 struct FeedbackSlot {
@@ -218,6 +219,20 @@ class GlBackend final : public Backend {
     return MaterialHandle{static_cast<uint32_t>(materials_.size())};
   }
 
+  Status destroy_material(MaterialHandle material) override {
+    make_current();
+    if (material.id == 0 || material.id > materials_.size() || !materials_[material.id - 1].live)
+      return Status::invalid_argument;
+    GlMaterial& m = materials_[material.id - 1];
+    // GL keeps a deleted texture alive for the commands already issued that read it.
+    GLuint t[4] = {m.eigen_abrdfs, m.angular_index, m.angular_weight, m.eigen_textures};
+    glDeleteTextures(4, t);
+    if (m.representation >= 0) destroy_gl_representation(reps_[static_cast<size_t>(m.representation)]);
+    m = GlMaterial{};
+    m.live = false;
+    return Status::success;
+  }
+
   Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& data) override {
     return add_representation(data);
   }
@@ -247,7 +262,7 @@ class GlBackend final : public Backend {
     make_current();
     if (!initialised_ || material.id == 0 || material.id > materials_.size()) return Status::invalid_argument;
     GlMaterial& m = materials_[material.id - 1];
-    if (m.representation >= 0 || m.components == 0) return Status::invalid_argument;
+    if (!m.live || m.representation >= 0 || m.components == 0) return Status::invalid_argument;
     for (const UPacketUpload& p : packets)
       if (check_u_packet(p, m.light_count, m.view_count, m.components) != Status::success)
         return Status::invalid_argument;
@@ -302,6 +317,7 @@ class GlBackend final : public Backend {
     if (!color_fbo_ || mesh.id == 0 || mesh.id > meshes_.size() || material.id == 0 || material.id > materials_.size())
       return Status::invalid_argument;
     const GlMaterial& m = materials_[material.id - 1];
+    if (!m.live) return Status::invalid_argument;
     if (m.representation >= 0) {  // laplacian / lpca / pca_views (gl_representations.cpp)
       const GlRepresentation& r = reps_[static_cast<size_t>(m.representation)];
       if (r.program != program) return Status::invalid_argument;

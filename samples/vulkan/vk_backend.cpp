@@ -251,6 +251,21 @@ Result<MaterialHandle> VkBackend::create_material(const FmfMaterialData& data) {
   return MaterialHandle{static_cast<uint32_t>(materials_.size())};
 }
 
+Status VkBackend::destroy_material(MaterialHandle material) {
+  if (in_frame_ || material.id == 0 || material.id > materials_.size() || !materials_[material.id - 1].live)
+    return Status::invalid_argument;
+  // Uploads recorded since the last frame may still write its textures: submit them, then wait
+  // until no command buffer reads the material (set-up time).
+  if (recording_ && !submit_context()) return Status::io_error;
+  if (wait_idle() != Status::success) return Status::io_error;
+  VkMaterial& m = materials_[material.id - 1];
+  if (m.set) vkFreeDescriptorSets(device_, descriptor_pool_, 1, &m.set);
+  destroy_material(m);
+  m = VkMaterial{};
+  m.live = false;
+  return Status::success;
+}
+
 Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
   if (!initialised_) return Status::invalid_argument;
   const VirtualTextureConfig& vt = config_.vt;
@@ -278,7 +293,7 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
 Status VkBackend::upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept {
   if (!initialised_ || material.id == 0 || material.id > materials_.size()) return Status::invalid_argument;
   const VkMaterial& m = materials_[material.id - 1];
-  if (m.program != ShaderProgram::fmf || m.components == 0) return Status::invalid_argument;
+  if (!m.live || m.program != ShaderProgram::fmf || m.components == 0) return Status::invalid_argument;
   const size_t plane = size_t{m.light_count} * m.view_count * 4 * sizeof(float);
   size_t need = 0;
   for (const UPacketUpload& p : packets) {
@@ -368,6 +383,7 @@ Status VkBackend::draw(ShaderProgram program, MeshHandle mesh, MaterialHandle ma
   if (!in_frame_ || mesh.id == 0 || mesh.id > meshes_.size() || material.id == 0 || material.id > materials_.size())
     return Status::invalid_argument;
   const VkMaterial& m = materials_[material.id - 1];
+  if (!m.live) return Status::invalid_argument;
   if (m.program != ShaderProgram::fmf) {  // laplacian / lpca / pca_views: the material's own pipeline
     if (m.program != program) return Status::invalid_argument;
     return record_draw(m.pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,

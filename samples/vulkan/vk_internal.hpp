@@ -57,6 +57,7 @@ struct VkMaterial {
   uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
   Texture rep[6];
   VkPipeline pipeline = VK_NULL_HANDLE;
+  bool live = true;  ///< false once destroy_material() released it
 };
 
 /// One texture of a representation material: where it binds, its shape and data (per mip).
@@ -125,6 +126,7 @@ class VkBackend final : public Backend {
   Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& d) override;
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override;
   Status upload_u_packets(MaterialHandle material, std::span<const UPacketUpload> packets) noexcept override;
+  Status destroy_material(MaterialHandle material) override;
   Status apply_page_table_writes(std::span<const PageTableWrite> writes) noexcept override;
   Status begin_frame(const FrameDesc& frame) noexcept override;
   Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,

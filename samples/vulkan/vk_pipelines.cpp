@@ -46,6 +46,7 @@ VoidResult VkBackend::create_layout() {
                                    {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, kMaxSets * (kBindingCount - 1)}};
   VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   dpci.maxSets = kMaxSets;
+  dpci.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;  // destroy_material() returns its set
   dpci.poolSizeCount = 2;
   dpci.pPoolSizes = sizes;
   BTFLOD_VK_CHECK(vkCreateDescriptorPool(device_, &dpci, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");

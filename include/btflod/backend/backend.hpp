@@ -637,6 +637,14 @@ class Backend {
   virtual Result<MeshHandle> create_mesh(const MeshData& mesh) = 0;
   /// Uploads an FMF material (U', angular tables, optional V'). Returns its handle.
   virtual Result<MaterialHandle> create_material(const FmfMaterialData& material) = 0;
+  /// Releases a material of any kind (textures, descriptor sets, its own pipeline) once no
+  /// submitted frame uses it: e.g. after a Streamer's material_removed event. Waits for the GPU
+  /// when a frame in flight may read it (set-up time, not per frame). The handle is invalid
+  /// afterwards (draw and upload_u_packets return invalid_argument) and never handed out again.
+  /// Returns invalid_argument for an empty, unknown or already destroyed handle; a backend that
+  /// cannot release resources a recorded frame uses (Vulkan) also refuses it between
+  /// begin_frame() and end_frame().
+  virtual Status destroy_material(MaterialHandle material) = 0;
   /// Uploads a Laplacian-pyramid PCA material and builds its `laplacian` program (paper 001
   /// eq. 7) from the init() config and representation_config(). Returns its handle (draw it with
   /// ShaderProgram::laplacian; ShaderParams::lod.z scales the eye distance: λ = log2(d·lod.z)),

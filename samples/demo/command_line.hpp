@@ -25,6 +25,7 @@ struct DemoConfig {
   /// --cut: after the settle, cut to the first view and measure frames and bytes until the image
   /// stays within SSIM 0.99 of its converged frame (cut_convergence.hpp).
   bool cut = false;
+  bool no_swap = false;  ///< --no-swap: no material swapped on the live Streamer during the flight
   /// --material NAME: every material is synthesised as NAME (seed + index still differs);
   /// unset: cloth, stone, leather, tiles in turn.
   std::optional<SynthMaterial> material;
@@ -87,6 +88,10 @@ inline constexpr const char* kDemoUsage =
     "  --cut then cuts the camera to the first view and holds it until streaming is quiet:\n"
     "  frames, bytes and seconds until the image stays within SSIM 0.99 of its converged frame\n"
     "  (report.json \"cut\", docs/benchmarking.md).\n"
+    "  During the flight the last torus changes material twice on the running Streamer, as a level\n"
+    "  load would: at 1/3 of the flight a copy of the first material is added (a new Streamer\n"
+    "  material), shown once ready, and the old one removed; at 2/3 its own material comes back the\n"
+    "  same way (report.json \"material_swaps\"; flights under 12 frames or --no-swap: none).\n"
     "  --window shows each BSVTF frame in an X11 window (GL backend, needs DISPLAY; headless\n"
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
     "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
@@ -149,6 +154,10 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     }
     if (a == "--cut") {
       cfg.cut = true;
+      continue;
+    }
+    if (a == "--no-swap") {
+      cfg.no_swap = true;
       continue;
     }
     if (a == "--deflate") {

@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
   if (cfg->frame_width > 0) ss.width = static_cast<uint32_t>(cfg->frame_width);
   if (cfg->frame_height > 0) ss.height = static_cast<uint32_t>(cfg->frame_height);
   const uint32_t frames = static_cast<uint32_t>(cfg->frames);
+  if (!cfg->no_swap && frames >= 12) ss.swap_out_frame = frames / 3, ss.swap_back_frame = 2 * frames / 3;
   // The raw-BTF reference of the last view: its rays are cast now, and each material's are
   // resolved from its store right after that material is prepared, so that the paper profile
   // can delete each store before the next is synthesised (one store on disk at a time).
@@ -315,6 +316,16 @@ int main(int argc, char** argv) {
                 run.frames.size() - settle_first, run.frames[settle_first].ssim, run.frames.back().ssim,
                 static_cast<double>(run.frames.back().bytes_received) / 1024.0);
   }
+
+  // The materials swapped on the live Streamer during the flight.
+  run.swaps = (*streamer)->swaps();
+  run.planned_swaps = (*streamer)->planned_swaps();
+  for (const demo::SwapRecord& w : run.swaps)
+    std::printf("  swap        slot %u -> %s as Streamer material %u (layers from %u): added frame %u, ready and shown "
+                "frame %lld (%.1f KiB read meanwhile), material %u removed then, released frame %lld\n",
+                w.slot, materials[w.demo].name.c_str(), w.added_id, w.first_texture, w.added_frame,
+                static_cast<long long>(w.shown_frame), static_cast<double>(w.bytes_until_shown) / 1024.0,
+                w.removed_id, static_cast<long long>(w.released_frame));
 
   if (feedback_trace) {
     const uint64_t n = feedback_trace->frame_count();
@@ -537,7 +548,13 @@ int main(int argc, char** argv) {
                                 ms.components, run.raw.fmf_cpu.ssim, demo::kDefaultRawSsimBound, worst.c_str(),
                                 worst_ssim, demo::kDefaultRawMaterialSsimBound);
     }
+    // Every planned swap happened on the live Streamer: the new material was shown and the old
+    // one's id released (its last job ended) before the end of the run.
+    bool swaps_ok = run.swaps.size() == run.planned_swaps;
+    for (const demo::SwapRecord& w : run.swaps)
+      swaps_ok = swaps_ok && w.shown_frame != demo::SwapRecord::kNever && w.released_frame != demo::SwapRecord::kNever;
     std::string failed;
+    if (!swaps_ok) failed += " a material swap did not complete;";
     if (!raw_ok) failed += " FMF of the default materials too far from the raw BTF;";
     if (!rises) failed += format_message(" SSIM fell more than %.3f during the settle;", dip);
     if (!high) failed += " SSIM below its bound;";
@@ -545,11 +562,12 @@ int main(int argc, char** argv) {
     if (!paths_agree) failed += " FMF GPU and CPU disagree;";
     std::printf(
         "  checks      settle SSIM %.4f (settle frame %zu, votes of the last view only) -> %.4f (bound %.2f), "
-        "%s, page table equals rebuild%s%s: %s%s\n",
+        "%s, page table equals rebuild, %zu/%zu material swaps completed%s%s: %s%s\n",
         first, from - settle_first, last, is_gpu ? 0.85 : 0.6,
-        quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled", agree, raw_note.c_str(),
+        quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled", run.swaps.size(), run.planned_swaps, agree,
+        raw_note.c_str(),
         failed.empty() ? "checks passed" : "FAILED:", failed.c_str());
-    if (!rises || !high || !table || !paths_agree || !raw_ok) return 1;
+    if (!rises || !high || !table || !paths_agree || !raw_ok || !swaps_ok) return 1;
   }
   if (run.page_table_check != "equal") {
     std::fprintf(stderr, "btflod-demo: page table built from deltas differs from a rebuild: %s\n",

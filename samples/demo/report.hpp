@@ -50,6 +50,10 @@ struct RunSummary {
   uint64_t disk_min_free_bytes = 0;
   /// --cut: frames, bytes and seconds to converge after a camera cut (cut_convergence.hpp).
   CutConvergence cut;
+  /// Materials swapped on the live Streamer during the flight (StreamSettings::swap_out_frame),
+  /// and how many were planned.
+  std::vector<SwapRecord> swaps;
+  size_t planned_swaps = 0;
   /// The last view against a render of the RAW tabulated BTF (raw_reference.hpp).
   struct RawComparison {
     bool done = false;
@@ -511,6 +515,19 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
     for (size_t i = 0; i < c.ssim.size(); ++i) o << (i ? ", " : "") << detail_report::fmt(c.ssim[i]);
     o << "]},\n";
   }
+  o << "  \"material_swaps\": {\"planned\": " << r.planned_swaps << ", \"swaps\": [";
+  for (size_t i = 0; i < r.swaps.size(); ++i) {
+    const SwapRecord& w = r.swaps[i];
+    std::snprintf(b, sizeof b,
+                  "%s\n    {\"slot\": %u, \"material\": \"%s\", \"added_id\": %u, \"removed_id\": %u, "
+                  "\"first_texture\": %u, \"added_frame\": %u, \"shown_frame\": %lld, \"released_frame\": %lld, "
+                  "\"bytes_until_shown\": %llu}",
+                  i ? "," : "", w.slot, w.demo < r.material_names.size() ? r.material_names[w.demo].c_str() : "?",
+                  w.added_id, w.removed_id, w.first_texture, w.added_frame, static_cast<long long>(w.shown_frame),
+                  static_cast<long long>(w.released_frame), static_cast<unsigned long long>(w.bytes_until_shown));
+    o << b;
+  }
+  o << (r.swaps.empty() ? "" : "\n  ") << "]},\n";
   o << "  \"frames\": [\n";
   for (size_t i = 0; i < r.frames.size(); ++i) {
     const FrameRecord& f = r.frames[i];

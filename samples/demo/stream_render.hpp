@@ -51,6 +51,33 @@ struct StreamSettings {
   double bytes_per_second = 256.0 * 1024;  ///< throttled link shared by all materials
   uint32_t latency_ms = 20;
   uint32_t uploads_per_frame = 16;
+  /// A material swapped in mid-flight, as a level load would (0: never): at swap_out_frame the
+  /// last scene slot gets a copy of material 0, streamed as a new Streamer material over
+  /// material 0's link; at swap_back_frame it gets its own material again, streamed anew. Each
+  /// swap adds the new material first, shows it once it is ready (roots and U′ loaded), then
+  /// removes the old one (Streamer::add_material / remove_material; its GPU material destroyed).
+  uint32_t swap_out_frame = 0, swap_back_frame = 0;
+};
+
+/// Which demo material a scene slot shows and the Streamer material id it streams under.
+struct ShownMaterial {
+  uint32_t demo = 0;         ///< index into the demo's materials (textures, U′, tables)
+  uint32_t streamer_id = 0;  ///< Streamer material id (feedback word, page-table layers)
+};
+
+/// One material swap on a live Streamer (StreamSettings::swap_out_frame).
+struct SwapRecord {
+  static constexpr int64_t kNever = -1;
+  uint32_t slot = 0;             ///< scene slot whose material changed
+  uint32_t demo = 0;             ///< demo material shown from then on
+  uint32_t added_id = 0;         ///< its Streamer material id (add_material)
+  uint32_t removed_id = 0;       ///< the id it replaced (remove_material once the new one was ready)
+  uint32_t first_texture = 0;    ///< page-table layer of the added material
+  uint32_t added_frame = 0;      ///< frame of add_material()
+  int64_t shown_frame = kNever;  ///< frame the new material was ready and drawn (the old one removed)
+  int64_t released_frame = kNever;  ///< frame of the old id's material_released event
+  uint64_t bytes_before = 0;        ///< payload bytes read when it was added (bytes_read())
+  uint64_t bytes_until_shown = 0;   ///< payload bytes read from adding to showing it (all materials)
 };
 
 /// What one frame measured.
@@ -102,6 +129,13 @@ class FrameRenderer {
                           const std::vector<scene::SceneObject>& objects) = 0;
   /// Applies one Streamer::update()'s tile uploads and page-table writes.
   virtual Status apply(const StreamerOutputs& out) = 0;
+  /// A Streamer material added while streaming (material `id` shows demo material `m`): the
+  /// renderer creates what it draws it with. Set-up work, between frames.
+  virtual VoidResult add_streamed(uint32_t /*id*/, const DemoMaterial& /*m*/) { return {}; }
+  /// A removed Streamer material: the renderer releases what it drew it with. Between frames.
+  virtual Status remove_streamed(uint32_t /*id*/) { return Status::success; }
+  /// Scene slot `slot` shows `m` from the next frame on (init(): slot i shows material i as id i).
+  void show(uint32_t slot, ShownMaterial m) { shown_.at(slot) = m; }
   /// Writes page-table texels (the page-table check's full rewrite).
   virtual Status write_page_table(std::span<const PageTableWrite> writes) = 0;
   /// True when the image depends on the writes above (GPU); the CPU reference reads the cache.
@@ -112,6 +146,13 @@ class FrameRenderer {
   virtual VoidResult render(const scene::View& view, uint64_t frame, uint32_t feedback_shift,
                             const std::function<ShaderParams(uint32_t)>& params, Image<float>& bsvtf, Image<float>& fmf,
                             std::vector<uint32_t>& feedback, double& ms_bsvtf, double& ms_fmf) = 0;
+
+ protected:
+  void show_identity(size_t slots) {
+    shown_.resize(slots);
+    for (uint32_t i = 0; i < slots; ++i) shown_[i] = ShownMaterial{i, i};
+  }
+  std::vector<ShownMaterial> shown_;  // per scene slot
 };
 
 inline double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -132,15 +173,31 @@ class GpuFrameRenderer final : public FrameRenderer {
       meshes_.push_back(*h);
       material_of_.push_back(o.material);
     }
-    for (const DemoMaterial& m : materials) {
-      auto a = be_.create_material(m.data(true));
+    // FMF materials by demo material; BSVTF materials by Streamer id (created as 0 … n−1, room
+    // for the ids add_material() hands out later).
+    bsvtf_mats_.assign(cache.set().material_count(), MaterialHandle{});
+    for (size_t i = 0; i < materials.size(); ++i) {
+      auto a = be_.create_material(materials[i].data(true));
       if (!a) return a.error();
       fmf_mats_.push_back(*a);
-      auto b = be_.create_material(m.data(false));
-      if (!b) return b.error();
-      bsvtf_mats_.push_back(*b);
+      if (auto e = add_streamed(static_cast<uint32_t>(i), materials[i]); !e) return e;
     }
+    show_identity(materials.size());
     return {};
+  }
+  VoidResult add_streamed(uint32_t id, const DemoMaterial& m) override {
+    if (id >= bsvtf_mats_.size() || bsvtf_mats_[id].id != 0)
+      return make_error(Status::invalid_argument, "Streamer material %u: no room or already created", id);
+    auto b = be_.create_material(m.data(false));
+    if (!b) return b.error();
+    bsvtf_mats_[id] = *b;
+    return {};
+  }
+  Status remove_streamed(uint32_t id) override {
+    if (id >= bsvtf_mats_.size()) return Status::invalid_argument;
+    const Status s = be_.destroy_material(bsvtf_mats_[id]);
+    bsvtf_mats_[id] = MaterialHandle{};
+    return s;
   }
   Status apply(const StreamerOutputs& out) override { return apply_streamer_outputs(be_, out, bsvtf_mats_); }
   Status write_page_table(std::span<const PageTableWrite> writes) override {
@@ -206,9 +263,9 @@ class GpuFrameRenderer final : public FrameRenderer {
         return make_error(Status::io_error, "draw_feedback failed");
     }
     for (size_t i = 0; i < meshes_.size(); ++i) {
-      const uint32_t m = material_of_[i];
+      const uint32_t slot = material_of_[i];
       const ShaderProgram program = separate_feedback_pass_ ? ShaderProgram::bsvtf : ShaderProgram::bsvtf_feedback;
-      if (be_.draw(program, meshes_[i], bsvtf_mats_[m], params(m)) != Status::success)
+      if (be_.draw(program, meshes_[i], bsvtf_mats_[shown_[slot].streamer_id], params(slot)) != Status::success)
         return make_error(Status::io_error, "draw (bsvtf) failed");
     }
     if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
@@ -226,8 +283,8 @@ class GpuFrameRenderer final : public FrameRenderer {
     const auto t0 = std::chrono::steady_clock::now();
     if (be_.begin_frame(desc) != Status::success) return make_error(Status::io_error, "begin_frame failed");
     for (size_t i = 0; i < meshes_.size(); ++i) {
-      const uint32_t m = material_of_[i];
-      if (be_.draw(ShaderProgram::fmf, meshes_[i], fmf_mats_[m], params(m)) != Status::success)
+      const uint32_t slot = material_of_[i];
+      if (be_.draw(ShaderProgram::fmf, meshes_[i], fmf_mats_[shown_[slot].demo], params(slot)) != Status::success)
         return make_error(Status::io_error, "draw (fmf) failed");
     }
     if (be_.end_frame() != Status::success) return make_error(Status::io_error, "end_frame failed");
@@ -244,8 +301,9 @@ class GpuFrameRenderer final : public FrameRenderer {
   std::function<void()> after_bsvtf_;
   bool separate_feedback_pass_ = false;
   std::vector<MeshHandle> meshes_;
-  std::vector<uint32_t> material_of_;
-  std::vector<MaterialHandle> fmf_mats_, bsvtf_mats_;
+  std::vector<uint32_t> material_of_;         // scene slot per mesh
+  std::vector<MaterialHandle> fmf_mats_;     // per demo material
+  std::vector<MaterialHandle> bsvtf_mats_;   // per Streamer material id
 };
 
 /// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
@@ -268,6 +326,7 @@ class CpuFrameRenderer final : public FrameRenderer {
         return make_error(Status::unsupported, "%s: C = %u, the CPU reference shades at most %u components",
                           m.name.c_str(), m.components, kMaxComponents);
     scene_ = scene::analytic_demo_scene(static_cast<uint32_t>(materials.size()));
+    show_identity(materials.size());
     return {};
   }
   // Tiles into the cache texture; the ray-caster samples the tile cache's own page table.
@@ -323,12 +382,13 @@ class CpuFrameRenderer final : public FrameRenderer {
             out.at(xi, yi, 0) = 0.45f, out.at(xi, yi, 1) = 0.55f, out.at(xi, yi, 2) = 0.7f, out.at(xi, yi, 3) = 1.0f;
             continue;
           }
-          const DemoMaterial& m = (*materials_)[h.material];
+          const ShownMaterial shown = shown_[h.material];  // h.material: the scene slot
+          const DemoMaterial& m = (*materials_)[shown.demo];
           const uint32_t groups = (m.components + 3) / 4;
           for (uint32_t g = 0; g < groups; ++g) {
             if (bsvtf) {
-              texture_->sample(*cache_, set_->material(h.material).first_texture + g, h.texcoord.x, h.texcoord.y,
-                               comps + 4 * g);
+              texture_->sample(*cache_, set_->material(shown.streamer_id).first_texture + g, h.texcoord.x,
+                               h.texcoord.y, comps + 4 * g);
             } else {
               const Image<float>& v = m.eigen_textures;
               const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f,
@@ -394,6 +454,8 @@ class StreamingRenderer {
                             Image<float>& fmf_img) {
     FrameRecord rec;
     rec.frame = f;
+    current_frame_ = f;
+    if (auto e = start_planned_swap(f); !e) return e.error();
     const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
     const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
     if (auto e = renderer_.render(
@@ -406,6 +468,7 @@ class StreamingRenderer {
     // feedback sample position), plan, decode jobs handed to the workers, and this frame's
     // tile uploads and page-table texels — applied to the renderer.
     if (auto e = update(feedback_); !e) return e.error();
+    if (auto e = finish_swap(f); !e) return e.error();
     const SchedulerCounters& fc = streamer_.scheduler().frame();
     rec.requests = static_cast<uint32_t>(fc.requests);
     rec.swaps = static_cast<uint32_t>(fc.swaps);
@@ -442,6 +505,9 @@ class StreamingRenderer {
   uint64_t failures() const noexcept { return failures_; }
   uint32_t slot_count() const noexcept { return streamer_.cache().slot_count(); }
   uint32_t tile_count() const noexcept { return static_cast<uint32_t>(full_page_table_size()); }
+  /// The material swaps started so far (StreamSettings::swap_out_frame), and how many are planned.
+  const std::vector<SwapRecord>& swaps() const noexcept { return swaps_; }
+  size_t planned_swaps() const noexcept { return swap_plan_.size(); }
 
  private:
   StreamingRenderer(FrameRenderer& renderer, const std::vector<DemoMaterial>& materials, const StreamSettings& s)
@@ -449,13 +515,56 @@ class StreamingRenderer {
 
   const VtSet& set() const noexcept { return streamer_.cache().set(); }
 
-  ShaderParams material_params(const ShaderParams& base, uint32_t m) const {
+  // Uniforms of scene slot `slot`: its demo material's extent, its Streamer id and layers.
+  ShaderParams material_params(const ShaderParams& base, uint32_t slot) const {
     ShaderParams p = base;
-    const DemoMaterial& d = materials_[m];
+    const ShownMaterial shown = shown_[slot];
+    const DemoMaterial& d = materials_[shown.demo];
     p.vt_extent = glm::vec4(static_cast<float>(d.eigen_textures.width()), static_cast<float>(d.eigen_textures.height()),
                             static_cast<float>(d.finest_level), 0.0f);
-    p.ids = glm::uvec4(streamer_.first_texture(m), m, 0u, 0u);
+    p.ids = glm::uvec4(streamer_.first_texture(shown.streamer_id), shown.streamer_id, 0u, 0u);
     return p;
+  }
+
+  // A planned swap whose frame has come (and none under way): the new material is added to the
+  // live Streamer — it streams its roots and U′ while the old one is still drawn.
+  VoidResult start_planned_swap(uint32_t f) {
+    if (next_swap_ >= swap_plan_.size() || f < swap_plan_[next_swap_].frame || pending_swap_) return {};
+    const PlannedSwap plan = swap_plan_[next_swap_++];
+    uint32_t id = 0;
+    const char* why = "";
+    const StreamerMaterial m{&directories_[plan.demo], throttled_[plan.demo].get(), nullptr};
+    if (const Status st = streamer_.add_material(m, id, &why); st != Status::success)
+      return make_error(st, "frame %u: add_material(%s) failed: %s", f, materials_[plan.demo].name.c_str(), why);
+    if (auto e = renderer_.add_streamed(id, materials_[plan.demo]); !e) return e;
+    for (uint32_t t = streamer_.first_texture(id); t < streamer_.first_texture(id) + streamer_.texture_count(id); ++t)
+      page_mirror_[t].assign(set().levels_of(t).tile_count(), 0u);
+    SwapRecord r;
+    r.slot = plan.slot, r.demo = plan.demo, r.added_id = id, r.removed_id = shown_[plan.slot].streamer_id;
+    r.first_texture = streamer_.first_texture(id), r.added_frame = f, r.bytes_before = streamer_.bytes_read();
+    swaps_.push_back(r);
+    pending_swap_ = true;
+    return {};
+  }
+
+  // Once the added material is ready it is drawn, and the one it replaces is removed from the
+  // Streamer (its slots and layers free at once, its id once its last job ended) and the GPU.
+  VoidResult finish_swap(uint32_t f) {
+    if (!pending_swap_) return {};
+    SwapRecord& r = swaps_.back();
+    if (streamer_.material_failed(r.added_id))
+      return make_error(Status::io_error, "frame %u: the swapped-in material %u failed", f, r.added_id);
+    if (!streamer_.material_ready(r.added_id)) return {};
+    shown_[r.slot] = ShownMaterial{r.demo, r.added_id};
+    renderer_.show(r.slot, shown_[r.slot]);
+    if (const Status st = streamer_.remove_material(r.removed_id); st != Status::success)
+      return make_error(st, "frame %u: remove_material(%u) failed", f, r.removed_id);
+    if (const Status st = renderer_.remove_streamed(r.removed_id); st != Status::success)
+      return make_error(st, "frame %u: the renderer could not release material %u", f, r.removed_id);
+    r.shown_frame = f;
+    r.bytes_until_shown = streamer_.bytes_read() - r.bytes_before;
+    pending_swap_ = false;
+    return {};
   }
 
   // One Streamer::update() and its outputs applied to the renderer. The page-table writes are
@@ -471,9 +580,15 @@ class StreamingRenderer {
       const PageTableWrite& w = page_writes_[i];
       page_mirror_[w.tile.texture][mirror_index(w.tile)] = w.entry;
     }
-    for (size_t i = 0; i < out.event_count; ++i)
-      failures_ +=
-          events_[i].kind == ResidencyEventKind::tile_failed || events_[i].kind == ResidencyEventKind::packet_failed;
+    for (size_t i = 0; i < out.event_count; ++i) {
+      const ResidencyEvent& e = events_[i];
+      failures_ += e.kind == ResidencyEventKind::tile_failed || e.kind == ResidencyEventKind::packet_failed;
+      if (e.kind == ResidencyEventKind::material_released)
+        for (SwapRecord& r : swaps_)
+          if (r.removed_id == e.material && r.shown_frame != SwapRecord::kNever &&
+              r.released_frame == SwapRecord::kNever)
+            r.released_frame = static_cast<int64_t>(current_frame_);
+    }
     last_uploads_ = out.tile_upload_count;
     last_page_table_writes_ = out.page_table_write_count;
     tiles_delivered_ += static_cast<uint32_t>(out.tile_upload_count);
@@ -607,6 +722,15 @@ class StreamingRenderer {
           std::chrono::microseconds(s_.latency_ms * 1000)));
       streamer_materials.push_back(StreamerMaterial{&directories_[m], throttled_.back().get(), nullptr});
     }
+    // Room for the swaps: every material plus the one swapped in live at once.
+    if (s_.swap_out_frame > 0) {
+      const uint32_t slot = static_cast<uint32_t>(materials_.size() - 1);
+      swap_plan_.push_back(PlannedSwap{s_.swap_out_frame, slot, 0});
+      if (s_.swap_back_frame > s_.swap_out_frame) swap_plan_.push_back(PlannedSwap{s_.swap_back_frame, slot, slot});
+      std::vector<StreamerMaterial> candidates = streamer_materials;
+      candidates.push_back(streamer_materials.front());
+      sc.capacity = streamer_capacity_for(candidates, static_cast<uint32_t>(candidates.size()));
+    }
     auto streamer = Streamer::create(streamer_materials, sc);
     if (!streamer) return streamer.error();
     streamer_ = std::move(*streamer);
@@ -614,6 +738,7 @@ class StreamingRenderer {
     config.vt.finest_level = finest;
     objects_ = scene::make_demo_scene(static_cast<uint32_t>(materials_.size()));
     if (auto e = renderer_.init(config, streamer_.cache(), materials_, objects_); !e) return e.error();
+    for (uint32_t i = 0; i < materials_.size(); ++i) shown_.push_back(ShownMaterial{i, i});
     // Texture memory as a GPU backend allocates it.
     for (const DemoMaterial& m : materials_) {
       const uint64_t groups = (m.components + 3) / 4;
@@ -647,7 +772,8 @@ class StreamingRenderer {
     for (uint32_t round = 0; round < 100000 && !ready; ++round) {
       if (auto e = update({}); !e) return e.error();
       ready = true;
-      for (uint32_t m = 0; m < streamer_.material_count(); ++m) ready = ready && streamer_.material_ready(m);
+      for (uint32_t m = 0; m < streamer_.material_count(); ++m)
+        ready = ready && (!streamer_.material_live(m) || streamer_.material_ready(m));
       if (failures_ > 1000)
         return make_error(Status::io_error, "root tiles or U′ packets failed %llu times",
                           static_cast<unsigned long long>(failures_));
@@ -678,6 +804,15 @@ class StreamingRenderer {
   uint64_t total_page_table_writes_ = 0, failures_ = 0;
   std::vector<scene::SceneObject> objects_;
   MemoryFigures memory_;
+  struct PlannedSwap {
+    uint32_t frame = 0, slot = 0, demo = 0;
+  };
+  std::vector<PlannedSwap> swap_plan_;
+  size_t next_swap_ = 0;
+  bool pending_swap_ = false;
+  std::vector<ShownMaterial> shown_;  // per scene slot
+  std::vector<SwapRecord> swaps_;
+  uint32_t current_frame_ = 0;  // the frame() being streamed (a swap's release frame)
 };
 
 }  // namespace btflod::demo

@@ -536,7 +536,53 @@ TEST(CodecContainer, RowOrderAndEnergiesRoundTripAndVersionTwoIsRead) {
   const auto refused = write_bsvtf(md, m.u, tiles);
   EXPECT_EQ(refused.status(), Status::invalid_argument);
   EXPECT_NE(refused.message().find("u_row_order"), std::string::npos);
-  EXPECT_EQ(write_bsvtf(d->metadata, m.u, tiles, 4).status(), Status::invalid_argument);
+  EXPECT_EQ(write_bsvtf(d->metadata, m.u, tiles, kBsvtfVersion + 1).status(), Status::invalid_argument);
+}
+
+// Version 4 stores the value encoding of the factorisation (core/value_transform.hpp); earlier
+// versions read as linear and cannot store another encoding; an unknown encoding or a log offset
+// ≤ 0 in a file is bad_data.
+TEST(CodecContainer, ValueTransformRoundTripsAndOlderVersionsCannotStoreIt) {
+  Material m = make_material(2, 3);
+  m.metadata.value_transform = ValueTransform{ValueEncoding::log, 0.125f};
+  const auto file = build(m);
+  const auto d = read_bsvtf(file);
+  ASSERT_TRUE(d.ok()) << d.message();
+  EXPECT_EQ(d->header.version, 4u);
+  EXPECT_EQ(d->metadata.value_transform.encoding, ValueEncoding::log);
+  EXPECT_EQ(d->metadata.value_transform.log_offset, 0.125f);
+  std::vector<BsvtfEncodedTile> tiles;
+  for (const auto& e : d->tiles)
+    tiles.push_back(BsvtfEncodedTile{e.id, std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
+                                                                file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
+                                     e.weight, e.energy});
+  const auto v3 = write_bsvtf(d->metadata, m.u, tiles, 3);
+  EXPECT_EQ(v3.status(), Status::invalid_argument);
+  EXPECT_NE(v3.message().find("log"), std::string::npos) << v3.message();
+  BsvtfMetadata linear = d->metadata;
+  linear.value_transform = ValueTransform{};
+  const auto old = write_bsvtf(linear, m.u, tiles, 3);
+  ASSERT_TRUE(old.ok()) << old.message();
+  EXPECT_TRUE(read_bsvtf(*old)->metadata.value_transform.is_linear());
+  BsvtfMetadata bad = d->metadata;
+  bad.value_transform.log_offset = 0.0f;
+  EXPECT_EQ(write_bsvtf(bad, m.u, tiles).status(), Status::invalid_argument);
+  // A hostile encoding in the metadata (its CRC fixed): refused with a reason.
+  std::vector<uint8_t> f = file;
+  uint64_t meta_offset = 0;
+  std::memcpy(&meta_offset, f.data() + 32, 8);
+  uint32_t meta_size = 0;
+  std::memcpy(&meta_size, f.data() + kOffMetaSize, 4);
+  const size_t at = static_cast<size_t>(meta_offset) + 12 * 4 + 4;  // 11 u32, quality f32, row order u32
+  uint32_t encoding = 0;
+  std::memcpy(&encoding, f.data() + at, 4);
+  ASSERT_EQ(encoding, static_cast<uint32_t>(ValueEncoding::log));
+  patch<uint32_t>(f, at, 7u);
+  patch<uint32_t>(f, kOffMetaCrc, crc32_of(std::span<const uint8_t>(f).subspan(static_cast<size_t>(meta_offset), meta_size)));
+  fix_header_crc(f);
+  const auto hostile = read_bsvtf(f);
+  EXPECT_EQ(hostile.status(), Status::bad_data);
+  EXPECT_NE(hostile.message().find("value encoding"), std::string::npos) << hostile.message();
 }
 
 // The default coder (BsvtfBuildOptions{}, default_tile_entropy_coder()) is zstd where the build

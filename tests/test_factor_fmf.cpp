@@ -12,7 +12,9 @@
 #include "btflod/btf/synthesizer.hpp"
 
 #include "btflod/factor/fmf.hpp"
+#include "btflod/factor/fmf_rank.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/metrics/image_metrics.hpp"
 
 namespace btflod {
 namespace {
@@ -271,6 +273,152 @@ TEST(FactorFmf, RejectsNaNFactors) {
   auto r = Fmf::deserialize(f->serialize());
   EXPECT_FALSE(r.ok());
   EXPECT_NE(r.message().find("not finite"), std::string::npos);
+}
+
+// The value transforms of core/value_transform.hpp: E and D are inverse on x ≥ 0, D is odd for
+// sqrt, names parse, invalid parameters are refused.
+TEST(FactorFmf, ValueTransformsInvertAndValidate) {
+  for (ValueEncoding e : {ValueEncoding::linear, ValueEncoding::sqrt, ValueEncoding::log}) {
+    const ValueTransform t{e, 0.05f};
+    ASSERT_TRUE(t.valid());
+    for (float x : {0.0f, 1e-4f, 0.07f, 0.5f, 1.0f, 3.0f, 33.9f})
+      EXPECT_NEAR(t.decode(t.encode(x)), x, 2e-6f * (1.0f + x)) << value_encoding_name(e) << " " << x;
+    ValueEncoding parsed = ValueEncoding::linear;
+    EXPECT_TRUE(parse_value_encoding(value_encoding_name(e), parsed));
+    EXPECT_EQ(parsed, e);
+  }
+  const ValueTransform sq{ValueEncoding::sqrt};
+  EXPECT_EQ(sq.decode(-0.5f), -0.25f);  // a negative sum stays negative
+  EXPECT_EQ(sq.encode(-1.0f), 0.0f);    // measured noise below 0 is clamped
+  EXPECT_FALSE((ValueTransform{ValueEncoding::log, 0.0f}.valid()));
+  EXPECT_FALSE((ValueTransform{ValueEncoding::log, std::nanf("")}.valid()));
+  EXPECT_FALSE((ValueTransform{static_cast<ValueEncoding>(9)}.valid()));
+  ValueEncoding parsed = ValueEncoding::sqrt;
+  EXPECT_FALSE(parse_value_encoding("gamma", parsed));
+  EXPECT_EQ(parsed, ValueEncoding::sqrt);
+}
+
+// The demo's glossy tiles material, 32² texels on its 23 × 23 directions (highlights up to ~34).
+Result<BtfFloat> glossy_tiles_btf() {
+  SynthesisOptions so;
+  const float thetas[] = {0.0f, 30.0f, 55.0f, 75.0f};
+  const int counts[] = {1, 6, 8, 8};
+  const float offsets[] = {0.0f, 0.0f, 22.5f, 0.0f};
+  so.views = DirectionSet::from_rings("demo-23", thetas, counts, offsets, false);
+  so.lights = so.views;
+  return synthesize_material(SynthMaterial::tiles, 32, 32, 4, so);
+}
+
+// Mean SSIM of the sRGB images (exposure 2.1, clamped as displayed) of every (view, light) pair.
+double displayed_ssim(const BtfFloat& raw, const Fmf& f) {
+  double sum = 0.0;
+  const auto srgb = [](float v) {
+    v = std::clamp(2.1f * v, 0.0f, 1.0f);
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+  };
+  for (uint32_t v = 0; v < raw.view_count(); ++v)
+    for (uint32_t l = 0; l < raw.light_count(); ++l) {
+      Image<float> a(raw.width(), raw.height(), 3), b = a;
+      for (int y = 0; y < raw.height(); ++y)
+        for (int x = 0; x < raw.width(); ++x) {
+          const glm::vec3 r = f.evaluate_measured(x, y, v, l);
+          for (int c = 0; c < 3; ++c) a.at(x, y, c) = srgb(raw.at(x, y, v, l, c)), b.at(x, y, c) = srgb(r[c]);
+        }
+      sum += mean_ssim(a.view(), b.view());
+    }
+  return sum / static_cast<double>(raw.view_count() * raw.light_count());
+}
+
+// A glossy material whose mirror highlights (up to ~34) dwarf its diffuse body (0.05–0.25): at
+// C = 8 a linear FMF spends its components on the highlights and the displayed images lose
+// their texture and colour (paper 000 Fig. 4); factorising √x or ln(x + ε) keeps them. The
+// evaluation decodes the sum (evaluate_measured = D(evaluate_encoded), reconstruct() alike), the
+// encoding survives serialisation and a damaged VENC section is refused.
+TEST(FactorFmf, ValueTransformKeepsAGlossyMaterialsTextureAtLowRank) {
+  auto btf = glossy_tiles_btf();
+  ASSERT_TRUE(btf.ok()) << btf.message();
+  float peak = 0.0f;
+  for (float x : btf->samples()) peak = std::max(peak, x);
+  EXPECT_GT(peak, 10.0f) << "the material must be glossy for the test to mean anything";
+  FmfOptions o;
+  o.components = 8;
+  auto linear = factorize_fmf(*btf, o);
+  ASSERT_TRUE(linear.ok()) << linear.message();
+  o.transform = ValueTransform{ValueEncoding::sqrt};
+  auto sqrt_fmf = factorize_fmf(*btf, o);
+  ASSERT_TRUE(sqrt_fmf.ok()) << sqrt_fmf.message();
+  o.transform = ValueTransform{ValueEncoding::log, 0.05f};
+  auto log_fmf = factorize_fmf(*btf, o);
+  ASSERT_TRUE(log_fmf.ok()) << log_fmf.message();
+  const double s_lin = displayed_ssim(*btf, *linear), s_sqrt = displayed_ssim(*btf, *sqrt_fmf),
+               s_log = displayed_ssim(*btf, *log_fmf);
+  std::printf("[ tiles 32x32, 23x23 directions, C = 8 ] displayed SSIM: linear %.4f, sqrt %.4f, log %.4f\n", s_lin,
+              s_sqrt, s_log);
+  EXPECT_GT(s_sqrt, s_lin + 0.1);
+  EXPECT_GT(s_log, s_lin + 0.2);
+  // Decoding: evaluate = D(Σ), reconstruct() the same values.
+  const Fmf& f = *log_fmf;
+  EXPECT_EQ(f.transform.encoding, ValueEncoding::log);
+  const glm::vec3 enc = f.evaluate_encoded(5, 7, 3, 9), dec = f.evaluate_measured(5, 7, 3, 9);
+  for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(dec[c], std::exp(enc[c]) - 0.05f);
+  const BtfFloat rec = f.reconstruct();
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(rec.at(5, 7, 3, 9, c), dec[c], 1e-4f * (1.0f + std::fabs(dec[c])));
+  // Serialisation keeps the encoding; a linear FMF writes no VENC section.
+  auto back = Fmf::deserialize(f.serialize());
+  ASSERT_TRUE(back.ok()) << back.message();
+  EXPECT_TRUE(back->transform == f.transform);
+  EXPECT_EQ(back->evaluate_measured(5, 7, 3, 9), dec);
+  const std::vector<uint8_t> linear_file = linear->serialize();
+  EXPECT_FALSE(FactorFile::parse(linear_file)->has_section(factor_tag("VENC")));
+  Fmf damaged = f;
+  damaged.transform.log_offset = -1.0f;
+  auto refused = Fmf::deserialize(damaged.serialize());
+  EXPECT_EQ(refused.status(), Status::bad_data);
+  EXPECT_NE(refused.message().find("VENC"), std::string::npos) << refused.message();
+  o.transform.log_offset = 0.0f;
+  EXPECT_EQ(factorize_fmf(*btf, o).status(), Status::invalid_argument);
+}
+
+// The rank chosen from displayed images (factor/fmf_rank.hpp): on the glossy tiles material
+// (log encoding) the chosen rank is the smallest candidate whose training views reach the target,
+// the held-out views (odd view indices, never used for the choice) reach it too within 0.03, the
+// truncated FMF is what the curve measured, and an unreachable target returns the largest rank
+// with target_met = false.
+TEST(FactorFmf, RankChosenFromDisplayedImagesMeetsItsTargetOnHeldOutViews) {
+  auto btf = glossy_tiles_btf();
+  ASSERT_TRUE(btf.ok()) << btf.message();
+  FmfRankOptions o;
+  o.fmf.transform = ValueTransform{ValueEncoding::log, 0.05f};
+  o.candidates = {4, 8, 12, 16, 24};
+  o.min_ssim = 0.75;
+  o.exposure = 2.1f;
+  auto choice = choose_fmf_rank(*btf, o);
+  ASSERT_TRUE(choice.ok()) << choice.message();
+  for (const FmfRankPoint& p : choice->curve)
+    std::printf("[ tiles, log ] C = %2d: training SSIM %.4f, held-out %.4f\n", p.components, p.training_ssim,
+                p.held_out_ssim);
+  ASSERT_TRUE(choice->target_met);
+  ASSERT_GE(choice->curve.size(), 2u) << "the target must not be met by the smallest candidate";
+  const FmfRankPoint& chosen = choice->curve.back();
+  EXPECT_EQ(chosen.components, choice->components);
+  EXPECT_GE(chosen.training_ssim, o.min_ssim);
+  EXPECT_LT(choice->curve[choice->curve.size() - 2].training_ssim, o.min_ssim);  // the smallest rank that meets it
+  EXPECT_GE(chosen.held_out_ssim, o.min_ssim - 0.03) << "held-out views";
+  EXPECT_EQ(choice->fmf.components, choice->components);
+  EXPECT_TRUE(choice->fmf.transform == o.fmf.transform);
+  EXPECT_DOUBLE_EQ(fmf_displayed_ssim(*btf, choice->fmf, 1, o.exposure), chosen.held_out_ssim);
+  // Unreachable: the largest candidate, flagged.
+  o.min_ssim = 0.9999;
+  auto best = choose_fmf_rank(*btf, o);
+  ASSERT_TRUE(best.ok()) << best.message();
+  EXPECT_FALSE(best->target_met);
+  EXPECT_EQ(best->components, 24);
+  EXPECT_EQ(best->curve.size(), o.candidates.size());
+  o.candidates = {8, 4};
+  EXPECT_EQ(choose_fmf_rank(*btf, o).status(), Status::invalid_argument);
+  o.candidates = {4, 8};
+  o.min_ssim = 1.5;
+  EXPECT_EQ(choose_fmf_rank(*btf, o).status(), Status::invalid_argument);
 }
 
 }  // namespace

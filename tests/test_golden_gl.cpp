@@ -29,6 +29,7 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 }  // namespace
 
 TEST(GoldenGl, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
+TEST(GoldenGl, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
 TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) {
   btflod::golden::golden_fmf_u_packets(make_backend);
 }

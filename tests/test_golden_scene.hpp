@@ -86,10 +86,18 @@ inline void plane_mesh(const PlaneSetup& s, std::vector<MeshVertex>& v, std::vec
   idx = {0, 1, 2, 0, 2, 3};
 }
 
+/// The plane of PlaneSetup{} uploaded to a backend.
+inline Result<MeshHandle> create_plane_mesh(Backend& be) {
+  std::vector<MeshVertex> verts;
+  std::vector<uint32_t> idx;
+  plane_mesh(PlaneSetup{}, verts, idx);
+  return be.create_mesh(MeshData{verts, idx});
+}
+
 /// CPU reference image: ray-cast the plane, V' from `sample_v(hit, out[C])`, eq. 5 with the
 /// shader's angular lookup (test_scene::lookup), times the light colour. Background 0.
 template <class SampleV>
-Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& sample_v) {
+Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& sample_v, ValueTransform transform = {}) {
   const PlaneSetup s;
   Scene scene;
   scene.add(Shape::plane(0, s.origin, s.axis_u, s.axis_v, s.size, s.size));
@@ -99,6 +107,7 @@ Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& samp
   e.angular = m.u;
   e.light_count = m.lights;
   e.view_count = m.views;
+  e.transform = transform;
   Image<float> out(kSize, kSize, 4, 0.0f);
   std::vector<float> comps(m.config.components);
   for (int y = 0; y < kSize; ++y)
@@ -152,10 +161,7 @@ void golden_fmf(Factory make) {
   const ShaderConfig config = golden_config();
   ASSERT_TRUE(be->init(config, 2).ok());
   const Material m = make_material(config, kTexture, kTexture);
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(*be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   FmfMaterialData d = m.data(true);
   d.mipmaps = false;
@@ -177,6 +183,49 @@ void golden_fmf(Factory make) {
   EXPECT_GE(psnr, 40.0);
 }
 
+/// FMF in the sqrt and log encodings (core/value_transform.hpp): the programs generated for
+/// ShaderConfig::value_transform decode the sum of eq. 5 as the CPU reference does (≥ 40 dB),
+/// and the image differs from the linear one; a material of another encoding is refused.
+template <class Factory>
+void golden_fmf_value_transforms(Factory make) {
+  const Material m = make_material(golden_config(), kTexture, kTexture);
+  const ShaderParams params = golden_params(golden_camera());
+  const auto sample = [&](const SurfaceHit& h, float* out) {
+    bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
+  };
+  const Image<float> linear = cpu_render(m, params, sample);
+  for (const ValueTransform t : {ValueTransform{ValueEncoding::sqrt}, ValueTransform{ValueEncoding::log, 0.05f}}) {
+    std::string why;
+    std::unique_ptr<Backend> be = make(why);
+    if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+    ShaderConfig config = golden_config();
+    config.value_transform = t;
+    ASSERT_TRUE(be->init(config, 2).ok());
+    auto mesh = create_plane_mesh(*be);
+    ASSERT_TRUE(mesh.ok()) << mesh.message();
+    FmfMaterialData d = m.data(true);
+    d.mipmaps = false;
+    EXPECT_EQ(be->create_material(d).status(), Status::invalid_argument) << "a linear material under a "
+                                                                         << value_encoding_name(t.encoding) << " program";
+    d.transform = t;
+    auto mat = be->create_material(d);
+    ASSERT_TRUE(mat.ok()) << mat.message();
+    ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
+    ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, *mat, params), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);
+    Image<float> img(kSize, kSize, 4);
+    ASSERT_EQ(be->read_color(img.view()), Status::success);
+    const Image<float> ref = cpu_render(m, params, sample, t);
+    expect_content(ref);
+    expect_content(img);
+    const double psnr = psnr_rgb(ref, img), vs_linear = psnr_rgb(linear, img);
+    std::printf("[ %s ] golden FMF, %s encoding, vs CPU reference: PSNR %.2f dB (vs the linear image %.2f dB)\n",
+                be->name(), value_encoding_name(t.encoding), psnr, vs_linear);
+    EXPECT_GE(psnr, 40.0);
+    EXPECT_LT(vs_linear, psnr - 10.0);
+  }
+}
+
 /// U′ packets (Backend::upload_u_packets): a material created with U′ = 0 and then given its
 /// U′ packet by packet (light-major rows of four halves, as the runtime hands them out) renders
 /// exactly like a material created with the same (half-rounded) U′; after packet 0 only, like a
@@ -191,10 +240,7 @@ void golden_fmf_u_packets(Factory make) {
   const Material m = make_material(config, kTexture, kTexture);
   const uint32_t C = config.components, rows = m.lights * m.views * 3;
   ASSERT_EQ(C, 8u);
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(*be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   // The packets, and U′ as they carry it (rounded to half) in full and with packet 0 only.
   std::vector<std::vector<uint16_t>> packets(2, std::vector<uint16_t>(size_t{rows} * 4));
@@ -318,10 +364,7 @@ void golden_bsvtf_partial(Factory make) {
   ASSERT_TRUE(be->init(config, set.texture_count()).ok());
   ASSERT_EQ(be->upload_tiles(vt.uploads), Status::success);
   ASSERT_EQ(be->apply_page_table_writes(vt.writes), Status::success);
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(*be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   auto mat = be->create_material(m.data(false));
   ASSERT_TRUE(mat.ok()) << mat.message();

@@ -146,9 +146,6 @@ void golden_streamer_materials_come_and_go(Factory make) {
     make_streamed_material(config, 7u + 5u * i, mats[i]);
     if (::testing::Test::HasFatalFailure()) return;
   }
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
 
   // World A: materials 0 and 1 at creation, room for any two of the three live at once.
   const StreamerMaterial all[3] = {mats[0].streamer(), mats[1].streamer(), mats[2].streamer()};
@@ -157,7 +154,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   auto a = Streamer::create(std::span<const StreamerMaterial>(all, 2), sc);
   ASSERT_TRUE(a.ok()) << a.message();
   ASSERT_TRUE(be->init(config, a->gpu_layout().page_table_layers).ok());
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(*be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   GoldenStreamingEngine ea;
   ea.attach(*be, *a);
@@ -204,7 +201,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   auto b = Streamer::create(final_set, golden_streamer_config(config));
   ASSERT_TRUE(b.ok()) << b.message();
   ASSERT_TRUE(be_b->init(config, b->gpu_layout().page_table_layers).ok());
-  auto mesh_b = be_b->create_mesh(MeshData{verts, idx});
+  auto mesh_b = create_plane_mesh(*be_b);
   ASSERT_TRUE(mesh_b.ok()) << mesh_b.message();
   GoldenStreamingEngine eb;
   eb.attach(*be_b, *b);

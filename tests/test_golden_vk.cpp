@@ -84,6 +84,7 @@ void hlsl_matches_glsl(btflod::ShaderProgram program) {
 }  // namespace
 
 TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
+TEST(GoldenVk, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
 TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) {
   btflod::golden::golden_fmf_u_packets(make_backend);
 }
@@ -98,6 +99,9 @@ TEST(GoldenVk, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golde
 TEST(GoldenVk, HlslFmfRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::fmf); }
 TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::bsvtf); }
 TEST(GoldenVk, HlslFmfMatchesCpuReference) { btflod::golden::golden_fmf(make_hlsl_backend); }
+TEST(GoldenVk, HlslFmfValueTransformsMatchCpuReference) {
+  btflod::golden::golden_fmf_value_transforms(make_hlsl_backend);
+}
 TEST(GoldenVk, HlslBsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_hlsl_backend); }
 TEST(GoldenVk, HlslLaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_hlsl_backend); }
 TEST(GoldenVk, HlslLpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_hlsl_backend); }

@@ -174,6 +174,26 @@ TEST(TilePyramid, WeightsFollowEquation8) {
   for (uint32_t i = 0; i < p.levels().offset[L]; ++i) EXPECT_EQ(p.weights(0)[i].to_float(), 0.0f);
 }
 
+// Eigen-textures of a few hundred (a log-encoded FMF's first component): the root's w and every
+// energy exceed the largest half and saturate at 65504 instead of becoming infinite (a container
+// refuses non-finite weights); small values are unchanged.
+TEST(TilePyramid, LargeWeightsAndEnergiesSaturateInsteadOfOverflowing) {
+  EigenTextures big = make_input(128, 128, 4, 6);
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 128; ++x) {
+      big.textures.at(x, y, 0) = -350.0f + 0.01f * static_cast<float>(x % 7);
+      for (int c = 1; c < 4; ++c) big.textures.at(x, y, c) = 0.0f;
+    }
+  auto r = TilePyramid::build(big);
+  ASSERT_TRUE(r.ok()) << r.message();
+  for (uint32_t i = 0; i < r->levels().tile_count(); ++i) {
+    EXPECT_EQ(r->energies(0)[i].to_float(), 65504.0f);  // 350² = 122,500
+    EXPECT_TRUE(std::isfinite(r->weights(0)[i].to_float()));
+  }
+  EXPECT_EQ(r->weights(0)[0].to_float(), 65504.0f);  // the root: distance to nothing
+  EXPECT_LT(r->weights(0)[r->levels().tile_count() - 1].to_float(), 1.0f);  // detail only
+}
+
 TEST(TilePyramid, WeightsCopyIntoASharedSet) {
   const EigenTextures e = make_input(128, 128, 8, 6);
   auto r = TilePyramid::build(e);

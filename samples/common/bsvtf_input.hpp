@@ -96,14 +96,4 @@ inline void apply_luminance_tolerance(BsvtfTileInputs& in, uint32_t tile_size, u
   }
 }
 
-/// Fills the direction-set names and unit vectors of the container metadata.
-inline void set_bsvtf_directions(BsvtfMetadata& md, const DirectionSet& lights, const DirectionSet& views) {
-  md.light_set = lights.name();
-  md.view_set = views.name();
-  for (const Direction& d : lights)
-    for (int k = 0; k < 3; ++k) md.light_directions.push_back(d.vector[k]);
-  for (const Direction& d : views)
-    for (int k = 0; k < 3; ++k) md.view_directions.push_back(d.vector[k]);
-}
-
 }  // namespace btflod::samples

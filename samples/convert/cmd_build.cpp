@@ -105,20 +105,14 @@ int run_build(int argc, char** argv) {
     return convert::kExitFailure;
   }
 
-  BsvtfMetadata md;
+  // The library's metadata for these eigen-textures (geometry, C, U's rows, the value encoding);
+  // FMF rows are (view · n_light + light) · 3 + colour.
   const size_t slash = in.find_last_of('/');
-  md.material_name = slash == std::string::npos ? in : in.substr(slash + 1);
-  md.width = static_cast<uint32_t>(w);
-  md.height = static_cast<uint32_t>(h);
-  md.tile_size = tile;
-  md.border = border;
-  md.level_count = pyramid->geometry().level_count();
-  md.component_count = comps;
-  md.color_channels = 3;
-  md.color_mode = ColorMode::linear_rgb;
-  md.u_rows = static_cast<uint32_t>(fmf->u.size() / comps);
-  md.u_row_order = AngularRowOrder::view_major;  // FMF rows: (view · n_light + light) · 3 + colour
-  samples::set_bsvtf_directions(md, fmf->shape.lights, fmf->shape.views);
+  BsvtfMetadata md = bsvtf_metadata_for(eigen, *pyramid, AngularRowOrder::view_major,
+                                        direction_vectors(fmf->shape.lights), direction_vectors(fmf->shape.views),
+                                        slash == std::string::npos ? in : in.substr(slash + 1));
+  md.light_set = fmf->shape.lights.name();
+  md.view_set = fmf->shape.views.name();
 
   // Tiles (half texels from the pyramid, as float) with their eq. 8 weights.
   samples::BsvtfTileInputs inputs = samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, tile, border);

@@ -10,6 +10,7 @@
 #include "store_commands.hpp"
 
 #include "btflod/factor/any_factorization.hpp"
+#include "btflod/factor/fmf_rank.hpp"
 
 namespace {
 
@@ -25,7 +26,8 @@ int run_factor(int argc, char** argv) {
         "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
         "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
         "                             [--float] [--basis-per-texel B] [--representatives R]\n"
-        "                             [--lobes L] [--quiet]\n"
+        "                             [--lobes L] [--value-encoding linear|sqrt|log]\n"
+        "                             [--target-ssim S [--exposure E]] [--quiet]\n"
         "                             [--profile paper] [--memory SIZE] [--checkpoint FILE]\n"
         "                             [--block-columns N] [--stop-after-passes K]\n"
         "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
@@ -46,7 +48,14 @@ int run_factor(int argc, char** argv) {
         "             read in column blocks with peak memory under --memory (default 4G; e.g. 512M, 1.5G),\n"
         "             a progress line per pass, a checkpoint after every pass (default OUT.checkpoint) that\n"
         "             the same command resumes; --stop-after-passes K stops after K passes (e.g. to fit a\n"
-        "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.");
+        "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.\n"
+        "  --value-encoding  fmf: factorise the values (linear, the default), their square root or\n"
+        "             ln(x + 0.05), a dynamic-range reduction for glossy materials stored in the file\n"
+        "             and decoded by every renderer (core/value_transform.hpp).\n"
+        "  --target-ssim  fmf: choose the smallest rank among 4, 8, 12, 16, 24, 32, 48, 64, 100 up to\n"
+        "             --components whose displayed images (x exposure --exposure, default 1, clamped,\n"
+        "             sRGB) of the even views reach this mean SSIM against the BTF; the odd views are\n"
+        "             held out and reported (factor/fmf_rank.hpp, docs/fidelity.md).");
     return convert::kExitOk;
   }
   const std::string method = opt.string("method", "fmf");
@@ -59,6 +68,25 @@ int run_factor(int argc, char** argv) {
   const int stop_after = static_cast<int>(opt.integer("stop-after-passes", 0, 0, 100));
   const auto block_columns = static_cast<size_t>(opt.integer("block-columns", 256, 1, 1 << 20));
   const auto components_text = opt.value("components");
+  const std::string encoding_text = opt.string("value-encoding", "linear");
+  const auto target_text = opt.value("target-ssim");
+  const auto exposure_text = opt.value("exposure");
+  double target_ssim = 0.0, exposure = 1.0;
+  if (target_text) {
+    char* end = nullptr;
+    target_ssim = std::strtod(target_text->c_str(), &end);
+    if (end == target_text->c_str() || *end != '\0' || !(target_ssim > 0.0 && target_ssim <= 1.0))
+      opt.error("--target-ssim " + *target_text + ": expected a number in (0, 1]");
+  }
+  if (exposure_text) {
+    char* end = nullptr;
+    exposure = std::strtod(exposure_text->c_str(), &end);
+    if (end == exposure_text->c_str() || *end != '\0' || !(exposure > 0.0 && exposure < 1e6))
+      opt.error("--exposure " + *exposure_text + ": expected a positive number");
+  }
+  ValueTransform transform;
+  if (!parse_value_encoding(encoding_text, transform.encoding))
+    opt.error("--value-encoding " + encoding_text + ": expected linear, sqrt or log");
   const int k = static_cast<int>(opt.integer("k", 3, 0, 1 << 16));
   const int clusters = static_cast<int>(opt.integer("clusters", method == "spmm" ? 4 : 8, 1, 65535));
   const int iterations = static_cast<int>(opt.integer("iterations", 20, 0, 1000));
@@ -78,6 +106,9 @@ int run_factor(int argc, char** argv) {
   const bool quiet = opt.flag("quiet", 'q');
   if (method != "fmf" && method != "pca-k" && method != "laplacian" && method != "lpca" && method != "spmm")
     opt.error("--method " + method + ": expected fmf, pca-k, laplacian, lpca or spmm");
+  if (!transform.is_linear() && method != "fmf")
+    opt.error("--value-encoding " + encoding_text + ": only the fmf method has value encodings");
+  if (target_text && method != "fmf") opt.error("--target-ssim: only the fmf method chooses its rank");
   if (svd != "auto" && svd != "exact" && svd != "randomized")
     opt.error("--svd " + svd + ": expected auto, exact or randomized");
   int components = method == "fmf" ? (profile == "paper" ? 100 : 16) : (method == "lpca" || method == "spmm") ? 4 : 8;
@@ -111,6 +142,7 @@ int run_factor(int argc, char** argv) {
     a.in = in;
     a.out = out;
     a.components = components;
+    a.transform = transform;
     a.svd.power_iterations = power;
     a.svd.max_power_iterations = max_power;
     a.svd.power_tolerance = tolerance;
@@ -143,10 +175,32 @@ int run_factor(int argc, char** argv) {
     if (!r) return r.error();
     return AnyFactorization(std::move(*r));
   };
-  if (method == "fmf") {
+  if (method == "fmf" && target_text) {
+    FmfRankOptions o;
+    o.fmf.svd = so;
+    o.fmf.transform = transform;
+    o.min_ssim = target_ssim;
+    o.exposure = static_cast<float>(exposure);
+    o.candidates.clear();
+    for (int c : {4, 8, 12, 16, 24, 32, 48, 64, 100})
+      if (c < components) o.candidates.push_back(c);
+    o.candidates.push_back(components);
+    auto choice = choose_fmf_rank(*btf, o, bar.callback());
+    if (choice) {
+      for (const FmfRankPoint& p : choice->curve)
+        std::printf("  rank %3d: displayed SSIM %.4f on the training views, %.4f on the held-out views\n",
+                    p.components, p.training_ssim, p.held_out_ssim);
+      std::printf("  chose C = %d (%s target %.4f)\n", choice->components,
+                  choice->target_met ? "meets the" : "the largest candidate: below the", target_ssim);
+      result = AnyFactorization(std::move(choice->fmf));
+    } else {
+      result = choice.error();
+    }
+  } else if (method == "fmf") {
     FmfOptions o;
     o.components = components;
     o.svd = so;
+    o.transform = transform;
     result = wrap(factorize_fmf(*btf, o, bar.callback()));
   } else if (method == "pca-k") {
     PcaViewsOptions o;

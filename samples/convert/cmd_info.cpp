@@ -104,8 +104,12 @@ int info_bsvtf(const std::string& path, bool values) {
   std::printf("  material \"%s\", %u x %u texels, %u levels of %u+2*%u tiles, %u components in %u RGBA textures\n",
               m.material_name.c_str(), m.width, m.height, m.level_count, m.tile_size, m.border, m.component_count,
               m.texture_count());
-  std::printf("  colour  %u channels, %s; U %u rows x %u components; quality %.1f\n", m.color_channels,
-              color_mode_name(m.color_mode), m.u_rows, m.component_count, static_cast<double>(m.quality));
+  std::printf("  colour  %u channels, %s; U %u rows x %u components; quality %.1f; values %s", m.color_channels,
+              color_mode_name(m.color_mode), m.u_rows, m.component_count, static_cast<double>(m.quality),
+              value_encoding_name(m.value_transform.encoding));
+  if (m.value_transform.encoding == ValueEncoding::log)
+    std::printf(" (offset %g)", static_cast<double>(m.value_transform.log_offset));
+  std::printf("\n");
   std::printf("  lights  %zu directions (%s)\n  views   %zu directions (%s)\n", m.light_directions.size() / 3,
               m.light_set.c_str(), m.view_directions.size() / 3, m.view_set.c_str());
   uint64_t packet_bytes = 0;

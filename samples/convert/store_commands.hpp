@@ -171,6 +171,7 @@ struct StoreFactorArgs {
   std::string in, out;
   int components = 16;
   SvdOptions svd{};
+  ValueTransform transform{};  ///< --value-encoding
   uint64_t memory_budget = uint64_t{4} << 30;
   std::string checkpoint;  ///< empty: OUT + ".checkpoint"
   int stop_after_passes = 0;
@@ -207,6 +208,7 @@ inline int run_factor_store(const StoreFactorArgs& a) {
   }
   FmfOutOfCoreOptions o;
   o.components = a.components;
+  o.transform = a.transform;
   o.svd.svd = a.svd;
   o.svd.memory_budget = a.memory_budget;
   o.svd.checkpoint_path = a.checkpoint.empty() ? a.out + ".checkpoint" : a.checkpoint;

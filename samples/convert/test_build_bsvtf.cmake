@@ -1,7 +1,9 @@
 # convert_build_bsvtf: synthesise a small leather, factor it (FMF), build .bsvtf containers with
 # the default (perceptual) and the shared tolerance and check that both decode completely
 # (`info --values`), that the default is the perceptual one with its frequency weighting, and
-# that it differs from the shared one; an unknown --tolerance is a usage error.
+# that it differs from the shared one; an unknown --tolerance is a usage error. The same material
+# factorised on ln(x + 0.05) with the rank chosen from a displayed-SSIM target builds a container
+# that says so (`values log`) and decodes completely.
 # Run with -DCONVERT=<btflod-convert> -DOUT=<scratch dir>.
 set(btf ${OUT}/build_test.btf)
 set(fmf ${OUT}/build_test.fmf)
@@ -46,4 +48,26 @@ endif()
 execute_process(COMMAND ${CONVERT} build ${fmf} ${OUT}/build_x.bsvtf --tolerance bogus RESULT_VARIABLE rc ERROR_VARIABLE err)
 if(rc EQUAL 0 OR NOT err MATCHES "expected perceptual, shared or per-component")
   message(FATAL_ERROR "an unknown --tolerance was accepted (${rc}): ${err}")
+endif()
+
+execute_process(COMMAND ${CONVERT} factor ${btf} ${OUT}/build_log.fmf --method fmf --components 16 --value-encoding log
+                        --target-ssim 0.5 --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "chose C = [0-9]+ \\(meets the target 0.5000\\)" OR NOT out MATCHES "held-out views")
+  message(FATAL_ERROR "factor --value-encoding log --target-ssim failed (${rc}): ${out} ${err}")
+endif()
+message(STATUS "${out}")
+execute_process(COMMAND ${CONVERT} build ${OUT}/build_log.fmf ${OUT}/build_log.bsvtf --tile 16 --border 4 --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "build of the log-encoded FMF failed (${rc}): ${out} ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} info --values ${OUT}/build_log.bsvtf RESULT_VARIABLE rc OUTPUT_VARIABLE info ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT info MATCHES "values log \\(offset 0.05\\)" OR NOT info MATCHES " tiles decoded, 0 failed")
+  message(FATAL_ERROR "info --values on build_log.bsvtf (${rc}): ${info} ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} factor ${btf} ${OUT}/build_x.fmf --method pca-k --target-ssim 0.9
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(rc EQUAL 0 OR NOT err MATCHES "only the fmf method chooses its rank")
+  message(FATAL_ERROR "--target-ssim with pca-k was accepted (${rc}): ${err}")
 endif()

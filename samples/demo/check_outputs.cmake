@@ -21,20 +21,29 @@ string(JSON other GET "${json}" raw_reference fmf_gpu filter)
 if(NOT is_default OR NOT filter MATCHES "^same rays" OR NOT other MATCHES "^different filters")
   message(FATAL_ERROR "report.json: components_default ${is_default}, fmf_cpu filter '${filter}', fmf_gpu filter '${other}'")
 endif()
-# --cut: frames and bytes to converge after the camera cut, measured and consistent: the first
-# frame after the cut is far from the converged one (the first view's tiles were not resident),
-# streaming went quiet, and reaching SSIM 0.99 took frames and tile uploads (bytes from the link
-# may be 0: the payload cache holds the whole small data set once read).
+# --cut: frames and bytes to converge after the camera cut, measured and consistent: some frame
+# after the cut is below SSIM 0.99 of the converged one (the first view's tiles were not all
+# resident; with the log encoding the very first frame may already be within it, and frames dip
+# below while finer tiles arrive), streaming went quiet, and staying within SSIM 0.99 took frames
+# and tile uploads (bytes from the link may be 0: the payload cache holds the whole small data set).
 string(JSON cut_frames GET "${json}" cut frames_to_threshold)
 string(JSON cut_tiles GET "${json}" cut tiles_to_threshold)
 string(JSON cut_run GET "${json}" cut frames_run)
 string(JSON cut_quiet GET "${json}" cut quiet)
-string(JSON cut_first GET "${json}" cut first_frame_ssim)
-if(cut_frames LESS 2 OR cut_frames GREATER cut_run OR cut_tiles EQUAL 0 OR NOT cut_quiet OR NOT cut_first LESS 0.99)
+string(JSON cut_count LENGTH "${json}" cut ssim)
+set(cut_min 1)
+math(EXPR cut_last "${cut_count} - 1")
+foreach(i RANGE ${cut_last})
+  string(JSON s GET "${json}" cut ssim ${i})
+  if(s LESS cut_min)
+    set(cut_min ${s})
+  endif()
+endforeach()
+if(cut_frames LESS 2 OR cut_frames GREATER cut_run OR cut_tiles EQUAL 0 OR NOT cut_quiet OR NOT cut_min LESS 0.99)
   message(FATAL_ERROR "report.json cut: ${cut_frames} frames (of ${cut_run}, quiet ${cut_quiet}), ${cut_tiles} tiles, "
-                      "first frame SSIM ${cut_first}")
+                      "lowest SSIM after the cut ${cut_min}")
 endif()
-message(STATUS "cut: within SSIM 0.99 after ${cut_frames} frames, ${cut_tiles} tiles")
+message(STATUS "cut: within SSIM 0.99 after ${cut_frames} frames, ${cut_tiles} tiles (lowest ${cut_min})")
 # The two material swaps on the live Streamer: each added material was shown (after it was
 # ready) and the id it replaced released, in order; the swap back takes the freed layers again.
 string(JSON planned GET "${json}" material_swaps planned)

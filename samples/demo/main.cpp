@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
   ms.components = static_cast<uint32_t>(cfg->components);
   ms.kind = cfg->material;
   ms.interreflection = cfg->interreflection;
+  ms.transform.encoding = cfg->value_encoding ? *cfg->value_encoding : paper ? ValueEncoding::linear : demo::kDefaultDemoEncoding;
   if (paper)
     std::printf(
         "btflod demo: profile paper (paper 000 §7): %d materials of %dx%d texels x 151 x 151 directions, FMF C = %u "
@@ -226,6 +227,7 @@ int main(int argc, char** argv) {
   run.profile = paper ? "paper" : "default";
   run.feedback_words = !is_gpu ? "cpu" : cfg->separate_feedback_pass ? "feedback pass" : "colour pass";
   run.components = ms.components;
+  run.value_encoding = value_encoding_name(ms.transform.encoding);
   run.components_default = !cfg->components_given;
   run.tile_size = ms.tile_size;
   run.border = ms.border;
@@ -532,6 +534,7 @@ int main(int argc, char** argv) {
     // rank", for the measurement behind the bounds). Other materials, ranks or profiles are what
     // the user asked for and are only reported.
     const bool default_materials = !paper && !cfg->components_given && !cfg->material && !cfg->interreflection &&
+                                   !cfg->value_encoding &&
                                    !cfg->size_given && !cfg->seed_given;
     bool raw_ok = true;
     std::string raw_note;

@@ -23,6 +23,7 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/fmf_out_of_core.hpp"
+#include "btflod/factor/fmf_stream.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "common/bsvtf_input.hpp"
 
@@ -44,6 +45,8 @@ struct MaterialSettings {
   std::optional<SynthMaterial> kind;
   /// One bounce of diffuse interreflection in the synthesis (--interreflection; SynthesisOptions).
   bool interreflection = false;
+  /// The domain the FMF is computed in (--value-encoding; core/value_transform.hpp).
+  ValueTransform transform{};
   /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
   /// into a BTF store of halves and factorised out of core within `memory_budget`
   /// (factor/fmf_out_of_core.hpp); otherwise the small in-memory path (demo_directions()).
@@ -119,6 +122,7 @@ struct DemoMaterial {
     if (with_textures) d.eigen_textures = eigen_textures.view();
     d.mipmaps = true;
     d.angular = AngularTablesData{angular_resolution, light_index, light_weight, view_index, view_weight};
+    d.transform = eigen.transform;
     return d;
   }
 };
@@ -129,7 +133,7 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace detail_materials
 
-/// ‖A − U·(VΣ)ᵀ‖_F / ‖A‖_F of an FMF against its store, streamed block by block (memory: two
+/// ‖A − D(U·(VΣ)ᵀ)‖_F / ‖A‖_F of an FMF against its store (D: its value transform's decode), streamed block by block (memory: two
 /// blocks of columns). Returns the store's read errors.
 inline Result<double> fmf_relative_error_against_store(const BtfStore& store, const Fmf& f) {
   const size_t m = store.rows(), n = store.columns(), C = static_cast<size_t>(f.components);
@@ -145,7 +149,10 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
     Eigen::Map<Eigen::MatrixXf> a(cols.data(), static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(cnt));
     Eigen::Map<const RowMat> v(f.v.data() + t0 * C, static_cast<Eigen::Index>(cnt), static_cast<Eigen::Index>(C));
     ss += static_cast<double>(a.squaredNorm());
-    a -= u * v.transpose();
+    if (f.transform.is_linear())
+      a -= u * v.transpose();
+    else  // the decoded reconstruction D(U·(VΣ)ᵀ)
+      a -= Eigen::MatrixXf(u * v.transpose()).unaryExpr([&f](float s) { return f.transform.decode(s); });
     se += static_cast<double>(a.squaredNorm());
   }
   return ss > 0.0 ? std::sqrt(se / ss) : 0.0;
@@ -178,6 +185,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     t0 = std::chrono::steady_clock::now();
     FmfOptions fo;
     fo.components = static_cast<int>(s.components);
+    fo.transform = s.transform;
     auto f = factorize_fmf(*btf, fo);
     if (!f) return f.error();
     fmf = std::move(*f);
@@ -243,6 +251,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     m.texels = store->info().width;
     FmfOutOfCoreOptions fo;
     fo.components = static_cast<int>(s.components);
+    fo.transform = s.transform;
     fo.svd.memory_budget = s.memory_budget;
     fo.svd.checkpoint_path = (fs::path(out_dir) / (m.name + ".btfstore.checkpoint")).string();
     ProgressCallback progress;
@@ -313,6 +322,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   m.eigen.angular = m.u;
   m.eigen.light_count = L;
   m.eigen.view_count = V;
+  m.eigen.transform = fmf.transform;
   // Angular lookup tables (paper 000 §4): the rasterised Delaunay triangulation in the parabolic map.
   auto lt = LookupTableInterpolator<ParabolicMap>::build(lights, static_cast<int>(s.angular_resolution));
   if (!lt) return lt.error();
@@ -334,16 +344,11 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   auto pyramid = TilePyramid::build(m.eigen, s.tile_size, s.border, TileEdge::wrap);
   if (!pyramid) return pyramid.error();
   m.finest_level = pyramid->geometry().finest_level;
-  BsvtfMetadata md;
-  md.material_name = m.name;
-  md.width = static_cast<uint32_t>(M);
-  md.height = static_cast<uint32_t>(N);
-  md.tile_size = s.tile_size;
-  md.border = s.border;
-  md.level_count = pyramid->geometry().level_count();
-  md.component_count = C;
-  md.u_rows = L * V * 3;
-  samples::set_bsvtf_directions(md, lights, views);
+  // The library's metadata (geometry, C, U's light-major rows, the value encoding).
+  BsvtfMetadata md = bsvtf_metadata_for(m.eigen, *pyramid, AngularRowOrder::light_major, direction_vectors(lights),
+                                        direction_vectors(views), m.name);
+  md.light_set = lights.name();
+  md.view_set = views.name();
   const samples::BsvtfTileInputs inputs =
       samples::bsvtf_tiles_from_pyramid(*pyramid, md.level_count, s.tile_size, s.border);
   BsvtfBuildOptions bo;

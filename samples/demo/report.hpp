@@ -39,6 +39,7 @@ struct RunSummary {
   /// (--feedback-pass) or "cpu" (the CPU renderer's ray caster).
   std::string feedback_words = "colour pass";
   bool components_default = true;  ///< C is the profile's default (no --components)
+  std::string value_encoding = "linear";  ///< the FMF's value encoding (--value-encoding)
   uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
   std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
   std::vector<double> seconds_synthesis, seconds_factor, seconds_build;
@@ -253,10 +254,11 @@ inline std::string config_and_raw_json(const RunSummary& r) {
   char b[768];
   std::snprintf(b, sizeof b,
                 "  \"configuration\": {\"profile\": \"%s\", \"directions\": %u, \"components\": %u, "
-                "\"components_default\": %s, \"tile_size\": %u, "
+                "\"components_default\": %s, \"value_encoding\": \"%s\", \"tile_size\": %u, "
                 "\"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, \"material_texels\": %u, "
                 "\"feedback_words\": \"%s\"},\n",
-                r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false", r.tile_size,
+                r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false",
+                r.value_encoding.c_str(), r.tile_size,
                 r.border, r.slots_x, r.slots_y, r.texels, r.feedback_words.c_str());
   o << b << "  \"files\": [";
   for (size_t i = 0; i < r.store_bytes.size(); ++i) {

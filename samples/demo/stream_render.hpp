@@ -694,6 +694,7 @@ class StreamingRenderer {
     const DemoMaterial& first = materials_.front();
     ShaderConfig config;
     config.components = first.components;
+    config.value_transform = first.eigen.transform;  // every material of a run shares it
     config.angular.parameterisation = DirectionParameterisation::parabolic;
     config.angular.lookup = AngularLookup::barycentric;
     config.angular.resolution = first.angular_resolution;

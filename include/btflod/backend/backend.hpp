@@ -68,6 +68,9 @@ struct FmfMaterialData {
   ImageView<const float> eigen_textures;  ///< M × N × C, or empty
   bool mipmaps = true;                    ///< build a mip chain for V' (hardware trilinear)
   AngularTablesData angular;
+  /// The encoding of U'·V'ᵀ (EigenTextures::transform); must equal ShaderConfig::value_transform,
+  /// which the programs decode with.
+  ValueTransform transform{};
 };
 
 /// One tile to copy into a cache slot: (T + 2B)² RGBA half texels (4 components), row-major,
@@ -112,6 +115,9 @@ inline VoidResult validate_material(const FmfMaterialData& m, const ShaderConfig
   if (m.components != config.components)
     return make_error(Status::invalid_argument, "material: C = %u, shaders were generated for C = %u", m.components,
                       config.components);
+  if (!(m.transform == config.value_transform))
+    return make_error(Status::invalid_argument, "material: value encoding %s, shaders were generated for %s",
+                      value_encoding_name(m.transform.encoding), value_encoding_name(config.value_transform.encoding));
   if (m.light_count == 0 || m.view_count == 0 || m.light_count > 65536 || m.view_count > 65536)
     return make_error(Status::invalid_argument, "material: %u lights × %u views, expected 1..65536 each", m.light_count,
                       m.view_count);

@@ -395,7 +395,7 @@ class CpuCacheTexture {
   std::vector<uint16_t> texels_;
 };
 
-/// FMF shading (paper 000 eq. 5) with the 9-tap light × view combination (§4): ρ = Σ over the
+/// FMF shading (paper 000 eq. 5) with the 9-tap light × view combination (§4): ρ = D(Σ over the
 /// nine (light, view) taps of w_l·w_v · Σ_c U'(l, v, colour, c)·V'_c. `components` holds the
 /// first components.size() eigen-texture values (components past it count as 0, e.g. U'
 /// packets not yet streamed). Returns linear RGB. Precondition: indices < light/view counts.
@@ -415,6 +415,9 @@ inline glm::vec3 shade_fmf(const EigenTextures& fmf, const AngularSample& light,
         rgb[colour] += w * sum;
       }
     }
+  // The sum is decoded after the angular interpolation, as the shaders' fmf_brdf does.
+  if (!fmf.transform.is_linear())
+    for (int colour = 0; colour < 3; ++colour) rgb[colour] = fmf.transform.decode(rgb[colour]);
   return rgb;
 }
 

@@ -32,6 +32,7 @@
 #include "btflod/core/half.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/core/value_transform.hpp"
 #include "btflod/vt/tile_id.hpp"
 
 namespace btflod {
@@ -39,9 +40,10 @@ namespace btflod {
 class ThreadPool;  // core/thread_pool.hpp (offline): build_bsvtf's workers
 
 inline constexpr uint8_t kBsvtfMagic[8] = {'B', 'S', 'V', 'T', 'F', '\r', '\n', 0x1a};
-/// Version written. 3: the metadata stores the row order of U (u_row_order) and each tile
-/// entry its energy ‖T‖²_F/T² (paper 000 §6); 2: tile format 2 (run-length symbols).
-inline constexpr uint32_t kBsvtfVersion = 3;
+/// Version written. 4: the metadata stores the value encoding of the factorisation
+/// (value_transform); 3: the row order of U (u_row_order) and each tile entry its energy
+/// ‖T‖²_F/T² (paper 000 §6); 2: tile format 2 (run-length symbols).
+inline constexpr uint32_t kBsvtfVersion = 4;
 /// Oldest version read: version 2 files are read with u_row_order = unspecified and energies
 /// 0 (a runtime then needs the order from its caller, see runtime/streamer.hpp).
 inline constexpr uint32_t kBsvtfOldestReadableVersion = 2;
@@ -89,6 +91,9 @@ struct BsvtfMetadata {
   std::vector<float> component_ranges;  ///< C values: max − min of each eigen-texture (sets the codec tolerance)
   std::vector<float> component_scales;  ///< C values: per-component scale applied when shading (1 if unused)
   float quality = 50.0f;                ///< codec quality the tiles were built with
+  /// The encoding U·Vᵀ approximates (stored since version 4; earlier files are linear):
+  /// renderers decode the sum of paper 000 eq. 5 with it (core/value_transform.hpp).
+  ValueTransform value_transform{};
 
   /// Number of virtual textures (RGBA eigen-texture packs) = packets of U.
   uint32_t texture_count() const noexcept { return (component_count + 3) / 4; }
@@ -349,6 +354,10 @@ std::vector<uint8_t> bsvtf_serialise_metadata(const BsvtfMetadata& m, uint32_t v
     w.u32(v);
   w.f32(m.quality);
   if (version >= 3) w.u32(static_cast<uint32_t>(m.u_row_order));
+  if (version >= 4) {
+    w.u32(static_cast<uint32_t>(m.value_transform.encoding));
+    w.f32(m.value_transform.log_offset);
+  }
   bsvtf_write_string(w, m.material_name);
   bsvtf_write_string(w, m.light_set);
   bsvtf_write_string(w, m.view_set);
@@ -373,6 +382,12 @@ Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::spa
   if (auto ok = detail::bsvtf_check_metadata(metadata); !ok) return ok.error();
   if (version < kBsvtfOldestReadableVersion || version > kBsvtfVersion)
     return make_error(Status::invalid_argument, "write_bsvtf: cannot write version %u", version);
+  if (!metadata.value_transform.valid())
+    return make_error(Status::invalid_argument, "write_bsvtf: invalid value transform");
+  if (!metadata.value_transform.is_linear() && version < 4)
+    return make_error(Status::invalid_argument,
+                      "write_bsvtf: version %u cannot store the %s value encoding (version 4 can)", version,
+                      value_encoding_name(metadata.value_transform.encoding));
   const uint32_t textures = metadata.texture_count();
   if (u.size() != size_t{metadata.u_rows} * metadata.component_count)
     return make_error(Status::invalid_argument, "write_bsvtf: U has %zu floats, expected %u rows x %u components",
@@ -618,6 +633,15 @@ Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> prefix, ui
       return make_error(Status::bad_data, "bsvtf metadata: row order %u is neither light-major (0) nor view-major (1)",
                         order);
     m.u_row_order = static_cast<AngularRowOrder>(order);
+  }
+  m.value_transform = ValueTransform{};
+  if (h.version >= 4) {
+    m.value_transform.encoding = static_cast<ValueEncoding>(r.u32());
+    m.value_transform.log_offset = r.f32();
+    if (r.ok() && !m.value_transform.valid())
+      return make_error(Status::bad_data, "bsvtf metadata: value encoding %u (log offset %g) is not valid",
+                        static_cast<unsigned>(m.value_transform.encoding),
+                        static_cast<double>(m.value_transform.log_offset));
   }
   if (!r.ok())
     return make_error(Status::bad_data, "bsvtf metadata: %u bytes, too short for the fixed fields", h.metadata_size);

@@ -171,6 +171,13 @@ class FactorFile {
     return f;
   }
 
+  /// True when the file has a section `tag` (optional sections).
+  bool has_section(uint32_t tag) const noexcept {
+    for (const auto& s : sections_)
+      if (s.first == tag) return true;
+    return false;
+  }
+
   /// The payload of section `tag`, or an error naming it when missing.
   Result<std::span<const uint8_t>> section(uint32_t tag) const {
     for (const auto& s : sections_)

@@ -7,6 +7,10 @@
 // The "152nd basis illumination" of paper 000 §7 is stored as an extra ambient table per
 // view: U_amb(v, c) = Σ_l w_l · U(l, v, c) with cosine weights w_l = cos θ_l / Σ cos θ_l', i.e.
 // the cosine-weighted mean reflectance under a uniform white environment.
+//
+// FmfOptions::transform factorises E(A) instead of A (core/value_transform.hpp: a square-root or
+// log dynamic-range reduction for glossy materials, as Bonn's DFMF does) and the evaluation
+// decodes the sum of eq. 5 after the angular interpolation, as the shaders do.
 #pragma once
 
 #include <algorithm>
@@ -19,6 +23,7 @@
 #include "btflod/btf/tabulated_btf.hpp"
 #include "btflod/core/eigen.hpp"  // Eigen as a system header
 #include "btflod/core/file_io.hpp"
+#include "btflod/core/value_transform.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/truncated_svd.hpp"
 
@@ -28,6 +33,8 @@ namespace btflod {
 struct FmfOptions {
   int components = 16;  ///< rank C
   SvdOptions svd{};
+  /// The domain the factorisation is computed in (linear: paper 000 as printed).
+  ValueTransform transform{};
 };
 
 /// A BTF as rank-C factors U (angular) and V·Σ (spatial), paper 000 eq. 4–5.
@@ -42,13 +49,19 @@ struct Fmf {
   std::vector<float> u_ambient;
   /// Singular values of the kept components (diagnostic; not needed for evaluation).
   std::vector<float> singular_values;
+  /// The encoding U·(VΣ)ᵀ approximates (FmfOptions::transform); evaluation decodes it.
+  ValueTransform transform{};
   /// How the SVD went (iterations, error estimate; truncated_svd.hpp). Diagnostic: not
   /// serialised (a deserialised Fmf has the default report).
   SvdReport svd_report;
 
-  /// ρ' at texel (x, y), measured view index `view` and light index `light`, RGB.
-  /// Precondition: indices in range (asserted in debug). Thread-safe, allocation-free.
+  /// ρ' at texel (x, y), measured view index `view` and light index `light`, RGB: the decoded
+  /// sum of eq. 5. Precondition: indices in range (asserted in debug). Thread-safe, allocation-free.
   glm::vec3 evaluate_measured(int x, int y, uint32_t view, uint32_t light) const noexcept {
+    return decode(evaluate_encoded(x, y, view, light));
+  }
+  /// The sum of eq. 5 before decoding (= evaluate_measured() for a linear transform).
+  glm::vec3 evaluate_encoded(int x, int y, uint32_t view, uint32_t light) const noexcept {
     assert(x >= 0 && x < shape.width && y >= 0 && y < shape.height && view < shape.view_count() &&
            light < shape.light_count());
     const size_t cc = static_cast<size_t>(components);
@@ -65,10 +78,18 @@ struct Fmf {
   }
   /// ρ' at texel (x, y) for interpolated light and view directions: the 3 × 3 taps of the two
   /// AngularSamples with multiplied weights. Thread-safe, allocation-free.
+  /// The taps are combined before decoding, as the shaders do.
   glm::vec3 evaluate(int x, int y, const AngularSample& light, const AngularSample& view) const noexcept {
-    return combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
+    return decode(
+        combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_encoded(x, y, vi, li); }));
   }
-  /// The view-dependent ambient term at texel (x, y) (paper 000 §7). Thread-safe.
+  /// D(s) per channel (the identity for a linear transform).
+  glm::vec3 decode(glm::vec3 s) const noexcept {
+    return transform.is_linear() ? s : glm::vec3(transform.decode(s.r), transform.decode(s.g), transform.decode(s.b));
+  }
+  /// The view-dependent ambient term at texel (x, y) (paper 000 §7): the cosine-weighted mean of
+  /// U's rows, decoded (for a non-linear transform a mean in the encoded domain, not of ρ').
+  /// Thread-safe.
   glm::vec3 evaluate_ambient(int x, int y, const AngularSample& view) const noexcept {
     const size_t cc = static_cast<size_t>(components);
     const float* vt =
@@ -84,7 +105,7 @@ struct Fmf {
         out.b += w * ur[2 * cc + k] * vt[k];
       }
     }
-    return out;
+    return decode(out);
   }
 
   /// Bytes of the factors as float32 (U, V·Σ and the ambient table).
@@ -108,11 +129,13 @@ struct Fmf {
       Eigen::Map<Eigen::MatrixXf> img(out.samples().data() + i * static_cast<size_t>(n) * 3, 3, n);
       img.noalias() = um.middleRows(static_cast<Eigen::Index>(3 * i), 3) * vm.transpose();
     }
+    if (!transform.is_linear())
+      for (float& x : out.samples()) x = transform.decode(x);
     return out;
   }
 
   /// Serialises to the factor file format (factor_file.hpp; sections SHAP, META, FMFU, FMFV,
-  /// FMFA, FMFS). Allocates.
+  /// FMFA, FMFS, and VENC — encoding u32, log offset f32 — for a non-linear transform). Allocates.
   std::vector<uint8_t> serialize() const {
     FactorFileWriter w(FactorKind::fmf);
     w.add_shape(shape);
@@ -123,6 +146,12 @@ struct Fmf {
     w.add_array<float>(factor_tag("FMFV"), v);
     w.add_array<float>(factor_tag("FMFA"), u_ambient);
     w.add_array<float>(factor_tag("FMFS"), singular_values);
+    if (!transform.is_linear()) {
+      ByteWriter venc;
+      venc.u32(static_cast<uint32_t>(transform.encoding));
+      venc.f32(transform.log_offset);
+      w.add(factor_tag("VENC"), venc.take());
+    }
     return w.finish();
   }
   /// Parses a serialised FMF. Safe for untrusted input: every size is checked against the
@@ -157,6 +186,16 @@ struct Fmf {
     if (auto s = file->read_array<float>(factor_tag("FMFA"), f.shape.view_count() * 3 * comps, f.u_ambient); !s)
       return s.error();
     if (auto s = file->read_array<float>(factor_tag("FMFS"), comps, f.singular_values); !s) return s.error();
+    if (file->has_section(factor_tag("VENC"))) {
+      auto venc = file->section(factor_tag("VENC"));
+      if (!venc) return venc.error();
+      ByteReader vr(*venc);
+      f.transform.encoding = static_cast<ValueEncoding>(vr.u32());
+      f.transform.log_offset = vr.f32();
+      if (!vr.ok() || vr.remaining() != 0 || f.transform.is_linear() || !f.transform.valid())
+        return make_error(Status::bad_data, "FMF: VENC (%zu bytes) holds no valid non-linear value transform",
+                          venc->size());
+    }
     return f;
   }
 };
@@ -185,6 +224,12 @@ inline void gather_fmf_columns(const BtfFloat& btf, size_t t0, size_t count, Eig
   }
 }
 
+/// E(x) over the first `count` columns of a gathered block (FmfOptions::transform).
+inline void encode_columns(const ValueTransform& t, size_t count, Eigen::MatrixXf& block) {
+  auto cols = block.leftCols(static_cast<Eigen::Index>(count));
+  cols = cols.unaryExpr([t](float x) { return t.encode(x); });
+}
+
 /// Cosine weights of the ambient term: w_l = max(cos θ_l, 0) / Σ (uniform if all are 0).
 inline std::vector<float> ambient_light_weights(const DirectionSet& lights) {
   std::vector<float> w(lights.size());
@@ -206,10 +251,15 @@ inline Result<Fmf> factorize_fmf(const BtfFloat& btf, const FmfOptions& options 
   if (btf.empty()) return make_error(Status::invalid_argument, "factorize_fmf: empty BTF");
   const size_t m = btf.view_count() * btf.light_count() * 3;
   const size_t n = btf.texel_count();
+  if (!options.transform.valid()) return make_error(Status::invalid_argument, "factorize_fmf: invalid value transform");
+  const ValueTransform tr = options.transform;
   auto svd = truncated_svd(
       m, n, options.components,
-      [&btf](size_t t0, size_t count, Eigen::MatrixXf& out) { gather_fmf_columns(btf, t0, count, out); }, options.svd,
-      progress);
+      [&btf, tr](size_t t0, size_t count, Eigen::MatrixXf& out) {
+        gather_fmf_columns(btf, t0, count, out);
+        if (!tr.is_linear()) encode_columns(tr, count, out);
+      },
+      options.svd, progress);
   if (!svd) return svd.error();
   Fmf f;
   f.shape = BtfShape{btf.width(), btf.height(), btf.views(), btf.lights()};
@@ -222,6 +272,7 @@ inline Result<Fmf> factorize_fmf(const BtfFloat& btf, const FmfOptions& options 
   Eigen::Map<RowMat>(f.v.data(), static_cast<Eigen::Index>(n), c) = svd->v * svd->s.asDiagonal();  // V := VΣ
   f.singular_values.assign(svd->s.data(), svd->s.data() + c);
   f.svd_report = svd->report;
+  f.transform = tr;
   // Ambient basis (paper 000 §7).
   const auto w = ambient_light_weights(btf.lights());
   const size_t nl = btf.light_count(), cc = static_cast<size_t>(c);

@@ -20,6 +20,8 @@ struct FmfOutOfCoreOptions {
   /// column_alignment and source_id are set from the store.
   OutOfCoreSvdOptions svd{};
   bool verify_checksums = true;  ///< check every block's CRC-32 as it is read
+  /// The domain the factorisation is computed in (FmfOptions::transform); applied to each block read.
+  ValueTransform transform{};
 };
 
 /// What factorize_fmf_out_of_core() measured besides the SVD report.
@@ -44,11 +46,15 @@ inline Result<Fmf> factorize_fmf_out_of_core(const BtfStore& store, const FmfOut
   so.source_id = store.content_id();
   std::atomic<uint64_t> bytes{0};
   const bool verify = options.verify_checksums;
+  const ValueTransform tr = options.transform;
+  if (!tr.valid()) return make_error(Status::invalid_argument, "factorize_fmf_out_of_core: invalid value transform");
   auto svd = out_of_core_svd(
       m, n, options.components,
       [&](size_t col0, size_t count, Eigen::MatrixXf& out, std::vector<uint8_t>& scratch) -> VoidResult {
         bytes += static_cast<uint64_t>(m) * count * info.value_size();
-        return store.read_columns(col0, count, out.data(), static_cast<size_t>(out.rows()), scratch, verify);
+        VoidResult read = store.read_columns(col0, count, out.data(), static_cast<size_t>(out.rows()), scratch, verify);
+        if (read && !tr.is_linear()) encode_columns(tr, count, out);
+        return read;
       },
       so, progress);
   if (!svd) return svd.error();
@@ -57,6 +63,7 @@ inline Result<Fmf> factorize_fmf_out_of_core(const BtfStore& store, const FmfOut
   f.shape = BtfShape{info.width, info.height, info.views, info.lights};
   const Eigen::Index c = svd->svd.s.size();
   f.components = static_cast<int>(c);
+  f.transform = tr;
   using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   f.u.resize(m * static_cast<size_t>(c));
   Eigen::Map<RowMat>(f.u.data(), static_cast<Eigen::Index>(m), c) = svd->svd.u;

@@ -42,6 +42,7 @@ inline EigenTextures eigen_textures_from_fmf(const Fmf& fmf) {
   e.angular = fmf.u;
   e.light_count = static_cast<uint32_t>(fmf.shape.light_count());
   e.view_count = static_cast<uint32_t>(fmf.shape.view_count());
+  e.transform = fmf.transform;
   return e;
 }
 

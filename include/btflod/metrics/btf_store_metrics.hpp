@@ -130,7 +130,7 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
   return r;
 }
 
-/// Image (view, light) of an FMF reconstruction U·(VΣ)ᵀ into `out` (H × W × 3 floats, the
+/// Image (view, light) of an FMF reconstruction D(U·(VΣ)ᵀ) into `out` (H × W × 3 floats, the
 /// TabulatedBtf image layout): the same product Fmf::reconstruct() forms for that image, so the
 /// values are identical to the whole reconstruction's. Returns invalid_argument for an index or
 /// size mismatch. Allocation-free apart from Eigen's product temporaries; thread-safe.
@@ -147,6 +147,8 @@ inline VoidResult fmf_reconstruct_image(const Fmf& f, size_t view, size_t light,
   const size_t i = view * nl + light;
   Eigen::Map<Eigen::MatrixXf> img(out.data(), 3, static_cast<Eigen::Index>(n));
   img.noalias() = um.middleRows(static_cast<Eigen::Index>(3 * i), 3) * vm.transpose();
+  if (!f.transform.is_linear())
+    for (float& x : out) x = f.transform.decode(x);  // f.transform's decode, as reconstruct() applies
   return {};
 }
 

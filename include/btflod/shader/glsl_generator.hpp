@@ -17,6 +17,7 @@
 //   angular        void P_angular(int table, vec3 d, out ivec3 idx, out vec3 w)   paper 000 §4
 //                  int  P_angular_nearest(int table, vec3 d)
 //   fmf_brdf       vec3 P_fmf_brdf(vec4 v[P_kFmfGroups], vec3 wl, vec3 wv)      paper 000 eq. 5
+//                  vec3 P_decode_value(vec3 s)   ShaderConfig::value_transform's D(s)
 //   fmf            void P_fmf_components(vec2 uv, out vec4 v[P_kFmfGroups]); vec4 P_fmf_raw(vec2 uv);
 //                  vec3 P_fmf(vec2 uv, vec3 wl, vec3 wv)
 //   page_table     float P_vt_lambda(vec2 uv); ivec2 P_tile_of(vec2 uv, int level); …  eq. 1–2
@@ -523,6 +524,7 @@ struct GlslEmitter {
   void constant_float(const char* name, uint32_t v) { constant("float", name, std::to_string(v) + ".0"); }
   void constant_uint(const char* name, uint32_t v) { constant("uint", name, std::to_string(v) + "u"); }
   void constant_bool(const char* name, bool v) { constant("bool", name, v ? "true" : "false"); }
+  void constant_real(const char* name, float v) { constant("float", name, format_message("%.9e", static_cast<double>(v))); }
 };
 
 inline int angular_taps(const ShaderConfig& c) { return c.angular.lookup == AngularLookup::nearest ? 1 : 3; }
@@ -609,11 +611,21 @@ inline void piece_angular(GlslEmitter& e) {
       "}\n");
 }
 
+// D(s) of core/value_transform.hpp, applied to the sum of eq. 5 (the identity for linear).
+inline void glsl_decode_value(GlslEmitter& e) {
+  const ValueTransform& t = e.config.value_transform;
+  if (t.encoding == ValueEncoding::log) e.constant_real("kLogOffset", t.log_offset);
+  e.emit(t.encoding == ValueEncoding::sqrt  ? "vec3 @decode_value(vec3 s) { return s * abs(s); }\n"
+         : t.encoding == ValueEncoding::log ? "vec3 @decode_value(vec3 s) { return exp(s) - vec3(@kLogOffset); }\n"
+                                            : "vec3 @decode_value(vec3 s) { return s; }\n");
+}
+
 // Σ_c U_c(ωl, ωv) · V_c(x), paper 000 eq. 5; U interpolated over 3 × 3 direction pairs (§4).
 inline void piece_fmf_brdf(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::eigen_abrdfs);
   e.constant_int("kFmfComponents", e.config.components);
   e.constant_int("kFmfGroups", e.config.component_groups());
+  glsl_decode_value(e);
   e.emit(
       "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]).\n"
       "vec3 @fmf_brdf(vec4 v[@kFmfGroups], vec3 wl, vec3 wv) {\n"
@@ -631,7 +643,7 @@ inline void piece_fmf_brdf(GlslEmitter& e) {
       "    }\n"
       "    rho += u * v[c / 4][c % 4];\n"
       "  }\n"
-      "  return rho;\n"
+      "  return @decode_value(rho);\n"
       "}\n");
 }
 

@@ -64,6 +64,7 @@ struct HlslEmitter {
   void constant_float(const char* name, uint32_t v) { constant("float", name, std::to_string(v) + ".0"); }
   void constant_uint(const char* name, uint32_t v) { constant("uint", name, std::to_string(v) + "u"); }
   void constant_bool(const char* name, bool v) { constant("bool", name, v ? "true" : "false"); }
+  void constant_real(const char* name, float v) { constant("float", name, format_message("%.9e", static_cast<double>(v))); }
 };
 
 inline void hlsl_direction_map(HlslEmitter& e) {
@@ -146,10 +147,21 @@ inline void hlsl_angular(HlslEmitter& e) {
       "}\n");
 }
 
+// D(s) of core/value_transform.hpp, applied to the sum of eq. 5 (the identity for linear).
+inline void hlsl_decode_value(HlslEmitter& e) {
+  const ValueTransform& t = e.g.config.value_transform;
+  if (t.encoding == ValueEncoding::log) e.constant_real("kLogOffset", t.log_offset);
+  e.emit(t.encoding == ValueEncoding::sqrt ? "float3 @decode_value(float3 s) { return s * abs(s); }\n"
+         : t.encoding == ValueEncoding::log
+             ? "float3 @decode_value(float3 s) { return exp(s) - (float3)@kLogOffset; }\n"
+             : "float3 @decode_value(float3 s) { return s; }\n");
+}
+
 inline void hlsl_fmf_brdf(HlslEmitter& e) {
   e.texture("Texture2DArray<float4>", ShaderBinding::eigen_abrdfs);
   e.constant_int("kFmfComponents", e.g.config.components);
   e.constant_int("kFmfGroups", e.g.config.component_groups());
+  hlsl_decode_value(e);
   e.emit(
       "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]).\n"
       "float3 @fmf_brdf(float4 v[@kFmfGroups], float3 wl, float3 wv) {\n"
@@ -167,7 +179,7 @@ inline void hlsl_fmf_brdf(HlslEmitter& e) {
       "    }\n"
       "    rho += u * v[c / 4][c % 4];\n"
       "  }\n"
-      "  return rho;\n"
+      "  return @decode_value(rho);\n"
       "}\n");
 }
 

@@ -13,6 +13,7 @@
 #include <cstdint>
 
 #include "btflod/core/result.hpp"
+#include "btflod/core/value_transform.hpp"
 #include "btflod/shader/std140.hpp"
 #include "btflod/vt/cache_config.hpp"
 
@@ -199,6 +200,9 @@ struct ShaderConfig {
   LpcaConfig lpca;
   PcaViewsConfig pca;
   SpmmShaderConfig spmm;
+  /// The encoding of the FMF/BSVTF materials drawn with these programs (EigenTextures::transform,
+  /// the container's value_transform): eq. 5's sum is decoded with it (core/value_transform.hpp).
+  ValueTransform value_transform{};
 
   constexpr uint32_t component_groups() const noexcept { return (components + 3) / 4; }
 };
@@ -315,6 +319,8 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
   // Up to 128: paper 000 §7 renders C = 100 (25 RGBA groups).
   if (c.components == 0 || c.components > 128)
     return make_error(Status::invalid_argument, "shader config: components = %u, expected 1..128", c.components);
+  if (!c.value_transform.valid())
+    return make_error(Status::invalid_argument, "shader config: value_transform is not valid (log offset must be > 0)");
   if (c.angular.resolution == 0 || c.angular.resolution > 4096)
     return make_error(Status::invalid_argument, "shader config: angular.resolution = %u, expected 1..4096",
                       c.angular.resolution);

@@ -68,6 +68,7 @@ inline BsvtfMetadata bsvtf_metadata_for(const EigenTextures& e, const TilePyrami
   md.u_row_order = row_order;
   md.light_directions.assign(light_directions.begin(), light_directions.end());
   md.view_directions.assign(view_directions.begin(), view_directions.end());
+  md.value_transform = e.transform;
   return md;
 }
 

@@ -209,9 +209,13 @@ Result<TilePyramid> TilePyramid::build(const EigenTextures& input, uint32_t tile
                 energy += v * v;
               }
             }
-          const double inv = 1.0 / (static_cast<double>(tile_size) * tile_size);
-          p.weights_[k][index] = Half(static_cast<float>(w * inv));
-          p.energies_[k][index] = Half(static_cast<float>(energy * inv));
+          // Saturated at the largest finite half: a log-encoded factorisation (core/value_transform.hpp)
+          // has eigen-textures of a few hundred (its first component carries the log's offset),
+          // whose root w and energies exceed 65504. They rank tiles and packets; a saturated
+          // value still ranks above every other.
+          const double inv = 1.0 / (static_cast<double>(tile_size) * tile_size), max_half = 65504.0;
+          p.weights_[k][index] = Half(static_cast<float>(std::min(w * inv, max_half)));
+          p.energies_[k][index] = Half(static_cast<float>(std::min(energy * inv, max_half)));
         }
     }
   }

@@ -25,6 +25,7 @@
 #include "btflod/core/range_list.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
+#include "btflod/core/value_transform.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/vt/tile_id.hpp"
 
@@ -141,6 +142,9 @@ struct EigenTextures {
   std::vector<float> angular;
   uint32_t light_count = 0;
   uint32_t view_count = 0;
+  /// The encoding U'·V'ᵀ approximates (core/value_transform.hpp): renderers decode the sum of
+  /// eq. 5 with it. Linear unless the factorisation reduced the dynamic range.
+  ValueTransform transform{};
 
   /// C, the number of eigen-texture components.
   uint32_t components() const noexcept { return static_cast<uint32_t>(textures.channels()); }

@@ -431,6 +431,7 @@ class Client {
     if (!started || material >= materials.size()) return nullptr;
     ShaderConfig c = base_config;
     c.components = materials[material]->dir.metadata.component_count;
+    c.value_transform = materials[material]->dir.metadata.value_transform;  // decoded by the program
     auto src = generate_program(static_cast<ShaderProgram>(program), GlslTarget::es300, c);
     if (!src) {
       error = src.message();

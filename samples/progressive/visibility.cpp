@@ -33,7 +33,7 @@
 //            [--weight-quarters Q] [--scene-directions N [--scene-prior P]] [--deflate | --zstd] [--rendered]
 //            [--dead-zone T]
 //            [--luminance-percentile P] [--luminance-floor F] [--max-p99-de X] [--check]
-//            [--doc docs/bsvtf_format.md]
+//            [--doc docs/codec_measurements.md]
 //   --per-component-tolerance  build with ToleranceReference::per_component (default shared_max)
 //   --luminance-tolerance  also scale each tile's tolerance by (max(y_tile, F·y_peak)/y_peak)^(2/3)
 //                      (samples/common/bsvtf_input.hpp apply_luminance_tolerance; y_tile = the

@@ -41,7 +41,7 @@
 // with its content size, no dictionary) of the symbol stream; 2–3 and bits 6–7 are invalid. The
 // encoder writes version 2 for deflate (byte for byte what earlier versions wrote, readable by
 // every decoder) and version 3 only for zstd; decoders read both. bench/bench_codec_entropy.cpp
-// has the table the coders were chosen from (docs/bsvtf_format.md, "Entropy stage").
+// has the table the coders were chosen from (docs/codec_measurements.md, "Entropy stage").
 //
 // Entropy backend: RawInflater / RawDeflater below, an opaque handle of fixed size whose state
 // lives in the implementation TU (BTFLOD_IMPLEMENTATION, see btflod.hpp): this header includes
@@ -115,7 +115,7 @@ enum class TileEntropyCoder : uint8_t {
 bool tile_entropy_coder_available(TileEntropyCoder coder) noexcept;
 /// The coder encoders use unless told otherwise (BsvtfBuildOptions::entropy_coder): zstd when the
 /// implementation TU can encode it (BTFLOD_TILE_CODEC_ZSTD without _DECODER_ONLY), else deflate.
-/// zstd tiles are smaller and decode faster (docs/bsvtf_format.md, "Entropy stage"). Thread-safe.
+/// zstd tiles are smaller and decode faster (docs/codec_measurements.md, "Entropy stage"). Thread-safe.
 TileEntropyCoder default_tile_entropy_coder() noexcept;
 inline constexpr int kTileBlock = 8;
 inline constexpr uint32_t kTileMaxChannels = 4;

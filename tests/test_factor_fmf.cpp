@@ -309,26 +309,6 @@ Result<BtfFloat> glossy_tiles_btf() {
   return synthesize_material(SynthMaterial::tiles, 32, 32, 4, so);
 }
 
-// Mean SSIM of the sRGB images (exposure 2.1, clamped as displayed) of every (view, light) pair.
-double displayed_ssim(const BtfFloat& raw, const Fmf& f) {
-  double sum = 0.0;
-  const auto srgb = [](float v) {
-    v = std::clamp(2.1f * v, 0.0f, 1.0f);
-    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-  };
-  for (uint32_t v = 0; v < raw.view_count(); ++v)
-    for (uint32_t l = 0; l < raw.light_count(); ++l) {
-      Image<float> a(raw.width(), raw.height(), 3), b = a;
-      for (int y = 0; y < raw.height(); ++y)
-        for (int x = 0; x < raw.width(); ++x) {
-          const glm::vec3 r = f.evaluate_measured(x, y, v, l);
-          for (int c = 0; c < 3; ++c) a.at(x, y, c) = srgb(raw.at(x, y, v, l, c)), b.at(x, y, c) = srgb(r[c]);
-        }
-      sum += mean_ssim(a.view(), b.view());
-    }
-  return sum / static_cast<double>(raw.view_count() * raw.light_count());
-}
-
 // A glossy material whose mirror highlights (up to ~34) dwarf its diffuse body (0.05–0.25): at
 // C = 8 a linear FMF spends its components on the highlights and the displayed images lose
 // their texture and colour (paper 000 Fig. 4); factorising √x or ln(x + ε) keeps them. The
@@ -350,8 +330,10 @@ TEST(FactorFmf, ValueTransformKeepsAGlossyMaterialsTextureAtLowRank) {
   o.transform = ValueTransform{ValueEncoding::log, 0.05f};
   auto log_fmf = factorize_fmf(*btf, o);
   ASSERT_TRUE(log_fmf.ok()) << log_fmf.message();
-  const double s_lin = displayed_ssim(*btf, *linear), s_sqrt = displayed_ssim(*btf, *sqrt_fmf),
-               s_log = displayed_ssim(*btf, *log_fmf);
+  // Mean SSIM of the displayed images (exposure 2.1, clamped, sRGB) of every (view, light) pair.
+  const double s_lin = fmf_displayed_ssim(*btf, *linear, 0, 1, 2.1f),
+               s_sqrt = fmf_displayed_ssim(*btf, *sqrt_fmf, 0, 1, 2.1f),
+               s_log = fmf_displayed_ssim(*btf, *log_fmf, 0, 1, 2.1f);
   std::printf("[ tiles 32x32, 23x23 directions, C = 8 ] displayed SSIM: linear %.4f, sqrt %.4f, log %.4f\n", s_lin,
               s_sqrt, s_log);
   EXPECT_GT(s_sqrt, s_lin + 0.1);
@@ -406,7 +388,7 @@ TEST(FactorFmf, RankChosenFromDisplayedImagesMeetsItsTargetOnHeldOutViews) {
   EXPECT_GE(chosen.held_out_ssim, o.min_ssim - 0.03) << "held-out views";
   EXPECT_EQ(choice->fmf.components, choice->components);
   EXPECT_TRUE(choice->fmf.transform == o.fmf.transform);
-  EXPECT_DOUBLE_EQ(fmf_displayed_ssim(*btf, choice->fmf, 1, o.exposure), chosen.held_out_ssim);
+  EXPECT_DOUBLE_EQ(fmf_displayed_ssim(*btf, choice->fmf, 1, 2, o.exposure), chosen.held_out_ssim);
   // Unreachable: the largest candidate, flagged.
   o.min_ssim = 0.9999;
   auto best = choose_fmf_rank(*btf, o);

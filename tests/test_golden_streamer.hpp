@@ -74,6 +74,13 @@ struct GoldenStreamingEngine {
     packets.resize(s.packet_uploads_bound());
     handles.assign(s.material_count(), MaterialHandle{});
   }
+  /// Creates the backend's BSVTF material for Streamer material `id`. False (test failed) on error.
+  bool create_material(uint32_t id, const Material& m) {
+    auto h = backend->create_material(m.data(false));
+    EXPECT_TRUE(h.ok()) << h.message();
+    if (h.ok()) handles[id] = *h;
+    return h.ok();
+  }
   /// Every finest tile of every live material, voted each frame (the whole texture in view).
   std::vector<uint32_t> feedback() const {
     std::vector<uint32_t> words;
@@ -158,11 +165,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   GoldenStreamingEngine ea;
   ea.attach(*be, *a);
-  for (uint32_t m = 0; m < 2; ++m) {
-    auto h = be->create_material(mats[m].material.data(false));
-    ASSERT_TRUE(h.ok()) << h.message();
-    ea.handles[m] = *h;
-  }
+  for (uint32_t m = 0; m < 2; ++m) ASSERT_TRUE(ea.create_material(m, mats[m].material));
   ea.converge();
   ASSERT_TRUE(a->material_ready(0) && a->material_ready(1));
   const Image<float> a_m0 = ea.render(*mesh, 0);
@@ -183,9 +186,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   ASSERT_EQ(a->add_material(all[2], id), Status::success);
   EXPECT_EQ(id, 0u) << "nothing of material 0 was in flight: its id is free at once";
   EXPECT_EQ(a->first_texture(id), old_first) << "the new material takes the freed layers";
-  auto h2 = be->create_material(mats[2].material.data(false));
-  ASSERT_TRUE(h2.ok()) << h2.message();
-  ea.handles[id] = *h2;
+  ASSERT_TRUE(ea.create_material(id, mats[2].material));
   ea.events.clear();
   ea.converge();
   EXPECT_TRUE(ea.saw(ResidencyEventKind::material_removed, 0));
@@ -205,11 +206,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   ASSERT_TRUE(mesh_b.ok()) << mesh_b.message();
   GoldenStreamingEngine eb;
   eb.attach(*be_b, *b);
-  for (uint32_t m = 0; m < 2; ++m) {
-    auto h = be_b->create_material(mats[1 + m].material.data(false));
-    ASSERT_TRUE(h.ok()) << h.message();
-    eb.handles[m] = *h;
-  }
+  for (uint32_t m = 0; m < 2; ++m) ASSERT_TRUE(eb.create_material(m, mats[1 + m].material));
   eb.converge();
   const Image<float> b_m1 = eb.render(*mesh_b, 0), b_m2 = eb.render(*mesh_b, 1);
 

@@ -136,6 +136,8 @@ class FrameRenderer {
   virtual Status remove_streamed(uint32_t /*id*/) { return Status::success; }
   /// Scene slot `slot` shows `m` from the next frame on (init(): slot i shows material i as id i).
   void show(uint32_t slot, ShownMaterial m) { shown_.at(slot) = m; }
+  /// What scene slot `slot` shows. Precondition: init() succeeded, slot < material count.
+  ShownMaterial shown(uint32_t slot) const { return shown_[slot]; }
   /// Writes page-table texels (the page-table check's full rewrite).
   virtual Status write_page_table(std::span<const PageTableWrite> writes) = 0;
   /// True when the image depends on the writes above (GPU); the CPU reference reads the cache.
@@ -518,7 +520,7 @@ class StreamingRenderer {
   // Uniforms of scene slot `slot`: its demo material's extent, its Streamer id and layers.
   ShaderParams material_params(const ShaderParams& base, uint32_t slot) const {
     ShaderParams p = base;
-    const ShownMaterial shown = shown_[slot];
+    const ShownMaterial shown = renderer_.shown(slot);
     const DemoMaterial& d = materials_[shown.demo];
     p.vt_extent = glm::vec4(static_cast<float>(d.eigen_textures.width()), static_cast<float>(d.eigen_textures.height()),
                             static_cast<float>(d.finest_level), 0.0f);
@@ -540,7 +542,7 @@ class StreamingRenderer {
     for (uint32_t t = streamer_.first_texture(id); t < streamer_.first_texture(id) + streamer_.texture_count(id); ++t)
       page_mirror_[t].assign(set().levels_of(t).tile_count(), 0u);
     SwapRecord r;
-    r.slot = plan.slot, r.demo = plan.demo, r.added_id = id, r.removed_id = shown_[plan.slot].streamer_id;
+    r.slot = plan.slot, r.demo = plan.demo, r.added_id = id, r.removed_id = renderer_.shown(plan.slot).streamer_id;
     r.first_texture = streamer_.first_texture(id), r.added_frame = f, r.bytes_before = streamer_.bytes_read();
     swaps_.push_back(r);
     pending_swap_ = true;
@@ -555,8 +557,7 @@ class StreamingRenderer {
     if (streamer_.material_failed(r.added_id))
       return make_error(Status::io_error, "frame %u: the swapped-in material %u failed", f, r.added_id);
     if (!streamer_.material_ready(r.added_id)) return {};
-    shown_[r.slot] = ShownMaterial{r.demo, r.added_id};
-    renderer_.show(r.slot, shown_[r.slot]);
+    renderer_.show(r.slot, ShownMaterial{r.demo, r.added_id});
     if (const Status st = streamer_.remove_material(r.removed_id); st != Status::success)
       return make_error(st, "frame %u: remove_material(%u) failed", f, r.removed_id);
     if (const Status st = renderer_.remove_streamed(r.removed_id); st != Status::success)
@@ -739,7 +740,6 @@ class StreamingRenderer {
     config.vt.finest_level = finest;
     objects_ = scene::make_demo_scene(static_cast<uint32_t>(materials_.size()));
     if (auto e = renderer_.init(config, streamer_.cache(), materials_, objects_); !e) return e.error();
-    for (uint32_t i = 0; i < materials_.size(); ++i) shown_.push_back(ShownMaterial{i, i});
     // Texture memory as a GPU backend allocates it.
     for (const DemoMaterial& m : materials_) {
       const uint64_t groups = (m.components + 3) / 4;
@@ -811,7 +811,6 @@ class StreamingRenderer {
   std::vector<PlannedSwap> swap_plan_;
   size_t next_swap_ = 0;
   bool pending_swap_ = false;
-  std::vector<ShownMaterial> shown_;  // per scene slot
   std::vector<SwapRecord> swaps_;
   uint32_t current_frame_ = 0;  // the frame() being streamed (a swap's release frame)
 };

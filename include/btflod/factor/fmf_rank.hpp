@@ -72,15 +72,17 @@ inline Fmf truncate_fmf(const Fmf& f, int components) {
   return out;
 }
 
-/// Mean SSIM between the displayed images of `btf` and of `f` (same shape) over the views whose
-/// index has parity `view_parity` (0 even, 1 odd) and every light. Allocates two images.
-inline double fmf_displayed_ssim(const BtfFloat& btf, const Fmf& f, uint32_t view_parity, float exposure) {
+/// Mean SSIM between the displayed images of `btf` and of `f` (same shape) over the views
+/// first_view, first_view + view_step, … and every light (0, 2: the training views; 1, 2: the
+/// held-out ones; 0, 1: all). Precondition: view_step ≥ 1. Allocates two images.
+inline double fmf_displayed_ssim(const BtfFloat& btf, const Fmf& f, uint32_t first_view, uint32_t view_step,
+                                 float exposure) {
   const int w = btf.width(), h = btf.height();
   Image<float> a(w, h, 3), b(w, h, 3);
   const auto display = [exposure](float x) { return linear_to_srgb(std::clamp(exposure * x, 0.0f, 1.0f)); };
   double sum = 0.0;
   size_t n = 0;
-  for (uint32_t v = view_parity; v < btf.view_count(); v += 2)
+  for (uint32_t v = first_view; v < btf.view_count(); v += view_step)
     for (uint32_t l = 0; l < btf.light_count(); ++l) {
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
@@ -122,8 +124,8 @@ inline Result<FmfRankChoice> choose_fmf_rank(const BtfFloat& btf, const FmfRankO
   for (int c : options.candidates) {
     const int kept = std::min(c, full->components);
     Fmf f = truncate_fmf(*full, kept);
-    FmfRankPoint p{kept, fmf_displayed_ssim(btf, f, 0, options.exposure),
-                   fmf_displayed_ssim(btf, f, 1, options.exposure)};
+    FmfRankPoint p{kept, fmf_displayed_ssim(btf, f, 0, 2, options.exposure),
+                   fmf_displayed_ssim(btf, f, 1, 2, options.exposure)};
     choice.curve.push_back(p);
     choice.fmf = std::move(f);
     choice.components = kept;

@@ -164,7 +164,14 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
 /// (float32 store written afterwards). Paper path (s.paper): synthesised view by view into a
 /// store of halves and factorised out of core (never holding the BTF whole). Allocates; the
 /// slow part of the demo.
-inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir) {
+inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, const DirectionSet& lights,
+                                            const DirectionSet& views, const MaterialSettings& s,
+                                            const std::string& out_dir);
+
+/// The same, also handing the factorisation itself to `fmf_out` when it is not null (the
+/// rate–distortion tool truncates it to every rank it measures: factor/fmf_rank.hpp truncate_fmf).
+inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir,
+                                             Fmf* fmf_out = nullptr) {
   const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather,
                                  SynthMaterial::tiles};
   const SynthMaterial kind = s.kind ? *s.kind : kinds[index % 4];
@@ -289,14 +296,30 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     m.fmf_relative_error = *err;
     m.seconds_error = detail_materials::seconds_since(t0);
   }
-  t0 = std::chrono::steady_clock::now();
   {
     std::error_code ec;
     m.store_bytes = std::filesystem::file_size(m.store_path, ec);
   }
+  auto done = finish_material(std::move(m), fmf, so.lights, so.views, s, out_dir);
+  if (done && fmf_out != nullptr) *fmf_out = std::move(fmf);
+  return done;
+}
+
+/// The second half of prepare_material(): from a material's factorisation `fmf` (of
+/// m.texels² texels, s.components = fmf.components) to everything both renderers read — U in
+/// the backend's row order, V′·Σ repeated into the virtual texture, the angular lookup tables,
+/// the tile pyramid and the .bsvtf container at s.quality (written into `out_dir`). `m` carries
+/// the name, texel count, store and timings of the first half. Allocates.
+inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, const DirectionSet& lights,
+                                            const DirectionSet& views, const MaterialSettings& s,
+                                            const std::string& out_dir) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (fmf.components != static_cast<int>(s.components) || fmf.shape.width != m.texels ||
+      fmf.shape.height != m.texels || fmf.shape.light_count() != lights.size() ||
+      fmf.shape.view_count() != views.size())
+    return make_error(Status::invalid_argument, "%s: the FMF's shape or C = %d differs from the settings (C = %u)",
+                      m.name.c_str(), fmf.components, s.components);
   m.fmf_half_bytes = (fmf.u.size() + fmf.v.size()) * 2;
-  const DirectionSet& lights = so.lights;
-  const DirectionSet& views = so.views;
   m.light_count = static_cast<uint32_t>(lights.size());
   m.view_count = static_cast<uint32_t>(views.size());
   m.components = s.components;

@@ -185,12 +185,15 @@ class RawReferenceBuilder {
  public:
   /// Casts `supersample`² rays per pixel of `view` into the analytic scene of `material_count`
   /// materials (analytic_demo_scene). Returns invalid_argument for an empty view or no material.
-  static Result<RawReferenceBuilder> cast(uint32_t material_count, const scene::View& view, uint32_t supersample) {
+  /// `gpu_filter` false leaves out the GPU-filter-matched images (and their work in add_material).
+  static Result<RawReferenceBuilder> cast(uint32_t material_count, const scene::View& view, uint32_t supersample,
+                                          bool gpu_filter = true) {
     if (material_count == 0 || view.width == 0 || view.height == 0)
       return make_error(Status::invalid_argument, "raw reference: empty view or no material");
     RawReferenceBuilder b;
     b.t_start_ = std::chrono::steady_clock::now();
     b.ssn_ = std::max(1u, supersample);
+    if (!gpu_filter) b.gpu_filter_ok_ = false, b.gpu_filter_note_ = "not asked for";
     b.width_ = static_cast<int>(view.width), b.height_ = static_cast<int>(view.height);
     b.added_.assign(material_count, 0);
     const Scene scene = scene::analytic_demo_scene(material_count);
@@ -293,24 +296,9 @@ class RawReferenceBuilder {
           const Ray& r = rays_[si];
           if (r.material != index) continue;
           detail_raw::Sample& s = taps[si];
-          detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, s.light);
-          detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, s.view);
-          // Bilinear over the virtual texture (the material repeated), as the CPU FMF shading.
-          const Image<float>& v = m.eigen_textures;
-          const float fx = r.texcoord.x * static_cast<float>(v.width()) - 0.5f;
-          const float fy = r.texcoord.y * static_cast<float>(v.height()) - 0.5f;
-          const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-          const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
-          const auto wrap = [](int i, int k) { return ((i % k) + k) % k; };
-          const int xs[2] = {wrap(x0, v.width()), wrap(x0 + 1, v.width())};
-          const int ys[2] = {wrap(y0, v.height()), wrap(y0 + 1, v.height())};
-          const float wx[2] = {1.0f - ax, ax}, wy[2] = {1.0f - ay, ay};
-          for (int k = 0; k < v.channels() && k < static_cast<int>(CpuFrameRenderer::kMaxComponents); ++k) {
-            const float top = v.at(xs[0], ys[0], k) * wx[0] + v.at(xs[1], ys[0], k) * wx[1];
-            const float bot = v.at(xs[0], ys[1], k) * wx[0] + v.at(xs[1], ys[1], k) * wx[1];
-            comps[k] = top * wy[0] + bot * wy[1];
-          }
-          fmf_[si] = shade_fmf(m.eigen, s.light, s.view, std::span<const float>(comps, m.components));
+          int xs[2], ys[2];
+          float wx[2], wy[2];
+          fmf_[si] = shade_ray(m, r, s, comps, xs, ys, wx, wy);
           for (int j = 0; j < 2; ++j)
             for (int i = 0; i < 2; ++i) {
               const float w = wx[i] * wy[j];
@@ -504,6 +492,34 @@ class RawReferenceBuilder {
     return {};
   }
 
+  /// Shades the same-ray samples of material `index` again through `m`'s FMF — another rank,
+  /// value encoding or the eigen-textures decoded from a container — keeping the raw samples:
+  /// finish() then compares the new factorisation with the same raw image without reading the
+  /// store again. The GPU-filter-matched FMF image is not updated (finish() leaves it out
+  /// from then on). Returns invalid_argument until add_material(index, …) succeeded, unsupported
+  /// for C above CpuFrameRenderer::kMaxComponents.
+  VoidResult replace_fmf(uint32_t index, const DemoMaterial& m) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (index >= added_.size() || !added_[index])
+      return make_error(Status::invalid_argument, "raw reference: material %u not added", index);
+    if (m.components > CpuFrameRenderer::kMaxComponents)
+      return make_error(Status::unsupported, "%s: C = %u above %u", m.name.c_str(), m.components,
+                        CpuFrameRenderer::kMaxComponents);
+    gpu_filter_ok_ = false;
+    gpu_filter_note_ = "an FMF was replaced (replace_fmf): same rays only";
+    const size_t n = rays_.size();
+    default_thread_pool().parallel_for(0, n, 4096, [&](size_t s0, size_t s1) {
+      float comps[CpuFrameRenderer::kMaxComponents];
+      detail_raw::Sample s;
+      int xs[2], ys[2];
+      float wx[2], wy[2];
+      for (size_t si = s0; si < s1; ++si)
+        if (rays_[si].material == index) fmf_[si] = shade_ray(m, rays_[si], s, comps, xs, ys, wx, wy);
+    });
+    seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return {};
+  }
+
   /// Store bytes read so far (one pass over each added material's store).
   uint64_t bytes_read() const noexcept { return bytes_read_; }
 
@@ -563,6 +579,29 @@ class RawReferenceBuilder {
     glm::vec3 light_local{0.0f}, view_local{0.0f};
     float footprint = 0.0f;  ///< pixel rays: max |∂uv/∂x|, |∂uv/∂y| per pixel (uv in [0, 1))
   };
+  /// One ray through `m`'s FMF (paper 000 eq. 5): its angular taps into `s`, V′ bilinear over
+  /// the virtual texture (the material repeated, wrapped) into `comps`, and the four texels and
+  /// weights it read. Returns the radiance before the light colour.
+  static glm::vec3 shade_ray(const DemoMaterial& m, const Ray& r, detail_raw::Sample& s, float* comps, int xs[2],
+                             int ys[2], float wx[2], float wy[2]) {
+    detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, s.light);
+    detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, s.view);
+    const Image<float>& v = m.eigen_textures;
+    const float fx = r.texcoord.x * static_cast<float>(v.width()) - 0.5f;
+    const float fy = r.texcoord.y * static_cast<float>(v.height()) - 0.5f;
+    const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+    const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
+    const auto wrap = [](int i, int k) { return ((i % k) + k) % k; };
+    xs[0] = wrap(x0, v.width()), xs[1] = wrap(x0 + 1, v.width());
+    ys[0] = wrap(y0, v.height()), ys[1] = wrap(y0 + 1, v.height());
+    wx[0] = 1.0f - ax, wx[1] = ax, wy[0] = 1.0f - ay, wy[1] = ay;
+    for (int k = 0; k < v.channels() && k < static_cast<int>(CpuFrameRenderer::kMaxComponents); ++k) {
+      const float top = v.at(xs[0], ys[0], k) * wx[0] + v.at(xs[1], ys[0], k) * wx[1];
+      const float bot = v.at(xs[0], ys[1], k) * wx[0] + v.at(xs[1], ys[1], k) * wx[1];
+      comps[k] = top * wy[0] + bot * wy[1];
+    }
+    return shade_fmf(m.eigen, s.light, s.view, std::span<const float>(comps, m.components));
+  }
   std::chrono::steady_clock::time_point t_start_;
   uint32_t ssn_ = 1;
   int width_ = 0, height_ = 0;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "btflod/backend/cpu_reference.hpp"
 #include "btflod/factor/fmf_stream.hpp"
 #include "btflod/runtime/streamer.hpp"
 #include "btflod/stream/tile_source.hpp"
@@ -52,6 +53,9 @@ TEST(FmfStream, EigenTexturesAreTheFmfFactorsExactly) {
   EXPECT_EQ(e.light_count, 5u);
   EXPECT_EQ(e.view_count, 81u);
   EXPECT_EQ(e.angular, f.u);
+  // The eigen-textures say their rows are the FMF's view-major ones, and u() reads them so.
+  EXPECT_EQ(e.row_order, AngularRowOrder::view_major);
+  EXPECT_EQ(e.u(3, 17, 2, 4), f.u[((17 * 5 + 3) * 3 + 2) * 9 + 4]);
   for (int y = 0; y < f.shape.height; ++y)
     for (int x = 0; x < f.shape.width; ++x)
       for (int k = 0; k < 9; ++k)
@@ -73,7 +77,6 @@ TEST(FmfStream, ContainerRecordsTheOrderAndDirectionsAndStreams) {
   o.tile_size = 16;
   o.border = 4;
   o.material_name = "low-rank";
-  o.row_order = AngularRowOrder::light_major;  // replaced: the FMF's U is view-major
   auto file = build_bsvtf_from_fmf(f, o);
   ASSERT_TRUE(file) << file.message();
   auto dir = read_bsvtf(*file);
@@ -113,4 +116,31 @@ TEST(FmfStream, ContainerRecordsTheOrderAndDirectionsAndStreams) {
   }
   EXPECT_TRUE(s.value().material_ready(0));
   EXPECT_EQ(packet_uploads, 3u);  // ⌈9 / 4⌉ U′ packets
+}
+
+// The CPU shading reads U through the eigen-textures' row order: a light-major copy of the same
+// factors shades the same radiance, and the view-major U read as if light-major would not.
+TEST(FmfStream, ShadingHonoursTheRowOrder) {
+  const Fmf f = small_fmf();
+  const EigenTextures vm = eigen_textures_from_fmf(f);
+  EigenTextures lm = vm;
+  lm.row_order = AngularRowOrder::light_major;
+  for (uint32_t l = 0; l < vm.light_count; ++l)
+    for (uint32_t v = 0; v < vm.view_count; ++v)
+      for (uint32_t c = 0; c < 3; ++c)
+        for (uint32_t k = 0; k < 9; ++k)
+          lm.angular[((size_t{l} * vm.view_count + v) * 3 + c) * 9 + k] = vm.u(l, v, c, k);
+  AngularSample light, view;
+  light.index = {1, 3, 4};
+  light.weight = {0.2f, 0.5f, 0.3f};
+  view.index = {17, 40, 2};
+  view.weight = {0.6f, 0.1f, 0.3f};
+  std::vector<float> comps(9);
+  for (int k = 0; k < 9; ++k) comps[static_cast<size_t>(k)] = vm.textures.at(11, 7, k);
+  const glm::vec3 a = shade_fmf(vm, light, view, comps), b = shade_fmf(lm, light, view, comps);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(a[c], b[c], 1e-5f * (1.0f + std::fabs(a[c])));
+  EigenTextures misread = vm;
+  misread.row_order = AngularRowOrder::light_major;  // view-major rows, wrong label
+  const glm::vec3 m = shade_fmf(misread, light, view, comps);
+  EXPECT_GT(std::fabs(m[0] - a[0]) + std::fabs(m[1] - a[1]) + std::fabs(m[2] - a[2]), 1e-3f);
 }

@@ -95,12 +95,12 @@ inline std::vector<uint8_t> build(const EigenTextures& e, AngularRowOrder order 
   BsvtfFromEigenOptions o;
   o.tile_size = 32;
   o.border = 4;
-  o.row_order = order;
   o.light_directions = directions(kLights);
   o.view_directions = directions(kViews);
   if (order == AngularRowOrder::view_major) {
     EigenTextures vm = e;
     vm.angular = to_view_major(e);
+    vm.row_order = AngularRowOrder::view_major;
     return build_bsvtf_from_eigen_textures(vm, o).value();
   }
   return build_bsvtf_from_eigen_textures(e, o).value();

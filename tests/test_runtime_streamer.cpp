@@ -219,7 +219,7 @@ TEST(RuntimeStreamer, VersionTwoContainerNeedsAnAssumedRowOrder) {
   const EigenTextures ref = make_eigen(64, 4, 8);
   auto pyr = TilePyramid::build(ref, 32, 4).value();
   const auto ld = directions(kLights), vd = directions(kViews);
-  BsvtfMetadata md = bsvtf_metadata_for(ref, pyr, AngularRowOrder::light_major, ld, vd, "v2");
+  BsvtfMetadata md = bsvtf_metadata_for(ref, pyr, ld, vd, "v2");
   auto inputs = bsvtf_tiles_from_pyramid(pyr, md.level_count);
   const auto v3 = read_bsvtf(build_bsvtf(md, ref.angular, inputs.tiles).value()).value();
   // Re-encode the same tiles as a version-2 file.

@@ -97,7 +97,7 @@ int run_build(int argc, char** argv) {
   const auto comps = static_cast<uint32_t>(fmf->components);
   const int w = fmf->shape.width, h = fmf->shape.height;
 
-  // U stays in the FMF's view-major row order, which the metadata below records.
+  // U stays in the FMF's view-major row order (eigen.row_order), which the metadata records.
   const EigenTextures eigen = eigen_textures_from_fmf(*fmf);
   auto pyramid = TilePyramid::build(eigen, tile, border, wrap ? TileEdge::wrap : TileEdge::clamp);
   if (!pyramid) {
@@ -108,8 +108,7 @@ int run_build(int argc, char** argv) {
   // The library's metadata for these eigen-textures (geometry, C, U's rows, the value encoding);
   // FMF rows are (view · n_light + light) · 3 + colour.
   const size_t slash = in.find_last_of('/');
-  BsvtfMetadata md = bsvtf_metadata_for(eigen, *pyramid, AngularRowOrder::view_major,
-                                        direction_vectors(fmf->shape.lights), direction_vectors(fmf->shape.views),
+  BsvtfMetadata md = bsvtf_metadata_for(eigen, *pyramid, direction_vectors(fmf->shape.lights), direction_vectors(fmf->shape.views),
                                         slash == std::string::npos ? in : in.substr(slash + 1));
   md.light_set = fmf->shape.lights.name();
   md.view_set = fmf->shape.views.name();

@@ -368,7 +368,7 @@ inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, cons
   if (!pyramid) return pyramid.error();
   m.finest_level = pyramid->geometry().finest_level;
   // The library's metadata (geometry, C, U's light-major rows, the value encoding).
-  BsvtfMetadata md = bsvtf_metadata_for(m.eigen, *pyramid, AngularRowOrder::light_major, direction_vectors(lights),
+  BsvtfMetadata md = bsvtf_metadata_for(m.eigen, *pyramid, direction_vectors(lights),
                                         direction_vectors(views), m.name);
   md.light_set = lights.name();
   md.view_set = views.name();

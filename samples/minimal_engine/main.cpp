@@ -35,7 +35,6 @@ std::vector<uint8_t> make_container(uint32_t components, float frequency) {
   e.angular.assign(size_t{3} * 3 * 3 * components, 0.1f);
   BsvtfFromEigenOptions options;
   options.tile_size = 32;  // T; 4 texels of border (B) by default
-  options.row_order = AngularRowOrder::light_major;
   options.light_directions = {0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f};
   options.view_directions = options.light_directions;
   auto file = build_bsvtf_from_eigen_textures(e, options);

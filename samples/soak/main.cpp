@@ -168,7 +168,6 @@ std::vector<uint8_t> make_container(uint32_t size, uint32_t components, uint32_t
   BsvtfFromEigenOptions o;
   o.tile_size = 32;
   o.border = 4;
-  o.row_order = AngularRowOrder::light_major;
   o.light_directions = {0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f};
   o.view_directions = o.light_directions;
   auto file = build_bsvtf_from_eigen_textures(e, o);

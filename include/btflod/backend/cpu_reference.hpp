@@ -408,10 +408,10 @@ inline glm::vec3 shade_fmf(const EigenTextures& fmf, const AngularSample& light,
     for (int j = 0; j < 3; ++j) {
       const float w = light.weight[i] * view.weight[j];  // weights multiply
       if (w == 0.0f) continue;
-      const float* row = fmf.angular.data() + static_cast<size_t>(light.index[i] * fmf.view_count + view.index[j]) * 3 * C;
-      for (int colour = 0; colour < 3; ++colour) {
+      for (uint32_t colour = 0; colour < 3; ++colour) {
+        const float* row = fmf.u_row(light.index[i], view.index[j], colour);  // either row order
         float sum = 0.0f;
-        for (uint32_t c = 0; c < n; ++c) sum += row[colour * C + c] * components[c];
+        for (uint32_t c = 0; c < n; ++c) sum += row[c] * components[c];
         rgb[colour] += w * sum;
       }
     }

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "btflod/codec/tile_codec.hpp"
+#include "btflod/core/angular_row_order.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/progress.hpp"
@@ -52,20 +53,6 @@ inline constexpr size_t kBsvtfPacketEntrySize = 24;
 inline constexpr size_t kBsvtfTileEntrySize = 32;
 inline constexpr uint32_t kBsvtfMaxComponents = 65536;
 inline constexpr uint32_t kBsvtfMaxStringBytes = 4096;
-
-/// Order of U's angular rows; rows are (a · n_b + b) · colour_channels + colour.
-enum class AngularRowOrder : uint8_t {
-  light_major,  ///< a = light, b = view: row = (light · views + view) · channels + colour (shader/, backends)
-  view_major,   ///< a = view, b = light: row = (view · lights + light) · channels + colour (factor/fmf.hpp files)
-  unspecified,  ///< a version-2 container, which did not store it
-};
-
-/// Stable name of a row order ("light_major", "view_major", "unspecified").
-constexpr const char* angular_row_order_name(AngularRowOrder o) noexcept {
-  return o == AngularRowOrder::light_major  ? "light_major"
-         : o == AngularRowOrder::view_major ? "view_major"
-                                            : "unspecified";
-}
 
 /// How the colour channels of U are to be interpreted.
 enum class ColorMode : uint32_t { linear_rgb = 0, ycbcr = 1, luminance = 2 };

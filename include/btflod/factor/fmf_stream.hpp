@@ -25,10 +25,8 @@ inline std::vector<float> direction_vectors(const DirectionSet& set) {
 
 /// An FMF as eigen-textures (vt/vt_layout.hpp, paper 000 eq. 5): V·Σ as the C channels of the
 /// texture, texel (x, y) = row y·W + x of fmf.v, exactly; U as `angular`, exactly, in the FMF's
-/// own row order, which is VIEW-major — (view · n_light + light) · 3 + colour — not the
-/// light-major order EigenTextures documents: build with AngularRowOrder::view_major (as
-/// build_bsvtf_from_fmf() does), which the container stores so no reader can misread U.
-/// Allocates (a copy of V and U).
+/// own row order, which is VIEW-major — (view · n_light + light) · 3 + colour — and says so
+/// (row_order = view_major), which containers built from it store. Allocates (a copy of V and U).
 inline EigenTextures eigen_textures_from_fmf(const Fmf& fmf) {
   EigenTextures e;
   const int w = fmf.shape.width, h = fmf.shape.height, c = fmf.components;
@@ -43,17 +41,16 @@ inline EigenTextures eigen_textures_from_fmf(const Fmf& fmf) {
   e.light_count = static_cast<uint32_t>(fmf.shape.light_count());
   e.view_count = static_cast<uint32_t>(fmf.shape.view_count());
   e.transform = fmf.transform;
+  e.row_order = AngularRowOrder::view_major;
   return e;
 }
 
 /// The complete .bsvtf container of an FMF in one call: its eigen-textures
 /// (eigen_textures_from_fmf), U in its view-major row order, its light and view directions with
 /// their set names; `options` gives the rest (tile size, border, edge, material name, build
-/// options: quality, tolerances, threads, progress) — its row order, directions and set names
-/// are replaced. Errors: those of build_bsvtf_from_eigen_textures() (e.g. an FMF whose U does
+/// options: quality, tolerances, threads, progress) — its directions and set names are replaced. Errors: those of build_bsvtf_from_eigen_textures() (e.g. an FMF whose U does
 /// not have lights · views · 3 rows). Deterministic for any thread count. Allocates.
 inline Result<std::vector<uint8_t>> build_bsvtf_from_fmf(const Fmf& fmf, BsvtfFromEigenOptions options = {}) {
-  options.row_order = AngularRowOrder::view_major;
   options.light_directions = direction_vectors(fmf.shape.lights);
   options.view_directions = direction_vectors(fmf.shape.views);
   options.light_set = fmf.shape.lights.name();

@@ -49,9 +49,10 @@ inline BsvtfTileInputs bsvtf_tiles_from_pyramid(const TilePyramid& pyramid, uint
   return out;
 }
 
-/// Container metadata for a pyramid: sizes, levels, C, U's rows and row order, directions.
-/// `light_directions` / `view_directions`: xyz triples (light_count resp. view_count of them).
-inline BsvtfMetadata bsvtf_metadata_for(const EigenTextures& e, const TilePyramid& pyramid, AngularRowOrder row_order,
+/// Container metadata for a pyramid: sizes, levels, C, U's rows and their order (e.row_order),
+/// the value encoding, directions. `light_directions` / `view_directions`: xyz triples
+/// (light_count resp. view_count of them).
+inline BsvtfMetadata bsvtf_metadata_for(const EigenTextures& e, const TilePyramid& pyramid,
                                         std::span<const float> light_directions, std::span<const float> view_directions,
                                         std::string material_name = {}) {
   BsvtfMetadata md;
@@ -65,7 +66,7 @@ inline BsvtfMetadata bsvtf_metadata_for(const EigenTextures& e, const TilePyrami
   md.color_channels = 3;
   md.color_mode = ColorMode::linear_rgb;
   md.u_rows = e.light_count * e.view_count * 3;
-  md.u_row_order = row_order;
+  md.u_row_order = e.row_order;
   md.light_directions.assign(light_directions.begin(), light_directions.end());
   md.view_directions.assign(view_directions.begin(), view_directions.end());
   md.value_transform = e.transform;
@@ -77,9 +78,6 @@ struct BsvtfFromEigenOptions {
   uint32_t tile_size = kDefaultTileSize;  ///< T
   uint32_t border = kDefaultTileBorder;   ///< B
   TileEdge edge = TileEdge::clamp;        ///< outer tile borders (wrap for repeated materials)
-  /// Order of e.angular's rows (EigenTextures documents light-major; FMF factor files are
-  /// view-major). Stored in the container, so readers cannot misread U.
-  AngularRowOrder row_order = AngularRowOrder::light_major;
   std::string material_name;
   std::vector<float> light_directions;  ///< xyz per light (e.light_count triples)
   std::vector<float> view_directions;   ///< xyz per view (e.view_count triples)
@@ -87,12 +85,13 @@ struct BsvtfFromEigenOptions {
   BsvtfBuildOptions build;              ///< quality, tolerances, threads, progress
 };
 
-/// Builds the complete container file for one material. Returns the bytes, or invalid_argument
+/// Builds the complete container file for one material; U's row order is e.row_order (stored in
+/// the container, so readers cannot misread U). Returns the bytes, or invalid_argument
 /// (inconsistent eigen-textures, direction counts that do not match, unspecified row order) or
 /// the errors of TilePyramid::build / build_bsvtf. Deterministic for any thread count.
 inline Result<std::vector<uint8_t>> build_bsvtf_from_eigen_textures(const EigenTextures& e,
                                                                     const BsvtfFromEigenOptions& options) {
-  if (options.row_order == AngularRowOrder::unspecified)
+  if (e.row_order == AngularRowOrder::unspecified)
     return make_error(Status::invalid_argument,
                       "build_bsvtf_from_eigen_textures: row order must be light- or view-major");
   if (options.light_directions.size() != size_t{e.light_count} * 3 ||
@@ -103,7 +102,7 @@ inline Result<std::vector<uint8_t>> build_bsvtf_from_eigen_textures(const EigenT
         options.light_directions.size(), options.view_directions.size(), e.light_count, e.view_count);
   auto pyramid = TilePyramid::build(e, options.tile_size, options.border, options.edge);
   if (!pyramid) return pyramid.error();
-  BsvtfMetadata md = bsvtf_metadata_for(e, *pyramid, options.row_order, options.light_directions,
+  BsvtfMetadata md = bsvtf_metadata_for(e, *pyramid, options.light_directions,
                                         options.view_directions, options.material_name);
   md.light_set = options.light_set;
   md.view_set = options.view_set;

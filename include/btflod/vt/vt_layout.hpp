@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "btflod/core/allocator.hpp"
+#include "btflod/core/angular_row_order.hpp"
 #include "btflod/core/range_list.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
@@ -138,10 +139,14 @@ struct VtLevelTable {
 struct EigenTextures {
   /// V': M×N texels with C channels; channel c is eigen-texture V'_c.
   Image<float> textures;
-  /// U': row-major, rows = (light · view_count + view) · 3 + colour, columns = C.
+  /// U': row-major, C columns; rows in `row_order`: (light · view_count + view) · 3 + colour
+  /// (light-major, what shaders and backends read) or (view · light_count + light) · 3 + colour
+  /// (view-major, factor/fmf.hpp's order).
   std::vector<float> angular;
   uint32_t light_count = 0;
   uint32_t view_count = 0;
+  /// The order of `angular`'s rows; containers record it (BsvtfMetadata::u_row_order).
+  AngularRowOrder row_order = AngularRowOrder::light_major;
   /// The encoding U'·V'ᵀ approximates (core/value_transform.hpp): renderers decode the sum of
   /// eq. 5 with it. Linear unless the factorisation reduced the dynamic range.
   ValueTransform transform{};
@@ -152,13 +157,19 @@ struct EigenTextures {
   uint32_t virtual_texture_count() const noexcept {
     return (components() + kComponentsPerTexel - 1) / kComponentsPerTexel;
   }
-  /// U'(row, c). Precondition: indices in range.
-  float u(uint32_t light, uint32_t view, uint32_t colour, uint32_t c) const noexcept {
-    return angular[(static_cast<size_t>(light * view_count + view) * 3 + colour) * components() + c];
+  /// First of the C entries of U' for (light, view, colour), in either row order. Precondition:
+  /// indices in range.
+  const float* u_row(uint32_t light, uint32_t view, uint32_t colour) const noexcept {
+    return angular.data() + angular_row(row_order, light, view, colour, light_count, view_count) * components();
   }
-  /// True when the angular matrix has rows · C entries and the texture is non-empty.
+  /// U'(light, view, colour, c). Precondition: indices in range.
+  float u(uint32_t light, uint32_t view, uint32_t colour, uint32_t c) const noexcept {
+    return u_row(light, view, colour)[c];
+  }
+  /// True when the angular matrix has rows · C entries in a known order and the texture is non-empty.
   bool valid() const noexcept {
     return !textures.empty() && components() > 0 && light_count > 0 && view_count > 0 &&
+           row_order != AngularRowOrder::unspecified &&
            angular.size() == static_cast<size_t>(light_count) * view_count * 3 * components();
   }
 };

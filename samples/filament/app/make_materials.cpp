@@ -19,7 +19,6 @@ int main(int argc, char** argv) {
     o.tile_size = sample::kTileSize;
     o.border = 4;
     o.edge = TileEdge::wrap;  // the materials repeat over their objects
-    o.row_order = AngularRowOrder::light_major;
     o.material_name = sample::kMaterialNames[m];
     o.light_directions = directions;
     o.view_directions = directions;

@@ -110,9 +110,10 @@ TEST(ShaderPageTableWrites, IncrementalWritesMatchRecomputationUnderRandomAddRem
             };
             const uint32_t truth_f = gpu_page_entry(cache, TileId{x, L, fx, fy});
             const uint32_t e_truth = gpu_page_entry(cache, id);
-            const uint32_t truth = unpack_page_entry_level(e_truth) == level
-                                       ? e_truth
-                                       : (unpack_page_entry_level(truth_f) > unpack_page_entry_level(e_truth) ? truth_f : e_truth);
+            const uint32_t truth =
+                unpack_page_entry_level(e_truth) == level
+                    ? e_truth
+                    : (unpack_page_entry_level(truth_f) > unpack_page_entry_level(e_truth) ? truth_f : e_truth);
             ASSERT_EQ(pick(mirror_at(level, id.x, id.y)), truth)
                 << "step " << step << " texture " << x << " finest tile " << fx << "," << fy << " level " << level;
           }
@@ -126,7 +127,7 @@ TEST(ShaderPageTableWrites, IncrementalWritesMatchRecomputationUnderRandomAddRem
 }
 
 TEST(ShaderPageTableWrites, EntryEncodingMatchesTileCache) {
-  EXPECT_EQ(pack_page_entry(1234, 5), make_page_entry(5, 1234));
-  EXPECT_EQ(unpack_page_entry_slot(make_page_entry(3, 77)), page_entry_slot(make_page_entry(3, 77)));
-  EXPECT_EQ(unpack_page_entry_level(make_page_entry(3, 77)), 3u);
+  EXPECT_EQ(pack_page_entry(1234, 5), pack_page_entry(1234, 5));
+  EXPECT_EQ(unpack_page_entry_slot(pack_page_entry(77, 3)), unpack_page_entry_slot(pack_page_entry(77, 3)));
+  EXPECT_EQ(unpack_page_entry_level(pack_page_entry(77, 3)), 3u);
 }

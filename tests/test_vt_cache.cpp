@@ -18,14 +18,14 @@ using namespace btflod;
 namespace {
 VtSet make_set() {
   VtSet set;
-  set.add_material(VtGeometry::make(512, 512), 2);   // L = 3, 85 tiles each
-  set.add_material(VtGeometry::make(300, 100), 1);   // non-square, L = 3
+  set.add_material(VtGeometry::make(512, 512), 2);  // L = 3, 85 tiles each
+  set.add_material(VtGeometry::make(300, 100), 1);  // non-square, L = 3
   return set;
 }
 
-#define EXPECT_INVARIANTS(cache)                     \
-  do {                                               \
-    std::string why;                                 \
+#define EXPECT_INVARIANTS(cache)                        \
+  do {                                                  \
+    std::string why;                                    \
     ASSERT_TRUE((cache).check_invariants(&why)) << why; \
   } while (0)
 }  // namespace
@@ -42,7 +42,7 @@ TEST(TileCache, RootsArePinnedAndCoverEverything) {
   for (uint32_t t = 0; t < 3; ++t) {
     EXPECT_TRUE(c.resident(TileId{t, 0, 0, 0}));
     EXPECT_EQ(c.remove(TileId{t, 0, 0, 0}), Status::invalid_argument);
-    for (uint32_t e : c.page_table(t)) EXPECT_EQ(e, make_page_entry(0, c.slot_of(TileId{t, 0, 0, 0})));
+    for (uint32_t e : c.page_table(t)) EXPECT_EQ(e, pack_page_entry(c.slot_of(TileId{t, 0, 0, 0}), 0));
   }
   EXPECT_EQ(c.page_table(2).size(), 5u * 2u);
   EXPECT_EQ(c.deltas().size(), 3u);
@@ -93,8 +93,8 @@ TEST(TileCache, AddNeedsAResidentParentAndDropsCoveredAncestors) {
   EXPECT_INVARIANTS(c);
   // The page table names the deepest resident tile: finest tile (0,0) → level 2 tile (0,0).
   const uint32_t e = c.page_table(0)[0];
-  EXPECT_EQ(page_entry_level(e), 2u);
-  EXPECT_EQ(page_entry_slot(e), c.slot_of(c0.child(0)));
+  EXPECT_EQ(unpack_page_entry_level(e), 2u);
+  EXPECT_EQ(unpack_page_entry_slot(e), c.slot_of(c0.child(0)));
 }
 
 TEST(TileCache, SwapRemovesTwoAndNamesTheirCommonAncestor) {
@@ -196,7 +196,8 @@ TEST(TileCache, LongRandomOperationSequencesKeepEveryInvariant) {
     }
     EXPECT_INVARIANTS(c);
     apply_deltas();
-    for (uint32_t x = 0; x < 3; ++x) ASSERT_EQ(shadow[x], std::vector<uint32_t>(c.page_table(x).begin(), c.page_table(x).end()));
+    for (uint32_t x = 0; x < 3; ++x)
+      ASSERT_EQ(shadow[x], std::vector<uint32_t>(c.page_table(x).begin(), c.page_table(x).end()));
   }
   EXPECT_GT(adds, 100u);
   EXPECT_GT(removes, 50u);
@@ -222,9 +223,9 @@ namespace {
 template <class Table>
 uint32_t sampled_entry(const Table& table, const TileId& t, const TileId& f) {
   const uint32_t e = table(t);
-  if (page_entry_level(e) == t.level) return e;
+  if (unpack_page_entry_level(e) == t.level) return e;
   const uint32_t ef = table(f);
-  return page_entry_level(ef) > page_entry_level(e) ? ef : e;
+  return unpack_page_entry_level(ef) > unpack_page_entry_level(e) ? ef : e;
 }
 
 // Applies this frame's writes (derived from the cache's operations only) to a GPU mirror and
@@ -243,7 +244,8 @@ void apply_and_check(const TileCache& c, std::vector<std::vector<uint32_t>>& gpu
     for (uint32_t i = 0; i < lv.tile_count(); ++i) {
       const TileId id = lv.tile(t, i);
       if (c.resident(id) || id.level == L) {
-        ASSERT_EQ(mirror(id), rebuild(id)) << "texture " << t << " level " << id.level << " tile " << id.x << "," << id.y;
+        ASSERT_EQ(mirror(id), rebuild(id))
+            << "texture " << t << " level " << id.level << " tile " << id.x << "," << id.y;
         continue;
       }
       const uint32_t side = 1u << (L - id.level);
@@ -271,7 +273,8 @@ TEST(TileCache, FrameWritesFromReportedOperationsMatchARebuild) {
   std::vector<std::vector<uint32_t>> gpu(3);
   for (uint32_t t = 0; t < 3; ++t) gpu[t].assign(set.levels_of(t).tile_count(), 0xffffffffu);
   for (uint32_t t = 0; t < 3; ++t)  // initial upload: every texel
-    for (uint32_t i = 0; i < set.levels_of(t).tile_count(); ++i) gpu[t][i] = gpu_page_entry(c, set.levels_of(t).tile(t, i));
+    for (uint32_t i = 0; i < set.levels_of(t).tile_count(); ++i)
+      gpu[t][i] = gpu_page_entry(c, set.levels_of(t).tile(t, i));
   c.clear_deltas();
   VoteCounter votes(vote_layouts(set));
   std::mt19937 rng(5);
@@ -280,8 +283,9 @@ TEST(TileCache, FrameWritesFromReportedOperationsMatchARebuild) {
     std::vector<uint32_t> words;
     for (int k = 0; k < 24; ++k) {
       const uint32_t m = rng() % 2, level = rng() % 4, side = 1u << level;
-      words.push_back(pack_feedback(FeedbackTile{m, level, static_cast<uint32_t>(rng() % side),
-                                                 static_cast<uint32_t>(rng() % (m == 1 ? std::max(1u, side / 2) : side))}));
+      words.push_back(
+          pack_feedback(FeedbackTile{m, level, static_cast<uint32_t>(rng() % side),
+                                     static_cast<uint32_t>(rng() % (m == 1 ? std::max(1u, side / 2) : side))}));
     }
     votes.count(words);
     sched.run_frame(c, votes, f);

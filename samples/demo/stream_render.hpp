@@ -68,13 +68,13 @@ struct ShownMaterial {
 /// One material swap on a live Streamer (StreamSettings::swap_out_frame).
 struct SwapRecord {
   static constexpr int64_t kNever = -1;
-  uint32_t slot = 0;             ///< scene slot whose material changed
-  uint32_t demo = 0;             ///< demo material shown from then on
-  uint32_t added_id = 0;         ///< its Streamer material id (add_material)
-  uint32_t removed_id = 0;       ///< the id it replaced (remove_material once the new one was ready)
-  uint32_t first_texture = 0;    ///< page-table layer of the added material
-  uint32_t added_frame = 0;      ///< frame of add_material()
-  int64_t shown_frame = kNever;  ///< frame the new material was ready and drawn (the old one removed)
+  uint32_t slot = 0;                ///< scene slot whose material changed
+  uint32_t demo = 0;                ///< demo material shown from then on
+  uint32_t added_id = 0;            ///< its Streamer material id (add_material)
+  uint32_t removed_id = 0;          ///< the id it replaced (remove_material once the new one was ready)
+  uint32_t first_texture = 0;       ///< page-table layer of the added material
+  uint32_t added_frame = 0;         ///< frame of add_material()
+  int64_t shown_frame = kNever;     ///< frame the new material was ready and drawn (the old one removed)
   int64_t released_frame = kNever;  ///< frame of the old id's material_released event
   uint64_t bytes_before = 0;        ///< payload bytes read when it was added (bytes_read())
   uint64_t bytes_until_shown = 0;   ///< payload bytes read from adding to showing it (all materials)
@@ -303,9 +303,9 @@ class GpuFrameRenderer final : public FrameRenderer {
   std::function<void()> after_bsvtf_;
   bool separate_feedback_pass_ = false;
   std::vector<MeshHandle> meshes_;
-  std::vector<uint32_t> material_of_;         // scene slot per mesh
-  std::vector<MaterialHandle> fmf_mats_;     // per demo material
-  std::vector<MaterialHandle> bsvtf_mats_;   // per Streamer material id
+  std::vector<uint32_t> material_of_;       // scene slot per mesh
+  std::vector<MaterialHandle> fmf_mats_;    // per demo material
+  std::vector<MaterialHandle> bsvtf_mats_;  // per Streamer material id
 };
 
 /// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
@@ -389,8 +389,8 @@ class CpuFrameRenderer final : public FrameRenderer {
           const uint32_t groups = (m.components + 3) / 4;
           for (uint32_t g = 0; g < groups; ++g) {
             if (bsvtf) {
-              texture_->sample(*cache_, set_->material(shown.streamer_id).first_texture + g, h.texcoord.x,
-                               h.texcoord.y, comps + 4 * g);
+              texture_->sample(*cache_, set_->material(shown.streamer_id).first_texture + g, h.texcoord.x, h.texcoord.y,
+                               comps + 4 * g);
             } else {
               const Image<float>& v = m.eigen_textures;
               const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f,
@@ -605,9 +605,9 @@ class StreamingRenderer {
   template <class Table>
   static uint32_t sampled_entry(const Table& table, const TileId& t, const TileId& f) {
     const uint32_t e = table(t);
-    if (page_entry_level(e) == t.level) return e;
+    if (unpack_page_entry_level(e) == t.level) return e;
     const uint32_t ef = table(f);
-    return page_entry_level(ef) > page_entry_level(e) ? ef : e;
+    return unpack_page_entry_level(ef) > unpack_page_entry_level(e) ? ef : e;
   }
 
  public:

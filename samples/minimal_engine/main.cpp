@@ -90,8 +90,8 @@ int main() {
   config.cache = CacheConfig{8, 8, 1u << 14, 32, 4, 1};  // 64 slots of 40×40 texels
   config.scheduler.budgets.uploads_per_frame = 8;
   config.vote_window_frames = 1;
-  config.decode_workers = 2;              // the most threads that run jobs at once
-  config.failure.startup_attempts = 3;    // a root that fails 3 times fails its material
+  config.decode_workers = 2;                              // the most threads that run jobs at once
+  config.failure.startup_attempts = 3;                    // a root that fails 3 times fails its material
   config.capacity = streamer_capacity_for(materials, 3);  // room for any three, added and removed live
   auto created = Streamer::create(first_three, config);
   if (!created) return std::fprintf(stderr, "streamer: %s\n", created.message().c_str()), 1;
@@ -156,7 +156,8 @@ int main() {
       if (frame != 60) continue;  // a level change: the damaged material goes, a new one comes
       uint32_t id = 0;
       const char* why = "";
-      if (streamer.remove_material(2) != Status::success || streamer.add_material(materials[3], id, &why) != Status::success)
+      if (streamer.remove_material(2) != Status::success ||
+          streamer.add_material(materials[3], id, &why) != Status::success)
         return std::fprintf(stderr, "add: %s\n", why), 1;
       for (uint32_t t = streamer.first_texture(id); t < streamer.first_texture(id) + streamer.texture_count(id); ++t)
         gpu.page_tables[t].assign(streamer.cache().set().levels_of(t).tile_count(), 0u);  // the layer's new shape
@@ -183,7 +184,7 @@ int main() {
       const uint32_t slot = cache.slot_of(id);
       if (slot == kNoSlot) continue;
       ++resident;
-      if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != make_page_entry(id.level, slot)) ++bad;
+      if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != pack_page_entry(slot, id.level)) ++bad;
     }
   }
   const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_ready(2);

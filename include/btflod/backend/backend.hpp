@@ -85,8 +85,8 @@ struct TileUpload {
 /// into these writes by backend/page_table_writes.hpp. `tile` names the texel: layer
 /// tile.texture (virtual texture), tile (x, y) at paper level tile.level; page_mip = material
 /// finest level − tile.level is the mip it lives in (ShaderParams::vt_extent.z − level).
-/// entry = pack_page_entry(slot, resident level) (= vt/tile_cache.hpp make_page_entry(level,
-/// slot)) of the tile the cache uses for it: itself or its deepest resident ancestor.
+/// entry = pack_page_entry(slot, resident level) (vt/cache_config.hpp) of the tile the cache
+/// uses for it: itself or its deepest resident ancestor.
 // struct PageTableWrite is defined in vt/tile_cache.hpp (GPU-free, shared with the runtime).
 
 /// Builds the write for tile `t` of a material whose finest level is `material_finest_level`.

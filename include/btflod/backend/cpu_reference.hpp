@@ -54,11 +54,11 @@ enum class ShapeKind : uint8_t { plane, sphere, torus };
 struct Shape {
   ShapeKind kind = ShapeKind::plane;
   uint32_t material = 0;
-  glm::vec3 center{0.0f};            ///< plane: origin corner
+  glm::vec3 center{0.0f};              ///< plane: origin corner
   glm::vec3 axis_u{1.0f, 0.0f, 0.0f};  ///< plane only (unit)
   glm::vec3 axis_v{0.0f, 0.0f, 1.0f};  ///< plane only (unit)
-  float size_u = 1.0f;  ///< plane: extent along axis_u; sphere: radius; torus: major radius
-  float size_v = 1.0f;  ///< plane: extent along axis_v; torus: minor radius
+  float size_u = 1.0f;                 ///< plane: extent along axis_u; sphere: radius; torus: major radius
+  float size_v = 1.0f;                 ///< plane: extent along axis_v; torus: minor radius
   glm::vec2 uv_scale{1.0f, 1.0f};
 
   /// Rectangle origin + u·size_u·axis_u + v·size_v·axis_v (axes normalised here), two-sided.
@@ -86,7 +86,8 @@ struct Shape {
     return s;
   }
   /// Torus around +y: major radius `major`, tube radius `minor`; u around the ring, v around the tube.
-  static Shape torus(uint32_t material, glm::vec3 center, float major, float minor, glm::vec2 uv_scale = {1, 1}) noexcept {
+  static Shape torus(uint32_t material, glm::vec3 center, float major, float minor,
+                     glm::vec2 uv_scale = {1, 1}) noexcept {
     Shape s;
     s.kind = ShapeKind::torus;
     s.material = material;
@@ -223,9 +224,15 @@ class Scene {
       SurfaceHit h;
       bool ok = false;
       switch (s.kind) {
-        case ShapeKind::plane: ok = detail::intersect_plane(s, r, t_max, h); break;
-        case ShapeKind::sphere: ok = detail::intersect_sphere(s, r, t_max, h); break;
-        case ShapeKind::torus: ok = detail::intersect_torus(s, r, t_max, h); break;
+        case ShapeKind::plane:
+          ok = detail::intersect_plane(s, r, t_max, h);
+          break;
+        case ShapeKind::sphere:
+          ok = detail::intersect_sphere(s, r, t_max, h);
+          break;
+        case ShapeKind::torus:
+          ok = detail::intersect_torus(s, r, t_max, h);
+          break;
       }
       if (ok) {
         best = h;
@@ -297,11 +304,14 @@ uint32_t feedback_word(const Camera& cam, const SurfaceHit& h, float px, float p
   const VtLevelTable& lv = set.material(h.material).levels;
   const VtGeometry& g = lv.geometry;
   const LodInput in = surface_footprint(cam, h, px, py, g.width, g.height);
-  const uint32_t level = std::min(feedback_level(selector.level(in, g.finest_level), g.finest_level), kFeedbackMaxLevel);
+  const uint32_t level =
+      std::min(feedback_level(selector.level(in, g.finest_level), g.finest_level), kFeedbackMaxLevel);
   // Eq. 2 at this level: tile = ⌊s_l / T⌋ with s_l = texcoord · M / 2^(L−l).
   const float scale = static_cast<float>(g.tile_size << (g.finest_level - level));
-  const uint32_t tx = std::min(static_cast<uint32_t>(h.texcoord.x * static_cast<float>(g.width) / scale), lv.tiles_x[level] - 1);
-  const uint32_t ty = std::min(static_cast<uint32_t>(h.texcoord.y * static_cast<float>(g.height) / scale), lv.tiles_y[level] - 1);
+  const uint32_t tx =
+      std::min(static_cast<uint32_t>(h.texcoord.x * static_cast<float>(g.width) / scale), lv.tiles_x[level] - 1);
+  const uint32_t ty =
+      std::min(static_cast<uint32_t>(h.texcoord.y * static_cast<float>(g.height) / scale), lv.tiles_y[level] - 1);
   return pack_feedback({h.material, level, tx, ty});
 }
 
@@ -363,7 +373,7 @@ class CpuCacheTexture {
     const uint32_t fx = std::min(static_cast<uint32_t>(s / static_cast<float>(g.tile_size)), lv.tiles_x[L] - 1);
     const uint32_t fy = std::min(static_cast<uint32_t>(t / static_cast<float>(g.tile_size)), lv.tiles_y[L] - 1);
     const uint32_t entry = cache.page_table(texture)[static_cast<size_t>(fy) * lv.tiles_x[L] + fx];
-    const uint32_t level = page_entry_level(entry), slot = page_entry_slot(entry);
+    const uint32_t level = unpack_page_entry_level(entry), slot = unpack_page_entry_slot(entry);
     const uint32_t shift = L - level;
     const float inv = 1.0f / static_cast<float>(1u << shift);
     uint32_t ox, oy;

@@ -12,9 +12,9 @@
 // all levels are exact. A tile that becomes resident or is removed while completely hidden by
 // resident descendants (TileCache::add drops such ancestors) changes no finest entry, so
 // TileCache reports no delta for it; TileCache::touched_tiles() names every such tile, and
-// append_frame_page_table_writes() adds the own-level chain of each. Stale entries can then remain only on non-resident tiles whose region is
-// covered by deeper resident tiles, and the shader never samples those: when the level-l1
-// entry is not at level l1 it takes the mip-0 entry whenever that one is deeper.
+// append_frame_page_table_writes() adds the own-level chain of each. Stale entries can then remain only on non-resident
+// tiles whose region is covered by deeper resident tiles, and the shader never samples those: when the level-l1 entry
+// is not at level l1 it takes the mip-0 entry whenever that one is deeper.
 #pragma once
 
 #include <algorithm>
@@ -26,15 +26,14 @@
 
 namespace btflod {
 
-/// GPU page-table entry of tile t: make_page_entry(level, slot) of t when resident, else of its
+/// GPU page-table entry of tile t: pack_page_entry(slot, level) of t when resident, else of its
 /// deepest resident ancestor (the root is pinned, so one exists). Returns pack_page_entry(0, 0)
-/// for a tile outside the hierarchy. (make_page_entry(level, slot) ≡ shader_config.hpp's
-/// pack_page_entry(slot, level).) noexcept, no allocation, O(level).
+/// for a tile outside the hierarchy. noexcept, no allocation, O(level).
 inline uint32_t gpu_page_entry(const TileCache& cache, TileId t) noexcept {
   for (;;) {
     const uint32_t s = cache.slot_of(t);
-    if (s != kNoSlot) return make_page_entry(t.level, s);
-    if (t.level == 0) return make_page_entry(0, 0);
+    if (s != kNoSlot) return pack_page_entry(s, t.level);
+    if (t.level == 0) return pack_page_entry(0, 0);
     t = t.parent();
   }
 }
@@ -48,7 +47,8 @@ inline size_t page_table_writes_bound(const TileCache& cache, std::span<const Pa
     const uint32_t L = cache.set().levels_of(d.texture).finest_level();
     for (uint32_t l = 0; l <= L; ++l) {
       const uint32_t s = L - l;
-      n += static_cast<size_t>(((d.x + d.width - 1) >> s) - (d.x >> s) + 1) * (((d.y + d.height - 1) >> s) - (d.y >> s) + 1);
+      n += static_cast<size_t>(((d.x + d.width - 1) >> s) - (d.x >> s) + 1) *
+           (((d.y + d.height - 1) >> s) - (d.y >> s) + 1);
     }
   }
   return n;

@@ -97,15 +97,8 @@ constexpr FeedbackSample unpack_feedback_word(const FeedbackWordLayout& l, uint3
                         (word >> l.y_shift) & detail::low_mask(l.y_bits)};
 }
 
-/// Page-table entry (paper 000 §3 lookup table L: level l' and cache position i'). One R32UI
-/// texel: bits [23..0] cache slot, bits [31..24] resident level l' (paper numbering).
-inline constexpr uint32_t kPageEntrySlotBits = 24;
-inline constexpr uint32_t kPageEntrySlotMask = (1u << kPageEntrySlotBits) - 1u;
-constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexcept {
-  return (resident_level << kPageEntrySlotBits) | (slot & kPageEntrySlotMask);
-}
-constexpr uint32_t unpack_page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
-constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
+// The page-table entry (pack_page_entry, unpack_page_entry_slot/level) is vt/cache_config.hpp's:
+// the tile cache writes it and the shaders read it.
 
 /// Virtual-texture (BSVTF) layout as the shaders see it.
 ///
@@ -124,8 +117,8 @@ constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return ent
 /// The cache shape (tile size, border, slots, layers) is vt/cache_config.hpp's CacheConfig, the
 /// same type the tile cache, the scheduler and the runtime are configured with.
 struct VirtualTextureConfig : CacheConfig {
-  uint32_t finest_level = 4;   ///< largest L of any material: the page table has L + 1 mips
-  bool trilinear = true;       ///< blend levels ⌊λ⌋ and ⌊λ⌋+1 when both are resident
+  uint32_t finest_level = 4;  ///< largest L of any material: the page table has L + 1 mips
+  bool trilinear = true;      ///< blend levels ⌊λ⌋ and ⌊λ⌋+1 when both are resident
   FeedbackWordLayout feedback;
 };
 
@@ -143,7 +136,7 @@ constexpr SlotPlacement slot_placement(const VirtualTextureConfig& c, uint32_t s
 /// PCA weight maps, mipmapped 2D array RGBA, layer = j / 4, mip k = pyramid level k;
 /// mean, 2D RGBA32F texel (light, view) (tabulated stand-in for the fitted μ'_{λmax}).
 struct LaplacianLodConfig {
-  uint32_t max_level = 4;  ///< λmax
+  uint32_t max_level = 4;    ///< λmax
   bool ycbcr_output = true;  ///< reconstructed values are YCbCr (paper 001 §3.1) → convert to RGB
 };
 
@@ -255,8 +248,8 @@ enum class ShaderBinding : uint32_t {
   lpca_cluster = 10,  ///< paper 002 cluster index
   lpca_weights = 11,
   lpca_volume = 12,
-  pca_l = 13,  ///< paper 004 L = [m | UΣ]
-  pca_r = 14,  ///< paper 004 R = [1; Vᵀ]
+  pca_l = 13,            ///< paper 004 L = [m | UΣ]
+  pca_r = 14,            ///< paper 004 R = [1; Vᵀ]
   spmm_texels = 15,      ///< paper 003: per-texel slots (basis index, α) and residual coefficients
   spmm_dictionary = 16,  ///< paper 003 eq. 2: model id, κ_j, n_j of every cluster's basis functions
   spmm_residual = 17,    ///< paper 003 eq. 3: ε̄ and b_i per cluster over the measured directions
@@ -326,12 +319,13 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
                       c.angular.resolution);
   const VirtualTextureConfig& v = c.vt;
   if (v.tile_size == 0 || v.tile_size > 1024 || v.border == 0 || v.border > v.tile_size)
-    return make_error(Status::invalid_argument, "shader config: tile_size = %u, border = %u, expected 1..1024, 1..tile_size",
-                      v.tile_size, v.border);
+    return make_error(Status::invalid_argument,
+                      "shader config: tile_size = %u, border = %u, expected 1..1024, 1..tile_size", v.tile_size,
+                      v.border);
   if (v.slots_x == 0 || v.slots_y == 0 || v.cache_layers == 0 ||
       static_cast<uint64_t>(v.slots_x) * v.slots_y * v.cache_layers > kPageEntrySlotMask + 1ull)
-    return make_error(Status::invalid_argument, "shader config: cache %u×%u×%u slots, expected 1..2^24 slots", v.slots_x,
-                      v.slots_y, v.cache_layers);
+    return make_error(Status::invalid_argument, "shader config: cache %u×%u×%u slots, expected 1..2^24 slots",
+                      v.slots_x, v.slots_y, v.cache_layers);
   if (v.finest_level > 15)
     return make_error(Status::invalid_argument, "shader config: vt.finest_level = %u, expected ≤ 15", v.finest_level);
   const FeedbackWordLayout& f = v.feedback;
@@ -340,8 +334,8 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
   uint64_t used = 0;
   for (int i = 0; i < 4; ++i) {
     if (bits[i] == 0 || shifts[i] + bits[i] > 32)
-      return make_error(Status::invalid_argument, "shader config: feedback field %d at bit %u width %u exceeds 32 bits", i,
-                        shifts[i], bits[i]);
+      return make_error(Status::invalid_argument, "shader config: feedback field %d at bit %u width %u exceeds 32 bits",
+                        i, shifts[i], bits[i]);
     const uint64_t m = ((1ull << bits[i]) - 1ull) << shifts[i];
     if (used & m) return make_error(Status::invalid_argument, "shader config: feedback field %d overlaps another", i);
     used |= m;
@@ -353,11 +347,13 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
     return make_error(Status::invalid_argument, "shader config: lpca clusters = %u, grid = %u, expected ≥ 1, ≥ 2",
                       c.lpca.clusters, c.lpca.grid_resolution);
   if (c.spmm.slots == 0 || c.spmm.slots > 64 || c.spmm.residual_components > 64)
-    return make_error(Status::invalid_argument, "shader config: spmm slots = %u, residual_components = %u, expected 1..64, 0..64",
-                      c.spmm.slots, c.spmm.residual_components);
+    return make_error(Status::invalid_argument,
+                      "shader config: spmm slots = %u, residual_components = %u, expected 1..64, 0..64", c.spmm.slots,
+                      c.spmm.residual_components);
   if (c.pca.views_per_group == 0 || c.pca.light_count == 0)
-    return make_error(Status::invalid_argument, "shader config: pca views_per_group = %u, light_count = %u, expected ≥ 1",
-                      c.pca.views_per_group, c.pca.light_count);
+    return make_error(Status::invalid_argument,
+                      "shader config: pca views_per_group = %u, light_count = %u, expected ≥ 1", c.pca.views_per_group,
+                      c.pca.light_count);
   return {};
 }
 

@@ -13,6 +13,17 @@
 
 namespace btflod {
 
+/// Page-table entry (paper 000 §3 lookup table L: level l' and cache position i'), the one
+/// encoding the tile cache writes and the shaders read. One R32UI texel: bits [23..0] cache
+/// slot, bits [31..24] resident level l' (paper numbering, 0 = coarsest).
+inline constexpr uint32_t kPageEntrySlotBits = 24;
+inline constexpr uint32_t kPageEntrySlotMask = (1u << kPageEntrySlotBits) - 1u;
+constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexcept {
+  return (resident_level << kPageEntrySlotBits) | (slot & kPageEntrySlotMask);
+}
+constexpr uint32_t unpack_page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
+constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
+
 /// Shape of the physical tile cache. Plain value type, constexpr queries, no allocation.
 /// The first three members keep the order of the former TileCacheConfig, so `{slots_x,
 /// slots_y}` and `{slots_x, slots_y, delta_capacity}` initialisers keep their meaning.

@@ -38,13 +38,6 @@ namespace btflod {
 
 inline constexpr uint32_t kNoSlot = 0xffffffffu;
 
-/// Page-table entry: (level << 24) | slot. Level is paper 000's (0 = coarsest).
-constexpr uint32_t make_page_entry(uint32_t level, uint32_t slot) noexcept {
-  return (level << 24) | (slot & 0xffffffu);
-}
-constexpr uint32_t page_entry_level(uint32_t entry) noexcept { return entry >> 24; }
-constexpr uint32_t page_entry_slot(uint32_t entry) noexcept { return entry & 0xffffffu; }
-
 /// One page-table change: entries [x, x + width) × [y, y + height) (finest-level tile
 /// coordinates) of virtual texture `texture` now hold `entry`.
 struct PageTableDelta {
@@ -60,7 +53,7 @@ struct PageTableDelta {
 /// The GPU page table has one level per mip so the shader can blend two resident levels.
 /// `tile` names the texel: layer tile.texture (virtual texture), tile (x, y) at paper level
 /// tile.level; page_mip = material finest level − tile.level is the mip it lives in. entry =
-/// make_page_entry(resident level, slot) (= shader_config.hpp pack_page_entry(slot, level)) of
+/// pack_page_entry(slot, resident level) (vt/cache_config.hpp, what the shaders read) of
 /// the tile the cache uses for it: itself or its deepest resident ancestor.
 struct PageTableWrite {
   TileId tile;
@@ -132,7 +125,7 @@ class TileCache {
     c.textures_.assign(set.texture_count(), Texture{});
     c.slot_of_.assign(set.entry_count(), kNoSlot);
     c.resident_below_.assign(set.entry_count(), 0);
-    c.page_table_.assign(set.entry_count(), make_page_entry(0, kNoSlot & 0xffffffu));
+    c.page_table_.assign(set.entry_count(), pack_page_entry(kNoSlot & 0xffffffu, 0));
     c.deltas_.reserve(config.delta_capacity);
     c.touched_.reserve(config.delta_capacity);
     for (uint32_t m = 0; m < set.material_count(); ++m)
@@ -298,7 +291,7 @@ class TileCache {
       a = a.parent();
       ++below(tx, lv.index(a));
     }
-    refresh(t, make_page_entry(t.level, s));
+    refresh(t, pack_page_entry(s, t.level));
     push_touched(t);
     return Status::success;
   }
@@ -348,7 +341,7 @@ class TileCache {
       }
     }
     --used_;
-    refresh(t, make_page_entry(best_level, best));
+    refresh(t, pack_page_entry(best, best_level));
     push_touched(t);
     free_slot(s);
     return Status::success;
@@ -447,9 +440,9 @@ class TileCache {
           }
           if (want == kNoSlot) return fail(format_message("texture %u finest tile (%u,%u) uncovered", t, x, y));
           const uint32_t e = page_table_[tx.page + static_cast<size_t>(y) * lv.tiles_x[L] + x];
-          if (e != make_page_entry(want_level, want))
+          if (e != pack_page_entry(want, want_level))
             return fail(format_message("texture %u entry (%u,%u) = level %u slot %u, expected level %u slot %u", t, x,
-                                       y, page_entry_level(e), page_entry_slot(e), want_level, want));
+                                       y, unpack_page_entry_level(e), unpack_page_entry_slot(e), want_level, want));
           ++visible[want];
         }
     }
@@ -466,11 +459,11 @@ class TileCache {
   template <class T>
   using Vec = std::vector<T, CallbackAllocator<T>>;  // every array through the creator's callbacks
 
-  struct Texture {                // where a virtual texture's tiles live in the arrays below
-    uint32_t base = 0;            // slot_of_ / resident_below_ [base + flat · stride]
-    uint32_t stride = 1;          // virtual textures of the material (tile-major layout)
-    uint32_t page = 0;            // page_table_ [page + y · tiles_x(L) + x]
-    uint32_t page_entries = 0;    // finest-level tiles (0: a free texture)
+  struct Texture {              // where a virtual texture's tiles live in the arrays below
+    uint32_t base = 0;          // slot_of_ / resident_below_ [base + flat · stride]
+    uint32_t stride = 1;        // virtual textures of the material (tile-major layout)
+    uint32_t page = 0;          // page_table_ [page + y · tiles_x(L) + x]
+    uint32_t page_entries = 0;  // finest-level tiles (0: a free texture)
   };
 
   TileCache(const RuntimeAllocator& al, const VtSet& set)
@@ -503,9 +496,9 @@ class TileCache {
       c_slot(tx, 0) = slot;
       slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
       ++used_;
-      std::fill_n(page_table_.begin() + tx.page, tx.page_entries, make_page_entry(0, slot));
+      std::fill_n(page_table_.begin() + tx.page, tx.page_entries, pack_page_entry(slot, 0));
       visible_[slot] = tx.page_entries;
-      push_delta(PageTableDelta{t, 0, 0, lv.tiles_x[L], lv.tiles_y[L], make_page_entry(0, slot)});
+      push_delta(PageTableDelta{t, 0, 0, lv.tiles_x[L], lv.tiles_y[L], pack_page_entry(slot, 0)});
     }
   }
 
@@ -536,7 +529,7 @@ class TileCache {
     const VtLevelTable& lv = set_.levels_of(t.texture);
     Texture& tx = textures_[t.texture];
     const uint32_t idx = lv.index(t);
-    if (c_slot(tx, idx) != kNoSlot) best = make_page_entry(t.level, c_slot(tx, idx));
+    if (c_slot(tx, idx) != kNoSlot) best = pack_page_entry(c_slot(tx, idx), t.level);
     const uint32_t L = lv.finest_level();
     if (t.level == L || below(tx, idx) == 0) {
       const uint32_t shift = L - t.level;
@@ -548,9 +541,9 @@ class TileCache {
         uint32_t* row = page_table_.data() + tx.page + static_cast<size_t>(y) * lv.tiles_x[L];
         for (uint32_t x = x0; x < x1; ++x) {
           if (row[x] == best) continue;
-          const uint32_t old_slot = page_entry_slot(row[x]);
+          const uint32_t old_slot = unpack_page_entry_slot(row[x]);
           if (old_slot < visible_.size()) --visible_[old_slot];
-          ++visible_[page_entry_slot(best)];
+          ++visible_[unpack_page_entry_slot(best)];
           row[x] = best;
           changed = true;
         }

@@ -53,7 +53,7 @@ namespace {
 
 using namespace btflod;
 
-constexpr uint32_t kLevels = 4;       // 64·2³ = 512 texels at the finest level
+constexpr uint32_t kLevels = 4;      // 64·2³ = 512 texels at the finest level
 constexpr uint32_t kComponents = 8;  // 2 virtual textures of 4
 const TileLayout kLayout{64, 4, 4};
 
@@ -63,12 +63,12 @@ struct Tile {
 };
 
 struct Content {
-  std::vector<Tile> tiles;          // coarse to fine
-  std::vector<float> ranges;        // per component
-  size_t raw_half_bytes = 0;        // Σ tiles × 72² × 4 × 2
-  float max_range = 0;              // shared tolerance reference (ToleranceReference::shared_max)
-  double btf_peak = 0;              // largest BTF value (PSNR peak)
-  size_t u_rows = 0;                // m: rows of U
+  std::vector<Tile> tiles;    // coarse to fine
+  std::vector<float> ranges;  // per component
+  size_t raw_half_bytes = 0;  // Σ tiles × 72² × 4 × 2
+  float max_range = 0;        // shared tolerance reference (ToleranceReference::shared_max)
+  double btf_peak = 0;        // largest BTF value (PSNR peak)
+  size_t u_rows = 0;          // m: rows of U
 };
 
 // Eigen-textures of a synthesised, FMF-factorised material, as a tile pyramid. `brdf`, when not
@@ -103,7 +103,8 @@ Content make_content(SynthMaterial material, const MeasuredBrdf* brdf) {
     for (uint32_t y = 0; y < side; ++y)
       for (uint32_t x = 0; x < side; ++x)
         for (uint32_t k = 0; k < kComponents; ++k)
-          level[kLevels - 1][(size_t{y} * side + x) * kComponents + k] = fmf->v[(size_t{y % w} * w + x % w) * kComponents + k];
+          level[kLevels - 1][(size_t{y} * side + x) * kComponents + k] =
+              fmf->v[(size_t{y % w} * w + x % w) * kComponents + k];
     for (uint32_t l = kLevels - 1; l-- > 0;) {
       const uint32_t s = side >> (kLevels - 1 - l), fs = s * 2;
       level[l].resize(size_t{s} * s * kComponents);
@@ -194,7 +195,8 @@ Coded code_all(float quality, const Content& c = content(), uint32_t weight_quar
     std::span<const float> parent;
     if (t.id.level > 0) parent = out.recon.at(t.id.parent().key());
     size_t written = 0;
-    if (enc.encode(t.samples, parent, t.id.x & 1, t.id.y & 1, tol, buffer, written, recon) != Status::success) std::exit(2);
+    if (enc.encode(t.samples, parent, t.id.x & 1, t.id.y & 1, tol, buffer, written, recon) != Status::success)
+      std::exit(2);
     out.payloads.emplace_back(buffer.begin(), buffer.begin() + written);
     out.bytes += written;
     for (size_t i = 0; i < recon.size(); ++i) {
@@ -228,7 +230,8 @@ Planes make_planes(const Content& c) {
         const float range = std::max(hi - lo, 1e-12f);
         std::vector<uint8_t> plane(size_t{n} * n);
         for (size_t i = 0; i < plane.size(); ++i)
-          plane[i] = static_cast<uint8_t>(std::clamp(std::lround((t.samples[i * 4 + k] - lo) / range * 255.0f), 0L, 255L));
+          plane[i] =
+              static_cast<uint8_t>(std::clamp(std::lround((t.samples[i * 4 + k] - lo) / range * 255.0f), 0L, 255L));
         out.planes.push_back(std::move(plane));
         out.lo.push_back(lo);
         out.scale.push_back(range / 255.0f);
@@ -322,9 +325,9 @@ const JpegCoded& jpeg_q() {
 
 void set_rates(benchmark::State& state, size_t samples_per_iteration) {
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * samples_per_iteration * 2));  // raw half bytes
-  state.counters["s_per_sample"] = benchmark::Counter(
-      static_cast<double>(samples_per_iteration) * static_cast<double>(state.iterations()),
-      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["s_per_sample"] =
+      benchmark::Counter(static_cast<double>(samples_per_iteration) * static_cast<double>(state.iterations()),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 // --- decode ---------------------------------------------------------------------------------
@@ -619,7 +622,8 @@ void BM_btflod_encode_tile(benchmark::State& state) {
     std::span<const float> parent;
     if (t.id.level > 0) parent = coded.recon.at(t.id.parent().key());
     size_t written = 0;
-    if (enc.encode(t.samples, parent, t.id.x & 1, t.id.y & 1, tol, buffer, written) != Status::success) state.SkipWithError("encode");
+    if (enc.encode(t.samples, parent, t.id.x & 1, t.id.y & 1, tol, buffer, written) != Status::success)
+      state.SkipWithError("encode");
     benchmark::DoNotOptimize(buffer.data());
     i = (i + 1) % c.tiles.size();
   }
@@ -668,17 +672,19 @@ BENCHMARK(BM_zlib_deflate_raw_halves_encode_tile);
 // --- compression ratio table -----------------------------------------------------------------
 void print_ratio_table(const Content& c, const char* name) {
   const Planes p = make_planes(c);
-  std::printf("Tile content: %s: %zu tiles of %ux%u x 4 components (FMF eigen-textures V*S, %zu rows of U,\n"
-              "  BTF peak %.3f), raw halves %zu bytes\n",
-              name, c.tiles.size(), kLayout.stored_size(), kLayout.stored_size(), c.u_rows, c.btf_peak, c.raw_half_bytes);
+  std::printf(
+      "Tile content: %s: %zu tiles of %ux%u x 4 components (FMF eigen-textures V*S, %zu rows of U,\n"
+      "  BTF peak %.3f), raw halves %zu bytes\n",
+      name, c.tiles.size(), kLayout.stored_size(), kLayout.stored_size(), c.u_rows, c.btf_peak, c.raw_half_bytes);
   std::printf("%7s | %13s %9s %12s %9s | %8s %9s %9s\n", "quality", "btflod B/tile", "ratio", "eigen RMSE", "BTF PSNR",
               "jpeg q", "ratio", "BTF PSNR");
   for (float q : {5.0f, 10.0f, 25.0f, 50.0f, 75.0f, 90.0f}) {
     const Coded cd = code_all(q, c);
     const JpegCoded j = jpeg_matched(cd.rmse, c, p);
     std::printf("%7.0f | %13.0f %8.2f:1 %12.3g %8.2fdB | %8d %8.2f:1 %8.2fdB\n", q,
-                static_cast<double>(cd.bytes) / c.tiles.size(), static_cast<double>(c.raw_half_bytes) / cd.bytes, cd.rmse,
-                btf_psnr(c, cd.rmse), j.quality, static_cast<double>(c.raw_half_bytes) / j.bytes, btf_psnr(c, j.rmse));
+                static_cast<double>(cd.bytes) / c.tiles.size(), static_cast<double>(c.raw_half_bytes) / cd.bytes,
+                cd.rmse, btf_psnr(c, cd.rmse), j.quality, static_cast<double>(c.raw_half_bytes) / j.bytes,
+                btf_psnr(c, j.rmse));
   }
   std::printf("\n");
 }
@@ -690,22 +696,27 @@ void print_ratio_tables() {
   {
     const Coded& a = coded_q();
     const Coded& b = coded_q_perceptual_weighting();
-    std::printf("quality %.0f with JPEG^(1/4) frequency weighting (kPerceptualWeightQuarters): %.0f B/tile, %.2f:1, eigen RMSE %.4g,"
-                " BTF PSNR %.1f dB (JPEG's table: %.0f B/tile, %.2f:1, RMSE %.4g, %.1f dB)\n\n",
-                static_cast<double>(kBenchQuality), static_cast<double>(b.bytes) / content().tiles.size(),
-                static_cast<double>(content().raw_half_bytes) / b.bytes, b.rmse, btf_psnr(content(), b.rmse),
-                static_cast<double>(a.bytes) / content().tiles.size(), static_cast<double>(content().raw_half_bytes) / a.bytes,
-                a.rmse, btf_psnr(content(), a.rmse));
+    std::printf(
+        "quality %.0f with JPEG^(1/4) frequency weighting (kPerceptualWeightQuarters): %.0f B/tile, %.2f:1, eigen RMSE "
+        "%.4g,"
+        " BTF PSNR %.1f dB (JPEG's table: %.0f B/tile, %.2f:1, RMSE %.4g, %.1f dB)\n\n",
+        static_cast<double>(kBenchQuality), static_cast<double>(b.bytes) / content().tiles.size(),
+        static_cast<double>(content().raw_half_bytes) / b.bytes, b.rmse, btf_psnr(content(), b.rmse),
+        static_cast<double>(a.bytes) / content().tiles.size(), static_cast<double>(content().raw_half_bytes) / a.bytes,
+        a.rmse, btf_psnr(content(), a.rmse));
   }
   if (const Content* smooth = smooth_content()) {
     print_ratio_table(*smooth, "procedural leather, measured car paint carpaint_red.mbsdf (smoother)");
   } else {
-    std::printf("(car-paint material skipped: %s/data/measured/carpaint_red.mbsdf not readable)\n\n", BTFLOD_SHARED_DIR);
+    std::printf("(car-paint material skipped: %s/data/measured/carpaint_red.mbsdf not readable)\n\n",
+                BTFLOD_SHARED_DIR);
   }
-  std::printf("(one shared absolute tolerance, ToleranceReference::shared_max; ratio = raw half floats / coded bytes;\n"
-              " BTF PSNR = 20 log10(BTF peak / RMSE of the reconstructed BTF), exact from the eigen-texture error since U is\n"
-              " orthonormal; JPEG codes each component plane as 8-bit gray over its own min..max at the lowest JPEG quality\n"
-              " whose RMSE is <= btflod's (100 when none is); the speeds below use quality %.0f on the stone)\n\n", kBenchQuality);
+  std::printf(
+      "(one shared absolute tolerance, ToleranceReference::shared_max; ratio = raw half floats / coded bytes;\n"
+      " BTF PSNR = 20 log10(BTF peak / RMSE of the reconstructed BTF), exact from the eigen-texture error since U is\n"
+      " orthonormal; JPEG codes each component plane as 8-bit gray over its own min..max at the lowest JPEG quality\n"
+      " whose RMSE is <= btflod's (100 when none is); the speeds below use quality %.0f on the stone)\n\n",
+      kBenchQuality);
   std::fflush(stdout);
 }
 
@@ -746,7 +757,8 @@ bool register_container_benchmarks(const std::vector<std::string>& files, int jp
           list = p->tiles.by_level[l];
         }
         if (list.empty()) continue;
-        const std::string name = "BM_bsvtf_decode/" + stem + "/" + p->codecs[k].name + (all ? "/all" : "/level:" + std::to_string(l));
+        const std::string name =
+            "BM_bsvtf_decode/" + stem + "/" + p->codecs[k].name + (all ? "/all" : "/level:" + std::to_string(l));
         benchmark::RegisterBenchmark(name.c_str(), [p, k, list](benchmark::State& state) {
           size_t i = 0;
           for (auto _ : state) {
@@ -774,8 +786,10 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if ((a == "--bsvtf" || a == "--jpeg-quality") && i + 1 < argc) {
-      if (a == "--bsvtf") containers.push_back(argv[++i]);
-      else jpeg_quality = std::clamp(std::atoi(argv[++i]), 1, 100);
+      if (a == "--bsvtf")
+        containers.push_back(argv[++i]);
+      else
+        jpeg_quality = std::clamp(std::atoi(argv[++i]), 1, 100);
       continue;
     }
     user_filter = user_filter || a.rfind("--benchmark_filter", 0) == 0;

@@ -256,8 +256,22 @@ BENCHMARK(BM_Vk_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRe
 // fractional part and FMF's hardware trilinear fetch really blends two mips; at 256² lambda is
 // an integer (2:1) and llvmpipe samples only one mip for FMF, while BSVTF's shader fetches both
 // levels it may blend (docs/demo.md, "frame rate").
-BENCHMARK(BM_Gl_Pairs)->Arg(240)->Arg(256)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
-BENCHMARK(BM_Vk_Pairs)->Arg(240)->Arg(256)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Gl_Pairs)
+    ->Arg(240)
+    ->Arg(256)
+    ->Arg(362)
+    ->Arg(512)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+BENCHMARK(BM_Vk_Pairs)
+    ->Arg(240)
+    ->Arg(256)
+    ->Arg(362)
+    ->Arg(512)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
 BENCHMARK(BM_Gl_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_Vk_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK_MAIN();

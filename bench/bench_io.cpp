@@ -79,8 +79,8 @@ BENCHMARK(BonnReconstruct)->Unit(benchmark::kMillisecond);
 
 void FillBaseline(benchmark::State& state) {
   const auto& f = demo_factors();
-  const size_t samples = static_cast<size_t>(f.width) * static_cast<size_t>(f.height) * f.views.size() *
-                         f.lights.size() * 3;
+  const size_t samples =
+      static_cast<size_t>(f.width) * static_cast<size_t>(f.height) * f.views.size() * f.lights.size() * 3;
   for (auto _ : state) {
     std::vector<float> out(samples);
     std::fill(out.begin(), out.end(), 0.5f);

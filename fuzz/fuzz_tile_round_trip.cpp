@@ -25,7 +25,12 @@ using namespace btflod;
 
 struct Codec {
   explicit Codec(TileLayout l)
-      : layout(l), encoder(l, 1), decoder(l), tile(l.sample_count()), recon(l.sample_count()), out(l.sample_count()),
+      : layout(l),
+        encoder(l, 1),
+        decoder(l),
+        tile(l.sample_count()),
+        recon(l.sample_count()),
+        out(l.sample_count()),
         payload(encoder.bound()) {}
   TileLayout layout;
   TileEncoder encoder;

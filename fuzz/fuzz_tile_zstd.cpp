@@ -67,7 +67,8 @@ void decode_mode(const uint8_t* data, size_t size, uint8_t selector) {
 }
 
 void round_trip_mode(const uint8_t* data, size_t size) {
-  static TileEncoder packed(kRoundTripLayout, 1), plain(kRoundTripLayout, 1);  // fast levels: the fuzzer is after the decoder
+  static TileEncoder packed(kRoundTripLayout, 1),
+      plain(kRoundTripLayout, 1);  // fast levels: the fuzzer is after the decoder
   static const bool have_zstd = packed.set_entropy_coder(TileEntropyCoder::zstd, 3);
   static TileDecoder decoder(kRoundTripLayout);
   if (!have_zstd) return;

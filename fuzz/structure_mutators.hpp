@@ -478,14 +478,14 @@ inline size_t cross_over_factor_file(const uint8_t* a, size_t a_size, const uint
 /// b_size, out, max_size, seed)` (returning 0 when the inputs do not split), with the byte-level
 /// fallback of BTFLOD_FUZZ_BYTES=1 and a plain splice when the cross-over declines. Use at global
 /// scope, once per target.
-#define BTFLOD_FUZZ_STRUCTURE_AWARE(mutate, cross_over)                                                          \
-  extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned int seed) {    \
-    if (btflod_fuzz::byte_mode()) return LLVMFuzzerMutate(data, size, max_size);                                 \
-    return mutate(data, size, max_size, seed);                                                                   \
-  }                                                                                                              \
-  extern "C" size_t LLVMFuzzerCustomCrossOver(const uint8_t* a, size_t a_size, const uint8_t* b, size_t b_size,  \
-                                              uint8_t* out, size_t max_size, unsigned int seed) {                \
-    if (!btflod_fuzz::byte_mode())                                                                               \
-      if (const size_t n = cross_over(a, a_size, b, b_size, out, max_size, seed)) return n;                      \
-    return btflod_fuzz::splice(a, a_size, b, b_size, out, max_size, seed);                                       \
+#define BTFLOD_FUZZ_STRUCTURE_AWARE(mutate, cross_over)                                                         \
+  extern "C" size_t LLVMFuzzerCustomMutator(uint8_t* data, size_t size, size_t max_size, unsigned int seed) {   \
+    if (btflod_fuzz::byte_mode()) return LLVMFuzzerMutate(data, size, max_size);                                \
+    return mutate(data, size, max_size, seed);                                                                  \
+  }                                                                                                             \
+  extern "C" size_t LLVMFuzzerCustomCrossOver(const uint8_t* a, size_t a_size, const uint8_t* b, size_t b_size, \
+                                              uint8_t* out, size_t max_size, unsigned int seed) {               \
+    if (!btflod_fuzz::byte_mode())                                                                              \
+      if (const size_t n = cross_over(a, a_size, b, b_size, out, max_size, seed)) return n;                     \
+    return btflod_fuzz::splice(a, a_size, b, b_size, out, max_size, seed);                                      \
   }

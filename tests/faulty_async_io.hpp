@@ -30,14 +30,14 @@ namespace btflod_test {
 /// What goes wrong, per read (probabilities in [0, 1]).
 struct FaultyIoConfig {
   uint32_t seed = 1;
-  size_t capacity = 4096;   ///< reads queued at most; start_read() refuses beyond
-  double fail = 0.01;       ///< completed with io_error, nothing copied
-  double corrupt = 0.01;    ///< one byte damaged, success reported
-  double stall = 0.002;     ///< served only after stall_ms
+  size_t capacity = 4096;  ///< reads queued at most; start_read() refuses beyond
+  double fail = 0.01;      ///< completed with io_error, nothing copied
+  double corrupt = 0.01;   ///< one byte damaged, success reported
+  double stall = 0.002;    ///< served only after stall_ms
   uint32_t stall_ms = 40;
-  double delay = 0;         ///< served after a random delay of up to max_delay_us
+  double delay = 0;  ///< served after a random delay of up to max_delay_us
   uint32_t max_delay_us = 0;
-  double refuse = 0.003;    ///< start_read() returns false …
+  double refuse = 0.003;         ///< start_read() returns false …
   size_t refuse_from_depth = 0;  ///< … when at least this many reads are queued
   /// A read that failed or was damaged is served intact the next time (same source and offset),
   /// so a root or U′ packet never exhausts the Streamer's start-up attempts.
@@ -67,7 +67,9 @@ class FaultyAsyncIo {
   using CompleteFn = void (*)(void* user, uint32_t job);
 
   explicit FaultyAsyncIo(FaultyIoConfig config)
-      : config_(config), ring_(std::max<size_t>(config.capacity, 1)), enqueue_rng_(config.seed),
+      : config_(config),
+        ring_(std::max<size_t>(config.capacity, 1)),
+        enqueue_rng_(config.seed),
         serve_rng_(config.seed * 2654435761u + 1) {}
   ~FaultyAsyncIo() { stop(); }
   FaultyAsyncIo(const FaultyAsyncIo&) = delete;

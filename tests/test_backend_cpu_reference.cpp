@@ -25,7 +25,8 @@ EigenTextures make_fmf(int w, int h, int c, uint32_t seed) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       for (int k = 0; k < c; ++k)
-        e.textures.at(x, y, k) = std::sin(0.05f * (k + 1) * x) * std::cos(0.03f * y) / float(k + 1) + 0.3f * d(rng) / float(k + 1);
+        e.textures.at(x, y, k) =
+            std::sin(0.05f * (k + 1) * x) * std::cos(0.03f * y) / float(k + 1) + 0.3f * d(rng) / float(k + 1);
   e.light_count = 3;
   e.view_count = 2;
   e.angular.resize(static_cast<size_t>(3 * 2 * 3 * c));
@@ -54,12 +55,14 @@ struct World {
   void upload(const TileId& t) {
     const uint32_t m = set.material_of(t.texture);
     const uint32_t k = t.texture - set.material(m).first_texture;
-    ASSERT_TRUE(texture->upload(*cache, cache->slot_of(t), pyramids[m].tile_texels(k, set.levels_of(t.texture).index(t))));
+    ASSERT_TRUE(
+        texture->upload(*cache, cache->slot_of(t), pyramids[m].tile_texels(k, set.levels_of(t.texture).index(t))));
   }
   double error(const Scene& scene, const Camera& cam) const {
-    return mean_abrdf_error(scene, cam, pointers, [&](uint32_t m, uint32_t k, const SurfaceHit& h, float, float, float* out) {
-      texture->sample(*cache, set.material(m).first_texture + k, h.texcoord.x, h.texcoord.y, out);
-    });
+    return mean_abrdf_error(
+        scene, cam, pointers, [&](uint32_t m, uint32_t k, const SurfaceHit& h, float, float, float* out) {
+          texture->sample(*cache, set.material(m).first_texture + k, h.texcoord.x, h.texcoord.y, out);
+        });
   }
 };
 }  // namespace
@@ -80,8 +83,8 @@ TEST(CpuReference, PlaneSphereTorusHitsAndFrames) {
   const SurfaceHit hs = s2.intersect(Ray{{0, 0, 10}, {0, 0, -1}});
   ASSERT_TRUE(hs.hit);
   EXPECT_NEAR(hs.t, 8.0f, 1e-4f);
-  EXPECT_NEAR(hs.texcoord.x, 0.5f, 1e-4f);  // φ = 90° → u = 0.25, ×2 repeats
-  EXPECT_NEAR(hs.texcoord.y, 0.5f, 1e-4f);  // θ = 90°
+  EXPECT_NEAR(hs.texcoord.x, 0.5f, 1e-4f);                         // φ = 90° → u = 0.25, ×2 repeats
+  EXPECT_NEAR(hs.texcoord.y, 0.5f, 1e-4f);                         // θ = 90°
   EXPECT_NEAR(glm::length(hs.dpdu), kTwoPi * 2.0f / 2.0f, 1e-3f);  // scaled by the repeat
 
   Scene s3;
@@ -222,7 +225,8 @@ TEST(CpuReference, ShadeFmfMultipliesLightAndViewWeights) {
   const glm::vec3 first = shade_fmf(e, l, v, std::span<const float>(comp, 1));
   double want0 = 0;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) want0 += double(l.weight[i]) * v.weight[j] * e.u(l.index[i], v.index[j], 0, 0) * comp[0];
+    for (int j = 0; j < 3; ++j)
+      want0 += double(l.weight[i]) * v.weight[j] * e.u(l.index[i], v.index[j], 0, 0) * comp[0];
   EXPECT_NEAR(first[0], want0, 1e-5);
 }
 

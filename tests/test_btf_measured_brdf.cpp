@@ -97,7 +97,7 @@ TEST(MeasuredBrdfEval, TrilinearBetweenCentresAndClampedAtTheEnds) {
   // halfway between centres i = 1 and 2 along θ_in.
   const float ti = 0.5f * (brdf->theta_center(1) + brdf->theta_center(2));
   const float tj = 0.25f * brdf->theta_center(2) + 0.75f * brdf->theta_center(3);  // j = 2.75
-  const float pk = 0.5f * (brdf->phi_center(3) + brdf->phi_center(4));              // k = 3.5
+  const float pk = 0.5f * (brdf->phi_center(3) + brdf->phi_center(4));             // k = 3.5
   const glm::vec3 v = brdf->evaluate_angles(ti, tj, pk);
   EXPECT_NEAR(v.r, 150.0f + 27.5f + 3.5f, 1e-3f);
   EXPECT_NEAR(v.b, 150.0f + 27.5f + 3.5f + 0.2f, 1e-3f);
@@ -239,7 +239,10 @@ TEST(MeasuredBrdfFailure, HugeFiniteValuesThatWouldInterpolateToInfinityAreRejec
 }
 
 TEST(MeasuredBrdfFailure, AbsurdResolutionsAreRejectedBeforeAllocating) {
-  for (auto [rt, rp] : {std::pair<uint32_t, uint32_t>{0, 90}, {45, 0}, {0xffffffffu, 90}, {45, 0x80000000u},
+  for (auto [rt, rp] : {std::pair<uint32_t, uint32_t>{0, 90},
+                        {45, 0},
+                        {0xffffffffu, 90},
+                        {45, 0x80000000u},
                         {kMbsdfMaxResolution + 1, 1}}) {
     auto r = parse_mbsdf(make_mbsdf(1, rt, rp, {}));
     ASSERT_FALSE(r.ok()) << rt << " x " << rp;

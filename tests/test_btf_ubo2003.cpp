@@ -212,7 +212,8 @@ TEST(Ubo2003Folder, JpegRoundTripIsClose) {
 
 fs::path small_folder(const std::string& name) {
   const auto dir = fresh_dir(name);
-  const BtfFloat btf = table_btf(small_set("v", {{0, 0}, {30, 60}}), small_set("l", {{0, 0}, {15, 0}, {15, 120}}), 4, 3);
+  const BtfFloat btf =
+      table_btf(small_set("v", {{0, 0}, {30, 60}}), small_set("l", {{0, 0}, {15, 0}, {15, 120}}), 4, 3);
   EXPECT_TRUE(write_ubo2003_folder(btf, dir));
   return dir;
 }
@@ -274,7 +275,8 @@ TEST(Ubo2003Folder, TruncatedInputImageIsNamed) {
 
 TEST(Ubo2003Folder, WrongSignatureImageIsNamed) {
   const auto dir = small_folder("signature");
-  std::ofstream(dir / "00002_tl015_pl120_tv000_pv000.png", std::ios::binary | std::ios::trunc) << "this is not an image at all";
+  std::ofstream(dir / "00002_tl015_pl120_tv000_pv000.png", std::ios::binary | std::ios::trunc)
+      << "this is not an image at all";
   auto r = read_ubo2003_folder(dir);
   ASSERT_FALSE(r);
   EXPECT_EQ(r.status(), Status::bad_data);

@@ -35,7 +35,8 @@ struct Material {
 };
 
 float value(uint32_t comp, double u, double v) {
-  return static_cast<float>((1.0 + comp) * (std::sin(7.0 * u + comp) * std::cos(5.0 * v) + 0.2 * std::sin(37.0 * u * v + comp)));
+  return static_cast<float>((1.0 + comp) *
+                            (std::sin(7.0 * u + comp) * std::cos(5.0 * v) + 0.2 * std::sin(37.0 * u * v + comp)));
 }
 
 // A small synthetic material: T = 16, B = 4 (24² stored), 3 levels, 6 components (2 textures).
@@ -165,7 +166,8 @@ TEST(CodecContainer, CoarseToFinePrefixIsContiguousAndDirectoryParsesAlone) {
   // The directory alone (what a streaming client fetches first) parses.
   auto alone = parse_bsvtf_directory(std::span<const uint8_t>(file).first(dir->header.directory_size), file.size());
   ASSERT_TRUE(alone.ok()) << alone.message();
-  auto too_short = parse_bsvtf_directory(std::span<const uint8_t>(file).first(dir->header.directory_size - 1), file.size());
+  auto too_short =
+      parse_bsvtf_directory(std::span<const uint8_t>(file).first(dir->header.directory_size - 1), file.size());
   EXPECT_EQ(too_short.status(), Status::short_output);
   for (uint32_t level = 0; level < 4; ++level) {
     const uint64_t prefix = dir->prefix_size(level);
@@ -255,7 +257,8 @@ TEST_F(CodecContainerFailures, TruncatedFileIsShortOutput) {
     EXPECT_EQ(read(f), Status::short_output) << n;
   }
   // Any prefix fails cleanly.
-  for (size_t n = 0; n < dir_.header.directory_size; n += 3) ASSERT_FALSE(read_bsvtf(std::span<const uint8_t>(file_).first(n)).ok());
+  for (size_t n = 0; n < dir_.header.directory_size; n += 3)
+    ASSERT_FALSE(read_bsvtf(std::span<const uint8_t>(file_).first(n)).ok());
 }
 
 TEST_F(CodecContainerFailures, TrailingBytesAreBadData) {
@@ -294,8 +297,10 @@ TEST_F(CodecContainerFailures, WrongSignatureVersionAndChecksums) {
   const auto& e = dir_.tiles[5];
   f[e.offset + e.size / 2] ^= 0x10;
   ASSERT_EQ(read(f), Status::success);
-  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(f).subspan(e.offset, e.size)), Status::bad_data);
-  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(file_).subspan(e.offset, e.size - 1)), Status::short_output);
+  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(f).subspan(e.offset, e.size)),
+            Status::bad_data);
+  EXPECT_EQ(verify_bsvtf_payload(e.size, e.crc, std::span<const uint8_t>(file_).subspan(e.offset, e.size - 1)),
+            Status::short_output);
 }
 
 TEST_F(CodecContainerFailures, OversizedCountsAreBadDataWithoutHugeAllocations) {
@@ -325,7 +330,8 @@ TEST_F(CodecContainerFailures, OversizedCountsAreBadDataWithoutHugeAllocations) 
 TEST_F(CodecContainerFailures, IndexEntriesOutsideThePayloadOrOverlappingAreBadData) {
   const size_t index = dir_.header.tile_index_offset;
   auto refix = [&](std::vector<uint8_t>& f) {
-    patch<uint32_t>(f, kOffIndexCrc, crc32_of(std::span<const uint8_t>(f).subspan(index, dir_.tiles.size() * kBsvtfTileEntrySize)));
+    patch<uint32_t>(f, kOffIndexCrc,
+                    crc32_of(std::span<const uint8_t>(f).subspan(index, dir_.tiles.size() * kBsvtfTileEntrySize)));
     fix_header_crc(f);
   };
   auto f = file_;
@@ -391,7 +397,8 @@ TEST(CodecContainer, WritesFuzzSeedsThatParseTheFuzzersWay) {
   const auto small = build(make_material(2, 4), 30);
   write("seed_small.bsvtf", small);
   write("seed_two_textures.bsvtf", build(make_material(2, 6), 10));
-  write("seed_truncated.bsvtf", std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
+  write("seed_truncated.bsvtf",
+        std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
   for (const char* name : {"seed_small.bsvtf", "seed_two_textures.bsvtf"}) {
     const std::vector<uint8_t> file = read(name);
     auto dir_or = read_bsvtf(file);
@@ -477,7 +484,7 @@ TEST(CodecContainer, PerTileToleranceScaleIsStoredAndBoundsTheError) {
 }
 
 TEST(CodecQuantize, LuminanceToleranceScaleFollowsLightness) {
-  EXPECT_NEAR(luminance_tolerance_scale(8.0f, 1.0f, 0.0f), 4.0f, 1e-5f);    // (8)^(2/3)
+  EXPECT_NEAR(luminance_tolerance_scale(8.0f, 1.0f, 0.0f), 4.0f, 1e-5f);     // (8)^(2/3)
   EXPECT_NEAR(luminance_tolerance_scale(0.125f, 1.0f, 0.0f), 0.25f, 1e-6f);  // darker: finer
   EXPECT_NEAR(luminance_tolerance_scale(0.0f, 1.0f, 0.125f), 0.25f, 1e-6f);  // black → the floor
   EXPECT_FLOAT_EQ(luminance_tolerance_scale(1.0f, 0.0f, 0.1f), 1.0f);        // no reference
@@ -520,8 +527,9 @@ TEST(CodecContainer, RowOrderAndEnergiesRoundTripAndVersionTwoIsRead) {
   // The same tiles written as version 2.
   std::vector<BsvtfEncodedTile> tiles;
   for (const auto& e : d->tiles)
-    tiles.push_back(BsvtfEncodedTile{e.id, std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
-                                                                file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
+    tiles.push_back(BsvtfEncodedTile{e.id,
+                                     std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
+                                                          file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
                                      e.weight, e.energy});
   BsvtfMetadata md = d->metadata;
   const auto v2 = write_bsvtf(md, m.u, tiles, 2);
@@ -553,8 +561,9 @@ TEST(CodecContainer, ValueTransformRoundTripsAndOlderVersionsCannotStoreIt) {
   EXPECT_EQ(d->metadata.value_transform.log_offset, 0.125f);
   std::vector<BsvtfEncodedTile> tiles;
   for (const auto& e : d->tiles)
-    tiles.push_back(BsvtfEncodedTile{e.id, std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
-                                                                file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
+    tiles.push_back(BsvtfEncodedTile{e.id,
+                                     std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
+                                                          file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
                                      e.weight, e.energy});
   const auto v3 = write_bsvtf(d->metadata, m.u, tiles, 3);
   EXPECT_EQ(v3.status(), Status::invalid_argument);
@@ -578,7 +587,8 @@ TEST(CodecContainer, ValueTransformRoundTripsAndOlderVersionsCannotStoreIt) {
   std::memcpy(&encoding, f.data() + at, 4);
   ASSERT_EQ(encoding, static_cast<uint32_t>(ValueEncoding::log));
   patch<uint32_t>(f, at, 7u);
-  patch<uint32_t>(f, kOffMetaCrc, crc32_of(std::span<const uint8_t>(f).subspan(static_cast<size_t>(meta_offset), meta_size)));
+  patch<uint32_t>(f, kOffMetaCrc,
+                  crc32_of(std::span<const uint8_t>(f).subspan(static_cast<size_t>(meta_offset), meta_size)));
   fix_header_crc(f);
   const auto hostile = read_bsvtf(f);
   EXPECT_EQ(hostile.status(), Status::bad_data);

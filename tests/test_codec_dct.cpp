@@ -23,7 +23,8 @@ std::vector<long double> reference_forward(const std::vector<double>& x, int n) 
       long double acc = 0;
       for (int r = 0; r < n; ++r)
         for (int c = 0; c < n; ++c)
-          acc += x[r * n + c] * std::cos(pi * (2 * r + 1) * v / (2.0L * n)) * std::cos(pi * (2 * c + 1) * u / (2.0L * n));
+          acc +=
+              x[r * n + c] * std::cos(pi * (2 * r + 1) * v / (2.0L * n)) * std::cos(pi * (2 * c + 1) * u / (2.0L * n));
       const long double sv = v == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
       const long double su = u == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
       y[v * n + u] = sv * su * acc;
@@ -69,7 +70,8 @@ void check_scalar_against_reference(double tol) {
       for (int c = 0; c < N; ++c) in[r * stride + c] = static_cast<S>(x[r * N + c]);
     btflod::dct_forward_scalar<N, S>(in.data(), stride, out.data());
     const auto ref = reference_forward(x, N);
-    for (int i = 0; i < N * N; ++i) ASSERT_NEAR(static_cast<double>(out[i]), static_cast<double>(ref[i]), tol) << "coef " << i;
+    for (int i = 0; i < N * N; ++i)
+      ASSERT_NEAR(static_cast<double>(out[i]), static_cast<double>(ref[i]), tol) << "coef " << i;
     // Inverse against the direct DCT-III of the same coefficients.
     std::vector<double> coef(out.begin(), out.end());
     const auto ref_inv = reference_inverse(coef, N);

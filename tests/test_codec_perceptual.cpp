@@ -25,8 +25,9 @@ TEST(CodecPerceptual, GainMatchesFiniteDifferencesOfCielab) {
     const double h = 1e-4;
     const auto a = linear_srgb_to_lab(rgb[0] + h * d[0], rgb[1] + h * d[1], rgb[2] + h * d[2]);
     const auto b = linear_srgb_to_lab(rgb[0] - h * d[0], rgb[1] - h * d[1], rgb[2] - h * d[2]);
-    const double expect = std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
-                                    (a[2] - b[2]) * (a[2] - b[2])) / (2 * h);
+    const double expect =
+        std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])) /
+        (2 * h);
     ASSERT_NEAR(detail::perceptual_gain(rgb, d, 0.0f), expect, 2e-3 * expect + 1e-3) << i;
   }
   // Below CIELAB's toe the slope is constant: halving a dark grey does not change the gain.
@@ -85,7 +86,7 @@ PerceptualToleranceOptions plain_options() {
   PerceptualToleranceOptions o;
   o.view_cosine_power = 0.0f;  // every direction alike: the fixture's directions are few
   o.texel_stride = 2;
-  o.dark_floor = 0.0f;          // CIELAB's own toe
+  o.dark_floor = 0.0f;  // CIELAB's own toe
   o.reference_delta_e = 100.0f;
   return o;
 }
@@ -147,8 +148,10 @@ TEST(CodecPerceptual, ClippedTexelsAndUnseenDirectionsGetTheLargestScale) {
   ASSERT_TRUE(perceptual_tolerance_scales(lm.md, lm.u, lm.tiles, ro));
   ro.row_order = AngularRowOrder::view_major;
   ASSERT_TRUE(perceptual_tolerance_scales(vm.md, vm.u, vm.tiles, ro));
-  EXPECT_NEAR(lm.level1(0, 1).channel_scale[2] / vm.level1(0, 1).channel_scale[2], 1.0 / std::pow(0.8, 8.0), 0.05 / std::pow(0.8, 8.0));
-  EXPECT_EQ(lm.level1(0, 1).channel_scale[0], vm.level1(0, 1).channel_scale[0]) << "component 0 is the same in every row";
+  EXPECT_NEAR(lm.level1(0, 1).channel_scale[2] / vm.level1(0, 1).channel_scale[2], 1.0 / std::pow(0.8, 8.0),
+              0.05 / std::pow(0.8, 8.0));
+  EXPECT_EQ(lm.level1(0, 1).channel_scale[0], vm.level1(0, 1).channel_scale[0])
+      << "component 0 is the same in every row";
 }
 
 TEST(CodecPerceptual, ThreadCountDoesNotChangeTheScales) {
@@ -202,12 +205,24 @@ TEST(CodecPerceptual, HostileInputIsAnErrorAndLeavesTheTilesUntouched) {
     PerceptualToleranceOptions o;
     std::vector<float> weights = {1, 1, 1};  // wrong count
     switch (which) {
-      case 0: o.exposure[1] = NAN; break;
-      case 1: o.reference_delta_e = -1; break;
-      case 2: o.texel_stride = 0; break;
-      case 3: o.max_scale = 1e7f; break;
-      case 4: o.direction_weights = weights; break;
-      case 5: o.gain_power = NAN; break;
+      case 0:
+        o.exposure[1] = NAN;
+        break;
+      case 1:
+        o.reference_delta_e = -1;
+        break;
+      case 2:
+        o.texel_stride = 0;
+        break;
+      case 3:
+        o.max_scale = 1e7f;
+        break;
+      case 4:
+        o.direction_weights = weights;
+        break;
+      case 5:
+        o.gain_power = NAN;
+        break;
     }
     EXPECT_EQ(perceptual_tolerance_scales(f.md, f.u, f.tiles, o).status(), Status::invalid_argument) << which;
     EXPECT_TRUE(untouched(f)) << which;

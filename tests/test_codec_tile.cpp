@@ -13,8 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <string>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <zlib.h>
@@ -42,7 +42,8 @@ float texture_value(uint32_t c, double u, double v, uint32_t level) {
   double f = amp[c] * (std::sin(6.3 * u + c) * std::cos(4.1 * v - c) + 0.3 * std::sin(40.0 * u * v + c) +
                        0.1 * std::cos(150.0 * (u + 0.3 * v)));
   // Hash noise at the finest scale of this level.
-  const uint64_t h = (static_cast<uint64_t>(u * 1e6) * 0x9E3779B97F4A7C15ull) ^ (static_cast<uint64_t>(v * 1e6) * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull) ^ level;
+  const uint64_t h = (static_cast<uint64_t>(u * 1e6) * 0x9E3779B97F4A7C15ull) ^
+                     (static_cast<uint64_t>(v * 1e6) * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull) ^ level;
   f += amp[c] * 0.01 * (static_cast<double>(h % 1000) / 1000.0 - 0.5);
   return static_cast<float>(f);
 }
@@ -124,7 +125,8 @@ TEST(CodecTile, UpsamplingReproducesLinearFunctionsAtTheChildGeometry) {
       for (uint32_t i = 0; i < s; ++i) {
         // Child texel centre X + 0.5 at level l is (X + 0.5)/2 at level l−1, i.e. texel coordinate (X − 0.5)/2.
         const double x = (cx * 64.0 - 4 + i - 0.5) / 2.0, y = (cy * 64.0 - 4 + j - 0.5) / 2.0;
-        for (uint32_t c = 0; c < 4; ++c) ASSERT_NEAR(pred[(j * s + i) * 4 + c], f(x, y, c), 1e-4) << i << "," << j << " q" << q;
+        for (uint32_t c = 0; c < 4; ++c)
+          ASSERT_NEAR(pred[(j * s + i) * 4 + c], f(x, y, c), 1e-4) << i << "," << j << " q" << q;
       }
   }
 }
@@ -139,7 +141,8 @@ TEST(CodecTile, RoundTripWithoutParentStaysWithinTolerance) {
     const auto e = encode(enc, tile, nullptr, 0, 0, tol);
     std::vector<float> out(layout.sample_count());
     ASSERT_EQ(dec.decode(e.bytes, {}, 0, 0, out), Status::success) << dec.message();
-    EXPECT_EQ(0, std::memcmp(out.data(), e.reconstruction.data(), out.size() * 4)) << "encoder's reconstruction differs";
+    EXPECT_EQ(0, std::memcmp(out.data(), e.reconstruction.data(), out.size() * 4))
+        << "encoder's reconstruction differs";
     for (uint32_t c = 0; c < 4; ++c) {
       const double err = max_block_rms(layout, tile, out, c);
       EXPECT_LE(err, tol[c] * 1.001) << "quality " << quality << " channel " << c;
@@ -235,7 +238,8 @@ TEST(CodecTile, SixLevelChainDecodesWithoutDrift) {
     ASSERT_EQ(dec.decode(coded[level].bytes, parent, quadrant[level][0], quadrant[level][1], out), Status::success)
         << dec.message();
     ASSERT_EQ(0, std::memcmp(out.data(), coded[level].reconstruction.data(), out.size() * 4)) << "level " << level;
-    for (uint32_t c = 0; c < 4; ++c) EXPECT_LE(max_block_rms(layout, originals[level], out, c), tol[c] * 1.001) << level;
+    for (uint32_t c = 0; c < 4; ++c)
+      EXPECT_LE(max_block_rms(layout, originals[level], out, c), tol[c] * 1.001) << level;
     if (level > 0) {
       // Residual coding pays: the same tile coded without its parent is larger.
       const auto alone = encode(enc, originals[level], nullptr, 0, 0, tol);
@@ -254,7 +258,8 @@ TEST(CodecTile, DecoderRejectsWrongArguments) {
   const auto e = encode(enc, tile, &parent_tile, 1, 0, tolerances(50));
   std::vector<float> out(layout.sample_count());
   EXPECT_EQ(dec.decode(e.bytes, {}, 1, 0, out), Status::invalid_argument) << "residual tile needs its parent";
-  EXPECT_EQ(dec.decode(e.bytes, parent_tile, 1, 0, std::span<float>(out).first(out.size() - 1)), Status::insufficient_space);
+  EXPECT_EQ(dec.decode(e.bytes, parent_tile, 1, 0, std::span<float>(out).first(out.size() - 1)),
+            Status::insufficient_space);
   TileDecoder other(TileLayout{32, 4, 4}, BTFLOD_TEST_INFLATE_BACKEND);
   std::vector<float> small(TileLayout{32, 4, 4}.sample_count());
   EXPECT_EQ(other.decode(e.bytes, parent_tile, 1, 0, small), Status::bad_data) << "wrong layout";
@@ -334,9 +339,9 @@ TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
   EXPECT_EQ(mutate(1, 16), Status::bad_data);    // block size
   EXPECT_EQ(mutate(2, 5), Status::bad_data);     // channels
   EXPECT_EQ(mutate(3, 0x81), Status::bad_data);  // unknown flag
-  for (uint8_t code = 5; code <= 7; ++code)       // frequency weighting code beyond 0..4
+  for (uint8_t code = 5; code <= 7; ++code)      // frequency weighting code beyond 0..4
     EXPECT_EQ(mutate(3, static_cast<uint8_t>(code << 1 | 1)), Status::bad_data) << int{code};
-  EXPECT_EQ(mutate(4, 80), Status::bad_data);    // width ≠ height
+  EXPECT_EQ(mutate(4, 80), Status::bad_data);     // width ≠ height
   EXPECT_EQ(mutate(11, 0xFF), Status::bad_data);  // tolerance → NaN
   auto b = encoded_.bytes;
   const uint32_t too_many = static_cast<uint32_t>(btflod::tile_symbol_bound(layout_) + 1);
@@ -395,7 +400,8 @@ TEST_F(CodecTileFailures, RandomCorruptionNeverCrashesAndSuccessIsFinite) {
 // --- symbol stream (tile format 2) -----------------------------------------------------------
 
 // A payload with a valid header for `layout` and the given (hand-made) symbol stream.
-std::vector<uint8_t> payload_with_symbols(const TileLayout& layout, const std::vector<uint8_t>& symbols, float tol = 0.5f) {
+std::vector<uint8_t> payload_with_symbols(const TileLayout& layout, const std::vector<uint8_t>& symbols,
+                                          float tol = 0.5f) {
   std::vector<uint8_t> p(btflod::tile_header_size(layout.channels), 0);
   p[0] = btflod::kTileFormatVersion;
   p[1] = 8;
@@ -466,7 +472,7 @@ TEST_F(CodecTileSymbols, HandMadeStreamsDecodeToTheirCoefficients) {
   EXPECT_EQ(out_[(0 * 24 + 0) * 4 + 1], 0.0f) << "channel 1 untouched";
   // Escaped value: mapped 15 + 100 = 115 → −58 at position 1; a 2-byte DC varint.
   ASSERT_EQ(decode(stream_with(1, {0x80, 0x00, 0x0F, 100, 0x00})), Status::success) << dec_.message();
-  EXPECT_NEAR(out_[1] , -58.0 * 0.5 * factors[1] * basis[0] * basis[8 + 0], 1e-4);
+  EXPECT_NEAR(out_[1], -58.0 * 0.5 * factors[1] * basis[0] * basis[8 + 0], 1e-4);
   // An escape as the block's last coefficient (position 63, no end-of-block byte) with a 2-byte
   // varint: mapped 15 + 200 = 215 → −108; the blocks after it must still parse from the next byte.
   ASSERT_EQ(decode(stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xEF, 0xC8, 0x01})), Status::success) << dec_.message();
@@ -485,10 +491,10 @@ TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
   ends_inside.resize(ends_inside.size() - 2);                             // ... and the last block loses its EOB
   ends_inside.push_back(0x00);                                            // last block: DC only
   const Case cases[] = {
-      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF0, 0x00}), "zero run past the end"},  // 64 zeros
-      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF1, 0x00}), "zero run past the end"},  // value at 64
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF0, 0x00}), "zero run past the end"},        // 64 zeros
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xF1, 0x00}), "zero run past the end"},        // value at 64
       {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xFF, 0x01, 0x00}), "zero run past the end"},  // escape at 64
-      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xE1, 0x01}), "longer than the tile"},   // a token after 63
+      {stream_with(0, {0x00, 0xF0, 0xF0, 0xF0, 0xE1, 0x01}), "longer than the tile"},         // a token after 63
       {stream_with(0, {0x00, 0x10, 0x00}), "invalid token"},
       {stream_with(0, {0x80, 0x80, 0x80, 0x80, 0x80, 0x01, 0x00}), "DC varint"},        // 6-byte varint
       {stream_with(0, {0xFF, 0xFF, 0xFF, 0xFF, 0x0F, 0x00}), "DC varint"},              // ≥ 2^31
@@ -501,7 +507,8 @@ TEST_F(CodecTileSymbols, HostileStreamsAreBadDataWithAMessage) {
   for (const Case& c : cases) {
     std::fill(out_.begin(), out_.end(), 0.0f);
     EXPECT_EQ(decode(c.symbols), Status::bad_data) << c.message_part;
-    EXPECT_NE(std::string(dec_.message()).find(c.message_part), std::string::npos) << dec_.message() << " vs " << c.message_part;
+    EXPECT_NE(std::string(dec_.message()).find(c.message_part), std::string::npos)
+        << dec_.message() << " vs " << c.message_part;
   }
   // Two DC differences of 2^29 each: the second block's DC leaves the ±2^29 range.
   std::vector<uint8_t> s = stream_with(kBlocks, {});
@@ -531,7 +538,8 @@ TEST(CodecTile, SimdAndScalarDecodersAgree) {
     ASSERT_EQ(simd.decode(e.bytes, parent_tile, 0, 1, a), Status::success) << simd.message();
     ASSERT_EQ(scalar.decode(e.bytes, parent_tile, 0, 1, b), Status::success) << scalar.message();
     double worst = 0;
-    for (size_t i = 0; i < a.size(); ++i) worst = std::max(worst, std::fabs(static_cast<double>(a[i]) - b[i]) / (1.0 + std::fabs(b[i])));
+    for (size_t i = 0; i < a.size(); ++i)
+      worst = std::max(worst, std::fabs(static_cast<double>(a[i]) - b[i]) / (1.0 + std::fabs(b[i])));
     EXPECT_LT(worst, 2e-6) << "quality " << quality;
     for (uint32_t c = 0; c < 4; ++c) EXPECT_LE(max_block_rms(layout, tile, b, c), tolerances(quality)[c] * 1.001);
   }
@@ -544,12 +552,14 @@ TEST(CodecTile, ChannelCountsOneToThreeRoundTrip) {
     TileEncoder enc(layout);
     TileDecoder dec(layout, BTFLOD_TEST_INFLATE_BACKEND);
     std::vector<float> tile(layout.sample_count());
-    for (size_t i = 0; i < tile.size(); ++i) tile[i] = std::sin(0.05f * static_cast<float>(i)) + 0.1f * static_cast<float>(i % 5);
+    for (size_t i = 0; i < tile.size(); ++i)
+      tile[i] = std::sin(0.05f * static_cast<float>(i)) + 0.1f * static_cast<float>(i % 5);
     std::vector<float> tol(ch, 0.01f), recon(layout.sample_count()), out(layout.sample_count());
     std::vector<uint8_t> bytes(enc.bound());
     size_t written = 0;
     ASSERT_EQ(enc.encode(tile, {}, 0, 0, tol, bytes, written, recon), Status::success) << enc.message();
-    ASSERT_EQ(dec.decode(std::span<const uint8_t>(bytes).first(written), {}, 0, 0, out), Status::success) << dec.message();
+    ASSERT_EQ(dec.decode(std::span<const uint8_t>(bytes).first(written), {}, 0, 0, out), Status::success)
+        << dec.message();
     EXPECT_EQ(0, std::memcmp(out.data(), recon.data(), out.size() * 4));
     for (uint32_t c = 0; c < ch; ++c) EXPECT_LE(max_block_rms(layout, tile, out, c), 0.01 * 1.001);
   }
@@ -595,8 +605,9 @@ Status fuzzer_decode(const std::vector<uint8_t>& input) {
 // stops at a header check would fuzz nothing beyond it) and every other one fail with a message.
 TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
   const char* env = std::getenv("BTFLOD_WRITE_TILE_SEEDS");
-  const std::filesystem::path dir =
-      env != nullptr && env[0] != '\0' ? std::filesystem::path(env) : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_decoder";
+  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
+                                        ? std::filesystem::path(env)
+                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_decoder";
   std::filesystem::create_directories(dir);
   std::vector<std::string> decoding, failing;
   auto write = [&](const std::string& name, uint8_t mode, const std::vector<uint8_t>& payload) {
@@ -618,13 +629,15 @@ TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
     write("seed_root_" + tag, 0, root.bytes);
     write("seed_residual_" + tag, 2, child.bytes);
     enc.set_weight_quarters(1);  // a flatter frequency weighting (flag bits 1-3)
-    write("seed_weight_quarters_1_" + tag, 0, encode(enc, make_tile(layout, 0, 0, 0), nullptr, 0, 0, tolerances(50)).bytes);
+    write("seed_weight_quarters_1_" + tag, 0,
+          encode(enc, make_tile(layout, 0, 0, 0), nullptr, 0, 0, tolerances(50)).bytes);
   }
   for (uint32_t ch = 1; ch <= 3; ++ch) {
     const TileLayout layout{16, 4, ch};
     TileEncoder enc(layout);
     std::vector<float> tile(layout.sample_count());
-    for (size_t i = 0; i < tile.size(); ++i) tile[i] = std::cos(0.07f * static_cast<float>(i)) * static_cast<float>(1 + i % 3);
+    for (size_t i = 0; i < tile.size(); ++i)
+      tile[i] = std::cos(0.07f * static_cast<float>(i)) * static_cast<float>(1 + i % 3);
     std::vector<float> tol(ch, 0.02f);
     std::vector<uint8_t> bytes(enc.bound());
     size_t written = 0;
@@ -633,8 +646,7 @@ TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
     write("seed_channels_" + std::to_string(ch), 0, bytes);
   }
   const TileLayout small{16, 4, 4};
-  write("seed_escapes_and_runs", 0,
-        payload_with_symbols(small, symbols_with_escapes_and_runs()));
+  write("seed_escapes_and_runs", 0, payload_with_symbols(small, symbols_with_escapes_and_runs()));
   write("seed_roundtrip", 1, std::vector<uint8_t>{7, 200, 13, 0, 255, 90, 33, 1});
   write("seed_roundtrip_jpeg", 1 | 4 << 1, std::vector<uint8_t>{9, 100, 3, 250, 5, 80, 1});  // JPEG table
   EXPECT_EQ(decoding.size(), 10u);

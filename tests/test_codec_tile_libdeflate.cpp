@@ -22,7 +22,8 @@ using namespace btflod;
 std::vector<float> make_tile(const TileLayout& layout, uint32_t seed) {
   std::vector<float> t(layout.sample_count());
   for (size_t i = 0; i < t.size(); ++i)
-    t[i] = std::sin(0.013f * static_cast<float>(i) + static_cast<float>(seed)) + 0.2f * std::cos(0.31f * static_cast<float>(i % 72));
+    t[i] = std::sin(0.013f * static_cast<float>(i) + static_cast<float>(seed)) +
+           0.2f * std::cos(0.31f * static_cast<float>(i % 72));
   return t;
 }
 
@@ -39,7 +40,8 @@ TEST(CodecTileLibdeflate, BothBackendsDecodeAChainBitIdentically) {
   std::vector<uint8_t> payload(enc.bound());
   for (uint32_t level = 0; level < 6; ++level) {
     size_t written = 0;
-    ASSERT_EQ(enc.encode(make_tile(layout, level), parent, level & 1, 0, tol, payload, written, recon), Status::success);
+    ASSERT_EQ(enc.encode(make_tile(layout, level), parent, level & 1, 0, tol, payload, written, recon),
+              Status::success);
     const auto bytes = std::span<const uint8_t>(payload).first(written);
     ASSERT_EQ(a.decode(bytes, parent, level & 1, 0, out_a), Status::success) << a.message();
     ASSERT_EQ(b.decode(bytes, parent, level & 1, 0, out_b), Status::success) << b.message();

@@ -258,8 +258,9 @@ Status fuzzer_decode_mode(const std::vector<uint8_t>& input, std::vector<float>&
 TEST(TileZstdSeeds, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
   if (!btflod::tile_entropy_coder_available(TileEntropyCoder::zstd)) GTEST_SKIP() << "built without zstd";
   const char* env = std::getenv("BTFLOD_WRITE_ZSTD_SEEDS");
-  const std::filesystem::path dir =
-      env != nullptr && env[0] != '\0' ? std::filesystem::path(env) : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_zstd";
+  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
+                                        ? std::filesystem::path(env)
+                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_zstd";
   std::filesystem::create_directories(dir);
   auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
     std::ofstream f(dir / name, std::ios::binary);

@@ -35,7 +35,10 @@ uint16_t reference_float_to_half(float f) {
   uint16_t lo = 0, hi = 0x7bff;
   while (hi - lo > 1) {
     const uint16_t mid = static_cast<uint16_t>((lo + hi) / 2);
-    if (reference_half_value(mid) <= a) lo = mid; else hi = mid;
+    if (reference_half_value(mid) <= a)
+      lo = mid;
+    else
+      hi = mid;
   }
   if (reference_half_value(hi) <= a) lo = hi;
   const uint16_t up = static_cast<uint16_t>(lo == 0x7bff ? 0x7c00 : lo + 1);
@@ -75,7 +78,8 @@ TEST(Half, AllPatternsRoundTripThroughFloat) {
 TEST(Half, TiesRoundToEven) {
   // Midpoints between consecutive halves in every binade, including subnormals.
   for (uint32_t h = 0; h < 0x7bff; ++h) {
-    const double mid = 0.5 * (reference_half_value(static_cast<uint16_t>(h)) + reference_half_value(static_cast<uint16_t>(h + 1)));
+    const double mid =
+        0.5 * (reference_half_value(static_cast<uint16_t>(h)) + reference_half_value(static_cast<uint16_t>(h + 1)));
     const float f = static_cast<float>(mid);
     ASSERT_EQ(static_cast<double>(f), mid);  // every such midpoint is representable in float
     const uint16_t expected = static_cast<uint16_t>((h & 1) ? h + 1 : h);
@@ -96,10 +100,10 @@ TEST(Half, SpecialValues) {
   EXPECT_EQ(float_to_half_bits(65519.99f), 0x7bff);
   EXPECT_EQ(float_to_half_bits(65520.0f), 0x7c00);  // tie with odd max rounds to Inf
   EXPECT_EQ(float_to_half_bits(1e30f), 0x7c00);
-  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -24)), 0x0001);   // smallest subnormal
-  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -25)), 0x0000);   // tie to even zero
+  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -24)), 0x0001);  // smallest subnormal
+  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -25)), 0x0000);  // tie to even zero
   EXPECT_EQ(float_to_half_bits(std::ldexp(1.5f, -25)), 0x0001);
-  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -14)), 0x0400);   // smallest normal
+  EXPECT_EQ(float_to_half_bits(std::ldexp(1.0f, -14)), 0x0400);  // smallest normal
   EXPECT_EQ(float_to_half_bits(1e-30f), 0x0000);
   EXPECT_EQ(float_to_half_bits(std::numeric_limits<float>::denorm_min()), 0x0000);
   EXPECT_TRUE(std::isnan(half_bits_to_float(float_to_half_bits(std::nanf("")))));
@@ -144,7 +148,8 @@ TEST(Half, ScalarMatchesIndependentReferenceOnManyFloats) {
 
 #if BTFLOD_HAS_X86_DISPATCH
 TEST(Half, F16cMatchesScalarTwinOnAllPatternsAndManyFloats) {
-  if (!btflod::cpu_has_f16c()) GTEST_SKIP() << "CPU has no F16C (or BTFLOD_DISABLE_SIMD is set); only the scalar twin runs here";
+  if (!btflod::cpu_has_f16c())
+    GTEST_SKIP() << "CPU has no F16C (or BTFLOD_DISABLE_SIMD is set); only the scalar twin runs here";
   std::vector<uint16_t> patterns(65536);
   for (uint32_t i = 0; i < 65536; ++i) patterns[i] = static_cast<uint16_t>(i);
   std::vector<float> simd(65536), scalar(65536);

@@ -1,8 +1,8 @@
 // Tests for the SIMD kernels of core/simd.hpp: every ISA build the machine can run returns the
 // scalar twin's bits on every kernel (half <-> float, 8x8 DCT, the tile decoder's inverse DCT and
-// parent up-sampling, feedback run detection), the up-sampling kernel those of the plain loops, the dispatch can be forced to each build (simd_force_isa, the
-// BTFLOD_FORCE_ISA names), and whole tile decodes and vote counts are bit-identical under every
-// forced build. A build the CPU lacks is reported as skipped, never as passed.
+// parent up-sampling, feedback run detection), the up-sampling kernel those of the plain loops, the dispatch can be
+// forced to each build (simd_force_isa, the BTFLOD_FORCE_ISA names), and whole tile decodes and vote counts are
+// bit-identical under every forced build. A build the CPU lacks is reported as skipped, never as passed.
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -286,8 +286,8 @@ TEST(SimdKernels, ParentUpsamplingIsBitIdenticalToThePlainLoops) {
   struct Geometry {
     uint32_t tile_size, border;
   };
-  const Geometry geometries[] = {{64, 4}, {8, 1}, {16, 3}, {62, 5}, {10, 0}, {64, 0}, {9, 1}, {7, 0},
-                                 {2, 0},  {1, 1}, {3, 2},  {1024, 0}, {1000, 12}};
+  const Geometry geometries[] = {{64, 4}, {8, 1}, {16, 3}, {62, 5}, {10, 0},   {64, 0},   {9, 1},
+                                 {7, 0},  {2, 0}, {1, 1},  {3, 2},  {1024, 0}, {1000, 12}};
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-4, 4);
   std::uniform_int_distribution<int> exponent(-140, 60);
@@ -349,8 +349,7 @@ TEST(SimdKernels, ParentUpsamplingBlendsAtTheChildPositions) {
             const float px = base + 0.5f * static_cast<float>(x), py = base + 0.5f + 0.5f * static_cast<float>(y);
             for (uint32_t c = 0; c < channels; ++c)
               ASSERT_EQ(got[(size_t{y} * s + x) * channels + c], 4 * px + 8 * py + 64.0f * static_cast<float>(c))
-                  << btflod::simd_isa_name(k->isa) << " C " << channels << " base " << base << " at " << x << ","
-                  << y;
+                  << btflod::simd_isa_name(k->isa) << " C " << channels << " base " << base << " at " << x << "," << y;
           }
       }
     }

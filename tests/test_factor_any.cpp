@@ -39,7 +39,9 @@ std::vector<AnyFactorization> all_kinds(const BtfFloat& btf) {
 // FactorFile keeps views into the parsed bytes, so parsing a temporary buffer must not compile
 // (it left the section views dangling: a heap-use-after-free found under ASan).
 template <class Bytes>
-concept ParsesAsFactorFile = requires { FactorFile::parse(Bytes{}); };
+concept ParsesAsFactorFile = requires {
+  FactorFile::parse(Bytes{});
+};
 static_assert(!ParsesAsFactorFile<std::vector<uint8_t>>, "parsing a temporary vector must be refused");
 static_assert(ParsesAsFactorFile<std::span<const uint8_t>>, "parsing caller-owned bytes must work");
 

@@ -66,7 +66,8 @@ TEST(FmfStream, EigenTexturesAreTheFmfFactorsExactly) {
   for (uint32_t colour = 0; colour < 3; ++colour) {
     double sum = 0;
     for (uint32_t k = 0; k < 9; ++k)
-      sum += static_cast<double>(e.angular[((view * 5 + light) * 3 + colour) * 9 + k]) * e.textures.at(x, y, static_cast<int>(k));
+      sum += static_cast<double>(e.angular[((view * 5 + light) * 3 + colour) * 9 + k]) *
+             e.textures.at(x, y, static_cast<int>(k));
     EXPECT_NEAR(sum, btf.at(static_cast<int>(x), static_cast<int>(y), view, light, static_cast<int>(colour)), 1e-3);
   }
 }

@@ -14,7 +14,8 @@ BtfFloat test_btf(int w = 8, int h = 6) {
 
 double max_abs_diff(const BtfFloat& a, const BtfFloat& b) {
   double m = 0.0;
-  for (size_t i = 0; i < a.samples().size(); ++i) m = std::max(m, std::abs(static_cast<double>(a.samples()[i]) - b.samples()[i]));
+  for (size_t i = 0; i < a.samples().size(); ++i)
+    m = std::max(m, std::abs(static_cast<double>(a.samples()[i]) - b.samples()[i]));
   return m;
 }
 
@@ -62,7 +63,8 @@ TEST(FactorLaplacian, LevenbergMarquardtRecoversPhongParameters) {
                                   PhongParams{0.0f, 0.8f, 0.05f, 60.0f}}) {
     std::vector<float> target(views.size() * lights.size());
     for (size_t v = 0; v < views.size(); ++v)
-      for (size_t l = 0; l < lights.size(); ++l) target[v * lights.size() + l] = truth.evaluate(lights[l].vector, views[v].vector);
+      for (size_t l = 0; l < lights.size(); ++l)
+        target[v * lights.size() + l] = truth.evaluate(lights[l].vector, views[v].vector);
     const PhongParams fit = fit_phong_lm(views, lights, target);
     EXPECT_NEAR(fit.ka, truth.ka, 1e-3);
     EXPECT_NEAR(fit.kd, truth.kd, 1e-3);
@@ -101,7 +103,8 @@ TEST(FactorLaplacian, RoundTripAndRejectsInconsistentMips) {
   ASSERT_TRUE(back.ok()) << back.message();
   EXPECT_EQ(back->serialize(), bytes);
   EXPECT_EQ(back->evaluate_measured(3, 3, 1, 2, 0.5f), p->evaluate_measured(3, 3, 1, 2, 0.5f));
-  for (size_t cut = 0; cut < bytes.size(); cut += 61) EXPECT_FALSE(LaplacianPca::deserialize(std::span(bytes).first(cut)).ok());
+  for (size_t cut = 0; cut < bytes.size(); cut += 61)
+    EXPECT_FALSE(LaplacianPca::deserialize(std::span(bytes).first(cut)).ok());
   LaplacianPcaOptions bad;
   bad.mip_count = 5;  // 8×6 has at most 3 halvings
   EXPECT_EQ(factorize_laplacian_pca(btf, bad).status(), Status::invalid_argument);

@@ -48,10 +48,12 @@ TEST(FactorPcaViews, KEqualsAllIsPcaBtf) {
     ASSERT_EQ(p0->groups.size(), 1u);
     EXPECT_EQ(p0->serialize(), p1->serialize());
     // L's first column is the per-texel mean, R's first row all ones (L = [m | UΣ], R = [1; Vᵀ]).
-    for (size_t t = 0; t < n; ++t) EXPECT_NEAR(p0->groups[0].l[t * (comps + 1)], mean[static_cast<Eigen::Index>(t)], 1e-5);
+    for (size_t t = 0; t < n; ++t)
+      EXPECT_NEAR(p0->groups[0].l[t * (comps + 1)], mean[static_cast<Eigen::Index>(t)], 1e-5);
     for (size_t j = 0; j < nv * nl * 3; ++j) EXPECT_EQ(p0->groups[0].r[j], 1.0f);
     double tail = 0.0;
-    for (Eigen::Index i = comps; i < svd.singularValues().size(); ++i) tail += svd.singularValues()[i] * svd.singularValues()[i];
+    for (Eigen::Index i = comps; i < svd.singularValues().size(); ++i)
+      tail += svd.singularValues()[i] * svd.singularValues()[i];
     EXPECT_NEAR(sq_error(btf, p0->reconstruct()) / tail, 1.0, 2e-3) << comps;
   }
 }
@@ -90,7 +92,8 @@ TEST(FactorPcaViews, RaggedLastGroupAndFullRankIsExact) {
   for (int c = 0; c < 3; ++c) {
     double want = 0.0;
     for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) want += view.weight[i] * light.weight[j] * btf.value(5, 3, view.index[i], light.index[j], c);
+      for (int j = 0; j < 3; ++j)
+        want += view.weight[i] * light.weight[j] * btf.value(5, 3, view.index[i], light.index[j], c);
     EXPECT_NEAR(got[c], want, 1e-4);
   }
 }
@@ -107,7 +110,8 @@ TEST(FactorPcaViews, RoundTripAndRejectsBadGrouping) {
   ASSERT_TRUE(back.ok()) << back.message();
   EXPECT_EQ(back->serialize(), bytes);
   EXPECT_EQ(back->evaluate_measured(1, 2, 3, 4), p->evaluate_measured(1, 2, 3, 4));
-  for (size_t cut = 0; cut < bytes.size(); cut += 97) EXPECT_FALSE(PcaViews::deserialize(std::span(bytes).first(cut)).ok());
+  for (size_t cut = 0; cut < bytes.size(); cut += 97)
+    EXPECT_FALSE(PcaViews::deserialize(std::span(bytes).first(cut)).ok());
   // A file of another kind is refused by kind, not misparsed.
   std::vector<uint8_t> other = bytes;
   other[12] = 1;  // kind field → FMF; CRCs cover payloads only

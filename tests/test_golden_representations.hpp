@@ -18,8 +18,8 @@
 
 #include "btflod/backend/representation_packing.hpp"
 #include "btflod/backend/spmm_packing.hpp"
-#include "btflod/factor/spmm.hpp"
 #include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/factor/spmm.hpp"
 #include "test_golden_scene.hpp"
 
 namespace btflod::golden {
@@ -312,7 +312,8 @@ void golden_spmm(Factory make) {
       Spmm one_cluster = *spmm;  // the residual of cluster 0 everywhere (the analytic part unchanged)
       const size_t d = spmm->angular_size(), pc = static_cast<size_t>(spmm->residual_components);
       for (size_t c = 1; c < static_cast<size_t>(spmm->clusters()); ++c) {
-        std::copy_n(spmm->residual_mean.begin(), d, one_cluster.residual_mean.begin() + static_cast<std::ptrdiff_t>(c * d));
+        std::copy_n(spmm->residual_mean.begin(), d,
+                    one_cluster.residual_mean.begin() + static_cast<std::ptrdiff_t>(c * d));
         std::copy_n(spmm->residual_basis.begin(), d * pc,
                     one_cluster.residual_basis.begin() + static_cast<std::ptrdiff_t>(c * d * pc));
       }

@@ -205,8 +205,8 @@ void golden_fmf_value_transforms(Factory make) {
     ASSERT_TRUE(mesh.ok()) << mesh.message();
     FmfMaterialData d = m.data(true);
     d.mipmaps = false;
-    EXPECT_EQ(be->create_material(d).status(), Status::invalid_argument) << "a linear material under a "
-                                                                         << value_encoding_name(t.encoding) << " program";
+    EXPECT_EQ(be->create_material(d).status(), Status::invalid_argument)
+        << "a linear material under a " << value_encoding_name(t.encoding) << " program";
     d.transform = t;
     auto mat = be->create_material(d);
     ASSERT_TRUE(mat.ok()) << mat.message();

@@ -44,8 +44,10 @@ inline void make_streamed_material(const ShaderConfig& config, uint32_t seed, St
   BsvtfFromEigenOptions o;
   o.tile_size = config.vt.tile_size;
   o.border = config.vt.border;
-  for (const glm::vec3& d : direction_set(2, 5, 0.3f)) o.light_directions.insert(o.light_directions.end(), {d.x, d.y, d.z});
-  for (const glm::vec3& d : direction_set(2, 4, 0.0f)) o.view_directions.insert(o.view_directions.end(), {d.x, d.y, d.z});
+  for (const glm::vec3& d : direction_set(2, 5, 0.3f))
+    o.light_directions.insert(o.light_directions.end(), {d.x, d.y, d.z});
+  for (const glm::vec3& d : direction_set(2, 4, 0.0f))
+    o.view_directions.insert(o.view_directions.end(), {d.x, d.y, d.z});
   auto file = build_bsvtf_from_eigen_textures(e, o);
   ASSERT_TRUE(file.ok()) << file.message();
   out.file = std::move(*file);

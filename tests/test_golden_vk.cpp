@@ -13,10 +13,10 @@
 // btflod-label: gpu
 #include <gtest/gtest.h>
 
-#include "vk_backend.hpp"
 #include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
 #include "test_golden_streamer.hpp"
+#include "vk_backend.hpp"
 
 namespace {
 
@@ -85,9 +85,7 @@ void hlsl_matches_glsl(btflod::ShaderProgram program) {
 
 TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
 TEST(GoldenVk, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
-TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) {
-  btflod::golden::golden_fmf_u_packets(make_backend);
-}
+TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
 TEST(GoldenVk, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);

@@ -22,7 +22,7 @@ TEST(LodSelector, DerivativeFollowsEquation1) {
   EXPECT_FLOAT_EQ(d.level({1.0f, 1.0f, 1.0f}, 5), 5.0f);
   EXPECT_FLOAT_EQ(d.level({2.0f, 1.0f, 1.0f}, 5), 4.0f);  // max of the two axes
   EXPECT_FLOAT_EQ(d.level({1.0f, 4.0f, 1.0f}, 5), 3.0f);
-  EXPECT_FLOAT_EQ(d.level({0.25f, 0.25f, 1.0f}, 5), 5.0f);  // magnification clamps to L
+  EXPECT_FLOAT_EQ(d.level({0.25f, 0.25f, 1.0f}, 5), 5.0f);   // magnification clamps to L
   EXPECT_FLOAT_EQ(d.level({1024.0f, 1.0f, 1.0f}, 5), 0.0f);  // clamps to the root
   d.bias = 1.0f;
   EXPECT_FLOAT_EQ(d.level({2.0f, 1.0f, 1.0f}, 5), 3.0f);
@@ -42,9 +42,9 @@ TEST(LodSelector, AnisotropyUsesMinorAxisUpToRatio) {
 TEST(LodSelector, RangeBasedFollowsPaper001) {
   RangeLod r;
   r.reference_distance = 2.0f;
-  EXPECT_FLOAT_EQ(r.level({1, 1, 1.0f}, 4), 4.0f);   // d < d0 → λ = 0
-  EXPECT_FLOAT_EQ(r.level({1, 1, 8.0f}, 4), 2.0f);   // λ = log2(4) = 2
-  EXPECT_FLOAT_EQ(r.level({1, 1, 1e9f}, 4), 0.0f);   // λ clamped to λmax = L
+  EXPECT_FLOAT_EQ(r.level({1, 1, 1.0f}, 4), 4.0f);  // d < d0 → λ = 0
+  EXPECT_FLOAT_EQ(r.level({1, 1, 8.0f}, 4), 2.0f);  // λ = log2(4) = 2
+  EXPECT_FLOAT_EQ(r.level({1, 1, 1e9f}, 4), 0.0f);  // λ clamped to λmax = L
   EXPECT_FLOAT_EQ(r.level({1, 1, std::numeric_limits<float>::infinity()}, 4), 0.0f);
 }
 
@@ -59,7 +59,8 @@ TEST(LodSelector, FeedbackLevelIsTheFinerTrilinearLevel) {
 TEST(FeedbackWord, RoundTripsEveryFieldAtItsLimits) {
   std::mt19937 rng(3);
   for (int i = 0; i < 10000; ++i) {
-    FeedbackTile t{uint32_t(rng()) % kFeedbackMaxMaterials, uint32_t(rng()) % 16, uint32_t(rng()) % 512, uint32_t(rng()) % 512};
+    FeedbackTile t{uint32_t(rng()) % kFeedbackMaxMaterials, uint32_t(rng()) % 16, uint32_t(rng()) % 512,
+                   uint32_t(rng()) % 512};
     const uint32_t w = pack_feedback(t);
     ASSERT_NE(w, kFeedbackNone);
     EXPECT_EQ(unpack_feedback(w), t);
@@ -117,9 +118,12 @@ TEST(Votes, MatchBruteForceEquation9OnRandomBuffers) {
     std::vector<uint32_t> words;
     for (int i = 0; i < 3000; ++i) {
       const uint32_t r = uint32_t(rng()) % 10;
-      if (r == 0) words.push_back(kFeedbackNone);
-      else if (r == 1) words.push_back(uint32_t(rng()));  // hostile: any bits
-      else if (r < 5 && !words.empty()) words.push_back(words.back());  // runs
+      if (r == 0)
+        words.push_back(kFeedbackNone);
+      else if (r == 1)
+        words.push_back(uint32_t(rng()));  // hostile: any bits
+      else if (r < 5 && !words.empty())
+        words.push_back(words.back());  // runs
       else {
         const uint32_t m = uint32_t(rng()) % 3;
         const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
@@ -228,7 +232,8 @@ TEST(Votes, RunDetectionAndMemoGiveTheWordByWordResult) {
           w = pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty});
         }
         // Runs from 1 word to longer than a pass.
-        const size_t run = r < 12 ? 1 + uint32_t(rng()) % 8 : (r < 15 ? 1 + uint32_t(rng()) % 90 : 200 + uint32_t(rng()) % 400);
+        const size_t run =
+            r < 12 ? 1 + uint32_t(rng()) % 8 : (r < 15 ? 1 + uint32_t(rng()) % 90 : 200 + uint32_t(rng()) % 400);
         for (size_t i = 0; i < run && words.size() < n; ++i) words.push_back(w);
       }
       const uint64_t rejected_before = counter.rejected();
@@ -284,8 +289,9 @@ std::vector<uint32_t> fixed_view(uint32_t size, const VoteLayout& m) {
       h ^= h >> 15;
       const uint32_t l = h % 4 == 0 ? m.finest_level - 1 : m.finest_level;
       const uint32_t s = m.finest_level - l;
-      img[y * size + x] = h % 11 == 0 ? kFeedbackNone
-                                      : pack_feedback({0, l, ((x * m.tiles_x) / size) >> s, (h >> 8) % (m.tiles_y >> s)});
+      img[y * size + x] = h % 11 == 0
+                              ? kFeedbackNone
+                              : pack_feedback({0, l, ((x * m.tiles_x) / size) >> s, (h >> 8) % (m.tiles_y >> s)});
     }
   return img;
 }
@@ -360,7 +366,7 @@ TEST(VoteWindow, OldFramesLeaveAfterExactlyNFramesAndResetForgets) {
   EXPECT_EQ(c.votes(0, 2, 3, 0), 15u);
   EXPECT_EQ(c.direct_votes_at(0, 5 + 3), 15u);  // level 2 starts at flat 5; (3,0) → +3
   EXPECT_EQ(c.touched().size(), 3u);            // the tile, its parent, the root
-  c.count(a);  // count() is one frame and leaves the window alone
+  c.count(a);                                   // count() is one frame and leaves the window alone
   EXPECT_EQ(c.votes(0, 2, 3, 0), 0u);
   c.accumulate({});
   EXPECT_EQ(c.votes(0, 2, 3, 0), 10u);

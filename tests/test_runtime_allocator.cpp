@@ -106,7 +106,7 @@ TEST(RuntimeAllocator, CacheSchedulerAndSetAllocateOnlyThroughTheCallbacks) {
       moved_sched.run_frame(moved_cache, votes, f);
       swaps += moved_sched.frame().swaps;
     }
-    EXPECT_GE(moved_sched.total().uploads, 10u);                   // every free slot filled
+    EXPECT_GE(moved_sched.total().uploads, 10u);                // every free slot filled
     EXPECT_GT(swaps + moved_sched.total().swaps_rejected, 0u);  // then the 16 slots were full
     EXPECT_EQ(counter.calls, calls) << "a frame allocated";
     EXPECT_EQ(btflod_test::global_news(), global_before);

@@ -56,7 +56,6 @@ void run_logged(Streamer& s, Engine& e, EventLog& log, uint32_t frames) {
   }
 }
 
-
 }  // namespace
 
 TEST(RuntimeFailures, CorruptTileIsRetriedWithBackOffThenReportedUnavailable) {

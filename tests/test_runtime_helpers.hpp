@@ -234,7 +234,6 @@ inline uint32_t run(Streamer& s, Engine& e, const std::vector<uint32_t>& fb, uin
   return uploads;
 }
 
-
 // An engine-owned I/O queue: reads are served one update later, from memory.
 struct QueueSource final : AsyncTileSource {
   struct Read {

@@ -72,7 +72,8 @@ struct LiveEngine {
   StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
   void apply(const Streamer& s, const StreamerOutputs& o) {
     for (size_t i = 0; i < o.tile_upload_count; ++i)
-      std::copy(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end(), slots[o.tile_uploads[i].slot].begin());
+      std::copy(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end(),
+                slots[o.tile_uploads[i].slot].begin());
     for (size_t i = 0; i < o.page_table_write_count; ++i) {
       const PageTableWrite& w = o.page_table_writes[i];
       page_table[w.tile.texture][s.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
@@ -113,8 +114,8 @@ void stream_frames(Streamer& s, LiveEngine& e, uint32_t frames) {
 
 // The engine's cache texels and page tables against the Streamer's cache; `file_of` maps a
 // live material id to its container.
-void check_live_engine(const World& w, const Streamer& s, const LiveEngine& e, const std::map<uint32_t, size_t>& file_of,
-                       bool texels) {
+void check_live_engine(const World& w, const Streamer& s, const LiveEngine& e,
+                       const std::map<uint32_t, size_t>& file_of, bool texels) {
   const TileCache& c = s.cache();
   std::string why;
   ASSERT_TRUE(c.check_invariants(&why)) << why;
@@ -154,9 +155,8 @@ uint32_t largest_tile_count(const World& w) {
 }
 
 size_t count(const std::vector<ResidencyEvent>& ev, ResidencyEventKind k, uint32_t m) {
-  return static_cast<size_t>(std::count_if(ev.begin(), ev.end(), [&](const ResidencyEvent& e) {
-    return e.kind == k && e.material == m;
-  }));
+  return static_cast<size_t>(
+      std::count_if(ev.begin(), ev.end(), [&](const ResidencyEvent& e) { return e.kind == k && e.material == m; }));
 }
 
 }  // namespace
@@ -166,7 +166,7 @@ TEST(StreamerMaterials, CapacityForCoversTheLargestMaterialsLiveAtOnce) {
   const StreamerCapacity one = capacity_for(w, 1), three = capacity_for(w, 3);
   EXPECT_EQ(one.materials, 1u);
   EXPECT_EQ(three.materials, 3u);
-  EXPECT_EQ(one.textures, 3u);         // C = 12: three virtual textures
+  EXPECT_EQ(one.textures, 3u);              // C = 12: three virtual textures
   EXPECT_EQ(three.textures, 3u + 2u + 2u);  // C = 12, 8, 8
   EXPECT_GT(three.tiles, one.tiles);
   EXPECT_EQ(one.max_level_count, three.max_level_count);
@@ -278,7 +278,7 @@ TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
   EXPECT_GT(adds, ops / 50);
   EXPECT_GT(removes, ops / 50);
   EXPECT_GT(s.scheduler().total().uploads, ops / 2);  // materials lived long enough to stream
-  EXPECT_GT(failed_adds, 0u);  // the room for three was full at times
+  EXPECT_GT(failed_adds, 0u);                         // the room for three was full at times
   const StreamerStats st = s.stats();
   EXPECT_EQ(st.materials_live, file_of.size());
   EXPECT_EQ(st.materials_removing, 0u);

@@ -16,7 +16,6 @@ using namespace btflod_test;
 
 namespace {
 
-
 World two_materials() {
   World w;
   w.add(build(make_eigen(96, 6, 1)));

@@ -29,7 +29,6 @@
 using namespace btflod;
 using namespace btflod_test;
 
-
 TEST(RuntimeStreamer, LoadsRootsAndPacketsThenConvergesToTheExactTiles) {
   World w;
   w.add(build(make_eigen(128, 6, 1)));  // C = 6: 2 virtual textures, L = 2
@@ -159,7 +158,6 @@ TEST(RuntimeStreamer, MovedStreamerKeepsStreamingAndReplaysDeterministically) {
   EXPECT_GT(a.size(), 50u);
   EXPECT_EQ(a, b);
 }
-
 
 TEST(RuntimeStreamer, AsyncSourceAndThreadExecutorConvergeToTheSameTiles) {
   World w;

@@ -169,8 +169,8 @@ struct Engine {
       const StreamerTileUpload& u = o.tile_uploads[i];
       ASSERT_LT(u.slot, slots.size());
       slots[u.slot].assign(u.texels.begin(), u.texels.end());
-      ASSERT_EQ(slots[u.slot], expected(s, u.tile)) << "upload of tile " << u.tile.texture << "/" << u.tile.level
-                                                    << "/" << u.tile.x << "/" << u.tile.y;
+      ASSERT_EQ(slots[u.slot], expected(s, u.tile))
+          << "upload of tile " << u.tile.texture << "/" << u.tile.level << "/" << u.tile.x << "/" << u.tile.y;
       ++tiles_checked;
     }
     for (size_t i = 0; i < o.packet_upload_count; ++i) {
@@ -277,10 +277,12 @@ void stream_and_drain(Executor kind) {
   if (kind == Executor::engine_workers) {
     workers.emplace(s.jobs(), 4);
     s.jobs().set_job_notify(&Workers::wake, &*workers);
-    io.start(s, [](void* w, uint32_t) { static_cast<Workers*>(w)->notify(); }, &*workers);
+    io.start(
+        s, [](void* w, uint32_t) { static_cast<Workers*>(w)->notify(); }, &*workers);
   } else {
     executor.emplace(s.jobs(), 4);  // registers its own notify hook
-    io.start(s, [](void* x, uint32_t) { static_cast<ThreadExecutor*>(x)->notify(); }, &*executor);
+    io.start(
+        s, [](void* x, uint32_t) { static_cast<ThreadExecutor*>(x)->notify(); }, &*executor);
   }
   const auto jobs_run = [&] { return workers ? workers->jobs_run() : executor->jobs_run(); };
   // Before the Streamer is destroyed, even when an assertion ends the test early: the I/O
@@ -360,14 +362,16 @@ void stream_and_drain(Executor kind) {
   EXPECT_GT(io.counters.reads.load(), 60u);
   EXPECT_GT(io.counters.failed.load() + io.counters.corrupted.load(), 0u);
   EXPECT_GT(e.failed_events, 0u);
-  std::printf("frames %u, tiles checked %llu, jobs run %llu, reads %llu (failed %llu, corrupted %llu, refused %llu), "
-              "failure events %llu, tiles given up %llu, swaps %llu\n",
-              kFrames, static_cast<unsigned long long>(e.tiles_checked),
-              static_cast<unsigned long long>(jobs_run()), static_cast<unsigned long long>(io.counters.reads.load()),
-              static_cast<unsigned long long>(io.counters.failed.load()), static_cast<unsigned long long>(io.counters.corrupted.load()),
-              static_cast<unsigned long long>(io.counters.refused.load()), static_cast<unsigned long long>(e.failed_events),
-              static_cast<unsigned long long>(e.unavailable_events),
-              static_cast<unsigned long long>(s.scheduler().total().swaps));
+  std::printf(
+      "frames %u, tiles checked %llu, jobs run %llu, reads %llu (failed %llu, corrupted %llu, refused %llu), "
+      "failure events %llu, tiles given up %llu, swaps %llu\n",
+      kFrames, static_cast<unsigned long long>(e.tiles_checked), static_cast<unsigned long long>(jobs_run()),
+      static_cast<unsigned long long>(io.counters.reads.load()),
+      static_cast<unsigned long long>(io.counters.failed.load()),
+      static_cast<unsigned long long>(io.counters.corrupted.load()),
+      static_cast<unsigned long long>(io.counters.refused.load()), static_cast<unsigned long long>(e.failed_events),
+      static_cast<unsigned long long>(e.unavailable_events),
+      static_cast<unsigned long long>(s.scheduler().total().swaps));
 }
 
 }  // namespace

@@ -196,8 +196,8 @@ void feedback_words(Factory make) {
         glm::vec3 world;
         glm::vec2 uv;
         pixel_to_quad(x, y, 32, 32, 0.5f, world, uv);
-        expect = pack_feedback_word(layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f),
-                                                            static_cast<uint32_t>(uv.y * 2.0f)});
+        expect = pack_feedback_word(
+            layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
         ++covered;
       }
       if (w != expect && ++mismatches <= 5)

@@ -365,8 +365,7 @@ std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t p
   if (has(GlslPiece::ring_search))
     s += "  ivec3 ri; vec3 rw;\n  eng_btf_ring_search(1, wv, ri, rw);\n  rho += rw * float(ri.y);\n";
   if (has(GlslPiece::pca_rings)) s += "  rho += eng_btf_pca_rings(f_uv, wl, wv);\n";
-  if (has(GlslPiece::spmm))
-    s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon(ivec2(0), wl, wv, 2);\n";
+  if (has(GlslPiece::spmm)) s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon(ivec2(0), wl, wv, 2);\n";
   s += "  f_color = vec4(rho, float(word & 255u));\n}\n";
   return s;
 }

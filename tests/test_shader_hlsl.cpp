@@ -75,9 +75,9 @@ std::string validate_hlsl(const std::string& source, const char* stage, const st
 
 // GLSL spellings that must not appear in HLSL output (as a call or type followed by '(' or ' ').
 void expect_no_glsl(const std::string& hlsl, const std::string& what) {
-  for (const char* word : {"vec2", "vec3", "vec4", "texelFetch", "textureSize", "textureLod", "texture(", "mix(",
-                           "fract(", "dFdx", "dFdy", "uintBitsToFloat", "atan(", "#version", "layout(", "sampler2D",
-                           "sampler3D"})
+  for (const char* word :
+       {"vec2", "vec3", "vec4", "texelFetch", "textureSize", "textureLod", "texture(", "mix(", "fract(", "dFdx", "dFdy",
+        "uintBitsToFloat", "atan(", "#version", "layout(", "sampler2D", "sampler3D"})
     EXPECT_EQ(hlsl.find(word), std::string::npos) << what << " contains GLSL " << word;
 }
 
@@ -176,8 +176,7 @@ std::string engine_shader(const std::string& functions, uint32_t pieces) {
   if (has(GlslPiece::ring_search))
     s += "  int3 ri; float3 rw;\n  eng_btf_ring_search(1, wv, ri, rw);\n  rho += rw * float(ri.y);\n";
   if (has(GlslPiece::pca_rings)) s += "  rho += eng_btf_pca_rings(f_uv, wl, wv);\n";
-  if (has(GlslPiece::spmm))
-    s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon((int2)0, wl, wv, 2);\n";
+  if (has(GlslPiece::spmm)) s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon((int2)0, wl, wv, 2);\n";
   s += "  return float4(rho, float(word & 255u));\n}\n";
   return s;
 }

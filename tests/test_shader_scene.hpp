@@ -128,9 +128,12 @@ inline Material make_material(const ShaderConfig& config, int width, int height,
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x)
       for (int c = 0; c < static_cast<int>(C); ++c) {
-        const float fx = static_cast<float>(x) / static_cast<float>(width), fy = static_cast<float>(y) / static_cast<float>(height);
-        m.v.at(x, y, c) = 0.6f + 0.4f * std::sin(6.2831853f * (fx * static_cast<float>(c + 1) + 2.0f * fy) + static_cast<float>(c) + phase) +
-                          0.1f * rnd01(s);
+        const float fx = static_cast<float>(x) / static_cast<float>(width),
+                    fy = static_cast<float>(y) / static_cast<float>(height);
+        m.v.at(x, y, c) =
+            0.6f +
+            0.4f * std::sin(6.2831853f * (fx * static_cast<float>(c + 1) + 2.0f * fy) + static_cast<float>(c) + phase) +
+            0.1f * rnd01(s);
       }
   build_table(ld, config.angular.parameterisation, config.angular.resolution, m.light_index, m.light_weight);
   build_table(vd, config.angular.parameterisation, config.angular.resolution, m.view_index, m.view_weight);
@@ -300,7 +303,8 @@ inline std::vector<uint16_t> tile_texels(const Pyramid& p, int group, uint32_t l
     for (uint32_t x = 0; x < padded; ++x) {
       const int gx = std::clamp(static_cast<int>(tx * tile + x) - static_cast<int>(border), 0, img.width() - 1);
       const int gy = std::clamp(static_cast<int>(ty * tile + y) - static_cast<int>(border), 0, img.height() - 1);
-      for (int k = 0; k < 4; ++k) out[(static_cast<size_t>(y) * padded + x) * 4 + static_cast<size_t>(k)] = float_to_half_bits(img.at(gx, gy, k));
+      for (int k = 0; k < 4; ++k)
+        out[(static_cast<size_t>(y) * padded + x) * 4 + static_cast<size_t>(k)] = float_to_half_bits(img.at(gx, gy, k));
     }
   return out;
 }
@@ -324,7 +328,8 @@ inline CacheFill fill_cache(const Pyramid& p, const VirtualTextureConfig& vt, in
   uint32_t slot = 0;
   auto tiles_at = [&](uint32_t l, int n) {
     const uint32_t s = p.finest - l;
-    return static_cast<uint32_t>((((n + (1 << s) - 1) >> s) + static_cast<int>(vt.tile_size) - 1) / static_cast<int>(vt.tile_size));
+    return static_cast<uint32_t>((((n + (1 << s) - 1) >> s) + static_cast<int>(vt.tile_size) - 1) /
+                                 static_cast<int>(vt.tile_size));
   };
   // Slots in reverse order so that slot ≠ tile index (catches a page table that is ignored).
   std::vector<std::tuple<int, uint32_t, uint32_t, uint32_t>> order;
@@ -348,7 +353,8 @@ inline CacheFill fill_cache(const Pyramid& p, const VirtualTextureConfig& vt, in
     f.texels.push_back(tile_texels(p, g, l, x, y, vt.tile_size, vt.border));
     slots[static_cast<size_t>(g)][l][y * tiles_at(l, width) + x] = static_cast<int>(slot);
   }
-  for (size_t i = 0; i < f.texels.size(); ++i) f.uploads.push_back(TileUpload{total - 1 - static_cast<uint32_t>(i), f.texels[i]});
+  for (size_t i = 0; i < f.texels.size(); ++i)
+    f.uploads.push_back(TileUpload{total - 1 - static_cast<uint32_t>(i), f.texels[i]});
   // Page table: every tile of every level points at itself or its nearest resident ancestor.
   for (int g = 0; g < groups; ++g)
     for (uint32_t l = 0; l <= p.finest; ++l)
@@ -376,11 +382,17 @@ inline void reference_vt_sample(const Pyramid& p, const VirtualTextureConfig& vt
   const uint32_t l1 = std::min(l0 + 1, p.finest);
   auto resident_level = [&](uint32_t level) {
     const float scale = std::ldexp(1.0f, static_cast<int>(level) - static_cast<int>(p.finest));
-    const uint32_t tiles = static_cast<uint32_t>(std::ceil(static_cast<float>(width) * scale / static_cast<float>(vt.tile_size)));
-    const uint32_t tx = std::min(static_cast<uint32_t>(std::floor(uv.x * static_cast<float>(width) * scale / static_cast<float>(vt.tile_size))), tiles - 1);
+    const uint32_t tiles =
+        static_cast<uint32_t>(std::ceil(static_cast<float>(width) * scale / static_cast<float>(vt.tile_size)));
+    const uint32_t tx = std::min(
+        static_cast<uint32_t>(std::floor(uv.x * static_cast<float>(width) * scale / static_cast<float>(vt.tile_size))),
+        tiles - 1);
     uint32_t r = level;
     uint32_t x = tx;
-    while (!in_fill(r, p.finest, x, static_cast<uint32_t>(std::ceil(static_cast<float>(width) * std::ldexp(1.0f, static_cast<int>(r) - static_cast<int>(p.finest)) / static_cast<float>(vt.tile_size))))) {
+    while (!in_fill(r, p.finest, x,
+                    static_cast<uint32_t>(std::ceil(static_cast<float>(width) *
+                                                    std::ldexp(1.0f, static_cast<int>(r) - static_cast<int>(p.finest)) /
+                                                    static_cast<float>(vt.tile_size))))) {
       --r;
       x >>= 1;
     }

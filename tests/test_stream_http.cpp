@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "btflod/core/file_io.hpp"
-#include "btflod/stream/http_source.hpp"
 #include "btflod/runtime/streamer.hpp"
+#include "btflod/stream/http_source.hpp"
 #include "loopback_http_server.hpp"
 #include "test_runtime_helpers.hpp"
 
@@ -109,8 +109,8 @@ class Nginx {
     conf.close();
     pid_ = ::fork();
     if (pid_ == 0) {
-      ::execl(kNginx, kNginx, "-p", dir_.c_str(), "-e", (dir_ / "error.log").c_str(), "-c", (dir_ / "nginx.conf").c_str(), "-g",
-              "daemon off;", static_cast<char*>(nullptr));
+      ::execl(kNginx, kNginx, "-p", dir_.c_str(), "-e", (dir_ / "error.log").c_str(), "-c",
+              (dir_ / "nginx.conf").c_str(), "-g", "daemon off;", static_cast<char*>(nullptr));
       ::_exit(127);
     }
     for (int i = 0; i < 500; ++i) {
@@ -163,8 +163,8 @@ class BadServer {
     std::string_view payload(reinterpret_cast<const char*>(body_.data()) + a, n);
     switch (mode_) {
       case Mode::drop_mid_transfer:
-        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b) + "/" +
-               std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b) +
+               "/" + std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
         payload = payload.substr(0, n / 2);  // then close: the transfer is cut
         break;
       case Mode::ignore_range:
@@ -172,13 +172,15 @@ class BadServer {
         payload = std::string_view(reinterpret_cast<const char*>(body_.data()), body_.size());
         break;
       case Mode::wrong_range:
-        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a + 1) + "-" + std::to_string(b + 1) +
-               "/" + std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) + "\r\n\r\n";
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a + 1) + "-" +
+               std::to_string(b + 1) + "/" + std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n) +
+               "\r\n\r\n";
         payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a + 1, n);
         break;
       case Mode::too_much:
-        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" + std::to_string(b + 100) + "/" +
-               std::to_string(body_.size()) + "\r\nContent-Length: " + std::to_string(n + 100) + "\r\n\r\n";
+        head = "HTTP/1.1 206 Partial Content\r\nContent-Range: bytes " + std::to_string(a) + "-" +
+               std::to_string(b + 100) + "/" + std::to_string(body_.size()) +
+               "\r\nContent-Length: " + std::to_string(n + 100) + "\r\n\r\n";
         payload = std::string_view(reinterpret_cast<const char*>(body_.data()) + a, n + 100);
         break;
       case Mode::stall:
@@ -205,7 +207,8 @@ class StreamHttp : public ::testing::Test {
     container_ = nullptr;
   }
   void start_nginx() {
-    if (!fs::exists(kNginx)) GTEST_SKIP() << "nginx not installed (" << kNginx << "): skipping the HTTP test against a real server";
+    if (!fs::exists(kNginx))
+      GTEST_SKIP() << "nginx not installed (" << kNginx << "): skipping the HTTP test against a real server";
     const fs::path dir = fs::path(BTFLOD_TEST_TMP_DIR) / ("nginx_" + std::to_string(::getpid()));
     ASSERT_TRUE(nginx_.start(dir)) << "nginx did not start; see " << (dir / "error.log");
     ASSERT_TRUE(write_file_bytes((nginx_.www() / "material.bsvtf").string(), *container_).ok());
@@ -316,7 +319,7 @@ TEST_F(StreamHttp, StreamerFailsTheMaterialWhenTheServerDropsEveryTransfer) {
   const StreamerStats st = s.value().stats();
   EXPECT_GE(st.tile_failures + st.packet_failures, 2u);
   EXPECT_LE(st.tile_failures + st.packet_failures, 4u);  // root and packet, 2 attempts each at most
-  EXPECT_EQ(s.value().jobs_in_flight(), 0u);            // its children were never scheduled
+  EXPECT_EQ(s.value().jobs_in_flight(), 0u);             // its children were never scheduled
 }
 
 TEST_F(StreamHttp, MisbehavingServersAreDetected) {

@@ -28,8 +28,7 @@ class CannedServer {
  public:
   explicit CannedServer(std::string response) : CannedServer(std::vector<std::string>{std::move(response)}) {}
   explicit CannedServer(std::vector<std::string> responses)
-      : responses_(std::move(responses)),
-        server_([this](int socket, const std::string&, const std::atomic<bool>&) {
+      : responses_(std::move(responses)), server_([this](int socket, const std::string&, const std::atomic<bool>&) {
           test::LoopbackHttpServer::send_all(socket, responses_[std::min(served_++, responses_.size() - 1)]);
         }) {}
   ~CannedServer() { curl_slist_free_all(list_); }

@@ -6,8 +6,8 @@
 // btflod-label: gpu
 #include <gtest/gtest.h>
 
-#include "vk_backend.hpp"
 #include "test_shader_backend_cases.hpp"
+#include "vk_backend.hpp"
 
 namespace {
 

@@ -190,7 +190,7 @@ TEST(TilePyramid, LargeWeightsAndEnergiesSaturateInsteadOfOverflowing) {
     EXPECT_EQ(r->energies(0)[i].to_float(), 65504.0f);  // 350² = 122,500
     EXPECT_TRUE(std::isfinite(r->weights(0)[i].to_float()));
   }
-  EXPECT_EQ(r->weights(0)[0].to_float(), 65504.0f);  // the root: distance to nothing
+  EXPECT_EQ(r->weights(0)[0].to_float(), 65504.0f);                         // the root: distance to nothing
   EXPECT_LT(r->weights(0)[r->levels().tile_count() - 1].to_float(), 1.0f);  // detail only
 }
 

@@ -145,7 +145,7 @@ TEST(Scheduler, SwapInsertsTheCommonAncestorWhenItIsNotResident) {
   Rig rig(7, 1);  // root + 6
   std::vector<uint32_t> w;
   for (uint32_t i = 0; i < 4; ++i) push(w, 0, 2, i & 1, i >> 1, 5);  // the 4 children of (1,0,0)
-  rig.frame(w, 0);  // adds (1,0,0)
+  rig.frame(w, 0);                                                   // adds (1,0,0)
   rig.frame(w, 1);  // adds its 4 children → (1,0,0) covered → removed
   EXPECT_FALSE(rig.cache->resident(TileId{0, 1, 0, 0}));
   EXPECT_EQ(rig.cache->used_count(), 5u);

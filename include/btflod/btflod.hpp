@@ -24,6 +24,7 @@
 
 // core
 #include "btflod/core/allocator.hpp"
+#include "btflod/core/angular_row_order.hpp"
 #include "btflod/core/bit_cast.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/color.hpp"
@@ -66,8 +67,8 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/factor_file.hpp"
 #include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_stream.hpp"
 #include "btflod/factor/fmf_out_of_core.hpp"
+#include "btflod/factor/fmf_stream.hpp"
 #include "btflod/factor/laplacian_pca.hpp"
 #include "btflod/factor/levenberg_marquardt.hpp"
 #include "btflod/factor/local_pca.hpp"
@@ -104,8 +105,8 @@
 #include "btflod/codec/tile_codec.hpp"
 
 // stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
-#include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/file_source.hpp"
+#include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/thread_executor.hpp"
 #include "btflod/stream/tile_source.hpp"
 // runtime

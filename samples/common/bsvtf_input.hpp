@@ -24,8 +24,8 @@ using BsvtfTileInputs = btflod::BsvtfTileInputs;
 
 /// Collects the tiles of levels [0, level_count) (vt/bsvtf_build.hpp bsvtf_tiles_from_pyramid;
 /// tile size and border are the pyramid's).
-inline BsvtfTileInputs bsvtf_tiles_from_pyramid(const TilePyramid& pyramid, uint32_t level_count, uint32_t /*tile_size*/,
-                                                uint32_t /*border*/) {
+inline BsvtfTileInputs bsvtf_tiles_from_pyramid(const TilePyramid& pyramid, uint32_t level_count,
+                                                uint32_t /*tile_size*/, uint32_t /*border*/) {
   return btflod::bsvtf_tiles_from_pyramid(pyramid, level_count);
 }
 

@@ -21,7 +21,9 @@ class ProgressBar {
   /// Draws on `out` (stderr by default) with the given label prefix; `enabled = false` makes
   /// every call a no-op (e.g. for --quiet).
   explicit ProgressBar(std::string label = {}, std::FILE* out = stderr, bool enabled = true)
-      : label_(std::move(label)), out_(out), enabled_(enabled && out != nullptr),
+      : label_(std::move(label)),
+        out_(out),
+        enabled_(enabled && out != nullptr),
         tty_(out != nullptr && ::isatty(::fileno(out)) != 0) {}
   ProgressBar(const ProgressBar&) = delete;
   ProgressBar& operator=(const ProgressBar&) = delete;
@@ -46,8 +48,8 @@ class ProgressBar {
                    static_cast<int>(stage.size()), stage.data(), bar.c_str(), percent);
       drawn_ = true;
     } else if (new_stage || percent / 25 != percent_ / 25) {
-      std::fprintf(out_, "%s%s%.*s %3d%%\n", label_.c_str(), label_.empty() ? "" : ": ",
-                   static_cast<int>(stage.size()), stage.data(), percent);
+      std::fprintf(out_, "%s%s%.*s %3d%%\n", label_.c_str(), label_.empty() ? "" : ": ", static_cast<int>(stage.size()),
+                   stage.data(), percent);
     }
     std::fflush(out_);
     stage_.assign(stage);

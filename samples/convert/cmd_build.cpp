@@ -73,11 +73,13 @@ int run_build(int argc, char** argv) {
     return convert::kExitUsage;
   }
   if (opt.positional().size() != 2) {
-    std::fprintf(stderr, "btflod-convert build: expected IN.fmf and OUT.bsvtf (got %zu arguments)\n", opt.positional().size());
+    std::fprintf(stderr, "btflod-convert build: expected IN.fmf and OUT.bsvtf (got %zu arguments)\n",
+                 opt.positional().size());
     return convert::kExitUsage;
   }
   if (!TileLayout{tile, border, 4}.valid()) {
-    std::fprintf(stderr, "btflod-convert build: --tile %u --border %u: T + 2B must be a multiple of 8 (T even, T >= 8)\n", tile,
+    std::fprintf(stderr,
+                 "btflod-convert build: --tile %u --border %u: T + 2B must be a multiple of 8 (T even, T >= 8)\n", tile,
                  border);
     return convert::kExitUsage;
   }
@@ -108,8 +110,9 @@ int run_build(int argc, char** argv) {
   // The library's metadata for these eigen-textures (geometry, C, U's rows, the value encoding);
   // FMF rows are (view · n_light + light) · 3 + colour.
   const size_t slash = in.find_last_of('/');
-  BsvtfMetadata md = bsvtf_metadata_for(eigen, *pyramid, direction_vectors(fmf->shape.lights), direction_vectors(fmf->shape.views),
-                                        slash == std::string::npos ? in : in.substr(slash + 1));
+  BsvtfMetadata md =
+      bsvtf_metadata_for(eigen, *pyramid, direction_vectors(fmf->shape.lights), direction_vectors(fmf->shape.views),
+                         slash == std::string::npos ? in : in.substr(slash + 1));
   md.light_set = fmf->shape.lights.name();
   md.view_set = fmf->shape.views.name();
 
@@ -126,8 +129,8 @@ int run_build(int argc, char** argv) {
       return convert::kExitFailure;
     }
     char buf[160];
-    std::snprintf(buf, sizeof buf, "perceptual (exposure %g, channel scales %.3g..%.3g of the shared tolerance)", exposure,
-                  static_cast<double>(rep->min_channel_scale), static_cast<double>(rep->max_channel_scale));
+    std::snprintf(buf, sizeof buf, "perceptual (exposure %g, channel scales %.3g..%.3g of the shared tolerance)",
+                  exposure, static_cast<double>(rep->min_channel_scale), static_cast<double>(rep->max_channel_scale));
     tolerance_report = buf;
   }
 
@@ -158,8 +161,8 @@ int run_build(int argc, char** argv) {
   }
   uint64_t tile_bytes = 0;
   for (const auto& e : dir->tiles) tile_bytes += e.size;
-  const double raw = static_cast<double>(inputs.tiles.size()) *
-                     static_cast<double>(TileLayout{tile, border, 4}.sample_count()) * 2.0;
+  const double raw =
+      static_cast<double>(inputs.tiles.size()) * static_cast<double>(TileLayout{tile, border, 4}.sample_count()) * 2.0;
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::printf(
       "%s: %dx%d, %u components, %u levels of %u+2x%u tiles -> %s: %zu bytes (%zu tiles, %llu tile bytes, %.2f:1 vs "

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "command.hpp"
 #include "btflod/btf/btf_files.hpp"
+#include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 

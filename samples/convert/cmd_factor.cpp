@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <string>
 
-#include "command.hpp"
 #include "btflod/btf/btf_files.hpp"
+#include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
@@ -188,8 +188,8 @@ int run_factor(int argc, char** argv) {
     auto choice = choose_fmf_rank(*btf, o, bar.callback());
     if (choice) {
       for (const FmfRankPoint& p : choice->curve)
-        std::printf("  rank %3d: displayed SSIM %.4f on the training views, %.4f on the held-out views\n",
-                    p.components, p.training_ssim, p.held_out_ssim);
+        std::printf("  rank %3d: displayed SSIM %.4f on the training views, %.4f on the held-out views\n", p.components,
+                    p.training_ssim, p.held_out_ssim);
       std::printf("  chose C = %d (%s target %.4f)\n", choice->components,
                   choice->target_met ? "meets the" : "the largest candidate: below the", target_ssim);
       result = AnyFactorization(std::move(choice->fmf));

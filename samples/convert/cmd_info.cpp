@@ -10,8 +10,8 @@
 
 #include "btflod/codec/container.hpp"
 
-#include "command.hpp"
 #include "btflod/btf/btf_files.hpp"
+#include "command.hpp"
 
 namespace {
 
@@ -75,9 +75,12 @@ bool is_bsvtf(const std::string& path) {
 
 const char* color_mode_name(ColorMode m) {
   switch (m) {
-    case ColorMode::linear_rgb: return "linear RGB";
-    case ColorMode::ycbcr: return "YCbCr";
-    case ColorMode::luminance: return "luminance";
+    case ColorMode::linear_rgb:
+      return "linear RGB";
+    case ColorMode::ycbcr:
+      return "YCbCr";
+    case ColorMode::luminance:
+      return "luminance";
   }
   return "unknown";
 }
@@ -99,8 +102,8 @@ int info_bsvtf(const std::string& path, bool values) {
   const BsvtfMetadata& m = dir->metadata;
   std::printf("%s: btflod .bsvtf streaming container, version %u\n", path.c_str(), h.version);
   std::printf("  file    %llu bytes: directory %llu (metadata %u, %u packet entries, %u tile entries), payloads %llu\n",
-              static_cast<unsigned long long>(h.file_size), static_cast<unsigned long long>(h.directory_size), h.metadata_size,
-              h.packet_count, h.tile_count, static_cast<unsigned long long>(h.payload_size));
+              static_cast<unsigned long long>(h.file_size), static_cast<unsigned long long>(h.directory_size),
+              h.metadata_size, h.packet_count, h.tile_count, static_cast<unsigned long long>(h.payload_size));
   std::printf("  material \"%s\", %u x %u texels, %u levels of %u+2*%u tiles, %u components in %u RGBA textures\n",
               m.material_name.c_str(), m.width, m.height, m.level_count, m.tile_size, m.border, m.component_count,
               m.texture_count());
@@ -114,7 +117,8 @@ int info_bsvtf(const std::string& path, bool values) {
               m.light_set.c_str(), m.view_directions.size() / 3, m.view_set.c_str());
   uint64_t packet_bytes = 0;
   for (const auto& p : dir->packets) packet_bytes += p.size;
-  std::printf("  packets %zu U packets, %llu bytes\n", dir->packets.size(), static_cast<unsigned long long>(packet_bytes));
+  std::printf("  packets %zu U packets, %llu bytes\n", dir->packets.size(),
+              static_cast<unsigned long long>(packet_bytes));
   const size_t raw_tile = m.layout().sample_count() * 2;  // raw half floats
   uint64_t all = 0;
   for (uint32_t l = 0; l < m.level_count; ++l) {
@@ -125,13 +129,15 @@ int info_bsvtf(const std::string& path, bool values) {
         sum += t.size;
       }
     all += sum;
-    std::printf("  level %-2u %6llu tiles, %10llu bytes, %8.0f bytes/tile, %5.2f:1 vs raw halves; prefix to here %llu bytes\n", l,
-                static_cast<unsigned long long>(count), static_cast<unsigned long long>(sum),
-                count ? static_cast<double>(sum) / static_cast<double>(count) : 0.0,
-                sum ? static_cast<double>(count * raw_tile) / static_cast<double>(sum) : 0.0,
-                static_cast<unsigned long long>(dir->prefix_size(l)));
+    std::printf(
+        "  level %-2u %6llu tiles, %10llu bytes, %8.0f bytes/tile, %5.2f:1 vs raw halves; prefix to here %llu bytes\n",
+        l, static_cast<unsigned long long>(count), static_cast<unsigned long long>(sum),
+        count ? static_cast<double>(sum) / static_cast<double>(count) : 0.0,
+        sum ? static_cast<double>(count * raw_tile) / static_cast<double>(sum) : 0.0,
+        static_cast<unsigned long long>(dir->prefix_size(l)));
   }
-  std::printf("  tiles   %zu, %llu bytes, %.2f:1 vs raw halves\n", dir->tiles.size(), static_cast<unsigned long long>(all),
+  std::printf("  tiles   %zu, %llu bytes, %.2f:1 vs raw halves\n", dir->tiles.size(),
+              static_cast<unsigned long long>(all),
               all ? static_cast<double>(dir->tiles.size() * raw_tile) / static_cast<double>(all) : 0.0);
   if (!values) return convert::kExitOk;
   const std::span<const uint8_t> file(*bytes);
@@ -197,8 +203,7 @@ int info_bonn(const std::string& path, bool values) {
   print_directions("views", f.views);
   print_directions("lights", f.lights);
   std::printf("  meta    version %u, setup \"%s\", sensor \"%s\", light \"%s\", %.3g px/mm\n", f.meta_version,
-              f.measurement_setup.c_str(), f.image_sensor.c_str(), f.light_source.c_str(),
-              static_cast<double>(f.ppmm));
+              f.measurement_setup.c_str(), f.image_sensor.c_str(), f.light_source.c_str(), static_cast<double>(f.ppmm));
   std::printf("  colour  %zu channels, model %d, cosine in data: %s\n", f.channel_count(),
               static_cast<int>(f.color_model), f.cosine_in_data ? "yes" : "no");
   for (size_t c = 0; c < f.factors.size(); ++c)
@@ -284,7 +289,9 @@ int run_info(int argc, char** argv) {
       case BtfFileKind::unknown:
         std::fprintf(stderr, "btflod-convert info: %s: not a format btflod reads\n", path.c_str());
         break;
-      case BtfFileKind::mbsdf: r = info_mbsdf(path); break;
+      case BtfFileKind::mbsdf:
+        r = info_mbsdf(path);
+        break;
       case BtfFileKind::bonn:
         r = info_bonn(path, values);
         break;

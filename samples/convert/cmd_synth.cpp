@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <string>
 
-#include "command.hpp"
 #include "btflod/btf/btf_files.hpp"
+#include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 

@@ -73,7 +73,7 @@ inline std::vector<Command> sorted_commands() {
 }
 
 #define BTFLOD_CONVERT_COMMAND(name, help, function) \
-  static const ::btflod::convert::CommandRegistrar btflod_convert_command_##name{#name, help, function}
+  static const ::btflod::convert::CommandRegistrar btflod_convert_command_##name { #name, help, function }
 
 /// Parses `--name value`, `--name=value`, `-n value` and flags. Query every option the command
 /// knows, then call finish(): anything left that starts with '-' is reported as unknown, and

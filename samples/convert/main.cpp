@@ -13,7 +13,8 @@
 namespace {
 
 int print_usage(std::FILE* out) {
-  std::fprintf(out, "usage: btflod-convert COMMAND [ARGS...]   (btflod-convert COMMAND --help for details)\n\ncommands:\n");
+  std::fprintf(out,
+               "usage: btflod-convert COMMAND [ARGS...]   (btflod-convert COMMAND --help for details)\n\ncommands:\n");
   for (const auto& c : btflod::convert::sorted_commands()) std::fprintf(out, "  %-12s %s\n", c.name, c.help);
   return out == stdout ? btflod::convert::kExitOk : btflod::convert::kExitUsage;
 }

@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <optional>
 #include <string>
@@ -16,30 +16,31 @@
 namespace btflod::demo {
 
 struct DemoConfig {
-  std::string out_dir;                            ///< --out DIR (required)
-  int size = 32;                                  ///< --size N texels (square) of each material
-  int frames = 200;                               ///< --frames N of the fly-through
-  int materials = 4;                              ///< --materials N synthesised materials
-  std::string backend = "gl";                     ///< --backend gl|cpu
-  double bandwidth_kib = 96.0;                    ///< --bandwidth KiB/s of the throttled link
-  int settle = 60;                                ///< --settle N: max frames at the last view
+  std::string out_dir;          ///< --out DIR (required)
+  int size = 32;                ///< --size N texels (square) of each material
+  int frames = 200;             ///< --frames N of the fly-through
+  int materials = 4;            ///< --materials N synthesised materials
+  std::string backend = "gl";   ///< --backend gl|cpu
+  double bandwidth_kib = 96.0;  ///< --bandwidth KiB/s of the throttled link
+  int settle = 60;              ///< --settle N: max frames at the last view
   /// --cut: after the settle, cut to the first view and measure frames and bytes until the image
   /// stays within SSIM 0.99 of its converged frame (cut_convergence.hpp).
   bool cut = false;
   bool no_swap = false;
   /// --value-encoding: the domain of the FMF (core/value_transform.hpp); unset: the profile's default.
-  std::optional<ValueEncoding> value_encoding;  ///< --no-swap: no material swapped on the live Streamer during the flight
+  std::optional<ValueEncoding>
+      value_encoding;  ///< --no-swap: no material swapped on the live Streamer during the flight
   /// --material NAME: every material is synthesised as NAME (seed + index still differs);
   /// unset: cloth, stone, leather, tiles in turn.
   std::optional<SynthMaterial> material;
-  uint64_t seed = 1;                              ///< --seed N
-  int components = 0;                             ///< --components C: FMF rank (0: the profile's default)
-  bool interreflection = false;                   ///< --interreflection: one diffuse bounce in the synthesis
-  bool quiet = false;                             ///< --quiet: no progress bars
-  bool window = false;                            ///< --window: show the frames in an X11 window
-  bool deflate = false;                           ///< --deflate: deflate tiles (format 2), not zstd
-  std::string record_feedback;                    ///< --record-feedback FILE: feedback trace for btflod-bench
-  bool separate_feedback_pass = false;            ///< --feedback-pass: feedback words in a pass of their own
+  uint64_t seed = 1;                    ///< --seed N
+  int components = 0;                   ///< --components C: FMF rank (0: the profile's default)
+  bool interreflection = false;         ///< --interreflection: one diffuse bounce in the synthesis
+  bool quiet = false;                   ///< --quiet: no progress bars
+  bool window = false;                  ///< --window: show the frames in an X11 window
+  bool deflate = false;                 ///< --deflate: deflate tiles (format 2), not zstd
+  std::string record_feedback;          ///< --record-feedback FILE: feedback trace for btflod-bench
+  bool separate_feedback_pass = false;  ///< --feedback-pass: feedback words in a pass of their own
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
   /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
   /// factorised out of core. --size defaults to 64 there (512 is the paper's; ~36 GB of store each).
@@ -47,7 +48,7 @@ struct DemoConfig {
   uint64_t memory_bytes = uint64_t{2} << 30;  ///< --memory SIZE: out-of-core factorisation budget (paper)
   /// --keep-stores: keep each material's BTF store (paper profile: deleted after its raw-BTF pass).
   bool keep_stores = false;
-  std::string inputs_dir;  ///< --inputs DIR: prebuilt <name>.btfstore / <name>.fmf (paper profile)
+  std::string inputs_dir;                 ///< --inputs DIR: prebuilt <name>.btfstore / <name>.fmf (paper profile)
   int frame_width = 0, frame_height = 0;  ///< --frame-size WxH (0: the profile's, 480x270 or 1280x720)
   bool size_given = false, frames_given = false, materials_given = false, bandwidth_given = false;
   bool seed_given = false, components_given = false;
@@ -188,9 +189,9 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       continue;
     }
     static constexpr std::string_view kValueOptions[] = {
-        "--out",    "--inputs",   "--frame-size", "--record-feedback", "--profile", "--memory",
-        "--size",   "--frames",   "--materials",  "--settle",          "--backend", "--bandwidth",
-        "--components", "--seed", "--material", "--value-encoding"};
+        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile", "--memory",
+        "--size",       "--frames", "--materials",  "--settle",          "--backend", "--bandwidth",
+        "--components", "--seed",   "--material",   "--value-encoding"};
     if (std::find(std::begin(kValueOptions), std::end(kValueOptions), a) == std::end(kValueOptions))
       return fail("unknown option " + std::string(a));
     if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value");

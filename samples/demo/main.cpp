@@ -120,7 +120,9 @@ int main(int argc, char** argv) {
   ms.components = static_cast<uint32_t>(cfg->components);
   ms.kind = cfg->material;
   ms.interreflection = cfg->interreflection;
-  ms.transform.encoding = cfg->value_encoding ? *cfg->value_encoding : paper ? ValueEncoding::linear : demo::kDefaultDemoEncoding;
+  ms.transform.encoding = cfg->value_encoding ? *cfg->value_encoding
+                          : paper             ? ValueEncoding::linear
+                                              : demo::kDefaultDemoEncoding;
   if (paper)
     std::printf(
         "btflod demo: profile paper (paper 000 §7): %d materials of %dx%d texels x 151 x 151 directions, FMF C = %u "
@@ -323,11 +325,12 @@ int main(int argc, char** argv) {
   run.swaps = (*streamer)->swaps();
   run.planned_swaps = (*streamer)->planned_swaps();
   for (const demo::SwapRecord& w : run.swaps)
-    std::printf("  swap        slot %u -> %s as Streamer material %u (layers from %u): added frame %u, ready and shown "
-                "frame %lld (%.1f KiB read meanwhile), material %u removed then, released frame %lld\n",
-                w.slot, materials[w.demo].name.c_str(), w.added_id, w.first_texture, w.added_frame,
-                static_cast<long long>(w.shown_frame), static_cast<double>(w.bytes_until_shown) / 1024.0,
-                w.removed_id, static_cast<long long>(w.released_frame));
+    std::printf(
+        "  swap        slot %u -> %s as Streamer material %u (layers from %u): added frame %u, ready and shown "
+        "frame %lld (%.1f KiB read meanwhile), material %u removed then, released frame %lld\n",
+        w.slot, materials[w.demo].name.c_str(), w.added_id, w.first_texture, w.added_frame,
+        static_cast<long long>(w.shown_frame), static_cast<double>(w.bytes_until_shown) / 1024.0, w.removed_id,
+        static_cast<long long>(w.released_frame));
 
   if (feedback_trace) {
     const uint64_t n = feedback_trace->frame_count();
@@ -452,12 +455,12 @@ int main(int argc, char** argv) {
                                              run.frames.back().bytes_received, cut_bsvtf, cut_fmf);
     if (!cut) return fail("--cut", cut.message());
     run.cut = std::move(*cut);
-    std::printf("  cut         view %u -> %u: within SSIM %.2f of the converged frame after %u frames, %u tiles, "
-                "%.1f KiB read, %.2f s (first frame %.4f; quiet after %u frames%s, %.1f KiB read)\n",
-                run.cut.from_view, run.cut.to_view, run.cut.threshold, run.cut.frames_to_threshold,
-                run.cut.tiles_to_threshold, static_cast<double>(run.cut.bytes_to_threshold) / 1024.0,
-                run.cut.seconds_to_threshold, run.cut.first_ssim, run.cut.frames_run, run.cut.quiet ? "" : ", the cap",
-                static_cast<double>(run.cut.bytes_to_quiet) / 1024.0);
+    std::printf(
+        "  cut         view %u -> %u: within SSIM %.2f of the converged frame after %u frames, %u tiles, "
+        "%.1f KiB read, %.2f s (first frame %.4f; quiet after %u frames%s, %.1f KiB read)\n",
+        run.cut.from_view, run.cut.to_view, run.cut.threshold, run.cut.frames_to_threshold, run.cut.tiles_to_threshold,
+        static_cast<double>(run.cut.bytes_to_threshold) / 1024.0, run.cut.seconds_to_threshold, run.cut.first_ssim,
+        run.cut.frames_run, run.cut.quiet ? "" : ", the cap", static_cast<double>(run.cut.bytes_to_quiet) / 1024.0);
   }
 
   // 4. Outputs.
@@ -534,8 +537,7 @@ int main(int argc, char** argv) {
     // rank", for the measurement behind the bounds). Other materials, ranks or profiles are what
     // the user asked for and are only reported.
     const bool default_materials = !paper && !cfg->components_given && !cfg->material && !cfg->interreflection &&
-                                   !cfg->value_encoding &&
-                                   !cfg->size_given && !cfg->seed_given;
+                                   !cfg->value_encoding && !cfg->size_given && !cfg->seed_given;
     bool raw_ok = true;
     std::string raw_note;
     if (default_materials && run.raw.done) {
@@ -547,9 +549,10 @@ int main(int argc, char** argv) {
             run.raw.per_material[i].fmf_cpu.ssim < worst_ssim)
           worst_ssim = run.raw.per_material[i].fmf_cpu.ssim, worst = materials[i].name;
       if (!worst.empty() && worst_ssim < demo::kDefaultRawMaterialSsimBound) raw_ok = false;
-      raw_note = format_message(", FMF C=%u vs raw same rays SSIM %.4f (bound %.2f), worst material %s %.4f (bound %.2f)",
-                                ms.components, run.raw.fmf_cpu.ssim, demo::kDefaultRawSsimBound, worst.c_str(),
-                                worst_ssim, demo::kDefaultRawMaterialSsimBound);
+      raw_note =
+          format_message(", FMF C=%u vs raw same rays SSIM %.4f (bound %.2f), worst material %s %.4f (bound %.2f)",
+                         ms.components, run.raw.fmf_cpu.ssim, demo::kDefaultRawSsimBound, worst.c_str(), worst_ssim,
+                         demo::kDefaultRawMaterialSsimBound);
     }
     // Every planned swap happened on the live Streamer: the new material was shown and the old
     // one's id released (its last job ended) before the end of the run.
@@ -568,8 +571,7 @@ int main(int argc, char** argv) {
         "%s, page table equals rebuild, %zu/%zu material swaps completed%s%s: %s%s\n",
         first, from - settle_first, last, is_gpu ? 0.85 : 0.6,
         quiet_frames >= 5 ? "settled (5 quiet frames)" : "not settled", run.swaps.size(), run.planned_swaps, agree,
-        raw_note.c_str(),
-        failed.empty() ? "checks passed" : "FAILED:", failed.c_str());
+        raw_note.c_str(), failed.empty() ? "checks passed" : "FAILED:", failed.c_str());
     if (!rises || !high || !table || !paths_agree || !raw_ok || !swaps_ok) return 1;
   }
   if (run.page_table_check != "equal") {

@@ -133,8 +133,8 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 }  // namespace detail_materials
 
-/// ‖A − D(U·(VΣ)ᵀ)‖_F / ‖A‖_F of an FMF against its store (D: its value transform's decode), streamed block by block (memory: two
-/// blocks of columns). Returns the store's read errors.
+/// ‖A − D(U·(VΣ)ᵀ)‖_F / ‖A‖_F of an FMF against its store (D: its value transform's decode), streamed block by block
+/// (memory: two blocks of columns). Returns the store's read errors.
 inline Result<double> fmf_relative_error_against_store(const BtfStore& store, const Fmf& f) {
   const size_t m = store.rows(), n = store.columns(), C = static_cast<size_t>(f.components);
   using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -314,9 +314,8 @@ inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, cons
                                             const DirectionSet& views, const MaterialSettings& s,
                                             const std::string& out_dir) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (fmf.components != static_cast<int>(s.components) || fmf.shape.width != m.texels ||
-      fmf.shape.height != m.texels || fmf.shape.light_count() != lights.size() ||
-      fmf.shape.view_count() != views.size())
+  if (fmf.components != static_cast<int>(s.components) || fmf.shape.width != m.texels || fmf.shape.height != m.texels ||
+      fmf.shape.light_count() != lights.size() || fmf.shape.view_count() != views.size())
     return make_error(Status::invalid_argument, "%s: the FMF's shape or C = %d differs from the settings (C = %u)",
                       m.name.c_str(), fmf.components, s.components);
   m.fmf_half_bytes = (fmf.u.size() + fmf.v.size()) * 2;
@@ -368,8 +367,7 @@ inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, cons
   if (!pyramid) return pyramid.error();
   m.finest_level = pyramid->geometry().finest_level;
   // The library's metadata (geometry, C, U's light-major rows, the value encoding).
-  BsvtfMetadata md = bsvtf_metadata_for(m.eigen, *pyramid, direction_vectors(lights),
-                                        direction_vectors(views), m.name);
+  BsvtfMetadata md = bsvtf_metadata_for(m.eigen, *pyramid, direction_vectors(lights), direction_vectors(views), m.name);
   md.light_set = lights.name();
   md.view_set = views.name();
   const samples::BsvtfTileInputs inputs =

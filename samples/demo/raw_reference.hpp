@@ -77,7 +77,8 @@ inline ImageError image_error(const Image<float>& reference, const Image<float>&
   if (image.width() != W || image.height() != H || W == 0 || H == 0) return e;
   const bool masked = pixel_material != nullptr && pixel_material->size() == static_cast<size_t>(W) * H;
   const auto in = [&](int x, int y) {
-    return !masked || (*pixel_material)[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] == only;
+    return !masked ||
+           (*pixel_material)[static_cast<size_t>(y) * static_cast<size_t>(W) + static_cast<size_t>(x)] == only;
   };
   const Image<float> a = to_display(reference), b = to_display(image);
   if (!masked) {
@@ -91,7 +92,8 @@ inline ImageError image_error(const Image<float>& reference, const Image<float>&
       if (mw <= 0) continue;
       const int r = (W - mw) / 2;
       for (size_t i = 0; i < map.size(); ++i) {
-        const int x = static_cast<int>(i % static_cast<size_t>(mw)) + r, y = static_cast<int>(i / static_cast<size_t>(mw)) + r;
+        const int x = static_cast<int>(i % static_cast<size_t>(mw)) + r,
+                  y = static_cast<int>(i / static_cast<size_t>(mw)) + r;
         if (in(x, y)) sum += map[i], ++n;
       }
     }

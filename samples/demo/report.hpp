@@ -38,7 +38,7 @@ struct RunSummary {
   /// Where the feedback words come from: "colour pass" (bsvtf_feedback), "feedback pass"
   /// (--feedback-pass) or "cpu" (the CPU renderer's ray caster).
   std::string feedback_words = "colour pass";
-  bool components_default = true;  ///< C is the profile's default (no --components)
+  bool components_default = true;         ///< C is the profile's default (no --components)
   std::string value_encoding = "linear";  ///< the FMF's value encoding (--value-encoding)
   uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
   std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
@@ -258,8 +258,8 @@ inline std::string config_and_raw_json(const RunSummary& r) {
                 "\"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, \"material_texels\": %u, "
                 "\"feedback_words\": \"%s\"},\n",
                 r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false",
-                r.value_encoding.c_str(), r.tile_size,
-                r.border, r.slots_x, r.slots_y, r.texels, r.feedback_words.c_str());
+                r.value_encoding.c_str(), r.tile_size, r.border, r.slots_x, r.slots_y, r.texels,
+                r.feedback_words.c_str());
   o << b << "  \"files\": [";
   for (size_t i = 0; i < r.store_bytes.size(); ++i) {
     std::snprintf(
@@ -304,7 +304,8 @@ inline std::string config_and_raw_json(const RunSummary& r) {
       o << (i ? ", " : "") << "{\"material\": \"" << (i < r.material_names.size() ? r.material_names[i] : "")
         << "\", \"fmf_relative_error\": " << fmt(i < r.fmf_errors.size() ? r.fmf_errors[i] : 0.0) << ", "
         << e("fmf_cpu", pm.fmf_cpu, !r.raw.gpu_filter);
-      if (r.raw.gpu_filter) o << e("bsvtf_gpu_gpu_filter", pm.bsvtf_gpu_f, false) << e("fmf_gpu_gpu_filter", pm.fmf_gpu_f, true);
+      if (r.raw.gpu_filter)
+        o << e("bsvtf_gpu_gpu_filter", pm.bsvtf_gpu_f, false) << e("fmf_gpu_gpu_filter", pm.fmf_gpu_f, true);
       o << "}";
     }
     o << "], ";
@@ -385,8 +386,9 @@ inline std::string raw_and_paper_html(const RunSummary& r) {
         std::snprintf(row, sizeof row,
                       "<tr><td>%s</td><td>%.3f</td><td>%llu</td><td>%.4f</td><td>%.2f</td><td>%.2f</td><td>%.2f</td>",
                       i < r.material_names.size() ? r.material_names[i].c_str() : "",
-                      i < r.fmf_errors.size() ? r.fmf_errors[i] : 0.0, static_cast<unsigned long long>(pm.fmf_cpu.pixels),
-                      pm.fmf_cpu.ssim, pm.fmf_cpu.psnr, pm.fmf_cpu.de_mean, pm.fmf_cpu.de_p99);
+                      i < r.fmf_errors.size() ? r.fmf_errors[i] : 0.0,
+                      static_cast<unsigned long long>(pm.fmf_cpu.pixels), pm.fmf_cpu.ssim, pm.fmf_cpu.psnr,
+                      pm.fmf_cpu.de_mean, pm.fmf_cpu.de_p99);
         h << row;
         if (r.raw.gpu_filter) {
           std::snprintf(row, sizeof row, "<td>%.4f</td><td>%.2f</td>", pm.bsvtf_gpu_f.ssim, pm.bsvtf_gpu_f.de_p99);
@@ -504,15 +506,15 @@ inline VoidResult write_report_json(const std::string& path, const RunSummary& r
   o << detail_report::config_and_raw_json(r);
   if (r.cut.done) {
     const CutConvergence& c = r.cut;
-    std::snprintf(b, sizeof b,
-                  "  \"cut\": {\"from_view\": %u, \"to_view\": %u, \"ssim_threshold\": %.2f, \"frames_to_threshold\": %u, "
-                  "\"bytes_to_threshold\": %llu, \"tiles_to_threshold\": %u, \"seconds_to_threshold\": %.3f, \"frames_run\": %u, "
-                  "\"quiet\": %s, "
-                  "\"bytes_to_quiet\": %llu, \"first_frame_ssim\": %.5f, \"ssim\": [",
-                  c.from_view, c.to_view, c.threshold, c.frames_to_threshold,
-                  static_cast<unsigned long long>(c.bytes_to_threshold), c.tiles_to_threshold, c.seconds_to_threshold,
-                  c.frames_run,
-                  c.quiet ? "true" : "false", static_cast<unsigned long long>(c.bytes_to_quiet), c.first_ssim);
+    std::snprintf(
+        b, sizeof b,
+        "  \"cut\": {\"from_view\": %u, \"to_view\": %u, \"ssim_threshold\": %.2f, \"frames_to_threshold\": %u, "
+        "\"bytes_to_threshold\": %llu, \"tiles_to_threshold\": %u, \"seconds_to_threshold\": %.3f, \"frames_run\": %u, "
+        "\"quiet\": %s, "
+        "\"bytes_to_quiet\": %llu, \"first_frame_ssim\": %.5f, \"ssim\": [",
+        c.from_view, c.to_view, c.threshold, c.frames_to_threshold,
+        static_cast<unsigned long long>(c.bytes_to_threshold), c.tiles_to_threshold, c.seconds_to_threshold,
+        c.frames_run, c.quiet ? "true" : "false", static_cast<unsigned long long>(c.bytes_to_quiet), c.first_ssim);
     o << b;
     for (size_t i = 0; i < c.ssim.size(); ++i) o << (i ? ", " : "") << detail_report::fmt(c.ssim[i]);
     o << "]},\n";

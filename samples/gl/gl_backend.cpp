@@ -28,8 +28,8 @@ struct GlMaterial {
   GLuint eigen_abrdfs = 0, angular_index = 0, angular_weight = 0, eigen_textures = 0;
   int representation = -1;  ///< index into reps_ for a laplacian / lpca / pca_views material
   uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
-  std::vector<float> packet_layers;  // upload_u_packets staging (4 layers of U′)
-  bool live = true;                  ///< false once destroy_material() released it
+  std::vector<float> packet_layers;                          // upload_u_packets staging (4 layers of U′)
+  bool live = true;                                          ///< false once destroy_material() released it
 };
 
 struct FeedbackSlot {
@@ -53,8 +53,8 @@ class GlBackend final : public Backend {
 
   /// `owns_context`: false for a context made by gl_window.cpp (the window destroys it and its
   /// surface; the backend then neither counts in live_backends() nor terminates the display).
-  GlBackend(EGLDisplay display, EGLContext context, const GlBackendOptions& options, EGLSurface surface = EGL_NO_SURFACE,
-            bool owns_context = true)
+  GlBackend(EGLDisplay display, EGLContext context, const GlBackendOptions& options,
+            EGLSurface surface = EGL_NO_SURFACE, bool owns_context = true)
       : display_(display),
         context_(context),
         surface_(surface),
@@ -117,7 +117,8 @@ class GlBackend final : public Backend {
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
     glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
     if (vt.cache_width() > static_cast<uint32_t>(max_size) || vt.cache_height() > static_cast<uint32_t>(max_size) ||
-        vt.cache_layers > static_cast<uint32_t>(max_layers) || (1u << vt.finest_level) > static_cast<uint32_t>(max_size))
+        vt.cache_layers > static_cast<uint32_t>(max_layers) ||
+        (1u << vt.finest_level) > static_cast<uint32_t>(max_size))
       return make_error(Status::unsupported, "GL: cache %u×%u×%u or page table 2^%u exceeds the limits (%d, %d layers)",
                         vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level, max_size, max_layers);
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_);
@@ -236,11 +237,15 @@ class GlBackend final : public Backend {
   Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& data) override {
     return add_representation(data);
   }
-  Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& data) override { return add_representation(data); }
+  Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& data) override {
+    return add_representation(data);
+  }
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& data) override {
     return add_representation(data);
   }
-  Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& data) override { return add_representation(data); }
+  Result<MaterialHandle> create_spmm_material(const SpmmMaterialData& data) override {
+    return add_representation(data);
+  }
 
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     make_current();
@@ -483,8 +488,8 @@ class GlBackend final : public Backend {
     make_current();
     if (!color_fbo_ || width == 0 || height == 0) return Status::invalid_argument;
     glEnable(GL_FRAMEBUFFER_SRGB);
-    glBlitNamedFramebuffer(color_fbo_, 0, 0, 0, static_cast<GLint>(frame_.width), static_cast<GLint>(frame_.height), 0, 0,
-                           static_cast<GLint>(width), static_cast<GLint>(height), GL_COLOR_BUFFER_BIT, GL_LINEAR);
+    glBlitNamedFramebuffer(color_fbo_, 0, 0, 0, static_cast<GLint>(frame_.width), static_cast<GLint>(frame_.height), 0,
+                           0, static_cast<GLint>(width), static_cast<GLint>(height), GL_COLOR_BUFFER_BIT, GL_LINEAR);
     glDisable(GL_FRAMEBUFFER_SRGB);
     return glGetError() == GL_NO_ERROR ? Status::success : Status::io_error;
   }
@@ -636,9 +641,11 @@ Result<std::unique_ptr<Backend>> create_gl_backend(const GlBackendOptions& optio
   EGLConfig config = nullptr;
   EGLint count = 0;
   eglChooseConfig(display, config_attribs, &config, 1, &count);  // may be 0: EGL_KHR_no_config_context
-  const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
-                                    EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
-  EGLContext context = eglCreateContext(display, count > 0 ? config : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, context_attribs);
+  const EGLint context_attribs[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
+  EGLContext context =
+      eglCreateContext(display, count > 0 ? config : EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, context_attribs);
   if (context == EGL_NO_CONTEXT) {
     return make_error(Status::unsupported, "GL backend: no OpenGL 4.5 core context (EGL error 0x%04x)", eglGetError());
   }
@@ -661,7 +668,8 @@ Result<std::unique_ptr<Backend>> create_gl_backend_on(const GlExternalContext& c
   if (display == EGL_NO_DISPLAY || context == EGL_NO_CONTEXT)
     return make_error(Status::invalid_argument, "GL backend: no EGL display or context given");
   if (!eglMakeCurrent(display, surface, surface, context))
-    return make_error(Status::unsupported, "GL backend: eglMakeCurrent on the given surface failed (0x%04x)", eglGetError());
+    return make_error(Status::unsupported, "GL backend: eglMakeCurrent on the given surface failed (0x%04x)",
+                      eglGetError());
   if (!gladLoadGL(reinterpret_cast<GLADloadfunc>(eglGetProcAddress)) || !GLAD_GL_VERSION_4_5)
     return make_error(Status::unsupported, "GL backend: could not load OpenGL 4.5 entry points");
   return std::unique_ptr<Backend>(new GlBackend(display, context, options, surface, false));

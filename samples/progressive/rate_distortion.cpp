@@ -274,8 +274,7 @@ std::string gnuplot_script(const std::vector<Point>& pts, const std::vector<std:
     for (const std::string& mat : materials) {
       // One key per row (the first panel's), where the curves rarely are.
       s << "set title '" << mat << "'\n"
-        << (&mat == &materials.front() ? (row == 0 ? "set key top right\n" : "set key bottom right\n")
-                                        : "unset key\n");
+        << (&mat == &materials.front() ? (row == 0 ? "set key top right\n" : "set key bottom right\n") : "unset key\n");
       if (row == 0)
         s << "set ylabel 'screen ΔE*ab p99 vs raw'\nset logscale y\nset yrange [1:*]\n"
           << "set arrow 1 from graph 0, first 2.3 to graph 1, first 2.3 nohead dt 3 lc rgb '#888888'\n";
@@ -289,11 +288,14 @@ std::string gnuplot_script(const std::vector<Point>& pts, const std::vector<std:
         const std::string enc = rest.substr(0, rest.find('|')), C = rest.substr(rest.find('|') + 1);
         const int colour = static_cast<int>(std::find(ranks.begin(), ranks.end(), C) - ranks.begin()) + 1;
         const int point = enc == "log" ? 7 : enc == "sqrt" ? 5 : 9;
-        s << (first ? "" : ", \\\n     ") << "'" << data_path << "' index " << 2 * index[key] << " using 1:"
-          << (row == 0 ? 2 : 3) << " with linespoints lc " << colour << " pt " << point << " dt "
-          << (enc == "log" ? 1 : enc == "sqrt" ? 4 : 2) << " title '" << enc << " C=" << C << "', \\\n     '"
-          << data_path << "' index " << 2 * index[key] + 1 << " using 1:" << (row == 0 ? 2 : 3) << " with points lc "
-          << colour << " pt " << point - 1 << " ps 1.4 notitle";
+        s << (first ? "" : ", \\\n     ") << "'" << data_path << "' index " << 2 * index[key]
+          << " using 1:" << (row == 0 ? 2 : 3) << " with linespoints lc " << colour << " pt " << point << " dt "
+          << (enc == "log"    ? 1
+              : enc == "sqrt" ? 4
+                              : 2)
+          << " title '" << enc << " C=" << C << "', \\\n     '" << data_path << "' index " << 2 * index[key] + 1
+          << " using 1:" << (row == 0 ? 2 : 3) << " with points lc " << colour << " pt " << point - 1
+          << " ps 1.4 notitle";
         first = false;
       }
       s << "\n";
@@ -319,7 +321,8 @@ int main(int argc, char** argv) {
   };
 
   const uint32_t c_max = o.components.back();
-  demo::MaterialSettings base = o.paper ? demo::paper_material_settings(static_cast<int>(o.size)) : demo::MaterialSettings{};
+  demo::MaterialSettings base =
+      o.paper ? demo::paper_material_settings(static_cast<int>(o.size)) : demo::MaterialSettings{};
   base.size = static_cast<int>(o.size);
   base.quality = o.qualities.front();
   const DirectionSet directions = o.paper ? DirectionSet::ubo2014() : demo::demo_directions();
@@ -360,8 +363,8 @@ int main(int argc, char** argv) {
     for (uint32_t i = 0; i < o.materials; ++i) {
       const demo::DemoMaterial* m = &prepared[i];
       const Fmf& full = fulls[i];
-      const double samples = static_cast<double>(m->eigen_textures.width()) * m->eigen_textures.height() *
-                             m->light_count * m->view_count;
+      const double samples =
+          static_cast<double>(m->eigen_textures.width()) * m->eigen_textures.height() * m->light_count * m->view_count;
       for (uint32_t C : o.components) {
         demo::MaterialSettings sc = s;
         sc.components = C;
@@ -381,8 +384,8 @@ int main(int argc, char** argv) {
           p.components = C;
           demo::DemoMaterial shown = *mc;
           if (qi == 0) {  // the FMF itself: U and V′ over the virtual texture as halves
-            p.bytes = 2 * (mc->u.size() + static_cast<uint64_t>(mc->eigen_textures.width()) *
-                                              mc->eigen_textures.height() * C);
+            p.bytes = 2 * (mc->u.size() +
+                           static_cast<uint64_t>(mc->eigen_textures.width()) * mc->eigen_textures.height() * C);
           } else {
             p.quality = o.qualities[qi - 1];
             std::vector<uint8_t> file;
@@ -446,8 +449,8 @@ int main(int argc, char** argv) {
            "ssim,de_p99,de_mean,psnr,pixels,v_psnr\n";
     for (const Point& p : points)
       csv << (o.paper ? "paper" : "default") << "," << p.material << "," << value_encoding_name(p.encoding) << ","
-          << p.components << "," << (p.quality == 0.0f ? std::string("fmf") : fmt("%.0f", p.quality)) << ","
-          << p.bytes << "," << p.u_bytes << "," << p.tile_bytes << "," << fmt("%.6g", p.bits_per_sample) << ","
+          << p.components << "," << (p.quality == 0.0f ? std::string("fmf") : fmt("%.0f", p.quality)) << "," << p.bytes
+          << "," << p.u_bytes << "," << p.tile_bytes << "," << fmt("%.6g", p.bits_per_sample) << ","
           << fmt("%.2f", 48.0 / p.bits_per_sample) << "," << fmt("%.5f", p.error.ssim) << ","
           << fmt("%.4f", p.error.de_p99) << "," << fmt("%.4f", p.error.de_mean) << "," << fmt("%.3f", p.error.psnr)
           << "," << p.error.pixels << "," << fmt("%.2f", p.v_psnr) << "\n";
@@ -486,15 +489,17 @@ int main(int argc, char** argv) {
             << (faithful ? "ΔE*ab p99 ≤ 2.3 from " + fmt("%.3g", faithful->bits_per_sample) + " bits per sample (" +
                                value_encoding_name(faithful->encoding) + ", C = " +
                                std::to_string(faithful->components) + ", " + quality_name(faithful->quality) + ")"
-                         : std::string("ΔE*ab p99 ≤ 2.3 not reached")) << "\n";
+                         : std::string("ΔE*ab p99 ≤ 2.3 not reached"))
+            << "\n";
   }
   std::printf("%s(%.1f s)\n", summary.str().c_str(), seconds());
 
   if (!o.doc.empty()) {
     std::ostringstream doc;
-    doc << "Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s on the 2-core machine). "
-        << o.materials << " materials of " << o.size << "² texels × " << directions.size() << " × " << directions.size()
-        << " directions, repeated to a " << (points.empty() ? 0 : o.size * (o.paper ? demo::paper_repeat(static_cast<int>(o.size)) : base.repeat))
+    doc << "Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s on the 2-core machine). " << o.materials
+        << " materials of " << o.size << "² texels × " << directions.size() << " × " << directions.size()
+        << " directions, repeated to a "
+        << (points.empty() ? 0 : o.size * (o.paper ? demo::paper_repeat(static_cast<int>(o.size)) : base.repeat))
         << "² virtual texture; T = " << base.tile_size << ", B = " << base.border << "; the demo's last view at "
         << o.width << " × " << o.height << ", " << o.rays << " × " << o.rays
         << " rays per pixel through the same rays as the raw image. Each cell: bits per BTF sample · ΔE*ab p99 · "

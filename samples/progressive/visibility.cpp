@@ -103,7 +103,7 @@ struct Options : SceneOptions {
   bool luminance_as_floor = false;  // --luminance-as-floor
   bool perceptual = false;          // --perceptual: perceptual_tolerance_scales
   PerceptualToleranceOptions perceptual_options;
-  uint32_t weight_quarters = 99;  // --weight-quarters (JPEG table exponent × 4); 99: 1 with --perceptual, else 4
+  uint32_t weight_quarters = 99;       // --weight-quarters (JPEG table exponent × 4); 99: 1 with --perceptual, else 4
   uint32_t scene_direction_views = 0;  // > 0: direction weights from that many training views
   bool rendered = false;               // --rendered: build_bsvtf_rendered (implies --perceptual)
   float ac_rounding = 0.5f;            // --dead-zone: BsvtfBuildOptions::ac_rounding_threshold
@@ -127,8 +127,8 @@ struct Options : SceneOptions {
 
 uint32_t bo_weight_quarters(const Options& o) {
   return o.weight_quarters <= kJpegWeightQuarters ? o.weight_quarters
-         : o.perceptual                          ? kPerceptualWeightQuarters
-                                                 : kJpegWeightQuarters;
+         : o.perceptual                           ? kPerceptualWeightQuarters
+                                                  : kJpegWeightQuarters;
 }
 
 bool parse(int argc, char** argv, Options& o) {
@@ -650,10 +650,10 @@ int main(int argc, char** argv) {
                               "; scales per material:" + luminance_scales.str() + ")"
                         : std::string())
         << (o.perceptual ? " × perceptual channel scales (codec/perceptual_tolerance.hpp, library defaults" +
-                               std::string(o.scene_direction_views > 0 ? ", direction weights from " +
-                                                                            std::to_string(o.scene_direction_views) +
-                                                                            " training views"
-                                                                      : "") +
+                               std::string(o.scene_direction_views > 0
+                                               ? ", direction weights from " + std::to_string(o.scene_direction_views) +
+                                                     " training views"
+                                               : "") +
                                ", exposure = the sun's colour; range per material:" + luminance_scales.str() + ")"
                          : std::string())
         << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)"
@@ -668,8 +668,9 @@ int main(int argc, char** argv) {
         << summary.str();
     const bool shared = o.tolerance == ToleranceReference::shared_max;
     const std::string marker =
-        o.perceptual ? std::string(o.scene_direction_views > 0 ? "visibility-perceptual-scene" : "visibility-perceptual")
-                     : std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
+        o.perceptual
+            ? std::string(o.scene_direction_views > 0 ? "visibility-perceptual-scene" : "visibility-perceptual")
+            : std::string(shared ? "visibility" : "visibility-per-component") + (o.luminance ? "-luminance" : "");
     if (!samples::replace_doc_block(o.doc, marker, doc.str())) {
       std::fprintf(stderr, "btflod-visibility: cannot write %s\n", o.doc.c_str());
       return 1;

@@ -25,9 +25,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
-#include <condition_variable>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -100,8 +100,8 @@ struct Options {
   uint32_t workers = 2;
   double rss_tolerance = 0.01;
   std::string json;
-  bool http = false;                   // read through HttpSource from a private nginx, restarted
-  double restart_every = 10;           // seconds between nginx restarts (--http)
+  bool http = false;          // read through HttpSource from a private nginx, restarted
+  double restart_every = 10;  // seconds between nginx restarts (--http)
   std::string nginx = "/usr/sbin/nginx";
 };
 
@@ -161,7 +161,8 @@ std::vector<uint8_t> make_container(uint32_t size, uint32_t components, uint32_t
     for (uint32_t x = 0; x < size; ++x)
       for (uint32_t c = 0; c < components; ++c)
         e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
-            0.5f + 0.3f * std::sin(0.021f * (x + 1.0f) * (c + 1 + seed)) * std::cos(0.017f * y * (seed + 1)) / (1.0f + c);
+            0.5f +
+            0.3f * std::sin(0.021f * (x + 1.0f) * (c + 1 + seed)) * std::cos(0.017f * y * (seed + 1)) / (1.0f + c);
   e.light_count = e.view_count = 3;
   e.angular.assign(size_t{3} * 3 * 3 * components, 0.0f);
   for (size_t i = 0; i < e.angular.size(); ++i) e.angular[i] = 0.05f + 0.01f * static_cast<float>((i * 13 + seed) % 40);
@@ -205,7 +206,9 @@ class Restarter {
   Restarter(soak::NginxServer& server, const FaultyAsyncIo& io, double every, uint32_t seed)
       : server_(server), io_(io), every_(every), rng_(seed ^ 0x9e3779b9u) {}
   ~Restarter() { stop(); }
-  void start() { thread_ = std::thread([this] { loop(); }); }
+  void start() {
+    thread_ = std::thread([this] { loop(); });
+  }
   void stop() {
     {
       std::lock_guard lock(mutex_);
@@ -247,7 +250,8 @@ class Restarter {
       if (stopping && !back) return;  // the run ended before a read was due: not counted
       if (back) {
         ++recovered;
-        const auto us = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - up).count());
+        const auto us =
+            static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - up).count());
         total_recovery_us += us;
         if (us > max_recovery_us.load()) max_recovery_us = us;
       }
@@ -295,9 +299,9 @@ bool matches_fresh_decode(const std::vector<uint8_t>& file, const BsvtfDirectory
   for (uint32_t l = 0; l <= local.level; ++l) {
     const TileId t = local.ancestor(l);
     const BsvtfTileEntry* e = d.find(t);
-    if (e == nullptr ||
-        dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
-                   l > 0 ? std::span<const float>(a) : std::span<const float>(), t.x & 1u, t.y & 1u, b) != Status::success)
+    if (e == nullptr || dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
+                                   l > 0 ? std::span<const float>(a) : std::span<const float>(), t.x & 1u, t.y & 1u,
+                                   b) != Status::success)
       return false;
     std::swap(a, b);
   }
@@ -398,7 +402,8 @@ int main(int argc, char** argv) {
   std::vector<PageTableWrite> writes(1u << 16);
   std::vector<ResidencyEvent> events(256);
   std::vector<std::vector<uint32_t>> page_tables;
-  for (uint32_t t = 0; t < set.texture_count(); ++t) page_tables.emplace_back(set.levels_of(t).tile_count(), 0xffffffffu);
+  for (uint32_t t = 0; t < set.texture_count(); ++t)
+    page_tables.emplace_back(set.levels_of(t).tile_count(), 0xffffffffu);
   std::vector<uint32_t> feedback;
   feedback.reserve(80 * 45);
   const TileLayout layout{32, 4, 4};
@@ -433,9 +438,12 @@ int main(int argc, char** argv) {
   {
     ThreadExecutor workers(streamer.jobs(), opt.workers);
     // When a completion makes a job runnable, wake the workers with it.
-    io.start(streamer, [](void* w, uint32_t job) {
-      if (job != Streamer::kNoJob) static_cast<ThreadExecutor*>(w)->notify();
-    }, &workers);
+    io.start(
+        streamer,
+        [](void* w, uint32_t job) {
+          if (job != Streamer::kNoJob) static_cast<ThreadExecutor*>(w)->notify();
+        },
+        &workers);
     if (opt.http) restarter.start();
     for (;;) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
@@ -462,7 +470,8 @@ int main(int argc, char** argv) {
           bad_data_events += e.status == Status::bad_data;
           io_error_events += e.status == Status::io_error;
         }
-        unavailable += e.kind == ResidencyEventKind::tile_unavailable || e.kind == ResidencyEventKind::packet_unavailable;
+        unavailable +=
+            e.kind == ResidencyEventKind::tile_unavailable || e.kind == ResidencyEventKind::packet_unavailable;
         material_failures += e.kind == ResidencyEventKind::material_failed;
       }
       // The page table the engine built from the writes alone equals a rebuild from the cache.
@@ -521,9 +530,10 @@ int main(int argc, char** argv) {
   const bool drained = streamer.idle() && io.outstanding() == 0;
   const StreamerStats st = streamer.stats();
   if (!drained)  // what kept it busy: a job still reading with no read left at the I/O thread never ends
-    std::printf("not drained 30 s after quiesce(): %u jobs reading, %u runnable, %u running; %zu reads at the I/O "
-                "thread\n",
-                st.jobs_reading, st.jobs_runnable, st.jobs_running, io.outstanding());
+    std::printf(
+        "not drained 30 s after quiesce(): %u jobs reading, %u runnable, %u running; %zu reads at the I/O "
+        "thread\n",
+        st.jobs_reading, st.jobs_runnable, st.jobs_running, io.outstanding());
   const uint64_t corrupted = io.counters.corrupted.load();
   // Every corrupted read was caught: no wrong upload, and corruption produced bad_data
   // failures (a job reads up to L + 1 payloads, so several damaged reads can fail one job).
@@ -533,8 +543,8 @@ int main(int argc, char** argv) {
   // restart recovered (reads succeeded again), and the outages cost no tile and no material.
   const uint64_t restarts = restarter.restarts.load();
   const bool http_ok = !opt.http || (restarter.undetected.load() == 0 && restarter.recovered.load() == restarts &&
-                                     restarter.start_failures.load() == 0 && unavailable == 0 && material_failures == 0 &&
-                                     (restarts > 0 || opt.seconds < opt.restart_every + 2) &&
+                                     restarter.start_failures.load() == 0 && unavailable == 0 &&
+                                     material_failures == 0 && (restarts > 0 || opt.seconds < opt.restart_every + 2) &&
                                      (restarter.outage_failures.load() == 0 || io_error_events > 0));
   const bool ok = wrong_uploads == 0 && wrong_page_texels == 0 && budget_breaches == 0 && cache_breaches == 0 &&
                   allocations_after_warmup == 0 && rss_growth <= opt.rss_tolerance && caught && drained && warm &&
@@ -543,55 +553,57 @@ int main(int argc, char** argv) {
       "frames %llu, uploads %llu; reads %llu: %llu failed, %llu corrupted, %llu stalled, %llu refused; "
       "events: %llu bad_data, %llu io_error, %llu given up, %llu materials failed; retries %llu, cancelled %llu\n",
       static_cast<unsigned long long>(frame), static_cast<unsigned long long>(uploads),
-      static_cast<unsigned long long>(io.counters.reads.load()), static_cast<unsigned long long>(io.counters.failed.load()),
-      static_cast<unsigned long long>(corrupted), static_cast<unsigned long long>(io.counters.stalled.load()),
+      static_cast<unsigned long long>(io.counters.reads.load()),
+      static_cast<unsigned long long>(io.counters.failed.load()), static_cast<unsigned long long>(corrupted),
+      static_cast<unsigned long long>(io.counters.stalled.load()),
       static_cast<unsigned long long>(io.counters.refused.load()), static_cast<unsigned long long>(bad_data_events),
       static_cast<unsigned long long>(io_error_events), static_cast<unsigned long long>(unavailable),
       static_cast<unsigned long long>(material_failures), static_cast<unsigned long long>(st.retries),
       static_cast<unsigned long long>(st.cancelled));
-  std::printf("invariants: %llu wrong uploads, %llu wrong page-table texels, %llu budget breaches, %llu cache checks "
-              "failed; memory: Streamer %.2f MiB, RSS %.1f MiB after warm-up, max %.1f (%+.2f %%), %llu allocations "
-              "after warm-up; drained: %s\n",
-              static_cast<unsigned long long>(wrong_uploads), static_cast<unsigned long long>(wrong_page_texels),
-              static_cast<unsigned long long>(budget_breaches), static_cast<unsigned long long>(cache_breaches),
-              static_cast<double>(st.memory.total) / 1048576.0, static_cast<double>(rss_warm) / 1048576.0,
-              static_cast<double>(rss_max) / 1048576.0, 100.0 * rss_growth,
-              static_cast<unsigned long long>(allocations_after_warmup), drained ? "yes" : "no");
+  std::printf(
+      "invariants: %llu wrong uploads, %llu wrong page-table texels, %llu budget breaches, %llu cache checks "
+      "failed; memory: Streamer %.2f MiB, RSS %.1f MiB after warm-up, max %.1f (%+.2f %%), %llu allocations "
+      "after warm-up; drained: %s\n",
+      static_cast<unsigned long long>(wrong_uploads), static_cast<unsigned long long>(wrong_page_texels),
+      static_cast<unsigned long long>(budget_breaches), static_cast<unsigned long long>(cache_breaches),
+      static_cast<double>(st.memory.total) / 1048576.0, static_cast<double>(rss_warm) / 1048576.0,
+      static_cast<double>(rss_max) / 1048576.0, 100.0 * rss_growth,
+      static_cast<unsigned long long>(allocations_after_warmup), drained ? "yes" : "no");
   if (opt.http)
-    std::printf("http: %llu nginx restarts (SIGKILL and SIGTERM in turn, 50-300 ms down): %llu with reads during "
-                "the outage, %llu of them without a failed read; %llu HTTP reads failed in outages, %llu in all; %llu recovered "
-                "(first good read %.1f ms after the restart on average, %.1f ms at most); %llu failed to start\n",
-                static_cast<unsigned long long>(restarts),
-                static_cast<unsigned long long>(restarts - restarter.idle.load()),
-                static_cast<unsigned long long>(restarter.undetected.load()),
-                static_cast<unsigned long long>(restarter.outage_failures.load()),
-                static_cast<unsigned long long>(io.counters.source_failed.load()),
-                static_cast<unsigned long long>(restarter.recovered.load()),
-                restarter.recovered.load() > 0
-                    ? static_cast<double>(restarter.total_recovery_us.load()) / 1e3 / static_cast<double>(restarter.recovered.load())
-                    : 0.0,
-                static_cast<double>(restarter.max_recovery_us.load()) / 1e3,
-                static_cast<unsigned long long>(restarter.start_failures.load()));
+    std::printf(
+        "http: %llu nginx restarts (SIGKILL and SIGTERM in turn, 50-300 ms down): %llu with reads during "
+        "the outage, %llu of them without a failed read; %llu HTTP reads failed in outages, %llu in all; %llu "
+        "recovered "
+        "(first good read %.1f ms after the restart on average, %.1f ms at most); %llu failed to start\n",
+        static_cast<unsigned long long>(restarts), static_cast<unsigned long long>(restarts - restarter.idle.load()),
+        static_cast<unsigned long long>(restarter.undetected.load()),
+        static_cast<unsigned long long>(restarter.outage_failures.load()),
+        static_cast<unsigned long long>(io.counters.source_failed.load()),
+        static_cast<unsigned long long>(restarter.recovered.load()),
+        restarter.recovered.load() > 0 ? static_cast<double>(restarter.total_recovery_us.load()) / 1e3 /
+                                             static_cast<double>(restarter.recovered.load())
+                                       : 0.0,
+        static_cast<double>(restarter.max_recovery_us.load()) / 1e3,
+        static_cast<unsigned long long>(restarter.start_failures.load()));
   if (!opt.json.empty()) {
     if (std::FILE* f = std::fopen(opt.json.c_str(), "w")) {
-      std::fprintf(f,
-                   "{\"seconds\": %.1f, \"frames\": %llu, \"uploads\": %llu, \"reads\": %llu, \"corrupted\": %llu, "
-                   "\"failed_reads\": %llu, \"bad_data_events\": %llu, \"wrong_uploads\": %llu, "
-                   "\"wrong_page_texels\": %llu, \"allocations_after_warmup\": %llu, \"rss_warm\": %llu, "
-                   "\"rss_max\": %llu, \"http\": %s, \"restarts\": %llu, \"restarts_undetected\": %llu, "
-                   "\"restarts_recovered\": %llu, \"http_reads_failed\": %llu, \"tiles_given_up\": %llu, \"ok\": %s}\n",
-                   opt.seconds, static_cast<unsigned long long>(frame), static_cast<unsigned long long>(uploads),
-                   static_cast<unsigned long long>(io.counters.reads.load()),
-                   static_cast<unsigned long long>(corrupted),
-                   static_cast<unsigned long long>(io.counters.failed.load()),
-                   static_cast<unsigned long long>(bad_data_events), static_cast<unsigned long long>(wrong_uploads),
-                   static_cast<unsigned long long>(wrong_page_texels),
-                   static_cast<unsigned long long>(allocations_after_warmup), static_cast<unsigned long long>(rss_warm),
-                   static_cast<unsigned long long>(rss_max), opt.http ? "true" : "false",
-                   static_cast<unsigned long long>(restarts), static_cast<unsigned long long>(restarter.undetected.load()),
-                   static_cast<unsigned long long>(restarter.recovered.load()),
-                   static_cast<unsigned long long>(io.counters.source_failed.load()),
-                   static_cast<unsigned long long>(unavailable), ok ? "true" : "false");
+      std::fprintf(
+          f,
+          "{\"seconds\": %.1f, \"frames\": %llu, \"uploads\": %llu, \"reads\": %llu, \"corrupted\": %llu, "
+          "\"failed_reads\": %llu, \"bad_data_events\": %llu, \"wrong_uploads\": %llu, "
+          "\"wrong_page_texels\": %llu, \"allocations_after_warmup\": %llu, \"rss_warm\": %llu, "
+          "\"rss_max\": %llu, \"http\": %s, \"restarts\": %llu, \"restarts_undetected\": %llu, "
+          "\"restarts_recovered\": %llu, \"http_reads_failed\": %llu, \"tiles_given_up\": %llu, \"ok\": %s}\n",
+          opt.seconds, static_cast<unsigned long long>(frame), static_cast<unsigned long long>(uploads),
+          static_cast<unsigned long long>(io.counters.reads.load()), static_cast<unsigned long long>(corrupted),
+          static_cast<unsigned long long>(io.counters.failed.load()), static_cast<unsigned long long>(bad_data_events),
+          static_cast<unsigned long long>(wrong_uploads), static_cast<unsigned long long>(wrong_page_texels),
+          static_cast<unsigned long long>(allocations_after_warmup), static_cast<unsigned long long>(rss_warm),
+          static_cast<unsigned long long>(rss_max), opt.http ? "true" : "false",
+          static_cast<unsigned long long>(restarts), static_cast<unsigned long long>(restarter.undetected.load()),
+          static_cast<unsigned long long>(restarter.recovered.load()),
+          static_cast<unsigned long long>(io.counters.source_failed.load()),
+          static_cast<unsigned long long>(unavailable), ok ? "true" : "false");
       std::fclose(f);
     }
   }

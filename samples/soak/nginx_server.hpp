@@ -86,9 +86,7 @@ class NginxServer {
     return false;
   }
 
-  std::string url(const std::string& name) const {
-    return "http://127.0.0.1:" + std::to_string(port_) + "/" + name;
-  }
+  std::string url(const std::string& name) const { return "http://127.0.0.1:" + std::to_string(port_) + "/" + name; }
   std::filesystem::path www() const { return dir_ / "www"; }
 
  private:

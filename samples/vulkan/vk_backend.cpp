@@ -479,8 +479,8 @@ bool VkBackend::poll_feedback(FeedbackFrame& out) noexcept {
     if (s.pending && (!oldest || s.frame < oldest->frame)) oldest = &s;
   if (!oldest || oldest->serial > completed_serial_) return false;
   const size_t n = static_cast<size_t>(oldest->width) * oldest->height;
-  if (readback_.size() < n) readback_.resize(n);                // grows to the largest feedback size once
-  if (oldest->full) {  // the words of every pixel, row 0 = top (flipped viewport)
+  if (readback_.size() < n) readback_.resize(n);  // grows to the largest feedback size once
+  if (oldest->full) {                             // the words of every pixel, row 0 = top (flipped viewport)
     const size_t full = static_cast<size_t>(oldest->desc.width) * oldest->desc.height;
     subsample_feedback(std::span<const uint32_t>(static_cast<const uint32_t*>(oldest->buffer.mapped), full), false,
                        oldest->desc, config_.vt.feedback.empty_word, std::span<uint32_t>(readback_.data(), n));

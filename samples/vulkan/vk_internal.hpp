@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "vk_backend.hpp"
 #include "btflod/shader/hlsl_generator.hpp"
+#include "vk_backend.hpp"
 
 namespace btflod::samples::vk_detail {
 

@@ -149,7 +149,16 @@ Result<MaterialHandle> VkBackend::create_spmm_material(const SpmmMaterialData& d
         16,
         false},
        // eq. 2: model id, κ_j, n_j, 2 texels per basis function
-       {ShaderBinding::spmm_dictionary, f4, 2 * kSpmmBasesPerRow, rows, 1, 1, 1, false, {d.dictionary.data()}, 16,
+       {ShaderBinding::spmm_dictionary,
+        f4,
+        2 * kSpmmBasesPerRow,
+        rows,
+        1,
+        1,
+        1,
+        false,
+        {d.dictionary.data()},
+        16,
         false},
        // eq. 3: residual mean and components per cluster, texel (light, view)
        {ShaderBinding::spmm_residual,

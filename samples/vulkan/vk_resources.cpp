@@ -59,10 +59,9 @@ Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const cha
     f << source;
     if (!f) return make_error(Status::io_error, "Vulkan: cannot write %s", src.c_str());
   }
-  const std::string flags = hlsl ? std::string(" -D -V --target-env vulkan1.1 -e main -S ") + stage
-                                  : std::string(" --target-env=vulkan1.1");
-  const std::string cmd =
-      "\"" + glslc + "\"" + flags + " -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
+  const std::string flags =
+      hlsl ? std::string(" -D -V --target-env vulkan1.1 -e main -S ") + stage : std::string(" --target-env=vulkan1.1");
+  const std::string cmd = "\"" + glslc + "\"" + flags + " -o \"" + spv + "\" \"" + src + "\" > \"" + log + "\" 2>&1";
   const int rc = std::system(cmd.c_str());
   std::vector<uint32_t> words = read_words(spv);
   std::ifstream lg(log);

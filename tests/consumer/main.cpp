@@ -25,7 +25,8 @@ int main() {
 #else
   const bool backend_ok = decoder.backend() == btflod::InflateBackend::zlib;
 #endif
-  std::printf("btflod consumer: tile inflate backend %s\n", decoder.backend() == btflod::InflateBackend::libdeflate ? "libdeflate" : "zlib");
+  std::printf("btflod consumer: tile inflate backend %s\n",
+              decoder.backend() == btflod::InflateBackend::libdeflate ? "libdeflate" : "zlib");
   // The runtime links: a Streamer refuses an empty world with a message (no allocation made).
   btflod::StreamerConfig config;
   const bool refused = !btflod::Streamer::create({}, config);

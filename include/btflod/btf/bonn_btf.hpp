@@ -53,8 +53,8 @@
 #include <array>
 #include <cmath>
 #include <cstdarg>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <span>
@@ -217,7 +217,8 @@ class BonnParser {
 #if defined(__GNUC__)
   __attribute__((format(printf, 3, 4)))
 #endif
-  bool fail(Status status, const char* fmt, ...) {
+  bool
+  fail(Status status, const char* fmt, ...) {
     va_list args;
     va_start(args, fmt);
     error_ = Error{status, format_message("bonn btf: at byte %zu: ", r_.offset()) + vformat_message(fmt, args)};
@@ -346,8 +347,7 @@ inline bool parse_bonn_meta(BonnParser& p, BonnBtfFile& f) {
   const size_t start = r.offset();
   uint32_t size = 0;
   if (!p.u32(size, "meta block size") || !p.u32(f.meta_version, "meta block version")) return false;
-  if (f.meta_version < 1)
-    return p.fail(Status::bad_data, "meta block version is 0, expected 1 or more");
+  if (f.meta_version < 1) return p.fail(Status::bad_data, "meta block version is 0, expected 1 or more");
   if (size < 8 || !r.can_hold(size - 8, 1)) {
     if (size < 8) return p.fail(Status::bad_data, "size does not match: meta block size %u is smaller than 8", size);
     return p.fail(Status::short_output, "truncated input: meta block declares %u bytes, only %zu remain", size,
@@ -388,8 +388,9 @@ inline bool parse_bonn_meta(BonnParser& p, BonnBtfFile& f) {
       return r.seek(start + size);
     }
     r.seek(start);
-    return p.fail(Status::bad_data, "size does not match: meta block (version %u) declares %u bytes, its fields use %zu",
-                  f.meta_version, size, consumed);
+    return p.fail(Status::bad_data,
+                  "size does not match: meta block (version %u) declares %u bytes, its fields use %zu", f.meta_version,
+                  size, consumed);
   }
   return true;
 }
@@ -400,7 +401,8 @@ inline bool parse_bonn_sampling(BonnParser& p, BonnBtfFile& f) {
   if (!p.u32(n_view, "view count")) return false;
   if (n_view == 0) return p.fail(Status::bad_data, "view count is 0");
   if (n_view > kBonnMaxDirections)
-    return p.fail(Status::bad_data, "oversized count: view count = %u exceeds the limit %u", n_view, kBonnMaxDirections);
+    return p.fail(Status::bad_data, "oversized count: view count = %u exceeds the limit %u", n_view,
+                  kBonnMaxDirections);
   if (!p.count_fits(n_view, 12, "view count")) return false;  // θ, φ, nL per view at least
   std::vector<std::pair<float, float>> views(n_view);
   std::vector<std::pair<float, float>> lights;
@@ -457,7 +459,8 @@ inline bool parse_bonn_factors(BonnParser& p, BonnFactors& out, uint64_t rows_ex
     } else {
       return p.fail(Status::bad_data,
                     "size does not match: %s is %u × %u, expected %llu × %llu (angular × spatial samples)", what, rows,
-                    cols, static_cast<unsigned long long>(rows_expected), static_cast<unsigned long long>(cols_expected));
+                    cols, static_cast<unsigned long long>(rows_expected),
+                    static_cast<unsigned long long>(cols_expected));
     }
   }
   if (k > max_components)
@@ -507,8 +510,10 @@ inline Result<BonnBtfFile> read_bonn_btf(std::span<const uint8_t> bytes, const B
     f.format = BonnFormat::fmf;
   } else if (sig.rfind("!FMF06FC", 0) == 0 || sig.rfind("!PVF06FC", 0) == 0) {
     // Older Bonn formats btflib lists (FMF without the header-version byte, per-view PCA).
-    return make_error(Status::unsupported, "bonn btf: signature '%s' is a Bonn format this reader does not handle "
-                      "(supported: %s, %s)", sig.c_str(), kBonnDfmfSignature.data(), kBonnFmfSignature.data());
+    return make_error(Status::unsupported,
+                      "bonn btf: signature '%s' is a Bonn format this reader does not handle "
+                      "(supported: %s, %s)",
+                      sig.c_str(), kBonnDfmfSignature.data(), kBonnFmfSignature.data());
   } else {
     return make_error(Status::bad_data, "bonn btf: wrong signature '%s', expected '%s' or '%s'", sig.c_str(),
                       kBonnDfmfSignature.data(), kBonnFmfSignature.data());
@@ -574,9 +579,10 @@ inline Result<BonnBtfFile> read_bonn_btf(std::span<const uint8_t> bytes, const B
       f.height_map_width_first = hr != hc && hr == w && hc == h;
       if (f.height_map_width_first) {
         std::swap(hr, hc);
-        f.warnings.push_back(format_message("FMF height map header stores width first (%u × %u for a %u × %u "
-                                            "texture); read as %u rows × %u columns",
-                                            hc, hr, w, h, hr, hc));
+        f.warnings.push_back(
+            format_message("FMF height map header stores width first (%u × %u for a %u × %u "
+                           "texture); read as %u rows × %u columns",
+                           hc, hr, w, h, hr, hc));
       }
       f.height_map_rows = static_cast<int>(hr);
       f.height_map_cols = static_cast<int>(hc);
@@ -613,19 +619,23 @@ inline Result<BonnBtfFile> read_bonn_btf(const std::string& path, const BonnRead
 /// (btflib's undecorrelate). Returns false for models that are not supported.
 inline bool bonn_undecorrelate(int32_t model, const std::array<float, 3>& mean, const std::array<float, 9>& matrix,
                                float eps, float (&v)[3]) noexcept {
-  auto yuv_to_rgb = [](float (&c)[3]) {
+  auto yuv_to_rgb = [](float(&c)[3]) {
     const float y = c[0], u = c[1], w = c[2];
     c[0] = y + 1.13983f * w;
     c[1] = y - 0.39465f * u - 0.5806f * w;
     c[2] = y + 2.03211f * u;
   };
   switch (static_cast<BonnColorModel>(model)) {
-    case BonnColorModel::rgb: return true;
-    case BonnColorModel::yuv: yuv_to_rgb(v); return true;
+    case BonnColorModel::rgb:
+      return true;
+    case BonnColorModel::yuv:
+      yuv_to_rgb(v);
+      return true;
     case BonnColorModel::pca: {
       // row vector · matrix + mean
       const float a = v[0], b = v[1], c = v[2];
-      for (int j = 0; j < 3; ++j) v[j] = a * matrix[0 * 3 + j] + b * matrix[1 * 3 + j] + c * matrix[2 * 3 + j] + mean[j];
+      for (int j = 0; j < 3; ++j)
+        v[j] = a * matrix[0 * 3 + j] + b * matrix[1 * 3 + j] + c * matrix[2 * 3 + j] + mean[j];
       return true;
     }
     case BonnColorModel::ycocg: {
@@ -635,7 +645,10 @@ inline bool bonn_undecorrelate(int32_t model, const std::array<float, 3>& mean, 
       v[2] = y - co - cg;
       return true;
     }
-    case BonnColorModel::ylog_uv: v[0] = std::exp(v[0]) - eps; yuv_to_rgb(v); return true;
+    case BonnColorModel::ylog_uv:
+      v[0] = std::exp(v[0]) - eps;
+      yuv_to_rgb(v);
+      return true;
     case BonnColorModel::ylog_ulog_vlog:
       v[0] = std::exp(v[0]) - eps;
       for (int j = 1; j < 3; ++j) v[j] = std::copysign(std::exp(std::abs(v[j]) + std::log(eps)), v[j]);
@@ -650,7 +663,8 @@ inline bool bonn_undecorrelate(int32_t model, const std::array<float, 3>& mean, 
     case BonnColorModel::log_rgb:
       for (float& c : v) c = std::exp(c) - eps;
       return true;
-    default: return false;
+    default:
+      return false;
   }
 }
 
@@ -684,7 +698,8 @@ inline Result<BtfFloat> reconstruct_bonn_btf(const BonnBtfFile& f, const BonnRec
     const size_t rows = f.format == BonnFormat::dfmf ? n_angular : n_angular * 3;
     if (static_cast<size_t>(fac.u.rows()) != rows || static_cast<size_t>(fac.sxv.rows()) != n_spatial ||
         fac.u.cols() != fac.sxv.cols())
-      return make_error(Status::invalid_argument, "bonn btf: factor shapes U %ldx%ld, SxV %ldx%ld do not match %zu x %zu",
+      return make_error(Status::invalid_argument,
+                        "bonn btf: factor shapes U %ldx%ld, SxV %ldx%ld do not match %zu x %zu",
                         static_cast<long>(fac.u.rows()), static_cast<long>(fac.u.cols()),
                         static_cast<long>(fac.sxv.rows()), static_cast<long>(fac.sxv.cols()), rows, n_spatial);
   }
@@ -912,9 +927,14 @@ inline Result<BonnBtfFile> factorize_bonn_dfmf(const BtfFloat& btf, const DfmfFa
     return make_error(Status::invalid_argument, "factorize_bonn_dfmf: scalar size %u", options.scalar_size);
   Eigen::Matrix3f to_rgb = Eigen::Matrix3f::Identity();
   switch (options.color_model) {
-    case BonnColorModel::rgb: break;
-    case BonnColorModel::yuv: to_rgb << 1, 0, 1.13983f, 1, -0.39465f, -0.5806f, 1, 2.03211f, 0; break;
-    case BonnColorModel::ycocg: to_rgb << 1, 1, -1, 1, 0, 1, 1, -1, -1; break;
+    case BonnColorModel::rgb:
+      break;
+    case BonnColorModel::yuv:
+      to_rgb << 1, 0, 1.13983f, 1, -0.39465f, -0.5806f, 1, 2.03211f, 0;
+      break;
+    case BonnColorModel::ycocg:
+      to_rgb << 1, 1, -1, 1, 0, 1, 1, -1, -1;
+      break;
     default:
       return make_error(Status::unsupported, "factorize_bonn_dfmf: colour model %d is not linear",
                         static_cast<int>(options.color_model));

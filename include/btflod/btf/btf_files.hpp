@@ -29,11 +29,16 @@ enum class BtfFileKind { missing, unknown, mbsdf, bonn, image_folder };
 /// A readable name of a kind, for messages.
 inline const char* btf_file_kind_name(BtfFileKind k) noexcept {
   switch (k) {
-    case BtfFileKind::missing: return "missing";
-    case BtfFileKind::unknown: return "unknown";
-    case BtfFileKind::mbsdf: return "NVIDIA ARC MBSDF measured BRDF";
-    case BtfFileKind::bonn: return "Bonn binary BTF";
-    case BtfFileKind::image_folder: return "UBO2003-style image folder";
+    case BtfFileKind::missing:
+      return "missing";
+    case BtfFileKind::unknown:
+      return "unknown";
+    case BtfFileKind::mbsdf:
+      return "NVIDIA ARC MBSDF measured BRDF";
+    case BtfFileKind::bonn:
+      return "Bonn binary BTF";
+    case BtfFileKind::image_folder:
+      return "UBO2003-style image folder";
   }
   return "unknown";
 }
@@ -94,9 +99,7 @@ struct BtfSaveOptions {
 };
 
 /// True when `path` names a Bonn file (".btf" extension); anything else is an image folder.
-inline bool is_bonn_btf_path(const std::string& path) {
-  return std::filesystem::path(path).extension() == ".btf";
-}
+inline bool is_bonn_btf_path(const std::string& path) { return std::filesystem::path(path).extension() == ".btf"; }
 
 /// Writes a BTF: a path ending in .btf becomes a Bonn DFMF file (factorised to
 /// options.components per channel), any other path a UBO2003-style folder of 8-bit sRGB PNGs

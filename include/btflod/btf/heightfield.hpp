@@ -39,8 +39,10 @@ struct Mesostructure {
   VoidResult validate() const {
     const int w = width(), h = height();
     if (w <= 0 || h <= 0 || height_map.channels() != 1)
-      return make_error(Status::invalid_argument, "mesostructure: height map is %dx%d with %d channels, expected a "
-                        "non-empty 1-channel image", w, h, height_map.channels());
+      return make_error(Status::invalid_argument,
+                        "mesostructure: height map is %dx%d with %d channels, expected a "
+                        "non-empty 1-channel image",
+                        w, h, height_map.channels());
     struct Check {
       const Image<float>* img;
       const char* name;
@@ -60,9 +62,11 @@ struct Mesostructure {
           for (int ch = 0; ch < c.channels; ++ch) {
             const float v = c.img->at(x, y, ch);
             if (!(v >= c.lo && v <= c.hi))
-              return make_error(Status::invalid_argument, "mesostructure: %s map texel (%d, %d) channel %d is %g, "
-                                "expected in [%g, %g]", c.name, x, y, ch, static_cast<double>(v),
-                                static_cast<double>(c.lo), static_cast<double>(c.hi));
+              return make_error(Status::invalid_argument,
+                                "mesostructure: %s map texel (%d, %d) channel %d is %g, "
+                                "expected in [%g, %g]",
+                                c.name, x, y, ch, static_cast<double>(v), static_cast<double>(c.lo),
+                                static_cast<double>(c.hi));
           }
     }
     return {};
@@ -90,10 +94,14 @@ enum class SynthMaterial : unsigned char { cloth, stone, leather, tiles };
 /// Lower-case name of a material ("cloth", "stone", "leather", "tiles").
 constexpr const char* material_name(SynthMaterial m) noexcept {
   switch (m) {
-    case SynthMaterial::cloth: return "cloth";
-    case SynthMaterial::stone: return "stone";
-    case SynthMaterial::leather: return "leather";
-    case SynthMaterial::tiles: return "tiles";
+    case SynthMaterial::cloth:
+      return "cloth";
+    case SynthMaterial::stone:
+      return "stone";
+    case SynthMaterial::leather:
+      return "leather";
+    case SynthMaterial::tiles:
+      return "tiles";
   }
   return "unknown";
 }
@@ -116,7 +124,8 @@ constexpr uint64_t mix64(uint64_t z) noexcept {
   return z ^ (z >> 31);
 }
 constexpr uint64_t hash_ints(uint64_t seed, uint64_t salt, int64_t a, int64_t b = 0) noexcept {
-  return mix64(mix64(mix64(seed ^ (salt * 0x2545f4914f6cdd1dull)) + static_cast<uint64_t>(a)) + static_cast<uint64_t>(b));
+  return mix64(mix64(mix64(seed ^ (salt * 0x2545f4914f6cdd1dull)) + static_cast<uint64_t>(a)) +
+               static_cast<uint64_t>(b));
 }
 // Uniform in [0, 1).
 constexpr float hash_unit(uint64_t seed, uint64_t salt, int64_t a, int64_t b = 0) noexcept {
@@ -239,8 +248,10 @@ inline Result<Mesostructure> make_mesostructure(SynthMaterial material, int widt
           // Fibres: fast noise across each thread, slow along it.
           const float fib_warp = periodic_value_noise(u, v, nx * 6, ny, seed, salt + 1) - 0.5f;
           const float fib_weft = periodic_value_noise(u, v, nx, ny * 6, seed, salt + 2) - 0.5f;
-          const float hw = profile_warp > 0.0f ? s * (0.3f * profile_warp + 0.18f * und_warp + 0.04f * fib_warp) : -1e9f;
-          const float hf = profile_weft > 0.0f ? s * (0.3f * profile_weft + 0.18f * und_weft + 0.04f * fib_weft) : -1e9f;
+          const float hw =
+              profile_warp > 0.0f ? s * (0.3f * profile_warp + 0.18f * und_warp + 0.04f * fib_warp) : -1e9f;
+          const float hf =
+              profile_weft > 0.0f ? s * (0.3f * profile_weft + 0.18f * und_weft + 0.04f * fib_weft) : -1e9f;
           const float base = -0.25f * s;
           const float tint = 0.85f + 0.3f * periodic_value_noise(u, v, nx, ny, seed, salt + 3);
           if (hw >= hf && hw > base) {
@@ -276,7 +287,8 @@ inline Result<Mesostructure> make_mesostructure(SynthMaterial material, int widt
             spec = 0.04f;
           } else {
             h = bed;
-            albedo = glm::vec3(0.46f, 0.4f, 0.31f) * (0.85f + 0.3f * periodic_value_noise(u, v, n * 8, n * 8, seed, salt + 17));
+            albedo = glm::vec3(0.46f, 0.4f, 0.31f) *
+                     (0.85f + 0.3f * periodic_value_noise(u, v, n * 8, n * 8, seed, salt + 17));
             rough = 0.9f;
             spec = 0.02f;
           }
@@ -313,7 +325,8 @@ inline Result<Mesostructure> make_mesostructure(SynthMaterial material, int widt
           const glm::vec3 tile_colour = pick < 0.4f   ? glm::vec3(0.62f, 0.28f, 0.16f)
                                         : pick < 0.7f ? glm::vec3(0.18f, 0.3f, 0.55f)
                                                       : glm::vec3(0.8f, 0.78f, 0.72f);
-          const glm::vec3 tile = tile_colour * (0.9f + 0.15f * periodic_value_noise(u, v, nx * 4, ny * 4, seed, salt + 34));
+          const glm::vec3 tile =
+              tile_colour * (0.9f + 0.15f * periodic_value_noise(u, v, nx * 4, ny * 4, seed, salt + 34));
           const glm::vec3 grout = glm::vec3(0.55f, 0.54f, 0.5f) * (0.85f + 0.2f * grit);
           albedo = grout + (tile - grout) * top;
           rough = 0.85f + (0.22f - 0.85f) * top;

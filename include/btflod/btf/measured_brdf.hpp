@@ -133,7 +133,7 @@ class MeasuredBrdf {
     if (!(theta_in >= 0.0f && theta_in <= half_pi && theta_out >= 0.0f && theta_out <= half_pi)) return glm::vec3(0.0f);
     if (!std::isfinite(phi_diff)) return glm::vec3(0.0f);
     float phi = std::fmod(std::abs(phi_diff), kTwoPi);  // |φ|: the mirror φ ↦ −φ
-    if (phi > kPi) phi = kTwoPi - phi;                   // isotropy/reciprocity mirror of (π, 2π)
+    if (phi > kPi) phi = kTwoPi - phi;                  // isotropy/reciprocity mirror of (π, 2π)
     Axis ai = axis(theta_in / half_pi, res_theta_);
     Axis aj = axis(theta_out / half_pi, res_theta_);
     Axis ak = axis(phi / kPi, res_phi_);
@@ -219,8 +219,8 @@ inline std::string printable_prefix(std::span<const uint8_t> bytes, size_t n) {
 /// reflection part; a transmission part, when present, is validated the same way and then
 /// dropped (had_transmission() says so). Errors (Status, message naming the byte offset):
 ///   bad_data — wrong first line, unknown part line, type other than 0/1, resolution 0 or
-///              above kMbsdfMaxResolution, a NaN/infinite value or one above kMbsdfMaxMagnitude, a repeated part, bytes after
-///              the last part, no reflection part;
+///              above kMbsdfMaxResolution, a NaN/infinite value or one above kMbsdfMaxMagnitude, a repeated part, bytes
+///              after the last part, no reflection part;
 ///   short_output — the file ends before the declared table.
 /// Safe for untrusted input: sizes are checked against the remaining bytes before allocating.
 /// Thread-safe (no shared state).
@@ -242,8 +242,8 @@ inline Result<MeasuredBrdf> parse_mbsdf(std::span<const uint8_t> bytes, std::str
       return make_error(Status::bad_data,
                         "%s: offset %zu: expected \"MBSDF_DATA_REFLECTION=\\n\" or \"MBSDF_DATA_TRANSMISSION=\\n\", "
                         "found \"%s\" (%zu trailing bytes)",
-                        where.c_str(), part_offset, detail::printable_prefix(r.bytes().subspan(part_offset), 24).c_str(),
-                        r.remaining());
+                        where.c_str(), part_offset,
+                        detail::printable_prefix(r.bytes().subspan(part_offset), 24).c_str(), r.remaining());
     }
     const char* part_name = is_reflection ? "reflection" : "transmission";
     if ((is_reflection && have_reflection) || (!is_reflection && have_transmission))

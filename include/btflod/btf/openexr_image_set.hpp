@@ -192,8 +192,8 @@ inline Result<ExrInfo> probe_exr(std::span<const uint8_t> bytes, const ImageLimi
                       static_cast<unsigned>(version) & ~0xffu);
   bool truncated = false;
   if (const char* why = detail::exr_scan_attributes(bytes, truncated))
-    return make_error(truncated ? Status::short_output : Status::bad_data, "exr: %s%s", truncated ? "truncated input: " : "",
-                      why);
+    return make_error(truncated ? Status::short_output : Status::bad_data, "exr: %s%s",
+                      truncated ? "truncated input: " : "", why);
   detail::ExrMemoryIStream stream(bytes);
   try {
     Imf::Header header;

@@ -91,9 +91,14 @@ inline Bilinear bilinear_at(float col, float row, int w, int h) noexcept {
   const int x0 = wrap_index(static_cast<int>(x0f), w), y0 = wrap_index(static_cast<int>(y0f), h);
   const int x1 = x0 + 1 == w ? 0 : x0 + 1, y1 = y0 + 1 == h ? 0 : y0 + 1;
   const auto W = static_cast<size_t>(w);
-  return {static_cast<size_t>(y0) * W + static_cast<size_t>(x0), static_cast<size_t>(y0) * W + static_cast<size_t>(x1),
-          static_cast<size_t>(y1) * W + static_cast<size_t>(x0), static_cast<size_t>(y1) * W + static_cast<size_t>(x1),
-          (1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
+  return {static_cast<size_t>(y0) * W + static_cast<size_t>(x0),
+          static_cast<size_t>(y0) * W + static_cast<size_t>(x1),
+          static_cast<size_t>(y1) * W + static_cast<size_t>(x0),
+          static_cast<size_t>(y1) * W + static_cast<size_t>(x1),
+          (1 - tx) * (1 - ty),
+          tx * (1 - ty),
+          (1 - tx) * ty,
+          tx * ty};
 }
 inline float sample1(const float* data, const Bilinear& b) noexcept {
   return data[b.i00] * b.w00 + data[b.i10] * b.w10 + data[b.i01] * b.w01 + data[b.i11] * b.w11;
@@ -133,7 +138,7 @@ struct SynthScene {
     if (!(h_max > h_min) || horiz < 1e-6f) return;  // flat field or nadir view: no parallax
     const float dz = std::max(d.z, 1e-4f);
     float s_top = h_max / dz, s_bot = h_min / dz;  // s along d: z = s · d.z
-    const float span = (s_top - s_bot) * horiz;     // horizontal distance covered
+    const float span = (s_top - s_bot) * horiz;    // horizontal distance covered
     int steps = static_cast<int>(std::ceil(span / step));
     steps = std::clamp(steps, 1, 16384);
     const float ds = (s_top - s_bot) / static_cast<float>(steps);
@@ -279,7 +284,8 @@ inline VoidResult synthesize_btf_views(const Mesostructure& meso, const Synthesi
   double lum_sum = 0.0;
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
-      const float dx = 0.5f * (meso.height_map.at(wrap_index(x + 1, W), y) - meso.height_map.at(wrap_index(x - 1, W), y));
+      const float dx =
+          0.5f * (meso.height_map.at(wrap_index(x + 1, W), y) - meso.height_map.at(wrap_index(x - 1, W), y));
       const float drow =
           0.5f * (meso.height_map.at(x, wrap_index(y + 1, H)) - meso.height_map.at(x, wrap_index(y - 1, H)));
       const glm::vec3 n = glm::normalize(glm::vec3(-dx, drow, 1.0f));
@@ -287,7 +293,8 @@ inline VoidResult synthesize_btf_views(const Mesostructure& meso, const Synthesi
       scene.normals[3 * t] = n.x;
       scene.normals[3 * t + 1] = n.y;
       scene.normals[3 * t + 2] = n.z;
-      lum_sum += luminance(glm::vec3(meso.albedo_map.at(x, y, 0), meso.albedo_map.at(x, y, 1), meso.albedo_map.at(x, y, 2)));
+      lum_sum +=
+          luminance(glm::vec3(meso.albedo_map.at(x, y, 0), meso.albedo_map.at(x, y, 1), meso.albedo_map.at(x, y, 2)));
     }
   const double lum_mean = lum_sum / static_cast<double>(n_texels);
   scene.tint_norm = lum_mean > 1e-6 ? static_cast<float>(1.0 / lum_mean) : 1.0f;

@@ -70,7 +70,10 @@ class TabulatedBtf {
   TabulatedBtf() = default;
   /// Allocates a zero-filled BTF. Precondition: width, height > 0; direction sets non-empty.
   TabulatedBtf(int width, int height, DirectionSet views, DirectionSet lights)
-      : width_(width), height_(height), views_(std::move(views)), lights_(std::move(lights)),
+      : width_(width),
+        height_(height),
+        views_(std::move(views)),
+        lights_(std::move(lights)),
         data_(sample_count(width, height, views_.size(), lights_.size())) {}
 
   /// Number of stored values for the given shape (no overflow check: see checked_sample_count).

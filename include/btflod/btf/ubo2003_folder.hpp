@@ -111,10 +111,14 @@ inline Result<UboAngleKeys> parse_ubo_angle_keys(std::string_view text) {
     const char a = static_cast<char>(std::tolower(static_cast<unsigned char>(text[i])));
     const char b = static_cast<char>(std::tolower(static_cast<unsigned char>(text[i + 1])));
     int key = -1;
-    if (a == 't' && b == 'l') key = UboAngleKeys::tl;
-    else if (a == 'p' && b == 'l') key = UboAngleKeys::pl;
-    else if (a == 't' && b == 'v') key = UboAngleKeys::tv;
-    else if (a == 'p' && b == 'v') key = UboAngleKeys::pv;
+    if (a == 't' && b == 'l')
+      key = UboAngleKeys::tl;
+    else if (a == 'p' && b == 'l')
+      key = UboAngleKeys::pl;
+    else if (a == 't' && b == 'v')
+      key = UboAngleKeys::tv;
+    else if (a == 'p' && b == 'v')
+      key = UboAngleKeys::pv;
     if (key < 0) continue;
     size_t j = i + 2;
     if (j < text.size() && (text[j] == '=' || text[j] == ':')) ++j;
@@ -388,8 +392,12 @@ inline Result<Ubo2003Folder> read_angle_image_set(const std::filesystem::path& r
     return detail::ubo_set_from_angles(std::move(deg), tol, light ? "folder lights" : "folder views");
   };
   switch (options.directions) {
-    case UboDirections::ubo2003: views = lights = DirectionSet::ubo2003(); break;
-    case UboDirections::ubo2014: views = lights = DirectionSet::ubo2014(); break;
+    case UboDirections::ubo2003:
+      views = lights = DirectionSet::ubo2003();
+      break;
+    case UboDirections::ubo2014:
+      views = lights = DirectionSet::ubo2014();
+      break;
     case UboDirections::custom:
       if (options.custom_views.empty() || options.custom_lights.empty())
         return make_error(Status::invalid_argument, "read_ubo2003_folder: custom direction sets are empty");
@@ -472,8 +480,8 @@ inline Result<Ubo2003Folder> read_angle_image_set(const std::filesystem::path& r
       float* dst = out.btf.image(i / n_light, i % n_light).data();
       auto decoded = codec.decode(path, options.image_limits, out.btf.width(), out.btf.height(), dst);
       if (!decoded) {
-        errors[i] = decoded.status() == Status::bad_data && decoded.message().find("all images must have one size") !=
-                                                                 std::string::npos
+        errors[i] = decoded.status() == Status::bad_data &&
+                            decoded.message().find("all images must have one size") != std::string::npos
                         ? Error{Status::bad_data, decoded.message() + " (the first image, '" + first + "', sets it)"}
                         : decoded.error();
         continue;
@@ -555,7 +563,8 @@ inline VoidResult write_ubo2003_folder(const BtfFloat& btf, const std::filesyste
     if (options.layout == UboLayout::per_view_folders) {
       folder /= tv + sep + pv;
       fs::create_directories(folder, ec);
-      if (ec) return make_error(Status::io_error, "%s: cannot create: %s", folder.string().c_str(), ec.message().c_str());
+      if (ec)
+        return make_error(Status::io_error, "%s: cannot create: %s", folder.string().c_str(), ec.message().c_str());
     }
     for (size_t l = 0; l < btf.light_count(); ++l, ++counter) {
       const std::string tl = "tl" + detail::ubo_format_angle(btf.lights()[l].theta, false);

@@ -114,9 +114,9 @@ struct PerceptualToleranceOptions : ViewingConditions {
 
 /// What perceptual_tolerance_scales() found (for reports).
 struct PerceptualToleranceReport {
-  float largest_range = 0.0f;                   ///< R: the shared_max reference
+  float largest_range = 0.0f;  ///< R: the shared_max reference
   float min_channel_scale = 0.0f, max_channel_scale = 0.0f;
-  std::vector<float> component_gain;            ///< C values: G_c (ΔE*ab per unit of v_c), RMS over all positions
+  std::vector<float> component_gain;  ///< C values: G_c (ΔE*ab per unit of v_c), RMS over all positions
 };
 
 /// Adds one rendered pixel's angular interpolation weights to a (light, view) histogram for
@@ -139,9 +139,8 @@ namespace detail {
 // ∂(L*, a*, b*)/∂(linear sRGB) · d, the ΔE*ab per unit step along d at `rgb` (display-linear);
 // clipped channels (≥ 1) do not move. CIELAB after CIE 15 with the D65 white of image_metrics.
 inline float perceptual_gain(const float rgb[3], const float d[3], float dark_floor) noexcept {
-  constexpr float kM[3][3] = {{0.4124564f, 0.3575761f, 0.1804375f},
-                              {0.2126729f, 0.7151522f, 0.0721750f},
-                              {0.0193339f, 0.1191920f, 0.9503041f}};
+  constexpr float kM[3][3] = {
+      {0.4124564f, 0.3575761f, 0.1804375f}, {0.2126729f, 0.7151522f, 0.0721750f}, {0.0193339f, 0.1191920f, 0.9503041f}};
   constexpr float kWhite[3] = {0.95047f, 1.0f, 1.08883f};
   constexpr float kDelta3 = (6.0f / 29.0f) * (6.0f / 29.0f) * (6.0f / 29.0f);
   constexpr float kToeSlope = 1.0f / (3.0f * (6.0f / 29.0f) * (6.0f / 29.0f));
@@ -238,23 +237,24 @@ inline Result<std::pair<std::vector<uint32_t>, std::vector<double>>> sample_view
 /// share of a perceptual (ΔE*ab) error budget (see the file comment; this is the rate-
 /// distortion allocation t_c·G_c = const). `u` is U as passed to build_bsvtf: u_rows ×
 /// component_count floats, row = angular sample · color_channels + colour (color_channels 3 =
-/// linear RGB, or 1 = luminance: grey), angular samples in options.row_order. Tiles of one position (level, x, y) are evaluated
-/// together (every component adds to the same texels); a component whose texture has no tile
-/// at a position counts as 0 there. metadata.component_ranges (or, when empty, the ranges of
-/// the tiles) give R; metadata.component_scales (when present) multiply v_c.
-/// Returns the report, or invalid_argument (options out of range, U size ≠ u_rows × C, tile
-/// sizes ≠ the layout, non-finite samples) / unsupported (ColorMode::ycbcr). The tiles are only
-/// modified on success. Deterministic for any thread count. Allocates (set-up code).
-inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const BsvtfMetadata& metadata, std::span<const float> u,
+/// linear RGB, or 1 = luminance: grey), angular samples in options.row_order. Tiles of one position (level, x, y) are
+/// evaluated together (every component adds to the same texels); a component whose texture has no tile at a position
+/// counts as 0 there. metadata.component_ranges (or, when empty, the ranges of the tiles) give R;
+/// metadata.component_scales (when present) multiply v_c. Returns the report, or invalid_argument (options out of
+/// range, U size ≠ u_rows × C, tile sizes ≠ the layout, non-finite samples) / unsupported (ColorMode::ycbcr). The tiles
+/// are only modified on success. Deterministic for any thread count. Allocates (set-up code).
+inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const BsvtfMetadata& metadata,
+                                                                     std::span<const float> u,
                                                                      std::span<BsvtfTileInput> tiles,
                                                                      const PerceptualToleranceOptions& options = {}) {
   const PerceptualToleranceOptions& o = options;
-  const bool options_ok = std::isfinite(o.light_cosine_power) && std::isfinite(o.view_cosine_power) &&
-                          o.light_cosine_power >= 0.0f && o.view_cosine_power >= 0.0f && o.light_cosine_power <= 64.0f &&
-                          o.view_cosine_power <= 64.0f && std::all_of(o.exposure.begin(), o.exposure.end(), [](float e) { return e > 0.0f && e < 1e30f; }) &&
-                          o.reference_delta_e > 0.0f && o.reference_delta_e < 1e30f && o.dark_floor >= 0.0f &&
-                          o.dark_floor < 1.0f && o.texel_stride >= 1 && o.direction_samples >= 1 && o.gain_power >= 0.125f && o.gain_power <= 64.0f && o.min_scale > 0.0f &&
-                          o.max_scale >= o.min_scale && o.max_scale < 1e6f;
+  const bool options_ok =
+      std::isfinite(o.light_cosine_power) && std::isfinite(o.view_cosine_power) && o.light_cosine_power >= 0.0f &&
+      o.view_cosine_power >= 0.0f && o.light_cosine_power <= 64.0f && o.view_cosine_power <= 64.0f &&
+      std::all_of(o.exposure.begin(), o.exposure.end(), [](float e) { return e > 0.0f && e < 1e30f; }) &&
+      o.reference_delta_e > 0.0f && o.reference_delta_e < 1e30f && o.dark_floor >= 0.0f && o.dark_floor < 1.0f &&
+      o.texel_stride >= 1 && o.direction_samples >= 1 && o.gain_power >= 0.125f && o.gain_power <= 64.0f &&
+      o.min_scale > 0.0f && o.max_scale >= o.min_scale && o.max_scale < 1e6f;
   if (!options_ok) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: options out of range");
   if (metadata.color_mode == ColorMode::ycbcr)
     return make_error(Status::unsupported, "perceptual_tolerance_scales: colour mode ycbcr");
@@ -262,18 +262,21 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
   const uint32_t C = metadata.component_count;
   if ((channels != 1 && channels != 3) || C == 0 || metadata.u_rows % channels != 0 ||
       u.size() != size_t{metadata.u_rows} * C || metadata.u_rows == 0)
-    return make_error(Status::invalid_argument,
-                      "perceptual_tolerance_scales: U has %zu values, expected u_rows %u × %u components with 1 or 3 colours",
-                      u.size(), metadata.u_rows, C);
+    return make_error(
+        Status::invalid_argument,
+        "perceptual_tolerance_scales: U has %zu values, expected u_rows %u × %u components with 1 or 3 colours",
+        u.size(), metadata.u_rows, C);
   const TileLayout layout = metadata.layout();
   if (!layout.valid()) return make_error(Status::invalid_argument, "perceptual_tolerance_scales: invalid tile layout");
   for (const BsvtfTileInput& t : tiles) {
     if (t.samples.size() != layout.sample_count() || !t.id.valid() || t.id.texture >= metadata.texture_count())
-      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) has a bad id or size",
-                        t.id.texture, t.id.level, t.id.x, t.id.y);
+      return make_error(Status::invalid_argument,
+                        "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) has a bad id or size", t.id.texture,
+                        t.id.level, t.id.x, t.id.y);
     if (!std::all_of(t.samples.begin(), t.samples.end(), [](float v) { return std::isfinite(v); }))
-      return make_error(Status::invalid_argument, "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) is not finite",
-                        t.id.texture, t.id.level, t.id.x, t.id.y);
+      return make_error(Status::invalid_argument,
+                        "perceptual_tolerance_scales: tile (%u, level %u, %u, %u) is not finite", t.id.texture,
+                        t.id.level, t.id.x, t.id.y);
   }
   if (!std::all_of(u.begin(), u.end(), [](float v) { return std::isfinite(v); }))
     return make_error(Status::invalid_argument, "perceptual_tolerance_scales: U is not finite");
@@ -347,7 +350,8 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
             for (uint32_t k = 0; k < 3; ++k)
               for (uint32_t c = 0; c < C; ++c) rgb[k] += v[c] * row[k * C + c];
             for (uint32_t c = 0; c < C; ++c) {
-              const float d[3] = {row[c] * shade_scale[c], row[C + c] * shade_scale[c], row[2 * C + c] * shade_scale[c]};
+              const float d[3] = {row[c] * shade_scale[c], row[C + c] * shade_scale[c],
+                                  row[2 * C + c] * shade_scale[c]};
               const float gc = detail::perceptual_gain(rgb, d, o.dark_floor);
               sum[c] += row_weight[j] * (power == 1.0 ? double{gc} : std::pow(double{gc}, power));
             }
@@ -367,7 +371,8 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
     for (uint32_t c = 0; c < C; ++c) total[c] += gain_sum[p * C + c];
   }
   for (uint32_t c = 0; c < C; ++c)
-    report.component_gain[c] = total_samples > 0 ? static_cast<float>(std::pow(total[c] / total_samples, 1.0 / power)) : 0.0f;
+    report.component_gain[c] =
+        total_samples > 0 ? static_cast<float>(std::pow(total[c] / total_samples, 1.0 / power)) : 0.0f;
 
   report.min_channel_scale = o.max_scale;
   report.max_channel_scale = o.min_scale;
@@ -379,7 +384,9 @@ inline Result<PerceptualToleranceReport> perceptual_tolerance_scales(const Bsvtf
         float scale = o.max_scale;
         if (c < C && samples_at[p] > 0) {
           const double G = std::pow(gain_sum[p * C + c] / samples_at[p], 1.0 / power);
-          if (G > 0) scale = static_cast<float>(std::clamp(o.reference_delta_e / (G * R), double{o.min_scale}, double{o.max_scale}));
+          if (G > 0)
+            scale =
+                static_cast<float>(std::clamp(o.reference_delta_e / (G * R), double{o.min_scale}, double{o.max_scale}));
         }
         t.channel_scale[k] = scale;
         report.min_channel_scale = std::min(report.min_channel_scale, scale);

@@ -21,9 +21,9 @@ namespace btflod {
 
 /// JPEG's luminance quantisation table (ITU T.81, Table K.1), row-major (v, u).
 inline constexpr std::array<uint8_t, 64> kJpegLumaTable = {
-    16, 11, 10, 16, 24,  40,  51,  61,  12, 12, 14, 19, 26,  58,  60,  55,   //
-    14, 13, 16, 24, 40,  57,  69,  56,  14, 17, 22, 29, 51,  87,  80,  62,   //
-    18, 22, 37, 56, 68,  109, 103, 77,  24, 35, 55, 64, 81,  104, 113, 92,   //
+    16, 11, 10, 16, 24,  40,  51,  61,  12, 12, 14, 19, 26,  58,  60,  55,  //
+    14, 13, 16, 24, 40,  57,  69,  56,  14, 17, 22, 29, 51,  87,  80,  62,  //
+    18, 22, 37, 56, 68,  109, 103, 77,  24, 35, 55, 64, 81,  104, 113, 92,  //
     49, 64, 78, 87, 103, 121, 120, 101, 72, 92, 95, 98, 112, 100, 103, 99};
 
 /// Frequency weighting: the step of coefficient k follows w_k^γ with γ = quarters / 4 of JPEG's
@@ -69,7 +69,7 @@ inline const std::array<float, N * N>& quant_step_factors(uint32_t quarters = kJ
 /// of the i-th coefficient, low frequencies first. Built once; thread-safe.
 template <int N>
 inline const std::array<uint16_t, N * N>& zigzag_order() noexcept {
-  static const std::array<uint16_t, N * N> order = [] {
+  static const std::array<uint16_t, N* N> order = [] {
     std::array<uint16_t, N * N> z{};
     int i = 0;
     for (int s = 0; s <= 2 * (N - 1); ++s) {

@@ -237,7 +237,7 @@ inline Result<std::vector<RenderedTileError>> rendered_tile_errors(const BsvtfMe
             const size_t t = at[p][c / 4];
             if (t == SIZE_MAX) {
               v[c] = w[c] = 0.0f;
-            } else {  // the mean over footprint² texels from (x, y): what a minified view averages
+            } else {                     // the mean over footprint² texels from (x, y): what a minified view averages
               float a = 0.0f, b = 0.0f;  // (footprint 1: exactly the texel's values)
               for (uint32_t dy = 0; dy < o.texel_footprint; ++dy)
                 for (uint32_t dx = 0; dx < o.texel_footprint; ++dx) {

@@ -532,7 +532,8 @@ class TileDecoder {
   /// libdeflate's own state (RawInflater::create). zlib's and zstd's state sizes are private to
   /// those libraries, so this builds one decoder with a counting allocator over operator new
   /// (about 130 KB, released before returning). Set-up only; noexcept (0 when that fails).
-  static AllocationTally memory_required(TileLayout layout, InflateBackend backend = default_inflate_backend()) noexcept;
+  static AllocationTally memory_required(TileLayout layout,
+                                         InflateBackend backend = default_inflate_backend()) noexcept;
 
   /// The inflate implementation in use.
   InflateBackend backend() const noexcept { return inflater_.backend(); }

@@ -24,8 +24,8 @@ constexpr const char* angular_row_order_name(AngularRowOrder o) noexcept {
 /// Row of (light, view, colour) among `lights` × `views` × 3 rows in `order` (light- or view-major).
 constexpr uint64_t angular_row(AngularRowOrder order, uint32_t light, uint32_t view, uint32_t colour, uint32_t lights,
                                uint32_t views) noexcept {
-  const uint64_t pair = order == AngularRowOrder::view_major ? uint64_t{view} * lights + light
-                                                             : uint64_t{light} * views + view;
+  const uint64_t pair =
+      order == AngularRowOrder::view_major ? uint64_t{view} * lights + light : uint64_t{light} * views + view;
   return pair * 3 + colour;
 }
 

@@ -12,9 +12,7 @@ namespace btflod {
 /// Reinterprets the object representation of `from` as a `To` (same size, both trivially
 /// copyable), like std::bit_cast. constexpr, thread-safe, no allocation.
 template <class To, class From>
-requires(sizeof(To) == sizeof(From) && std::is_trivially_copyable_v<To> &&
-         std::is_trivially_copyable_v<From>) constexpr To bit_cast(const From& from) noexcept {
-  return __builtin_bit_cast(To, from);
-}
+  requires(sizeof(To) == sizeof(From) && std::is_trivially_copyable_v<To> && std::is_trivially_copyable_v<From>)
+constexpr To bit_cast(const From& from) noexcept { return __builtin_bit_cast(To, from); }
 
 }  // namespace btflod

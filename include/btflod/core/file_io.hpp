@@ -59,7 +59,8 @@ inline VoidResult write_file_bytes(const std::string& path, std::span<const uint
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     std::remove(tmp.c_str());
-    return make_error(Status::io_error, "%s: cannot rename from %s: %s", path.c_str(), tmp.c_str(), std::strerror(errno));
+    return make_error(Status::io_error, "%s: cannot rename from %s: %s", path.c_str(), tmp.c_str(),
+                      std::strerror(errno));
   }
   return {};
 }

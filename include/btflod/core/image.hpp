@@ -24,8 +24,12 @@ class ImageView {
   ImageView(T* data, int width, int height, int channels) noexcept
       : ImageView(data, width, height, channels, channels, static_cast<ptrdiff_t>(width) * channels) {}
   ImageView(T* data, int width, int height, int channels, ptrdiff_t pixel_stride, ptrdiff_t row_stride) noexcept
-      : data_(data), width_(width), height_(height), channels_(channels),
-        pixel_stride_(pixel_stride), row_stride_(row_stride) {}
+      : data_(data),
+        width_(width),
+        height_(height),
+        channels_(channels),
+        pixel_stride_(pixel_stride),
+        row_stride_(row_stride) {}
 
   /// A view of const elements onto the same pixels.
   operator ImageView<const T>() const noexcept {  // NOLINT: implicit by design
@@ -77,7 +81,9 @@ class Image {
  public:
   Image() = default;
   Image(int width, int height, int channels, T fill = T{})
-      : width_(width), height_(height), channels_(channels),
+      : width_(width),
+        height_(height),
+        channels_(channels),
         pixels_(static_cast<size_t>(width) * static_cast<size_t>(height) * static_cast<size_t>(channels), fill) {
     assert(width >= 0 && height >= 0 && channels >= 0);
   }

@@ -93,8 +93,7 @@ inline Result<ImageInfo> probe_image(std::span<const uint8_t> bytes, const Image
   if (bytes.size() > static_cast<size_t>(INT_MAX))
     return make_error(Status::insufficient_space, "image: %zu encoded bytes, limit is %d", bytes.size(), INT_MAX);
   ImageInfo info;
-  if (!stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &info.width, &info.height,
-                             &info.channels))
+  if (!stbi_info_from_memory(bytes.data(), static_cast<int>(bytes.size()), &info.width, &info.height, &info.channels))
     return make_error(Status::bad_data, "image: not a decodable image (%zu bytes): %s", bytes.size(),
                       detail::stbi_reason());
   if (info.width <= 0 || info.height <= 0)
@@ -252,8 +251,7 @@ inline VoidResult write_jpeg(const std::string& path, ImageView<const uint8_t> i
 /// [0,1], NaN becomes 0, alpha (last channel of 2/4) is stored linearly. Errors as write_png().
 inline VoidResult write_png_srgb(const std::string& path, ImageView<const float> image) {
   if (image.empty())
-    return make_error(Status::invalid_argument, "%s: empty image (%dx%d)", path.c_str(), image.width(),
-                      image.height());
+    return make_error(Status::invalid_argument, "%s: empty image (%dx%d)", path.c_str(), image.width(), image.height());
   if (image.channels() < 1 || image.channels() > 4)
     return make_error(Status::invalid_argument, "%s: %d channels, expected 1 to 4", path.c_str(), image.channels());
   const Image<uint8_t> encoded = linear_to_srgb8_image(image);

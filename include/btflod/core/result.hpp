@@ -29,14 +29,22 @@ enum class Status : unsigned char {
 /// Returns a stable lower-case name for a status, e.g. "bad_data". Never returns null.
 constexpr const char* status_name(Status s) noexcept {
   switch (s) {
-    case Status::success: return "success";
-    case Status::bad_data: return "bad_data";
-    case Status::short_output: return "short_output";
-    case Status::insufficient_space: return "insufficient_space";
-    case Status::invalid_argument: return "invalid_argument";
-    case Status::io_error: return "io_error";
-    case Status::unsupported: return "unsupported";
-    case Status::cancelled: return "cancelled";
+    case Status::success:
+      return "success";
+    case Status::bad_data:
+      return "bad_data";
+    case Status::short_output:
+      return "short_output";
+    case Status::insufficient_space:
+      return "insufficient_space";
+    case Status::invalid_argument:
+      return "invalid_argument";
+    case Status::io_error:
+      return "io_error";
+    case Status::unsupported:
+      return "unsupported";
+    case Status::cancelled:
+      return "cancelled";
   }
   return "unknown";
 }
@@ -66,7 +74,8 @@ inline std::string vformat_message(const char* fmt, va_list args) {
 #if defined(__GNUC__)
 __attribute__((format(printf, 1, 2)))
 #endif
-inline std::string format_message(const char* fmt, ...) {
+inline std::string
+format_message(const char* fmt, ...) {
   va_list args;
   va_start(args, fmt);
   std::string out = vformat_message(fmt, args);
@@ -78,7 +87,8 @@ inline std::string format_message(const char* fmt, ...) {
 #if defined(__GNUC__)
 __attribute__((format(printf, 2, 3)))
 #endif
-inline Error make_error(Status status, const char* fmt, ...) {
+inline Error
+make_error(Status status, const char* fmt, ...) {
   va_list args;
   va_start(args, fmt);
   Error e{status, vformat_message(fmt, args)};

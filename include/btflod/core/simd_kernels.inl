@@ -4,9 +4,8 @@
 //   V                      the vector-operations type of that ISA (F8 = 8 float lanes: zero,
 //                          load, store, bcast, mul, add, add_interleaved4, add_strided;
 //                          mul1 (one float product, out of FMA contraction), permute (lanes
-//                          by an index table), middle (lanes 4..11 of two vectors); kHalfLanes with half_to_float_lanes /
-//                          float_to_half_lanes;
-//                          kMarkLanes with ne_mask);
+//                          by an index table), middle (lanes 4..11 of two vectors); kHalfLanes with half_to_float_lanes
+//                          / float_to_half_lanes; kMarkLanes with ne_mask);
 //   BTFLOD_KERNEL_ATTR     the function attribute compiling the code for that ISA (may be empty);
 //   BTFLOD_KERNEL_INLINE   BTFLOD_KERNEL_ATTR plus forced inlining, for the helpers.
 // Every sum is evaluated in the same order in every build, starting from its first product, with
@@ -95,7 +94,8 @@ BTFLOD_KERNEL_ATTR void run_marks(const uint32_t* words, size_t n, uint64_t* mar
     uint64_t m = 0;
     size_t k = 0;
     for (; k + V::kMarkLanes <= lim; k += V::kMarkLanes) m |= V::ne_mask(p + k) << k;
-    for (; k < lim; ++k) m |= static_cast<uint64_t>(p[k] != p[static_cast<ptrdiff_t>(k) - 1]) << k;  // words[-1] is readable
+    for (; k < lim; ++k)
+      m |= static_cast<uint64_t>(p[k] != p[static_cast<ptrdiff_t>(k) - 1]) << k;  // words[-1] is readable
     marks[q / 64] = m;
   }
 }
@@ -113,8 +113,8 @@ BTFLOD_KERNEL_INLINE void upsample_texel(const float* column, uint32_t x0, float
 
 // The same texel with its two column values blended on the spot from the parent rows (the
 // vertical blend gy·row0 + fy·row1 of the column array, same bits).
-BTFLOD_KERNEL_INLINE void upsample_texel_from_rows(const float* row0, const float* row1, float gy, float fy, uint32_t x0,
-                                                   float fx, uint32_t channels, float* dst) noexcept {
+BTFLOD_KERNEL_INLINE void upsample_texel_from_rows(const float* row0, const float* row1, float gy, float fy,
+                                                   uint32_t x0, float fx, uint32_t channels, float* dst) noexcept {
   const float gx = 1.0f - fx;
   const size_t at = size_t{x0} * channels;
   for (uint32_t k = 0; k < channels; ++k) {
@@ -234,6 +234,5 @@ BTFLOD_KERNEL_ATTR void upsample_parent(const float* parent, uint32_t s, uint32_
   }
 }
 
-inline constexpr SimdKernels kTable = {V::kIsa,       &half_to_float, &float_to_half,  &dct8_forward,
-                                       &dct8_inverse, &tile_idct_add, &tile_idct_add4, &run_marks,
-                                       &upsample_parent};
+inline constexpr SimdKernels kTable = {V::kIsa,        &half_to_float,  &float_to_half, &dct8_forward,   &dct8_inverse,
+                                       &tile_idct_add, &tile_idct_add4, &run_marks,     &upsample_parent};

@@ -24,7 +24,8 @@ class ThreadPool {
   /// value of the BTFLOD_THREADS environment variable when set.
   explicit ThreadPool(unsigned threads = 0) {
     if (threads == 0) {
-      if (const char* env = std::getenv("BTFLOD_THREADS")) threads = static_cast<unsigned>(std::strtoul(env, nullptr, 10));
+      if (const char* env = std::getenv("BTFLOD_THREADS"))
+        threads = static_cast<unsigned>(std::strtoul(env, nullptr, 10));
       if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
     }
     workers_.reserve(threads);

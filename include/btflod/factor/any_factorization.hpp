@@ -23,11 +23,16 @@ using AnyFactorization = std::variant<Fmf, PcaViews, LaplacianPca, LocalPca, Spm
 /// Short name of the representation ("fmf", "pca-k", "laplacian", "lpca", "spmm").
 inline const char* factorization_name(const AnyFactorization& f) noexcept {
   switch (f.index()) {
-    case 0: return "fmf";
-    case 1: return "pca-k";
-    case 2: return "laplacian";
-    case 3: return "lpca";
-    default: return "spmm";
+    case 0:
+      return "fmf";
+    case 1:
+      return "pca-k";
+    case 2:
+      return "laplacian";
+    case 3:
+      return "lpca";
+    default:
+      return "spmm";
   }
 }
 
@@ -40,11 +45,16 @@ inline Result<AnyFactorization> parse_factorization(std::span<const uint8_t> byt
     return AnyFactorization(std::move(*r));
   };
   switch (file->kind) {
-    case FactorKind::fmf: return wrap(Fmf::deserialize(bytes));
-    case FactorKind::pca_views: return wrap(PcaViews::deserialize(bytes));
-    case FactorKind::laplacian_pca: return wrap(LaplacianPca::deserialize(bytes));
-    case FactorKind::local_pca: return wrap(LocalPca::deserialize(bytes));
-    case FactorKind::spmm: return wrap(Spmm::deserialize(bytes));
+    case FactorKind::fmf:
+      return wrap(Fmf::deserialize(bytes));
+    case FactorKind::pca_views:
+      return wrap(PcaViews::deserialize(bytes));
+    case FactorKind::laplacian_pca:
+      return wrap(LaplacianPca::deserialize(bytes));
+    case FactorKind::local_pca:
+      return wrap(LocalPca::deserialize(bytes));
+    case FactorKind::spmm:
+      return wrap(Spmm::deserialize(bytes));
   }
   return make_error(Status::bad_data, "factor file: unknown kind");
 }

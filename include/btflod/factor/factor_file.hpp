@@ -43,7 +43,8 @@ inline constexpr uint32_t kFactorMaxExtent = 1u << 16;
 /// Four-character section tag, e.g. factor_tag("SHAP").
 constexpr uint32_t factor_tag(const char (&s)[5]) noexcept {
   return static_cast<uint32_t>(static_cast<uint8_t>(s[0])) | static_cast<uint32_t>(static_cast<uint8_t>(s[1])) << 8 |
-         static_cast<uint32_t>(static_cast<uint8_t>(s[2])) << 16 | static_cast<uint32_t>(static_cast<uint8_t>(s[3])) << 24;
+         static_cast<uint32_t>(static_cast<uint8_t>(s[2])) << 16 |
+         static_cast<uint32_t>(static_cast<uint8_t>(s[3])) << 24;
 }
 
 /// Texel and direction counts of a factorised BTF plus its direction sets.
@@ -153,7 +154,8 @@ class FactorFile {
       const uint32_t tag = r.u32();
       const uint64_t len = r.u64();
       const uint32_t crc = r.u32();
-      if (!r.ok()) return make_error(Status::short_output, "factor file: section %u header truncated at offset %zu", i, at);
+      if (!r.ok())
+        return make_error(Status::short_output, "factor file: section %u header truncated at offset %zu", i, at);
       if (len > r.remaining())
         return make_error(Status::short_output, "factor file: section %u at offset %zu declares %llu bytes, %zu remain",
                           i, at, static_cast<unsigned long long>(len), r.remaining());

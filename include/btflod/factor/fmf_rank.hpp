@@ -45,10 +45,10 @@ struct FmfRankPoint {
 
 /// What choose_fmf_rank() found.
 struct FmfRankChoice {
-  Fmf fmf;                            ///< truncated to the chosen rank
-  int components = 0;                 ///< the chosen rank
-  bool target_met = false;            ///< false: no candidate reached the target (the largest is returned)
-  std::vector<FmfRankPoint> curve;    ///< every candidate tried, in order (up to the chosen one)
+  Fmf fmf;                          ///< truncated to the chosen rank
+  int components = 0;               ///< the chosen rank
+  bool target_met = false;          ///< false: no candidate reached the target (the largest is returned)
+  std::vector<FmfRankPoint> curve;  ///< every candidate tried, in order (up to the chosen one)
 };
 
 /// The first `components` components of an FMF: U's and V·Σ's leading columns, the ambient
@@ -67,7 +67,8 @@ inline Fmf truncate_fmf(const Fmf& f, int components) {
   take(f.u, out.u);
   take(f.v, out.v);
   take(f.u_ambient, out.u_ambient);
-  out.singular_values.assign(f.singular_values.begin(), f.singular_values.begin() + std::min(f.singular_values.size(), to));
+  out.singular_values.assign(f.singular_values.begin(),
+                             f.singular_values.begin() + std::min(f.singular_values.size(), to));
   out.svd_report = f.svd_report;
   return out;
 }

@@ -34,9 +34,9 @@ inline EigenTextures eigen_textures_from_fmf(const Fmf& fmf) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       for (int k = 0; k < c; ++k)
-        e.textures.at(x, y, k) = fmf.v[(static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) *
-                                           static_cast<size_t>(c) +
-                                       static_cast<size_t>(k)];
+        e.textures.at(x, y, k) =
+            fmf.v[(static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * static_cast<size_t>(c) +
+                  static_cast<size_t>(k)];
   e.angular = fmf.u;
   e.light_count = static_cast<uint32_t>(fmf.shape.light_count());
   e.view_count = static_cast<uint32_t>(fmf.shape.view_count());
@@ -48,8 +48,9 @@ inline EigenTextures eigen_textures_from_fmf(const Fmf& fmf) {
 /// The complete .bsvtf container of an FMF in one call: its eigen-textures
 /// (eigen_textures_from_fmf), U in its view-major row order, its light and view directions with
 /// their set names; `options` gives the rest (tile size, border, edge, material name, build
-/// options: quality, tolerances, threads, progress) — its directions and set names are replaced. Errors: those of build_bsvtf_from_eigen_textures() (e.g. an FMF whose U does
-/// not have lights · views · 3 rows). Deterministic for any thread count. Allocates.
+/// options: quality, tolerances, threads, progress) — its directions and set names are replaced. Errors: those of
+/// build_bsvtf_from_eigen_textures() (e.g. an FMF whose U does not have lights · views · 3 rows). Deterministic for any
+/// thread count. Allocates.
 inline Result<std::vector<uint8_t>> build_bsvtf_from_fmf(const Fmf& fmf, BsvtfFromEigenOptions options = {}) {
   options.light_directions = direction_vectors(fmf.shape.lights);
   options.view_directions = direction_vectors(fmf.shape.views);

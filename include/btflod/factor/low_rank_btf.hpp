@@ -27,8 +27,8 @@ inline DirectionSet small_direction_set(int rings, int per_ring, const char* nam
 /// Fills a BTF with Σ_{k<rank} decay^k · a_k(l, v, c) · b_k(x) + noise·N(0, 1) + offset, where
 /// a_k and b_k are smooth-ish deterministic pseudo-random patterns (seeded). Positive offset
 /// keeps values mostly positive like real reflectance. Deterministic for a given seed.
-inline BtfFloat make_low_rank_btf(int width, int height, DirectionSet views, DirectionSet lights, int rank,
-                                  float decay, float noise, uint64_t seed = 1, float offset = 0.5f) {
+inline BtfFloat make_low_rank_btf(int width, int height, DirectionSet views, DirectionSet lights, int rank, float decay,
+                                  float noise, uint64_t seed = 1, float offset = 0.5f) {
   BtfFloat btf(width, height, std::move(views), std::move(lights));
   detail::NormalGenerator gen(seed);
   const size_t nvl = btf.view_count() * btf.light_count();

@@ -63,8 +63,7 @@ struct PcaViews {
   }
   /// Interpolated evaluation: 3 × 3 taps of the light and view samples, weights multiplied.
   glm::vec3 evaluate(int x, int y, const AngularSample& light, const AngularSample& view) const noexcept {
-    return combine_angular_taps(light, view,
-                                [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
+    return combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_measured(x, y, vi, li); });
   }
   /// Bytes of all L and R matrices as float32.
   size_t size_bytes() const noexcept {
@@ -183,7 +182,8 @@ inline Result<PcaViews> factorize_pca_views(const BtfFloat& btf, const PcaViewsO
   PcaViews p;
   p.shape = BtfShape{btf.width(), btf.height(), btf.views(), btf.lights()};
   const size_t nv = btf.view_count(), nl = btf.light_count(), n = btf.texel_count();
-  const size_t k = options.views_per_group <= 0 ? nv : std::min<size_t>(static_cast<size_t>(options.views_per_group), nv);
+  const size_t k =
+      options.views_per_group <= 0 ? nv : std::min<size_t>(static_cast<size_t>(options.views_per_group), nv);
   p.views_per_group = static_cast<int>(k);
   const size_t group_count = (nv + k - 1) / k;
   using RowMat = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -211,9 +211,9 @@ inline Result<PcaViews> factorize_pca_views(const BtfFloat& btf, const PcaViewsO
     g.r.resize(static_cast<size_t>(c + 1) * cols);
     Eigen::Map<RowMat> lm(g.l.data(), static_cast<Eigen::Index>(n), c + 1);
     Eigen::Map<RowMat> rm(g.r.data(), c + 1, static_cast<Eigen::Index>(cols));
-    lm.col(0) = mean;                          // L = [m | UΣ]
+    lm.col(0) = mean;  // L = [m | UΣ]
     lm.rightCols(c) = svd->u * svd->s.asDiagonal();
-    rm.row(0).setOnes();                       // R = [1; Vᵀ]
+    rm.row(0).setOnes();  // R = [1; Vᵀ]
     rm.bottomRows(c) = svd->v.transpose();
     p.groups.push_back(std::move(g));
     if (!report_progress(progress, "pca-k", static_cast<double>(gi + 1) / static_cast<double>(group_count)))

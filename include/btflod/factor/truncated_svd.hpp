@@ -147,8 +147,8 @@ inline void format_power_iteration_stage(char (&text)[160], int iterations, cons
     std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, predicted %.5fx optimum", iterations,
                   std::sqrt(b.error2), std::sqrt(b.error2 / (b.error2 - b.predicted_excess)));
   else
-    std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, no bound on the optimum yet",
-                  iterations, std::sqrt(b.error2));
+    std::snprintf(text, sizeof text, "power iteration %d: error estimate %.6g, no bound on the optimum yet", iterations,
+                  std::sqrt(b.error2));
 }
 
 /// Y += A·Ω over one column block: `a` holds columns [col0, col0 + cnt) of A and `acc` is Y.

@@ -204,7 +204,8 @@ class VoteCounter {
     t.array<decltype(touched_words_)>(total);
     const uint64_t frames = std::max<uint32_t>(window.frames, 1);
     if (frames > 1) {
-      const uint64_t ring = window.max_tiles_per_frame == 0 ? total : std::min<uint64_t>(window.max_tiles_per_frame, total);
+      const uint64_t ring =
+          window.max_tiles_per_frame == 0 ? total : std::min<uint64_t>(window.max_tiles_per_frame, total);
       t.array<decltype(ring_)>(frames * ring);
       t.array<decltype(ring_size_)>(frames);
       t.array<decltype(window_)>(total);

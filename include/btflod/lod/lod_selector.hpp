@@ -27,7 +27,8 @@ struct LodInput {
 /// level() must be noexcept, allocation-free and thread-safe.
 template <class S>
 concept LodSelector = requires(const S& s, const LodInput& in, uint32_t finest_level) {
-  { s.level(in, finest_level) } noexcept -> std::same_as<float>;
+  { s.level(in, finest_level) }
+  noexcept->std::same_as<float>;
 };
 
 /// Paper 000 eq. 1 with bias and anisotropy. bias > 0 selects coarser levels.
@@ -43,7 +44,7 @@ struct DerivativeLod {
     if (max_anisotropy > 1.0f) rho = std::max(major / max_anisotropy, minor);
     const float top = static_cast<float>(finest_level);
     if (!(rho > 0.0f) || !std::isfinite(rho)) return rho > 0.0f ? 0.0f : top;  // inf → coarsest, NaN/0 → finest
-    const float l = top - std::log2(rho) - bias;  // paper 000 eq. 1
+    const float l = top - std::log2(rho) - bias;                               // paper 000 eq. 1
     return std::clamp(l, 0.0f, top);
   }
 };

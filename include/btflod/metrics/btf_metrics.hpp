@@ -15,9 +15,9 @@ namespace btflod {
 /// averages of the per-image values; mse_ycbcr per channel over all samples.
 struct BtfErrorReport {
   double rmse = 0.0;
-  double psnr = 0.0;        ///< dB for the given data range
-  double mean_ssim = 1.0;   ///< mean over images of MSSIM (Wang 2004)
-  double mae_cielab = 0.0;  ///< mean over images of the CIELAB MAE (paper 004 §7.1)
+  double psnr = 0.0;                               ///< dB for the given data range
+  double mean_ssim = 1.0;                          ///< mean over images of MSSIM (Wang 2004)
+  double mae_cielab = 0.0;                         ///< mean over images of the CIELAB MAE (paper 004 §7.1)
   std::array<double, 3> mse_ycbcr{0.0, 0.0, 0.0};  ///< paper 001 Table 1
 };
 
@@ -49,7 +49,8 @@ inline BtfErrorReport compare_btfs(const BtfFloat& reference, const BtfFloat& ap
     }
   const double n = static_cast<double>(images);
   r.rmse = std::sqrt(sse / n);
-  r.psnr = sse == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(data_range * data_range / (sse / n));
+  r.psnr =
+      sse == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(data_range * data_range / (sse / n));
   r.mean_ssim = ssim / n;
   r.mae_cielab = lab / n;
   for (int c = 0; c < 3; ++c) r.mse_ycbcr[static_cast<size_t>(c)] = ycc[static_cast<size_t>(c)] / n;

@@ -21,8 +21,7 @@ namespace btflod {
 
 namespace detail {
 inline bool same_shape(ImageView<const float> a, ImageView<const float> b) noexcept {
-  return !a.empty() && !b.empty() && a.width() == b.width() && a.height() == b.height() &&
-         a.channels() == b.channels();
+  return !a.empty() && !b.empty() && a.width() == b.width() && a.height() == b.height() && a.channels() == b.channels();
 }
 }  // namespace detail
 
@@ -117,7 +116,8 @@ inline std::vector<double> ssim_map(ImageView<const float> a, ImageView<const fl
     for (int x = 0; x < mw; ++x) {
       double s[5] = {0, 0, 0, 0, 0};
       for (int i = 0; i < n; ++i)
-        for (int k = 0; k < 5; ++k) s[k] += g[static_cast<size_t>(i)] * h[(static_cast<size_t>(k) * a.height() + y + i) * row + x];
+        for (int k = 0; k < 5; ++k)
+          s[k] += g[static_cast<size_t>(i)] * h[(static_cast<size_t>(k) * a.height() + y + i) * row + x];
       const double mx = s[0], my = s[1];
       const double vx = s[2] - mx * mx, vy = s[3] - my * my, cxy = s[4] - mx * my;
       out[static_cast<size_t>(y) * row + static_cast<size_t>(x)] =

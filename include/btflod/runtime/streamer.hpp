@@ -189,10 +189,10 @@ struct StreamerPacketUpload {
 };
 
 enum class ResidencyEventKind : uint8_t {
-  material_ready,  ///< every root tile and (unless streamed) every U′ packet was handed out
-  packet_loaded,   ///< a U′ packet was handed out (packet_uploads)
-  tile_failed,     ///< a tile could not be read or decoded (status says why); retried after a back-off
-  packet_failed,   ///< a U′ packet could not be read or verified; retried after a back-off
+  material_ready,      ///< every root tile and (unless streamed) every U′ packet was handed out
+  packet_loaded,       ///< a U′ packet was handed out (packet_uploads)
+  tile_failed,         ///< a tile could not be read or decoded (status says why); retried after a back-off
+  packet_failed,       ///< a U′ packet could not be read or verified; retried after a back-off
   tile_unavailable,    ///< a tile failed StreamerFailurePolicy::tile_attempts times: never requested again
   material_failed,     ///< a root or start-up U′ packet failed startup_attempts times (terminal until
                        ///< retry_material()); tile = the failing texture's root or packet
@@ -235,17 +235,17 @@ struct StreamerOutputs {
 /// (nothing allocates later). total is everything allocated through StreamerConfig::allocator
 /// and still held (libdeflate's decompressors, outside the callbacks, are not counted).
 struct StreamerMemory {
-  uint64_t tile_cache = 0;       ///< slot table, per-tile slot indices, page-table bookkeeping
-  uint64_t scheduler = 0;        ///< requests, weights, priorities, per-tile flags
-  uint64_t votes = 0;            ///< vote counter (window of feedback frames)
-  uint64_t payload_cache = 0;    ///< compressed ancestors (payload_cache_bytes + index)
-  uint64_t job_buffers = 0;      ///< payload chains, decode scratch, output texels, U′ packets
-  uint64_t decoders = 0;         ///< decode_workers tile decoders (symbols, zlib/zstd state)
-  uint64_t decoded_cache = 0;    ///< decoded_cache_tiles decoded ancestors
-  uint64_t tables = 0;           ///< per-material, per-tile records, page-table mirror, queues,
-                                 ///< failure counts, the Streamer object and its allocation ledger
-  uint64_t total = 0;            ///< all of the above
-  uint64_t allocations = 0;      ///< allocations held (each through the callbacks)
+  uint64_t tile_cache = 0;     ///< slot table, per-tile slot indices, page-table bookkeeping
+  uint64_t scheduler = 0;      ///< requests, weights, priorities, per-tile flags
+  uint64_t votes = 0;          ///< vote counter (window of feedback frames)
+  uint64_t payload_cache = 0;  ///< compressed ancestors (payload_cache_bytes + index)
+  uint64_t job_buffers = 0;    ///< payload chains, decode scratch, output texels, U′ packets
+  uint64_t decoders = 0;       ///< decode_workers tile decoders (symbols, zlib/zstd state)
+  uint64_t decoded_cache = 0;  ///< decoded_cache_tiles decoded ancestors
+  uint64_t tables = 0;         ///< per-material, per-tile records, page-table mirror, queues,
+                               ///< failure counts, the Streamer object and its allocation ledger
+  uint64_t total = 0;          ///< all of the above
+  uint64_t allocations = 0;    ///< allocations held (each through the callbacks)
 };
 
 /// A snapshot of the Streamer's state and counters since creation. Cheap (O(jobs)); any frame.
@@ -284,10 +284,10 @@ struct StreamerStats {
 struct StreamerGpuLayout {
   uint32_t cache_width = 0, cache_height = 0, cache_layers = 0;  ///< texels of the tile cache
   uint32_t page_table_width = 0, page_table_height = 0;          ///< finest-level tiles, max over textures
-  uint32_t page_table_levels = 0;                                 ///< L + 1, max over textures
-  uint32_t page_table_layers = 0;                                 ///< virtual textures
-  uint32_t u_rows = 0;                                            ///< rows of the largest U′ packet
-  uint32_t u_packets = 0;                                         ///< virtual textures
+  uint32_t page_table_levels = 0;                                ///< L + 1, max over textures
+  uint32_t page_table_layers = 0;                                ///< virtual textures
+  uint32_t u_rows = 0;                                           ///< rows of the largest U′ packet
+  uint32_t u_packets = 0;                                        ///< virtual textures
 };
 
 /// The work a thread executor pulls (stream/thread_executor.hpp). Thread-safe.
@@ -308,7 +308,6 @@ class StreamerJobQueue {
   /// Registers a function update() calls when it made jobs runnable (e.g. to wake workers).
   virtual void set_job_notify(void (*notify)(void* user), void* user) noexcept = 0;
 };
-
 
 class Streamer {
  public:

@@ -59,13 +59,14 @@ inline Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMat
   if (cap.material_tiles == 0) cap.material_tiles = cap.tiles == 0 ? need.material_tiles : cap.tiles;
   if (!resolve(cap.materials, need.materials) || !resolve(cap.textures, need.textures) ||
       !resolve(cap.tiles, need.tiles) || !resolve(cap.material_tiles, need.material_tiles) ||
-      !resolve(cap.max_level_count, need.max_level_count) ||
-      !resolve(cap.max_finest_tiles, need.max_finest_tiles) || !resolve(cap.max_tile_bytes, need.max_tile_bytes) ||
-      !resolve(cap.max_packet_bytes, need.max_packet_bytes) || !resolve(cap.max_u_rows, need.max_u_rows))
+      !resolve(cap.max_level_count, need.max_level_count) || !resolve(cap.max_finest_tiles, need.max_finest_tiles) ||
+      !resolve(cap.max_tile_bytes, need.max_tile_bytes) || !resolve(cap.max_packet_bytes, need.max_packet_bytes) ||
+      !resolve(cap.max_u_rows, need.max_u_rows))
     return make_error(Status::invalid_argument, "streamer: the capacity is below what the %zu materials given need",
                       materials.size());
   if (cap.materials == 0)
-    return make_error(Status::invalid_argument, "streamer: no materials and no capacity for any (StreamerConfig::capacity)");
+    return make_error(Status::invalid_argument,
+                      "streamer: no materials and no capacity for any (StreamerConfig::capacity)");
   if (cap.materials > kFeedbackMaxMaterials)
     return make_error(Status::invalid_argument, "streamer: %u materials, the feedback word holds at most %u",
                       cap.materials, kFeedbackMaxMaterials);
@@ -74,8 +75,9 @@ inline Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMat
                       "streamer: a capacity without materials needs textures, tiles and max_level_count (≤ %u)",
                       kMaxTileLevel + 1);
   if (config.cache.slot_count() < need.textures)
-    return make_error(Status::insufficient_space, "streamer: %u cache slots cannot pin the roots of %u virtual textures",
-                      config.cache.slot_count(), need.textures);
+    return make_error(Status::insufficient_space,
+                      "streamer: %u cache slots cannot pin the roots of %u virtual textures", config.cache.slot_count(),
+                      need.textures);
   return Room{need, cap};
 }
 
@@ -232,9 +234,10 @@ inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const S
   const VtCapacity set{cap.materials, cap.textures, cap.tiles};
   const AllocationTally cache = TileCache::memory_required(set, config.cache);
   const AllocationTally sched = Scheduler::memory_required(set, config.cache.slot_count(), config.scheduler);
-  const AllocationTally votes = VoteCounter::memory_required(VoteCapacity{cap.materials, cap.material_tiles},
-                                                             VoteWindowConfig{std::max(1u, config.vote_window_frames), 0});
-  const AllocationTally payloads = PayloadCache::memory_required(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512});
+  const AllocationTally votes = VoteCounter::memory_required(
+      VoteCapacity{cap.materials, cap.material_tiles}, VoteWindowConfig{std::max(1u, config.vote_window_frames), 0});
+  const AllocationTally payloads =
+      PayloadCache::memory_required(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512});
   const TileLayout layout{config.cache.tile_size, config.cache.border, 4};
   const uint64_t samples = layout.sample_count();
   const uint64_t requests = config.scheduler.budgets.requests_in_flight;
@@ -249,7 +252,8 @@ inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const S
   jobs.array<decltype(Impl::job_of_request)>(requests);
   jobs.array<decltype(Impl::waiting_packets)>(requests);
   AllocationTally decoders;
-  decoders.array<decltype(Impl::decoder_storage)>(uint64_t{config.decode_workers} * sizeof(TileDecoder) + alignof(TileDecoder));
+  decoders.array<decltype(Impl::decoder_storage)>(uint64_t{config.decode_workers} * sizeof(TileDecoder) +
+                                                  alignof(TileDecoder));
   decoders.array<decltype(Impl::decoder_busy)>(config.decode_workers);
   const AllocationTally one_decoder = TileDecoder::memory_required(layout, config.inflate_backend);
   for (uint32_t d = 0; d < config.decode_workers; ++d) decoders += one_decoder;
@@ -283,7 +287,8 @@ inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const S
   m.decoders = decoders.bytes;
   m.decoded_cache = decoded.bytes;
   m.tables = tables.bytes;
-  m.total = m.tile_cache + m.scheduler + m.votes + m.payload_cache + m.job_buffers + m.decoders + m.decoded_cache + m.tables;
+  m.total =
+      m.tile_cache + m.scheduler + m.votes + m.payload_cache + m.job_buffers + m.decoders + m.decoded_cache + m.tables;
   m.allocations = cache.allocations + sched.allocations + votes.allocations + payloads.allocations + jobs.allocations +
                   decoders.allocations + decoded.allocations + tables.allocations;
   return m;

@@ -114,7 +114,7 @@ struct AllocationLedger {
 struct HeldWork {
   uint32_t texture = 0;  // global virtual texture (its material's packet: material index)
   uint32_t flat = 0;
-  uint64_t until = 0;    // the frame it may be requested again
+  uint64_t until = 0;  // the frame it may be requested again
   uint8_t packet = 0;
 };
 
@@ -168,15 +168,13 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
     ++inside;
     needs.max_tile_bytes = std::max(needs.max_tile_bytes, e.size);
   }
-  if (inside != needs.tiles)
-    return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
+  if (inside != needs.tiles) return fail(Status::bad_data, "a tile of the hierarchy is missing from the container");
   for (uint32_t k = 0; k < needs.textures; ++k)
     needs.max_packet_bytes = std::max(needs.max_packet_bytes, sm.directory->packets[k].size);
   return Status::success;
 }
 
 }  // namespace detail
-
 
 struct Streamer::Impl final : StreamerJobQueue {
   detail::AllocationLedger* ledger = nullptr;  // owned by Streamer::destroy()
@@ -667,7 +665,6 @@ struct Streamer::Impl final : StreamerJobQueue {
   void release_held() noexcept;
   Status retry_material(uint32_t m) noexcept;
 
-
   Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
     if (out.tile_uploads.size() < tile_uploads_bound() || out.packet_uploads.size() < packet_uploads_bound())
       return Status::invalid_argument;
@@ -871,6 +868,8 @@ struct Streamer::Impl final : StreamerJobQueue {
 
 }  // namespace btflod
 
+// The failure policy and the live materials, then creation and the accessors, which use both.
 #include "btflod/runtime/streamer_failures.hpp"
 #include "btflod/runtime/streamer_materials.hpp"
+
 #include "btflod/runtime/streamer_create.hpp"

@@ -38,7 +38,8 @@ inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> 
   std::sort(tiles.rbegin(), tiles.rend());
   std::sort(material_tiles.rbegin(), material_tiles.rend());
   cap.materials = static_cast<uint32_t>(n);
-  for (size_t i = 0; i < n; ++i) cap.textures += textures[i], cap.tiles += tiles[i], cap.material_tiles += material_tiles[i];
+  for (size_t i = 0; i < n; ++i)
+    cap.textures += textures[i], cap.tiles += tiles[i], cap.material_tiles += material_tiles[i];
   return cap;
 }
 
@@ -93,7 +94,8 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
   if (const Status s = detail::check_streamer_material(sm, config.cache, needs, why); s != Status::success) return s;
   const StreamerCapacity& cap = capacity;
   if (needs.level_count > cap.max_level_count || needs.finest_tiles > cap.max_finest_tiles)
-    return fail(Status::insufficient_space, "the material's hierarchy is deeper or wider than the capacity's page table");
+    return fail(Status::insufficient_space,
+                "the material's hierarchy is deeper or wider than the capacity's page table");
   if (needs.max_tile_bytes > cap.max_tile_bytes || needs.max_packet_bytes > cap.max_packet_bytes ||
       needs.rows > cap.max_u_rows)
     return fail(Status::insufficient_space, "a tile payload, U′ packet or U′ row count exceeds the capacity");
@@ -112,8 +114,8 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
     return fail(Status::insufficient_space, "the cache has no room for the material");
   const VtMaterial& vm = set.material(m);
   const VtLevelTable& lv = vm.levels;
-  if (votes.add_material(m, VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]}) !=
-      Status::success) {
+  if (votes.add_material(m, VoteLayout{lv.finest_level(), lv.tiles_x[lv.finest_level()],
+                                       lv.tiles_y[lv.finest_level()]}) != Status::success) {
     scheduler.remove_material(cache, m);
     return fail(Status::insufficient_space, "the vote counter has no room for the material");
   }

@@ -64,7 +64,9 @@ struct HlslEmitter {
   void constant_float(const char* name, uint32_t v) { constant("float", name, std::to_string(v) + ".0"); }
   void constant_uint(const char* name, uint32_t v) { constant("uint", name, std::to_string(v) + "u"); }
   void constant_bool(const char* name, bool v) { constant("bool", name, v ? "true" : "false"); }
-  void constant_real(const char* name, float v) { constant("float", name, format_message("%.9e", static_cast<double>(v))); }
+  void constant_real(const char* name, float v) {
+    constant("float", name, format_message("%.9e", static_cast<double>(v)));
+  }
 };
 
 inline void hlsl_direction_map(HlslEmitter& e) {

@@ -220,7 +220,7 @@ inline void hlsl_pca_rings(HlslEmitter& e) {
 
 /// HLSL emitter per GlslPiece, in enum order (the needs are kPieces' of glsl_generator.hpp).
 inline constexpr void (*kHlslPieces[])(HlslEmitter&) = {
-    hlsl_direction_map, hlsl_local_frame, hlsl_angular, hlsl_fmf_brdf, hlsl_fmf,  hlsl_page_table,  hlsl_bsvtf,
+    hlsl_direction_map, hlsl_local_frame, hlsl_angular, hlsl_fmf_brdf,  hlsl_fmf,  hlsl_page_table,  hlsl_bsvtf,
     hlsl_feedback,      hlsl_laplacian,   hlsl_lpca,    hlsl_pca_views, hlsl_spmm, hlsl_ring_search, hlsl_pca_rings,
 };
 static_assert(std::size(kHlslPieces) == kGlslPieceCount, "one HLSL emitter per GlslPiece, in enum order");

@@ -59,6 +59,9 @@ concept ColumnMajor4x4 = requires(const M& m) {
 };
 }  // namespace detail
 
+// clang-format 14 reads `Foreign<V> && …` in a requires clause as an rvalue reference and
+// glues the `&&` to it; the conversion templates below keep their hand layout.
+// clang-format off
 /// GLSL vec2 / ivec2 (T = float / int32_t: 8 bytes, std140 alignment 8). Converts from any type
 /// with members x and y (glm::vec2) and to any type constructible from two T.
 template <class T>
@@ -161,6 +164,8 @@ struct alignas(16) Float4x4 {
   constexpr float operator()(int column, int row) const noexcept { return m[4 * column + row]; }
   friend constexpr bool operator==(const Float4x4&, const Float4x4&) noexcept = default;
 };
+
+// clang-format on
 
 // std140 (GLSL 4.50 §7.6.2.2): vec4 and uvec4 are 16 bytes aligned to 16, mat4 is an array of
 // four vec4 columns (stride 16); vec2/ivec2 are 8 bytes aligned to 8.

@@ -102,8 +102,8 @@ inline Result<std::vector<uint8_t>> build_bsvtf_from_eigen_textures(const EigenT
         options.light_directions.size(), options.view_directions.size(), e.light_count, e.view_count);
   auto pyramid = TilePyramid::build(e, options.tile_size, options.border, options.edge);
   if (!pyramid) return pyramid.error();
-  BsvtfMetadata md = bsvtf_metadata_for(e, *pyramid, options.light_directions,
-                                        options.view_directions, options.material_name);
+  BsvtfMetadata md =
+      bsvtf_metadata_for(e, *pyramid, options.light_directions, options.view_directions, options.material_name);
   md.light_set = options.light_set;
   md.view_set = options.view_set;
   const BsvtfTileInputs inputs = bsvtf_tiles_from_pyramid(*pyramid, md.level_count);

@@ -294,7 +294,8 @@ class Scheduler {
   /// and to the scheduler: its tiles start with weight 1, energy 0 and config().tile_bytes
   /// (set_weight / set_energy / set_tile_bytes give the real values), scheduling enabled.
   /// Writes the material id. Errors as TileCache::add_material. noexcept, no allocation.
-  Status add_material(TileCache& cache, const VtGeometry& geometry, uint32_t texture_count, uint32_t& material) noexcept {
+  Status add_material(TileCache& cache, const VtGeometry& geometry, uint32_t texture_count,
+                      uint32_t& material) noexcept {
     const Status st = cache.add_material(geometry, texture_count, material);
     if (st == Status::success) init_material(cache.set(), material);
     return st;
@@ -858,17 +859,17 @@ class Scheduler {
   SchedulerCounters total_counters_;
   Vec<Pending> pending_;
   Vec<uint32_t> free_requests_;
-  Vec<uint32_t> material_base_;   // per material: its entry_base in the tile-major arrays below
+  Vec<uint32_t> material_base_;      // per material: its entry_base in the tile-major arrays below
   Vec<uint32_t> material_textures_;  // per material: K (0 for a free id)
   Vec<uint32_t> material_tiles_;     // per material: tiles per virtual texture
-  Vec<uint8_t> requested_;        // per tile: 0, kRequested (a request is pending) or kHeld
-  Vec<uint32_t> texture_base_;    // per texture: index of its flat tile 0
-  Vec<uint32_t> texture_stride_;  // per texture: virtual textures of its material
-  Vec<float> set_weights_;        // w(i, l, l−1) as given
-  Vec<float> weights_;            // w as used (1 in votes_only mode)
-  Vec<float> energies_;           // ‖T‖²_F / T² (§6)
-  Vec<uint32_t> tile_bytes_;      // bytes a request counts
-  Vec<uint64_t> u_packet_bytes_;  // per material
+  Vec<uint8_t> requested_;           // per tile: 0, kRequested (a request is pending) or kHeld
+  Vec<uint32_t> texture_base_;       // per texture: index of its flat tile 0
+  Vec<uint32_t> texture_stride_;     // per texture: virtual textures of its material
+  Vec<float> set_weights_;           // w(i, l, l−1) as given
+  Vec<float> weights_;               // w as used (1 in votes_only mode)
+  Vec<float> energies_;              // ‖T‖²_F / T² (§6)
+  Vec<uint32_t> tile_bytes_;         // bytes a request counts
+  Vec<uint64_t> u_packet_bytes_;     // per material
   Vec<uint32_t> u_loaded_;
   Vec<uint8_t> u_requested_;
   Vec<double> u_priority_;

@@ -23,9 +23,9 @@
 
 #include "btflod/core/allocator.hpp"
 #include "btflod/core/angular_row_order.hpp"
-#include "btflod/core/range_list.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
+#include "btflod/core/range_list.hpp"
 #include "btflod/core/value_transform.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/vt/tile_id.hpp"
@@ -195,7 +195,6 @@ struct VtCapacity {
   uint64_t tile_entries = 0;  ///< Σ over live materials of tile_count · texture_count
 };
 
-
 /// Every virtual texture that shares one tile cache, grouped by material, with the per-tile
 /// values the scheduler needs (no texel data): w(i, l, l−1) of paper 000 eq. 8 and the mean
 /// squared norm of the tile ‖T‖²_F / T² (§6), both stored as half as in §7.
@@ -303,8 +302,8 @@ class VtSet {
     VtMaterial& m = materials_[id];
     m = VtMaterial{levels, static_cast<uint32_t>(first), texture_count, static_cast<uint32_t>(base), true};
     for (uint32_t k = 0; k < texture_count; ++k) texture_material_[first + k] = id;
-    std::fill(weights_.begin() + static_cast<ptrdiff_t>(base), weights_.begin() + static_cast<ptrdiff_t>(base + entries),
-              Half(1.0f));
+    std::fill(weights_.begin() + static_cast<ptrdiff_t>(base),
+              weights_.begin() + static_cast<ptrdiff_t>(base + entries), Half(1.0f));
     std::fill(energies_.begin() + static_cast<ptrdiff_t>(base),
               energies_.begin() + static_cast<ptrdiff_t>(base + entries), Half(0.0f));
     ++live_materials_;
@@ -334,7 +333,9 @@ class VtSet {
   /// True when material m exists now.
   bool material_live(uint32_t m) const noexcept { return m < materials_.size() && materials_[m].live; }
   /// True when virtual texture t belongs to a live material.
-  bool texture_live(uint32_t t) const noexcept { return t < texture_material_.size() && texture_material_[t] != kNoMaterial; }
+  bool texture_live(uint32_t t) const noexcept {
+    return t < texture_material_.size() && texture_material_[t] != kNoMaterial;
+  }
   /// Material m (an empty one, texture_count 0, when not live). Precondition: m < material_count().
   const VtMaterial& material(uint32_t m) const noexcept { return materials_[m]; }
   /// Material owning a virtual texture (kNoMaterial for a free one). Precondition: texture < texture_count().
@@ -351,7 +352,9 @@ class VtSet {
     return m.entry_base + (texture - m.first_texture) * m.levels.tile_count();
   }
   /// w(i, l, l−1) per tile (flat index), paper 000 eq. 8. For the root: mean squared norm.
-  std::span<Half> weights(uint32_t texture) noexcept { return {weights_.data() + texture_offset(texture), tiles(texture)}; }
+  std::span<Half> weights(uint32_t texture) noexcept {
+    return {weights_.data() + texture_offset(texture), tiles(texture)};
+  }
   /// Read-only w per tile. Precondition: texture_live(texture).
   std::span<const Half> weights(uint32_t texture) const noexcept {
     return {weights_.data() + texture_offset(texture), tiles(texture)};

@@ -104,8 +104,8 @@ struct FixedOrder {
   std::vector<RequestInfo> items;
   std::vector<std::vector<float>> decoded;  // per (material base + flat · K + local texture)
   std::vector<uint32_t> material_base;
-  std::vector<uint16_t> staging;  // half texels of deliveries until JavaScript uploaded them
-  std::vector<uint8_t> dirty;     // per global texture: page table to write again
+  std::vector<uint16_t> staging;       // half texels of deliveries until JavaScript uploaded them
+  std::vector<uint8_t> dirty;          // per global texture: page table to write again
   std::vector<PageTableWrite> writes;  // reserved for every page-table texel
 };
 

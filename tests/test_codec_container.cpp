@@ -86,6 +86,17 @@ std::vector<uint8_t> build(const Material& m, float quality = 50, ThreadPool* po
   return r.ok() ? r.value() : std::vector<uint8_t>{};
 }
 
+// The coded tiles of a container as write_bsvtf takes them (payload bytes, weight, energy).
+std::vector<BsvtfEncodedTile> encoded_tiles_of(const std::vector<uint8_t>& file, const BsvtfDirectory& d) {
+  std::vector<BsvtfEncodedTile> tiles;
+  for (const auto& e : d.tiles)
+    tiles.push_back(BsvtfEncodedTile{e.id,
+                                     std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
+                                                          file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
+                                     e.weight, e.energy});
+  return tiles;
+}
+
 void fix_header_crc(std::vector<uint8_t>& f) {
   const uint32_t c = crc32_of(std::span<const uint8_t>(f).first(kBsvtfHeaderSize - 4));
   std::memcpy(f.data() + kBsvtfHeaderSize - 4, &c, 4);
@@ -525,12 +536,7 @@ TEST(CodecContainer, RowOrderAndEnergiesRoundTripAndVersionTwoIsRead) {
   EXPECT_EQ(d->metadata.u_row_order, AngularRowOrder::view_major);
   for (const auto& t : m.tiles) EXPECT_EQ(d->find(t.id)->energy, t.energy);
   // The same tiles written as version 2.
-  std::vector<BsvtfEncodedTile> tiles;
-  for (const auto& e : d->tiles)
-    tiles.push_back(BsvtfEncodedTile{e.id,
-                                     std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
-                                                          file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
-                                     e.weight, e.energy});
+  const std::vector<BsvtfEncodedTile> tiles = encoded_tiles_of(file, *d);
   BsvtfMetadata md = d->metadata;
   const auto v2 = write_bsvtf(md, m.u, tiles, 2);
   ASSERT_TRUE(v2.ok()) << v2.message();
@@ -559,12 +565,7 @@ TEST(CodecContainer, ValueTransformRoundTripsAndOlderVersionsCannotStoreIt) {
   EXPECT_EQ(d->header.version, 4u);
   EXPECT_EQ(d->metadata.value_transform.encoding, ValueEncoding::log);
   EXPECT_EQ(d->metadata.value_transform.log_offset, 0.125f);
-  std::vector<BsvtfEncodedTile> tiles;
-  for (const auto& e : d->tiles)
-    tiles.push_back(BsvtfEncodedTile{e.id,
-                                     std::vector<uint8_t>(file.begin() + static_cast<ptrdiff_t>(e.offset),
-                                                          file.begin() + static_cast<ptrdiff_t>(e.offset + e.size)),
-                                     e.weight, e.energy});
+  const std::vector<BsvtfEncodedTile> tiles = encoded_tiles_of(file, *d);
   const auto v3 = write_bsvtf(d->metadata, m.u, tiles, 3);
   EXPECT_EQ(v3.status(), Status::invalid_argument);
   EXPECT_NE(v3.message().find("log"), std::string::npos) << v3.message();

@@ -170,18 +170,14 @@ struct Point {
   demo::ImageError error;
 };
 
-/// V′ of the finest level decoded from `file` (closed loop over the levels), as the virtual
-/// texture (M × N × C) the ray-caster samples.
-Result<Image<float>> decoded_eigen_textures(const demo::DemoMaterial& dm, std::span<const uint8_t> file,
-                                            uint64_t* u_bytes, uint64_t* tile_bytes) {
+/// V′ of the finest level decoded from `file` (closed loop over the levels) into m.decoded, as
+/// the virtual texture (M × N × C) the ray-caster samples. `m` holds the material's name and
+/// its tile pyramid (the level table the containers of every quality share).
+Result<Image<float>> decoded_eigen_textures(progressive::Material& m, std::span<const uint8_t> file, uint64_t* u_bytes,
+                                            uint64_t* tile_bytes) {
   auto dir = read_bsvtf(file);
   if (!dir) return dir.error();
-  progressive::Material m;
-  m.demo = dm;
   const BsvtfMetadata& md = dir->metadata;
-  auto pyr = TilePyramid::build(dm.eigen, md.tile_size, md.border, TileEdge::wrap);
-  if (!pyr) return pyr.error();
-  m.pyramid = std::move(*pyr);
   if (auto d = progressive::decode_tiles(m, file, *dir); !d) return d.error();
   *u_bytes = 0, *tile_bytes = 0;
   for (const BsvtfPacketEntry& p : dir->packets) *u_bytes += p.size;
@@ -189,8 +185,8 @@ Result<Image<float>> decoded_eigen_textures(const demo::DemoMaterial& dm, std::s
   const VtGeometry& g = m.pyramid.geometry();
   const VtLevelTable& lv = m.pyramid.levels();
   const uint32_t fl = g.finest_level, T = g.tile_size, B = g.border, S = g.stored_size();
-  const int C = static_cast<int>(dm.components);
-  Image<float> out(dm.eigen_textures.width(), dm.eigen_textures.height(), C);
+  const int C = static_cast<int>(md.component_count);
+  Image<float> out(static_cast<int>(g.width), static_cast<int>(g.height), C);
   for (uint32_t k = 0; k < md.texture_count(); ++k)
     for (uint32_t ty = 0; ty < lv.tiles_y[fl]; ++ty)
       for (uint32_t tx = 0; tx < lv.tiles_x[fl]; ++tx) {
@@ -376,36 +372,39 @@ int main(int argc, char** argv) {
         if (!pyramid) return fail("tile pyramid", pyramid.message());
         const samples::BsvtfTileInputs inputs = samples::bsvtf_tiles_from_pyramid(
             *pyramid, md->metadata.level_count, md->metadata.tile_size, md->metadata.border);
+        progressive::Material decoded;  // the decode target of every quality (the inputs own their samples)
+        decoded.demo.name = mc->name;
+        decoded.pyramid = std::move(*pyramid);
+        demo::DemoMaterial shown = *mc;  // the FMF with V′ replaced by each quality's decoded V′
         std::vector<Point> series;
         for (size_t qi = 0; qi <= o.qualities.size(); ++qi) {
           Point p;
           p.material = mc->name;
           p.encoding = o.encodings[ei];
           p.components = C;
-          demo::DemoMaterial shown = *mc;
           if (qi == 0) {  // the FMF itself: U and V′ over the virtual texture as halves
             p.bytes = 2 * (mc->u.size() +
                            static_cast<uint64_t>(mc->eigen_textures.width()) * mc->eigen_textures.height() * C);
           } else {
             p.quality = o.qualities[qi - 1];
-            std::vector<uint8_t> file;
-            if (p.quality == sc.quality) {
-              file = mc->bsvtf;
-            } else {
+            std::vector<uint8_t> built;  // the container finish_material built is at sc.quality
+            if (p.quality != sc.quality) {
               BsvtfBuildOptions bo;
               bo.quality = p.quality;
               bo.entropy_coder = sc.entropy_coder;
               auto f = build_bsvtf(md->metadata, mc->u, inputs.tiles, bo);
               if (!f) return fail("build", f.message());
-              file = std::move(*f);
+              built = std::move(*f);
             }
+            const std::span<const uint8_t> file =
+                p.quality == sc.quality ? std::span<const uint8_t>(mc->bsvtf) : std::span<const uint8_t>(built);
             p.bytes = file.size();
-            auto v = decoded_eigen_textures(*mc, file, &p.u_bytes, &p.tile_bytes);
+            auto v = decoded_eigen_textures(decoded, file, &p.u_bytes, &p.tile_bytes);
             if (!v) return fail(mc->name + " decode", v.message());
             p.v_psnr = eigen_texture_psnr(mc->eigen_textures, *v);
             shown.eigen_textures = std::move(*v);
           }
-          if (auto r = builder->replace_fmf(i, shown); !r) return fail("render", r.message());
+          if (auto r = builder->replace_fmf(i, qi == 0 ? *mc : shown); !r) return fail("render", r.message());
           auto ref = builder->finish();
           if (!ref) return fail("render", ref.message());
           p.error = demo::image_error(ref->raw, ref->fmf_cpu, &ref->pixel_material, i);

@@ -158,18 +158,19 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
   return ss > 0.0 ? std::sqrt(se / ss) : 0.0;
 }
 
+inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, const DirectionSet& lights,
+                                            const DirectionSet& views, const MaterialSettings& s,
+                                            const std::string& out_dir);
+
 /// Synthesises material `index` (cloth, stone, leather, tiles in turn, or s.kind; seed + index), factorises
 /// it, builds its .bsvtf container into `out_dir` and its lookup tables, and keeps the raw BTF
 /// as a store `out_dir`/<name>.btfstore (the raw reference of the report). Small path: in memory
 /// (float32 store written afterwards). Paper path (s.paper): synthesised view by view into a
 /// store of halves and factorised out of core (never holding the BTF whole). Allocates; the
 /// slow part of the demo.
-inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, const DirectionSet& lights,
-                                            const DirectionSet& views, const MaterialSettings& s,
-                                            const std::string& out_dir);
-
-/// The same, also handing the factorisation itself to `fmf_out` when it is not null (the
-/// rate–distortion tool truncates it to every rank it measures: factor/fmf_rank.hpp truncate_fmf).
+/// The factorisation itself goes to `fmf_out` when it is not null (the rate–distortion tool
+/// truncates it to every rank it measures: factor/fmf_rank.hpp truncate_fmf); the second half
+/// is finish_material().
 inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir,
                                              Fmf* fmf_out = nullptr) {
   const SynthMaterial kinds[] = {SynthMaterial::cloth, SynthMaterial::stone, SynthMaterial::leather,

@@ -32,6 +32,9 @@ TEST(GoldenGl, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend
 TEST(GoldenGl, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
 TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenGl, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
+TEST(GoldenGl, BsvtfRgba8PartialCacheMatchesCpuReference) {
+  btflod::golden::golden_bsvtf_partial(make_backend, btflod::CacheFormat::rgba8_affine);
+}
 TEST(GoldenGl, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
 }

@@ -298,13 +298,16 @@ void golden_fmf_u_packets(Factory make) {
 }
 
 /// The BSVTF scene's virtual texture: a vt/ TileCache holding every tile of levels 0–1 and the
-/// left half of level 2, its tiles as GPU uploads and in a CpuCacheTexture, and the page-table
-/// writes of the whole cache. Filled in place (the cache refers to nothing outside it).
+/// left half of level 2, its tiles as GPU uploads and in a CpuCacheTexture (both in the cache
+/// format of config.vt.format: rgba8_affine tiles are encoded once and the same bytes go to
+/// both), and the page-table writes of the whole cache. Filled in place (the cache refers to
+/// nothing outside it).
 struct PartialCacheScene {
   std::optional<TilePyramid> pyr;
   VtSet set;
   std::optional<TileCache> cache;
   std::optional<CpuCacheTexture> cpu;
+  std::vector<std::vector<uint8_t>> unorm8;  // rgba8_affine: each upload's bytes
   std::vector<TileUpload> uploads;
   std::vector<PageTableWrite> writes;
 };
@@ -319,7 +322,9 @@ inline void build_partial_cache(const ShaderConfig& config, const Material& m, P
   ASSERT_TRUE(pyr.ok()) << pyr.message();
   out.pyr.emplace(std::move(*pyr));
   out.set.add_material(out.pyr->geometry(), out.pyr->texture_count());
-  auto cache_r = TileCache::create(out.set, TileCacheConfig{config.vt.slots_x, config.vt.slots_y, 1024});
+  TileCacheConfig cache_config{config.vt.slots_x, config.vt.slots_y, 1024};
+  cache_config.format = config.vt.format;
+  auto cache_r = TileCache::create(out.set, cache_config);
   ASSERT_TRUE(cache_r.ok()) << cache_r.message();
   out.cache.emplace(std::move(*cache_r));
   TileCache& cache = *out.cache;
@@ -334,25 +339,35 @@ inline void build_partial_cache(const ShaderConfig& config, const Material& m, P
           ASSERT_EQ(cache.insert(TileId{k, l, x, y}, s, 0), Status::success);
         }
   out.cpu.emplace(cache);
+  out.unorm8.reserve(cache.slot_count());  // the uploads' spans point into these
   for (uint32_t s = 0; s < cache.slot_count(); ++s) {
     const SlotInfo& info = cache.slot(s);
     if (info.state != SlotInfo::State::used) continue;
     const auto texels = out.pyr->tile_texels(info.tile.texture, info.flat_index);
-    ASSERT_TRUE(out.cpu->upload(cache, s, texels));
-    out.uploads.push_back(TileUpload{s, texels});
+    if (config.vt.format == CacheFormat::rgba8_affine) {
+      std::vector<float> scratch(texels.size());
+      std::vector<uint8_t>& bytes = out.unorm8.emplace_back(texels.size());
+      const CacheSlotMap map = encode_cache_tile_unorm8(texels, scratch, bytes);
+      ASSERT_TRUE(out.cpu->upload(cache, s, bytes, map));
+      out.uploads.push_back(TileUpload{s, {}, bytes, map});
+    } else {
+      ASSERT_TRUE(out.cpu->upload(cache, s, texels));
+      out.uploads.push_back(TileUpload{s, texels, {}, {}});
+    }
   }
   ASSERT_EQ(out.uploads.size(), 2u * (1 + 4 + 8));
   for (uint32_t t = 0; t < out.set.texture_count(); ++t) append_full_page_table_writes(cache, t, out.writes);
 }
 
 /// BSVTF: the partial cache above, uploaded to the GPU and to a CpuCacheTexture; page table from
-/// the cache.
+/// the cache. In cache format `format`: the CPU reference reads the same bytes as the GPU.
 template <class Factory>
-void golden_bsvtf_partial(Factory make) {
+void golden_bsvtf_partial(Factory make, CacheFormat format = CacheFormat::rgba16f) {
   std::string why;
   std::unique_ptr<Backend> be = make(why);
   if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
-  const ShaderConfig config = golden_config();
+  ShaderConfig config = golden_config();
+  config.vt.format = format;
   const Material m = make_material(config, kTexture, kTexture);
   PartialCacheScene vt;
   build_partial_cache(config, m, vt);
@@ -392,10 +407,34 @@ void golden_bsvtf_partial(Factory make) {
   EXPECT_GT(finest, 1000u);
   EXPECT_GT(coarser, 1000u) << "the view must show both resident and missing finest tiles";
   const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
-  std::printf("[ %s ] golden BSVTF (partial cache) vs CPU reference: PSNR %.2f dB (vs finest-only %.2f dB)\n",
-              be->name(), psnr, psnr_wrong);
+  std::printf("[ %s ] golden BSVTF (partial cache, %s) vs CPU reference: PSNR %.2f dB (vs finest-only %.2f dB)\n",
+              be->name(), cache_format_name(format), psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
+  if (format == CacheFormat::rgba8_affine) {
+    // The same cache at rgba16f on the CPU: the 8-bit cache stays close to it (the tiles' own
+    // ranges keep the step small), and a renderer that skipped the slot maps would not.
+    PartialCacheScene wide;
+    ShaderConfig wide_config = config;
+    wide_config.vt.format = CacheFormat::rgba16f;
+    build_partial_cache(wide_config, m, wide);
+    if (::testing::Test::HasFatalFailure()) return;
+    const Image<float> ref16 = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
+      for (uint32_t k = 0; k < set.texture_count(); ++k)
+        wide.cpu->sample(*wide.cache, k, h.texcoord.x, h.texcoord.y, out + 4 * k);
+    });
+    CpuCacheTexture raw(cache);  // the same bytes read as plain unorm8 (identity maps)
+    CacheSlotMap identity;
+    for (int c = 0; c < 4; ++c) identity.scale[c] = 1.0f;
+    for (const TileUpload& u : vt.uploads) ASSERT_TRUE(raw.upload(cache, u.slot, u.unorm8, identity));
+    const Image<float> unmapped = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
+      for (uint32_t k = 0; k < set.texture_count(); ++k) raw.sample(cache, k, h.texcoord.x, h.texcoord.y, out + 4 * k);
+    });
+    const double psnr16 = psnr_rgb(ref16, img), psnr_unmapped = psnr_rgb(unmapped, img);
+    std::printf("[ %s ] rgba8_affine GPU image vs the rgba16f CPU reference: PSNR %.2f dB\n", be->name(), psnr16);
+    EXPECT_GE(psnr16, 40.0);
+    EXPECT_LT(psnr_unmapped, psnr16 - 3.0);
+  }
 }
 
 }  // namespace btflod::golden

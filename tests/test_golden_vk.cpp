@@ -87,6 +87,9 @@ TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend
 TEST(GoldenVk, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
 TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
+TEST(GoldenVk, BsvtfRgba8PartialCacheMatchesCpuReference) {
+  btflod::golden::golden_bsvtf_partial(make_backend, btflod::CacheFormat::rgba8_affine);
+}
 TEST(GoldenVk, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
 }
@@ -101,6 +104,9 @@ TEST(GoldenVk, HlslFmfValueTransformsMatchCpuReference) {
   btflod::golden::golden_fmf_value_transforms(make_hlsl_backend);
 }
 TEST(GoldenVk, HlslBsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_hlsl_backend); }
+TEST(GoldenVk, HlslBsvtfRgba8PartialCacheMatchesCpuReference) {
+  btflod::golden::golden_bsvtf_partial(make_hlsl_backend, btflod::CacheFormat::rgba8_affine);
+}
 TEST(GoldenVk, HlslLaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_hlsl_backend); }
 TEST(GoldenVk, HlslLpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_hlsl_backend); }
 TEST(GoldenVk, HlslPcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_hlsl_backend); }

@@ -27,10 +27,10 @@
 namespace btflod_test {
 
 /// Decodes tile t (container-local ids) of a container directly — the chain root → t, each
-/// level against its decoded parent — and returns its half texels: the reference the runtime's
-/// uploads must equal. Fails the calling test (EXPECT) when a payload does not decode.
-inline std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, const btflod::BsvtfDirectory& d,
-                                           btflod::TileId t) {
+/// level against its decoded parent — and returns its float values. Fails the calling test
+/// (EXPECT) when a payload does not decode.
+inline std::vector<float> decode_direct_floats(const std::vector<uint8_t>& file, const btflod::BsvtfDirectory& d,
+                                               btflod::TileId t) {
   using namespace btflod;
   const TileLayout layout = d.metadata.layout();
   TileDecoder dec(layout);
@@ -43,8 +43,15 @@ inline std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, con
               Status::success);
     std::swap(parent, out);
   }
-  std::vector<uint16_t> h(layout.sample_count());
-  float_to_half(parent, h);
+  return parent;
+}
+
+/// decode_direct_floats() as half texels: the reference the runtime's rgba16f uploads must equal.
+inline std::vector<uint16_t> decode_direct(const std::vector<uint8_t>& file, const btflod::BsvtfDirectory& d,
+                                           btflod::TileId t) {
+  const std::vector<float> f = decode_direct_floats(file, d, t);
+  std::vector<uint16_t> h(f.size());
+  btflod::float_to_half(f, h);
   return h;
 }
 

@@ -177,3 +177,14 @@ TEST(ShaderFilament, RefusesBadOptionsAndConfigs) {
   EXPECT_NE(named->find("name : ok_name,"), std::string::npos);
   EXPECT_NE(named->find("culling : back,"), std::string::npos);
 }
+
+TEST(ShaderFilament, CompactCacheFormatIsRefusedWithAMessage) {
+  ShaderConfig config;
+  config.vt.format = CacheFormat::rgba8_affine;  // the materials' sampler list has no slot-map table
+  for (FilamentMaterialKind kind : kKinds) {
+    auto mat = generate_filament_material(kind, config);
+    ASSERT_FALSE(mat.ok());
+    EXPECT_EQ(mat.status(), Status::unsupported);
+    EXPECT_NE(mat.message().find("rgba8_affine"), std::string::npos) << mat.message();
+  }
+}

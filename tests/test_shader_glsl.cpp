@@ -62,6 +62,7 @@ std::vector<std::pair<std::string, ShaderConfig>> configs() {
   b.vt.cache_layers = 3;
   b.vt.finest_level = 7;
   b.vt.trilinear = false;
+  b.vt.format = CacheFormat::rgba8_affine;  // the slot-map table and its fetches
   b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
   b.laplacian.max_level = 0;
   b.laplacian.ycbcr_output = false;
@@ -551,7 +552,9 @@ TEST(ShaderGlsl, DefaultFunctionNamesAreTheWholeProgramSamplerNames) {
   const GlslFunctionOptions o;
   uint32_t all = 0;
   for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
-  auto fn = generate_functions(all, GlslTarget::es300, ShaderConfig{}, o);
+  ShaderConfig config;
+  config.vt.format = CacheFormat::rgba8_affine;  // every sampler, the slot map too
+  auto fn = generate_functions(all, GlslTarget::es300, config, o);
   ASSERT_TRUE(fn.ok()) << fn.message();
   ASSERT_EQ(fn->samplers.size(), shader_sampler_names().size());
   for (const SamplerName& n : shader_sampler_names()) {
@@ -567,5 +570,10 @@ TEST(ShaderGlsl, DefaultFunctionNamesAreTheWholeProgramSamplerNames) {
     EXPECT_TRUE(found) << n.name;
   }
   // same inputs, same bytes
-  EXPECT_EQ(fn->code, generate_functions(all, GlslTarget::es300, ShaderConfig{}, o)->code);
+  EXPECT_EQ(fn->code, generate_functions(all, GlslTarget::es300, config, o)->code);
+  // An rgba16f cache declares no slot map.
+  auto wide = generate_functions(all, GlslTarget::es300, ShaderConfig{}, o);
+  ASSERT_TRUE(wide.ok()) << wide.message();
+  EXPECT_EQ(wide->samplers.size(), shader_sampler_names().size() - 1);
+  EXPECT_EQ(wide->code.find("slot_map"), std::string::npos);
 }

@@ -36,6 +36,7 @@ std::vector<std::pair<std::string, ShaderConfig>> configs() {  // the configs of
   b.vt.cache_layers = 3;
   b.vt.finest_level = 7;
   b.vt.trilinear = false;
+  b.vt.format = CacheFormat::rgba8_affine;  // the slot-map table and its loads
   b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
   b.laplacian.max_level = 0;
   b.laplacian.ycbcr_output = false;

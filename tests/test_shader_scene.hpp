@@ -354,7 +354,7 @@ inline CacheFill fill_cache(const Pyramid& p, const VirtualTextureConfig& vt, in
     slots[static_cast<size_t>(g)][l][y * tiles_at(l, width) + x] = static_cast<int>(slot);
   }
   for (size_t i = 0; i < f.texels.size(); ++i)
-    f.uploads.push_back(TileUpload{total - 1 - static_cast<uint32_t>(i), f.texels[i]});
+    f.uploads.push_back(TileUpload{total - 1 - static_cast<uint32_t>(i), f.texels[i], {}, {}});
   // Page table: every tile of every level points at itself or its nearest resident ancestor.
   for (int g = 0; g < groups; ++g)
     for (uint32_t l = 0; l <= p.finest; ++l)

@@ -90,6 +90,7 @@
 // vt
 #include "btflod/vt/bsvtf_build.hpp"
 #include "btflod/vt/cache_config.hpp"
+#include "btflod/vt/cache_format.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_id.hpp"

@@ -83,8 +83,8 @@ class GlBackend final : public Backend {
       glDeleteBuffers(1, &s.pbo);
     }
     destroy_targets();
-    GLuint t[2] = {cache_, page_table_};
-    glDeleteTextures(2, t);
+    GLuint t[3] = {cache_, page_table_, slot_map_};
+    glDeleteTextures(3, t);
     glDeleteBuffers(1, &ubo_);
     if (!owns_context_) return;  // the window keeps its context current until it destroys it
     eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
@@ -122,7 +122,8 @@ class GlBackend final : public Backend {
       return make_error(Status::unsupported, "GL: cache %u×%u×%u or page table 2^%u exceeds the limits (%d, %d layers)",
                         vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level, max_size, max_layers);
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_);
-    glTextureStorage3D(cache_, 1, GL_RGBA16F, static_cast<GLsizei>(vt.cache_width()),
+    const bool affine = vt.format == CacheFormat::rgba8_affine;
+    glTextureStorage3D(cache_, 1, affine ? GL_RGBA8 : GL_RGBA16F, static_cast<GLsizei>(vt.cache_width()),
                        static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers));
     glTextureParameteri(cache_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(cache_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -130,6 +131,14 @@ class GlBackend final : public Backend {
     glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     const float zero[4] = {0, 0, 0, 0};
     glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
+    if (affine) {  // one offset and one scale texel per slot (vt/cache_format.hpp), read by texelFetch
+      glCreateTextures(GL_TEXTURE_2D, 1, &slot_map_);
+      glTextureStorage2D(slot_map_, 1, GL_RGBA32F, static_cast<GLsizei>(cache_slot_map_width(vt)),
+                         static_cast<GLsizei>(cache_slot_map_height(vt)));
+      glTextureParameteri(slot_map_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      glTextureParameteri(slot_map_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      glClearTexImage(slot_map_, 0, GL_RGBA, GL_FLOAT, zero);
+    }
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &page_table_);
     const GLsizei side = 1 << vt.finest_level;
     glTextureStorage3D(page_table_, static_cast<GLsizei>(vt.finest_level + 1), GL_R32UI, side, side,
@@ -253,12 +262,19 @@ class GlBackend final : public Backend {
     const VirtualTextureConfig& vt = config_.vt;
     const size_t padded = vt.padded_tile_size();
     for (const TileUpload& t : tiles)
-      if (t.slot >= vt.slot_count() || t.texels.size() != padded * padded * 4) return Status::invalid_argument;
+      if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
+    const bool affine = vt.format == CacheFormat::rgba8_affine;
     for (const TileUpload& t : tiles) {
       const SlotPlacement p = slot_placement(vt, t.slot);
       glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
-                          static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA, GL_HALF_FLOAT,
-                          t.texels.data());
+                          static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA,
+                          affine ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
+                          affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data());
+      if (affine) {
+        const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
+        glTextureSubImage2D(slot_map_, 0, static_cast<GLint>(m.x), static_cast<GLint>(m.y), 2, 1, GL_RGBA, GL_FLOAT,
+                            &t.map);
+      }
     }
     return Status::success;
   }
@@ -355,6 +371,7 @@ class GlBackend final : public Backend {
     } else {
       bind(ShaderBinding::tile_cache, cache_);
       bind(ShaderBinding::page_table, page_table_);
+      if (slot_map_) bind(ShaderBinding::slot_map, slot_map_);
     }
     if (words) {
       // Colour and every pixel's feedback word (fragment output 1). The word target is cleared
@@ -585,7 +602,7 @@ class GlBackend final : public Backend {
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;
   GLuint fmf_ = 0, bsvtf_ = 0, feedback_ = 0, bsvtf_feedback_ = 0;
-  GLuint cache_ = 0, page_table_ = 0, ubo_ = 0;
+  GLuint cache_ = 0, page_table_ = 0, slot_map_ = 0, ubo_ = 0;
   GLuint color_fbo_ = 0, color_tex_ = 0, color_depth_ = 0;
   GLuint feedback_fbo_ = 0, feedback_tex_ = 0, feedback_depth_ = 0;
   GLuint color_feedback_fbo_ = 0, feedback_full_tex_ = 0;

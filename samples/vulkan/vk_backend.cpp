@@ -28,7 +28,7 @@ VkBackend::~VkBackend() {
     destroy(color_readback_);
     destroy(ubo_all_);
     destroy_targets();
-    for (Texture* t : {&cache_, &page_table_, &dummy_float_, &dummy_uint_}) destroy(*t);
+    for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) destroy(*t);
     for (VkPipeline p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) vkDestroyPipeline(device_, p, nullptr);
     vkDestroyPipelineLayout(device_, pipeline_layout_, nullptr);
     vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
@@ -126,8 +126,15 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
     *out[i] = *p;
   }
   // Cache and page table (GENERAL layout, cleared to 0: entry 0 = slot 0 at level 0).
-  if (VoidResult r = create_texture(cache_, VK_FORMAT_R16G16B16A16_SFLOAT, vt.cache_width(), vt.cache_height(),
-                                    vt.cache_layers, 1);
+  const bool affine = vt.format == CacheFormat::rgba8_affine;
+  if (VoidResult r = create_texture(cache_, affine ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT,
+                                    vt.cache_width(), vt.cache_height(), vt.cache_layers, 1);
+      !r)
+    return r;
+  // rgba8_affine: two texels per slot (vt/cache_format.hpp); otherwise a 1×1 stand-in the
+  // rgba16f programs never read. A 2D view: the shaders declare a sampler2D.
+  if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_SFLOAT, affine ? cache_slot_map_width(vt) : 1,
+                                    affine ? cache_slot_map_height(vt) : 1, 1, 1, 0, false);
       !r)
     return r;
   if (VoidResult r = create_texture(page_table_, VK_FORMAT_R32_UINT, 1u << vt.finest_level, 1u << vt.finest_level,
@@ -139,7 +146,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
   {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     if (VoidResult r = begin_one_shot(cmd); !r) return r;
-    for (Texture* t : {&cache_, &page_table_, &dummy_float_, &dummy_uint_}) {
+    for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) {
       VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, t->mips, 0, t->layers};
       VkClearColorValue zero{};  // all-zero bits: 0.0f and 0u alike
       vkCmdClearColorImage(cmd, t->image, VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
@@ -270,13 +277,30 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
   if (!initialised_) return Status::invalid_argument;
   const VirtualTextureConfig& vt = config_.vt;
   const size_t padded = vt.padded_tile_size();
-  const size_t bytes = padded * padded * 8;
+  const bool affine = vt.format == CacheFormat::rgba8_affine;
+  const size_t bytes = padded * padded * vt.texel_bytes();
+  const size_t map_bytes = affine ? sizeof(CacheSlotMap) : 0;
   for (const TileUpload& t : tiles)
-    if (t.slot >= vt.slot_count() || t.texels.size() != padded * padded * 4) return Status::invalid_argument;
+    if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
   FrameContext& c = open_context();
-  if (c.staging_offset + bytes * tiles.size() > c.staging.size) return Status::insufficient_space;
+  // Each map copy starts 16-byte aligned (an RGBA32F texel): up to 15 bytes of padding per tile.
+  if (c.staging_offset + (bytes + (affine ? map_bytes + 15 : 0)) * tiles.size() > c.staging.size)
+    return Status::insufficient_space;
   for (const TileUpload& t : tiles) {
-    std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset, t.texels.data(), bytes);
+    if (affine) {
+      c.staging_offset = (c.staging_offset + 15) & ~VkDeviceSize{15};
+      std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset, &t.map, map_bytes);
+      const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
+      VkBufferImageCopy region{};
+      region.bufferOffset = c.staging_offset;
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+      region.imageOffset = {static_cast<int32_t>(m.x), static_cast<int32_t>(m.y), 0};
+      region.imageExtent = {2, 1, 1};
+      vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, slot_map_.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+      c.staging_offset += map_bytes;
+    }
+    std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset,
+                affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data(), bytes);
     const SlotPlacement p = slot_placement(vt, t.slot);
     VkBufferImageCopy region{};
     region.bufferOffset = c.staging_offset;

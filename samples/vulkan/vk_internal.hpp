@@ -26,6 +26,11 @@
 namespace btflod::samples::vk_detail {
 
 constexpr uint32_t kBindingCount = 7;  // ShaderBinding::params … page_table
+// The main descriptor set: bindings 0 … kBindingCount − 1, then ShaderBinding::slot_map.
+constexpr uint32_t kSetBindingCount = kBindingCount + 1;
+constexpr uint32_t set_binding(uint32_t i) {
+  return i < kBindingCount ? i : static_cast<uint32_t>(ShaderBinding::slot_map);
+}
 
 struct Buffer {
   VkBuffer buffer = VK_NULL_HANDLE;
@@ -225,7 +230,7 @@ class VkBackend final : public Backend {
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;
-  Texture cache_, page_table_, dummy_float_, dummy_uint_;
+  Texture cache_, page_table_, slot_map_, dummy_float_, dummy_uint_;
   Texture color_, color_depth_, feedback_color_, feedback_depth_;
   Texture feedback_full_;  ///< bsvtf_feedback: every pixel's word (R32_UINT, screen size)
   Buffer ubo_all_, color_readback_;

@@ -24,17 +24,17 @@ VoidResult VkBackend::create_layout() {
   sci.addressModeU = sci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
   sci.maxLod = VK_LOD_CLAMP_NONE;
   BTFLOD_VK_CHECK(vkCreateSampler(device_, &sci, nullptr, &linear_repeat_), "vkCreateSampler");
-  VkDescriptorSetLayoutBinding b[kBindingCount];
-  for (uint32_t i = 0; i < kBindingCount; ++i) {
+  VkDescriptorSetLayoutBinding b[kSetBindingCount];
+  for (uint32_t i = 0; i < kSetBindingCount; ++i) {
     b[i] = VkDescriptorSetLayoutBinding{};
-    b[i].binding = i;
+    b[i].binding = set_binding(i);
     b[i].descriptorCount = 1;
     b[i].stageFlags = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
     b[i].descriptorType =
         i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   }
   VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-  lci.bindingCount = kBindingCount;
+  lci.bindingCount = kSetBindingCount;
   lci.pBindings = b;
   BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(device_, &lci, nullptr, &set_layout_), "vkCreateDescriptorSetLayout");
   VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -43,7 +43,7 @@ VoidResult VkBackend::create_layout() {
   BTFLOD_VK_CHECK(vkCreatePipelineLayout(device_, &plci, nullptr, &pipeline_layout_), "vkCreatePipelineLayout");
   constexpr uint32_t kMaxSets = 256;
   VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, kMaxSets},
-                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, kMaxSets * (kBindingCount - 1)}};
+                                   {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, kMaxSets * (kSetBindingCount - 1)}};
   VkDescriptorPoolCreateInfo dpci{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   dpci.maxSets = kMaxSets;
   dpci.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;  // destroy_material() returns its set
@@ -63,19 +63,20 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
   // All frame contexts share one uniform buffer, sliced by dynamic offsets (context, draw).
   VkDescriptorBufferInfo ubo{shared_ubo().buffer, 0, sizeof(ShaderParams)};
   auto image = [&](const Texture& t, VkSampler s) { return VkDescriptorImageInfo{s, t.view, VK_IMAGE_LAYOUT_GENERAL}; };
-  const VkDescriptorImageInfo images[kBindingCount - 1] = {
+  const VkDescriptorImageInfo images[kSetBindingCount - 1] = {
       image(m ? m->eigen_abrdfs : dummy_float_, nearest_),
       image(m ? m->angular_index : dummy_uint_, nearest_),
       image(m ? m->angular_weight : dummy_float_, nearest_),
       image(m && m->eigen_textures.image ? m->eigen_textures : dummy_float_, linear_repeat_),
       image(cache_, linear_clamp_),
       image(page_table_, nearest_),
+      image(slot_map_, nearest_),
   };
-  VkWriteDescriptorSet w[kBindingCount];
-  for (uint32_t i = 0; i < kBindingCount; ++i) {
+  VkWriteDescriptorSet w[kSetBindingCount];
+  for (uint32_t i = 0; i < kSetBindingCount; ++i) {
     w[i] = VkWriteDescriptorSet{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     w[i].dstSet = set;
-    w[i].dstBinding = i;
+    w[i].dstBinding = set_binding(i);
     w[i].descriptorCount = 1;
     w[i].descriptorType =
         i == 0 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
@@ -84,7 +85,7 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
     else
       w[i].pImageInfo = &images[i - 1];
   }
-  vkUpdateDescriptorSets(device_, kBindingCount, w, 0, nullptr);
+  vkUpdateDescriptorSets(device_, kSetBindingCount, w, 0, nullptr);
   return set;
 }
 

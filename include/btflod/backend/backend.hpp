@@ -23,6 +23,7 @@
 #include "btflod/core/result.hpp"
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
+#include "btflod/vt/cache_format.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_id.hpp"
 
@@ -73,12 +74,30 @@ struct FmfMaterialData {
   ValueTransform transform{};
 };
 
-/// One tile to copy into a cache slot: (T + 2B)² RGBA half texels (4 components), row-major,
-/// border included — the layout of vt/tile_pyramid.hpp's tiles.
+/// One tile to copy into a cache slot: (T + 2B)² RGBA texels (4 components), row-major,
+/// border included — the layout of vt/tile_pyramid.hpp's tiles — in the cache's format
+/// (VirtualTextureConfig::format): `texels` for rgba16f, `unorm8` and the slot's `map` for
+/// rgba8_affine (vt/cache_format.hpp; encode_cache_tile_unorm8() makes them from half texels).
 struct TileUpload {
   uint32_t slot = 0;                 ///< < VirtualTextureConfig::slot_count()
-  std::span<const uint16_t> texels;  ///< (T + 2B)² · 4 half bits
+  std::span<const uint16_t> texels;  ///< rgba16f: (T + 2B)² · 4 half bits
+  std::span<const uint8_t> unorm8;   ///< rgba8_affine: (T + 2B)² · 4 bytes
+  CacheSlotMap map;                  ///< rgba8_affine: value = offset + scale · unorm8 / 255
 };
+
+/// Checks a tile upload against the cache: slot in range and the texels of the cache's format,
+/// (T + 2B)² · 4 of them (a finite map for rgba8_affine). Returns invalid_argument otherwise.
+/// noexcept; safe for any input.
+inline Status check_tile_upload(const TileUpload& t, const CacheConfig& cache) noexcept {
+  const size_t n = size_t{cache.padded_tile_size()} * cache.padded_tile_size() * 4;
+  if (t.slot >= cache.slot_count()) return Status::invalid_argument;
+  if (cache.format == CacheFormat::rgba8_affine) {
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(t.map.offset[c]) || !std::isfinite(t.map.scale[c])) return Status::invalid_argument;
+    return t.unorm8.size() == n ? Status::success : Status::invalid_argument;
+  }
+  return t.texels.size() == n ? Status::success : Status::invalid_argument;
+}
 
 /// One texel of the GPU page table to overwrite. The GPU page table has one level per mip (so
 /// the shader can blend two resident levels); vt/tile_cache.hpp's finest-level deltas are turned

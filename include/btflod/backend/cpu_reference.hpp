@@ -337,34 +337,55 @@ bool render_feedback(const Scene& scene, const Camera& cam, const VtSet& set, co
   return true;
 }
 
-/// CPU copy of the physical tile cache texture (RGBA16F, slots_x·(T+2B) × slots_y·(T+2B)).
-/// Allocates at construction; upload() and sample() are noexcept and allocation-free.
+/// CPU copy of the physical tile cache texture (slots_x·(T+2B) × slots_y·(T+2B) texels per
+/// layer) in the cache's format (CacheConfig::format): RGBA16F, or RGBA8 unorm with a map per
+/// slot (vt/cache_format.hpp), filtered and mapped as the shaders do. Allocates at construction;
+/// upload() and sample() are noexcept and allocation-free.
 class CpuCacheTexture {
  public:
   CpuCacheTexture() = default;
   /// Precondition: every material of the cache's set shares tile size and border.
   explicit CpuCacheTexture(const TileCache& cache)
-      : stored_(cache.set().levels_of(0).geometry.stored_size()),
+      : format_(cache.config().format),
+        stored_(cache.set().levels_of(0).geometry.stored_size()),
         width_(cache.config().slots_x * stored_),
-        height_(cache.config().slots_y * stored_),
-        texels_(static_cast<size_t>(width_) * height_ * 4, 0) {}
+        height_(cache.config().slots_y * stored_ * cache.config().cache_layers),
+        texels_(format_ == CacheFormat::rgba16f ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
+        unorm8_(format_ == CacheFormat::rgba8_affine ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
+        maps_(format_ == CacheFormat::rgba8_affine ? cache.slot_count() : 0) {}
 
-  /// Copies a stored tile ((T+2B)² RGBA half texels) into slot s. Returns false on a size
-  /// mismatch or slot out of range.
+  /// Copies a stored tile ((T+2B)² RGBA half texels) into slot s (an rgba16f cache). Returns
+  /// false on a size mismatch, a slot out of range or another cache format.
   bool upload(const TileCache& cache, uint32_t s, std::span<const uint16_t> tile) noexcept {
-    if (tile.size() != static_cast<size_t>(stored_) * stored_ * 4 || s >= cache.slot_count()) return false;
-    uint32_t ox, oy;
-    cache.slot_origin(s, ox, oy);
-    for (uint32_t y = 0; y < stored_; ++y)
-      std::copy_n(tile.data() + static_cast<size_t>(y) * stored_ * 4, stored_ * 4,
-                  texels_.data() + (static_cast<size_t>(oy + y) * width_ + ox) * 4);
+    if (format_ != CacheFormat::rgba16f || tile.size() != static_cast<size_t>(stored_) * stored_ * 4 ||
+        s >= cache.slot_count())
+      return false;
+    copy_rows(cache, s, tile.data(), texels_.data());
     return true;
+  }
+
+  /// Copies a stored tile ((T+2B)² RGBA unorm8 texels) and its map into slot s (an
+  /// rgba8_affine cache). Returns false on a size mismatch, a slot out of range or another format.
+  bool upload(const TileCache& cache, uint32_t s, std::span<const uint8_t> tile, const CacheSlotMap& map) noexcept {
+    if (format_ != CacheFormat::rgba8_affine || tile.size() != static_cast<size_t>(stored_) * stored_ * 4 ||
+        s >= cache.slot_count())
+      return false;
+    copy_rows(cache, s, tile.data(), unorm8_.data());
+    maps_[s] = map;
+    return true;
+  }
+
+  /// Copies a Streamer's (or backend's) tile upload in either format. Returns false as upload().
+  bool upload(const TileCache& cache, uint32_t s, std::span<const uint16_t> halves, std::span<const uint8_t> unorm8,
+              const CacheSlotMap& map) noexcept {
+    return format_ == CacheFormat::rgba8_affine ? upload(cache, s, unorm8, map) : upload(cache, s, halves);
   }
 
   /// Samples virtual texture `texture` at texture coordinates (u, v) ∈ [0, 1) through its page
   /// table: the entry of the finest tile names level l' and slot; paper 000 eq. 3 gives the texel
   /// in the cache (slot origin + border + the position inside the level-l' tile), then bilinear
-  /// filtering inside the bordered tile. Writes 4 floats; returns the level used. noexcept.
+  /// filtering inside the bordered tile, then (rgba8_affine) the slot's map. Writes 4 floats;
+  /// returns the level used. noexcept.
   uint32_t sample(const TileCache& cache, uint32_t texture, float u, float v, float* out) const noexcept {
     const VtLevelTable& lv = cache.set().levels_of(texture);
     const VtGeometry& g = lv.geometry;
@@ -378,31 +399,53 @@ class CpuCacheTexture {
     const float inv = 1.0f / static_cast<float>(1u << shift);
     uint32_t ox, oy;
     cache.slot_origin(slot, ox, oy);
+    oy += cache_slot_placement(cache.config(), slot).layer * cache.config().slots_y * stored_;
     // Eq. 3: x = i' + (2^{l'} s − M⌊2^{l'} s / M⌋) in texel units of level l' and tile-local.
     const float lx = s * inv - static_cast<float>((fx >> shift) * g.tile_size) + static_cast<float>(g.border);
     const float ly = t * inv - static_cast<float>((fy >> shift) * g.tile_size) + static_cast<float>(g.border);
     const float cx = static_cast<float>(ox) + lx - 0.5f, cy = static_cast<float>(oy) + ly - 0.5f;
     const float x0f = std::floor(cx), y0f = std::floor(cy);
     const float ax = cx - x0f, ay = cy - y0f;
-    const size_t x0 = static_cast<size_t>(x0f), y0 = static_cast<size_t>(y0f);
-    const uint16_t* p00 = texels_.data() + (y0 * width_ + x0) * 4;
-    const uint16_t* p01 = p00 + static_cast<size_t>(width_) * 4;
-    for (int c = 0; c < 4; ++c) {
-      const float top = half_bits_to_float(p00[c]) + (half_bits_to_float(p00[4 + c]) - half_bits_to_float(p00[c])) * ax;
-      const float bot = half_bits_to_float(p01[c]) + (half_bits_to_float(p01[4 + c]) - half_bits_to_float(p01[c])) * ax;
+    const size_t i00 = (static_cast<size_t>(y0f) * width_ + static_cast<size_t>(x0f)) * 4;
+    const size_t i01 = i00 + static_cast<size_t>(width_) * 4;
+    for (uint32_t c = 0; c < 4; ++c) {
+      float a, b, d, e;  // texels (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)
+      if (format_ == CacheFormat::rgba8_affine) {
+        a = unorm8_[i00 + c] * (1.0f / 255.0f), b = unorm8_[i00 + 4 + c] * (1.0f / 255.0f);
+        d = unorm8_[i01 + c] * (1.0f / 255.0f), e = unorm8_[i01 + 4 + c] * (1.0f / 255.0f);
+      } else {
+        a = half_bits_to_float(texels_[i00 + c]), b = half_bits_to_float(texels_[i00 + 4 + c]);
+        d = half_bits_to_float(texels_[i01 + c]), e = half_bits_to_float(texels_[i01 + 4 + c]);
+      }
+      const float top = a + (b - a) * ax, bot = d + (e - d) * ax;
       out[c] = top + (bot - top) * ay;
+      if (format_ == CacheFormat::rgba8_affine) out[c] = maps_[slot].offset[c] + maps_[slot].scale[c] * out[c];
     }
     return level;
   }
 
+  CacheFormat format() const noexcept { return format_; }
   uint32_t width() const noexcept { return width_; }
   uint32_t height() const noexcept { return height_; }
 
  private:
+  template <class T>
+  void copy_rows(const TileCache& cache, uint32_t s, const T* tile, T* texels) const noexcept {
+    uint32_t ox, oy;
+    cache.slot_origin(s, ox, oy);
+    oy += cache_slot_placement(cache.config(), s).layer * cache.config().slots_y * stored_;  // layers stacked
+    for (uint32_t y = 0; y < stored_; ++y)
+      std::copy_n(tile + static_cast<size_t>(y) * stored_ * 4, stored_ * 4,
+                  texels + (static_cast<size_t>(oy + y) * width_ + ox) * 4);
+  }
+
+  CacheFormat format_ = CacheFormat::rgba16f;
   uint32_t stored_ = 0;
   uint32_t width_ = 0;
   uint32_t height_ = 0;
   std::vector<uint16_t> texels_;
+  std::vector<uint8_t> unorm8_;
+  std::vector<CacheSlotMap> maps_;
 };
 
 /// FMF shading (paper 000 eq. 5) with the 9-tap light × view combination (§4): ρ = D(Σ over the

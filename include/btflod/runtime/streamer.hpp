@@ -69,6 +69,7 @@
 #include "btflod/stream/payload_cache.hpp"
 #include "btflod/stream/tile_source.hpp"
 #include "btflod/vt/cache_config.hpp"
+#include "btflod/vt/cache_format.hpp"
 #include "btflod/vt/scheduler.hpp"
 #include "btflod/vt/tile_cache.hpp"
 
@@ -130,8 +131,11 @@ StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candida
 
 /// Everything fixed at creation.
 struct StreamerConfig {
-  /// The cache (slots, layers, tile size, border); tile size and border must match every
-  /// container. The same value configures the shader generator (VirtualTextureConfig).
+  /// The cache (slots, layers, tile size, border, texel format); tile size and border must
+  /// match every container. The same value configures the shader generator
+  /// (VirtualTextureConfig). With format rgba8_affine the decode jobs also quantise each tile
+  /// (vt/cache_format.hpp), on the engine's workers, and the uploads carry unorm8 texels and
+  /// their slot map.
   CacheConfig cache;
   /// Budgets, priorities, hysteresis, LOD bias (vt/scheduler.hpp). Byte budgets count the
   /// containers' real payload sizes.
@@ -170,12 +174,17 @@ struct StreamerConfig {
   InflateBackend inflate_backend = default_inflate_backend();
 };
 
-/// A tile to copy into cache slot `slot` this frame. texels: (T+2B)² × 4 half bits, valid
-/// until the next update(). tile.texture is the global virtual texture (page-table layer).
+/// A tile to copy into cache slot `slot` this frame, valid until the next update().
+/// tile.texture is the global virtual texture (page-table layer). In the cache format of
+/// StreamerConfig::cache: rgba16f fills `texels` ((T+2B)² × 4 half bits) and leaves `unorm8`
+/// empty; rgba8_affine fills `unorm8` ((T+2B)² × 4 bytes) and `map` (the slot's row of the
+/// slot-map table) and leaves `texels` empty.
 struct StreamerTileUpload {
   uint32_t slot = 0;
   TileId tile;
   std::span<const uint16_t> texels;
+  std::span<const uint8_t> unorm8;
+  CacheSlotMap map;
 };
 
 /// A U′ packet: four components (4g … 4g+3) of material `material`, rows × 4 halves in the

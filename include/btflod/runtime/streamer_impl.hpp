@@ -88,6 +88,7 @@ struct StreamerJob {
   uint8_t* bytes = nullptr;
   float* parent = nullptr;
   float* out = nullptr;
+  CacheSlotMap map;  // rgba8_affine: the map of the unorm8 tile in `halves`
   uint16_t* halves = nullptr;
 };
 
@@ -368,9 +369,25 @@ struct Streamer::Impl final : StreamerJobQueue {
     const uint32_t decoded_levels = job.chain - job.chain_start;
     job.result_in_out = decoded_levels > 0 && previous == job.out ? 1 : 0;
     job.parent_decoded = decoded_levels >= 2 ? 1 : 0;
-    float_to_half(std::span<const float>(previous, layout.sample_count()),
-                  std::span<uint16_t>(job.halves, layout.sample_count()));
+    const std::span<const float> values(previous, layout.sample_count());
+    if (config.cache.format == CacheFormat::rgba8_affine)  // unorm8 in the first half of the buffer
+      job.map = encode_cache_tile_unorm8(
+          values, std::span<uint8_t>(reinterpret_cast<uint8_t*>(job.halves), layout.sample_count()));
+    else
+      float_to_half(values, std::span<uint16_t>(job.halves, layout.sample_count()));
     return Status::success;
+  }
+
+  // The upload of a finished tile job into `slot`, in the cache's format.
+  StreamerTileUpload tile_upload(uint32_t slot, const detail::StreamerJob& job) const noexcept {
+    StreamerTileUpload u{slot, job.tile, {}, {}, {}};
+    if (config.cache.format == CacheFormat::rgba8_affine) {
+      u.unorm8 = std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(job.halves), layout.sample_count());
+      u.map = job.map;
+    } else {
+      u.texels = std::span<const uint16_t>(job.halves, layout.sample_count());
+    }
+    return u;
   }
 
   Status run_packet(detail::StreamerJob& job) noexcept {
@@ -702,8 +719,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       if (job.kind == detail::kRootJob) {
         if (ok && out.tile_upload_count < out.tile_uploads.size()) {
           keep_payloads(job);
-          out.tile_uploads[out.tile_upload_count++] = StreamerTileUpload{
-              cache.slot_of(job.tile), job.tile, std::span<const uint16_t>(job.halves, layout.sample_count())};
+          out.tile_uploads[out.tile_upload_count++] = tile_upload(cache.slot_of(job.tile), job);
           tile_failures[record_index(job.material, local_texture(job.tile), 0)] = 0;
           mark_loaded(job.material, false, out);
           job.state.store(detail::kJobHanded, std::memory_order_relaxed);
@@ -749,8 +765,7 @@ struct Streamer::Impl final : StreamerJobQueue {
       if (q.u_packet) {
         if (out.packet_upload_count < out.packet_uploads.size()) emit_packet(job, out);
       } else if (out.tile_upload_count < out.tile_uploads.size()) {
-        out.tile_uploads[out.tile_upload_count++] =
-            StreamerTileUpload{q.slot, q.tile, std::span<const uint16_t>(job.halves, layout.sample_count())};
+        out.tile_uploads[out.tile_upload_count++] = tile_upload(q.slot, job);
       }
       job_of_request[q.id] = kNoJob;
       job.state.store(detail::kJobHanded, std::memory_order_relaxed);

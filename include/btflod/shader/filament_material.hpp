@@ -45,6 +45,7 @@
 #include "btflod/core/result.hpp"
 #include "btflod/shader/glsl_generator.hpp"
 #include "btflod/shader/shader_config.hpp"
+#include "btflod/vt/cache_format.hpp"
 
 namespace btflod {
 
@@ -124,7 +125,8 @@ inline std::span<const ShaderBinding> filament_material_samplers(FilamentMateria
 /// instance draws one btflod material: btflod_vt_extent, btflod_ids (first page-table layer,
 /// texture id) per instance.
 /// Returns invalid_argument for a config failing validate_shader_config() or a name/culling
-/// that is not a plain word. Deterministic. Allocates (set-up time). Thread-safe.
+/// that is not a plain word, unsupported for a cache format other than rgba16f. Deterministic. Allocates (set-up time).
+/// Thread-safe.
 inline Result<std::string> generate_filament_material(FilamentMaterialKind kind, const ShaderConfig& config,
                                                       const FilamentMaterialOptions& options = {}) {
   const std::string name =
@@ -134,6 +136,11 @@ inline Result<std::string> generate_filament_material(FilamentMaterialKind kind,
                       "generate_filament_material: name \"%.80s\" or culling \"%.80s\" "
                       "is not a word of letters, digits and '_'",
                       name.c_str(), options.culling.c_str());
+  if (config.vt.format != CacheFormat::rgba16f)  // its sampler list holds no slot-map table (2D arrays only)
+    return make_error(Status::unsupported,
+                      "generate_filament_material: cache format %s; the Filament materials read "
+                      "rgba16f caches only",
+                      cache_format_name(config.vt.format));
   GlslFunctionOptions fo;
   fo.prefix = "btflod_";
   for (uint32_t i = 1; i < kShaderBindingCount; ++i) {

@@ -165,13 +165,14 @@ inline std::span<const SamplerName> shader_sampler_names() noexcept {
       {"btflod_spmm_texels", ShaderBinding::spmm_texels},
       {"btflod_spmm_dictionary", ShaderBinding::spmm_dictionary},
       {"btflod_spmm_residual", ShaderBinding::spmm_residual},
+      {"btflod_slot_map", ShaderBinding::slot_map},
   };
   return kNames;
 }
 
 /// Number of ShaderBinding values (the block at 0 and every sampler role); sizes
 /// GlslFunctionOptions::resources. Grows with ShaderBinding.
-inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::direction_rings) + 1;
+inline constexpr uint32_t kShaderBindingCount = static_cast<uint32_t>(ShaderBinding::slot_map) + 1;
 
 /// Role name of a binding without prefix, e.g. "tile_cache" ("params" for the uniform block).
 constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
@@ -214,6 +215,8 @@ constexpr const char* shader_binding_name(ShaderBinding b) noexcept {
       return "spmm_dictionary";
     case ShaderBinding::spmm_residual:
       return "spmm_residual";
+    case ShaderBinding::slot_map:
+      return "slot_map";
   }
   return "unknown";
 }
@@ -708,6 +711,11 @@ inline void piece_page_table(GlslEmitter& e) {
 // BSVTF: V through page table and tile cache (paper 000 eq. 3).
 inline void piece_bsvtf(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::tile_cache);
+  const bool affine = e.config.vt.format == CacheFormat::rgba8_affine;
+  if (affine) {
+    e.sampler("sampler2D", ShaderBinding::slot_map);
+    e.constant_uint("kSlotsY", e.config.vt.slots_y);
+  }
   e.constant_bool("kTrilinear", e.config.vt.trilinear);
   // Addressing (paper 000 eq. 2-3) is done once per fragment for the levels the blend can use
   // and shared by every RGBA group; per group: two page-table texels (level l1, and level l0 or
@@ -742,7 +750,15 @@ inline void piece_bsvtf(GlslEmitter& e) {
       "  uint slot = entry & 0xFFFFFFu;\n"
       "  uint r = slot % @kSlotsPerLayer;\n"
       "  vec2 origin = vec2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n"
-      "  return textureLod($tile_cache$, vec3((origin + in_tile) / @kCacheSize, float(slot / @kSlotsPerLayer)), 0.0);\n"
+      "  vec4 t = textureLod($tile_cache$, vec3((origin + in_tile) / @kCacheSize, float(slot / @kSlotsPerLayer)), "
+      "0.0);\n");
+  if (affine)  // vt/cache_format.hpp: value = offset + scale · unorm, one map per slot (exact after filtering)
+    e.emit(
+        "  ivec2 m = ivec2(int(2u * (r % @kSlotsX)), int((slot / @kSlotsPerLayer) * @kSlotsY + r / @kSlotsX));\n"
+        "  return texelFetch($slot_map$, m, 0) + texelFetch($slot_map$, m + ivec2(1, 0), 0) * t;\n");
+  else
+    e.emit("  return t;\n");
+  e.emit(
       "}\n"
       "vec4 @vt_fetch(int layer, @VtSite a) {\n"
       "  uint e1 = texelFetch($page_table$, ivec3(a.tile1, layer), a.finest - a.l1).x;\n"

@@ -242,6 +242,11 @@ inline void hlsl_page_table(HlslEmitter& e) {
 
 inline void hlsl_bsvtf(HlslEmitter& e) {
   e.texture("Texture2DArray<float4>", ShaderBinding::tile_cache, true);
+  const bool affine = e.g.config.vt.format == CacheFormat::rgba8_affine;
+  if (affine) {
+    e.texture("Texture2D<float4>", ShaderBinding::slot_map);
+    e.constant_uint("kSlotsY", e.g.config.vt.slots_y);
+  }
   e.constant_bool("kTrilinear", e.g.config.vt.trilinear);
   e.emit(
       "// One fragment's virtual-texture address: finest-level texel coordinate, the two blend levels\n"
@@ -270,8 +275,15 @@ inline void hlsl_bsvtf(HlslEmitter& e) {
       "  uint slot = entry & 0xFFFFFFu;\n"
       "  uint r = slot % @kSlotsPerLayer;\n"
       "  float2 origin = float2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n"
-      "  return $tile_cache$.SampleLevel($tile_cache_sampler$, float3((origin + in_tile) / @kCacheSize, "
-      "float(slot / @kSlotsPerLayer)), 0.0);\n"
+      "  float4 t = $tile_cache$.SampleLevel($tile_cache_sampler$, float3((origin + in_tile) / @kCacheSize, "
+      "float(slot / @kSlotsPerLayer)), 0.0);\n");
+  if (affine)  // vt/cache_format.hpp: value = offset + scale · unorm, one map per slot (exact after filtering)
+    e.emit(
+        "  int2 m = int2(int(2u * (r % @kSlotsX)), int((slot / @kSlotsPerLayer) * @kSlotsY + r / @kSlotsX));\n"
+        "  return $slot_map$.Load(int3(m, 0)) + $slot_map$.Load(int3(m + int2(1, 0), 0)) * t;\n");
+  else
+    e.emit("  return t;\n");
+  e.emit(
       "}\n"
       "float4 @vt_fetch(int layer, @VtSite a) {\n"
       "  uint e1 = $page_table$.Load(int4(a.tile1, layer, a.finest - a.l1));\n"

@@ -24,6 +24,12 @@ constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexc
 constexpr uint32_t unpack_page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
 constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
 
+/// Texel format of the physical tile cache (vt/cache_format.hpp).
+enum class CacheFormat : uint8_t {
+  rgba16f = 0,       ///< the decoded values as half floats: 8 bytes per texel
+  rgba8_affine = 1,  ///< unorm8 with a per-slot, per-component offset and scale: 4 bytes per texel + 32 per slot
+};
+
 /// Shape of the physical tile cache. Plain value type, constexpr queries, no allocation.
 /// The first three members keep the order of the former TileCacheConfig, so `{slots_x,
 /// slots_y}` and `{slots_x, slots_y, delta_capacity}` initialisers keep their meaning.
@@ -33,9 +39,10 @@ struct CacheConfig {
   /// Page-table deltas the tile cache keeps between clear_deltas() calls (vt/tile_cache.hpp);
   /// beyond it the backend must upload whole page tables. Not used by the shaders.
   uint32_t delta_capacity = 1u << 16;
-  uint32_t tile_size = 64;    ///< T, texels per tile side without border
-  uint32_t border = 4;        ///< B, texels of border on each side (≥ 1 for bilinear)
-  uint32_t cache_layers = 1;  ///< layers of the cache array texture
+  uint32_t tile_size = 64;                    ///< T, texels per tile side without border
+  uint32_t border = 4;                        ///< B, texels of border on each side (≥ 1 for bilinear)
+  uint32_t cache_layers = 1;                  ///< layers of the cache array texture
+  CacheFormat format = CacheFormat::rgba16f;  ///< texel format of the cache texture
 
   /// T + 2B: side of one slot in texels.
   constexpr uint32_t padded_tile_size() const noexcept { return tile_size + 2 * border; }
@@ -45,16 +52,22 @@ struct CacheConfig {
   constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
   /// Height of one cache layer in texels.
   constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
-  /// Bytes of the cache texture as RGBA16F (what a GPU backend allocates).
+  /// Bytes of one cache texel in `format`.
+  constexpr uint32_t texel_bytes() const noexcept { return format == CacheFormat::rgba8_affine ? 4 : 8; }
+  /// Bytes of the cache texture in `format` (what a GPU backend allocates).
   constexpr uint64_t cache_bytes() const noexcept {
-    return static_cast<uint64_t>(cache_width()) * cache_height() * cache_layers * 8;
+    return static_cast<uint64_t>(cache_width()) * cache_height() * cache_layers * texel_bytes();
+  }
+  /// Bytes of the per-slot map table (RGBA32F, two texels per slot; rgba8_affine only, else 0).
+  constexpr uint64_t slot_map_bytes() const noexcept {
+    return format == CacheFormat::rgba8_affine ? static_cast<uint64_t>(slot_count()) * 32 : 0;
   }
   /// True when every size is positive, the border is smaller than the tile and the slot count
   /// fits the 24-bit slot field of a page-table entry.
   constexpr bool valid() const noexcept {
     const uint64_t slots = static_cast<uint64_t>(slots_x) * slots_y * cache_layers;
     return slots_x > 0 && slots_y > 0 && cache_layers > 0 && tile_size > 0 && border < tile_size && slots > 0 &&
-           slots < (1u << 24);
+           slots < (1u << 24) && (format == CacheFormat::rgba16f || format == CacheFormat::rgba8_affine);
   }
 };
 

@@ -6,6 +6,8 @@
 // half of the texture (the quad is shown at about one texel per pixel at 512²).
 // BM_*_Pairs interleave the two programs and report the median per-pair frame-rate ratio.
 // BM_*_ScenePasses time the demo's scene geometry with the colour and feedback passes apart.
+// BM_*_CacheFormatPairs interleave BSVTF frames from an rgba16f and an rgba8_affine cache holding
+// the same tiles and report the median per-pair frame-rate ratio (vt/cache_format.hpp).
 // btflod-link: btflod_gl_backend btflod_vk_backend
 #include <benchmark/benchmark.h>
 
@@ -39,7 +41,7 @@ struct Scene {
   std::string error;
 };
 
-Scene make_scene(bool vulkan) {
+Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   Scene s;
   auto r = vulkan ? samples::create_vk_backend() : samples::create_gl_backend();
   if (!r) {
@@ -53,6 +55,7 @@ Scene make_scene(bool vulkan) {
   c.vt.slots_x = 16;  // the demo's 128-slot cache (samples/demo/stream_render.hpp)
   c.vt.slots_y = 8;
   c.vt.finest_level = 3;
+  c.vt.format = format;
   if (VoidResult v = s.backend->init(c, 2); !v) {
     s.error = v.message();
     s.backend.reset();
@@ -68,15 +71,33 @@ Scene make_scene(bool vulkan) {
   s.bsvtf = *s.backend->create_material(m.data(false));
   // Levels 0..2 resident everywhere, the finest level (3) over the left half: 2 × 53 slots.
   static const Pyramid pyr = build_pyramid(m, 3);
-  const CacheFill fill = fill_cache(pyr, c.vt, kTextureSize, kTextureSize);
-  s.backend->upload_tiles(fill.uploads);
+  CacheFill fill = fill_cache(pyr, c.vt, kTextureSize, kTextureSize);
+  std::vector<std::vector<uint8_t>> unorm8;  // rgba8_affine: the same tiles encoded as the Streamer encodes them
+  if (format == CacheFormat::rgba8_affine) {
+    unorm8.reserve(fill.uploads.size());
+    std::vector<float> scratch;
+    for (TileUpload& u : fill.uploads) {
+      scratch.resize(u.texels.size());
+      std::vector<uint8_t>& q = unorm8.emplace_back(u.texels.size());
+      u.map = encode_cache_tile_unorm8(u.texels, scratch, q);
+      u.unorm8 = q;
+      u.texels = {};
+    }
+  }
+  if (s.backend->upload_tiles(fill.uploads) != Status::success) {
+    s.error = "upload_tiles failed";
+    s.backend.reset();
+    return s;
+  }
   s.backend->apply_page_table_writes(fill.deltas);
   s.params = make_params();
   s.params.vt_extent = glm::vec4(kTextureSize, kTextureSize, 3, 0);
   // V' memory: FMF keeps the whole eigen-texture array (RGBA32F, ⌈C/4⌉ layers, mips ≈ 4/3);
   // BSVTF keeps the resident tiles (RGBA16F, (T + 2B)² each) and the page tables.
   s.fmf_bytes = 16.0 * kTextureSize * kTextureSize * c.component_groups() * 4.0 / 3.0;
-  s.bsvtf_bytes = 8.0 * c.vt.padded_tile_size() * c.vt.padded_tile_size() * static_cast<double>(fill.uploads.size()) +
+  s.bsvtf_bytes = c.vt.texel_bytes() * c.vt.padded_tile_size() * c.vt.padded_tile_size() *
+                      static_cast<double>(fill.uploads.size()) +
+                  (format == CacheFormat::rgba8_affine ? 32.0 * static_cast<double>(fill.uploads.size()) : 0.0) +
                   4.0 * 2 * (64 + 16 + 4 + 1);
   return s;
 }
@@ -159,6 +180,52 @@ void render_pairs(benchmark::State& state, bool vulkan) {
 // Counters: the median frame times, the medians of the per-iteration ratios t_FMF / t_BSVTF
 // (colour alone, with the separate pass, with bsvtf_feedback) and the median marginal cost of
 // the separate feedback pass (t_frame − t_colour).
+// BSVTF frames from two backends of one API, one with an rgba16f cache and one with an
+// rgba8_affine cache holding the same tiles, interleaved (order alternating per iteration):
+// counters are each format's median frame time and the median per-pair frame-rate ratio
+// rgba8 / rgba16f (t_rgba16f / t_rgba8; above 1: the compact cache renders faster).
+void render_cache_format_pairs(benchmark::State& state, bool vulkan) {
+  const int size = static_cast<int>(state.range(0));
+  static Scene wide[2], compact[2];
+  Scene& a = wide[vulkan ? 1 : 0];
+  Scene& b = compact[vulkan ? 1 : 0];
+  if (!a.backend && a.error.empty()) a = make_scene(vulkan, CacheFormat::rgba16f);
+  if (!b.backend && b.error.empty()) b = make_scene(vulkan, CacheFormat::rgba8_affine);
+  if (!a.backend || !b.backend) {
+    state.SkipWithError(("backend unavailable: " + a.error + b.error).c_str());
+    return;
+  }
+  const auto one = [&](Scene& s) {
+    s.frame.width = s.frame.height = static_cast<uint32_t>(size);
+    const auto t0 = std::chrono::steady_clock::now();
+    s.backend->begin_frame(s.frame);
+    s.backend->draw(ShaderProgram::bsvtf, s.mesh, s.bsvtf, s.params);
+    s.backend->end_frame();
+    s.backend->wait_idle();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (int warm = 0; warm < 2; ++warm) one(a), one(b);
+  std::vector<double> t16, t8, ratio;
+  for (auto _ : state) {
+    const bool wide_first = (t16.size() & 1) == 0;
+    const double x = one(wide_first ? a : b);
+    const double y = one(wide_first ? b : a);
+    t16.push_back(wide_first ? x : y);
+    t8.push_back(wide_first ? y : x);
+    ratio.push_back(t16.back() / t8.back());
+  }
+  const auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["ms_rgba16f"] = median(t16);
+  state.counters["ms_rgba8"] = median(t8);
+  state.counters["rgba8_fps_over_rgba16f"] = median(ratio);
+  state.counters["cache_MiB_rgba16f"] = a.bsvtf_bytes / (1024.0 * 1024.0);
+  state.counters["cache_MiB_rgba8"] = b.bsvtf_bytes / (1024.0 * 1024.0);
+}
+
 void render_scene_passes(benchmark::State& state, bool vulkan) {
   static Scene scenes[2];
   Scene& s = scenes[vulkan ? 1 : 0];
@@ -244,6 +311,8 @@ void BM_Vk_Bsvtf(benchmark::State& st) { render(st, true, ShaderProgram::bsvtf);
 void BM_Gl_Pairs(benchmark::State& st) { render_pairs(st, false); }
 void BM_Vk_Pairs(benchmark::State& st) { render_pairs(st, true); }
 void BM_Gl_ScenePasses(benchmark::State& st) { render_scene_passes(st, false); }
+void BM_Gl_CacheFormatPairs(benchmark::State& st) { render_cache_format_pairs(st, false); }
+void BM_Vk_CacheFormatPairs(benchmark::State& st) { render_cache_format_pairs(st, true); }
 void BM_Vk_ScenePasses(benchmark::State& st) { render_scene_passes(st, true); }
 
 }  // namespace
@@ -273,5 +342,7 @@ BENCHMARK(BM_Vk_Pairs)
     ->UseRealTime()
     ->MinTime(2.0);
 BENCHMARK(BM_Gl_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
+BENCHMARK(BM_Gl_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Vk_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_Vk_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK_MAIN();

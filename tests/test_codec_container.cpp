@@ -169,6 +169,41 @@ TEST(CodecContainer, RoundTripMetadataPacketsWeightsAndTiles) {
   EXPECT_EQ(dir->find(TileId{2, 0, 0, 0}), nullptr);
 }
 
+TEST(CodecContainer, DecodeTileFollowsTheChainAndReportsEachFailure) {
+  const Material m = make_material();
+  auto file = build(m);
+  auto dir = read_bsvtf(file);
+  ASSERT_TRUE(dir.ok()) << dir.message();
+  const TileLayout layout = dir->metadata.layout();
+  TileDecoder dec(layout);
+  std::vector<float> scratch(layout.sample_count()), out(layout.sample_count()), parent(layout.sample_count()),
+      step(layout.sample_count());
+  // Level 2 tile (1, 2) by hand: root, (0, 1), then the tile, each against its parent.
+  const TileId t{1, 2, 1, 2};
+  for (uint32_t l = 0; l <= 2; ++l) {
+    const BsvtfTileEntry* e = dir->find(t.ancestor(l));
+    ASSERT_NE(e, nullptr);
+    ASSERT_EQ(dec.decode(std::span<const uint8_t>(file).subspan(e->offset, e->size),
+                         l > 0 ? std::span<const float>(parent) : std::span<const float>(), t.ancestor(l).x & 1,
+                         t.ancestor(l).y & 1, step),
+              Status::success);
+    std::swap(parent, step);
+  }
+  for (uint32_t level : {0u, 1u, 2u}) {  // both parities of the alternating buffers
+    ASSERT_EQ(decode_bsvtf_tile(*dir, file, t.ancestor(level), dec, scratch, out), Status::success);
+    if (level == 2) {
+      EXPECT_EQ(out, parent);
+    }
+  }
+  EXPECT_EQ(decode_bsvtf_tile(*dir, file, TileId{1, 3, 0, 0}, dec, scratch, out), Status::invalid_argument);
+  EXPECT_EQ(decode_bsvtf_tile(*dir, file, t, dec, std::span<float>(scratch).first(8), out), Status::invalid_argument);
+  const BsvtfTileEntry* mid = dir->find(t.ancestor(1));
+  EXPECT_EQ(decode_bsvtf_tile(*dir, std::span<const uint8_t>(file).first(mid->offset + 3), t, dec, scratch, out),
+            Status::short_output);
+  file[mid->offset + mid->size / 2] ^= 0x40;  // the CRC of an ancestor no longer matches
+  EXPECT_EQ(decode_bsvtf_tile(*dir, file, t, dec, scratch, out), Status::bad_data);
+}
+
 TEST(CodecContainer, CoarseToFinePrefixIsContiguousAndDirectoryParsesAlone) {
   const Material m = make_material(4, 4);
   const auto file = build(m);

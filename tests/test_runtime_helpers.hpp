@@ -34,16 +34,9 @@ inline std::vector<float> decode_direct_floats(const std::vector<uint8_t>& file,
   using namespace btflod;
   const TileLayout layout = d.metadata.layout();
   TileDecoder dec(layout);
-  std::vector<float> parent(layout.sample_count()), out(layout.sample_count());
-  for (uint32_t l = 0; l <= t.level; ++l) {
-    const TileId a = t.ancestor(l);
-    const BsvtfTileEntry* e = d.find(a);
-    EXPECT_EQ(dec.decode(std::span<const uint8_t>(file.data() + e->offset, e->size),
-                         l > 0 ? std::span<const float>(parent) : std::span<const float>(), a.x & 1u, a.y & 1u, out),
-              Status::success);
-    std::swap(parent, out);
-  }
-  return parent;
+  std::vector<float> scratch(layout.sample_count()), out(layout.sample_count());
+  EXPECT_EQ(decode_bsvtf_tile(d, file, t, dec, scratch, out), Status::success);
+  return out;
 }
 
 /// decode_direct_floats() as half texels: the reference the runtime's rgba16f uploads must equal.

@@ -4,6 +4,7 @@
 // exactly decoded tiles.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -40,7 +41,7 @@ TEST(CacheFormat, ConfigSizesFollowTheFormat) {
   c.format = CacheFormat::rgba8_affine;
   EXPECT_TRUE(c.valid());
   EXPECT_EQ(c.cache_bytes() * 2, wide);
-  EXPECT_EQ(c.slot_map_bytes(), uint64_t{c.slot_count()} * 32);
+  EXPECT_EQ(c.slot_map_bytes(), uint64_t{c.slot_count()} * 16);
   c.format = static_cast<CacheFormat>(7);
   EXPECT_FALSE(c.valid());
 }
@@ -53,8 +54,13 @@ TEST(CacheFormat, EncoderErrorIsHalfAStepOfTheTileRange) {
   for (uint32_t c = 0; c < 4; ++c) {
     float lo = INFINITY, hi = -INFINITY;
     for (size_t i = 0; i < texels; ++i) lo = std::min(lo, v[i * 4 + c]), hi = std::max(hi, v[i * 4 + c]);
-    EXPECT_EQ(map.offset[c], lo);
-    EXPECT_EQ(map.scale[c], hi - lo);
+    // Halves: the offset at or below the minimum, the scale reaching the maximum, both within
+    // half rounding (2^-10 relative) of the exact range.
+    EXPECT_EQ(half_bits_to_float(float_to_half_bits(map.offset[c])), map.offset[c]);
+    EXPECT_EQ(half_bits_to_float(float_to_half_bits(map.scale[c])), map.scale[c]);
+    EXPECT_LE(map.offset[c], lo);
+    EXPECT_GE(map.offset[c] + map.scale[c], hi * (1.0f - 1e-6f));
+    EXPECT_LE(map.offset[c] + map.scale[c], hi + std::fabs(hi) * 2e-3f + std::fabs(lo) * 2e-3f);
   }
   double worst = 0.0;
   bool hit_zero[4] = {}, hit_full[4] = {};
@@ -67,13 +73,13 @@ TEST(CacheFormat, EncoderErrorIsHalfAStepOfTheTileRange) {
     hit_full[c] |= q[i] == 255;
   }
   // Half a step (1/510 of the range), plus float rounding.
-  EXPECT_LE(worst, 1.0 / 510.0 + 1e-6);
-  EXPECT_GT(worst, 0.5 / 510.0);  // the bound is reached, not an accident of easy data
+  EXPECT_LE(worst, 1.0 / 510.0 + 1e-6);  // relative to the map's (half-rounded) range
+  EXPECT_GT(worst, 0.5 / 510.0);         // the bound is reached, not an accident of easy data
   for (int c = 0; c < 4; ++c) EXPECT_TRUE(hit_zero[c] && hit_full[c]) << "the ends map to 0 and 255";
 }
 
 TEST(CacheFormat, ConstantComponentsDecodeExactly) {
-  std::vector<float> v(16 * 4);
+  std::vector<float> v(16 * 4);  // constants that are halves
   for (size_t i = 0; i < 16; ++i) {
     v[i * 4 + 0] = 0.375f;
     v[i * 4 + 1] = -2.0f;
@@ -106,16 +112,21 @@ TEST(CacheFormat, HostileValuesGiveAFiniteMap) {
   EXPECT_EQ(map.offset[0], 0.0f);  // component 0 is all NaN: no value
   EXPECT_EQ(map.scale[0], 0.0f);
   EXPECT_EQ(q[0], 0);
-  EXPECT_EQ(map.offset[1], -65504.0f);  // ±∞ saturate at the half range
-  EXPECT_EQ(map.scale[1], 131008.0f);
+  EXPECT_EQ(map.offset[1], -32752.0f);  // ±∞ saturate at ±32752: the range is a half
+  EXPECT_EQ(map.scale[1], 65504.0f);
   EXPECT_EQ(q[1], 255);
   EXPECT_EQ(q[9], 0);
-  EXPECT_EQ(map.offset[2], -65504.0f);
+  EXPECT_EQ(map.offset[2], -32752.0f);
   EXPECT_EQ(q[2], 0);
   EXPECT_EQ(q[6], 255);  // 1e30 saturates too
   EXPECT_EQ(map.offset[3], -1.0f);
   EXPECT_EQ(map.scale[3], 2.0f);
   TileUpload u{0, {}, q, map};
+  const std::array<uint32_t, 4> packed = pack_cache_slot_map(map);
+  for (int c = 0; c < 4; ++c) {  // the packed texel holds the same values (they are halves)
+    EXPECT_EQ(half_bits_to_float(static_cast<uint16_t>(packed[c / 2] >> (16 * (c % 2)))), map.offset[c]);
+    EXPECT_EQ(half_bits_to_float(static_cast<uint16_t>(packed[2 + c / 2] >> (16 * (c % 2)))), map.scale[c]);
+  }
   const CacheConfig cache{1, 1, 16, 1, 1, 1, CacheFormat::rgba8_affine};  // 3² texels per slot: not 3 texels
   EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);
   u.map.scale[2] = nan;
@@ -164,13 +175,12 @@ TEST(CacheFormat, SlotMapTexelsAreDistinctAndInsideTheTable) {
   std::set<std::pair<uint32_t, uint32_t>> seen;
   for (uint32_t s = 0; s < c.slot_count(); ++s) {
     const CacheSlotMapTexel t = cache_slot_map_texel(c, s);
-    EXPECT_EQ(t.x % 2, 0u);
-    EXPECT_LT(t.x + 1, cache_slot_map_width(c));
+    EXPECT_LT(t.x, cache_slot_map_width(c));
     EXPECT_LT(t.y, cache_slot_map_height(c));
     EXPECT_TRUE(seen.insert({t.x, t.y}).second) << "slot " << s;
     // Same column and row as the slot's tile in its layer (the shaders compute it that way).
     const CacheSlotPlacement p = cache_slot_placement(c, s);
-    EXPECT_EQ(t.x / 2, p.x / c.padded_tile_size());
+    EXPECT_EQ(t.x, p.x / c.padded_tile_size());
     EXPECT_EQ(t.y, p.layer * c.slots_y + p.y / c.padded_tile_size());
   }
 }
@@ -243,4 +253,23 @@ TEST(CacheFormat, StreamerUploadsTheEncodedTiles) {
   std::printf("rgba8_affine vs rgba16f CPU cache: max |diff| %.3g over values up to %.3g\n", worst, range);
   EXPECT_GT(range, 0.1);
   EXPECT_LT(worst, range / 255.0);  // within one step of the largest range: the maps are applied
+}
+
+TEST(CacheFormat, MapValuesAreZeroOrNormalHalves) {
+  // Tiny offsets and ranges (half subnormals) are widened to 0 or ±2^-14: the shaders widen the
+  // packed halves with integer operations, exact for normal halves only.
+  const std::vector<float> v = {1e-7f, -3e-6f, 0.5f, 2e-5f, 3e-7f, -1e-6f, 0.5f, 2e-5f};
+  std::vector<uint8_t> q(v.size());
+  const CacheSlotMap map = encode_cache_tile_unorm8(v, q);
+  for (int c = 0; c < 4; ++c)
+    for (float x : {map.offset[c], map.scale[c]}) {
+      EXPECT_TRUE(x == 0.0f || std::fabs(x) >= 6.103515625e-05f) << c << ": " << x;
+      EXPECT_EQ(half_bits_to_float(float_to_half_bits(x)), x);
+    }
+  EXPECT_EQ(map.offset[0], 0.0f);
+  EXPECT_EQ(map.scale[0], 6.103515625e-05f);
+  EXPECT_EQ(map.offset[1], -6.103515625e-05f);
+  EXPECT_EQ(map.scale[2], 0.0f);         // constant 0.5
+  for (size_t i = 0; i < v.size(); ++i)  // still within half a step of each value
+    EXPECT_NEAR(decode_cache_unorm8(map, static_cast<uint32_t>(i % 4), q[i]), v[i], map.scale[i % 4] / 510.0f + 1e-9f);
 }

@@ -66,7 +66,7 @@ endif()
 foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknown option --bogus-option"
              "--components;0;--components 0: expected 1..128" "--components;129;--components 129: expected 1..128"
              "--material;glass;--material glass: expected cloth, stone, leather or tiles"
-             "--components;needs a value")
+             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f or rgba8")
   list(POP_BACK case message)
   execute_process(COMMAND ${DEMO} --out ${DIR}/refused ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out
                   ERROR_VARIABLE err)

@@ -12,6 +12,7 @@
 
 #include "btflod/btf/heightfield.hpp"
 #include "btflod/core/value_transform.hpp"
+#include "btflod/vt/cache_config.hpp"
 
 namespace btflod::demo {
 
@@ -41,6 +42,9 @@ struct DemoConfig {
   bool deflate = false;                 ///< --deflate: deflate tiles (format 2), not zstd
   std::string record_feedback;          ///< --record-feedback FILE: feedback trace for btflod-bench
   bool separate_feedback_pass = false;  ///< --feedback-pass: feedback words in a pass of their own
+  /// --cache-format rgba16f|rgba8 (vt/cache_format.hpp). rgba8 by default: half the cache memory,
+  /// ΔE*ab p99 0.1 against rgba16f on the settled view (docs/bsvtf_format.md, "Cache formats").
+  CacheFormat cache_format = CacheFormat::rgba8_affine;
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
   /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
   /// factorised out of core. --size defaults to 64 there (512 is the paper's; ~36 GB of store each).
@@ -86,6 +90,7 @@ inline constexpr const char* kDemoUsage =
     "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH] [--components C]\n"
     "                   [--material cloth|stone|leather|tiles] [--interreflection] [--cut]\n"
+    "                   [--cache-format rgba16f|rgba8]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF of rank C = --components, default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
     "  .bsvtf container each, then flies a camera through a scene of BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
@@ -106,6 +111,10 @@ inline constexpr const char* kDemoUsage =
     "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
     "  zstd (format 3, the default: smaller tiles that decode faster).\n"
     "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
+    "  --cache-format rgba8 (the default) keeps the tile cache as unorm8 with a per-slot offset and\n"
+    "  scale (vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves).\n"
+    "  Either way the report compares the two formats on the settled view's resident tiles (CPU\n"
+    "  ray-caster, same rays).\n"
     "  --feedback-pass draws the feedback words in a pass of their own at 1/16 of the screen\n"
     "  (GPU path) instead of writing them from the BSVTF colour pass (the default).\n"
     "  for btflod-bench scheduler --trace FILE.\n"
@@ -130,6 +139,7 @@ inline constexpr const char* kDemoUsage =
     "  interreflection to the synthesis (btf/synthesizer.hpp; slower). Neither applies to prebuilt\n"
     "  --inputs stores.\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1\n"
+    "  --cache-format rgba8\n"
     "  --components " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS);
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
@@ -189,9 +199,9 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       continue;
     }
     static constexpr std::string_view kValueOptions[] = {
-        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile", "--memory",
-        "--size",       "--frames", "--materials",  "--settle",          "--backend", "--bandwidth",
-        "--components", "--seed",   "--material",   "--value-encoding"};
+        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile",     "--memory",
+        "--size",       "--frames", "--materials",  "--settle",          "--backend",     "--bandwidth",
+        "--components", "--seed",   "--material",   "--value-encoding",  "--cache-format"};
     if (std::find(std::begin(kValueOptions), std::end(kValueOptions), a) == std::end(kValueOptions))
       return fail("unknown option " + std::string(a));
     if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value");
@@ -199,6 +209,14 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     long long n = 0;
     if (a == "--out") {
       cfg.out_dir = value;
+    } else if (a == "--cache-format") {
+      const std::string_view f = value;
+      if (f == "rgba16f")
+        cfg.cache_format = CacheFormat::rgba16f;
+      else if (f == "rgba8" || f == "rgba8_affine")
+        cfg.cache_format = CacheFormat::rgba8_affine;
+      else
+        return fail("--cache-format " + std::string(value) + ": expected rgba16f or rgba8");
     } else if (a == "--inputs") {
       cfg.inputs_dir = value;
     } else if (a == "--frame-size") {

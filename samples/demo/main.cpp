@@ -140,6 +140,7 @@ int main(int argc, char** argv) {
   if (cfg->frame_height > 0) ss.height = static_cast<uint32_t>(cfg->frame_height);
   const uint32_t frames = static_cast<uint32_t>(cfg->frames);
   if (!cfg->no_swap && frames >= 12) ss.swap_out_frame = frames / 3, ss.swap_back_frame = 2 * frames / 3;
+  ss.cache_format = cfg->cache_format;
   // The raw-BTF reference of the last view: its rays are cast now, and each material's are
   // resolved from its store right after that material is prepared, so that the paper profile
   // can delete each store before the next is synthesised (one store on disk at a time).
@@ -430,8 +431,52 @@ int main(int argc, char** argv) {
                     pm.bsvtf_gpu_f.de_p99);
       std::printf("\n");
     }
+    // The two cache formats on the settled view's resident tiles: same rays, tiles and page
+    // table, the format alone differs (CPU ray-caster; the GPU renders the --cache-format one).
+    {
+      run.cache_format.format = cache_format_name(cfg->cache_format);
+      const auto t0 = std::chrono::steady_clock::now();
+      Image<float> wide(static_cast<int>(ss.width), static_cast<int>(ss.height), 4), compact = wide;
+      auto a = (*streamer)->render_cache_format_on_cpu(CacheFormat::rgba16f, frames - 1, frames, wide);
+      if (!a) return fail("cache formats", a.message());
+      auto b = (*streamer)->render_cache_format_on_cpu(CacheFormat::rgba8_affine, frames - 1, frames, compact);
+      if (!b) return fail("cache formats", b.message());
+      auto& cf = run.cache_format;
+      cf.done = true;
+      cf.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      CacheConfig shape{ss.slots_x, ss.slots_y, 1, run.tile_size, run.border, 1, CacheFormat::rgba16f};
+      cf.bytes_rgba16f = shape.cache_bytes();
+      shape.format = CacheFormat::rgba8_affine;
+      cf.bytes_rgba8 = shape.cache_bytes() + shape.slot_map_bytes();
+      const std::string same =
+          "same rays, tiles and page table: CPU ray-caster, 1 ray per pixel centre, the cache's "
+          "resident levels";
+      cf.rgba8_vs_rgba16f = demo::image_error(wide, compact);
+      cf.rgba8_vs_rgba16f.filter = same;
+      cf.rgba16f_vs_raw = demo::image_error(ref->raw, wide);
+      cf.rgba8_vs_raw = demo::image_error(ref->raw, compact);
+      cf.rgba16f_vs_raw.filter = cf.rgba8_vs_raw.filter = "different filters: " + same + " vs raw " + ss_desc;
+      for (uint32_t i = 0; i < materials.size(); ++i) {
+        cf.per_material.push_back(demo::image_error(wide, compact, &ref->pixel_material, i));
+        cf.per_material.back().filter = same;
+      }
+      std::printf(
+          "  cache       %s: %.0f KiB (rgba16f %.0f KiB, rgba8 %.0f KiB with its slot maps); settled view, same rays: "
+          "rgba8 vs rgba16f SSIM %.5f  dE*ab p99 %.3f (max over materials %.3f); vs raw rgba16f SSIM %.4f, rgba8 "
+          "%.4f (%.1f s)\n",
+          cf.format.c_str(),
+          (cfg->cache_format == CacheFormat::rgba8_affine ? cf.bytes_rgba8 : cf.bytes_rgba16f) / 1024.0,
+          cf.bytes_rgba16f / 1024.0, cf.bytes_rgba8 / 1024.0, cf.rgba8_vs_rgba16f.ssim, cf.rgba8_vs_rgba16f.de_p99,
+          [&] {
+            double worst = 0.0;
+            for (const auto& e : cf.per_material) worst = std::max(worst, e.de_p99);
+            return worst;
+          }(),
+          cf.rgba16f_vs_raw.ssim, cf.rgba8_vs_raw.ssim, cf.seconds);
+    }
   } else {
     run.raw.note = "no frames rendered";
+    run.cache_format.note = "no frames rendered";
   }
 
   // The page table was kept up to date from the cache's deltas only: compare it with a

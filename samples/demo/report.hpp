@@ -78,6 +78,19 @@ struct RunSummary {
     uint64_t bytes_read = 0;
     uint32_t supersample = 1;
   } raw;
+  /// The tile cache's format (--cache-format), and the two formats compared on the settled
+  /// view's resident tiles (StreamingRenderer::render_cache_format_on_cpu: CPU ray-caster, same
+  /// rays, tiles and page table): rgba8_affine against rgba16f (whole view and per material), and
+  /// each against the raw BTF.
+  struct CacheFormatComparison {
+    bool done = false;
+    std::string note;  ///< why it was not done
+    std::string format = "rgba16f";
+    uint64_t bytes_rgba16f = 0, bytes_rgba8 = 0;  ///< the cache texture (rgba8: with its slot-map table)
+    ImageError rgba8_vs_rgba16f, rgba16f_vs_raw, rgba8_vs_raw;
+    std::vector<ImageError> per_material;  ///< rgba8_affine vs rgba16f over each material's pixels
+    double seconds = 0;
+  } cache_format;
 
   /// Frame time of the two programs over one run: both are rendered every frame (alternating
   /// which goes first), so load from other processes hits both alike. Medians over the frames
@@ -314,6 +327,25 @@ inline std::string config_and_raw_json(const RunSummary& r) {
     o << b;
   } else {
     o << "  \"raw_reference\": {\"not_done\": \"" << r.raw.note << "\"},\n";
+  }
+  if (r.cache_format.done) {
+    const RunSummary::CacheFormatComparison& c = r.cache_format;
+    std::snprintf(
+        b, sizeof b,
+        "  \"cache_format\": {\"format\": \"%s\", \"cache_bytes_rgba16f\": %llu, \"cache_bytes_rgba8\": %llu, "
+        "\"seconds\": %.2f, ",
+        c.format.c_str(), static_cast<unsigned long long>(c.bytes_rgba16f),
+        static_cast<unsigned long long>(c.bytes_rgba8), c.seconds);
+    o << b << "\"rgba8_vs_rgba16f\": " << image_error_json(c.rgba8_vs_rgba16f)
+      << ", \"rgba16f_vs_raw\": " << image_error_json(c.rgba16f_vs_raw)
+      << ", \"rgba8_vs_raw\": " << image_error_json(c.rgba8_vs_raw) << ", \"per_material_rgba8_vs_rgba16f\": [";
+    for (size_t i = 0; i < c.per_material.size(); ++i)
+      o << (i ? ", " : "") << "{\"material\": \"" << (i < r.material_names.size() ? r.material_names[i] : "")
+        << "\", \"error\": " << image_error_json(c.per_material[i]) << "}";
+    o << "]},\n";
+  } else {
+    o << "  \"cache_format\": {\"format\": \"" << r.cache_format.format << "\", \"not_done\": \"" << r.cache_format.note
+      << "\"},\n";
   }
   const RunSummary::FrameTimes ft = r.frame_times();
   std::snprintf(

@@ -57,6 +57,9 @@ struct StreamSettings {
   /// swap adds the new material first, shows it once it is ready (roots and U′ loaded), then
   /// removes the old one (Streamer::add_material / remove_material; its GPU material destroyed).
   uint32_t swap_out_frame = 0, swap_back_frame = 0;
+  /// Texel format of the tile cache (vt/cache_format.hpp): rgba16f, or rgba8_affine at half
+  /// the memory (the Streamer's decode jobs quantise each tile with its own range).
+  CacheFormat cache_format = CacheFormat::rgba16f;
 };
 
 /// Which demo material a scene slot shows and the Streamer material id it streams under.
@@ -112,7 +115,8 @@ inline Image<float> to_display(const Image<float>& rgba) {
 /// Texture memory of the two representations as the backends allocate it.
 struct MemoryFigures {
   uint64_t fmf_bytes = 0;    ///< Σ over materials of V' as RGBA32F arrays with a full mip chain
-  uint64_t bsvtf_bytes = 0;  ///< tile cache RGBA16F + page table R32UI with mips
+  uint64_t bsvtf_bytes = 0;  ///< tile cache (its format, slot maps included) + page table R32UI with mips
+  uint64_t cache_bytes = 0;  ///< the tile cache alone (texels + rgba8_affine's slot-map table)
   uint64_t u_bytes = 0;      ///< U' and lookup tables (the same for both, not counted above)
 };
 
@@ -315,6 +319,10 @@ class GpuFrameRenderer final : public FrameRenderer {
 class CpuFrameRenderer final : public FrameRenderer {
  public:
   static constexpr uint32_t kMaxComponents = 256;  ///< C the shading loop holds (64 RGBA groups)
+  CpuFrameRenderer() = default;
+  /// Keeps its cache texture in `format` instead of the Streamer cache's (the cache-format
+  /// comparison fills it with upload_tile_values()).
+  explicit CpuFrameRenderer(CacheFormat format) : format_override_(true), format_(format) {}
   std::string name() const override { return "CPU reference (backend/cpu_reference.hpp ray-caster)"; }
   VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
                   const std::vector<scene::SceneObject>&) override {
@@ -322,7 +330,7 @@ class CpuFrameRenderer final : public FrameRenderer {
     cache_ = &cache;
     materials_ = &materials;
     config_ = config;
-    texture_ = std::make_unique<CpuCacheTexture>(cache);
+    texture_ = std::make_unique<CpuCacheTexture>(cache, format_override_ ? format_ : cache.config().format);
     for (const DemoMaterial& m : materials)
       if (m.components > kMaxComponents)
         return make_error(Status::unsupported, "%s: C = %u, the CPU reference shades at most %u components",
@@ -337,7 +345,7 @@ class CpuFrameRenderer final : public FrameRenderer {
         out,
         [&](std::span<const TileUpload> tiles) noexcept {
           for (const TileUpload& t : tiles)
-            if (!texture_->upload(*cache_, t.slot, t.texels)) return Status::invalid_argument;
+            if (!texture_->upload(*cache_, t.slot, t.texels, t.unorm8, t.map)) return Status::invalid_argument;
           return Status::success;
         },
         [](std::span<const PageTableWrite>) noexcept { return Status::success; });
@@ -360,6 +368,22 @@ class CpuFrameRenderer final : public FrameRenderer {
     shade(cam, p, false, fmf);
     ms_fmf = ms_since(t0);
     return {};
+  }
+  /// Puts a decoded tile (`values`: (T+2B)² × 4 floats) into `slot` of the cache texture,
+  /// converted to its format as the Streamer's decode jobs do. False on a size or slot mismatch.
+  bool upload_tile_values(uint32_t slot, std::span<const float> values) {
+    if (texture_->format() == CacheFormat::rgba8_affine) {
+      std::vector<uint8_t> q(values.size());
+      const CacheSlotMap map = encode_cache_tile_unorm8(values, q);
+      return texture_->upload(*cache_, slot, q, map);
+    }
+    std::vector<uint16_t> h(values.size());
+    float_to_half(values, h);
+    return texture_->upload(*cache_, slot, h);
+  }
+  /// The BSVTF image of `view` alone (no feedback, no FMF pass).
+  void render_bsvtf(const scene::View& view, const ShaderParams& params, Image<float>& bsvtf) const {
+    shade(scene::to_camera(view), params, true, bsvtf);
   }
 
  private:
@@ -430,6 +454,8 @@ class CpuFrameRenderer final : public FrameRenderer {
   ShaderConfig config_;
   Scene scene_;
   std::unique_ptr<CpuCacheTexture> texture_;
+  bool format_override_ = false;
+  CacheFormat format_ = CacheFormat::rgba16f;
 };
 
 /// The streaming renderer over a FrameRenderer: one btflod::Streamer for every material
@@ -690,6 +716,45 @@ class StreamingRenderer {
     return {};
   }
 
+  /// The view at path position `view_frame` of `frames` on the CPU ray-caster, with the
+  /// Streamer's resident tiles in cache format `format`: every used slot's tile decoded again
+  /// from its container (decode_bsvtf_tile) and converted as the decode jobs convert it, sampled
+  /// through the Streamer cache's page table. Two calls with different formats differ in the
+  /// cache format alone (same rays, tiles and page table). Set-up cost (a CPU render).
+  VoidResult render_cache_format_on_cpu(CacheFormat format, uint32_t view_frame, uint32_t frames, Image<float>& out) {
+    CpuFrameRenderer cpu(format);
+    ShaderConfig config = shader_config_;
+    config.vt.format = format;
+    if (auto e = cpu.init(config, streamer_.cache(), materials_, objects_); !e) return e;
+    std::vector<int64_t> demo_of(set().material_count(), -1);  // Streamer id → demo material shown
+    for (uint32_t slot = 0; slot < materials_.size(); ++slot) {
+      const ShownMaterial m = renderer_.shown(slot);
+      cpu.show(slot, m);
+      if (m.streamer_id < demo_of.size()) demo_of[m.streamer_id] = m.demo;
+    }
+    const TileCache& cache = streamer_.cache();
+    TileDecoder decoder(directories_.front().metadata.layout());
+    std::vector<float> scratch(decoder.layout().sample_count()), values(decoder.layout().sample_count());
+    for (uint32_t s = 0; s < cache.slot_count(); ++s) {
+      const SlotInfo& info = cache.slot(s);
+      if (info.state != SlotInfo::State::used) continue;
+      const uint32_t id = set().material_of(info.tile.texture);
+      if (id >= demo_of.size() || demo_of[id] < 0) continue;  // a material no slot shows
+      const uint32_t demo = static_cast<uint32_t>(demo_of[id]);
+      const TileId local{info.tile.texture - streamer_.first_texture(id), info.tile.level, info.tile.x, info.tile.y};
+      if (const Status st =
+              decode_bsvtf_tile(directories_[demo], materials_[demo].bsvtf, local, decoder, scratch, values);
+          st != Status::success)
+        return make_error(st, "%s: tile (%u, %u, %u, %u) does not decode: %s", materials_[demo].name.c_str(),
+                          local.texture, local.level, local.x, local.y, decoder.message());
+      if (!cpu.upload_tile_values(s, values)) return make_error(Status::invalid_argument, "slot %u: upload failed", s);
+    }
+    const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
+    const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));
+    cpu.render_bsvtf(view, material_params(base, 0), out);
+    return {};
+  }
+
  private:
   VoidResult init() {
     const DemoMaterial& first = materials_.front();
@@ -708,9 +773,13 @@ class StreamingRenderer {
       directories_.push_back(std::move(*dir));
     }
     StreamerConfig sc;
-    sc.cache = CacheConfig{
-        s_.slots_x, s_.slots_y, 1u << 16, directories_.front().metadata.tile_size, directories_.front().metadata.border,
-        1};
+    sc.cache = CacheConfig{s_.slots_x,
+                           s_.slots_y,
+                           1u << 16,
+                           directories_.front().metadata.tile_size,
+                           directories_.front().metadata.border,
+                           1,
+                           s_.cache_format};
     sc.scheduler.budgets.uploads_per_frame = s_.uploads_per_frame;
     sc.scheduler.budgets.requests_in_flight = 4 * s_.uploads_per_frame;
     sc.scheduler.budgets.tiles_decoding = 4 * s_.uploads_per_frame;
@@ -738,6 +807,7 @@ class StreamingRenderer {
     streamer_ = std::move(*streamer);
     static_cast<CacheConfig&>(config.vt) = sc.cache;
     config.vt.finest_level = finest;
+    shader_config_ = config;
     objects_ = scene::make_demo_scene(static_cast<uint32_t>(materials_.size()));
     if (auto e = renderer_.init(config, streamer_.cache(), materials_, objects_); !e) return e.error();
     // Texture memory as a GPU backend allocates it.
@@ -756,8 +826,8 @@ class StreamingRenderer {
     }
     uint64_t pt = 0;
     for (uint32_t l = 0; l <= finest; ++l) pt += (1ull << l) * (1ull << l);
-    memory_.bsvtf_bytes =
-        static_cast<uint64_t>(config.vt.cache_width()) * config.vt.cache_height() * 8 + pt * 4 * set().texture_count();
+    memory_.cache_bytes = config.vt.cache_bytes() + config.vt.slot_map_bytes();
+    memory_.bsvtf_bytes = memory_.cache_bytes + pt * 4 * set().texture_count();
     // Caller-owned outputs, sized once: every page-table texel fits (the first update writes
     // them all).
     tile_uploads_.resize(streamer_.tile_uploads_bound());
@@ -805,6 +875,7 @@ class StreamingRenderer {
   uint64_t total_page_table_writes_ = 0, failures_ = 0;
   std::vector<scene::SceneObject> objects_;
   MemoryFigures memory_;
+  ShaderConfig shader_config_;  // the programs' configuration (the cache-format comparison)
   struct PlannedSwap {
     uint32_t frame = 0, slot = 0, demo = 0;
   };

@@ -8,6 +8,7 @@
 #include <glad/gl.h>
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -131,13 +132,14 @@ class GlBackend final : public Backend {
     glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     const float zero[4] = {0, 0, 0, 0};
     glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
-    if (affine) {  // one offset and one scale texel per slot (vt/cache_format.hpp), read by texelFetch
+    if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (vt/cache_format.hpp)
       glCreateTextures(GL_TEXTURE_2D, 1, &slot_map_);
-      glTextureStorage2D(slot_map_, 1, GL_RGBA32F, static_cast<GLsizei>(cache_slot_map_width(vt)),
+      glTextureStorage2D(slot_map_, 1, GL_RGBA32UI, static_cast<GLsizei>(cache_slot_map_width(vt)),
                          static_cast<GLsizei>(cache_slot_map_height(vt)));
       glTextureParameteri(slot_map_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
       glTextureParameteri(slot_map_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-      glClearTexImage(slot_map_, 0, GL_RGBA, GL_FLOAT, zero);
+      const GLuint zero_map[4] = {0, 0, 0, 0};
+      glClearTexImage(slot_map_, 0, GL_RGBA_INTEGER, GL_UNSIGNED_INT, zero_map);
     }
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &page_table_);
     const GLsizei side = 1 << vt.finest_level;
@@ -272,8 +274,9 @@ class GlBackend final : public Backend {
                           affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data());
       if (affine) {
         const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
-        glTextureSubImage2D(slot_map_, 0, static_cast<GLint>(m.x), static_cast<GLint>(m.y), 2, 1, GL_RGBA, GL_FLOAT,
-                            &t.map);
+        const std::array<uint32_t, 4> packed = pack_cache_slot_map(t.map);
+        glTextureSubImage2D(slot_map_, 0, static_cast<GLint>(m.x), static_cast<GLint>(m.y), 1, 1, GL_RGBA_INTEGER,
+                            GL_UNSIGNED_INT, packed.data());
       }
     }
     return Status::success;

@@ -3,6 +3,7 @@
 #include "vk_internal.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <memory>
 #include <utility>
@@ -131,9 +132,9 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
                                     vt.cache_width(), vt.cache_height(), vt.cache_layers, 1);
       !r)
     return r;
-  // rgba8_affine: two texels per slot (vt/cache_format.hpp); otherwise a 1×1 stand-in the
-  // rgba16f programs never read. A 2D view: the shaders declare a sampler2D.
-  if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_SFLOAT, affine ? cache_slot_map_width(vt) : 1,
+  // rgba8_affine: one RGBA32UI texel per slot (vt/cache_format.hpp); otherwise a 1×1 stand-in
+  // the rgba16f programs never read. A 2D view: the shaders declare a usampler2D.
+  if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_UINT, affine ? cache_slot_map_width(vt) : 1,
                                     affine ? cache_slot_map_height(vt) : 1, 1, 1, 0, false);
       !r)
     return r;
@@ -279,23 +280,24 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
   const size_t padded = vt.padded_tile_size();
   const bool affine = vt.format == CacheFormat::rgba8_affine;
   const size_t bytes = padded * padded * vt.texel_bytes();
-  const size_t map_bytes = affine ? sizeof(CacheSlotMap) : 0;
+  const size_t map_bytes = affine ? 16 : 0;  // pack_cache_slot_map
   for (const TileUpload& t : tiles)
     if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
   FrameContext& c = open_context();
-  // Each map copy starts 16-byte aligned (an RGBA32F texel): up to 15 bytes of padding per tile.
+  // Each map copy starts 16-byte aligned (an RGBA32UI texel): up to 15 bytes of padding per tile.
   if (c.staging_offset + (bytes + (affine ? map_bytes + 15 : 0)) * tiles.size() > c.staging.size)
     return Status::insufficient_space;
   for (const TileUpload& t : tiles) {
     if (affine) {
       c.staging_offset = (c.staging_offset + 15) & ~VkDeviceSize{15};
-      std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset, &t.map, map_bytes);
+      const std::array<uint32_t, 4> packed = pack_cache_slot_map(t.map);
+      std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset, packed.data(), map_bytes);
       const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
       VkBufferImageCopy region{};
       region.bufferOffset = c.staging_offset;
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
       region.imageOffset = {static_cast<int32_t>(m.x), static_cast<int32_t>(m.y), 0};
-      region.imageExtent = {2, 1, 1};
+      region.imageExtent = {1, 1, 1};
       vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, slot_map_.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
       c.staging_offset += map_bytes;
     }

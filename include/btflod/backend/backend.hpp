@@ -79,10 +79,10 @@ struct FmfMaterialData {
 /// (VirtualTextureConfig::format): `texels` for rgba16f, `unorm8` and the slot's `map` for
 /// rgba8_affine (vt/cache_format.hpp; encode_cache_tile_unorm8() makes them from half texels).
 struct TileUpload {
-  uint32_t slot = 0;                 ///< < VirtualTextureConfig::slot_count()
-  std::span<const uint16_t> texels;  ///< rgba16f: (T + 2B)² · 4 half bits
-  std::span<const uint8_t> unorm8;   ///< rgba8_affine: (T + 2B)² · 4 bytes
-  CacheSlotMap map;                  ///< rgba8_affine: value = offset + scale · unorm8 / 255
+  uint32_t slot = 0;                  ///< < VirtualTextureConfig::slot_count()
+  std::span<const uint16_t> texels;   ///< rgba16f: (T + 2B)² · 4 half bits
+  std::span<const uint8_t> unorm8{};  ///< rgba8_affine: (T + 2B)² · 4 bytes
+  CacheSlotMap map{};                 ///< rgba8_affine: value = offset + scale · unorm8 / 255
 };
 
 /// Checks a tile upload against the cache: slot in range and the texels of the cache's format,

@@ -23,6 +23,7 @@
 #include "btflod/core/math.hpp"
 #include "btflod/lod/feedback.hpp"
 #include "btflod/lod/lod_selector.hpp"
+#include "btflod/vt/cache_format.hpp"
 #include "btflod/vt/tile_cache.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "btflod/vt/vt_layout.hpp"
@@ -344,15 +345,18 @@ bool render_feedback(const Scene& scene, const Camera& cam, const VtSet& set, co
 class CpuCacheTexture {
  public:
   CpuCacheTexture() = default;
-  /// Precondition: every material of the cache's set shares tile size and border.
-  explicit CpuCacheTexture(const TileCache& cache)
-      : format_(cache.config().format),
+  /// In the cache's format. Precondition: every material of the cache's set shares tile size
+  /// and border.
+  explicit CpuCacheTexture(const TileCache& cache) : CpuCacheTexture(cache, cache.config().format) {}
+  /// In `format`, whatever the cache's (e.g. to compare the formats on one resident set).
+  CpuCacheTexture(const TileCache& cache, CacheFormat format)
+      : format_(format),
         stored_(cache.set().levels_of(0).geometry.stored_size()),
         width_(cache.config().slots_x * stored_),
         height_(cache.config().slots_y * stored_ * cache.config().cache_layers),
-        texels_(format_ == CacheFormat::rgba16f ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
-        unorm8_(format_ == CacheFormat::rgba8_affine ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
-        maps_(format_ == CacheFormat::rgba8_affine ? cache.slot_count() : 0) {}
+        texels_(format == CacheFormat::rgba16f ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
+        unorm8_(format == CacheFormat::rgba8_affine ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
+        maps_(format == CacheFormat::rgba8_affine ? cache.slot_count() : 0) {}
 
   /// Copies a stored tile ((T+2B)² RGBA half texels) into slot s (an rgba16f cache). Returns
   /// false on a size mismatch, a slot out of range or another cache format.

@@ -193,6 +193,37 @@ inline Status verify_bsvtf_payload(uint32_t expected_size, uint32_t expected_crc
   return crc32_of(bytes) == expected_crc ? Status::success : Status::bad_data;
 }
 
+/// Decodes tile `t` (container-local id) of a whole container held in memory: the chain root →
+/// t, each payload verified (verify_bsvtf_payload) and decoded against its decoded parent, as
+/// the Streamer does. `scratch` and `out` hold at least layout().sample_count() floats each
+/// (`decoder` has the container's layout); `out` receives the tile. Returns success;
+/// invalid_argument (t or an ancestor not in the index, spans too small); bad_data or
+/// short_output (a payload outside `file`, a CRC mismatch, or the decoder's failure). Safe on
+/// untrusted directories and bytes. For tools and tests (the runtime streams payloads itself);
+/// no allocation; thread-safe with one decoder per thread.
+inline Status decode_bsvtf_tile(const BsvtfDirectory& d, std::span<const uint8_t> file, TileId t, TileDecoder& decoder,
+                                std::span<float> scratch, std::span<float> out) noexcept {
+  const size_t n = d.metadata.layout().sample_count();
+  if (scratch.size() < n || out.size() < n) return Status::invalid_argument;
+  // Alternate so that level t.level lands in `out`.
+  float* buffers[2] = {(t.level % 2 == 0) ? out.data() : scratch.data(),
+                       (t.level % 2 == 0) ? scratch.data() : out.data()};
+  for (uint32_t l = 0; l <= t.level; ++l) {
+    const TileId a = t.ancestor(l);
+    const BsvtfTileEntry* e = d.find(a);
+    if (e == nullptr) return Status::invalid_argument;
+    if (e->offset > file.size() || e->size > file.size() - e->offset) return Status::short_output;
+    const std::span<const uint8_t> payload(file.data() + e->offset, e->size);
+    if (const Status v = verify_bsvtf_payload(e->size, e->crc, payload); v != Status::success) return v;
+    const std::span<const float> parent =
+        l > 0 ? std::span<const float>(buffers[(l - 1) % 2], n) : std::span<const float>();
+    if (const Status s = decoder.decode(payload, parent, a.x & 1u, a.y & 1u, std::span<float>(buffers[l % 2], n));
+        s != Status::success)
+      return s;
+  }
+  return Status::success;
+}
+
 /// Unpacks U packet bytes (u_rows × 4 halves) into floats: out[r * 4 + k] = component 4g + k of
 /// row r. Preconditions: bytes verified, out.size() >= bytes.size() / 2. No allocation.
 inline void unpack_bsvtf_packet(std::span<const uint8_t> bytes, std::span<float> out) noexcept {

@@ -183,8 +183,8 @@ struct StreamerTileUpload {
   uint32_t slot = 0;
   TileId tile;
   std::span<const uint16_t> texels;
-  std::span<const uint8_t> unorm8;
-  CacheSlotMap map;
+  std::span<const uint8_t> unorm8{};  // default member initialisers: {slot, tile, texels} stays warning-free
+  CacheSlotMap map{};
 };
 
 /// A U′ packet: four components (4g … 4g+3) of material `material`, rows × 4 halves in the

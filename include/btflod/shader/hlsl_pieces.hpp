@@ -244,7 +244,7 @@ inline void hlsl_bsvtf(HlslEmitter& e) {
   e.texture("Texture2DArray<float4>", ShaderBinding::tile_cache, true);
   const bool affine = e.g.config.vt.format == CacheFormat::rgba8_affine;
   if (affine) {
-    e.texture("Texture2D<float4>", ShaderBinding::slot_map);
+    e.texture("Texture2D<uint4>", ShaderBinding::slot_map);
     e.constant_uint("kSlotsY", e.g.config.vt.slots_y);
   }
   e.constant_bool("kTrilinear", e.g.config.vt.trilinear);
@@ -277,10 +277,14 @@ inline void hlsl_bsvtf(HlslEmitter& e) {
       "  float2 origin = float2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n"
       "  float4 t = $tile_cache$.SampleLevel($tile_cache_sampler$, float3((origin + in_tile) / @kCacheSize, "
       "float(slot / @kSlotsPerLayer)), 0.0);\n");
-  if (affine)  // vt/cache_format.hpp: value = offset + scale · unorm, one map per slot (exact after filtering)
+  if (affine)  // vt/cache_format.hpp: offset + scale · unorm, halves widened as glsl_generator.hpp does
     e.emit(
-        "  int2 m = int2(int(2u * (r % @kSlotsX)), int((slot / @kSlotsPerLayer) * @kSlotsY + r / @kSlotsX));\n"
-        "  return $slot_map$.Load(int3(m, 0)) + $slot_map$.Load(int3(m + int2(1, 0), 0)) * t;\n");
+        "  uint4 m = $slot_map$.Load(int3(int(r % @kSlotsX), int((slot / @kSlotsPerLayer) * @kSlotsY + r / @kSlotsX), "
+        "0));\n"
+        "  uint4 a = uint4(m.x, m.x >> 16u, m.y, m.y >> 16u), b = uint4(m.z, m.z >> 16u, m.w, m.w >> 16u);\n"
+        "  float4 o = asfloat(((a & 0x7FFFu) << 13u) | ((a & 0x8000u) << 16u)) * 5.192296858534828e33;\n"
+        "  float4 s = asfloat(((b & 0x7FFFu) << 13u) | ((b & 0x8000u) << 16u)) * 5.192296858534828e33;\n"
+        "  return o + s * t;\n");
   else
     e.emit("  return t;\n");
   e.emit(

@@ -27,7 +27,7 @@ constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return ent
 /// Texel format of the physical tile cache (vt/cache_format.hpp).
 enum class CacheFormat : uint8_t {
   rgba16f = 0,       ///< the decoded values as half floats: 8 bytes per texel
-  rgba8_affine = 1,  ///< unorm8 with a per-slot, per-component offset and scale: 4 bytes per texel + 32 per slot
+  rgba8_affine = 1,  ///< unorm8 with a per-slot, per-component offset and scale: 4 bytes per texel + 16 per slot
 };
 
 /// Shape of the physical tile cache. Plain value type, constexpr queries, no allocation.
@@ -58,9 +58,9 @@ struct CacheConfig {
   constexpr uint64_t cache_bytes() const noexcept {
     return static_cast<uint64_t>(cache_width()) * cache_height() * cache_layers * texel_bytes();
   }
-  /// Bytes of the per-slot map table (RGBA32F, two texels per slot; rgba8_affine only, else 0).
+  /// Bytes of the per-slot map table (RGBA32UI, one texel per slot; rgba8_affine only, else 0).
   constexpr uint64_t slot_map_bytes() const noexcept {
-    return format == CacheFormat::rgba8_affine ? static_cast<uint64_t>(slot_count()) * 32 : 0;
+    return format == CacheFormat::rgba8_affine ? static_cast<uint64_t>(slot_count()) * 16 : 0;
   }
   /// True when every size is positive, the border is smaller than the tile and the slot count
   /// fits the 24-bit slot field of a page-table entry.

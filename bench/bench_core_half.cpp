@@ -1,10 +1,14 @@
-// Half-float bulk conversion: F16C path vs its scalar twin, in the same run.
+// Half-float bulk conversion: F16C path vs its scalar twin, in the same run. And the last step
+// of a Streamer decode job per cache format (vt/cache_format.hpp): one padded tile to halves
+// (rgba16f, float_to_half with the dispatched kernel) vs to unorm8 with its slot map
+// (rgba8_affine, encode_cache_tile_unorm8).
 #include <benchmark/benchmark.h>
 
 #include <random>
 #include <vector>
 
 #include "btflod/core/half.hpp"
+#include "btflod/vt/cache_format.hpp"
 
 namespace {
 
@@ -69,6 +73,29 @@ void BM_HalfToFloat_F16C(benchmark::State& state) {
 }
 BENCHMARK(BM_HalfToFloat_F16C);
 #endif
+
+void BM_CacheTile_Rgba16f(benchmark::State& state) {
+  const auto in = random_floats(kCount);
+  std::vector<uint16_t> out(kCount);
+  for (auto _ : state) {
+    btflod::float_to_half(in, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));  // tiles
+}
+BENCHMARK(BM_CacheTile_Rgba16f);
+
+void BM_CacheTile_Rgba8Affine(benchmark::State& state) {
+  const auto in = random_floats(kCount);
+  std::vector<uint8_t> out(kCount);
+  for (auto _ : state) {
+    const btflod::CacheSlotMap map = btflod::encode_cache_tile_unorm8(in, out);
+    benchmark::DoNotOptimize(map);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));  // tiles
+}
+BENCHMARK(BM_CacheTile_Rgba8Affine);
 
 }  // namespace
 

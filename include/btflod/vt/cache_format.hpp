@@ -27,6 +27,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 
 #include "btflod/core/half.hpp"
@@ -121,28 +122,53 @@ inline float map_half_at_or_above(float x) noexcept {
 inline CacheSlotMap encode_cache_tile_unorm8(std::span<const float> values, std::span<uint8_t> out) noexcept {
   CacheSlotMap map;
   if (values.size() % 4 != 0 || out.size() < values.size()) return map;
-  float lo[4] = {INFINITY, INFINITY, INFINITY, INFINITY}, hi[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
-  const size_t n = values.size() / 4;
-  for (size_t i = 0; i < n; ++i)
-    for (uint32_t c = 0; c < 4; ++c) {
-      const float v = detail::saturate_for_unorm8_map(values[i * 4 + c]);
-      lo[c] = v < lo[c] ? v : lo[c];  // NaN compares false: ignored
-      hi[c] = v > hi[c] ? v : hi[c];
+  // Both passes run over blocks of 16 values (4 texels) with per-lane constants, a shape the
+  // compiler vectorises; NaN drops out of the comparisons (a < b ? a : b keeps b).
+  constexpr size_t kBlock = 16;
+  const size_t n = values.size(), blocks = n / kBlock;
+  const float* v = values.data();
+  float lo16[kBlock], hi16[kBlock];
+  for (size_t j = 0; j < kBlock; ++j) lo16[j] = INFINITY, hi16[j] = -INFINITY;
+  for (size_t b = 0; b < blocks; ++b)
+    for (size_t j = 0; j < kBlock; ++j) {
+      const float x = v[b * kBlock + j];
+      lo16[j] = x < lo16[j] ? x : lo16[j];
+      hi16[j] = x > hi16[j] ? x : hi16[j];
     }
-  float inv[4];
-  for (uint32_t c = 0; c < 4; ++c) {
-    if (!(lo[c] <= hi[c])) lo[c] = hi[c] = 0.0f;  // no finite value
-    map.offset[c] = detail::map_half_at_or_below(lo[c]);
-    map.scale[c] = detail::map_half_at_or_above(hi[c] - map.offset[c]);  // ≤ 65504: a half
-    inv[c] = map.scale[c] > 0.0f ? 255.0f / map.scale[c] : 0.0f;
+  for (size_t k = blocks * kBlock; k < n; ++k) {
+    const float x = v[k];
+    lo16[k % 4] = x < lo16[k % 4] ? x : lo16[k % 4];
+    hi16[k % 4] = x > hi16[k % 4] ? x : hi16[k % 4];
   }
-  for (size_t i = 0; i < n; ++i)
-    for (uint32_t c = 0; c < 4; ++c) {
-      const float v = detail::saturate_for_unorm8_map(values[i * 4 + c]);
-      const float t = (v - map.offset[c]) * inv[c] + 0.5f;            // NaN stays NaN
-      const float q = t >= 0.0f ? (t <= 255.0f ? t : 255.0f) : 0.0f;  // NaN → 0
-      out[i * 4 + c] = static_cast<uint8_t>(q);
-    }
+  float off16[kBlock], inv16[kBlock];
+  for (uint32_t c = 0; c < 4; ++c) {
+    float lo = lo16[c], hi = hi16[c];
+    for (size_t j = c + 4; j < kBlock; j += 4) lo = lo16[j] < lo ? lo16[j] : lo, hi = hi16[j] > hi ? hi16[j] : hi;
+    if (!(lo <= hi)) lo = hi = 0.0f;  // no value that is not NaN
+    lo = detail::saturate_for_unorm8_map(lo), hi = detail::saturate_for_unorm8_map(hi);  // ±∞ too
+    map.offset[c] = detail::map_half_at_or_below(lo);
+    map.scale[c] = detail::map_half_at_or_above(hi - map.offset[c]);  // ≤ 65504: a half
+    const float inv = map.scale[c] > 0.0f ? 255.0f / map.scale[c] : 0.0f;
+    for (size_t j = c; j < kBlock; j += 4) off16[j] = map.offset[c], inv16[j] = inv;
+  }
+  // q = round((x − offset) / scale · 255) clamped to [0, 255]; NaN → 0, ±∞ → 255 or 0.
+  const auto quantise = [](float x, float off, float inv) {
+    float t = (x - off) * inv + 0.5f;
+    t = t > 0.0f ? t : 0.0f;  // NaN → 0
+    t = t < 255.0f ? t : 255.0f;
+    return static_cast<uint8_t>(static_cast<int32_t>(t));
+  };
+  uint8_t* o = out.data();
+  for (size_t b = 0; b < blocks; ++b) {
+    // Through local copies: bytes written through `o` may alias the floats (uint8_t is a character
+    // type), which would keep the compiler from vectorising a loop that writes `o` directly.
+    float x[kBlock];
+    uint8_t q[kBlock];
+    std::memcpy(x, v + b * kBlock, sizeof x);
+    for (size_t j = 0; j < kBlock; ++j) q[j] = quantise(x[j], off16[j], inv16[j]);
+    std::memcpy(o + b * kBlock, q, sizeof q);
+  }
+  for (size_t k = blocks * kBlock; k < n; ++k) o[k] = quantise(v[k], off16[k % 4], inv16[k % 4]);
   return map;
 }
 

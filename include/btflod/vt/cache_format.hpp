@@ -144,7 +144,7 @@ inline CacheSlotMap encode_cache_tile_unorm8(std::span<const float> values, std:
   for (uint32_t c = 0; c < 4; ++c) {
     float lo = lo16[c], hi = hi16[c];
     for (size_t j = c + 4; j < kBlock; j += 4) lo = lo16[j] < lo ? lo16[j] : lo, hi = hi16[j] > hi ? hi16[j] : hi;
-    if (!(lo <= hi)) lo = hi = 0.0f;  // no value that is not NaN
+    if (!(lo <= hi)) lo = hi = 0.0f;                                                     // no value that is not NaN
     lo = detail::saturate_for_unorm8_map(lo), hi = detail::saturate_for_unorm8_map(hi);  // ±∞ too
     map.offset[c] = detail::map_half_at_or_below(lo);
     map.scale[c] = detail::map_half_at_or_above(hi - map.offset[c]);  // ≤ 65504: a half

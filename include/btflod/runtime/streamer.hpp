@@ -177,7 +177,7 @@ struct StreamerConfig {
 /// A tile to copy into cache slot `slot` this frame, valid until the next update().
 /// tile.texture is the global virtual texture (page-table layer). In the cache format of
 /// StreamerConfig::cache: rgba16f fills `texels` ((T+2B)² × 4 half bits) and leaves `unorm8`
-/// empty; rgba8_affine fills `unorm8` ((T+2B)² × 4 bytes) and `map` (the slot's row of the
+/// empty; rgba8_affine fills `unorm8` ((T+2B)² × 4 bytes) and `map` (the slot's texel of the
 /// slot-map table) and leaves `texels` empty.
 struct StreamerTileUpload {
   uint32_t slot = 0;

@@ -254,7 +254,7 @@ enum class ShaderBinding : uint32_t {
   spmm_dictionary = 16,  ///< paper 003 eq. 2: model id, κ_j, n_j of every cluster's basis functions
   spmm_residual = 17,    ///< paper 003 eq. 3: ε̄ and b_i per cluster over the measured directions
   direction_rings = 18,  ///< paper 004 §4.4: uniform block <prefix>DirectionRings (ring_search)
-  slot_map = 19,         ///< BSVTF rgba8_affine cache: sampler2D RGBA32F, two texels per slot (vt/cache_format.hpp)
+  slot_map = 19,         ///< BSVTF rgba8_affine cache: usampler2D RGBA32UI, one texel per slot (vt/cache_format.hpp)
 };
 
 /// Vertex attribute locations of every generated vertex shader.

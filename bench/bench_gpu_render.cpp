@@ -102,6 +102,13 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   return s;
 }
 
+// The median of a benchmark's per-iteration figures (0 when there are none).
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
 void render(benchmark::State& state, bool vulkan, ShaderProgram program) {
   const int size = static_cast<int>(state.range(0));
   static Scene scenes[2];  // one backend per API, built once per process
@@ -160,14 +167,9 @@ void render_pairs(benchmark::State& state, bool vulkan) {
     tb.push_back(fmf_first ? b : a);
     ratio.push_back(tf.back() / tb.back());
   }
-  const auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["ms_fmf"] = median(tf);
-  state.counters["ms_bsvtf"] = median(tb);
-  state.counters["bsvtf_fps_over_fmf"] = median(ratio);
+  state.counters["ms_fmf"] = median_of(tf);
+  state.counters["ms_bsvtf"] = median_of(tb);
+  state.counters["bsvtf_fps_over_fmf"] = median_of(ratio);
 }
 
 // The demo's scene geometry (a 12 × 12 ground plane and four 96 × 48 tori, samples/scene/
@@ -214,14 +216,9 @@ void render_cache_format_pairs(benchmark::State& state, bool vulkan) {
     t8.push_back(wide_first ? y : x);
     ratio.push_back(t16.back() / t8.back());
   }
-  const auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["ms_rgba16f"] = median(t16);
-  state.counters["ms_rgba8"] = median(t8);
-  state.counters["rgba8_fps_over_rgba16f"] = median(ratio);
+  state.counters["ms_rgba16f"] = median_of(t16);
+  state.counters["ms_rgba8"] = median_of(t8);
+  state.counters["rgba8_fps_over_rgba16f"] = median_of(ratio);
   state.counters["cache_MiB_rgba16f"] = a.bsvtf_bytes / (1024.0 * 1024.0);
   state.counters["cache_MiB_rgba8"] = b.bsvtf_bytes / (1024.0 * 1024.0);
 }
@@ -288,20 +285,15 @@ void render_scene_passes(benchmark::State& state, bool vulkan) {
     r_words.push_back(ms[fmf] / ms[words]);
     marginal.push_back(ms[frame] - ms[colour]);
   }
-  const auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["ms_fmf"] = median(t[fmf]);
-  state.counters["ms_bsvtf_colour"] = median(t[colour]);
-  state.counters["ms_feedback_alone"] = median(t[feedback]);
-  state.counters["ms_bsvtf_frame"] = median(t[frame]);
-  state.counters["ms_feedback_marginal"] = median(marginal);
-  state.counters["colour_fps_over_fmf"] = median(r_colour);
-  state.counters["frame_fps_over_fmf"] = median(r_frame);
-  state.counters["ms_bsvtf_colour_words"] = median(t[words]);
-  state.counters["colour_words_fps_over_fmf"] = median(r_words);
+  state.counters["ms_fmf"] = median_of(t[fmf]);
+  state.counters["ms_bsvtf_colour"] = median_of(t[colour]);
+  state.counters["ms_feedback_alone"] = median_of(t[feedback]);
+  state.counters["ms_bsvtf_frame"] = median_of(t[frame]);
+  state.counters["ms_feedback_marginal"] = median_of(marginal);
+  state.counters["colour_fps_over_fmf"] = median_of(r_colour);
+  state.counters["frame_fps_over_fmf"] = median_of(r_frame);
+  state.counters["ms_bsvtf_colour_words"] = median_of(t[words]);
+  state.counters["colour_words_fps_over_fmf"] = median_of(r_words);
 }
 
 void BM_Gl_Fmf(benchmark::State& st) { render(st, false, ShaderProgram::fmf); }

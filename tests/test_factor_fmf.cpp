@@ -287,6 +287,37 @@ TEST(FactorFmf, ValueTransformsInvertAndValidate) {
     EXPECT_TRUE(parse_value_encoding(value_encoding_name(e), parsed));
     EXPECT_EQ(parsed, e);
   }
+  // log_ycbcr: whole RGB triples; grey has no chroma; the inverse holds for rgb ≥ 0 and
+  // negative inputs clamp to 0 like the scalar encodings.
+  const ValueTransform ycc{ValueEncoding::log_ycbcr, 0.05f};
+  ASSERT_TRUE(ycc.valid());
+  EXPECT_FALSE(ycc.per_channel());
+  EXPECT_TRUE(ycc.uses_log_offset());
+  ValueEncoding parsed_ycc = ValueEncoding::linear;
+  EXPECT_TRUE(parse_value_encoding("log_ycbcr", parsed_ycc));
+  EXPECT_EQ(parsed_ycc, ValueEncoding::log_ycbcr);
+  const float samples[][3] = {{0.0f, 0.0f, 0.0f},  {0.2f, 0.2f, 0.2f},   {0.9f, 0.1f, 0.05f},
+                              {0.02f, 0.5f, 1.3f}, {33.9f, 20.0f, 8.0f}, {1e-4f, 0.0f, 0.3f}};
+  for (const auto& rgb : samples) {
+    float v[3] = {rgb[0], rgb[1], rgb[2]};
+    ycc.encode_rgb(v);
+    if (rgb[0] == rgb[1] && rgb[1] == rgb[2]) {
+      EXPECT_NEAR(v[1], 0.0f, 1e-6f);
+      EXPECT_NEAR(v[2], 0.0f, 1e-6f);
+      EXPECT_NEAR(v[0], std::log(rgb[0] + 0.05f), 1e-6f);
+    }
+    ycc.decode_rgb(v);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(v[c], rgb[c], 2e-5f * (1.0f + rgb[c])) << c;
+  }
+  float negative[3] = {-1.0f, 0.5f, 0.5f};
+  ycc.encode_rgb(negative);
+  ycc.decode_rgb(negative);
+  EXPECT_NEAR(negative[0], 0.0f, 1e-5f);
+  // Per-channel encodings through the triple interface agree with the scalar one.
+  float triple[3] = {0.3f, 2.0f, 0.0f};
+  const ValueTransform lg{ValueEncoding::log, 0.05f};
+  lg.encode_rgb(triple);
+  EXPECT_EQ(triple[1], lg.encode(2.0f));
   const ValueTransform sq{ValueEncoding::sqrt};
   EXPECT_EQ(sq.decode(-0.5f), -0.25f);  // a negative sum stays negative
   EXPECT_EQ(sq.encode(-1.0f), 0.0f);    // measured noise below 0 is clamped
@@ -327,17 +358,38 @@ TEST(FactorFmf, ValueTransformKeepsAGlossyMaterialsTextureAtLowRank) {
   o.transform = ValueTransform{ValueEncoding::sqrt};
   auto sqrt_fmf = factorize_fmf(*btf, o);
   ASSERT_TRUE(sqrt_fmf.ok()) << sqrt_fmf.message();
+  o.transform = ValueTransform{ValueEncoding::log_ycbcr, 0.05f};
+  auto ycc_fmf = factorize_fmf(*btf, o);
+  ASSERT_TRUE(ycc_fmf.ok()) << ycc_fmf.message();
   o.transform = ValueTransform{ValueEncoding::log, 0.05f};
   auto log_fmf = factorize_fmf(*btf, o);
   ASSERT_TRUE(log_fmf.ok()) << log_fmf.message();
   // Mean SSIM of the displayed images (exposure 2.1, clamped, sRGB) of every (view, light) pair.
   const double s_lin = fmf_displayed_ssim(*btf, *linear, 0, 1, 2.1f),
                s_sqrt = fmf_displayed_ssim(*btf, *sqrt_fmf, 0, 1, 2.1f),
-               s_log = fmf_displayed_ssim(*btf, *log_fmf, 0, 1, 2.1f);
-  std::printf("[ tiles 32x32, 23x23 directions, C = 8 ] displayed SSIM: linear %.4f, sqrt %.4f, log %.4f\n", s_lin,
-              s_sqrt, s_log);
+               s_log = fmf_displayed_ssim(*btf, *log_fmf, 0, 1, 2.1f),
+               s_ycc = fmf_displayed_ssim(*btf, *ycc_fmf, 0, 1, 2.1f);
+  std::printf(
+      "[ tiles 32x32, 23x23 directions, C = 8 ] displayed SSIM: linear %.4f, sqrt %.4f, log %.4f, log_ycbcr %.4f\n",
+      s_lin, s_sqrt, s_log, s_ycc);
   EXPECT_GT(s_sqrt, s_lin + 0.1);
   EXPECT_GT(s_log, s_lin + 0.2);
+  EXPECT_GT(s_ycc, s_lin + 0.2);
+  {
+    // log_ycbcr's decode mixes the channels: D(Σ) of the three summed rows, then YCbCr → RGB;
+    // reconstruct() gives the same values.
+    const Fmf& y = *ycc_fmf;
+    const glm::vec3 enc = y.evaluate_encoded(5, 7, 3, 9), dec = y.evaluate_measured(5, 7, 3, 9);
+    const float w = std::exp(enc.x), lum = w - 0.05f, cb = enc.y * w, cr = enc.z * w;
+    EXPECT_NEAR(dec.r, lum + 1.402f * cr, 1e-5f * (1.0f + std::fabs(dec.r)));
+    EXPECT_NEAR(dec.g, lum - 0.344136f * cb - 0.714136f * cr, 1e-5f * (1.0f + std::fabs(dec.g)));
+    EXPECT_NEAR(dec.b, lum + 1.772f * cb, 1e-5f * (1.0f + std::fabs(dec.b)));
+    const BtfFloat rec = y.reconstruct();
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(rec.at(5, 7, 3, 9, c), dec[c], 1e-4f * (1.0f + std::fabs(dec[c])));
+    auto back = Fmf::deserialize(y.serialize());
+    ASSERT_TRUE(back.ok()) << back.message();
+    EXPECT_TRUE(back->transform == y.transform);
+  }
   // Decoding: evaluate = D(Σ), reconstruct() the same values.
   const Fmf& f = *log_fmf;
   EXPECT_EQ(f.transform.encoding, ValueEncoding::log);

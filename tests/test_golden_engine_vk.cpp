@@ -86,6 +86,7 @@ GlslFunctionOptions engine_options() {
   o.uniforms.vt_extent = "surface.vt_extent";
   o.uniforms.lod_bias = "surface.lod.x";
   o.uniforms.first_layer = "surface.layers.x";
+  o.uniforms.component_count = "surface.vt_extent.w";
   return o;
 }
 

@@ -30,6 +30,7 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 
 TEST(GoldenGl, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
 TEST(GoldenGl, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
+TEST(GoldenGl, FmfMaterialsOfEveryRankUnderOneProgram) { btflod::golden::golden_fmf_component_counts(make_backend); }
 TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenGl, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
 TEST(GoldenGl, BsvtfRgba8PartialCacheMatchesCpuReference) {

@@ -96,8 +96,10 @@ inline Result<MeshHandle> create_plane_mesh(Backend& be) {
 
 /// CPU reference image: ray-cast the plane, V' from `sample_v(hit, out[C])`, eq. 5 with the
 /// shader's angular lookup (test_scene::lookup), times the light colour. Background 0.
+/// `used` > 0: eq. 5 over the first `used` components only.
 template <class SampleV>
-Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& sample_v, ValueTransform transform = {}) {
+Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& sample_v, ValueTransform transform = {},
+                        uint32_t used = 0) {
   const PlaneSetup s;
   Scene scene;
   scene.add(Shape::plane(0, s.origin, s.axis_u, s.axis_v, s.size, s.size));
@@ -121,7 +123,8 @@ Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& samp
       AngularSample ls, vs;
       lookup(m, m.light_index, m.light_weight, wl, ls.index.data(), ls.weight.data());
       lookup(m, m.view_index, m.view_weight, wv, vs.index.data(), vs.weight.data());
-      const glm::vec3 rgb = shade_fmf(e, ls, vs, comps) * glm::vec3(p.light_color);
+      const std::span<const float> shaded(comps.data(), used > 0 ? std::min<size_t>(used, comps.size()) : comps.size());
+      const glm::vec3 rgb = shade_fmf(e, ls, vs, shaded) * glm::vec3(p.light_color);
       for (int c = 0; c < 3; ++c) out.at(x, y, c) = rgb[c];
       out.at(x, y, 3) = 1.0f;
     }
@@ -183,7 +186,84 @@ void golden_fmf(Factory make) {
   EXPECT_GE(psnr, 40.0);
 }
 
-/// FMF in the sqrt and log encodings (core/value_transform.hpp): the programs generated for
+/// The first `components` of a material: U′ columns and V′ channels c < components (the
+/// material a factorisation of that rank truncated, factor/fmf.hpp truncate_fmf()).
+inline Material truncated_material(const Material& m, uint32_t components) {
+  Material t = m;
+  const uint32_t C = m.config.components;
+  t.config.components = components;
+  t.u.clear();
+  for (size_t row = 0; row < m.u.size() / C; ++row)
+    for (uint32_t c = 0; c < components; ++c) t.u.push_back(m.u[row * C + c]);
+  t.v = Image<float>(m.v.width(), m.v.height(), static_cast<int>(components));
+  for (int y = 0; y < m.v.height(); ++y)
+    for (int x = 0; x < m.v.width(); ++x)
+      for (int c = 0; c < static_cast<int>(components); ++c) t.v.at(x, y, c) = m.v.at(x, y, c);
+  return t;
+}
+
+/// One program of C = 8 draws materials of every rank C_m ≤ 8 (ShaderParams::vt_extent.w, set
+/// by the backend from the material): a C_m = 3 material matches the CPU reference at C = 3,
+/// and so does the C = 8 material drawn with vt_extent.w = 3 (its first three components), an
+/// image far from its full one; a material of C_m = 9 is refused.
+template <class Factory>
+void golden_fmf_component_counts(Factory make) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+  const ShaderConfig config = golden_config();
+  ASSERT_EQ(config.components, 8u);
+  ASSERT_TRUE(be->init(config, 2).ok());
+  const Material m8 = make_material(config, kTexture, kTexture);
+  const Material m3 = truncated_material(m8, 3);
+  auto mesh = create_plane_mesh(*be);
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  FmfMaterialData d8 = m8.data(true), d3 = m3.data(true);
+  d8.mipmaps = d3.mipmaps = false;
+  FmfMaterialData d9 = d8;
+  d9.components = 9;
+  EXPECT_EQ(be->create_material(d9).status(), Status::invalid_argument) << "C_m above the programs' C";
+  auto mat8 = be->create_material(d8);
+  auto mat3 = be->create_material(d3);
+  ASSERT_TRUE(mat8.ok()) << mat8.message();
+  ASSERT_TRUE(mat3.ok()) << mat3.message();
+  const ShaderParams params = golden_params(golden_camera());
+  ShaderParams first3 = params;
+  first3.vt_extent.w = 3.0f;
+  Image<float> img3(kSize, kSize, 4), img8(kSize, kSize, 4), img8_first3(kSize, kSize, 4);
+  const struct {
+    MaterialHandle mat;
+    const ShaderParams* params;
+    Image<float>* out;
+  } draws[] = {{*mat3, &params, &img3}, {*mat8, &params, &img8}, {*mat8, &first3, &img8_first3}};
+  for (const auto& d : draws) {
+    ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
+    ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, d.mat, *d.params), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);
+    ASSERT_EQ(be->read_color(d.out->view()), Status::success);
+  }
+  const auto sample = [&](const Material& m) {
+    return [&m](const SurfaceHit& h, float* out) {
+      bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
+    };
+  };
+  const Image<float> ref3 = cpu_render(m3, params, sample(m3));
+  const Image<float> ref8 = cpu_render(m8, params, sample(m8));
+  expect_content(ref3);
+  expect_content(img3);
+  const double psnr3 = psnr_rgb(ref3, img3), psnr8 = psnr_rgb(ref8, img8), psnr_first3 = psnr_rgb(ref3, img8_first3),
+               apart = psnr_rgb(ref8, ref3);
+  std::printf(
+      "[ %s ] golden FMF, C_m = 3 under a C = 8 program vs CPU reference: PSNR %.2f dB; C = 8 %.2f dB; "
+      "C = 8 drawn with w = 3 vs C = 3 %.2f dB (C = 3 vs 8 references %.2f dB)\n",
+      be->name(), psnr3, psnr8, psnr_first3, apart);
+  EXPECT_GE(psnr3, 40.0);
+  EXPECT_GE(psnr8, 40.0);
+  EXPECT_GE(psnr_first3, 40.0);
+  EXPECT_LT(apart, psnr3 - 10.0) << "the scene must tell three components from eight";
+}
+
+/// FMF in the sqrt, log and log_ycbcr encodings (core/value_transform.hpp): the programs generated for
 /// ShaderConfig::value_transform decode the sum of eq. 5 as the CPU reference does (≥ 40 dB),
 /// and the image differs from the linear one; a material of another encoding is refused.
 template <class Factory>
@@ -194,7 +274,8 @@ void golden_fmf_value_transforms(Factory make) {
     bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
   };
   const Image<float> linear = cpu_render(m, params, sample);
-  for (const ValueTransform t : {ValueTransform{ValueEncoding::sqrt}, ValueTransform{ValueEncoding::log, 0.05f}}) {
+  for (const ValueTransform t : {ValueTransform{ValueEncoding::sqrt}, ValueTransform{ValueEncoding::log, 0.05f},
+                                 ValueTransform{ValueEncoding::log_ycbcr, 0.05f}}) {
     std::string why;
     std::unique_ptr<Backend> be = make(why);
     if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
@@ -411,6 +492,34 @@ void golden_bsvtf_partial(Factory make, CacheFormat format = CacheFormat::rgba16
               be->name(), cache_format_name(format), psnr, psnr_wrong);
   EXPECT_GE(psnr, 40.0);
   EXPECT_LT(psnr_wrong, psnr - 3.0);
+  {
+    // The first three components only (vt_extent.w = 3): page-table layer 1 is not read and
+    // eq. 5 stops at c = 3, as the CPU reference truncated to three components.
+    ShaderParams first3 = params;
+    first3.vt_extent.w = 3.0f;
+    ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
+    ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, first3), Status::success);
+    ASSERT_EQ(be->end_frame(), Status::success);
+    Image<float> img3(kSize, kSize, 4);
+    ASSERT_EQ(be->read_color(img3.view()), Status::success);
+    const Image<float> ref3 = cpu_render(
+        m, params,
+        [&](const SurfaceHit& h, float* out) {
+          for (uint32_t k = 0; k < set.texture_count(); ++k) {
+            float v4[4];
+            cpu_cache.sample(cache, k, h.texcoord.x, h.texcoord.y, v4);
+            for (int c = 0; c < 4; ++c) out[4 * k + c] = v4[c];
+          }
+        },
+        {}, 3);
+    const double psnr3 = psnr_rgb(ref3, img3), apart = psnr_rgb(ref, ref3);
+    std::printf(
+        "[ %s ] golden BSVTF drawn with its first 3 components vs CPU reference: PSNR %.2f dB (vs all "
+        "%.2f dB)\n",
+        be->name(), psnr3, apart);
+    EXPECT_GE(psnr3, 40.0);
+    EXPECT_LT(apart, psnr3 - 10.0);
+  }
   if (format == CacheFormat::rgba8_affine) {
     // The same cache at rgba16f on the CPU: the 8-bit cache stays close to it (the tiles' own
     // ranges keep the step small), and a renderer that skipped the slot maps would not.

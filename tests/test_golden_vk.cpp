@@ -85,6 +85,7 @@ void hlsl_matches_glsl(btflod::ShaderProgram program) {
 
 TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
 TEST(GoldenVk, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
+TEST(GoldenVk, FmfMaterialsOfEveryRankUnderOneProgram) { btflod::golden::golden_fmf_component_counts(make_backend); }
 TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
 TEST(GoldenVk, BsvtfRgba8PartialCacheMatchesCpuReference) {
@@ -102,6 +103,9 @@ TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod:
 TEST(GoldenVk, HlslFmfMatchesCpuReference) { btflod::golden::golden_fmf(make_hlsl_backend); }
 TEST(GoldenVk, HlslFmfValueTransformsMatchCpuReference) {
   btflod::golden::golden_fmf_value_transforms(make_hlsl_backend);
+}
+TEST(GoldenVk, HlslFmfMaterialsOfEveryRankUnderOneProgram) {
+  btflod::golden::golden_fmf_component_counts(make_hlsl_backend);
 }
 TEST(GoldenVk, HlslBsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_hlsl_backend); }
 TEST(GoldenVk, HlslBsvtfRgba8PartialCacheMatchesCpuReference) {

@@ -306,6 +306,7 @@ GlslFunctionOptions engine_options() {
   o.uniforms.first_layer = "material.ids.x";
   o.uniforms.texture_id = "material.ids[1]";
   o.uniforms.spmm_mode = "material.ids.w";
+  o.uniforms.component_count = "material.extent.w";
   return o;
 }
 

@@ -137,6 +137,7 @@ GlslFunctionOptions engine_options() {
   o.uniforms.first_layer = "material_ids.x";
   o.uniforms.texture_id = "material_ids[1]";
   o.uniforms.spmm_mode = "material_ids.w";
+  o.uniforms.component_count = "material_extent.w";
   return o;
 }
 

@@ -26,7 +26,7 @@ int run_factor(int argc, char** argv) {
         "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
         "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
         "                             [--float] [--basis-per-texel B] [--representatives R]\n"
-        "                             [--lobes L] [--value-encoding linear|sqrt|log]\n"
+        "                             [--lobes L] [--value-encoding linear|sqrt|log|log_ycbcr]\n"
         "                             [--target-ssim S [--exposure E]] [--quiet]\n"
         "                             [--profile paper] [--memory SIZE] [--checkpoint FILE]\n"
         "                             [--block-columns N] [--stop-after-passes K]\n"
@@ -50,8 +50,9 @@ int run_factor(int argc, char** argv) {
         "             the same command resumes; --stop-after-passes K stops after K passes (e.g. to fit a\n"
         "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.\n"
         "  --value-encoding  fmf: factorise the values (linear, the default), their square root or\n"
-        "             ln(x + 0.05), a dynamic-range reduction for glossy materials stored in the file\n"
-        "             and decoded by every renderer (core/value_transform.hpp).\n"
+        "             ln(x + 0.05), a dynamic-range reduction for glossy materials, or log_ycbcr:\n"
+        "             ln(Y + 0.05) with chroma over Y + 0.05 (decorrelated colour); stored in the\n"
+        "             file and decoded by every renderer (core/value_transform.hpp).\n"
         "  --target-ssim  fmf: choose the smallest rank among 4, 8, 12, 16, 24, 32, 48, 64, 100 up to\n"
         "             --components whose displayed images (x exposure --exposure, default 1, clamped,\n"
         "             sRGB) of the even views reach this mean SSIM against the BTF; the odd views are\n"
@@ -86,7 +87,7 @@ int run_factor(int argc, char** argv) {
   }
   ValueTransform transform;
   if (!parse_value_encoding(encoding_text, transform.encoding))
-    opt.error("--value-encoding " + encoding_text + ": expected linear, sqrt or log");
+    opt.error("--value-encoding " + encoding_text + ": expected linear, sqrt, log or log_ycbcr");
   const int k = static_cast<int>(opt.integer("k", 3, 0, 1 << 16));
   const int clusters = static_cast<int>(opt.integer("clusters", method == "spmm" ? 4 : 8, 1, 65535));
   const int iterations = static_cast<int>(opt.integer("iterations", 20, 0, 1000));

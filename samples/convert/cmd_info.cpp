@@ -110,7 +110,7 @@ int info_bsvtf(const std::string& path, bool values) {
   std::printf("  colour  %u channels, %s; U %u rows x %u components; quality %.1f; values %s", m.color_channels,
               color_mode_name(m.color_mode), m.u_rows, m.component_count, static_cast<double>(m.quality),
               value_encoding_name(m.value_transform.encoding));
-  if (m.value_transform.encoding == ValueEncoding::log)
+  if (m.value_transform.uses_log_offset())
     std::printf(" (offset %g)", static_cast<double>(m.value_transform.log_offset));
   std::printf("\n");
   std::printf("  lights  %zu directions (%s)\n  views   %zu directions (%s)\n", m.light_directions.size() / 3,

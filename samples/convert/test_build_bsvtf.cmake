@@ -66,6 +66,20 @@ execute_process(COMMAND ${CONVERT} info --values ${OUT}/build_log.bsvtf RESULT_V
 if(NOT rc EQUAL 0 OR NOT info MATCHES "values log \\(offset 0.05\\)" OR NOT info MATCHES " tiles decoded, 0 failed")
   message(FATAL_ERROR "info --values on build_log.bsvtf (${rc}): ${info} ${err}")
 endif()
+# Decorrelated colour (log luminance, chroma over it): factor, build, and every tile decodes.
+execute_process(COMMAND ${CONVERT} factor ${btf} ${OUT}/build_ycc.fmf --method fmf --components 8
+                        --value-encoding log_ycbcr --quiet RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "factor --value-encoding log_ycbcr failed (${rc}): ${out} ${err}")
+endif()
+execute_process(COMMAND ${CONVERT} build ${OUT}/build_ycc.fmf ${OUT}/build_ycc.bsvtf --tile 16 --border 4 --quiet
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+execute_process(COMMAND ${CONVERT} info --values ${OUT}/build_ycc.bsvtf RESULT_VARIABLE rc2 OUTPUT_VARIABLE info
+                ERROR_VARIABLE err2)
+if(NOT rc EQUAL 0 OR NOT rc2 EQUAL 0 OR NOT info MATCHES "values log_ycbcr \\(offset 0.05\\)"
+   OR NOT info MATCHES " tiles decoded, 0 failed")
+  message(FATAL_ERROR "build/info of the log_ycbcr FMF (${rc}, ${rc2}): ${out} ${err} ${info} ${err2}")
+endif()
 execute_process(COMMAND ${CONVERT} factor ${btf} ${OUT}/build_x.fmf --method pca-k --target-ssim 0.9
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
 if(rc EQUAL 0 OR NOT err MATCHES "only the fmf method chooses its rank")

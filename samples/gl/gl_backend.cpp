@@ -385,7 +385,7 @@ class GlBackend final : public Backend {
       }
       feedback_drawn_ = feedback_stored_ = true;
     }
-    submit_draw(meshes_[mesh.id - 1], params);
+    submit_draw(meshes_[mesh.id - 1], params_for_material(params, m.components));
     return Status::success;
   }
 

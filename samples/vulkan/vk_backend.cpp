@@ -424,8 +424,9 @@ Status VkBackend::draw(ShaderProgram program, MeshHandle mesh, MaterialHandle ma
     pipeline = bsvtf_feedback_;
   else
     return Status::invalid_argument;
+  const ShaderParams material_params = params_for_material(params, m.components);
   if (program != ShaderProgram::bsvtf_feedback)
-    return record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
+    return record_draw(pipeline, m.set, meshes_[mesh.id - 1], material_params, color_, color_depth_, frame_.width,
                        frame_.height);
   // Colour and every pixel's feedback word (second colour target). The word target is cleared
   // by the frame's first such draw only: frames without one never touch it.
@@ -437,8 +438,8 @@ Status VkBackend::draw(ShaderProgram program, MeshHandle mesh, MaterialHandle ma
     vkCmdClearColorImage(c.cmd, feedback_full_.image, VK_IMAGE_LAYOUT_GENERAL, &empty, 1, &range);
     full_barrier(c.cmd);
   }
-  const Status s = record_draw(pipeline, m.set, meshes_[mesh.id - 1], params, color_, color_depth_, frame_.width,
-                               frame_.height, VK_NULL_HANDLE, &feedback_full_);
+  const Status s = record_draw(pipeline, m.set, meshes_[mesh.id - 1], material_params, color_, color_depth_,
+                               frame_.width, frame_.height, VK_NULL_HANDLE, &feedback_full_);
   if (s == Status::success) feedback_drawn_ = feedback_stored_ = true;
   return s;
 }

@@ -62,7 +62,7 @@ struct AngularTablesData {
 /// eigen-textures V' (M × N texels, C channels, Σ folded in) for the fmf program. A material used
 /// only with the bsvtf program leaves eigen_textures empty: its V' comes from the tile cache.
 struct FmfMaterialData {
-  uint32_t components = 0;  ///< C; must equal ShaderConfig::components
+  uint32_t components = 0;  ///< C_m, 1 … ShaderConfig::components (draws set ShaderParams::vt_extent.w to it)
   uint32_t light_count = 0;
   uint32_t view_count = 0;
   std::span<const float> eigen_abrdfs;    ///< light_count · view_count · 3 · C floats
@@ -127,12 +127,12 @@ inline VoidResult validate_mesh(const MeshData& mesh) {
   return {};
 }
 
-/// Checks a material against the shader config before upload: C matches, spans have the sizes
-/// the counts imply, table indices name existing directions and weights are finite. Returns
-/// invalid_argument naming the field (expected vs found). Safe for untrusted data.
+/// Checks a material against the shader config before upload: 1 ≤ C_m ≤ the programs' C, spans
+/// have the sizes the counts imply, table indices name existing directions and weights are
+/// finite. Returns invalid_argument naming the field (expected vs found). Safe for untrusted data.
 inline VoidResult validate_material(const FmfMaterialData& m, const ShaderConfig& config) {
-  if (m.components != config.components)
-    return make_error(Status::invalid_argument, "material: C = %u, shaders were generated for C = %u", m.components,
+  if (m.components == 0 || m.components > config.components)
+    return make_error(Status::invalid_argument, "material: C = %u, shaders were generated for C ≤ %u", m.components,
                       config.components);
   if (!(m.transform == config.value_transform))
     return make_error(Status::invalid_argument, "material: value encoding %s, shaders were generated for %s",
@@ -162,6 +162,17 @@ inline VoidResult validate_material(const FmfMaterialData& m, const ShaderConfig
       return make_error(Status::invalid_argument, "material: angular weight %zu is not finite", i);
   }
   return {};
+}
+
+/// `params` for drawing an FMF material of C_m components, what a backend's draw() uploads:
+/// vt_extent.w, the components the FMF and BSVTF programs sum (ShaderParams::vt_extent), is
+/// the caller's count when it is 1 … C_m − 1 (the first components only, e.g. a progressive
+/// quality step) and C_m otherwise (0, NaN or above C_m). noexcept.
+inline ShaderParams params_for_material(ShaderParams params, uint32_t components) noexcept {
+  const float asked = params.vt_extent.w;
+  params.vt_extent.w =
+      asked >= 1.0f && asked < static_cast<float>(components) ? std::floor(asked) : static_cast<float>(components);
+  return params;
 }
 
 /// One U′ packet (paper 000 §6): components 4g … 4g+3 of an FMF material's U′, as the runtime
@@ -714,8 +725,9 @@ class Backend {
   /// invalid_argument for a zero or oversized target or a feedback sample outside its block.
   virtual Status begin_frame(const FrameDesc& frame) noexcept = 0;
   /// Draws a mesh with `program` and the given shader parameters: fmf, bsvtf or bsvtf_feedback
-  /// for an FMF material, laplacian / lpca / pca_views / spmm for a material of that representation. Returns
-  /// invalid_argument when the program does not fit the material.
+  /// for an FMF material (with params_for_material(params, its C_m)), laplacian / lpca /
+  /// pca_views / spmm for a material of that representation. Returns invalid_argument when the
+  /// program does not fit the material.
   virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
                       const ShaderParams& params) noexcept = 0;
   /// Draws a mesh into the feedback target (paper 000 eq. 1–2). A frame whose colour pass uses

@@ -473,8 +473,7 @@ inline glm::vec3 shade_fmf(const EigenTextures& fmf, const AngularSample& light,
       }
     }
   // The sum is decoded after the angular interpolation, as the shaders' fmf_brdf does.
-  if (!fmf.transform.is_linear())
-    for (int colour = 0; colour < 3; ++colour) rgb[colour] = fmf.transform.decode(rgb[colour]);
+  if (!fmf.transform.is_linear()) fmf.transform.decode_rgb(&rgb.x);
   return rgb;
 }
 

@@ -13,19 +13,30 @@
 //   sqrt    E(x) = √max(x, 0)        D(s) = s·|s|              (odd, so negative sums stay ≤ 0)
 //   log     E(x) = ln(max(x, 0) + ε) D(s) = e^s − ε            (ε = log_offset > 0)
 //
+// and one that decorrelates colour as Bonn's DFMF does (log luminance, chroma normalised by it),
+// per RGB triple of a (texel, light, view) sample; the colour rows of U then hold (s_Y, s_b, s_r):
+//
+//   log_ycbcr  Y, Cb, Cr = YCbCr(max(rgb, 0))  (BT.601 full range, the JPEG/paper 001 matrix)
+//              w = Y + ε,  E = (ln w, Cb / w, Cr / w)
+//              D(s): w = e^{s_Y}, Y = w − ε, Cb = s_b·w, Cr = s_r·w, rgb = RGB(Y, Cb, Cr)
+//
+// encode()/decode() are per value and serve the per-channel encodings; encode_rgb()/decode_rgb()
+// serve all four (code that handles RGB triples uses them).
+//
 // The same decode runs in the GLSL/HLSL generators (shader/), the CPU reference
 // (backend/cpu_reference.hpp) and Fmf::evaluate (factor/fmf.hpp), so every renderer evaluates
 // the factorisation exactly. docs/fidelity.md measures the effect on the demo materials.
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
 namespace btflod {
 
 /// Which encoding the factorised values are in (stored in factor files and .bsvtf containers).
-enum class ValueEncoding : uint32_t { linear = 0, sqrt = 1, log = 2 };
+enum class ValueEncoding : uint32_t { linear = 0, sqrt = 1, log = 2, log_ycbcr = 3 };
 
 /// The encoding and its parameter. Default: linear (the identity).
 struct ValueTransform {
@@ -33,6 +44,13 @@ struct ValueTransform {
   float log_offset = 0.05f;  ///< ε of the log encoding (ignored otherwise); > 0
 
   constexpr bool is_linear() const noexcept { return encoding == ValueEncoding::linear; }
+  /// True when each colour channel is encoded on its own (encode()/decode() apply); false for
+  /// log_ycbcr, whose channels mix (encode_rgb()/decode_rgb()).
+  constexpr bool per_channel() const noexcept { return encoding != ValueEncoding::log_ycbcr; }
+  /// True when the encoding uses log_offset.
+  constexpr bool uses_log_offset() const noexcept {
+    return encoding == ValueEncoding::log || encoding == ValueEncoding::log_ycbcr;
+  }
   /// True for a known encoding with a finite ε > 0 (when it matters). Use on values read from files.
   bool valid() const noexcept {
     switch (encoding) {
@@ -40,11 +58,12 @@ struct ValueTransform {
       case ValueEncoding::sqrt:
         return true;
       case ValueEncoding::log:
+      case ValueEncoding::log_ycbcr:
         return std::isfinite(log_offset) && log_offset > 0.0f;
     }
     return false;
   }
-  /// E(x): a BTF value to the factorised domain.
+  /// E(x): a BTF value to the factorised domain (per-channel encodings; log_ycbcr: encode_rgb()).
   float encode(float x) const noexcept {
     switch (encoding) {
       case ValueEncoding::sqrt:
@@ -55,7 +74,7 @@ struct ValueTransform {
         return x;
     }
   }
-  /// D(s): a sum of eq. 5 back to reflectance.
+  /// D(s): a sum of eq. 5 back to reflectance (per-channel encodings; log_ycbcr: decode_rgb()).
   float decode(float s) const noexcept {
     switch (encoding) {
       case ValueEncoding::sqrt:
@@ -66,12 +85,44 @@ struct ValueTransform {
         return s;
     }
   }
+  /// E of one RGB sample, in place (every encoding).
+  void encode_rgb(float* rgb) const noexcept {
+    if (per_channel()) {
+      for (int c = 0; c < 3; ++c) rgb[c] = encode(rgb[c]);
+      return;
+    }
+    const float r = rgb[0] > 0.0f ? rgb[0] : 0.0f, g = rgb[1] > 0.0f ? rgb[1] : 0.0f, b = rgb[2] > 0.0f ? rgb[2] : 0.0f;
+    const float y = 0.299f * r + 0.587f * g + 0.114f * b;
+    const float cb = -0.168736f * r - 0.331264f * g + 0.5f * b, cr = 0.5f * r - 0.418688f * g - 0.081312f * b;
+    const float w = y + log_offset;
+    rgb[0] = std::log(w);
+    rgb[1] = cb / w;
+    rgb[2] = cr / w;
+  }
+  /// D of one summed RGB (or (s_Y, s_b, s_r)) triple, in place (every encoding).
+  void decode_rgb(float* s) const noexcept {
+    if (per_channel()) {
+      for (int c = 0; c < 3; ++c) s[c] = decode(s[c]);
+      return;
+    }
+    const float w = std::exp(s[0]), y = w - log_offset, cb = s[1] * w, cr = s[2] * w;
+    s[0] = y + 1.402f * cr;
+    s[1] = y - 0.344136f * cb - 0.714136f * cr;
+    s[2] = y + 1.772f * cb;
+  }
+  /// E, resp. D, over consecutive RGB triples (values.size() a multiple of 3).
+  void encode_triples(float* values, size_t count) const noexcept {
+    for (size_t i = 0; i + 3 <= count; i += 3) encode_rgb(values + i);
+  }
+  void decode_triples(float* values, size_t count) const noexcept {
+    for (size_t i = 0; i + 3 <= count; i += 3) decode_rgb(values + i);
+  }
   friend constexpr bool operator==(const ValueTransform& a, const ValueTransform& b) noexcept {
-    return a.encoding == b.encoding && (a.encoding != ValueEncoding::log || a.log_offset == b.log_offset);
+    return a.encoding == b.encoding && (!a.uses_log_offset() || a.log_offset == b.log_offset);
   }
 };
 
-/// "linear", "sqrt", "log" (or "unknown").
+/// "linear", "sqrt", "log", "log_ycbcr" (or "unknown").
 constexpr const char* value_encoding_name(ValueEncoding e) noexcept {
   switch (e) {
     case ValueEncoding::linear:
@@ -80,13 +131,15 @@ constexpr const char* value_encoding_name(ValueEncoding e) noexcept {
       return "sqrt";
     case ValueEncoding::log:
       return "log";
+    case ValueEncoding::log_ycbcr:
+      return "log_ycbcr";
   }
   return "unknown";
 }
 
 /// Parses a name of value_encoding_name(). Returns false (and leaves `out`) for anything else.
 constexpr bool parse_value_encoding(std::string_view name, ValueEncoding& out) noexcept {
-  for (ValueEncoding e : {ValueEncoding::linear, ValueEncoding::sqrt, ValueEncoding::log})
+  for (ValueEncoding e : {ValueEncoding::linear, ValueEncoding::sqrt, ValueEncoding::log, ValueEncoding::log_ycbcr})
     if (name == value_encoding_name(e)) {
       out = e;
       return true;

@@ -83,9 +83,10 @@ struct Fmf {
     return decode(
         combine_angular_taps(light, view, [&](uint32_t vi, uint32_t li) { return evaluate_encoded(x, y, vi, li); }));
   }
-  /// D(s) per channel (the identity for a linear transform).
+  /// D(s) of a summed RGB triple (the identity for a linear transform).
   glm::vec3 decode(glm::vec3 s) const noexcept {
-    return transform.is_linear() ? s : glm::vec3(transform.decode(s.r), transform.decode(s.g), transform.decode(s.b));
+    if (!transform.is_linear()) transform.decode_rgb(&s.x);
+    return s;
   }
   /// The view-dependent ambient term at texel (x, y) (paper 000 §7): the cosine-weighted mean of
   /// U's rows, decoded (for a non-linear transform a mean in the encoded domain, not of ρ').
@@ -129,8 +130,7 @@ struct Fmf {
       Eigen::Map<Eigen::MatrixXf> img(out.samples().data() + i * static_cast<size_t>(n) * 3, 3, n);
       img.noalias() = um.middleRows(static_cast<Eigen::Index>(3 * i), 3) * vm.transpose();
     }
-    if (!transform.is_linear())
-      for (float& x : out.samples()) x = transform.decode(x);
+    if (!transform.is_linear()) transform.decode_triples(out.samples().data(), out.samples().size());  // RGB innermost
     return out;
   }
 
@@ -224,10 +224,11 @@ inline void gather_fmf_columns(const BtfFloat& btf, size_t t0, size_t count, Eig
   }
 }
 
-/// E(x) over the first `count` columns of a gathered block (FmfOptions::transform).
+/// E over the first `count` columns of a gathered block (FmfOptions::transform). Each column's
+/// rows are (image · 3 + colour): RGB triples are consecutive.
 inline void encode_columns(const ValueTransform& t, size_t count, Eigen::MatrixXf& block) {
-  auto cols = block.leftCols(static_cast<Eigen::Index>(count));
-  cols = cols.unaryExpr([t](float x) { return t.encode(x); });
+  for (Eigen::Index j = 0; j < static_cast<Eigen::Index>(count); ++j)
+    t.encode_triples(block.col(j).data(), static_cast<size_t>(block.rows()));
 }
 
 /// Cosine weights of the ambient term: w_l = max(cos θ_l, 0) / Σ (uniform if all are 0).

@@ -148,7 +148,7 @@ inline VoidResult fmf_reconstruct_image(const Fmf& f, size_t view, size_t light,
   Eigen::Map<Eigen::MatrixXf> img(out.data(), 3, static_cast<Eigen::Index>(n));
   img.noalias() = um.middleRows(static_cast<Eigen::Index>(3 * i), 3) * vm.transpose();
   if (!f.transform.is_linear())
-    for (float& x : out) x = f.transform.decode(x);  // f.transform's decode, as reconstruct() applies
+    f.transform.decode_triples(out.data(), out.size());  // f.transform's decode, as reconstruct() applies
   return {};
 }
 

@@ -67,10 +67,11 @@ struct FilamentMaterialOptions {
 
 /// The uniform parameters every generated Filament material declares (set them with
 /// MaterialInstance::setParameter). Same meaning as ShaderParams' members of the same name.
-inline constexpr const char* kFilamentParamVtExtent = "btflod_vt_extent";      ///< float4: M, N, L_m, 0
-inline constexpr const char* kFilamentParamLod = "btflod_lod";                 ///< float4: bias, feedback offset, 0, 0
-inline constexpr const char* kFilamentParamIds = "btflod_ids";                 ///< uint4: first layer, texture id, 0, 0
-inline constexpr const char* kFilamentParamLight = "btflod_light";             ///< float4 (not in feedback)
+inline constexpr const char* kFilamentParamVtExtent =
+    "btflod_vt_extent";                                             ///< float4: M, N, L_m, C_m (0: the program's C)
+inline constexpr const char* kFilamentParamLod = "btflod_lod";      ///< float4: bias, feedback offset, 0, 0
+inline constexpr const char* kFilamentParamIds = "btflod_ids";      ///< uint4: first layer, texture id, 0, 0
+inline constexpr const char* kFilamentParamLight = "btflod_light";  ///< float4 (not in feedback)
 inline constexpr const char* kFilamentParamLightColor = "btflod_light_color";  ///< float4 (not in feedback)
 
 /// The Filament parameter name of a sampler role: "btflod_" + shader_binding_name(role), e.g.
@@ -155,6 +156,7 @@ inline Result<std::string> generate_filament_material(FilamentMaterialKind kind,
   fo.uniforms.first_layer = std::string("materialParams.") + kFilamentParamIds + ".x";
   fo.uniforms.texture_id = std::string("materialParams.") + kFilamentParamIds + ".y";
   fo.uniforms.spmm_mode = std::string("materialParams.") + kFilamentParamIds + ".w";
+  fo.uniforms.component_count = std::string("materialParams.") + kFilamentParamVtExtent + ".w";
   const uint32_t pieces = kind == FilamentMaterialKind::bsvtf ? glsl_pieces({GlslPiece::bsvtf, GlslPiece::local_frame})
                           : kind == FilamentMaterialKind::fmf ? glsl_pieces({GlslPiece::fmf, GlslPiece::local_frame})
                                                               : glsl_pieces({GlslPiece::feedback});

@@ -299,6 +299,11 @@ struct GlslUniformSources {
   std::string first_layer = "btflod.ids.x";          ///< uint: page-table layer of component group 0 (bsvtf)
   std::string texture_id = "btflod.ids.y";           ///< uint: texture id in the feedback word (feedback)
   std::string spmm_mode = "btflod.ids.w";            ///< uint: SPMM residual switch, spmm_residual_mode() (spmm)
+  /// float/int/uint: the drawn material's component count C_m (fmf_brdf, fmf, bsvtf): eq. 5 sums
+  /// components c < C_m and fetches ⌈C_m/4⌉ groups, so one program of C = max C_m draws
+  /// materials of every rank. 0 (or above the program's C): the program's C. Empty: always
+  /// the program's C (no per-draw value read).
+  std::string component_count = "btflod.vt_extent.w";
 };
 
 /// Names, bindings, sets and uniform sources of generate_functions().
@@ -476,7 +481,9 @@ struct GlslEmitter {
                              : key == "first_layer"         ? &u.first_layer
                              : key == "texture_id"          ? &u.texture_id
                              : key == "spmm_mode"           ? &u.spmm_mode
+                             : key == "component_count"     ? &u.component_count
                                                             : nullptr;
+    if (src == &u.component_count && src->empty()) return "(0)";  // the program's C
     if (src) return "(" + *src + ")";
     for (uint32_t i = 1; i < kShaderBindingCount; ++i)
       if (key == shader_binding_name(static_cast<ShaderBinding>(i))) return sampler_name(static_cast<ShaderBinding>(i));
@@ -619,10 +626,17 @@ inline void piece_angular(GlslEmitter& e) {
 // D(s) of core/value_transform.hpp, applied to the sum of eq. 5 (the identity for linear).
 inline void glsl_decode_value(GlslEmitter& e) {
   const ValueTransform& t = e.config.value_transform;
-  if (t.encoding == ValueEncoding::log) e.constant_real("kLogOffset", t.log_offset);
+  if (t.uses_log_offset()) e.constant_real("kLogOffset", t.log_offset);
   e.emit(t.encoding == ValueEncoding::sqrt  ? "vec3 @decode_value(vec3 s) { return s * abs(s); }\n"
          : t.encoding == ValueEncoding::log ? "vec3 @decode_value(vec3 s) { return exp(s) - vec3(@kLogOffset); }\n"
-                                            : "vec3 @decode_value(vec3 s) { return s; }\n");
+         : t.encoding == ValueEncoding::log_ycbcr
+             ? "// s = (ln(Y + eps), Cb / (Y + eps), Cr / (Y + eps)) summed; BT.601 YCbCr back to RGB.\n"
+               "vec3 @decode_value(vec3 s) {\n"
+               "  float w = exp(s.x);\n"
+               "  float y = w - @kLogOffset, cb = s.y * w, cr = s.z * w;\n"
+               "  return vec3(y + 1.402 * cr, y - 0.344136 * cb - 0.714136 * cr, y + 1.772 * cb);\n"
+               "}\n"
+             : "vec3 @decode_value(vec3 s) { return s; }\n");
 }
 
 // Σ_c U_c(ωl, ωv) · V_c(x), paper 000 eq. 5; U interpolated over 3 × 3 direction pairs (§4).
@@ -632,13 +646,20 @@ inline void piece_fmf_brdf(GlslEmitter& e) {
   e.constant_int("kFmfGroups", e.config.component_groups());
   glsl_decode_value(e);
   e.emit(
-      "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]).\n"
+      "// C_m of the drawn material ($component_count$; 0 or above kFmfComponents: kFmfComponents).\n"
+      "int @component_count() {\n"
+      "  int n = int($component_count$);\n"
+      "  return (n <= 0 || n > @kFmfComponents) ? @kFmfComponents : n;\n"
+      "}\n"
+      "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]), c < C_m.\n"
       "vec3 @fmf_brdf(vec4 v[@kFmfGroups], vec3 wl, vec3 wv) {\n"
       "  ivec3 il; vec3 al; ivec3 iv; vec3 av;\n"
       "  @angular(0, wl, il, al);\n"
       "  @angular(1, wv, iv, av);\n"
       "  vec3 rho = vec3(0.0);\n"
+      "  int count = @component_count();\n"
       "  for (int c = 0; c < @kFmfComponents; ++c) {\n"
+      "    if (c >= count) break;  // a per-draw uniform: every invocation leaves together\n"
       "    vec3 u = vec3(0.0);\n"
       "    for (int i = 0; i < @kAngularTaps; ++i) {\n"
       "      for (int j = 0; j < @kAngularTaps; ++j) {\n"
@@ -656,8 +677,11 @@ inline void piece_fmf_brdf(GlslEmitter& e) {
 inline void piece_fmf(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::eigen_textures);
   e.emit(
+      "// Groups past the material's ⌈C_m/4⌉ are not fetched (zero).\n"
       "void @fmf_components(vec2 uv, out vec4 v[@kFmfGroups]) {\n"
-      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = texture($eigen_textures$, vec3(uv, float(g)));\n"
+      "  int groups = (@component_count() + 3) / 4;\n"
+      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = g < groups ? texture($eigen_textures$, vec3(uv, float(g))) : "
+      "vec4(0.0);\n"
       "}\n"
       "vec4 @fmf_raw(vec2 uv) { return texture($eigen_textures$, vec3(uv, 0.0)); }\n"
       "vec3 @fmf(vec2 uv, vec3 wl, vec3 wv) {\n"
@@ -789,7 +813,9 @@ inline void piece_bsvtf(GlslEmitter& e) {
       "// Uses derivatives (@vt_lambda): call in uniform control flow.\n"
       "void @bsvtf_components(vec2 uv, out vec4 v[@kFmfGroups]) {\n"
       "  @VtSite site = @vt_site(fract(uv), @vt_lambda(uv));\n"
-      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = @vt_fetch(int($first_layer$) + g, site);\n"
+      "  int groups = (@component_count() + 3) / 4;  // the material's layers; none of another's is read\n"
+      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = g < groups ? @vt_fetch(int($first_layer$) + g, site) : "
+      "vec4(0.0);\n"
       "}\n"
       "vec4 @bsvtf_raw(vec2 uv) { return @vt_fetch(int($first_layer$), @vt_site(fract(uv), @vt_lambda(uv))); }\n"
       "vec3 @bsvtf(vec2 uv, vec3 wl, vec3 wv) {\n"
@@ -1265,9 +1291,11 @@ inline VoidResult validate_function_options(GlslPieceSet pieces, const GlslFunct
       {&o.uniforms.first_layer, "first_layer", piece_bit(GlslPiece::bsvtf)},
       {&o.uniforms.texture_id, "texture_id", piece_bit(GlslPiece::feedback)},
       {&o.uniforms.spmm_mode, "spmm_mode", piece_bit(GlslPiece::spmm)},
+      {&o.uniforms.component_count, "component_count", piece_bit(GlslPiece::fmf_brdf)},
   };
   for (const auto& s : sources)
-    if ((pieces & s.used_by) && !glsl_expression(*s.expr))
+    if ((pieces & s.used_by) && !glsl_expression(*s.expr) &&
+        !(s.expr == &o.uniforms.component_count && s.expr->empty()))
       return make_error(Status::invalid_argument,
                         "generate_functions: uniform source %s = \"%.80s\" is not a one-line GLSL expression "
                         "(non-empty, at most 256 characters, balanced brackets, none of ; { } # @ $ \\ \")",

@@ -54,6 +54,7 @@ inline GlslUniformSources hlsl_default_uniform_sources() {
   u.first_layer = "btflod_ids.x";
   u.texture_id = "btflod_ids.y";
   u.spmm_mode = "btflod_ids.w";
+  u.component_count = "btflod_vt_extent.w";
   return u;
 }
 

@@ -152,10 +152,17 @@ inline void hlsl_angular(HlslEmitter& e) {
 // D(s) of core/value_transform.hpp, applied to the sum of eq. 5 (the identity for linear).
 inline void hlsl_decode_value(HlslEmitter& e) {
   const ValueTransform& t = e.g.config.value_transform;
-  if (t.encoding == ValueEncoding::log) e.constant_real("kLogOffset", t.log_offset);
+  if (t.uses_log_offset()) e.constant_real("kLogOffset", t.log_offset);
   e.emit(t.encoding == ValueEncoding::sqrt ? "float3 @decode_value(float3 s) { return s * abs(s); }\n"
          : t.encoding == ValueEncoding::log
              ? "float3 @decode_value(float3 s) { return exp(s) - (float3)@kLogOffset; }\n"
+         : t.encoding == ValueEncoding::log_ycbcr
+             ? "// s = (ln(Y + eps), Cb / (Y + eps), Cr / (Y + eps)) summed; BT.601 YCbCr back to RGB.\n"
+               "float3 @decode_value(float3 s) {\n"
+               "  float w = exp(s.x);\n"
+               "  float y = w - @kLogOffset, cb = s.y * w, cr = s.z * w;\n"
+               "  return float3(y + 1.402 * cr, y - 0.344136 * cb - 0.714136 * cr, y + 1.772 * cb);\n"
+               "}\n"
              : "float3 @decode_value(float3 s) { return s; }\n");
 }
 
@@ -165,13 +172,20 @@ inline void hlsl_fmf_brdf(HlslEmitter& e) {
   e.constant_int("kFmfGroups", e.g.config.component_groups());
   hlsl_decode_value(e);
   e.emit(
-      "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]).\n"
+      "// C_m of the drawn material ($component_count$; 0 or above kFmfComponents: kFmfComponents).\n"
+      "int @component_count() {\n"
+      "  int n = int($component_count$);\n"
+      "  return (n <= 0 || n > @kFmfComponents) ? @kFmfComponents : n;\n"
+      "}\n"
+      "// Paper 000 eq. 5 for the component weights v (component c in v[c / 4][c % 4]), c < C_m.\n"
       "float3 @fmf_brdf(float4 v[@kFmfGroups], float3 wl, float3 wv) {\n"
       "  int3 il; float3 al; int3 iv; float3 av;\n"
       "  @angular(0, wl, il, al);\n"
       "  @angular(1, wv, iv, av);\n"
       "  float3 rho = (float3)0.0;\n"
+      "  int count = @component_count();\n"
       "  for (int c = 0; c < @kFmfComponents; ++c) {\n"
+      "    if (c >= count) break;  // a per-draw uniform: every invocation leaves together\n"
       "    float3 u = (float3)0.0;\n"
       "    for (int i = 0; i < @kAngularTaps; ++i) {\n"
       "      for (int j = 0; j < @kAngularTaps; ++j) {\n"
@@ -188,9 +202,13 @@ inline void hlsl_fmf_brdf(HlslEmitter& e) {
 inline void hlsl_fmf(HlslEmitter& e) {
   e.texture("Texture2DArray<float4>", ShaderBinding::eigen_textures, true);
   e.emit(
+      "// Groups past the material's ⌈C_m/4⌉ are not fetched (zero).\n"
       "void @fmf_components(float2 uv, out float4 v[@kFmfGroups]) {\n"
-      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = $eigen_textures$.Sample($eigen_textures_sampler$, float3(uv, "
-      "float(g)));\n"
+      "  int groups = (@component_count() + 3) / 4;\n"
+      "  for (int g = 0; g < @kFmfGroups; ++g) {\n"
+      "    v[g] = (float4)0.0;\n"
+      "    if (g < groups) v[g] = $eigen_textures$.Sample($eigen_textures_sampler$, float3(uv, float(g)));\n"
+      "  }\n"
       "}\n"
       "float4 @fmf_raw(float2 uv) { return $eigen_textures$.Sample($eigen_textures_sampler$, float3(uv, 0.0)); }\n"
       "float3 @fmf(float2 uv, float3 wl, float3 wv) {\n"
@@ -306,7 +324,11 @@ inline void hlsl_bsvtf(HlslEmitter& e) {
       "// Uses derivatives (@vt_lambda): call in uniform control flow.\n"
       "void @bsvtf_components(float2 uv, out float4 v[@kFmfGroups]) {\n"
       "  @VtSite site = @vt_site(frac(uv), @vt_lambda(uv));\n"
-      "  for (int g = 0; g < @kFmfGroups; ++g) v[g] = @vt_fetch(int($first_layer$) + g, site);\n"
+      "  int groups = (@component_count() + 3) / 4;  // the material's layers; none of another's is read\n"
+      "  for (int g = 0; g < @kFmfGroups; ++g) {\n"
+      "    v[g] = (float4)0.0;\n"
+      "    if (g < groups) v[g] = @vt_fetch(int($first_layer$) + g, site);\n"
+      "  }\n"
       "}\n"
       "float4 @bsvtf_raw(float2 uv) { return @vt_fetch(int($first_layer$), @vt_site(frac(uv), @vt_lambda(uv))); }\n"
       "float3 @bsvtf(float2 uv, float3 wl, float3 wv) {\n"

@@ -186,7 +186,9 @@ constexpr uint32_t spmm_residual_mode(bool residual, int n_pca) noexcept {
 
 /// All parameters of the generated programs.
 struct ShaderConfig {
-  uint32_t components = 8;  ///< C: eigen-texture components (FMF / BSVTF / PCA / LPCA / Laplacian)
+  /// C: eigen-texture components (FMF / BSVTF / PCA / LPCA / Laplacian). FMF and BSVTF
+  /// programs draw materials of any C_m ≤ C (ShaderParams::vt_extent.w).
+  uint32_t components = 8;
   AngularTableConfig angular;
   VirtualTextureConfig vt;
   LaplacianLodConfig laplacian;
@@ -216,7 +218,10 @@ struct alignas(16) ShaderParams {
   /// (paper 001: λ = log2(distance·z)); w: unused.
   Float4 lod{0.0f, 0.0f, 1.0f, 0.0f};
   /// BSVTF / feedback: x, y = M, N (finest-level texels of this material), z = its finest level
-  /// L_m (≤ VirtualTextureConfig::finest_level), w unused.
+  /// L_m (≤ VirtualTextureConfig::finest_level). FMF / BSVTF: w = the components eq. 5 sums,
+  /// C_m ≤ ShaderConfig::components (0: the programs' C), so one program of the largest C draws
+  /// materials of every rank; the backends set it to the material's C_m, or to the caller's
+  /// 1 … C_m − 1 to draw the first components only (backend.hpp params_for_material()).
   Float4 vt_extent{256.0f, 256.0f, 2.0f, 0.0f};
   /// x: page-table layer of component group 0 of this material; y: texture id written to the
   /// feedback word; z: debug view (0 = shaded, 1 = raw component group 0); w: SPMM residual

@@ -2,6 +2,7 @@
 # configurations (one material, one 96 x 54 frame, no settle) and checks report.json:
 #   --components C: the configuration states C and the FMF written has rank C (its U and V as
 #                   halves are C · (directions² · 3 + texels²) · 2 bytes);
+#   --rank-target S: the material's rank is the smallest candidate reaching S on its displayed images;
 #   --material NAME: every material is NAME; --interreflection changes the synthesised BTF;
 # and that unknown options and out-of-range values exit with 2 and say what is wrong.
 # Arguments: -DDEMO=<btflod-demo> -DDIR=<scratch folder>.
@@ -50,6 +51,32 @@ endif()
 run_demo(c5 --components 5)
 check_rank("${json}" 5)
 
+# --rank-target S: the material's rank is the first candidate whose training-view SSIM reaches S
+# (the curve stops there, and the candidate before it fell short); the programs' C is that rank.
+run_demo(rank --rank-target 0.6 --components 12)
+string(JSON c GET "${json}" configuration components)
+string(JSON target GET "${json}" configuration rank_target_ssim)
+string(JSON chosen GET "${json}" files 0 components)
+string(JSON points LENGTH "${json}" files 0 rank_curve)
+math(EXPR last "${points} - 1")
+string(JSON last_c GET "${json}" files 0 rank_curve ${last} components)
+string(JSON last_ssim GET "${json}" files 0 rank_curve ${last} training_ssim)
+if(NOT c EQUAL chosen OR NOT last_c EQUAL chosen OR NOT target EQUAL 0.6 OR chosen GREATER 12)
+  message(FATAL_ERROR "--rank-target 0.6: programs' C ${c}, material C ${chosen}, curve ends at C ${last_c}, "
+                      "target ${target}")
+endif()
+if(last_ssim LESS 0.6 AND chosen LESS 12)
+  message(FATAL_ERROR "--rank-target 0.6: chose C ${chosen} at training SSIM ${last_ssim}")
+endif()
+if(points GREATER 1)
+  math(EXPR before "${points} - 2")
+  string(JSON before_ssim GET "${json}" files 0 rank_curve ${before} training_ssim)
+  if(NOT before_ssim LESS 0.6)
+    message(FATAL_ERROR "--rank-target 0.6: a smaller rank already reached it (${before_ssim})")
+  endif()
+endif()
+check_rank("${json}" ${chosen})
+
 run_demo(tiles --material tiles)
 string(JSON name GET "${json}" files 0 material)
 if(NOT name STREQUAL "tiles-0")
@@ -66,7 +93,8 @@ endif()
 foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknown option --bogus-option"
              "--components;0;--components 0: expected 1..128" "--components;129;--components 129: expected 1..128"
              "--material;glass;--material glass: expected cloth, stone, leather or tiles"
-             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f or rgba8")
+             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f or rgba8"
+             "--rank-target;1.5;--rank-target 1.5: expected an SSIM in [0, 1]")
   list(POP_BACK case message)
   execute_process(COMMAND ${DEMO} --out ${DIR}/refused ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out
                   ERROR_VARIABLE err)
@@ -75,4 +103,4 @@ foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknow
     message(FATAL_ERROR "btflod-demo ${case}: exit ${rc} (expected 2), stderr lacks '${message}':\n${err}")
   endif()
 endforeach()
-message(STATUS "btflod-demo options: --components, --material, --interreflection work; bad options refused")
+message(STATUS "btflod-demo options: --components, --rank-target, --material, --interreflection work; bad options refused")

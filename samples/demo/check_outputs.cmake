@@ -21,6 +21,28 @@ string(JSON other GET "${json}" raw_reference fmf_gpu filter)
 if(NOT is_default OR NOT filter MATCHES "^same rays" OR NOT other MATCHES "^different filters")
   message(FATAL_ERROR "report.json: components_default ${is_default}, fmf_cpu filter '${filter}', fmf_gpu filter '${other}'")
 endif()
+# Each material's rank was chosen from its displayed images (default --rank-target): it is the
+# last point of its rank curve, and the programs' C is the largest of them.
+string(JSON target GET "${json}" configuration rank_target_ssim)
+string(JSON programs_c GET "${json}" configuration components)
+string(JSON file_count LENGTH "${json}" files)
+set(largest 0)
+math(EXPR last_file "${file_count} - 1")
+foreach(i RANGE ${last_file})
+  string(JSON c GET "${json}" files ${i} components)
+  string(JSON points LENGTH "${json}" files ${i} rank_curve)
+  math(EXPR last "${points} - 1")
+  string(JSON last_c GET "${json}" files ${i} rank_curve ${last} components)
+  if(NOT c EQUAL last_c)
+    message(FATAL_ERROR "report.json: material ${i} has C = ${c}, its rank curve ends at ${last_c}")
+  endif()
+  if(c GREATER largest)
+    set(largest ${c})
+  endif()
+endforeach()
+if(NOT target GREATER 0 OR NOT programs_c EQUAL largest)
+  message(FATAL_ERROR "report.json: rank target ${target}, programs' C ${programs_c}, largest material C ${largest}")
+endif()
 # --cut: frames and bytes to converge after the camera cut, measured and consistent: some frame
 # after the cut is below SSIM 0.99 of the converged one (the first view's tiles were not all
 # resident; with the log encoding the very first frame may already be within it, and frames dip

@@ -34,8 +34,12 @@ struct DemoConfig {
   /// --material NAME: every material is synthesised as NAME (seed + index still differs);
   /// unset: cloth, stone, leather, tiles in turn.
   std::optional<SynthMaterial> material;
-  uint64_t seed = 1;                    ///< --seed N
-  int components = 0;                   ///< --components C: FMF rank (0: the profile's default)
+  uint64_t seed = 1;   ///< --seed N
+  int components = 0;  ///< --components C: FMF rank (0: the profile's default)
+  /// --rank-target S: each material's rank is the smallest of 4, 8, 12, 16 (up to --components)
+  /// whose displayed images reach mean SSIM S (factor/fmf_rank.hpp); 0: a fixed rank. Default
+  /// profile without --components: kDefaultDemoRankTarget.
+  double rank_target = -1.0;
   bool interreflection = false;         ///< --interreflection: one diffuse bounce in the synthesis
   bool quiet = false;                   ///< --quiet: no progress bars
   bool window = false;                  ///< --window: show the frames in an X11 window
@@ -64,16 +68,21 @@ inline constexpr int kMaxDemoComponents = 128;
 
 /// The FMF rank of the default profile (docs/demo.md, "Default rank": measured against the raw
 /// BTF through the same rays). A macro so that the usage text can print it.
-#define BTFLOD_DEMO_DEFAULT_COMPONENTS 8
+#define BTFLOD_DEMO_DEFAULT_COMPONENTS 16
 #define BTFLOD_DEMO_STR2(x) #x
 #define BTFLOD_DEMO_STR(x) BTFLOD_DEMO_STR2(x)
 inline constexpr int kDefaultDemoComponents = BTFLOD_DEMO_DEFAULT_COMPONENTS;
+/// The default profile chooses each material's rank (up to kDefaultDemoComponents) from its
+/// displayed images against this mean SSIM (docs/demo.md, "Default rank").
+#define BTFLOD_DEMO_DEFAULT_RANK_TARGET 0.75
+inline constexpr double kDefaultDemoRankTarget = BTFLOD_DEMO_DEFAULT_RANK_TARGET;
 /// The value encoding of the default profile (docs/fidelity.md): its name for the usage text
-/// and the value (the paper profile stays linear, as paper 000 factorises). ln(x + 0.05): at
-/// C = 8 the last view's FMF against the raw BTF through the same rays goes from SSIM 0.814
-/// (linear) to 0.956 (sqrt: 0.943), tiles-3 from 0.336 to 0.932, at the frame cost of C = 8.
-#define BTFLOD_DEMO_DEFAULT_ENCODING_NAME "log"
-inline constexpr ValueEncoding kDefaultDemoEncoding = ValueEncoding::log;
+/// and the value (the paper profile stays linear, as paper 000 factorises). ln(Y + 0.05) with
+/// chroma over Y + 0.05: at C = 8 the last view's FMF against the raw BTF through the same rays
+/// goes from SSIM 0.814 (linear) to 0.958 (log per channel 0.956, sqrt 0.943), tiles-3 from
+/// 0.336 to 0.934, at the frame cost of C = 8.
+#define BTFLOD_DEMO_DEFAULT_ENCODING_NAME "log_ycbcr"
+inline constexpr ValueEncoding kDefaultDemoEncoding = ValueEncoding::log_ycbcr;
 /// Floors of the default materials (default rank and encoding) against the raw BTF (FMF through
 /// the same rays as the raw render; docs/fidelity.md): the whole last view, and each material
 /// covering at least kMinMaterialPixels pixels of it. The whole-view floor is the fidelity goal
@@ -90,9 +99,10 @@ inline constexpr const char* kDemoUsage =
     "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH] [--components C]\n"
     "                   [--material cloth|stone|leather|tiles] [--interreflection] [--cut]\n"
-    "                   [--cache-format rgba16f|rgba8]\n"
+    "                   [--cache-format rgba16f|rgba8] [--rank-target S]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
-    "  (FMF of rank C = --components, default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
+    "  (FMF; each material's rank chosen from its displayed images, up to C = " BTFLOD_DEMO_STR(
+        BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
     "  .bsvtf container each, then flies a camera through a scene of BTF-textured tori on a plane while one runtime Streamer streams tiles through throttled\n"
     "  sources, rendering BSVTF (and FMF as the converged reference) with the GL\n"
     "  backend. Writes DIR/frames/frame_NNNN.png, DIR/contact_sheet_frames.png,\n"
@@ -129,18 +139,23 @@ inline constexpr const char* kDemoUsage =
     "  prebuilt inputs: DIR/<name>.btfstore (e.g. cloth-0.btfstore, a symbolic link is fine; its own\n"
     "  texel count, never deleted) and DIR/<name>.fmf (C = 100) instead of synthesising/factorising.\n"
     "  --frame-size WxH renders W x H frames instead of the profile's (480x270, paper 1280x720).\n"
-    "  --value-encoding linear|sqrt|log factorises the BTF values as they are, their square root or\n"
-    "  ln(x + 0.05) (a dynamic-range reduction for glossy materials; the shaders decode the sum of\n"
-    "  eq. 5; docs/fidelity.md). Default: " BTFLOD_DEMO_DEFAULT_ENCODING_NAME ".\n"
-    "  --components C sets the FMF rank of every material (1..128; default "
-    BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS) ", paper 100).\n"
+    "  --value-encoding linear|sqrt|log|log_ycbcr factorises the BTF values as they are, their square\n"
+    "  root or ln(x + 0.05) (a dynamic-range reduction for glossy materials), or ln(Y + 0.05) with\n"
+    "  chroma Cb, Cr over Y + 0.05 (decorrelated colour, as Bonn's DFMF); the shaders decode the sum\n"
+    "  of eq. 5 (docs/fidelity.md). Default: " BTFLOD_DEMO_DEFAULT_ENCODING_NAME ".\n"
+    "  Each material's FMF rank is the smallest of 4, 8, 12, 16 whose displayed (view, light) images\n"
+    "  reach mean SSIM --rank-target S (default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_RANK_TARGET) ") against\n"
+    "  the raw BTF on the training views (factor/fmf_rank.hpp); one program set of the largest C draws\n"
+    "  them all. --components C alone sets one fixed rank for every material (1..128; paper 100);\n"
+    "  with --rank-target it is the largest rank tried.\n"
     "  --material NAME synthesises every material as NAME (cloth, stone, leather or tiles; seed + index\n"
     "  still differs) instead of the four kinds in turn. --interreflection adds one bounce of diffuse\n"
     "  interreflection to the synthesis (btf/synthesizer.hpp; slower). Neither applies to prebuilt\n"
     "  --inputs stores.\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1\n"
     "  --cache-format rgba8\n"
-    "  --components " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_COMPONENTS);
+    "  --rank-target " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_RANK_TARGET) " (--components " BTFLOD_DEMO_STR(
+        BTFLOD_DEMO_DEFAULT_COMPONENTS) " the largest)";
 
 /// Parses argv. Returns the config, or nullopt after printing the problem (or the usage for
 /// --help, with *exit_code = 0; otherwise 2).
@@ -199,9 +214,9 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       continue;
     }
     static constexpr std::string_view kValueOptions[] = {
-        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile",     "--memory",
-        "--size",       "--frames", "--materials",  "--settle",          "--backend",     "--bandwidth",
-        "--components", "--seed",   "--material",   "--value-encoding",  "--cache-format"};
+        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile",      "--memory",
+        "--size",       "--frames", "--materials",  "--settle",          "--backend",      "--bandwidth",
+        "--components", "--seed",   "--material",   "--value-encoding",  "--cache-format", "--rank-target"};
     if (std::find(std::begin(kValueOptions), std::end(kValueOptions), a) == std::end(kValueOptions))
       return fail("unknown option " + std::string(a));
     if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value");
@@ -272,6 +287,12 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
         return fail("--components " + std::string(value) + ": expected 1.." + std::to_string(kMaxDemoComponents) +
                     " (the shaders hold at most " + std::to_string(kMaxDemoComponents) + " components)");
       cfg.components = static_cast<int>(n);
+    } else if (a == "--rank-target") {
+      char* end = nullptr;
+      const double t = std::strtod(value, &end);
+      if (end == value || *end != '\0' || !(t >= 0.0 && t <= 1.0))
+        return fail("--rank-target " + std::string(value) + ": expected an SSIM in [0, 1] (0: a fixed rank)");
+      cfg.rank_target = t;
     } else if (a == "--seed") {
       if (!parse_int(value, 0, (1ll << 62), &n)) return fail("--seed " + std::string(value) + ": expected >= 0");
       cfg.seed = static_cast<uint64_t>(n);
@@ -279,7 +300,7 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     } else if (a == "--value-encoding") {
       ValueEncoding e = ValueEncoding::linear;
       if (!parse_value_encoding(value, e))
-        return fail("--value-encoding " + std::string(value) + ": expected linear, sqrt or log");
+        return fail("--value-encoding " + std::string(value) + ": expected linear, sqrt, log or log_ycbcr");
       cfg.value_encoding = e;
     } else if (a == "--material") {
       auto m = material_from_name(value);
@@ -292,6 +313,11 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
   if (cfg.out_dir.empty()) return fail("--out DIR is required");
   cfg.components_given = cfg.components != 0;
   if (cfg.components == 0) cfg.components = cfg.profile == "paper" ? 100 : kDefaultDemoComponents;
+  if (cfg.profile == "paper" && cfg.rank_target > 0.0)
+    return fail("--rank-target needs the default profile (the paper profile factorises out of core at a fixed C)");
+  // --components alone fixes the rank; otherwise it bounds the chosen one.
+  if (cfg.rank_target < 0.0)
+    cfg.rank_target = cfg.profile == "paper" || cfg.components_given ? 0.0 : kDefaultDemoRankTarget;
   if (!cfg.inputs_dir.empty() && cfg.profile != "paper") return fail("--inputs needs --profile paper");
   if (cfg.profile == "paper") {
     if (!cfg.size_given) cfg.size = 64;

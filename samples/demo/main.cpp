@@ -118,6 +118,7 @@ int main(int argc, char** argv) {
   if (cfg->deflate) ms.entropy_coder = TileEntropyCoder::deflate;
   ms.inputs_dir = cfg->inputs_dir;
   ms.components = static_cast<uint32_t>(cfg->components);
+  ms.rank_target_ssim = cfg->rank_target;
   ms.kind = cfg->material;
   ms.interreflection = cfg->interreflection;
   ms.transform.encoding = cfg->value_encoding ? *cfg->value_encoding
@@ -189,6 +190,14 @@ int main(int argc, char** argv) {
         m->name.c_str(), m->eigen_textures.width(), m->eigen_textures.height(), m->view_count, m->light_count,
         m->components, m->fmf_relative_error, m->bsvtf_path.c_str(), m->bsvtf.size(),
         static_cast<double>(m->store_bytes) / 1048576.0, m->seconds_synthesis, m->seconds_factor, m->seconds_build);
+    if (!m->rank_curve.empty()) {
+      std::string curve;
+      for (const FmfRankPoint& p : m->rank_curve)
+        curve += format_message(" C=%d %.3f/%.3f", p.components, p.training_ssim, p.held_out_ssim);
+      std::printf("  %-11s rank C=%u chosen for displayed-image SSIM %.2f%s (training/held-out views:%s)\n",
+                  m->name.c_str(), m->components, ms.rank_target_ssim, m->rank_target_met ? "" : " NOT MET",
+                  curve.c_str());
+    }
     std::fflush(stdout);
     materials.push_back(std::move(*m));
   }
@@ -229,7 +238,13 @@ int main(int argc, char** argv) {
   run.disk_min_free_bytes = disk.min_free();
   run.profile = paper ? "paper" : "default";
   run.feedback_words = !is_gpu ? "cpu" : cfg->separate_feedback_pass ? "feedback pass" : "colour pass";
-  run.components = ms.components;
+  run.components = 0;
+  for (const auto& m : materials) {
+    run.components = std::max(run.components, m.components);
+    run.material_components.push_back(m.components);
+    run.rank_curves.push_back(m.rank_curve);
+  }
+  run.rank_target = ms.rank_target_ssim;
   run.value_encoding = value_encoding_name(ms.transform.encoding);
   run.components_default = !cfg->components_given;
   run.tile_size = ms.tile_size;
@@ -582,7 +597,8 @@ int main(int argc, char** argv) {
     // rank", for the measurement behind the bounds). Other materials, ranks or profiles are what
     // the user asked for and are only reported.
     const bool default_materials = !paper && !cfg->components_given && !cfg->material && !cfg->interreflection &&
-                                   !cfg->value_encoding && !cfg->size_given && !cfg->seed_given;
+                                   !cfg->value_encoding && !cfg->size_given && !cfg->seed_given &&
+                                   cfg->rank_target == demo::kDefaultDemoRankTarget;
     bool raw_ok = true;
     std::string raw_note;
     if (default_materials && run.raw.done) {
@@ -595,9 +611,9 @@ int main(int argc, char** argv) {
           worst_ssim = run.raw.per_material[i].fmf_cpu.ssim, worst = materials[i].name;
       if (!worst.empty() && worst_ssim < demo::kDefaultRawMaterialSsimBound) raw_ok = false;
       raw_note =
-          format_message(", FMF C=%u vs raw same rays SSIM %.4f (bound %.2f), worst material %s %.4f (bound %.2f)",
-                         ms.components, run.raw.fmf_cpu.ssim, demo::kDefaultRawSsimBound, worst.c_str(), worst_ssim,
-                         demo::kDefaultRawMaterialSsimBound);
+          format_message(", FMF C=%s vs raw same rays SSIM %.4f (bound %.2f), worst material %s %.4f (bound %.2f)",
+                         demo::detail_report::ranks(run).c_str(), run.raw.fmf_cpu.ssim, demo::kDefaultRawSsimBound,
+                         worst.c_str(), worst_ssim, demo::kDefaultRawMaterialSsimBound);
     }
     // Every planned swap happened on the live Streamer: the new material was shown and the old
     // one's id released (its last job ended) before the end of the run.

@@ -23,6 +23,7 @@
 #include "btflod/factor/any_factorization.hpp"
 #include "btflod/factor/fmf.hpp"
 #include "btflod/factor/fmf_out_of_core.hpp"
+#include "btflod/factor/fmf_rank.hpp"
 #include "btflod/factor/fmf_stream.hpp"
 #include "btflod/vt/tile_pyramid.hpp"
 #include "common/bsvtf_input.hpp"
@@ -31,11 +32,20 @@ namespace btflod::demo {
 
 /// Settings of the material preparation.
 struct MaterialSettings {
-  int size = 32;            ///< synthesised texels per side
-  uint32_t repeat = 8;      ///< the virtual texture holds the material tiled repeat × repeat
-  uint32_t components = 8;  ///< FMF rank C (⌈C/4⌉ RGBA virtual textures; btflod-demo sets --components)
-  uint32_t tile_size = 32;  ///< T
-  uint32_t border = 4;      ///< B (T + 2B must be a multiple of 8)
+  int size = 32;        ///< synthesised texels per side
+  uint32_t repeat = 8;  ///< the virtual texture holds the material tiled repeat × repeat
+  /// FMF rank C (⌈C/4⌉ RGBA virtual textures; btflod-demo --components) when rank_target_ssim
+  /// is 0; otherwise the largest rank a material may get.
+  uint32_t components = 8;
+  /// > 0: each material's rank is chosen from what a viewer sees (factor/fmf_rank.hpp,
+  /// choose_fmf_rank()): the smallest of rank_candidates whose displayed (view, light) images
+  /// reach this mean SSIM on the training views; 0: every material at `components`. In-memory
+  /// path only (the paper profile's out-of-core FMF has a fixed C).
+  double rank_target_ssim = 0.0;
+  std::vector<int> rank_candidates{4, 8, 12, 16};
+  float rank_exposure = 2.1f;  ///< display exposure of the choice: the scene's sun (≈ 2.1)
+  uint32_t tile_size = 32;     ///< T
+  uint32_t border = 4;         ///< B (T + 2B must be a multiple of 8)
   uint32_t angular_resolution = 32;
   float quality = 60.0f;  ///< tile codec quality
   /// Entropy coder of the tiles (BsvtfBuildOptions::entropy_coder): zstd where the build has it.
@@ -101,6 +111,10 @@ struct DemoMaterial {
   std::string bsvtf_path;
   std::vector<uint8_t> bsvtf;     ///< the container bytes
   double fmf_relative_error = 0;  ///< ‖BTF − U·Vᵀ‖ / ‖BTF‖ on the synthesised material
+  /// MaterialSettings::rank_target_ssim > 0: each candidate rank tried, with its displayed-image
+  /// SSIM on the training and held-out views (the last one is the chosen rank `components`).
+  std::vector<FmfRankPoint> rank_curve;
+  bool rank_target_met = false;
   uint32_t finest_level = 0;
   int texels = 0;               ///< material texels per side (the virtual texture repeats it)
   std::string store_path;       ///< the raw BTF as a store (btf/btf_store.hpp): the raw reference
@@ -151,8 +165,11 @@ inline Result<double> fmf_relative_error_against_store(const BtfStore& store, co
     ss += static_cast<double>(a.squaredNorm());
     if (f.transform.is_linear())
       a -= u * v.transpose();
-    else  // the decoded reconstruction D(U·(VΣ)ᵀ)
-      a -= Eigen::MatrixXf(u * v.transpose()).unaryExpr([&f](float s) { return f.transform.decode(s); });
+    else {  // the decoded reconstruction D(U·(VΣ)ᵀ); rows (image · 3 + colour): RGB triples consecutive
+      Eigen::MatrixXf r = u * v.transpose();
+      f.transform.decode_triples(r.data(), static_cast<size_t>(r.size()));
+      a -= r;
+    }
     se += static_cast<double>(a.squaredNorm());
   }
   return ss > 0.0 ? std::sqrt(se / ss) : 0.0;
@@ -194,9 +211,25 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     FmfOptions fo;
     fo.components = static_cast<int>(s.components);
     fo.transform = s.transform;
-    auto f = factorize_fmf(*btf, fo);
-    if (!f) return f.error();
-    fmf = std::move(*f);
+    if (s.rank_target_ssim > 0.0) {  // the rank from displayed images (factor/fmf_rank.hpp)
+      FmfRankOptions ro;
+      ro.fmf = fo;
+      ro.candidates.clear();
+      for (int c : s.rank_candidates)
+        if (c <= static_cast<int>(s.components)) ro.candidates.push_back(c);
+      if (ro.candidates.empty()) ro.candidates.push_back(static_cast<int>(s.components));
+      ro.min_ssim = s.rank_target_ssim;
+      ro.exposure = s.rank_exposure;
+      auto choice = choose_fmf_rank(*btf, ro);
+      if (!choice) return choice.error();
+      fmf = std::move(choice->fmf);
+      m.rank_curve = std::move(choice->curve);
+      m.rank_target_met = choice->target_met;
+    } else {
+      auto f = factorize_fmf(*btf, fo);
+      if (!f) return f.error();
+      fmf = std::move(*f);
+    }
     m.seconds_factor = detail_materials::seconds_since(t0);
     // Relative reconstruction error of the rank-C factorisation (eq. 4).
     double se = 0, ss = 0;
@@ -307,7 +340,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
 }
 
 /// The second half of prepare_material(): from a material's factorisation `fmf` (of
-/// m.texels² texels, s.components = fmf.components) to everything both renderers read — U in
+/// m.texels² texels, its own rank C = fmf.components) to everything both renderers read — U in
 /// the backend's row order, V′·Σ repeated into the virtual texture, the angular lookup tables,
 /// the tile pyramid and the .bsvtf container at s.quality (written into `out_dir`). `m` carries
 /// the name, texel count, store and timings of the first half. Allocates.
@@ -315,15 +348,16 @@ inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, cons
                                             const DirectionSet& views, const MaterialSettings& s,
                                             const std::string& out_dir) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (fmf.components != static_cast<int>(s.components) || fmf.shape.width != m.texels || fmf.shape.height != m.texels ||
-      fmf.shape.light_count() != lights.size() || fmf.shape.view_count() != views.size())
-    return make_error(Status::invalid_argument, "%s: the FMF's shape or C = %d differs from the settings (C = %u)",
-                      m.name.c_str(), fmf.components, s.components);
+  if (fmf.components <= 0 || fmf.components > 128 || fmf.shape.width != m.texels ||  // the shaders hold ≤ 128
+      fmf.shape.height != m.texels || fmf.shape.light_count() != lights.size() ||
+      fmf.shape.view_count() != views.size())
+    return make_error(Status::invalid_argument, "%s: the FMF's shape or C = %d differs from the material's",
+                      m.name.c_str(), fmf.components);
   m.fmf_half_bytes = (fmf.u.size() + fmf.v.size()) * 2;
   m.light_count = static_cast<uint32_t>(lights.size());
   m.view_count = static_cast<uint32_t>(views.size());
-  m.components = s.components;
-  const uint32_t C = s.components, L = m.light_count, V = m.view_count;
+  m.components = static_cast<uint32_t>(fmf.components);
+  const uint32_t C = m.components, L = m.light_count, V = m.view_count;
   // U: FMF rows (v·n_light + l)·3 + colour → backend/EigenTextures rows (l·n_view + v)·3 + colour.
   m.u.resize(static_cast<size_t>(L) * V * 3 * C);
   for (uint32_t l = 0; l < L; ++l)

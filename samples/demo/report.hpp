@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "btflod/core/image_io.hpp"
+#include "btflod/factor/fmf_rank.hpp"
 #include "cut_convergence.hpp"
 #include "raw_reference.hpp"
 #include "stream_render.hpp"
@@ -40,7 +41,13 @@ struct RunSummary {
   std::string feedback_words = "colour pass";
   bool components_default = true;         ///< C is the profile's default (no --components)
   std::string value_encoding = "linear";  ///< the FMF's value encoding (--value-encoding)
+  /// components: the programs' C (the largest material rank); rank_target: the displayed-image
+  /// SSIM each material's rank was chosen for (0: one fixed rank).
   uint32_t components = 0, tile_size = 0, border = 0, slots_x = 0, slots_y = 0, directions = 0, texels = 0;
+  double rank_target = 0.0;
+  std::vector<uint32_t> material_components;  ///< each material's rank C_m
+  /// Each material's candidate ranks tried: (C, training-view SSIM, held-out SSIM).
+  std::vector<std::vector<FmfRankPoint>> rank_curves;
   std::vector<uint64_t> store_bytes, fmf_half_bytes, bsvtf_bytes;
   std::vector<double> seconds_synthesis, seconds_factor, seconds_build;
   std::vector<double> seconds_error, seconds_raw;  ///< error pass, raw-BTF reference pass per material
@@ -129,6 +136,17 @@ struct RunSummary {
 };
 
 namespace detail_report {
+
+/// "8" for one fixed rank; "4/8/16/12 (each material's, chosen for displayed-image SSIM 0.90)".
+inline std::string ranks(const RunSummary& r) {
+  if (r.rank_target <= 0.0 || r.material_components.empty()) return std::to_string(r.components);
+  std::string s;
+  for (size_t i = 0; i < r.material_components.size(); ++i)
+    s += (i ? "/" : "") + std::to_string(r.material_components[i]);
+  char b[96];
+  std::snprintf(b, sizeof b, " (each material's, chosen for displayed-image SSIM %.2f)", r.rank_target);
+  return s + b;
+}
 
 struct Series {
   std::string name;
@@ -267,10 +285,10 @@ inline std::string config_and_raw_json(const RunSummary& r) {
   char b[768];
   std::snprintf(b, sizeof b,
                 "  \"configuration\": {\"profile\": \"%s\", \"directions\": %u, \"components\": %u, "
-                "\"components_default\": %s, \"value_encoding\": \"%s\", \"tile_size\": %u, "
-                "\"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, \"material_texels\": %u, "
-                "\"feedback_words\": \"%s\"},\n",
-                r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false",
+                "\"components_default\": %s, \"rank_target_ssim\": %.3f, \"value_encoding\": \"%s\", "
+                "\"tile_size\": %u, \"border\": %u, \"cache_slots_x\": %u, \"cache_slots_y\": %u, "
+                "\"material_texels\": %u, \"feedback_words\": \"%s\"},\n",
+                r.profile.c_str(), r.directions, r.components, r.components_default ? "true" : "false", r.rank_target,
                 r.value_encoding.c_str(), r.tile_size, r.border, r.slots_x, r.slots_y, r.texels,
                 r.feedback_words.c_str());
   o << b << "  \"files\": [";
@@ -283,6 +301,17 @@ inline std::string config_and_raw_json(const RunSummary& r) {
         static_cast<unsigned long long>(r.fmf_half_bytes[i]), static_cast<unsigned long long>(r.bsvtf_bytes[i]),
         r.seconds_synthesis[i], r.seconds_factor[i], r.seconds_build[i]);
     o << b;
+    if (i < r.material_components.size()) o << ", \"components\": " << r.material_components[i];
+    if (i < r.rank_curves.size() && !r.rank_curves[i].empty()) {
+      o << ", \"rank_curve\": [";
+      for (size_t k = 0; k < r.rank_curves[i].size(); ++k) {
+        const FmfRankPoint& p = r.rank_curves[i][k];
+        std::snprintf(b, sizeof b, "%s{\"components\": %d, \"training_ssim\": %.4f, \"held_out_ssim\": %.4f}",
+                      k ? ", " : "", p.components, p.training_ssim, p.held_out_ssim);
+        o << b;
+      }
+      o << "]";
+    }
     if (i < r.seconds_raw.size() && i < r.material_texels.size() && i < r.store_prebuilt.size()) {
       std::snprintf(b, sizeof b,
                     ", \"texels\": %u, \"seconds_error_pass\": %.2f, \"seconds_raw_reference_pass\": %.2f, "
@@ -602,7 +631,7 @@ inline VoidResult write_report_html(const std::string& path, const RunSummary& r
        "div.g{display:flex;flex-wrap:wrap;gap:16px}td,th{padding:2px 10px;text-align:left}</style></head><body>\n";
   h << "<h1>btflod demo: streaming BTF fly-through</h1>\n<p>Backend: <b>" << r.backend << "</b>. " << r.materials
     << " synthesised materials (" << r.texels << "² texels, " << r.directions << "×" << r.directions
-    << " directions, FMF C = " << r.components << ", T = " << r.tile_size << " + " << r.border
+    << " directions, FMF C = " << detail_report::ranks(r) << ", T = " << r.tile_size << " + " << r.border
     << "-texel border; profile " << r.profile << "), " << r.frames.size() << " frames at " << r.width << "×" << r.height
     << ", cache of " << r.slots << " slots for " << r.tiles << " tiles, tiles streamed through a throttled link of "
     << detail_report::fmt(r.bytes_per_second / 1024.0) << " KiB/s (" << detail_report::fmt(r.payload_bytes / 1024.0)
@@ -645,7 +674,9 @@ inline VoidResult write_report_html(const std::string& path, const RunSummary& r
   h << detail_report::raw_and_paper_html(r);
   h << "<p>Materials:";
   for (size_t i = 0; i < r.material_names.size(); ++i)
-    h << " " << r.material_names[i] << " (FMF relative error " << detail_report::fmt(r.fmf_errors[i]) << ")";
+    h << " " << r.material_names[i]
+      << " (FMF C = " << (i < r.material_components.size() ? r.material_components[i] : r.components)
+      << ", relative error " << detail_report::fmt(r.fmf_errors[i]) << ")";
   h << ".</p></body></html>\n";
   std::ofstream o(path, std::ios::binary | std::ios::trunc);
   o << h.str();

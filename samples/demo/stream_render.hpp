@@ -759,7 +759,10 @@ class StreamingRenderer {
   VoidResult init() {
     const DemoMaterial& first = materials_.front();
     ShaderConfig config;
-    config.components = first.components;
+    // One program set draws every material: C = the largest rank, each draw sums its own
+    // material's C_m (ShaderParams::vt_extent.w, filled by the backend).
+    config.components = 0;
+    for (const DemoMaterial& m : materials_) config.components = std::max(config.components, m.components);
     config.value_transform = first.eigen.transform;  // every material of a run shares it
     config.angular.parameterisation = DirectionParameterisation::parabolic;
     config.angular.lookup = AngularLookup::barycentric;

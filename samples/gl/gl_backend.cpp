@@ -216,8 +216,8 @@ class GlBackend final : public Backend {
       if (data.mipmaps)
         while ((std::max(w, h) >> levels) > 0) ++levels;
       glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.eigen_textures);
-      glTextureStorage3D(m.eigen_textures, levels, GL_RGBA32F, w, h, static_cast<GLsizei>(config_.component_groups()));
-      glTextureSubImage3D(m.eigen_textures, 0, 0, 0, 0, w, h, static_cast<GLsizei>(config_.component_groups()), GL_RGBA,
+      glTextureStorage3D(m.eigen_textures, levels, GL_RGBA32F, w, h, static_cast<GLsizei>((data.components + 3) / 4));
+      glTextureSubImage3D(m.eigen_textures, 0, 0, 0, 0, w, h, static_cast<GLsizei>((data.components + 3) / 4), GL_RGBA,
                           GL_FLOAT, v.data());
       if (levels > 1) glGenerateTextureMipmap(m.eigen_textures);
       glTextureParameteri(m.eigen_textures, GL_TEXTURE_MIN_FILTER, levels > 1 ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR);

@@ -214,7 +214,7 @@ Result<MaterialHandle> VkBackend::create_material(const FmfMaterialData& data) {
   if (r && !data.eigen_textures.empty()) {
     // Mip chain on the CPU (2×2 box, clamped at odd edges), like a GPU mipmap generator.
     std::vector<std::vector<float>> levels{pack_eigen_textures_rgba(data.eigen_textures)};
-    const uint32_t groups = config_.component_groups();
+    const uint32_t groups = (data.components + 3) / 4;  // the material's C_m, not the programs' C
     uint32_t w = static_cast<uint32_t>(data.eigen_textures.width()),
              h = static_cast<uint32_t>(data.eigen_textures.height());
     std::vector<std::pair<uint32_t, uint32_t>> sizes{{w, h}};

@@ -42,6 +42,8 @@ void expect_same_report(const BtfErrorReport& a, const BtfErrorReport& b) {
   EXPECT_EQ(a.psnr, b.psnr);
   EXPECT_EQ(a.mean_ssim, b.mean_ssim);
   EXPECT_EQ(a.mae_cielab, b.mae_cielab);
+  EXPECT_EQ(a.delta_e_p99, b.delta_e_p99);
+  EXPECT_EQ(a.relative_frobenius, b.relative_frobenius);
   for (size_t c = 0; c < 3; ++c) EXPECT_EQ(a.mse_ycbcr[c], b.mse_ycbcr[c]) << c;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "btflod/metrics/btf_metrics.hpp"
 #include "btflod/metrics/image_metrics.hpp"
 
 namespace btflod {
@@ -122,6 +123,40 @@ TEST(MetricsImage, MaeCielabAveragesChannels) {
   Img a(1, 1, 3, 1.0f), b(1, 1, 3, 0.0f);  // white vs black: |ΔL| = 100, Δa = Δb ≈ 0
   EXPECT_NEAR(mae_cielab(a.view(), b.view()), 100.0 / 3.0, 0.01);
   EXPECT_DOUBLE_EQ(mae_cielab(a.view(), a.view()), 0.0);
+}
+
+// ΔE*ab p99 (DeltaEHistogram): 98 texels of a 10 × 10 image are exact and 2 are off by a known
+// ΔE, so p99 is that ΔE (the 99th texel in order) to the bin width, p98 is 0; a NaN texel lands
+// in the last bin and is counted, never dropped. compare_btfs()'s relative Frobenius error of a
+// BTF scaled by 1.1 is 0.1.
+TEST(MetricsImage, DeltaEPercentileAndRelativeFrobenius) {
+  Img a(10, 10, 3, 0.18f), b(10, 10, 3, 0.18f);
+  for (int ch = 0; ch < 3; ++ch) b.at(3, 4, ch) = b.at(7, 1, ch) = 0.2f;
+  const auto la = linear_srgb_to_lab(0.18, 0.18, 0.18), lb = linear_srgb_to_lab(0.2, 0.2, 0.2);
+  const double d = std::abs(la[0] - lb[0]);  // grey: a* = b* = 0
+  ASSERT_GT(d, 1.0);
+  DeltaEHistogram h;
+  h.add(a.view(), b.view());
+  EXPECT_EQ(h.count, 100u);
+  EXPECT_NEAR(h.percentile(0.99), d, DeltaEHistogram::kBinWidth);
+  EXPECT_GE(h.percentile(0.99), d);  // an upper bound
+  EXPECT_LE(h.percentile(0.98), DeltaEHistogram::kBinWidth);
+  b.at(0, 0, 0) = std::nanf("");
+  h.add(a.view(), b.view());
+  EXPECT_EQ(h.count, 200u);
+  EXPECT_EQ(h.bins.back(), 1u);
+
+  const std::pair<float, float> two[] = {{0.0f, 0.0f}, {0.5f, 1.0f}};
+  const DirectionSet dirs = DirectionSet::from_radians("two", two);
+  BtfFloat ref(4, 4, dirs, dirs), scaled(4, 4, dirs, dirs);
+  for (size_t i = 0; i < ref.samples().size(); ++i) {
+    ref.samples()[i] = 0.05f + 0.01f * static_cast<float>(i % 17);
+    scaled.samples()[i] = 1.1f * ref.samples()[i];
+  }
+  const BtfErrorReport r = compare_btfs(ref, scaled, btf_peak(ref));
+  EXPECT_NEAR(r.relative_frobenius, 0.1, 1e-6);
+  EXPECT_GT(r.delta_e_p99, 0.0);
+  EXPECT_EQ(compare_btfs(ref, ref, 1.0).relative_frobenius, 0.0);
 }
 
 TEST(MetricsImage, YcbcrRoundTripAndPerChannelMse) {

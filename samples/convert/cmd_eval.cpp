@@ -32,14 +32,14 @@ using namespace btflod;
 
 void print_report_row(const char* name, const char* config, size_t bytes, double ratio, const BtfErrorReport& r,
                       double seconds) {
-  std::printf("| %s | %s | %zu | %.1f | %.5f | %.2f | %.4f | %.3f | %.2e / %.2e / %.2e | %.2f |\n", name, config, bytes,
-              ratio, r.rmse, r.psnr, r.mean_ssim, r.mae_cielab, r.mse_ycbcr[0], r.mse_ycbcr[1], r.mse_ycbcr[2],
-              seconds);
+  std::printf("| %s | %s | %zu | %.1f | %.5f | %.2f | %.4f | %.3f | %.2f | %.4f | %.2e / %.2e / %.2e | %.2f |\n", name,
+              config, bytes, ratio, r.rmse, r.psnr, r.mean_ssim, r.mae_cielab, r.delta_e_p99, r.relative_frobenius,
+              r.mse_ycbcr[0], r.mse_ycbcr[1], r.mse_ycbcr[2], seconds);
 }
 
 const char* kHeader =
-    "| material | representation | bytes | ratio | RMSE | PSNR dB | mean SSIM | CIELAB MAE | MSE Y / Cb / Cr | "
-    "factorise s |\n|---|---|---:|---:|---:|---:|---:|---:|---|---:|";
+    "| material | representation | bytes | ratio | RMSE | PSNR dB | mean SSIM | CIELAB MAE | ΔE*ab p99 | "
+    "rel. Frobenius | MSE Y / Cb / Cr | factorise s |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|";
 
 struct StoreEvalArgs {
   double lambda = 0.0, range = 0.0;

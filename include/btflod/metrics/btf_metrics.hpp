@@ -4,7 +4,9 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "btflod/btf/tabulated_btf.hpp"
 #include "btflod/metrics/image_metrics.hpp"
@@ -19,6 +21,56 @@ struct BtfErrorReport {
   double mean_ssim = 1.0;                          ///< mean over images of MSSIM (Wang 2004)
   double mae_cielab = 0.0;                         ///< mean over images of the CIELAB MAE (paper 004 §7.1)
   std::array<double, 3> mse_ycbcr{0.0, 0.0, 0.0};  ///< paper 001 Table 1
+  /// 99th percentile over every texel of every image of the CIELAB ΔE*ab (CIE 1976, linear sRGB,
+  /// D65), to 0.01 (DeltaEHistogram): the worst visible colour errors, which means hide.
+  double delta_e_p99 = 0.0;
+  /// ‖reference − approx‖_F / ‖reference‖_F over all samples (paper 000 eq. 4's figure); beside
+  /// the perceptual ones because it does not say what a viewer sees (docs/fidelity.md).
+  double relative_frobenius = 0.0;
+};
+
+/// Mean of the squared samples of an image (its energy per sample; mse() against zero).
+inline double mean_square(ImageView<const float> a) noexcept {
+  double s = 0.0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x)
+      for (int c = 0; c < a.channels(); ++c) s += static_cast<double>(a.at(x, y, c)) * a.at(x, y, c);
+  const double n = static_cast<double>(a.width()) * a.height() * a.channels();
+  return n > 0.0 ? s / n : 0.0;
+}
+
+/// Per-texel CIELAB ΔE*ab (CIE 1976) of compared RGB images in bins of 0.01 up to 200 (the last
+/// bin holds larger and non-finite values), so a percentile needs no copy of the values.
+struct DeltaEHistogram {
+  static constexpr double kBinWidth = 0.01;
+  static constexpr size_t kBins = 20001;
+  std::vector<uint64_t> bins = std::vector<uint64_t>(kBins, 0);  // allocates 160 KB
+  uint64_t count = 0;
+
+  /// Adds every texel of two 3-channel linear sRGB images of one shape (others are ignored).
+  void add(ImageView<const float> a, ImageView<const float> b) noexcept {
+    if (a.width() != b.width() || a.height() != b.height() || a.channels() != 3 || b.channels() != 3) return;
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x) {
+        const auto la = linear_srgb_to_lab(a.at(x, y, 0), a.at(x, y, 1), a.at(x, y, 2));
+        const auto lb = linear_srgb_to_lab(b.at(x, y, 0), b.at(x, y, 1), b.at(x, y, 2));
+        const double d = std::sqrt((la[0] - lb[0]) * (la[0] - lb[0]) + (la[1] - lb[1]) * (la[1] - lb[1]) +
+                                   (la[2] - lb[2]) * (la[2] - lb[2]));
+        const double bin = d / kBinWidth;
+        ++bins[d >= 0.0 && bin < static_cast<double>(kBins - 1) ? static_cast<size_t>(bin) : kBins - 1];
+        ++count;
+      }
+  }
+  /// The q-quantile (0 < q ≤ 1) as the upper edge of its bin (an upper bound within 0.01); 0
+  /// when nothing was added.
+  double percentile(double q) const noexcept {
+    if (count == 0) return 0.0;
+    const uint64_t rank = static_cast<uint64_t>(std::ceil(q * static_cast<double>(count)));
+    uint64_t seen = 0;
+    for (size_t i = 0; i < kBins; ++i)
+      if ((seen += bins[i]) >= rank) return static_cast<double>(i + 1) * kBinWidth;
+    return static_cast<double>(kBins) * kBinWidth;
+  }
 };
 
 /// Compares `approx` with `reference` image by image. data_range is the peak value used by
@@ -30,11 +82,14 @@ inline BtfErrorReport compare_btfs(const BtfFloat& reference, const BtfFloat& ap
   if (reference.width() != approx.width() || reference.height() != approx.height() ||
       reference.view_count() != approx.view_count() || reference.light_count() != approx.light_count() ||
       reference.empty()) {
-    return BtfErrorReport{kNaN, kNaN, kNaN, kNaN, {kNaN, kNaN, kNaN}};
+    r.rmse = r.psnr = r.mean_ssim = r.mae_cielab = r.delta_e_p99 = r.relative_frobenius = kNaN;
+    r.mse_ycbcr = {kNaN, kNaN, kNaN};
+    return r;
   }
   SsimOptions so;
   so.data_range = data_range;
-  double sse = 0.0, ssim = 0.0, lab = 0.0;
+  double sse = 0.0, ssim = 0.0, lab = 0.0, ref_energy = 0.0;
+  DeltaEHistogram delta_e;
   std::array<double, 3> ycc{0, 0, 0};
   const size_t images = reference.view_count() * reference.light_count();
   for (size_t v = 0; v < reference.view_count(); ++v)
@@ -42,8 +97,10 @@ inline BtfErrorReport compare_btfs(const BtfFloat& reference, const BtfFloat& ap
       const auto a = reference.image(v, l), b = approx.image(v, l);
       const double m = mse(a, b);
       sse += m;
+      ref_energy += mean_square(a);
       ssim += btflod::mean_ssim(a, b, so);
       lab += btflod::mae_cielab(a, b);
+      delta_e.add(a, b);
       const auto e = btflod::mse_ycbcr(a, b);
       for (int c = 0; c < 3; ++c) ycc[static_cast<size_t>(c)] += e[static_cast<size_t>(c)];
     }
@@ -54,6 +111,8 @@ inline BtfErrorReport compare_btfs(const BtfFloat& reference, const BtfFloat& ap
   r.mean_ssim = ssim / n;
   r.mae_cielab = lab / n;
   for (int c = 0; c < 3; ++c) r.mse_ycbcr[static_cast<size_t>(c)] = ycc[static_cast<size_t>(c)] / n;
+  r.delta_e_p99 = delta_e.percentile(0.99);
+  r.relative_frobenius = ref_energy > 0.0 ? std::sqrt(sse / ref_energy) : (sse > 0.0 ? kNaN : 0.0);
   return r;
 }
 

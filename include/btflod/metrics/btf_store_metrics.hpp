@@ -93,8 +93,9 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
   std::vector<uint8_t> scratch;
   SsimOptions so;
   so.data_range = range;
-  double sse = 0.0, ssim = 0.0, lab = 0.0;
+  double sse = 0.0, ssim = 0.0, lab = 0.0, ref_energy = 0.0;
   std::array<double, 3> ycc{0, 0, 0};
+  DeltaEHistogram delta_e;
   const size_t images = nv * nl;
   size_t done = 0;
   for (size_t v = 0; v < nv; ++v)
@@ -110,8 +111,10 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
         const ImageView<const float> a(ref.data() + (l - l0) * n * 3, info.width, info.height, 3);
         const ImageView<const float> b(out.data(), info.width, info.height, 3);
         sse += mse(a, b);
+        ref_energy += mean_square(a);
         ssim += btflod::mean_ssim(a, b, so);
         lab += btflod::mae_cielab(a, b);
+        delta_e.add(a, b);
         const auto e = btflod::mse_ycbcr(a, b);
         for (int c = 0; c < 3; ++c) ycc[static_cast<size_t>(c)] += e[static_cast<size_t>(c)];
       }
@@ -126,6 +129,9 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
   r.mean_ssim = ssim / cnt;
   r.mae_cielab = lab / cnt;
   for (int c = 0; c < 3; ++c) r.mse_ycbcr[static_cast<size_t>(c)] = ycc[static_cast<size_t>(c)] / cnt;
+  r.delta_e_p99 = delta_e.percentile(0.99);
+  r.relative_frobenius =
+      ref_energy > 0.0 ? std::sqrt(sse / ref_energy) : (sse > 0.0 ? std::numeric_limits<double>::quiet_NaN() : 0.0);
   if (stats) *stats = st;
   return r;
 }

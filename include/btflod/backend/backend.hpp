@@ -2,7 +2,8 @@
 // that btflod can stream and shade BTFs with the generated shaders (shader/glsl_generator.hpp).
 //
 // No GL or Vulkan header here. samples/gl (OpenGL 4.5 + EGL) and samples/vulkan (Vulkan 1.3,
-// headless) implement it; a CPU reference backend can implement it with the same arithmetic.
+// headless) implement it. backend/cpu_reference.hpp is not a Backend: it is the CPU renderer
+// with the shaders' arithmetic that the golden tests compare both against.
 // The data formats are those of shader/shader_config.hpp: page-table entries
 // (pack_page_entry), slot placement (slot_placement), the feedback word (FeedbackWordLayout),
 // the uniform block (ShaderParams). docs/shaders.md walks through a frame.

@@ -68,7 +68,7 @@ inline constexpr int kMaxDemoComponents = 128;
 
 /// The FMF rank of the default profile (docs/demo.md, "Default rank": measured against the raw
 /// BTF through the same rays). A macro so that the usage text can print it.
-#define BTFLOD_DEMO_DEFAULT_COMPONENTS 16
+#define BTFLOD_DEMO_DEFAULT_COMPONENTS 12
 #define BTFLOD_DEMO_STR2(x) #x
 #define BTFLOD_DEMO_STR(x) BTFLOD_DEMO_STR2(x)
 inline constexpr int kDefaultDemoComponents = BTFLOD_DEMO_DEFAULT_COMPONENTS;

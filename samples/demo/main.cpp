@@ -194,9 +194,9 @@ int main(int argc, char** argv) {
       std::string curve;
       for (const FmfRankPoint& p : m->rank_curve)
         curve += format_message(" C=%d %.3f/%.3f", p.components, p.training_ssim, p.held_out_ssim);
-      std::printf("  %-11s rank C=%u chosen for displayed-image SSIM %.2f%s (training/held-out views:%s)\n",
-                  m->name.c_str(), m->components, ms.rank_target_ssim, m->rank_target_met ? "" : " NOT MET",
-                  curve.c_str());
+      std::printf("  %-11s rank C=%u %s displayed-image SSIM %.2f (training/held-out views:%s)\n", m->name.c_str(),
+                  m->components, m->rank_target_met ? "chosen for" : "(the largest tried) stays below the target",
+                  ms.rank_target_ssim, curve.c_str());
     }
     std::fflush(stdout);
     materials.push_back(std::move(*m));

@@ -140,6 +140,18 @@ inline FrameDesc backend_frame() {
   return f;
 }
 
+/// One frame of `program` drawing `material` on `mesh`; returns the colour target. Every step
+/// must succeed.
+inline Image<float> render_frame(Backend& be, ShaderProgram program, MeshHandle mesh, MaterialHandle material,
+                                 const ShaderParams& params) {
+  Image<float> img(kSize, kSize, 4);
+  EXPECT_EQ(be.begin_frame(backend_frame()), Status::success);
+  EXPECT_EQ(be.draw(program, mesh, material, params), Status::success);
+  EXPECT_EQ(be.end_frame(), Status::success);
+  EXPECT_EQ(be.read_color(img.view()), Status::success);
+  return img;
+}
+
 /// FMF: V' bilinear with repeat at the finest level on both sides (no mip chain on the GPU).
 /// A blank or flat image must not pass: mean and spread of the rgb values.
 inline void expect_content(const Image<float>& img) {
@@ -230,18 +242,9 @@ void golden_fmf_component_counts(Factory make) {
   const ShaderParams params = golden_params(golden_camera());
   ShaderParams first3 = params;
   first3.vt_extent.w = 3.0f;
-  Image<float> img3(kSize, kSize, 4), img8(kSize, kSize, 4), img8_first3(kSize, kSize, 4);
-  const struct {
-    MaterialHandle mat;
-    const ShaderParams* params;
-    Image<float>* out;
-  } draws[] = {{*mat3, &params, &img3}, {*mat8, &params, &img8}, {*mat8, &first3, &img8_first3}};
-  for (const auto& d : draws) {
-    ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
-    ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, d.mat, *d.params), Status::success);
-    ASSERT_EQ(be->end_frame(), Status::success);
-    ASSERT_EQ(be->read_color(d.out->view()), Status::success);
-  }
+  const Image<float> img3 = render_frame(*be, ShaderProgram::fmf, *mesh, *mat3, params);
+  const Image<float> img8 = render_frame(*be, ShaderProgram::fmf, *mesh, *mat8, params);
+  const Image<float> img8_first3 = render_frame(*be, ShaderProgram::fmf, *mesh, *mat8, first3);
   const auto sample = [&](const Material& m) {
     return [&m](const SurfaceHit& h, float* out) {
       bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
@@ -497,11 +500,7 @@ void golden_bsvtf_partial(Factory make, CacheFormat format = CacheFormat::rgba16
     // eq. 5 stops at c = 3, as the CPU reference truncated to three components.
     ShaderParams first3 = params;
     first3.vt_extent.w = 3.0f;
-    ASSERT_EQ(be->begin_frame(backend_frame()), Status::success);
-    ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, first3), Status::success);
-    ASSERT_EQ(be->end_frame(), Status::success);
-    Image<float> img3(kSize, kSize, 4);
-    ASSERT_EQ(be->read_color(img3.view()), Status::success);
+    const Image<float> img3 = render_frame(*be, ShaderProgram::bsvtf, *mesh, *mat, first3);
     const Image<float> ref3 = cpu_render(
         m, params,
         [&](const SurfaceHit& h, float* out) {

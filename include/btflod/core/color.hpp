@@ -1,6 +1,8 @@
-// btflod — colour transfer functions used at load and save time.
+// btflod — colour transfer functions used at load and save time, and the BT.601 YCbCr of
+// paper 001 (also the log_ycbcr value encoding, core/value_transform.hpp).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 
@@ -21,6 +23,20 @@ inline float linear_to_srgb(float linear) noexcept {
 /// Linear value → 8-bit sRGB code, rounded to nearest; NaN maps to 0.
 inline uint8_t linear_to_srgb8(float linear) noexcept {
   return static_cast<uint8_t>(linear_to_srgb(linear) * 255.0f + 0.5f);
+}
+
+/// RGB → YCbCr (ITU-R BT.601, full range, no offsets: Cb, Cr centred on 0) as used by paper 001.
+inline std::array<float, 3> rgb_to_ycbcr(float r, float g, float b) noexcept {
+  const float y = 0.299f * r + 0.587f * g + 0.114f * b;
+  return {y, (b - y) / 1.772f, (r - y) / 1.402f};
+}
+
+/// Inverse of rgb_to_ycbcr.
+inline std::array<float, 3> ycbcr_to_rgb(float y, float cb, float cr) noexcept {
+  const float r = y + 1.402f * cr;
+  const float b = y + 1.772f * cb;
+  const float g = (y - 0.299f * r - 0.114f * b) / 0.587f;
+  return {r, g, b};
 }
 
 /// 256-entry table of srgb_to_linear(i / 255), built once. Thread-safe.

@@ -16,7 +16,7 @@
 // and one that decorrelates colour as Bonn's DFMF does (log luminance, chroma normalised by it),
 // per RGB triple of a (texel, light, view) sample; the colour rows of U then hold (s_Y, s_b, s_r):
 //
-//   log_ycbcr  Y, Cb, Cr = YCbCr(max(rgb, 0))  (BT.601 full range, the JPEG/paper 001 matrix)
+//   log_ycbcr  Y, Cb, Cr = YCbCr(max(rgb, 0))  (BT.601 full range: rgb_to_ycbcr, core/color.hpp)
 //              w = Y + ε,  E = (ln w, Cb / w, Cr / w)
 //              D(s): w = e^{s_Y}, Y = w − ε, Cb = s_b·w, Cr = s_r·w, rgb = RGB(Y, Cb, Cr)
 //
@@ -32,6 +32,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
+
+#include "btflod/core/color.hpp"
 
 namespace btflod {
 
@@ -91,13 +93,12 @@ struct ValueTransform {
       for (int c = 0; c < 3; ++c) rgb[c] = encode(rgb[c]);
       return;
     }
-    const float r = rgb[0] > 0.0f ? rgb[0] : 0.0f, g = rgb[1] > 0.0f ? rgb[1] : 0.0f, b = rgb[2] > 0.0f ? rgb[2] : 0.0f;
-    const float y = 0.299f * r + 0.587f * g + 0.114f * b;
-    const float cb = -0.168736f * r - 0.331264f * g + 0.5f * b, cr = 0.5f * r - 0.418688f * g - 0.081312f * b;
-    const float w = y + log_offset;
+    const auto ycc =
+        rgb_to_ycbcr(rgb[0] > 0.0f ? rgb[0] : 0.0f, rgb[1] > 0.0f ? rgb[1] : 0.0f, rgb[2] > 0.0f ? rgb[2] : 0.0f);
+    const float w = ycc[0] + log_offset;
     rgb[0] = std::log(w);
-    rgb[1] = cb / w;
-    rgb[2] = cr / w;
+    rgb[1] = ycc[1] / w;
+    rgb[2] = ycc[2] / w;
   }
   /// D of one summed RGB (or (s_Y, s_b, s_r)) triple, in place (every encoding).
   void decode_rgb(float* s) const noexcept {
@@ -105,10 +106,11 @@ struct ValueTransform {
       for (int c = 0; c < 3; ++c) s[c] = decode(s[c]);
       return;
     }
-    const float w = std::exp(s[0]), y = w - log_offset, cb = s[1] * w, cr = s[2] * w;
-    s[0] = y + 1.402f * cr;
-    s[1] = y - 0.344136f * cb - 0.714136f * cr;
-    s[2] = y + 1.772f * cb;
+    const float w = std::exp(s[0]);
+    const auto rgb = ycbcr_to_rgb(w - log_offset, s[1] * w, s[2] * w);
+    s[0] = rgb[0];
+    s[1] = rgb[1];
+    s[2] = rgb[2];
   }
   /// E, resp. D, over consecutive RGB triples (values.size() a multiple of 3).
   void encode_triples(float* values, size_t count) const noexcept {

@@ -73,6 +73,50 @@ struct DeltaEHistogram {
   }
 };
 
+/// The sums behind a BtfErrorReport, image by image: compare_btfs() and compare_btf_store()
+/// (btf_store_metrics.hpp) both feed one, so they form the same figures in the same order.
+/// Allocates its ΔE histogram; single-threaded.
+class BtfErrorAccumulator {
+ public:
+  /// data_range: the peak value of PSNR and SSIM.
+  explicit BtfErrorAccumulator(double data_range) noexcept : range_(data_range) {
+    ssim_options_.data_range = data_range;
+  }
+  /// Adds one (view, light) image pair (3-channel linear RGB, one shape).
+  void add(ImageView<const float> reference, ImageView<const float> approx) {
+    sse_ += mse(reference, approx);
+    ref_energy_ += mean_square(reference);
+    ssim_ += btflod::mean_ssim(reference, approx, ssim_options_);
+    lab_ += btflod::mae_cielab(reference, approx);
+    delta_e_.add(reference, approx);
+    const auto e = btflod::mse_ycbcr(reference, approx);
+    for (size_t c = 0; c < 3; ++c) ycc_[c] += e[c];
+    ++images_;
+  }
+  /// The report over every image added (call after at least one).
+  BtfErrorReport report() const noexcept {
+    BtfErrorReport r;
+    const double n = static_cast<double>(images_);
+    r.rmse = std::sqrt(sse_ / n);
+    r.psnr = sse_ == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(range_ * range_ / (sse_ / n));
+    r.mean_ssim = ssim_ / n;
+    r.mae_cielab = lab_ / n;
+    for (size_t c = 0; c < 3; ++c) r.mse_ycbcr[c] = ycc_[c] / n;
+    r.delta_e_p99 = delta_e_.percentile(0.99);
+    r.relative_frobenius = ref_energy_ > 0.0 ? std::sqrt(sse_ / ref_energy_)
+                                             : (sse_ > 0.0 ? std::numeric_limits<double>::quiet_NaN() : 0.0);
+    return r;
+  }
+
+ private:
+  double range_;
+  SsimOptions ssim_options_;
+  double sse_ = 0.0, ssim_ = 0.0, lab_ = 0.0, ref_energy_ = 0.0;
+  std::array<double, 3> ycc_{0.0, 0.0, 0.0};
+  DeltaEHistogram delta_e_;
+  size_t images_ = 0;
+};
+
 /// Compares `approx` with `reference` image by image. data_range is the peak value used by
 /// PSNR and SSIM (e.g. the maximum of the reference). Returns NaNs when the shapes differ.
 /// Allocates temporaries; single-threaded, thread-safe.
@@ -86,34 +130,10 @@ inline BtfErrorReport compare_btfs(const BtfFloat& reference, const BtfFloat& ap
     r.mse_ycbcr = {kNaN, kNaN, kNaN};
     return r;
   }
-  SsimOptions so;
-  so.data_range = data_range;
-  double sse = 0.0, ssim = 0.0, lab = 0.0, ref_energy = 0.0;
-  DeltaEHistogram delta_e;
-  std::array<double, 3> ycc{0, 0, 0};
-  const size_t images = reference.view_count() * reference.light_count();
+  BtfErrorAccumulator sums(data_range);
   for (size_t v = 0; v < reference.view_count(); ++v)
-    for (size_t l = 0; l < reference.light_count(); ++l) {
-      const auto a = reference.image(v, l), b = approx.image(v, l);
-      const double m = mse(a, b);
-      sse += m;
-      ref_energy += mean_square(a);
-      ssim += btflod::mean_ssim(a, b, so);
-      lab += btflod::mae_cielab(a, b);
-      delta_e.add(a, b);
-      const auto e = btflod::mse_ycbcr(a, b);
-      for (int c = 0; c < 3; ++c) ycc[static_cast<size_t>(c)] += e[static_cast<size_t>(c)];
-    }
-  const double n = static_cast<double>(images);
-  r.rmse = std::sqrt(sse / n);
-  r.psnr =
-      sse == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(data_range * data_range / (sse / n));
-  r.mean_ssim = ssim / n;
-  r.mae_cielab = lab / n;
-  for (int c = 0; c < 3; ++c) r.mse_ycbcr[static_cast<size_t>(c)] = ycc[static_cast<size_t>(c)] / n;
-  r.delta_e_p99 = delta_e.percentile(0.99);
-  r.relative_frobenius = ref_energy > 0.0 ? std::sqrt(sse / ref_energy) : (sse > 0.0 ? kNaN : 0.0);
-  return r;
+    for (size_t l = 0; l < reference.light_count(); ++l) sums.add(reference.image(v, l), approx.image(v, l));
+  return sums.report();
 }
 
 /// The largest sample of a BTF (a data range for compare_btfs); 1 for an empty or all-zero BTF.

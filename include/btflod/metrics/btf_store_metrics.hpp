@@ -91,11 +91,7 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
   }
   std::vector<float> ref(group * n * 3), rec(group * n * 3);
   std::vector<uint8_t> scratch;
-  SsimOptions so;
-  so.data_range = range;
-  double sse = 0.0, ssim = 0.0, lab = 0.0, ref_energy = 0.0;
-  std::array<double, 3> ycc{0, 0, 0};
-  DeltaEHistogram delta_e;
+  BtfErrorAccumulator sums(range);  // the sums compare_btfs() forms, in its order
   const size_t images = nv * nl;
   size_t done = 0;
   for (size_t v = 0; v < nv; ++v)
@@ -109,31 +105,14 @@ Result<BtfErrorReport> compare_btf_store(const BtfStore& store, ApproxImage&& ap
         const std::span<float> out(rec.data() + (l - l0) * n * 3, n * 3);
         if (auto s = approx(v, l, out); !s) return s.error();
         const ImageView<const float> a(ref.data() + (l - l0) * n * 3, info.width, info.height, 3);
-        const ImageView<const float> b(out.data(), info.width, info.height, 3);
-        sse += mse(a, b);
-        ref_energy += mean_square(a);
-        ssim += btflod::mean_ssim(a, b, so);
-        lab += btflod::mae_cielab(a, b);
-        delta_e.add(a, b);
-        const auto e = btflod::mse_ycbcr(a, b);
-        for (int c = 0; c < 3; ++c) ycc[static_cast<size_t>(c)] += e[static_cast<size_t>(c)];
+        sums.add(a, ImageView<const float>(out.data(), info.width, info.height, 3));
       }
       done += l1 - l0;
       if (options.progress && !options.progress("evaluate", static_cast<double>(done) / static_cast<double>(images)))
         return make_error(Status::cancelled, "%s: evaluation cancelled", store.path().c_str());
     }
-  BtfErrorReport r;
-  const double cnt = static_cast<double>(images);
-  r.rmse = std::sqrt(sse / cnt);
-  r.psnr = sse == 0.0 ? std::numeric_limits<double>::infinity() : 10.0 * std::log10(range * range / (sse / cnt));
-  r.mean_ssim = ssim / cnt;
-  r.mae_cielab = lab / cnt;
-  for (int c = 0; c < 3; ++c) r.mse_ycbcr[static_cast<size_t>(c)] = ycc[static_cast<size_t>(c)] / cnt;
-  r.delta_e_p99 = delta_e.percentile(0.99);
-  r.relative_frobenius =
-      ref_energy > 0.0 ? std::sqrt(sse / ref_energy) : (sse > 0.0 ? std::numeric_limits<double>::quiet_NaN() : 0.0);
   if (stats) *stats = st;
-  return r;
+  return sums.report();
 }
 
 /// Image (view, light) of an FMF reconstruction D(U·(VΣ)ᵀ) into `out` (H × W × 3 floats, the

@@ -15,6 +15,7 @@
 #include <span>
 #include <vector>
 
+#include "btflod/core/color.hpp"
 #include "btflod/core/image.hpp"
 
 namespace btflod {
@@ -175,20 +176,6 @@ inline double mae_cielab(ImageView<const float> a, ImageView<const float> b) noe
       sum += std::abs(la[0] - lb[0]) + std::abs(la[1] - lb[1]) + std::abs(la[2] - lb[2]);
     }
   return sum / (3.0 * a.width() * a.height());
-}
-
-/// RGB → YCbCr (ITU-R BT.601, full range, no offsets: Cb, Cr centred on 0) as used by paper 001.
-inline std::array<float, 3> rgb_to_ycbcr(float r, float g, float b) noexcept {
-  const float y = 0.299f * r + 0.587f * g + 0.114f * b;
-  return {y, (b - y) / 1.772f, (r - y) / 1.402f};
-}
-
-/// Inverse of rgb_to_ycbcr.
-inline std::array<float, 3> ycbcr_to_rgb(float y, float cb, float cr) noexcept {
-  const float r = y + 1.402f * cr;
-  const float b = y + 1.772f * cb;
-  const float g = (y - 0.299f * r - 0.114f * b) / 0.587f;
-  return {r, g, b};
 }
 
 /// Per-channel MSE in YCbCr (paper 001, Table 1): {MSE_Y, MSE_Cb, MSE_Cr} of two RGB images.

@@ -1283,6 +1283,7 @@ inline VoidResult validate_function_options(GlslPieceSet pieces, const GlslFunct
     const std::string* expr;
     const char* what;
     GlslPieceSet used_by;
+    bool may_be_empty = false;  // empty: the generator's own value (component_count: the program's C)
   } sources[] = {
       {&o.uniforms.vt_extent, "vt_extent", piece_bit(GlslPiece::page_table)},
       {&o.uniforms.lod_bias, "lod_bias", piece_bit(GlslPiece::page_table)},
@@ -1291,11 +1292,10 @@ inline VoidResult validate_function_options(GlslPieceSet pieces, const GlslFunct
       {&o.uniforms.first_layer, "first_layer", piece_bit(GlslPiece::bsvtf)},
       {&o.uniforms.texture_id, "texture_id", piece_bit(GlslPiece::feedback)},
       {&o.uniforms.spmm_mode, "spmm_mode", piece_bit(GlslPiece::spmm)},
-      {&o.uniforms.component_count, "component_count", piece_bit(GlslPiece::fmf_brdf)},
+      {&o.uniforms.component_count, "component_count", piece_bit(GlslPiece::fmf_brdf), true},
   };
   for (const auto& s : sources)
-    if ((pieces & s.used_by) && !glsl_expression(*s.expr) &&
-        !(s.expr == &o.uniforms.component_count && s.expr->empty()))
+    if ((pieces & s.used_by) && !glsl_expression(*s.expr) && !(s.may_be_empty && s.expr->empty()))
       return make_error(Status::invalid_argument,
                         "generate_functions: uniform source %s = \"%.80s\" is not a one-line GLSL expression "
                         "(non-empty, at most 256 characters, balanced brackets, none of ; { } # @ $ \\ \")",

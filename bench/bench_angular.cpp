@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/nine_tap.hpp"
-#include "btflod/angular/regular_grid.hpp"
-#include "btflod/angular/ring_search.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/nine_tap.hpp"
+#include "btflod/offline/angular/regular_grid.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
 
 namespace {
 

@@ -8,15 +8,15 @@
 //   - the decode-speed ratio against libjpeg-turbo measured pair by pair (BM_decode_pairs_*),
 //   - the same tiles entropy-coded with zstd (tile format 3, BM_btflod_decode_tile_zstd*; the
 //     entropy candidates themselves are compared in bench_codec_entropy.cpp).
-// Content: real eigen-textures: a procedural stone BTF (btf/synthesizer.hpp, 128² texels, 19×19
-// directions) factorised by FMF (factor/fmf.hpp, 8 components = 2 RGBA virtual textures), tiled
+// Content: real eigen-textures: a procedural stone BTF (offline/btf/synthesizer.hpp, 128² texels, 19×19
+// directions) factorised by FMF (offline/factor/fmf.hpp, 8 components = 2 RGBA virtual textures), tiled
 // periodically to 512² and cut into a 4-level pyramid of 64+2·4 tiles (2×2 box filter per level).
 // Before the timings it prints compression ratio vs raw halves and PSNR at several qualities.
 // The tile decoder is measured with both entropy backends (zlib default, libdeflate option).
 //
 // Real data: `bench_codec --bsvtf FILE [--bsvtf FILE ...] [--jpeg-quality Q]` decodes the tiles of
 // each container instead, one benchmark per codec and level (BM_bsvtf_decode/<file>/<codec>/
-// level:<l>, same codecs as `btflod-bench codec`: samples/bench_cli/codec_bench.hpp). With
+// level:<l>, same codecs as `btflod-bench codec`: samples/tools/bench_cli/codec_bench.hpp). With
 // --bsvtf the defaults become 5 repetitions, randomly interleaved, medians reported (any
 // --benchmark_* flag given overrides them) and only the container benchmarks run unless a
 // --benchmark_filter is given.
@@ -38,16 +38,16 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/vt/tile_id.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/vt/tile_id.hpp"
 #define BTFLOD_BENCH_HAS_TURBOJPEG 1
 #define BTFLOD_BENCH_HAS_LIBDEFLATE 1
-#include "../samples/bench_cli/codec_bench.hpp"
+#include "../samples/tools/bench_cli/codec_bench.hpp"
 
 namespace {
 

@@ -53,13 +53,13 @@
 // jpeglib.h needs FILE and size_t declared first.
 #include <jpeglib.h>
 
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/file_io.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/vt/tile_id.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/vt/tile_id.hpp"
 #include "entropy_range_prototype.hpp"
 
 namespace {

@@ -1,5 +1,5 @@
 // Half-float bulk conversion: F16C path vs its scalar twin, in the same run. And the last step
-// of a Streamer decode job per cache format (vt/cache_format.hpp): one padded tile to halves
+// of a Streamer decode job per cache format (runtime/vt/cache_format.hpp): one padded tile to halves
 // (rgba16f, float_to_half with the dispatched kernel) vs to unorm8 with its slot map
 // (rgba8_affine, encode_cache_tile_unorm8).
 #include <benchmark/benchmark.h>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "btflod/core/half.hpp"
-#include "btflod/vt/cache_format.hpp"
+#include "btflod/runtime/vt/cache_format.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "btflod/codec/dct.hpp"
+#include "btflod/core/dct.hpp"
 #include "btflod/core/simd.hpp"
 
 namespace {

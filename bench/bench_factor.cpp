@@ -6,7 +6,7 @@
 // BM_Fmf32CarPaint: the flat-spectrum case (measured car paint on the leather mesostructure,
 // 32×32, rank 64), randomised defaults vs BDCSVD; skipped without the shared measured data.
 //
-// The 64×64 material is the synthesised cloth (btf/synthesizer.hpp). The 256×256 material
+// The 64×64 material is the synthesised cloth (offline/btf/synthesizer.hpp). The 256×256 material
 // (19,683 × 65,536 floats = 5.2 GB) is that cloth tiled 4 × 4 with a small deterministic
 // per-sample perturbation (synthesising 256×256 directly takes far longer than the
 // factorisation); it runs only when BTFLOD_BENCH_LARGE=1, as it needs ~6 GB of RAM.
@@ -38,9 +38,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/fmf.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/fmf.hpp"
 
 namespace {
 

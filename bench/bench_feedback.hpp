@@ -11,7 +11,7 @@
 #include <ctime>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
 
 namespace btflod::bench {
 

@@ -7,7 +7,7 @@
 // BM_*_Pairs interleave the two programs and report the median per-pair frame-rate ratio.
 // BM_*_ScenePasses time the demo's scene geometry with the colour and feedback passes apart.
 // BM_*_CacheFormatPairs interleave BSVTF frames from an rgba16f and an rgba8_affine cache holding
-// the same tiles and report the median per-pair frame-rate ratio (vt/cache_format.hpp).
+// the same tiles and report the median per-pair frame-rate ratio (runtime/vt/cache_format.hpp).
 // btflod-link: btflod_gl_backend btflod_vk_backend
 #include <benchmark/benchmark.h>
 

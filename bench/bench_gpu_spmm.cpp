@@ -23,9 +23,9 @@
 #include <vector>
 
 #include "../tests/test_shader_scene.hpp"
-#include "btflod/backend/spmm_packing.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/packing/spmm_packing.hpp"
 #include "gl_backend.hpp"
 #include "vk_backend.hpp"
 

@@ -12,8 +12,8 @@
 
 #include <zlib.h>
 
-#include "btflod/btf/bonn_btf.hpp"
-#include "btflod/core/image_io.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/image_io.hpp"
 
 namespace {
 

@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "bench_feedback.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
 
 using namespace btflod;
 using btflod::bench::cpu_ns;

@@ -9,7 +9,7 @@
 // pre-generated frames, cycled).
 // Real data: `bench_scheduler --trace FILE (--bsvtf FILE ... | --materials N [--texture S]
 // [--components C]) [--slots N] [--uploads U]` replays a recorded feedback trace
-// (lod/feedback_trace.hpp; same inputs as `btflod-bench scheduler`) as BM_TraceReplay, one frame
+// (runtime/lod/feedback_trace.hpp; same inputs as `btflod-bench scheduler`) as BM_TraceReplay, one frame
 // per iteration, cycling through the trace; then 5 randomly interleaved repetitions with medians
 // are the defaults (--benchmark_* flags override them).
 // Targets: ≤ 0.25 ms per frame at 320×180 with 100 materials; ≤ 5× the read at 1280×720.
@@ -25,11 +25,11 @@
 #include <string>
 #include <vector>
 
-#include "../samples/bench_cli/scheduler_replay.hpp"
+#include "../samples/tools/bench_cli/scheduler_replay.hpp"
 #include "bench_feedback.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/feedback_trace.hpp"
-#include "btflod/vt/scheduler.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
 
 using namespace btflod;
 using btflod::bench::cpu_ns;

@@ -1,5 +1,5 @@
-// SPMM (paper 003, factor/spmm.hpp): fit time of a 64×64 material sampled at the UBO2003
-// directions (81 × 81; the synthesised cloth of btf/synthesizer.hpp), and evaluation time per
+// SPMM (paper 003, offline/factor/spmm.hpp): fit time of a 64×64 material sampled at the UBO2003
+// directions (81 × 81; the synthesised cloth of offline/btf/synthesizer.hpp), and evaluation time per
 // sample next to FMF (paper 000, rank 16) on the same material in the same run. Evaluation
 // samples are random texels and random (non-measured) upper-hemisphere directions; both
 // representations interpolate through the same exact-grid interpolators (SPMM: analytic part
@@ -16,10 +16,10 @@
 #include <cstdlib>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/spmm.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 
-#include "btflod/btf/synthesizer.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@ find_package(ZLIB REQUIRED)
 find_package(PkgConfig REQUIRED)
 # Debian's libstb-dev ships the stb implementations as a library (libstb), found via stb.pc.
 pkg_check_modules(BTFLOD_STB REQUIRED IMPORTED_TARGET GLOBAL stb)
-# libdeflate: the tile codec's faster inflate backend (codec/tile_codec.hpp; docs/bsvtf_format.md
+# libdeflate: the tile codec's faster inflate backend (runtime/codec/tile_codec.hpp; docs/bsvtf_format.md
 # has the decode times). ON puts BTFLOD_TILE_CODEC_LIBDEFLATE=1 and the library on the btflod
 # INTERFACE target, so every program built with btflod (samples, demo, CLI, pipeline, consumers
 # of the installed package) decodes with it. OFF keeps zlib's inflate (the tested fallback). The
@@ -19,7 +19,7 @@ if(BTFLOD_WITH_LIBDEFLATE AND NOT TARGET PkgConfig::BTFLOD_LIBDEFLATE)
   message(FATAL_ERROR "BTFLOD_WITH_LIBDEFLATE is ON but pkg-config does not find libdeflate (Debian: libdeflate-dev); "
                       "install it or configure with -DBTFLOD_WITH_LIBDEFLATE=OFF")
 endif()
-# zstd: the tile codec's optional zstd entropy coder (tile format 3; codec/tile_codec.hpp,
+# zstd: the tile codec's optional zstd entropy coder (tile format 3; runtime/codec/tile_codec.hpp,
 # docs/bsvtf_format.md "Entropy stage"). ON puts BTFLOD_TILE_CODEC_ZSTD=1 and libzstd on the
 # btflod INTERFACE target (read by the implementation TU only; it changes no type). OFF: decoders
 # reject zstd-coded tiles with a clear error and encoders write deflate (format 2) only.
@@ -30,7 +30,7 @@ if(BTFLOD_WITH_ZSTD AND NOT TARGET PkgConfig::BTFLOD_ZSTD)
                       "install it or configure with -DBTFLOD_WITH_ZSTD=OFF")
 endif()
 message(STATUS "btflod: tile zstd coder: ${BTFLOD_WITH_ZSTD}")
-# OpenEXR (Debian libopenexr-dev 3.1, CMake configs): btf/openexr_image_set.hpp reads and writes
+# OpenEXR (Debian libopenexr-dev 3.1, CMake configs): offline/btf/openexr_image_set.hpp reads and writes
 # BTFs stored as OpenEXR image sets (Bonn btflib's format for measured images). ON puts
 # BTFLOD_WITH_OPENEXR=1 and OpenEXR::OpenEXR on the btflod INTERFACE target; no other header
 # includes OpenEXR. OFF (or the package missing): that header is unavailable, the rest unchanged.
@@ -43,7 +43,7 @@ endif()
 message(STATUS "btflod: OpenEXR image sets: ${BTFLOD_WITH_OPENEXR}")
 # OpenBLAS (Debian libopenblas-dev, openblas.pc): ON defines EIGEN_USE_BLAS (and
 # BTFLOD_WITH_OPENBLAS=1) on the btflod INTERFACE target, so Eigen's float/double GEMMs (the
-# randomised SVD's products, factor/truncated_svd.hpp) call OpenBLAS's sgemm/dgemm; the macro
+# randomised SVD's products, offline/factor/truncated_svd.hpp) call OpenBLAS's sgemm/dgemm; the macro
 # changes Eigen's code in every TU, hence on the target, not per file. OFF (default): Eigen's own
 # GEMM. docs/factor.md has the figures of both.
 option(BTFLOD_WITH_OPENBLAS "Eigen's dense products through OpenBLAS (EIGEN_USE_BLAS); default OFF" OFF)

@@ -17,7 +17,7 @@ pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
 pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
 # libjpeg (Debian libjpeg62-turbo-dev): the coefficient API, for bench_codec_entropy's JPEG Huffman row.
 pkg_check_modules(BTFLOD_JPEG QUIET IMPORTED_TARGET GLOBAL libjpeg)
-# MPI (Debian: libopenmpi-dev, openmpi-bin): the distributed factorisation (factor/mpi_svd.hpp).
+# MPI (Debian: libopenmpi-dev, openmpi-bin): the distributed factorisation (offline/factor/mpi_svd.hpp).
 # ON defines the target btflod_mpi (MPI::MPI_CXX), usable in btflod-link lines; OFF leaves the
 # MPI command, tests and benchmarks out.
 find_package(MPI QUIET COMPONENTS CXX)

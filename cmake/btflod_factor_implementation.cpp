@@ -7,9 +7,9 @@
 // Only the headers whose implementation section is guarded by BTFLOD_FACTOR_IMPLEMENTATION are
 // included here; a header that gains such a section is added to this list.
 #define BTFLOD_FACTOR_IMPLEMENTATION
-#include "btflod/core/thin_svd.hpp"
-#include "btflod/factor/laplacian_pca.hpp"
-#include "btflod/factor/local_pca.hpp"
-#include "btflod/factor/out_of_core_svd.hpp"
-#include "btflod/factor/spmm.hpp"
-#include "btflod/factor/truncated_svd.hpp"
+#include "btflod/offline/factor/laplacian_pca.hpp"
+#include "btflod/offline/factor/local_pca.hpp"
+#include "btflod/offline/factor/out_of_core_svd.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/factor/truncated_svd.hpp"
+#include "btflod/offline/math/thin_svd.hpp"

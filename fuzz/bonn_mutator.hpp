@@ -1,4 +1,4 @@
-// Structure-aware mutation of Bonn `.btf` files (btf/bonn_btf.hpp) for libFuzzer.
+// Structure-aware mutation of Bonn `.btf` files (offline/btf/bonn_btf.hpp) for libFuzzer.
 //
 // A Bonn file has no checksums, but every count in it (views, lights, width · height, k, rows,
 // cols, string lengths) must agree with the bytes that follow, so byte-level mutation mostly
@@ -24,7 +24,7 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
 #include "structure_mutators.hpp"
 
 namespace btflod_fuzz {

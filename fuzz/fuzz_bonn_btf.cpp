@@ -1,4 +1,4 @@
-// libFuzzer target for btf/bonn_btf.hpp: parses arbitrary bytes as a Bonn .btf file; every
+// libFuzzer target for offline/btf/bonn_btf.hpp: parses arbitrary bytes as a Bonn .btf file; every
 // rejection explains itself, and accepted files are reconstructed (at most 2^16 samples). The
 // encode → read → encode round trip is its own target (fuzz_bonn_btf_round_trip). Mutation is
 // structure-aware (bonn_mutator.hpp: one field of the parsed file changed, the file written
@@ -8,7 +8,7 @@
 #include <span>
 
 #include "bonn_mutator.hpp"
-#include "btflod/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace btflod;

@@ -1,11 +1,11 @@
-// libFuzzer target for btf/bonn_btf.hpp's writer: every file the reader accepts is re-encoded,
+// libFuzzer target for offline/btf/bonn_btf.hpp's writer: every file the reader accepts is re-encoded,
 // and encode(read(encode(read(x)))) must equal encode(read(x)) byte for byte (traps on
 // mismatch). Reading alone (and reconstruction) is fuzz_bonn_btf.
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
-#include "btflod/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace btflod;

@@ -1,4 +1,4 @@
-// libFuzzer target: the BTF store reader (btf/btf_store.hpp) on hostile bytes, as given and
+// libFuzzer target: the BTF store reader (offline/btf/btf_store.hpp) on hostile bytes, as given and
 // with its two CRCs recomputed (to get past them). The header parser runs on the input as a
 // whole file; an input it accepts is also opened as a file (memfd) and read column block by
 // column block, so the checksum table, the block offsets and the half/float conversion are
@@ -13,7 +13,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "btflod/btf/btf_store.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
 
 namespace {
 

@@ -1,9 +1,9 @@
-// libFuzzer target for codec/container.hpp: parse a whole `.bsvtf` file from the input; when
+// libFuzzer target for runtime/codec/container.hpp: parse a whole `.bsvtf` file from the input; when
 // the directory is accepted, verify every payload and decode up to 64 tiles down the hierarchy
 // (parents first) and every U packet, as a client would. Nothing may crash, hang or read
 // outside the input; every rejection explains itself. The deepest tile decoded is decoded again
 // by decode_bsvtf_tile (the whole chain from the root), which must give the same floats, and
-// put into an rgba8_affine cache slot (vt/cache_format.hpp), whose map must be finite and whose
+// put into an rgba8_affine cache slot (runtime/vt/cache_format.hpp), whose map must be finite and whose
 // bytes must decode within half a step of every finite value.
 //
 // Speed: tile decoders are kept per layout (at most 8 layouts, then the cache starts over) and
@@ -23,8 +23,8 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
-#include "btflod/vt/cache_format.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/vt/cache_format.hpp"
 #include "structure_mutators.hpp"
 
 namespace {

@@ -14,9 +14,9 @@
 #include <cstdlib>
 #include <vector>
 
-#include "btflod/angular/delaunay.hpp"
-#include "btflod/angular/ring_search.hpp"
-#include "btflod/angular/triangle_locator.hpp"
+#include "btflod/offline/angular/delaunay.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
+#include "btflod/offline/angular/triangle_locator.hpp"
 
 using namespace btflod;
 

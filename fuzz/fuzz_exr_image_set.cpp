@@ -1,4 +1,4 @@
-// libFuzzer target for btf/openexr_image_set.hpp: probe_exr and decode_exr (the per-image step
+// libFuzzer target for offline/btf/openexr_image_set.hpp: probe_exr and decode_exr (the per-image step
 // of read_exr_image_set, reading from memory through an Imf::IStream) must never crash, hang,
 // leak or read out of bounds on any input; every rejection explains itself, and an accepted
 // image has the probed size and only finite samples.
@@ -14,7 +14,7 @@
 #include <span>
 
 #if defined(BTFLOD_WITH_OPENEXR) && BTFLOD_WITH_OPENEXR
-#include "btflod/btf/openexr_image_set.hpp"
+#include "btflod/offline/btf/openexr_image_set.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   btflod::ImageLimits limits;  // small: hostile headers must be refused before allocating

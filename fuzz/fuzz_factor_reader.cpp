@@ -1,4 +1,4 @@
-// libFuzzer target: the factor file reader (factor/any_factorization.hpp) on hostile bytes.
+// libFuzzer target: the factor file reader (offline/factor/any_factorization.hpp) on hostile bytes.
 // Every accepted file must be evaluable at its first and last texel and direction without
 // reading out of range (ASan checks), and must serialise again.
 //
@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <span>
 
-#include "btflod/factor/any_factorization.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
 #include "structure_mutators.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

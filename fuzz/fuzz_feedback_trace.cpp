@@ -1,4 +1,4 @@
-// libFuzzer target for lod/feedback_trace.hpp: read a whole trace from the input with small
+// libFuzzer target for runtime/lod/feedback_trace.hpp: read a whole trace from the input with small
 // limits; when it is accepted, every frame's words must have width x height entries, and
 // writing the frames again must give a trace that reads back to the same words (round trip).
 // Nothing may crash, hang, read outside the input or allocate beyond the limits.
@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "btflod/lod/feedback_trace.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace btflod;

@@ -1,4 +1,4 @@
-// libFuzzer target for stream/http_source.hpp's response handling: a fake HTTP server thread on
+// libFuzzer target for runtime/stream/http_source.hpp's response handling: a fake HTTP server thread on
 // 127.0.0.1 answers every connection with a response made from the input, HttpSource (libcurl)
 // reads it, and the result is checked.
 //   byte 0: bit 0 HEAD (size()) instead of a range read; bit 1 raw mode; bit 2 extra header bytes
@@ -32,7 +32,7 @@
 #include <vector>
 
 #include "../tests/loopback_http_server.hpp"
-#include "btflod/stream/http_source.hpp"
+#include "btflod/runtime/stream/http_source.hpp"
 
 namespace {
 using namespace btflod;

@@ -1,5 +1,5 @@
 // Differential libFuzzer target for the two raw-inflate backends behind RawInflater
-// (codec/tile_codec.hpp): zlib and libdeflate must give the same Status and, on success, the
+// (runtime/codec/tile_codec.hpp): zlib and libdeflate must give the same Status and, on success, the
 // same bytes for every input. Bytes 0–1 (little endian) give the expected output size
 // (0..65535), the rest is the raw deflate stream. Without libdeflate in the build the target
 // only checks that zlib never crashes. State is created once: no per-input allocation.
@@ -23,7 +23,7 @@
 
 #include <zlib.h>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 namespace {
 using btflod::InflateBackend;

@@ -1,4 +1,4 @@
-// libFuzzer target for btf/measured_brdf.hpp: parse_mbsdf must never crash, hang or read out
+// libFuzzer target for offline/btf/measured_brdf.hpp: parse_mbsdf must never crash, hang or read out
 // of bounds on any input; a BRDF it accepts must evaluate to finite, non-negative values.
 #include <cmath>
 #include <cstddef>
@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <span>
 
-#include "btflod/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto brdf = btflod::parse_mbsdf(std::span<const uint8_t>(data, size), "fuzz");

@@ -1,4 +1,4 @@
-// libFuzzer target for btf/merl_brdf.hpp: parse_merl_binary must never crash, hang or read out
+// libFuzzer target for offline/btf/merl_brdf.hpp: parse_merl_binary must never crash, hang or read out
 // of bounds on any input (inputs here are far below a full MERL file, so this exercises the
 // header, size and truncation checks), and MerlTable::lookup / half_diff_from_directions must
 // give finite, non-negative values for any angles or directions taken from the input,
@@ -11,7 +11,7 @@
 #include <span>
 #include <vector>
 
-#include "btflod/btf/merl_brdf.hpp"
+#include "btflod/offline/btf/merl_brdf.hpp"
 
 namespace {
 const btflod::MerlTable& holey_table() {

@@ -22,11 +22,11 @@
 #include <cstdint>
 #include <cstring>
 
-#include "btflod/codec/dct.hpp"
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/core/dct.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
-#include "btflod/lod/feedback.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
 
 namespace {
 using namespace btflod;

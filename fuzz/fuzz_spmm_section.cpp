@@ -14,8 +14,8 @@
 #include <span>
 #include <vector>
 
-#include "btflod/backend/spmm_packing.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/packing/spmm_packing.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const uint32_t kTags[] = {btflod::factor_tag("SHAP"), btflod::factor_tag("META"), btflod::factor_tag("DICT"),

@@ -1,4 +1,4 @@
-// libFuzzer target for codec/tile_codec.hpp's decoder. Byte 0 is a selector (bit 0 unused, so
+// libFuzzer target for runtime/codec/tile_codec.hpp's decoder. Byte 0 is a selector (bit 0 unused, so
 // inputs of the former combined target stay valid seeds; bit 1 qx, bit 2 qy, bit 3 the zlib or
 // the libdeflate backend); the rest is a tile payload, decoded with a 24×24 or 72×72 decoder
 // (chosen from the header, channel count from the header) and a parent tile when the header
@@ -24,7 +24,7 @@
 #include <random>
 #include <vector>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 #include "structure_mutators.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-// libFuzzer target for codec/tile_codec.hpp's encoder → decoder round trip. Byte 0: bits 1–3 the
+// libFuzzer target for runtime/codec/tile_codec.hpp's encoder → decoder round trip. Byte 0: bits 1–3 the
 // frequency weighting (quarters 0..7, values above 4 are treated as 4 by the encoder), bit 4 the
 // entropy coder (deflate, or zstd when the build has it), bits 5–6 the channel count (1..4),
 // bit 7 the tile size (8 or 16 texels, 4 of border: 16×16 or 24×24 stored); the rest seeds the
@@ -18,7 +18,7 @@
 #include <memory>
 #include <vector>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 namespace {
 using namespace btflod;

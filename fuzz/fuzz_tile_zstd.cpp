@@ -1,4 +1,4 @@
-// libFuzzer target for the zstd entropy coder of codec/tile_codec.hpp (tile format 3, coder 1).
+// libFuzzer target for the zstd entropy coder of runtime/codec/tile_codec.hpp (tile format 3, coder 1).
 // Byte 0 selects the mode:
 //   even: bytes 1–2 (little-endian) are the declared symbol byte count (folded into the range
 //         tile_peek_header accepts for a 24×24×4 tile), the rest is the zstd frame behind an
@@ -19,7 +19,7 @@
 #include <cstring>
 #include <vector>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 namespace {
 using namespace btflod;

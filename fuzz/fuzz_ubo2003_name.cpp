@@ -1,5 +1,5 @@
-// libFuzzer target for the UBO image-name parser (btf/ubo2003_folder.hpp) and the in-memory
-// image decoder (core/image_io.hpp). The first byte picks the mode: even → the rest is a
+// libFuzzer target for the UBO image-name parser (offline/btf/ubo2003_folder.hpp) and the in-memory
+// image decoder (offline/btf/image_io.hpp). The first byte picks the mode: even → the rest is a
 // relative image path (parse_ubo_angle_keys + parse_ubo_image_path), odd → the rest is an
 // encoded image decoded with small limits (so a declared bomb cannot allocate much).
 #include <cstddef>
@@ -8,8 +8,8 @@
 #include <span>
 #include <string_view>
 
-#include "btflod/btf/ubo2003_folder.hpp"
-#include "btflod/core/image_io.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/btf/ubo2003_folder.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace btflod;

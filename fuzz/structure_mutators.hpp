@@ -33,8 +33,8 @@
 #include <random>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 extern "C" size_t LLVMFuzzerMutate(uint8_t* data, size_t size, size_t max_size);
 
@@ -370,7 +370,7 @@ inline size_t cross_over_bsvtf(const uint8_t* a, size_t a_size, const uint8_t* b
   return emit(pa.join(), out, max_size);
 }
 
-/// A factor file ("BTFLODFR", factor/factor_file.hpp) split into its sections.
+/// A factor file ("BTFLODFR", offline/factor/factor_file.hpp) split into its sections.
 struct FactorParts {
   uint32_t version = 0, kind = 0;
   std::vector<uint32_t> tags;

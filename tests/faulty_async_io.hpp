@@ -1,5 +1,5 @@
 // An engine's I/O thread for runtime/streamer.hpp that misbehaves on purpose, shared by the
-// Streamer's thread tests (test_runtime_threads.cpp) and the soak (samples/soak/). One thread
+// Streamer's thread tests (test_runtime_threads.cpp) and the soak (samples/tools/soak/). One thread
 // serves the reads every material's AsyncTileSource queued, in random order, and per read may
 // fail it (io_error), damage one byte while reporting success (only the Streamer's checksum can
 // catch that), stall it, or delay it a little; start_read() may refuse (the Streamer retries).
@@ -22,8 +22,8 @@
 #include <thread>
 #include <vector>
 
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
 
 namespace btflod_test {
 

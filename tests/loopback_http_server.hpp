@@ -1,4 +1,4 @@
-// A scripted HTTP server on 127.0.0.1 for stream/http_source.hpp's tests and its fuzz target.
+// A scripted HTTP server on 127.0.0.1 for runtime/stream/http_source.hpp's tests and its fuzz target.
 //
 // One thread accepts connections one at a time, reads each request's head (up to the blank line;
 // a receive timeout keeps a client that never finishes its request from blocking the server),

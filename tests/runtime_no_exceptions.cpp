@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <vector>
 
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
 
 #if defined(__cpp_exceptions) || defined(__cpp_rtti)
 #error "this file must be compiled with -fno-exceptions -fno-rtti"

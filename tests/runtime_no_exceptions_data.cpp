@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "btflod/vt/bsvtf_build.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
 
 std::vector<uint8_t> btflod_no_exceptions_container() {
   using namespace btflod;

@@ -1,4 +1,4 @@
-// Tests for angular/delaunay.hpp: exact predicates, validity (every point used, CCW,
+// Tests for offline/angular/delaunay.hpp: exact predicates, validity (every point used, CCW,
 // consistent adjacency, hull covered), the empty-circumcircle property, determinism under
 // co-circular ties (rings, square grids), and rejection of bad input.
 #include <gtest/gtest.h>
@@ -9,10 +9,10 @@
 #include <random>
 #include <set>
 
-#include "btflod/angular/delaunay.hpp"
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/parameterization.hpp"
-#include "btflod/btf/directions.hpp"
+#include "btflod/offline/angular/delaunay.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/parameterization.hpp"
 
 namespace btflod {
 namespace {

@@ -11,9 +11,9 @@
 #include <random>
 #include <set>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/nine_tap.hpp"
-#include "btflod/angular/ring_search.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/nine_tap.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
 
 namespace btflod {
 namespace {

@@ -8,10 +8,10 @@
 #include <filesystem>
 #include <random>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/nine_tap.hpp"
-#include "btflod/angular/ring_search.hpp"
-#include "btflod/btf/measured_brdf.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/nine_tap.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
 
 namespace btflod {
 namespace {

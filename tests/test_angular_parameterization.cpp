@@ -1,11 +1,11 @@
-// Tests for angular/parameterization.hpp: map ∘ inverse = identity over the hemisphere, the
+// Tests for offline/angular/parameterization.hpp: map ∘ inverse = identity over the hemisphere, the
 // papers' closed forms, area preservation of the elevated concentric map, clamping.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "btflod/angular/parameterization.hpp"
+#include "btflod/offline/angular/parameterization.hpp"
 
 namespace btflod {
 namespace {

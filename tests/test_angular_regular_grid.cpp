@@ -1,4 +1,4 @@
-// Tests for angular/regular_grid.hpp (paper 002 §6.2): the volume holds the function at the
+// Tests for offline/angular/regular_grid.hpp (paper 002 §6.2): the volume holds the function at the
 // grid nodes, "two trilinear fetches + one lerp" equals 4D multilinear interpolation, the
 // shader texture coordinates address the right texels, and bad sizes are rejected.
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "btflod/angular/regular_grid.hpp"
+#include "btflod/offline/angular/regular_grid.hpp"
 
 namespace btflod {
 namespace {

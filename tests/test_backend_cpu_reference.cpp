@@ -1,4 +1,4 @@
-// Tests for backend/cpu_reference.hpp: ray–shape hits and tangent frames, the eq. 1 footprint,
+// Tests for offline/render/cpu_reference.hpp: ray–shape hits and tangent frames, the eq. 1 footprint,
 // feedback words, eq. 3 sampling through the page table against the pyramid, 9-tap FMF shading,
 // the eq. 7 error, and the whole loop (feedback → votes → scheduler → cache) replaying exactly;
 // and backend.hpp's subsample_feedback (the readback of a bsvtf_feedback frame).
@@ -9,9 +9,9 @@
 #include <random>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/vt/scheduler.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
 
 using namespace btflod;
 

@@ -1,4 +1,4 @@
-// backend/representation_packing.hpp and the *MaterialData checks of backend/backend.hpp, without
+// offline/packing/representation_packing.hpp and the *MaterialData checks of runtime/backend/backend.hpp, without
 // a GPU: the packed textures, read back with the addressing of the generated laplacian, lpca and
 // pca_views programs (emulated here texel for texel), reproduce the CPU twins built on the
 // representations' evaluators; hostile material descriptions are rejected with a message.
@@ -7,8 +7,8 @@
 #include <cmath>
 #include <vector>
 
-#include "btflod/backend/representation_packing.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/packing/representation_packing.hpp"
 
 namespace btflod {
 namespace {

@@ -1,4 +1,4 @@
-// The ring search's uniform block (backend/ring_search_block.hpp) against the interpolator it
+// The ring search's uniform block (offline/packing/ring_search_block.hpp) against the interpolator it
 // is packed from, its limits, and the generated ring_search / pca_rings text that reads it.
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/ring_search_block.hpp"
-#include "btflod/btf/directions.hpp"
-#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/packing/ring_search_block.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
 
 using namespace btflod;
 

@@ -1,4 +1,4 @@
-// The SPMM GPU layout (backend/spmm_packing.hpp, SpmmMaterialData, paper 003 eq. 1–3): a CPU
+// The SPMM GPU layout (offline/packing/spmm_packing.hpp, SpmmMaterialData, paper 003 eq. 1–3): a CPU
 // evaluation that reads ONLY the packed arrays, exactly as the spmm program does (slot loop to
 // the first empty slot, global dictionary index, cluster id and coefficients from the residual
 // layers, residual table layer c·(P+1) + i), must equal Spmm::evaluate for every texel, several
@@ -11,9 +11,9 @@
 #include <cstring>
 #include <string>
 
-#include "btflod/backend/spmm_packing.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/packing/spmm_packing.hpp"
 
 namespace btflod {
 namespace {

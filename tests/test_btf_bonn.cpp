@@ -1,4 +1,4 @@
-// Tests for btf/bonn_btf.hpp. Files are built byte by byte here (independently of the
+// Tests for offline/btf/bonn_btf.hpp. Files are built byte by byte here (independently of the
 // library's encoder) following the documented layout, so a layout misreading in both reader
 // and writer would still fail; then round trips (factorise → write → read → reconstruct) and
 // the failure classes: TruncatedInput, WrongSignature, SizeDoesNotMatchFile, NaNInHeader,
@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/bonn_btf.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
 
 namespace {
 

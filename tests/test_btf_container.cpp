@@ -1,11 +1,11 @@
-// Tests for btf/directions.hpp and btf/tabulated_btf.hpp.
+// Tests for offline/angular/directions.hpp and offline/btf/tabulated_btf.hpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <set>
 
-#include "btflod/btf/directions.hpp"
-#include "btflod/btf/tabulated_btf.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/btf/tabulated_btf.hpp"
 
 namespace {
 

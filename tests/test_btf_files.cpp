@@ -1,4 +1,4 @@
-// Tests for btf/btf_files.hpp: the format of a path is told by its content (not its name),
+// Tests for offline/btf/btf_files.hpp: the format of a path is told by its content (not its name),
 // missing and foreign files are refused with the path in the message, and what save_btf()
 // writes load_btf() reads back: an image folder exactly up to 8-bit sRGB, a Bonn DFMF file
 // within its factorisation error.
@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
 
 namespace {
 

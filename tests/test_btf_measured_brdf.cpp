@@ -1,4 +1,4 @@
-// Tests for btf/measured_brdf.hpp: the real MDL SDK car paints (when the shared folder is
+// Tests for offline/btf/measured_brdf.hpp: the real MDL SDK car paints (when the shared folder is
 // present), the cell-centre trilinear lookup, the φ mirror, the horizon, sampling into a BTF,
 // and the failure classes of the reader (truncated, wrong first line, wrong part line, NaN,
 // absurd resolutions, trailing bytes, unknown type).
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
 
 namespace {
 

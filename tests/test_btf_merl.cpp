@@ -1,4 +1,4 @@
-// Tests for btf/merl_brdf.hpp: a known analytic BRDF written in MERL's .binary layout by the
+// Tests for offline/btf/merl_brdf.hpp: a known analytic BRDF written in MERL's .binary layout by the
 // test (real MERL files are not on this machine) and read back (half/difference mapping,
 // square-root θ_h indexing, colour scales, resampling onto MeasuredBrdf's grid), not-measured
 // samples (handled and counted), the synthesiser using a MERL base, and the failure classes:
@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/merl_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
 #include "btflod/core/file_io.hpp"
+#include "btflod/offline/btf/merl_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
 
 namespace {
 

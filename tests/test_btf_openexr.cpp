@@ -1,4 +1,4 @@
-// Tests for btf/openexr_image_set.hpp: EXR encode/decode in memory (HALF and FLOAT channels,
+// Tests for offline/btf/openexr_image_set.hpp: EXR encode/decode in memory (HALF and FLOAT channels,
 // values kept linear and exact in FLOAT, rounded to half in HALF), a BTF written as an image set
 // with btflib's and the UBO2003 naming and read back, per-view folders, and the failure classes:
 // truncated files (every prefix of a small file), wrong magic, missing channels, NaN samples,
@@ -14,8 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/openexr_image_set.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/offline/btf/openexr_image_set.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Regression test for btf/openexr_image_set.hpp, failure class "an attribute size beyond the
+// Regression test for offline/btf/openexr_image_set.hpp, failure class "an attribute size beyond the
 // file": found by fuzz_exr_image_set (a 360-byte input whose first header attribute declared
 // 1,677,918,208 bytes made OpenEXR allocate 1.6 GB before its read failed; under ASan each such
 // input took over 10 s). probe_exr and decode_exr now walk the attribute list first and refuse
@@ -15,7 +15,7 @@
 #include <new>
 #include <vector>
 
-#include "btflod/btf/openexr_image_set.hpp"
+#include "btflod/offline/btf/openexr_image_set.hpp"
 
 namespace {
 std::atomic<bool> g_watch{false};

@@ -1,4 +1,4 @@
-// btf/btf_store.hpp: the on-disk BTF store — round trips, view-by-view writing from the
+// offline/btf/btf_store.hpp: the on-disk BTF store — round trips, view-by-view writing from the
 // synthesiser, and refusal of truncated, padded, corrupt and incomplete files.
 #include <gtest/gtest.h>
 
@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
 
 using namespace btflod;
 

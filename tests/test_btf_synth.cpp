@@ -1,4 +1,4 @@
-// Tests for btf/heightfield.hpp and btf/synthesizer.hpp: analytic flat cases (Lambert equals
+// Tests for offline/btf/heightfield.hpp and offline/btf/synthesizer.hpp: analytic flat cases (Lambert equals
 // albedo·cosθ_l/π, reciprocity of the analytic BRDF, energy bound), self-shadowing and masking
 // on a hand-made ridge, interreflection, determinism across thread counts and seeds,
 // tileability of the procedural materials, the measured-BRDF base, progress/cancellation and
@@ -12,8 +12,8 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/btf/bonn_btf.hpp"
-#include "btflod/btf/synthesizer.hpp"
+#include "btflod/offline/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
 
 namespace {
 

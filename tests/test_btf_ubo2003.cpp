@@ -1,4 +1,4 @@
-// Tests for btf/ubo2003_folder.hpp: the key-based name parser on every known spelling,
+// Tests for offline/btf/ubo2003_folder.hpp: the key-based name parser on every known spelling,
 // writer → reader round trips (flat and per-view-folder layouts, PNG exact, JPEG close,
 // UBO2003 recognised automatically, half-degree UBO2014 angles), and the failure classes of the
 // folder reader (missing combinations, duplicates, differing sizes, unparseable names,
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/ubo2003_folder.hpp"
 #include "btflod/core/bytes.hpp"
+#include "btflod/offline/btf/ubo2003_folder.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // btflod-label: unit threads
-// Tests for codec/container.hpp: build → read round trip (metadata, U packets, weights, tiles
+// Tests for runtime/codec/container.hpp: build → read round trip (metadata, U packets, weights, tiles
 // decoded down the hierarchy within the tolerance), the contiguous coarse-to-fine prefix,
 // determinism across thread counts, and failure classes (truncated, trailing bytes, wrong
 // checksum, wrong signature/version, oversized counts, offsets outside the file, overlaps).
@@ -20,8 +20,8 @@
 #include <unordered_map>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
 #include "btflod/core/thread_pool.hpp"
+#include "btflod/runtime/codec/container.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Tests for codec/dct.hpp and codec/quantize.hpp: the separable DCT (scalar twin and AVX2 path)
+// Tests for core/dct.hpp and runtime/codec/quantize.hpp: the separable DCT (scalar twin and AVX2 path)
 // against a direct O(N⁴) evaluation of the DCT-II definition, inverse, Parseval, zig-zag order and
 // the quantiser's error guarantee.
 #include <gtest/gtest.h>
@@ -9,8 +9,8 @@
 #include <set>
 #include <vector>
 
-#include "btflod/codec/dct.hpp"
-#include "btflod/codec/quantize.hpp"
+#include "btflod/core/dct.hpp"
+#include "btflod/runtime/codec/quantize.hpp"
 
 namespace {
 

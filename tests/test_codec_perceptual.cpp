@@ -1,5 +1,5 @@
-// Tests for codec/perceptual_tolerance.hpp: the ΔE*ab gain against finite differences of an
-// independent CIELAB conversion (metrics/image_metrics.hpp), the allocation it implies (dark
+// Tests for offline/build/perceptual_tolerance.hpp: the ΔE*ab gain against finite differences of an
+// independent CIELAB conversion (offline/metrics/image_metrics.hpp), the allocation it implies (dark
 // texels finer than bright ones by the CIELAB slope, clipped or never-shown components at the
 // maximum scale), direction weights, determinism across thread counts, hostile input leaving
 // the tiles untouched, and build_bsvtf applying channel scales and the weighting exponent.
@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 
 namespace {
 

@@ -2,7 +2,7 @@
 // (TileEncoder::set_ac_rounding_threshold, BsvtfBuildOptions::ac_rounding_threshold) — its
 // tiles decode with the unchanged decoder to exactly the encoder's reconstruction, small AC
 // coefficients fall to zero, the error stays within threshold · step, 0.5 keeps the old bytes —
-// and codec/rendered_rate_control.hpp: the rendered ΔE*ab against an independent CIELAB
+// and samples/research/progressive/rendered_rate_control.hpp: the rendered ΔE*ab against an independent CIELAB
 // conversion, and build_bsvtf_rendered equalising the rendered error quantile over tile
 // positions whose sensitivities differ by an order of magnitude (a plain build does not), and the
 // per-block quantiles with the report's block spread.
@@ -12,9 +12,9 @@
 #include <random>
 #include <vector>
 
-#include "btflod/codec/dct.hpp"
-#include "btflod/codec/rendered_rate_control.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "../samples/research/progressive/rendered_rate_control.hpp"
+#include "btflod/core/dct.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Tests for codec/tile_codec.hpp: parent up-sampling geometry, round trip within the tolerance,
+// Tests for runtime/codec/tile_codec.hpp: parent up-sampling geometry, round trip within the tolerance,
 // closed-loop residual coding along a 6-level chain without drift, the AVX2 inverse DCT against
 // its scalar twin, and failure classes (truncated, trailing bytes, corrupted, wrong layout,
 // missing parent, decompression bomb, hostile symbol streams: runs past the block, invalid
@@ -19,10 +19,10 @@
 
 #include <zlib.h>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 // The inflate backend of every decoder here; test_codec_tile_zlib.cpp runs this file again with
-// zlib (the backend is a run-time choice, codec/tile_codec.hpp).
+// zlib (the backend is a run-time choice, runtime/codec/tile_codec.hpp).
 #ifndef BTFLOD_TEST_INFLATE_BACKEND
 #define BTFLOD_TEST_INFLATE_BACKEND btflod::default_inflate_backend()
 #endif

@@ -1,5 +1,5 @@
 // btflod-link: PkgConfig::BTFLOD_LIBDEFLATE
-// Tests for the optional libdeflate entropy backend of codec/tile_codec.hpp: bit-identical
+// Tests for the optional libdeflate entropy backend of runtime/codec/tile_codec.hpp: bit-identical
 // tiles from both backends along a residual chain, and the same failure classes (truncated,
 // trailing bytes, decompression bomb, random corruption) rejected without crashing.
 // libdeflate is compiled into the implementation TU when the btflod target is built with
@@ -13,7 +13,7 @@
 
 #include <zlib.h>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 namespace {
 

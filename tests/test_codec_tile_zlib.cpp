@@ -1,7 +1,7 @@
 // The whole of tests/test_codec_tile.cpp once more with every decoder on zlib's inflate: the
 // decoder that a build with -DBTFLOD_WITH_LIBDEFLATE=OFF ships, and the fallback of a
 // libdeflate request when libdeflate is not compiled in. The backend is a run-time choice
-// behind RawInflater (codec/tile_codec.hpp), so no build option changes TileDecoder's layout.
+// behind RawInflater (runtime/codec/tile_codec.hpp), so no build option changes TileDecoder's layout.
 #define BTFLOD_TEST_INFLATE_BACKEND btflod::InflateBackend::zlib
 #include "test_codec_tile.cpp"
 

@@ -1,4 +1,4 @@
-// The tile codec's zstd entropy coder (tile format 3, coder 1; codec/tile_codec.hpp): the same
+// The tile codec's zstd entropy coder (tile format 3, coder 1; runtime/codec/tile_codec.hpp): the same
 // reconstruction as deflate bit for bit, format-2 tiles unchanged and still decoded, hostile
 // frames rejected, no allocation in decode. Skipped when the build has no zstd (BTFLOD_WITH_ZSTD).
 #include <gtest/gtest.h>
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 #include "test_counting_new.hpp"
 
 namespace {

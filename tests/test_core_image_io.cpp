@@ -1,4 +1,4 @@
-// Tests for core/image_io.hpp: PNG/JPEG encode/decode round trips, sRGB linearisation against the
+// Tests for offline/btf/image_io.hpp: PNG/JPEG encode/decode round trips, sRGB linearisation against the
 // IEC 61966-2-1 formula, the decompression-bomb guard on a hand-made PNG header, and the failure
 // classes of the decoder (empty, truncated, garbage, missing file).
 #include <gtest/gtest.h>
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "btflod/core/bytes.hpp"
-#include "btflod/core/image_io.hpp"
+#include "btflod/offline/btf/image_io.hpp"
 
 namespace {
 

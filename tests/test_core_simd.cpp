@@ -9,10 +9,10 @@
 #include <cstring>
 #include <vector>
 
-#include "btflod/codec/dct.hpp"
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/core/dct.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 
 #if BTFLOD_HAS_X86_DISPATCH
 #include <cpuid.h>

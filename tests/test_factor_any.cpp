@@ -1,13 +1,13 @@
-// Tests of the kind-dispatching factor reader (factor/any_factorization.hpp) and of the BTF
-// error report (metrics/btf_metrics.hpp). Also writes tiny factor files of every kind to
+// Tests of the kind-dispatching factor reader (offline/factor/any_factorization.hpp) and of the BTF
+// error report (offline/metrics/btf_metrics.hpp). Also writes tiny factor files of every kind to
 // BTFLOD_TEST_TMP_DIR/factor_seeds (the seeds in fuzz/corpus/fuzz_factor_reader came from it).
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/metrics/btf_metrics.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/metrics/btf_metrics.hpp"
 
 namespace btflod {
 namespace {

@@ -8,13 +8,13 @@
 #include <filesystem>
 #include <string>
 
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
 
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_rank.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_rank.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 
 namespace btflod {
 namespace {
@@ -413,7 +413,7 @@ TEST(FactorFmf, ValueTransformKeepsAGlossyMaterialsTextureAtLowRank) {
   EXPECT_EQ(factorize_fmf(*btf, o).status(), Status::invalid_argument);
 }
 
-// The rank chosen from displayed images (factor/fmf_rank.hpp): on the glossy tiles material
+// The rank chosen from displayed images (offline/factor/fmf_rank.hpp): on the glossy tiles material
 // (log encoding) the chosen rank is the smallest candidate whose training views reach the target,
 // the held-out views (odd view indices, never used for the choice) reach it too within 0.03, the
 // truncated FMF is what the curve measured, and an unreachable target returns the largest rank

@@ -1,4 +1,4 @@
-// Tests for factor/fmf_stream.hpp: an FMF's eigen-textures are its V·Σ and U exactly; its
+// Tests for offline/factor/fmf_stream.hpp: an FMF's eigen-textures are its V·Σ and U exactly; its
 // container (build_bsvtf_from_fmf) records U's view-major order, the FMF's directions and their
 // set names, and a Streamer accepts it and loads its roots and U′ packets.
 #include <gtest/gtest.h>
@@ -9,10 +9,10 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/factor/fmf_stream.hpp"
+#include "btflod/offline/factor/fmf_stream.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
 
 namespace {
 

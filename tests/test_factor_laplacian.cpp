@@ -2,8 +2,8 @@
 // components, LOD blending of eq. 7, Levenberg–Marquardt Phong fit, §3.3 packing sizes, I/O.
 #include <gtest/gtest.h>
 
-#include "btflod/factor/laplacian_pca.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/laplacian_pca.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
 
 namespace btflod {
 namespace {

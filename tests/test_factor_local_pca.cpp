@@ -5,9 +5,9 @@
 #include <set>
 #include <vector>
 
-#include "btflod/factor/local_pca.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/factor/local_pca.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 
 namespace btflod {
 namespace {

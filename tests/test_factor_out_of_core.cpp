@@ -1,5 +1,5 @@
 // btflod-label: unit threads
-// factor/out_of_core_svd.hpp and factor/fmf_out_of_core.hpp: the out-of-core randomised SVD
+// offline/factor/out_of_core_svd.hpp and offline/factor/fmf_out_of_core.hpp: the out-of-core randomised SVD
 // gives the in-memory truncated_svd()'s result bit for bit, stays under its memory budget
 // (measured as growth of the resident set), resumes a stopped run from its checkpoint to the
 // identical result, and refuses checkpoints of another problem.
@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_out_of_core.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/out_of_core_svd.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_out_of_core.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/out_of_core_svd.hpp"
 
 using namespace btflod;
 

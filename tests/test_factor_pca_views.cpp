@@ -3,8 +3,8 @@
 
 #include <Eigen/SVD>
 
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/pca_views.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/pca_views.hpp"
 
 namespace btflod {
 namespace {

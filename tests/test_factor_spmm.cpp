@@ -1,4 +1,4 @@
-// Tests of the Sparse Parametric Mixture Model (factor/spmm.hpp, paper 003 §3): the fit on a
+// Tests of the Sparse Parametric Mixture Model (offline/factor/spmm.hpp, paper 003 §3): the fit on a
 // BTF built from known analytic lobes, the residual (eq. 3) with N_PCA from 0 to max and "no
 // residual", non-negative stagewise LASSO and its sparsity cap, determinism across thread
 // counts, edits with a predictable physical effect, storage round trip and hostile files.
@@ -11,11 +11,11 @@
 #include <string>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
 #include "btflod/core/file_io.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/spmm.hpp"
 
 namespace btflod {
 namespace {

@@ -1,4 +1,4 @@
-// Tests of the analytic BRDF dictionary of SPMM (factor/analytic_brdf.hpp, paper 003 §3 eq. 2)
+// Tests of the analytic BRDF dictionary of SPMM (offline/factor/analytic_brdf.hpp, paper 003 §3 eq. 2)
 // against the published formulas: known values, reciprocity, the energy bound where the model
 // satisfies it, the rotation into the frame of n_j, and the range checks on κ and n_j.
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "btflod/factor/analytic_brdf.hpp"
+#include "btflod/offline/factor/analytic_brdf.hpp"
 
 namespace btflod {
 namespace {

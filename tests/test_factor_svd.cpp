@@ -1,4 +1,4 @@
-// Tests of factor/truncated_svd.hpp on matrices with a KNOWN spectrum (A = U·diag(s)·Vᵀ with
+// Tests of offline/factor/truncated_svd.hpp on matrices with a KNOWN spectrum (A = U·diag(s)·Vᵀ with
 // random orthonormal U, V), so the Eckart–Young optimum sqrt(Σ_{i≥C} s_i²) is exact: the
 // randomised path (sparse-sign or Gaussian sketch, fused last pass, adaptive power iterations
 // with a flat-tailed spectrum that the old fixed q = 2 misses) against it, orthonormality,
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/factor/truncated_svd.hpp"
+#include "btflod/offline/factor/truncated_svd.hpp"
 
 namespace btflod {
 namespace {

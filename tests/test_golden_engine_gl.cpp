@@ -5,7 +5,7 @@
 // at the engine's blocks). One shader holds the fmf and bsvtf pieces (their shared eq. 5 and
 // angular lookup emitted once) and picks one per draw from its material block. The scene,
 // material and partial tile cache are those of test_golden_scene.hpp; the image must match the
-// CPU reference (backend/cpu_reference.hpp) at PSNR >= 40 dB, and a wrong variant (BSVTF read at
+// CPU reference (offline/render/cpu_reference.hpp) at PSNR >= 40 dB, and a wrong variant (BSVTF read at
 // the finest level everywhere) must not.
 // Skips with the reason when no EGL / GL 4.5 context is available.
 // btflod-link: btflod_gl_backend btflod_glad
@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
 #include "gl_backend.hpp"
 #include "gl_util.hpp"
 #include "test_golden_engine_blocks.hpp"

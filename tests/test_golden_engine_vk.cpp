@@ -7,7 +7,7 @@
 // uniform sources pointing at the engine's block), compiled to SPIR-V with the Vulkan sample's
 // glslc helper. One shader holds the fmf and bsvtf pieces and picks one per draw from its
 // surface block. The scene, material and partial tile cache are those of test_golden_scene.hpp;
-// the image must match the CPU reference (backend/cpu_reference.hpp) at PSNR >= 40 dB, and a
+// the image must match the CPU reference (offline/render/cpu_reference.hpp) at PSNR >= 40 dB, and a
 // wrong variant (BSVTF read at the finest level everywhere) must not.
 // Skips with the reason when no Vulkan 1.3 device or no glslc is available.
 // btflod-link: btflod_vk_backend
@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
 #include "test_golden_engine_blocks.hpp"
 #include "test_golden_scene.hpp"
 #include "vk_internal.hpp"

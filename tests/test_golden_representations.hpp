@@ -1,7 +1,7 @@
 // Golden-image cases for the laplacian (paper 001 eq. 7), lpca (paper 002 §6.2) and pca_views
 // (paper 004 §6.3) programs, shared by test_golden_gl.cpp and test_golden_vk.cpp: the scene of
 // test_golden_scene.hpp (tilted plane, perspective camera, directional light) drawn by a GPU
-// backend with a material packed by backend/representation_packing.hpp must agree with the CPU
+// backend with a material packed by offline/packing/representation_packing.hpp must agree with the CPU
 // reference — the same ray-cast scene shaded through the representation's own CPU evaluator
 // (LaplacianPca / LocalPca / PcaViews::evaluate*) — at PSNR ≥ 40 dB, 256×256. Materials are
 // tiny (16×16 texels, 11 lights × 9 views) so each case takes well under a second to build.
@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/representation_packing.hpp"
-#include "btflod/backend/spmm_packing.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/spmm.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/packing/representation_packing.hpp"
+#include "btflod/offline/packing/spmm_packing.hpp"
 #include "test_golden_scene.hpp"
 
 namespace btflod::golden {

@@ -1,6 +1,6 @@
 // Golden-image cases shared by test_golden_gl.cpp and test_golden_vk.cpp: the same scene (a
 // tilted plane, perspective camera, directional light) rendered by a GPU backend and by the CPU
-// reference of backend/cpu_reference.hpp (ray-cast Scene + Camera, CpuCacheTexture sampled
+// reference of offline/render/cpu_reference.hpp (ray-cast Scene + Camera, CpuCacheTexture sampled
 // through the vt/ TileCache page table, shade_fmf's 9-tap eq. 5) must agree: PSNR ≥ 40 dB at
 // 256×256, for FMF and for BSVTF with a partially filled cache. The view magnifies the texture
 // everywhere (with a negative LOD bias), so the GPU's desired level is the finest one and both
@@ -14,10 +14,10 @@
 #include <optional>
 #include <string>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/vt/tile_cache.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 #include "test_shader_scene.hpp"
 
 namespace btflod::golden {
@@ -199,7 +199,7 @@ void golden_fmf(Factory make) {
 }
 
 /// The first `components` of a material: U′ columns and V′ channels c < components (the
-/// material a factorisation of that rank truncated, factor/fmf.hpp truncate_fmf()).
+/// material a factorisation of that rank truncated, offline/factor/fmf.hpp truncate_fmf()).
 inline Material truncated_material(const Material& m, uint32_t components) {
   Material t = m;
   const uint32_t C = m.config.components;

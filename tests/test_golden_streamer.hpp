@@ -16,10 +16,10 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
 #include "test_golden_scene.hpp"
 
 namespace btflod::golden {

@@ -1,5 +1,5 @@
 // Golden images: the Vulkan backend (samples/vulkan, headless on lavapipe) vs the CPU reference
-// of backend/cpu_reference.hpp on the same scene:
+// of offline/render/cpu_reference.hpp on the same scene:
 // PSNR >= 40 dB at 256x256 for FMF and for BSVTF through a partially filled vt/ TileCache, and for
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators

@@ -12,8 +12,8 @@
 #include <tuple>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/lod_selector.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
 
 using namespace btflod;
 

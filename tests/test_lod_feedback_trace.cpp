@@ -1,4 +1,4 @@
-// Tests for lod/feedback_trace.hpp: round trip (words, frame information, camera), the writer
+// Tests for runtime/lod/feedback_trace.hpp: round trip (words, frame information, camera), the writer
 // and recorder agree, failure classes of the reader (truncated, trailing bytes, wrong
 // signature/version, CRCs, sizes that do not match, decompression bomb, limits), and a trace
 // replayed twice through the scheduler gives the same schedule bit for bit.
@@ -10,9 +10,9 @@
 #include <random>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/feedback_trace.hpp"
-#include "btflod/vt/scheduler.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
 
 using namespace btflod;
 

@@ -1,4 +1,4 @@
-// metrics/btf_store_metrics.hpp: evaluating a factorisation against a BTF store streamed from
+// offline/factor/fmf_store_metrics.hpp: evaluating a factorisation against a BTF store streamed from
 // disk gives exactly the in-memory compare_btfs() report, within a memory budget; and the
 // store's view reader (BtfStore::read_view_images, BtfStore::peak) it is built on.
 #include <gtest/gtest.h>
@@ -8,10 +8,10 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/metrics/btf_store_metrics.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_store_metrics.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
 
 using namespace btflod;
 

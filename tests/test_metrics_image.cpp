@@ -1,11 +1,11 @@
-// Tests of metrics/image_metrics.hpp against hand-checked values.
+// Tests of offline/metrics/image_metrics.hpp against hand-checked values.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include "btflod/metrics/btf_metrics.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/metrics/btf_metrics.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 
 namespace btflod {
 namespace {

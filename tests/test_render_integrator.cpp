@@ -1,4 +1,4 @@
-// Tests for render/integrator.hpp at 64 × 64 with the brute-force tracer: ambient occlusion of
+// Tests for offline/render/integrator.hpp at 64 × 64 with the brute-force tracer: ambient occlusion of
 // an unoccluded plane is exactly 1 and of a point deep inside a closed box (radius beyond the
 // walls) exactly 0; a tiny area light converges to the matching point light; the RMSE against
 // a 1024-frame reference after 64 frames is at most 1/3 of the RMSE after 4 frames; the buffers
@@ -13,10 +13,10 @@
 #include <thread>
 #include <vector>
 
-#include "btflod/metrics/image_metrics.hpp"
-#include "btflod/render/integrator.hpp"
-#include "btflod/render/owned_scene.hpp"
-#include "btflod/render/primitives.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "btflod/offline/render/integrator.hpp"
+#include "btflod/offline/render/owned_scene.hpp"
+#include "btflod/offline/render/primitives.hpp"
 
 namespace btflod {
 namespace {

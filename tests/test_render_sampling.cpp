@@ -1,4 +1,4 @@
-// Tests for render/sampling.hpp: the per-pixel generator is a pure function of its key and
+// Tests for offline/render/sampling.hpp: the per-pixel generator is a pure function of its key and
 // uniform; cosine hemisphere samples have the cos/π density (E[cos θ] = 2/3); the spherical
 // rectangle's solid angle matches the closed form and its samples lie on the rectangle,
 // uniformly in solid angle (the solid-angle and area estimators of the same integral agree).
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <set>
 
-#include "btflod/render/sampling.hpp"
+#include "btflod/offline/render/sampling.hpp"
 
 namespace btflod {
 namespace {

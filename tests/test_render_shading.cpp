@@ -1,4 +1,4 @@
-// Tests for render/shading.hpp: a BtfMaterial built on each representation (FMF, PCA-k,
+// Tests for offline/render/shading.hpp: a BtfMaterial built on each representation (FMF, PCA-k,
 // Laplacian PCA, local PCA) returns exactly the representation's value at measured directions
 // (one tap of weight 1) and the 9-tap blend between them; uv wraps to texels; directions below
 // the horizon give 0; the interactive quality changes only representations with an LOD knob;
@@ -8,16 +8,16 @@
 #include <cmath>
 #include <memory>
 
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/laplacian_pca.hpp"
-#include "btflod/factor/local_pca.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/pca_views.hpp"
-#include "btflod/render/integrator.hpp"
-#include "btflod/render/primitives.hpp"
-#include "btflod/render/shading.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/laplacian_pca.hpp"
+#include "btflod/offline/factor/local_pca.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/pca_views.hpp"
+#include "btflod/offline/render/integrator.hpp"
+#include "btflod/offline/render/primitives.hpp"
+#include "btflod/offline/render/shading.hpp"
 
 namespace btflod {
 namespace {

@@ -1,4 +1,4 @@
-// Tests for render/surface.hpp and render/primitives.hpp: degenerate and NaN geometry is
+// Tests for offline/render/surface.hpp and offline/render/primitives.hpp: degenerate and NaN geometry is
 // rejected with a message naming it; tangent frames are orthonormal with the MeshVertex
 // handedness; hits of the brute-force tracer against analytic geometry (plane: exact
 // position, normal and uv; sphere: on the sphere within the tessellation error, normal along
@@ -8,8 +8,8 @@
 #include <cmath>
 #include <string>
 
-#include "btflod/render/primitives.hpp"
-#include "btflod/render/surface.hpp"
+#include "btflod/offline/render/primitives.hpp"
+#include "btflod/offline/render/surface.hpp"
 
 namespace btflod {
 namespace {

@@ -3,7 +3,7 @@
 // given at creation — no global operator new while they are built, copied or moved — return
 // every byte when they go, and allocate nothing while they work. A Streamer built with
 // callbacks makes no global operator new call of its own: the only ones left during create()
-// are its tile decoders' (codec/tile_codec.hpp owns their symbol buffers), counted exactly.
+// are its tile decoders' (runtime/codec/tile_codec.hpp owns their symbol buffers), counted exactly.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,13 +12,13 @@
 #include <new>
 #include <vector>
 
-#include "btflod/codec/tile_codec.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/stream/payload_cache.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/payload_cache.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 #include "test_counting_new.hpp"
 
 using namespace btflod;

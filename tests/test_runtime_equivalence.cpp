@@ -10,11 +10,11 @@
 #include <random>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/page_table_writes.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
 #include "test_runtime_helpers.hpp"
 
 using namespace btflod;

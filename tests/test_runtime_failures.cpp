@@ -17,8 +17,8 @@
 #include <thread>
 #include <vector>
 
+#include "btflod/runtime/stream/thread_executor.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/thread_executor.hpp"
 #include "test_runtime_helpers.hpp"
 
 using namespace btflod;

@@ -16,13 +16,13 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
-#include "btflod/vt/tile_id.hpp"
+#include "btflod/runtime/vt/tile_id.hpp"
 
 namespace btflod_test {
 

@@ -4,7 +4,7 @@
 // allocation after creation (global operator new counted) and every buffer through the
 // allocator callbacks, moves, asynchronous sources, several materials with different C,
 // containers written with the other U row order shading identically, and the outputs forwarded
-// to a renderer (backend/streamer_outputs.hpp).
+// to a renderer (runtime/backend/streamer_outputs.hpp).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -16,11 +16,11 @@
 #include <thread>
 #include <vector>
 
-#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
 #include "test_runtime_helpers.hpp"
 
 // Counts global allocations (the runtime must not allocate after create()).
@@ -256,7 +256,7 @@ TEST(RuntimeStreamer, BadConfigurationsAreRefusedWithAMessage) {
   EXPECT_EQ(s.update({}, too_small), Status::invalid_argument);
 }
 
-// backend/streamer_outputs.hpp: every output of an update reaches the sink once, in order —
+// runtime/backend/streamer_outputs.hpp: every output of an update reaches the sink once, in order —
 // tiles in batches of at most kStreamerUploadBatch, then the packets, then the page-table
 // writes — and the first failing callback stops the forwarding with its status.
 TEST(RuntimeStreamer, ForwardedOutputsArriveInOrderAndAFailureStops) {
@@ -445,7 +445,7 @@ TEST(RuntimeStreamer, VoteCounterAllocatesOnlyThroughTheCallbacks) {
 namespace {
 
 // A renderer on the CPU reference path: FMF materials hold U′ in FmfMaterialData's layout and
-// take packets through write_u_packet (backend/backend.hpp); tiles and page-table texels are
+// take packets through write_u_packet (runtime/backend/backend.hpp); tiles and page-table texels are
 // kept like Engine does. Everything else is a no-op.
 class RecordingBackend final : public Backend {
  public:

@@ -1,7 +1,7 @@
 // btflod-label: unit threads
 // runtime/streamer.hpp under real concurrency, as an engine drives it: one Streamer, four
 // engine-owned worker threads claiming and running decode jobs (acquire_job/run_job; a second
-// test uses stream/thread_executor.hpp's four threads instead), one I/O thread completing
+// test uses runtime/stream/thread_executor.hpp's four threads instead), one I/O thread completing
 // AsyncTileSource reads out of order after random delays (some fail, some deliver corrupted
 // bytes), and the frame thread calling update() with a moving feedback pattern. Checked every
 // frame: each uploaded tile's texels equal a fresh decode of its container, each U′ packet
@@ -27,11 +27,11 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/backend/page_table_writes.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
 #include "faulty_async_io.hpp"
 #include "test_runtime_helpers.hpp"
 
@@ -241,7 +241,7 @@ std::vector<uint32_t> moving_feedback(const Streamer& s, uint32_t f) {
 namespace {
 
 // Who runs the decode jobs: four engine-owned threads (Workers above) or the ready-made
-// stream/thread_executor.hpp with four threads.
+// runtime/stream/thread_executor.hpp with four threads.
 enum class Executor { engine_workers, thread_executor };
 
 void stream_and_drain(Executor kind) {

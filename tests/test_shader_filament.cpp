@@ -1,4 +1,4 @@
-// Filament target (shader/filament_material.hpp): every material kind × config compiles with
+// Filament target (runtime/shader/filament_material.hpp): every material kind × config compiles with
 // Filament's own material compiler for desktop GLSL 4.10 and mobile ESSL 3.00 (`matc -p all`;
 // skipped with a message when matc is missing); the limits matc does not enforce hold (at most 8
 // samplers, it only warns past them; no #version, textureQueryLevels, storage buffers or binding
@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
-#include "btflod/shader/filament_material.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/shader/filament_material.hpp"
 
 using namespace btflod;
 

@@ -13,16 +13,16 @@
 #include <vector>
 
 // Cross-checks against angular/ and lod/ when their headers are present.
-#if __has_include("btflod/angular/parameterization.hpp")
-#include "btflod/angular/parameterization.hpp"
+#if __has_include("btflod/offline/angular/parameterization.hpp")
+#include "btflod/offline/angular/parameterization.hpp"
 #define BTFLOD_TEST_HAS_ANGULAR 1
 #endif
-#if __has_include("btflod/lod/feedback.hpp")
-#include "btflod/lod/feedback.hpp"
+#if __has_include("btflod/runtime/lod/feedback.hpp")
+#include "btflod/runtime/lod/feedback.hpp"
 #define BTFLOD_TEST_HAS_LOD_FEEDBACK 1
 #endif
-#include "btflod/shader/glsl_generator.hpp"
-#include "btflod/shader/shader_config.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
 
 using namespace btflod;
 
@@ -201,7 +201,7 @@ TEST(ShaderConfig, FeedbackWordRoundTripsAndMasks) {
 }
 
 TEST(ShaderConfig, DefaultFeedbackLayoutIsTheLodFeedbackWord) {
-  // The shader's default word must be exactly lod/feedback.hpp's, or votes go to wrong tiles.
+  // The shader's default word must be exactly runtime/lod/feedback.hpp's, or votes go to wrong tiles.
   const FeedbackWordLayout l;
   for (uint32_t m : {0u, 1u, 77u, 1022u})
     for (uint32_t level : {0u, 3u, 9u, 15u})
@@ -211,7 +211,7 @@ TEST(ShaderConfig, DefaultFeedbackLayoutIsTheLodFeedbackWord) {
 #ifdef BTFLOD_TEST_HAS_LOD_FEEDBACK
           EXPECT_EQ(ours, pack_feedback(FeedbackTile{m, level, x, y}));
 #endif
-          // lod/feedback.hpp's documented layout: [31..22] material [21..18] level [17..9] y [8..0] x
+          // runtime/lod/feedback.hpp's documented layout: [31..22] material [21..18] level [17..9] y [8..0] x
           EXPECT_EQ(ours, (m << 22) | (level << 18) | (y << 9) | x);
           EXPECT_EQ(unpack_feedback_word(l, ours), (FeedbackSample{m, level, x, y}));
         }

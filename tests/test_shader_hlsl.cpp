@@ -14,9 +14,9 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/shader/glsl_generator.hpp"
-#include "btflod/shader/hlsl_generator.hpp"
-#include "btflod/shader/shader_config.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
+#include "btflod/runtime/shader/hlsl_generator.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
 
 using namespace btflod;
 

@@ -1,4 +1,4 @@
-// backend/page_table_writes.hpp: TileCache's finest-level deltas plus the chain writes of each
+// runtime/backend/page_table_writes.hpp: TileCache's finest-level deltas plus the chain writes of each
 // operated tile, turned into per-level GPU page-table writes and applied incrementally, give
 // the shader the same tile as a page table recomputed from scratch, for every finest tile and
 // every desired level; resident tiles' own entries and mip 0 (= TileCache's table, eq. 3) are
@@ -7,8 +7,8 @@
 
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
-#include "btflod/backend/page_table_writes.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
 
 using namespace btflod;
 

@@ -11,10 +11,10 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
-#include "btflod/shader/shader_config.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
 
 namespace btflod::test_scene {
 
@@ -255,7 +255,7 @@ inline double psnr_rgb(const Image<float>& ref, const Image<float>& img) {
 
 // ---- BSVTF ----------------------------------------------------------------------------------
 
-/// Level images (box filter, like vt/tile_pyramid.hpp) of component group g and padded tiles
+/// Level images (box filter, like offline/build/tile_pyramid.hpp) of component group g and padded tiles
 /// (borders from the neighbouring texels, clamped at the texture edge), as half bits.
 struct Pyramid {
   uint32_t finest = 0;

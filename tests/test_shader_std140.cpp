@@ -1,4 +1,4 @@
-// shader/std140.hpp and ShaderParams: the plain std140 types hold exactly the bytes GLM's types
+// runtime/shader/std140.hpp and ShaderParams: the plain std140 types hold exactly the bytes GLM's types
 // held (the backends memcpy ShaderParams into a uniform buffer), convert both ways with GLM, and
 // the CPU twin of the shaders' direction map agrees with the angular module's maps and hand values.
 #include <gtest/gtest.h>
@@ -12,9 +12,9 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "btflod/angular/parameterization.hpp"
-#include "btflod/shader/shader_config.hpp"
-#include "btflod/shader/std140.hpp"
+#include "btflod/offline/angular/parameterization.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
+#include "btflod/runtime/shader/std140.hpp"
 
 using namespace btflod;
 
@@ -76,7 +76,7 @@ TEST(ShaderStd140, ShaderParamsKeepsTheLayoutAndDefaultsOfTheGlmBlock) {
 }
 
 // The CPU twin of the shaders' direction map against values computed independently of it: the
-// angular module's maps in double precision (angular/parameterization.hpp, written for the
+// angular module's maps in double precision (offline/angular/parameterization.hpp, written for the
 // triangulation), the inverse maps (from_square: the forward Shirley–Chiu map and the elevation,
 // a different formula) bringing the direction back, and values worked out by hand.
 TEST(ShaderStd140, DirectionMapTwinMatchesTheAngularMapsAndHandValues) {

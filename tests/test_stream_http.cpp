@@ -1,6 +1,6 @@
 // btflod-link: CURL::libcurl
 // btflod-label: net threads
-// Tests for stream/http_source.hpp against real servers on 127.0.0.1: Debian's nginx (started
+// Tests for runtime/stream/http_source.hpp against real servers on 127.0.0.1: Debian's nginx (started
 // by the test with a temporary config; the tests skip with a message when nginx is absent) and a
 // tiny socket server thread that misbehaves on purpose (drops the connection mid-transfer,
 // ignores Range, answers the wrong range, sends too much, stalls).
@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "btflod/core/file_io.hpp"
+#include "btflod/runtime/stream/http_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/http_source.hpp"
 #include "loopback_http_server.hpp"
 #include "test_runtime_helpers.hpp"
 

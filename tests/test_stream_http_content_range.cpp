@@ -1,6 +1,6 @@
 // btflod-link: CURL::libcurl
 // btflod-label: unit threads
-// Regression tests for stream/http_source.hpp, failure class "a 206 whose Content-Range does
+// Regression tests for runtime/stream/http_source.hpp, failure class "a 206 whose Content-Range does
 // not describe the requested range": found by fuzz_http_source (each response below is what
 // the fuzzer's fake server sent). A range read must only succeed when the answer is a 206 with
 // "Content-Range: bytes a-b/…" for exactly the requested a and b and b − a + 1 body bytes;
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/stream/http_source.hpp"
+#include "btflod/runtime/stream/http_source.hpp"
 #include "loopback_http_server.hpp"
 
 namespace {

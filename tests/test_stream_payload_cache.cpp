@@ -1,5 +1,5 @@
 // btflod-label: unit
-// Tests for stream/payload_cache.hpp (the Streamer's compressed-payload LRU in fixed storage):
+// Tests for runtime/stream/payload_cache.hpp (the Streamer's compressed-payload LRU in fixed storage):
 // eviction order, refusals, the entry limit, and random operations against a reference LRU.
 #include <gtest/gtest.h>
 
@@ -10,8 +10,8 @@
 #include <random>
 #include <vector>
 
-#include "btflod/stream/payload_cache.hpp"
-#include "btflod/stream/tile_source.hpp"
+#include "btflod/runtime/stream/payload_cache.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Tests for vt/tile_cache.hpp: pinned roots, add/swap of paper 000 §5.1, page tables (eq. 3's
+// Tests for runtime/vt/tile_cache.hpp: pinned roots, add/swap of paper 000 §5.1, page tables (eq. 3's
 // lookup table) with deltas, and invariants after every operation of long random sequences.
 #include <gtest/gtest.h>
 
@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 #include "test_random_operations.hpp"
 
 using namespace btflod;

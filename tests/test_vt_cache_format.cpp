@@ -1,4 +1,4 @@
-// Tests for vt/cache_format.hpp: the rgba8_affine encoder (error bound, exact ends, constant
+// Tests for runtime/vt/cache_format.hpp: the rgba8_affine encoder (error bound, exact ends, constant
 // components, hostile floats, sizes), the slot-map table layout, CpuCacheTexture reading the
 // format, and a Streamer configured with it handing out the encoder's bytes and maps of the
 // exactly decoded tiles.
@@ -13,9 +13,9 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/vt/cache_format.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/vt/cache_format.hpp"
 #include "test_runtime_helpers.hpp"
 
 using namespace btflod;

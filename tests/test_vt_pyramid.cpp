@@ -1,12 +1,12 @@
-// Tests for vt/vt_layout.hpp and vt/tile_pyramid.hpp: hierarchy geometry for any M×N, box-
+// Tests for runtime/vt/vt_layout.hpp and offline/build/tile_pyramid.hpp: hierarchy geometry for any M×N, box-
 // filtered levels, seamless borders, tile weights of paper 000 eq. 8 and §6 energies.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "btflod/vt/tile_pyramid.hpp"
-#include "btflod/vt/vt_layout.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
 
 using namespace btflod;
 

@@ -1,4 +1,4 @@
-// Tests for vt/scheduler.hpp: hand-built cases where the best operation is known (paper 000
+// Tests for runtime/vt/scheduler.hpp: hand-built cases where the best operation is known (paper 000
 // §5.1–5.2, §6), budgets and their counters, hysteresis, the overload LOD bias, and long random
 // feedback sequences that keep the cache invariants and replay identically.
 #include <gtest/gtest.h>
@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/lod/feedback.hpp"
-#include "btflod/vt/scheduler.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
 #include "test_random_operations.hpp"
 
 using namespace btflod;

@@ -1,12 +1,12 @@
-// Tests for SchedulerConfig's defaults in vt/scheduler.hpp: the U' packet the scheduler budgets
+// Tests for SchedulerConfig's defaults in runtime/vt/scheduler.hpp: the U' packet the scheduler budgets
 // for is the packet the container stores for a UBO2014 material (151 × 151 direction pairs × RGB
 // rows, four components as halves).
 #include <gtest/gtest.h>
 
 #include <vector>
 
-#include "btflod/codec/container.hpp"
-#include "btflod/vt/scheduler.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
 
 namespace {
 

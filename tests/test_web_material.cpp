@@ -64,14 +64,14 @@ TEST(WebMaterial, AngularTablesAreBarycentric) {
   const BsvtfMetadata md = small_metadata(7, 5, 4);
   auto a = web::build_angular_textures(md, 16);
   ASSERT_TRUE(a.ok()) << a.message();
-  ASSERT_EQ(a->index.size(), 16u * 16u * 2u * 4u);
+  ASSERT_EQ(a->index_rgba.size(), 16u * 16u * 2u * 4u);
   for (size_t t = 0; t < 16u * 16u * 2u; ++t) {
     const uint32_t count = t < 256 ? 7u : 5u;
     float sum = 0;
     for (int k = 0; k < 3; ++k) {
-      EXPECT_LT(a->index[t * 4 + k], count);
-      EXPECT_GE(a->weight[t * 4 + k], -1e-5f);
-      sum += a->weight[t * 4 + k];
+      EXPECT_LT(a->index_rgba[t * 4 + k], count);
+      EXPECT_GE(a->weight_rgba[t * 4 + k], -1e-5f);
+      sum += a->weight_rgba[t * 4 + k];
     }
     EXPECT_NEAR(sum, 1.0f, 1e-4f);
   }

@@ -11,11 +11,11 @@
 #include <cstring>
 #include <string>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/out_of_core_svd.hpp"
-#include "btflod/factor/truncated_svd.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/out_of_core_svd.hpp"
+#include "btflod/offline/factor/truncated_svd.hpp"
 
 using namespace btflod;
 using Clock = std::chrono::steady_clock;

@@ -1,5 +1,6 @@
-// btflod — umbrella header: includes every public header of the library.
-// Engines may include the per-area headers instead to keep compile times down.
+// btflod — umbrella header: includes the public headers of the library.
+// Engines include the per-frame headers under btflod/runtime/ (and btflod/core/) instead: they are
+// cheap to compile and need none of the offline dependencies (README "Building against it").
 //
 // The implementation. btflod is header-only, but its non-inline code is compiled once per
 // program (the VMA_IMPLEMENTATION / STB_IMAGE_IMPLEMENTATION pattern), in two halves:
@@ -28,109 +29,116 @@
 #include "btflod/core/bit_cast.hpp"
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/color.hpp"
-#include "btflod/core/eigen.hpp"
+#include "btflod/core/dct.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
-#include "btflod/core/image_io.hpp"
-#include "btflod/core/math.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/core/simd.hpp"
-#include "btflod/core/thin_svd.hpp"
 #include "btflod/core/thread_pool.hpp"
 #include "btflod/core/unique_handle.hpp"
+#include "btflod/offline/math/math.hpp"
 
-// btf
-#include "btflod/btf/bonn_btf.hpp"
-#include "btflod/btf/btf_files.hpp"
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/btf/directions.hpp"
-#include "btflod/btf/heightfield.hpp"
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/btf/tabulated_btf.hpp"
-#include "btflod/btf/ubo2003_folder.hpp"
-
-// angular
-#include "btflod/angular/angular_sample.hpp"
-#include "btflod/angular/delaunay.hpp"
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/nine_tap.hpp"
-#include "btflod/angular/parameterization.hpp"
-#include "btflod/angular/regular_grid.hpp"
-#include "btflod/angular/ring_search.hpp"
-#include "btflod/angular/triangle_locator.hpp"
-
-// factor
-#include "btflod/factor/analytic_brdf.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/factor_file.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_out_of_core.hpp"
-#include "btflod/factor/fmf_stream.hpp"
-#include "btflod/factor/laplacian_pca.hpp"
-#include "btflod/factor/levenberg_marquardt.hpp"
-#include "btflod/factor/local_pca.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/out_of_core_svd.hpp"
-#include "btflod/factor/pca_views.hpp"
-#include "btflod/factor/spmm.hpp"
-#include "btflod/factor/truncated_svd.hpp"
-
-// metrics
-#include "btflod/metrics/btf_metrics.hpp"
-#include "btflod/metrics/image_metrics.hpp"
-
-// lod
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/feedback_trace.hpp"
-#include "btflod/lod/lod_selector.hpp"
-
-// vt
-#include "btflod/vt/bsvtf_build.hpp"
-#include "btflod/vt/cache_config.hpp"
-#include "btflod/vt/cache_format.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
-#include "btflod/vt/tile_id.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
-#include "btflod/vt/vt_layout.hpp"
-
-// codec
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/dct.hpp"
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/codec/quantize.hpp"
-#include "btflod/codec/rendered_rate_control.hpp"
-#include "btflod/codec/tile_codec.hpp"
-
-// stream (stream/http_source.hpp is not included: it needs libcurl, see its header)
-#include "btflod/stream/file_source.hpp"
-#include "btflod/stream/payload_cache.hpp"
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/stream/tile_source.hpp"
 // runtime
 #include "btflod/runtime/allocator.hpp"
 #include "btflod/runtime/streamer.hpp"
 
-// shader
-#include "btflod/shader/glsl_generator.hpp"
-#include "btflod/shader/hlsl_generator.hpp"
-#include "btflod/shader/shader_config.hpp"
-#include "btflod/shader/std140.hpp"
+// runtime/angular
+#include "btflod/offline/angular/angular_sample.hpp"
+#include "btflod/offline/angular/delaunay.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/nine_tap.hpp"
+#include "btflod/offline/angular/parameterization.hpp"
+#include "btflod/offline/angular/regular_grid.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
+#include "btflod/offline/angular/table_lookup.hpp"
+#include "btflod/offline/angular/triangle_locator.hpp"
 
-// backend
-#include "btflod/backend/backend.hpp"
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/backend/representation_packing.hpp"
-#include "btflod/backend/spmm_packing.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
+// runtime/backend
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
 
-// render (ray-tracer shading, sampling and progressive accumulation; paper 003 §4)
-#include "btflod/render/integrator.hpp"
-#include "btflod/render/primitives.hpp"
-#include "btflod/render/sampling.hpp"
-#include "btflod/render/shading.hpp"
-#include "btflod/render/surface.hpp"
+// runtime/codec
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/quantize.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+
+// runtime/lod
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
+
+// runtime/shader
+#include "btflod/runtime/shader/glsl_generator.hpp"
+#include "btflod/runtime/shader/hlsl_generator.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
+#include "btflod/runtime/shader/std140.hpp"
+
+// runtime/stream (runtime/stream/http_source.hpp is not included: it needs libcurl, see its header)
+#include "btflod/runtime/stream/file_source.hpp"
+#include "btflod/runtime/stream/payload_cache.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
+
+// runtime/vt
+#include "btflod/runtime/vt/cache_config.hpp"
+#include "btflod/runtime/vt/cache_format.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
+#include "btflod/runtime/vt/tile_id.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
+
+// offline/btf
+#include "btflod/offline/btf/bonn_btf.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/btf/heightfield.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/btf/tabulated_btf.hpp"
+#include "btflod/offline/btf/ubo2003_folder.hpp"
+
+// offline/build
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+
+// offline/factor
+#include "btflod/offline/factor/analytic_brdf.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/factor_file.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_out_of_core.hpp"
+#include "btflod/offline/factor/fmf_stream.hpp"
+#include "btflod/offline/factor/laplacian_pca.hpp"
+#include "btflod/offline/factor/levenberg_marquardt.hpp"
+#include "btflod/offline/factor/local_pca.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/out_of_core_svd.hpp"
+#include "btflod/offline/factor/pca_views.hpp"
+#include "btflod/offline/factor/spmm.hpp"
+#include "btflod/offline/factor/truncated_svd.hpp"
+
+// offline/linalg
+#include "btflod/offline/math/eigen.hpp"
+#include "btflod/offline/math/thin_svd.hpp"
+
+// offline/metrics
+#include "btflod/offline/metrics/btf_metrics.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+
+// offline/packing
+#include "btflod/offline/packing/representation_packing.hpp"
+#include "btflod/offline/packing/spmm_packing.hpp"
+
+// offline/render
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/offline/render/integrator.hpp"
+#include "btflod/offline/render/primitives.hpp"
+#include "btflod/offline/render/sampling.hpp"
+#include "btflod/offline/render/shading.hpp"
+#include "btflod/offline/render/surface.hpp"

@@ -7,7 +7,9 @@
 #      libc++ 13); skipped with a message when em++ is absent;
 #   4. the per-frame headers (all of the above but the thread-owning conveniences) pull in none of
 #      the standard headers that make a translation unit expensive (threads, futures, iostreams,
-#      <memory>, <regex>, …; README "Compile cost"), so that including them stays cheap.
+#      <memory>, <regex>, …; README "Compile cost"), so that including them stays cheap;
+#   5. dependencies point one way: core/ → nothing, runtime/ → core/, each offline/ area → the
+#      areas listed for it (a forbidden include anywhere in include/btflod fails the check).
 # Run by ctest (test runtime_headers_check):
 #   cmake -DSOURCE_DIR=<repo> -DWORK_DIR=<dir> -DGXX=<g++> [-DCLANGXX=<clang++>] [-DEMXX=<em++>]
 #         -P check_runtime_headers.cmake
@@ -19,21 +21,17 @@ foreach(v SOURCE_DIR WORK_DIR GXX)
 endforeach()
 set(inc ${SOURCE_DIR}/include)
 
-# The runtime headers: every header of the per-frame areas, tile decoding in codec/, the backend
-# interfaces and the core headers they use. New headers in these folders are checked
-# automatically.
-file(GLOB runtime_headers RELATIVE ${inc}
-     ${inc}/btflod/lod/*.hpp ${inc}/btflod/vt/*.hpp ${inc}/btflod/stream/*.hpp ${inc}/btflod/runtime/*.hpp
-     ${inc}/btflod/shader/*.hpp)
-list(APPEND runtime_headers
-     btflod/codec/tile_codec.hpp btflod/codec/dct.hpp btflod/codec/quantize.hpp btflod/codec/container.hpp
-     btflod/backend/backend.hpp btflod/backend/page_table_writes.hpp btflod/backend/streamer_outputs.hpp
-     btflod/core/allocator.hpp btflod/core/bit_cast.hpp btflod/core/bytes.hpp btflod/core/half.hpp btflod/core/result.hpp
-     btflod/core/simd.hpp)
+# The runtime headers: every header under btflod/runtime/ (what an engine runs per frame or at
+# material load) and btflod/core/ (the foundations both sides use). New headers in these folders
+# are checked automatically.
+file(GLOB_RECURSE runtime_headers RELATIVE ${inc} ${inc}/btflod/runtime/*.hpp ${inc}/btflod/core/*.hpp)
 # Known exceptions, each with the reason. A header listed here is skipped by all three checks.
 set(exceptions
     # Platform I/O by design: the libcurl HTTP range source (not in btflod.hpp; needs libcurl).
-    btflod/stream/http_source.hpp)
+    btflod/runtime/stream/http_source.hpp
+    # The x86 kernels of the CPU dispatch: included by the runtime implementation file only
+    # (cmake/btflod_runtime_implementation.cpp), never by a per-frame header.
+    btflod/core/simd_kernels.hpp)
 # Headers that are checked for forbidden includes (1) but not compiled with em++ (3), with the
 # reason.
 set(em_exceptions "")
@@ -43,9 +41,11 @@ set(em_exceptions "")
 # programs that do not care.
 set(convenience_headers
     # A thread pool running the Streamer's decode jobs: <thread>, <mutex>, <condition_variable>.
-    btflod/stream/thread_executor.hpp
+    btflod/runtime/stream/thread_executor.hpp
     # POSIX pread and a throttled source that sleeps (<chrono>, <thread>).
-    btflod/stream/file_source.hpp)
+    btflod/runtime/stream/file_source.hpp
+    # The worker pool of the container writer and the offline readers (<thread>, <mutex>).
+    btflod/core/thread_pool.hpp)
 # Standard headers a per-frame header must not reach (check 4), as the file names the
 # preprocessor enters (libstdc++ and libc++ alike: .../c++/<version>/<name>). With libstdc++ 12,
 # <memory>, <thread> and <chrono> all bring in <ostream> and the locale machinery.
@@ -187,6 +187,60 @@ else()
     message(STATUS "em++ -std=c++20 -fsyntax-only: ${ne} runtime headers compile")
   endif()
 endif()
+
+# 5. Dependencies point one way (README "Layout"): core/ includes only core/; runtime/ only core/
+#    and runtime/; each offline/ area the areas listed for it. A forbidden include fails here
+#    with the line that made it, whether it sits in the declarations or in an implementation
+#    section.
+# The offline areas form a chain: math → angular → btf → metrics → factor → packing / render,
+# with build/ (the .bsvtf builder) beside them; each may use the runtime it writes for.
+set(layer_areas core runtime offline/math offline/angular offline/btf offline/metrics offline/build
+    offline/factor offline/packing offline/render)
+set(allowed_core core)
+set(allowed_runtime core runtime)
+set(allowed_offline/math core offline/math)
+set(allowed_offline/angular core runtime offline/math offline/angular)
+set(allowed_offline/btf core offline/math offline/angular offline/btf)
+set(allowed_offline/metrics core offline/btf offline/metrics)
+set(allowed_offline/build core runtime offline/angular offline/build)
+set(allowed_offline/factor core runtime offline/math offline/angular offline/btf offline/metrics offline/build
+    offline/factor)
+set(allowed_offline/packing core runtime offline/angular offline/factor offline/packing)
+set(allowed_offline/render core runtime offline/math offline/angular offline/btf offline/factor offline/build
+    offline/render)
+file(GLOB_RECURSE layered_files RELATIVE ${inc} ${inc}/btflod/*.hpp ${inc}/btflod/*.inl)
+list(REMOVE_ITEM layered_files btflod/btflod.hpp)
+foreach(h IN LISTS layered_files)
+  set(area "")
+  foreach(a IN LISTS layer_areas)
+    string(LENGTH "btflod/${a}/" alen)
+    string(SUBSTRING "${h}" 0 ${alen} prefix)
+    if(prefix STREQUAL "btflod/${a}/")
+      set(area ${a})
+    endif()
+  endforeach()
+  if(area STREQUAL "")
+    list(APPEND failures "${h} lies outside the known areas (btflod/core, btflod/runtime, btflod/offline/<area>): add its area to check 5")
+    continue()
+  endif()
+  file(STRINGS ${inc}/${h} include_lines REGEX "^[ \t]*#[ \t]*include[ \t]*[\"<]btflod/")
+  foreach(line IN LISTS include_lines)
+    string(REGEX REPLACE "^[^\"<]*[\"<](btflod/[^\">]+)[\">].*$" "\\1" target "${line}")
+    set(ok FALSE)
+    foreach(a IN LISTS allowed_${area})
+      string(LENGTH "btflod/${a}/" alen)
+      string(SUBSTRING "${target}" 0 ${alen} prefix)
+      if(prefix STREQUAL "btflod/${a}/")
+        set(ok TRUE)
+      endif()
+    endforeach()
+    if(NOT ok)
+      list(APPEND failures "${h} (area ${area}) must not include ${target}: ${area} may include ${allowed_${area}}")
+    endif()
+  endforeach()
+endforeach()
+list(LENGTH layered_files nlayered)
+message(STATUS "include directions checked in ${nlayered} headers")
 
 if(failures)
   list(JOIN failures "\n  " text)

@@ -15,19 +15,15 @@ trap 'rm -rf "$DIR"' EXIT
 INC="-I$ROOT/include -isystem /usr/include/eigen3 -isystem /usr/include/stb"
 
 printf '#include <vector>\nint main() { std::vector<int> v(3); return static_cast<int>(v.size()) - 3; }\n' > "$DIR/baseline.cpp"
-# The per-frame headers: what check_runtime_headers.cmake checks, without the thread-owning
-# conveniences (measured on their own) and the libcurl source. $1: the include folder.
+# The per-frame headers: what check_runtime_headers.cmake checks (every header under
+# btflod/runtime/ and btflod/core/), without the thread-owning conveniences (measured on their
+# own), the libcurl source and the x86 kernels of the implementation. $1: the include folder.
 per_frame_tu() {
-  for d in lod vt stream runtime shader; do
-    for h in "$1"/btflod/$d/*.hpp; do
-      [ -e "$h" ] || continue
-      case "$h" in */stream/http_source.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp) continue ;; esac
-      echo "#include \"btflod/$d/$(basename "$h")\""
-    done
-  done
-  for h in codec/tile_codec.hpp codec/container.hpp codec/dct.hpp codec/quantize.hpp backend/backend.hpp \
-           backend/page_table_writes.hpp core/half.hpp; do
-    echo "#include \"btflod/$h\""
+  (cd "$1" && find btflod/runtime btflod/core -name '*.hpp' | sort) | while read -r h; do
+    case "$h" in
+      */stream/http_source.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp | */core/thread_pool.hpp | */core/simd_kernels.hpp) continue ;;
+    esac
+    echo "#include \"$h\""
   done
   echo 'int main() { return 0; }'
 }
@@ -35,12 +31,27 @@ per_frame_tu "$ROOT/include" > "$DIR/runtime.cpp"
 if [ -n "${COMPARE_INCLUDE:-}" ]; then
   per_frame_tu "$COMPARE_INCLUDE" > "$DIR/runtime_before.cpp"
 fi
-printf '#include "btflod/stream/thread_executor.hpp"\n#include "btflod/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
-for h in runtime/streamer stream/payload_cache codec/container shader/glsl_generator backend/backend vt/scheduler; do
+printf '#include "btflod/runtime/stream/thread_executor.hpp"\n#include "btflod/runtime/stream/file_source.hpp"\nint main() { return 0; }\n' > "$DIR/conveniences.cpp"
+for h in runtime/streamer runtime/stream/payload_cache runtime/codec/container runtime/shader/glsl_generator runtime/backend/backend runtime/vt/scheduler; do
   printf '#include "btflod/%s.hpp"\nint main() { return 0; }\n' "$h" > "$DIR/$(basename "$h").cpp"
 done
+# An engine's frame: a TU that calls the per-frame API (update, the decode jobs, the outputs),
+# not one that only includes it.
+cat > "$DIR/frame.cpp" <<'FRAME'
+#include "btflod/runtime/streamer.hpp"
+int frame(btflod::Streamer& streamer, std::span<const uint32_t> feedback, btflod::StreamerOutputs& out) {
+  if (streamer.update(feedback, out) != btflod::Status::success) return -1;
+  int uploads = 0;
+  for (uint32_t job = streamer.acquire_job(); job != btflod::Streamer::kNoJob; job = streamer.acquire_job()) {
+    streamer.run_job(job);
+  }
+  for (size_t i = 0; i < out.tile_upload_count; ++i) uploads += static_cast<int>(out.tile_uploads[i].texels.size() > 0);
+  return uploads + static_cast<int>(out.page_table_write_count);
+}
+int main() { return 0; }
+FRAME
 printf '#include "btflod/btflod.hpp"\nint main() { return 0; }\n' > "$DIR/umbrella.cpp"
-printf '#include "btflod/factor/truncated_svd.hpp"\nint main() { return 0; }\n' > "$DIR/truncated_svd.cpp"
+printf '#include "btflod/offline/factor/truncated_svd.hpp"\nint main() { return 0; }\n' > "$DIR/truncated_svd.cpp"
 printf '#define BTFLOD_IMPLEMENTATION\n#include "btflod/btflod.hpp"\n' > "$DIR/implementation.cpp"
 
 # One compile: appends "cpu_seconds rss_kb" to $DIR/<tu>.runs.
@@ -57,7 +68,7 @@ compile_once() {
 # Median CPU seconds of $DIR/<tu>.runs.
 median() { sort -n "$DIR/$1.runs" | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
 REPEAT=${REPEAT:-5}
-TUS=${TUS:-"baseline runtime ${COMPARE_INCLUDE:+runtime_before} conveniences streamer payload_cache container glsl_generator backend scheduler truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}"}
+TUS=${TUS:-"baseline runtime ${COMPARE_INCLUDE:+runtime_before} frame conveniences streamer payload_cache container glsl_generator backend scheduler truncated_svd umbrella ${BTFLOD_MEASURE_IMPLEMENTATION:+implementation}"}
 echo "$CXX -std=c++20 -O2 -c, median of $REPEAT, $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load $(cut -d' ' -f1 /proc/loadavg)"
 i=0
 while [ "$i" -lt "$REPEAT" ]; do

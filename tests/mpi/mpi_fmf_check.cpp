@@ -1,5 +1,5 @@
 // Run under mpirun (ctest: -np 2 and -np 3): the distributed out-of-core FMF
-// (factor/mpi_svd.hpp + factor/fmf_out_of_core.hpp) against the single-process run of the same
+// (offline/factor/mpi_svd.hpp + offline/factor/fmf_out_of_core.hpp) against the single-process run of the same
 // algorithm and seed on the same store:
 //   - singular values and the reconstruction U·Σ·Vᵀ agree to 1e-6 relative;
 //   - every rank read only its own columns (columns_read = passes × its range);
@@ -17,10 +17,10 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/factor/fmf_out_of_core.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/factor/mpi_svd.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/factor/fmf_out_of_core.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/factor/mpi_svd.hpp"
 
 using namespace btflod;
 

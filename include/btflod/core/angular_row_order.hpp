@@ -1,5 +1,5 @@
 // btflod core — the order of the angular rows of U (paper 000 eq. 4: one row per light, view
-// and colour). Shared by the eigen-textures (vt/vt_layout.hpp), the container (codec/) and the
+// and colour). Shared by the eigen-textures (runtime/vt/vt_layout.hpp), the container (codec/) and the
 // runtime, so no layer needs another to say how U is laid out.
 #pragma once
 
@@ -10,7 +10,8 @@ namespace btflod {
 /// Order of U's angular rows; rows are (a · n_b + b) · colour_channels + colour.
 enum class AngularRowOrder : uint8_t {
   light_major,  ///< a = light, b = view: row = (light · views + view) · channels + colour (shader/, backends)
-  view_major,   ///< a = view, b = light: row = (view · lights + light) · channels + colour (factor/fmf.hpp files)
+  view_major,   ///< a = view, b = light: row = (view · lights + light) · channels + colour (offline/factor/fmf.hpp
+                ///< files)
   unspecified,  ///< a version-2 container, which did not store it
 };
 

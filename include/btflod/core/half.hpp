@@ -121,6 +121,6 @@ inline void half_to_float(std::span<const uint16_t> in, std::span<float> out) no
 
 #if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 // The kernels and float_to_half_f16c / half_to_float_f16c are defined in core/simd_kernels.hpp,
-// which codec/dct.hpp's implementation section includes.
-#include "btflod/codec/dct.hpp"
+// which core/dct.hpp's implementation section includes.
+#include "btflod/core/dct.hpp"
 #endif  // BTFLOD_IMPLEMENTATION

@@ -2,7 +2,7 @@
 //
 // ProgressCallback is a small owning, copyable callable (the subset of std::function<bool(
 // std::string_view, double)> that callers use: built from any callable or nullptr, copied, tested
-// for emptiness, called), so that headers holding one (codec/container.hpp's build options, the
+// for emptiness, called), so that headers holding one (runtime/codec/container.hpp's build options, the
 // readers' options) do not pull <functional> and its <unordered_map> into every translation unit.
 #pragma once
 

@@ -1,6 +1,6 @@
 // btflod — a first-fit list of free ranges over [0, capacity): the ids, page-table layers and
 // per-tile entries that materials added to a running world take and give back
-// (vt/vt_layout.hpp's VtSet, lod/feedback.hpp's VoteCounter). Room for the list itself is
+// (runtime/vt/vt_layout.hpp's VtSet, runtime/lod/feedback.hpp's VoteCounter). Room for the list itself is
 // reserved up front, so taking and returning ranges never allocates.
 #pragma once
 

@@ -36,7 +36,7 @@
 
 namespace btflod {
 
-struct TileCoefBlock;  // codec/dct.hpp
+struct TileCoefBlock;  // core/dct.hpp
 
 /// Instruction sets the kernels are compiled for, in increasing order of capability.
 enum class SimdIsa : uint8_t {
@@ -67,7 +67,7 @@ struct SimdKernels {
   void (*half_to_float)(const uint16_t* in, float* out, size_t n) noexcept = nullptr;
   /// out[i] = float_to_half_bits(in[i]) for i < n (round to nearest even). No overlap.
   void (*float_to_half)(const float* in, uint16_t* out, size_t n) noexcept = nullptr;
-  /// Forward orthonormal 8x8 DCT-II (codec/dct.hpp): `in` row stride `in_stride` floats, 64
+  /// Forward orthonormal 8x8 DCT-II (core/dct.hpp): `in` row stride `in_stride` floats, 64
   /// coefficients to `out`, (v, u) at v*8 + u. No overlap.
   void (*dct8_forward)(const float* in, size_t in_stride, float* out) noexcept = nullptr;
   /// Inverse of dct8_forward: 64 coefficients to a block of row stride `out_stride`. No overlap.
@@ -85,7 +85,7 @@ struct SimdKernels {
   /// word at and above n % 64 are 0. marks holds ceil(n / 64) words.
   void (*run_marks)(const uint32_t* words, size_t n, uint64_t* marks) noexcept = nullptr;
   /// Bilinear up-sampling of a parent tile of s × s texels of `channels` floats (interleaved) to
-  /// its child's prediction (codec/tile_codec.hpp, upsample_parent): output texel (i, j) blends
+  /// its child's prediction (runtime/codec/tile_codec.hpp, upsample_parent): output texel (i, j) blends
   /// the parent at stored coordinate (base_x + i/2, base_y + j/2), each tap clamped to
   /// [0, s − 2] + 1. Preconditions: 2 ≤ s ≤ 1024, 1 ≤ channels ≤ 4, −1 < base_x, base_y ≤ s;
   /// parent and out hold s·s·channels floats and do not overlap. ≤ 23 KiB of stack.

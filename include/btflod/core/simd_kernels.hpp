@@ -4,11 +4,11 @@
 // instruction set and includes the kernels once per type, each build in its own namespace and
 // compiled for its ISA by a function target attribute. The resulting SimdKernels tables are what
 // core/simd.hpp dispatches to. Everything here is under BTFLOD_IMPLEMENTATION: including this
-// header elsewhere declares nothing. codec/dct.hpp (and so half.hpp and lod/feedback.hpp, whose
+// header elsewhere declares nothing. core/dct.hpp (and so half.hpp and runtime/lod/feedback.hpp, whose
 // implementation sections include it) pulls it into the implementation TU.
 #pragma once
 
-#include "btflod/codec/dct.hpp"
+#include "btflod/core/dct.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/simd.hpp"
 
@@ -270,7 +270,7 @@ const SimdKernels* simd_kernel_table(SimdIsa isa) noexcept {
 
 namespace btflod {
 #if BTFLOD_HAS_X86_DISPATCH
-// The AVX2 build's entry points under their historical names (core/half.hpp, codec/dct.hpp).
+// The AVX2 build's entry points under their historical names (core/half.hpp, core/dct.hpp).
 void float_to_half_f16c(std::span<const float> in, std::span<uint16_t> out) noexcept {
   detail::simd_avx2::float_to_half(in.data(), out.data(), in.size());
 }

@@ -30,7 +30,7 @@ BTFLOD_KERNEL_ATTR void float_to_half(const float* in, uint16_t* out, size_t n) 
   for (; i < n; ++i) out[i] = float_to_half_bits(in[i]);
 }
 
-// Forward 8x8 DCT-II: tmp = C · X, then out = tmp · Cᵀ (codec/dct.hpp).
+// Forward 8x8 DCT-II: tmp = C · X, then out = tmp · Cᵀ (core/dct.hpp).
 BTFLOD_KERNEL_ATTR void dct8_forward(const float* in, size_t in_stride, float* out) noexcept {
   const Dct8Tables& t = dct8_tables();
   typename V::F8 rows[8], basis[8];
@@ -124,7 +124,7 @@ BTFLOD_KERNEL_INLINE void upsample_texel_from_rows(const float* row0, const floa
   }
 }
 
-// Bilinear up-sampling of a parent tile (codec/tile_codec.hpp, upsample_parent; the scalar loops
+// Bilinear up-sampling of a parent tile (runtime/codec/tile_codec.hpp, upsample_parent; the scalar loops
 // it reproduces are detail::upsample_parent_reference). Per output row j: column = gy·(parent row
 // y0) + fy·(row y0 + 1) over the parent columns the row uses, then texel i = gx·column[x0] +
 // fx·column[x0 + 1]. Child texels fall half a parent texel apart, so inside the tile they come in

@@ -24,7 +24,7 @@
 // serve all four (code that handles RGB triples uses them).
 //
 // The same decode runs in the GLSL/HLSL generators (shader/), the CPU reference
-// (backend/cpu_reference.hpp) and Fmf::evaluate (factor/fmf.hpp), so every renderer evaluates
+// (offline/render/cpu_reference.hpp) and Fmf::evaluate (offline/factor/fmf.hpp), so every renderer evaluates
 // the factorisation exactly. docs/fidelity.md measures the effect on the demo materials.
 #pragma once
 

@@ -1,7 +1,7 @@
 // btflod — the engine's runtime object: one per world, one update() per frame.
 //
 // A Streamer serves every material of a world, each from its own `.bsvtf` container with its
-// own component count C (⌈C/4⌉ virtual textures), through one tile cache (vt/cache_config.hpp's
+// own component count C (⌈C/4⌉ virtual textures), through one tile cache (runtime/vt/cache_config.hpp's
 // CacheConfig, the shape the shaders use), one scheduler (paper 000 §5: P = w·v, add/swap,
 // budgets in real payload bytes) and one pool of decode jobs. Per frame:
 //
@@ -13,7 +13,7 @@
 //     3. the feedback becomes votes (paper 000 eq. 9, summed over the rotation window), the
 //        scheduler plans add/swap operations → new decode jobs (and async reads);
 //     4. the page-table texels these operations changed (TileCache deltas + touched tiles,
-//        backend/page_table_writes.hpp, filtered through a mirror so only texels whose value
+//        runtime/backend/page_table_writes.hpp, filtered through a mirror so only texels whose value
 //        changes are written) → outputs.page_table_writes;
 //     5. residency events (material ready or failed, packet loaded, failures and give-ups);
 //     6. the runnable decode jobs, claimed for the engine → outputs.runnable_jobs.
@@ -26,7 +26,7 @@
 // Threads, I/O and memory belong to the engine:
 //  * Decode work is exposed as jobs: the handles update() claims for the engine
 //    (outputs.runnable_jobs) or acquire_job(), then run_job() from any worker threads (or
-//    pump() on the calling thread). stream/thread_executor.hpp is a ready-made thread pool for
+//    pump() on the calling thread). runtime/stream/thread_executor.hpp is a ready-made thread pool for
 //    those who do not care. A job reads its bytes from a blocking TileSource inside run_job(),
 //    or an AsyncTileSource is asked for them in update() and complete_read() reports them (and
 //    names the job it made runnable). decode_workers decoders serve all jobs.
@@ -59,19 +59,19 @@
 #include <utility>
 #include <vector>
 
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/result.hpp"
-#include "btflod/lod/feedback.hpp"
 #include "btflod/runtime/allocator.hpp"
-#include "btflod/stream/payload_cache.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/cache_config.hpp"
-#include "btflod/vt/cache_format.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/stream/payload_cache.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
+#include "btflod/runtime/vt/cache_config.hpp"
+#include "btflod/runtime/vt/cache_format.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 
 namespace btflod {
 
@@ -134,10 +134,10 @@ struct StreamerConfig {
   /// The cache (slots, layers, tile size, border, texel format); tile size and border must
   /// match every container. The same value configures the shader generator
   /// (VirtualTextureConfig). With format rgba8_affine the decode jobs also quantise each tile
-  /// (vt/cache_format.hpp), on the engine's workers, and the uploads carry unorm8 texels and
+  /// (runtime/vt/cache_format.hpp), on the engine's workers, and the uploads carry unorm8 texels and
   /// their slot map.
   CacheConfig cache;
-  /// Budgets, priorities, hysteresis, LOD bias (vt/scheduler.hpp). Byte budgets count the
+  /// Budgets, priorities, hysteresis, LOD bias (runtime/vt/scheduler.hpp). Byte budgets count the
   /// containers' real payload sizes.
   SchedulerConfig scheduler;
   /// Frames summed by the vote window (d² for feedback decimated d×d with rotation).
@@ -299,7 +299,7 @@ struct StreamerGpuLayout {
   uint32_t u_packets = 0;                                        ///< virtual textures
 };
 
-/// The work a thread executor pulls (stream/thread_executor.hpp). Thread-safe.
+/// The work a thread executor pulls (runtime/stream/thread_executor.hpp). Thread-safe.
 class StreamerJobQueue {
  public:
   static constexpr uint32_t kNoJob = 0xffffffffu;
@@ -359,7 +359,7 @@ class Streamer {
                                                 const StreamerConfig& config = {});
 
   /// One frame: see the file comment. `feedback`: this frame's packed feedback words
-  /// (lod/feedback.hpp; material = index in the create() list); empty = no new votes.
+  /// (runtime/lod/feedback.hpp; material = index in the create() list); empty = no new votes.
   /// Returns invalid_argument when an output span is below its bound (nothing done then).
   /// noexcept, no allocation, deterministic for a given job completion order.
   Status update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept;
@@ -482,6 +482,11 @@ class Streamer {
 
 }  // namespace btflod
 
-// The implementation (inline: header-only), split for reading: runtime/streamer_impl.hpp (the
-// per-frame object), which ends with runtime/streamer_create.hpp (creation and accessors).
+// The implementation is compiled once per program, in the runtime implementation TU
+// (cmake/btflod_runtime_implementation.cpp, VMA's pattern): a per-frame TU that calls update()
+// sees the declarations above only. Split for reading: runtime/streamer_impl.hpp (the per-frame
+// object), which ends with runtime/streamer_create.hpp (creation and accessors),
+// runtime/streamer_failures.hpp and runtime/streamer_materials.hpp.
+#if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
 #include "btflod/runtime/streamer_impl.hpp"
+#endif

@@ -16,8 +16,8 @@ struct Streamer::Room {
   StreamerCapacity capacity;  // need, raised to config.capacity where that reserves more
 };
 
-inline Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> materials,
-                                                     const StreamerConfig& config) {
+Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> materials,
+                                              const StreamerConfig& config) {
   if (!config.cache.valid())
     return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
                       config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,
@@ -81,7 +81,7 @@ inline Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMat
   return Room{need, cap};
 }
 
-inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, const StreamerConfig& config) {
+Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, const StreamerConfig& config) {
   auto room = resolve_room(materials, config);
   if (!room) return room.error();
   const StreamerCapacity need = room.value().need, cap = room.value().capacity;
@@ -228,7 +228,7 @@ inline Result<Streamer> Streamer::create(std::span<const StreamerMaterial> mater
   return out;
 }
 
-inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const StreamerCapacity& cap) noexcept {
+StreamerMemory Streamer::memory_for(const StreamerConfig& config, const StreamerCapacity& cap) noexcept {
   // The arrays create() allocates, in the same sizes (tests/test_runtime_memory.cpp checks that
   // every category equals what a created Streamer reports).
   const VtCapacity set{cap.materials, cap.textures, cap.tiles};
@@ -294,14 +294,14 @@ inline StreamerMemory Streamer::memory_for(const StreamerConfig& config, const S
   return m;
 }
 
-inline Result<StreamerMemory> Streamer::memory_required(std::span<const StreamerMaterial> materials,
-                                                        const StreamerConfig& config) {
+Result<StreamerMemory> Streamer::memory_required(std::span<const StreamerMaterial> materials,
+                                                 const StreamerConfig& config) {
   auto room = resolve_room(materials, config);
   if (!room) return room.error();
   return memory_for(config, room.value().capacity);
 }
 
-inline void Streamer::destroy() noexcept {
+void Streamer::destroy() noexcept {
   if (impl_ == nullptr) return;
   const RuntimeAllocator al = impl_->allocator;
   detail::AllocationLedger* ledger = impl_->ledger;
@@ -314,14 +314,14 @@ inline void Streamer::destroy() noexcept {
   inner.deallocate_bytes(ledger, sizeof(detail::AllocationLedger), alignof(detail::AllocationLedger));
 }
 
-inline Status Streamer::update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
+Status Streamer::update(std::span<const uint32_t> feedback, StreamerOutputs& out) noexcept {
   return impl_ != nullptr ? impl_->update(feedback, out) : Status::invalid_argument;
 }
-inline size_t Streamer::tile_uploads_bound() const noexcept { return impl_->tile_uploads_bound(); }
-inline size_t Streamer::packet_uploads_bound() const noexcept { return impl_->packet_uploads_bound(); }
-inline uint32_t Streamer::acquire_job() noexcept { return impl_->acquire_job(); }
-inline void Streamer::run_job(uint32_t job) noexcept { impl_->run_job(job); }
-inline uint32_t Streamer::pump(uint32_t max_jobs) noexcept {
+size_t Streamer::tile_uploads_bound() const noexcept { return impl_->tile_uploads_bound(); }
+size_t Streamer::packet_uploads_bound() const noexcept { return impl_->packet_uploads_bound(); }
+uint32_t Streamer::acquire_job() noexcept { return impl_->acquire_job(); }
+void Streamer::run_job(uint32_t job) noexcept { impl_->run_job(job); }
+uint32_t Streamer::pump(uint32_t max_jobs) noexcept {
   uint32_t n = 0;
   while (n < max_jobs) {
     const uint32_t j = impl_->acquire_job();
@@ -331,33 +331,33 @@ inline uint32_t Streamer::pump(uint32_t max_jobs) noexcept {
   }
   return n;
 }
-inline StreamerJobQueue& Streamer::jobs() noexcept { return *impl_; }
-inline bool Streamer::claim_job(uint32_t job) noexcept { return impl_->claim_job(job); }
-inline uint32_t Streamer::complete_read(uint64_t ticket, Status status) noexcept {
+StreamerJobQueue& Streamer::jobs() noexcept { return *impl_; }
+bool Streamer::claim_job(uint32_t job) noexcept { return impl_->claim_job(job); }
+uint32_t Streamer::complete_read(uint64_t ticket, Status status) noexcept {
   return impl_->complete_read(ticket, status);
 }
-inline void Streamer::quiesce() noexcept { impl_->quiescing = true; }
-inline void Streamer::resume() noexcept { impl_->quiescing = false; }
-inline bool Streamer::idle() const noexcept {
+void Streamer::quiesce() noexcept { impl_->quiescing = true; }
+void Streamer::resume() noexcept { impl_->quiescing = false; }
+bool Streamer::idle() const noexcept {
   for (uint32_t j = 0; j < impl_->jobs.size(); ++j) {
     const uint8_t s = impl_->jobs[j].state.load(std::memory_order_acquire);
     if (s == detail::kJobReading || s == detail::kJobRunnable || s == detail::kJobRunning) return false;
   }
   return true;
 }
-inline Status Streamer::add_material(const StreamerMaterial& material, uint32_t& id, const char** why) noexcept {
+Status Streamer::add_material(const StreamerMaterial& material, uint32_t& id, const char** why) noexcept {
   return impl_->add_material(material, id, true, why);
 }
-inline Status Streamer::remove_material(uint32_t id) noexcept { return impl_->remove_material(id); }
-inline bool Streamer::material_live(uint32_t id) const noexcept {
+Status Streamer::remove_material(uint32_t id) noexcept { return impl_->remove_material(id); }
+bool Streamer::material_live(uint32_t id) const noexcept {
   return id < impl_->materials.size() && impl_->materials[id].life == detail::kMaterialLive;
 }
-inline uint32_t Streamer::live_material_count() const noexcept { return impl_->live_materials; }
-inline bool Streamer::material_failed(uint32_t m) const noexcept {
+uint32_t Streamer::live_material_count() const noexcept { return impl_->live_materials; }
+bool Streamer::material_failed(uint32_t m) const noexcept {
   return m < impl_->materials.size() && impl_->materials[m].failed;
 }
-inline Status Streamer::retry_material(uint32_t m) noexcept { return impl_->retry_material(m); }
-inline StreamerStats Streamer::stats() const noexcept {
+Status Streamer::retry_material(uint32_t m) noexcept { return impl_->retry_material(m); }
+StreamerStats Streamer::stats() const noexcept {
   const Impl& im = *impl_;
   StreamerStats st;
   st.memory = im.memory;
@@ -395,7 +395,7 @@ inline StreamerStats Streamer::stats() const noexcept {
   st.decoder_busy = im.decoder_busy_hits.load(std::memory_order_relaxed);
   return st;
 }
-inline StreamerGpuLayout Streamer::gpu_layout() const noexcept {
+StreamerGpuLayout Streamer::gpu_layout() const noexcept {
   const Impl& im = *impl_;
   StreamerGpuLayout g;
   const CacheConfig& c = im.config.cache;
@@ -421,27 +421,27 @@ inline StreamerGpuLayout Streamer::gpu_layout() const noexcept {
   g.page_table_height = std::max(g.page_table_height, im.capacity.max_finest_tiles);
   return g;
 }
-inline const TileCache& Streamer::cache() const noexcept { return impl_->cache; }
-inline const Scheduler& Streamer::scheduler() const noexcept { return impl_->scheduler; }
-inline const VoteCounter& Streamer::votes() const noexcept { return impl_->votes; }
-inline uint32_t Streamer::material_count() const noexcept { return static_cast<uint32_t>(impl_->materials.size()); }
-inline uint32_t Streamer::first_texture(uint32_t m) const noexcept {
+const TileCache& Streamer::cache() const noexcept { return impl_->cache; }
+const Scheduler& Streamer::scheduler() const noexcept { return impl_->scheduler; }
+const VoteCounter& Streamer::votes() const noexcept { return impl_->votes; }
+uint32_t Streamer::material_count() const noexcept { return static_cast<uint32_t>(impl_->materials.size()); }
+uint32_t Streamer::first_texture(uint32_t m) const noexcept {
   return material_live(m) ? impl_->materials[m].first_texture : 0;
 }
-inline uint32_t Streamer::texture_count(uint32_t m) const noexcept {
+uint32_t Streamer::texture_count(uint32_t m) const noexcept {
   return material_live(m) ? impl_->materials[m].texture_count : 0;
 }
-inline uint32_t Streamer::component_count(uint32_t m) const noexcept {
+uint32_t Streamer::component_count(uint32_t m) const noexcept {
   return material_live(m) ? impl_->materials[m].components : 0;
 }
-inline bool Streamer::material_ready(uint32_t m) const noexcept {
+bool Streamer::material_ready(uint32_t m) const noexcept {
   return m < impl_->materials.size() && impl_->materials[m].ready;
 }
-inline size_t Streamer::pending_page_table_writes() const noexcept { return impl_->queue_count; }
-inline uint64_t Streamer::events_dropped() const noexcept { return impl_->dropped_events; }
-inline uint64_t Streamer::bytes_read() const noexcept { return impl_->bytes_read.load(std::memory_order_relaxed); }
-inline uint64_t Streamer::decoded_levels_skipped() const noexcept { return impl_->decoded_levels_skipped; }
-inline uint32_t Streamer::jobs_in_flight() const noexcept {
+size_t Streamer::pending_page_table_writes() const noexcept { return impl_->queue_count; }
+uint64_t Streamer::events_dropped() const noexcept { return impl_->dropped_events; }
+uint64_t Streamer::bytes_read() const noexcept { return impl_->bytes_read.load(std::memory_order_relaxed); }
+uint64_t Streamer::decoded_levels_skipped() const noexcept { return impl_->decoded_levels_skipped; }
+uint32_t Streamer::jobs_in_flight() const noexcept {
   uint32_t n = 0;
   for (uint32_t j = 0; j < impl_->jobs.size(); ++j) {
     const uint8_t s = impl_->jobs[j].state.load(std::memory_order_relaxed);

@@ -1,6 +1,7 @@
 // btflod — the Streamer's implementation (runtime/streamer.hpp documents the API): the job
 // records, the decode of a tile's chain, failure handling (StreamerFailurePolicy) and update().
-// Included by runtime/streamer.hpp; compiles alone too.
+// Included by runtime/streamer.hpp's implementation section only (BTFLOD_RUNTIME_IMPLEMENTATION:
+// compiled once per program); compiles alone too.
 #pragma once
 
 #include <algorithm>
@@ -161,7 +162,7 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
   needs.finest_tiles = std::max(lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()]);
   needs.rows = md.u_rows;
   needs.max_tile_bytes = needs.max_packet_bytes = 0;
-  // The directory's entries are unique and sorted (codec/container.hpp): the hierarchy is
+  // The directory's entries are unique and sorted (runtime/codec/container.hpp): the hierarchy is
   // complete when as many of them lie in it as it has tiles (one linear pass, no lookups).
   uint64_t inside = 0;
   for (const BsvtfTileEntry& e : sm.directory->tiles) {

@@ -14,7 +14,7 @@
 
 namespace btflod {
 
-inline StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once) {
+StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candidates, uint32_t live_at_once) {
   StreamerCapacity cap;
   std::vector<uint32_t> textures, tiles, material_tiles;
   for (const StreamerMaterial& sm : candidates) {

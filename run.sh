@@ -184,11 +184,11 @@ case "$cmd" in
       -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
     mkdir -p out
     status=0
-    "$BUILD"/samples/soak/btflod-soak --minutes "$minutes" --json out/soak.json || status=1
+    "$BUILD"/samples/tools/soak/btflod-soak --minutes "$minutes" --json out/soak.json || status=1
     # The same world over HTTP from a private nginx restarted every 10 s (skipped with a message
     # when nginx is not installed).
     if [ -x /usr/sbin/nginx ]; then
-      "$BUILD"/samples/soak/btflod-soak --http --minutes "$minutes" --json out/soak_http.json || status=1
+      "$BUILD"/samples/tools/soak/btflod-soak --http --minutes "$minutes" --json out/soak_http.json || status=1
     else
       echo "btflod: no /usr/sbin/nginx (Debian: nginx-light): skipping the HTTP soak"
     fi

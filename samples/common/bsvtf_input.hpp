@@ -1,6 +1,6 @@
 // btflod samples — per-tile tolerance helpers and direction names for the .bsvtf writer, shared
 // by `btflod-convert build` and the demo. Building the container itself is the library's
-// (vt/bsvtf_build.hpp).
+// (offline/build/bsvtf_build.hpp).
 #pragma once
 
 #include <algorithm>
@@ -10,19 +10,19 @@
 #include <unordered_map>
 #include <vector>
 
-#include "btflod/btf/directions.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/quantize.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/quantize.hpp"
 
 namespace btflod::samples {
 
-/// The library's container inputs (vt/bsvtf_build.hpp); kept under the samples' names.
+/// The library's container inputs (offline/build/bsvtf_build.hpp); kept under the samples' names.
 using BsvtfTileInputs = btflod::BsvtfTileInputs;
 
-/// Collects the tiles of levels [0, level_count) (vt/bsvtf_build.hpp bsvtf_tiles_from_pyramid;
+/// Collects the tiles of levels [0, level_count) (offline/build/bsvtf_build.hpp bsvtf_tiles_from_pyramid;
 /// tile size and border are the pyramid's).
 inline BsvtfTileInputs bsvtf_tiles_from_pyramid(const TilePyramid& pyramid, uint32_t level_count,
                                                 uint32_t /*tile_size*/, uint32_t /*border*/) {

@@ -91,10 +91,10 @@ endif()
 
 # Refused: exit code 2 and a message naming the problem.
 foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknown option --bogus-option"
-             "--components;0;--components 0: expected 1..128" "--components;129;--components 129: expected 1..128"
+             "--components;0;--components 0: expected an integer in [1, 128]" "--components;129;--components 129: expected an integer in [1, 128]"
              "--material;glass;--material glass: expected cloth, stone, leather or tiles"
-             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f or rgba8"
-             "--rank-target;1.5;--rank-target 1.5: expected an SSIM in [0, 1]")
+             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f, rgba8 or rgba8_affine"
+             "--rank-target;1.5;--rank-target 1.5: expected a number in [0, 1]")
   list(POP_BACK case message)
   execute_process(COMMAND ${DEMO} --out ${DIR}/refused ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out
                   ERROR_VARIABLE err)

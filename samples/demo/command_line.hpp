@@ -10,9 +10,10 @@
 #include <string>
 #include <string_view>
 
-#include "btflod/btf/heightfield.hpp"
 #include "btflod/core/value_transform.hpp"
-#include "btflod/vt/cache_config.hpp"
+#include "btflod/offline/btf/heightfield.hpp"
+#include "btflod/runtime/vt/cache_config.hpp"
+#include "common/arguments.hpp"
 
 namespace btflod::demo {
 
@@ -37,7 +38,7 @@ struct DemoConfig {
   uint64_t seed = 1;   ///< --seed N
   int components = 0;  ///< --components C: FMF rank (0: the profile's default)
   /// --rank-target S: each material's rank is the smallest of 4, 8, 12, 16 (up to --components)
-  /// whose displayed images reach mean SSIM S (factor/fmf_rank.hpp); 0: a fixed rank. Default
+  /// whose displayed images reach mean SSIM S (offline/factor/fmf_rank.hpp); 0: a fixed rank. Default
   /// profile without --components: kDefaultDemoRankTarget.
   double rank_target = -1.0;
   bool interreflection = false;         ///< --interreflection: one diffuse bounce in the synthesis
@@ -46,7 +47,7 @@ struct DemoConfig {
   bool deflate = false;                 ///< --deflate: deflate tiles (format 2), not zstd
   std::string record_feedback;          ///< --record-feedback FILE: feedback trace for btflod-bench
   bool separate_feedback_pass = false;  ///< --feedback-pass: feedback words in a pass of their own
-  /// --cache-format rgba16f|rgba8 (vt/cache_format.hpp). rgba8 by default: half the cache memory,
+  /// --cache-format rgba16f|rgba8 (runtime/vt/cache_format.hpp). rgba8 by default: half the cache memory,
   /// ΔE*ab p99 0.1 against rgba16f on the settled view (docs/bsvtf_format.md, "Cache formats").
   CacheFormat cache_format = CacheFormat::rgba8_affine;
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
@@ -63,7 +64,7 @@ struct DemoConfig {
 };
 
 /// The largest FMF rank the demo accepts: the generated shaders hold at most 128 components
-/// (shader/shader_config.hpp).
+/// (runtime/shader/shader_config.hpp).
 inline constexpr int kMaxDemoComponents = 128;
 
 /// The FMF rank of the default profile (docs/demo.md, "Default rank": measured against the raw
@@ -120,9 +121,9 @@ inline constexpr const char* kDemoUsage =
     "  otherwise); closing the window (or Escape) ends the flight early and writes the outputs.\n"
     "  --deflate codes the tiles with deflate (tile format 2, read by every client) instead of\n"
     "  zstd (format 3, the default: smaller tiles that decode faster).\n"
-    "  --record-feedback FILE records every frame's feedback buffer as a trace (lod/feedback_trace.hpp)\n"
+    "  --record-feedback FILE records every frame's feedback buffer as a trace (runtime/lod/feedback_trace.hpp)\n"
     "  --cache-format rgba8 (the default) keeps the tile cache as unorm8 with a per-slot offset and\n"
-    "  scale (vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves).\n"
+    "  scale (runtime/vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves).\n"
     "  Either way the report compares the two formats on the settled view's resident tiles (CPU\n"
     "  ray-caster, same rays).\n"
     "  --feedback-pass draws the feedback words in a pass of their own at 1/16 of the screen\n"
@@ -145,12 +146,12 @@ inline constexpr const char* kDemoUsage =
     "  of eq. 5 (docs/fidelity.md). Default: " BTFLOD_DEMO_DEFAULT_ENCODING_NAME ".\n"
     "  Each material's FMF rank is the smallest of 4, 8, 12, 16 whose displayed (view, light) images\n"
     "  reach mean SSIM --rank-target S (default " BTFLOD_DEMO_STR(BTFLOD_DEMO_DEFAULT_RANK_TARGET) ") against\n"
-    "  the raw BTF on the training views (factor/fmf_rank.hpp); one program set of the largest C draws\n"
+    "  the raw BTF on the training views (offline/factor/fmf_rank.hpp); one program set of the largest C draws\n"
     "  them all. --components C alone sets one fixed rank for every material (1..128; paper 100);\n"
     "  with --rank-target it is the largest rank tried.\n"
     "  --material NAME synthesises every material as NAME (cloth, stone, leather or tiles; seed + index\n"
     "  still differs) instead of the four kinds in turn. --interreflection adds one bounce of diffuse\n"
-    "  interreflection to the synthesis (btf/synthesizer.hpp; slower). Neither applies to prebuilt\n"
+    "  interreflection to the synthesis (offline/btf/synthesizer.hpp; slower). Neither applies to prebuilt\n"
     "  --inputs stores.\n"
     "  defaults: --frames 200 --size 32 --materials 4 --backend gl --bandwidth 96 --settle 60 --seed 1\n"
     "  --cache-format rgba8\n"
@@ -166,149 +167,64 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
     std::fprintf(stderr, "btflod-demo: %s\n%s\n", msg.c_str(), kDemoUsage);
     return std::nullopt;
   };
-  auto parse_int = [](const char* s, long long lo, long long hi, long long* out) {
-    errno = 0;
-    char* end = nullptr;
-    const long long v = std::strtoll(s, &end, 10);
-    if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi) return false;
-    *out = v;
-    return true;
-  };
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::puts(kDemoUsage);
-      *exit_code = 0;
-      return std::nullopt;
-    }
-    if (a == "--interreflection") {
-      cfg.interreflection = true;
-      continue;
-    }
-    if (a == "--window") {
-      cfg.window = true;
-      continue;
-    }
-    if (a == "--cut") {
-      cfg.cut = true;
-      continue;
-    }
-    if (a == "--no-swap") {
-      cfg.no_swap = true;
-      continue;
-    }
-    if (a == "--deflate") {
-      cfg.deflate = true;
-      continue;
-    }
-    if (a == "--feedback-pass") {
-      cfg.separate_feedback_pass = true;
-      continue;
-    }
-    if (a == "--keep-stores") {
-      cfg.keep_stores = true;
-      continue;
-    }
-    if (a == "--quiet" || a == "-q") {
-      cfg.quiet = true;
-      continue;
-    }
-    static constexpr std::string_view kValueOptions[] = {
-        "--out",        "--inputs", "--frame-size", "--record-feedback", "--profile",      "--memory",
-        "--size",       "--frames", "--materials",  "--settle",          "--backend",      "--bandwidth",
-        "--components", "--seed",   "--material",   "--value-encoding",  "--cache-format", "--rank-target"};
-    if (std::find(std::begin(kValueOptions), std::end(kValueOptions), a) == std::end(kValueOptions))
-      return fail("unknown option " + std::string(a));
-    if (i + 1 >= argc) return fail("option " + std::string(a) + " needs a value");
-    const char* value = argv[++i];
-    long long n = 0;
-    if (a == "--out") {
-      cfg.out_dir = value;
-    } else if (a == "--cache-format") {
-      const std::string_view f = value;
-      if (f == "rgba16f")
-        cfg.cache_format = CacheFormat::rgba16f;
-      else if (f == "rgba8" || f == "rgba8_affine")
-        cfg.cache_format = CacheFormat::rgba8_affine;
-      else
-        return fail("--cache-format " + std::string(value) + ": expected rgba16f or rgba8");
-    } else if (a == "--inputs") {
-      cfg.inputs_dir = value;
-    } else if (a == "--frame-size") {
-      int w = 0, h = 0;
-      char tail = 0;
-      if (std::sscanf(value, "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
-        return fail("--frame-size " + std::string(value) + ": expected WxH, 16..8192 each");
+  samples::Arguments args("btflod-demo", argc, argv);
+  if (args.wants_help()) {
+    std::puts(kDemoUsage);
+    *exit_code = 0;
+    return std::nullopt;
+  }
+  cfg.interreflection = args.flag("interreflection");
+  cfg.window = args.flag("window");
+  cfg.cut = args.flag("cut");
+  cfg.no_swap = args.flag("no-swap");
+  cfg.deflate = args.flag("deflate");
+  cfg.separate_feedback_pass = args.flag("feedback-pass");
+  cfg.keep_stores = args.flag("keep-stores");
+  cfg.quiet = args.flag("quiet", 'q');
+  cfg.out_dir = args.string("out", cfg.out_dir);
+  if (const auto f = args.choice("cache-format", {"rgba16f", "rgba8", "rgba8_affine"}))
+    cfg.cache_format = *f == 0 ? CacheFormat::rgba16f : CacheFormat::rgba8_affine;
+  cfg.inputs_dir = args.string("inputs", cfg.inputs_dir);
+  if (const auto size = args.value("frame-size")) {
+    int w = 0, h = 0;
+    char tail = 0;
+    if (std::sscanf(size->c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || h < 16 || w > 8192 || h > 8192)
+      args.error("--frame-size " + *size + ": expected WxH, 16..8192 each");
+    else
       cfg.frame_width = w, cfg.frame_height = h;
-    } else if (a == "--record-feedback") {
-      cfg.record_feedback = value;
-    } else if (a == "--profile") {
-      cfg.profile = value;
-      if (cfg.profile != "paper") return fail("--profile " + cfg.profile + ": expected paper");
-    } else if (a == "--memory") {
-      // An integer with an optional K, M or G suffix (powers of 1024).
-      char* end = nullptr;
-      errno = 0;
-      const double x = std::strtod(value, &end);
-      const std::string unit = end ? end : "";
-      const double scale = unit.empty()  ? 1.0
-                           : unit == "K" ? 1024.0
-                           : unit == "M" ? 1048576.0
-                           : unit == "G" ? 1073741824.0
-                                         : 0.0;
-      if (errno != 0 || end == value || !(x > 0.0) || scale == 0.0 || x * scale > 1e15)
-        return fail("--memory " + std::string(value) + ": expected a size such as 512M or 4G");
-      cfg.memory_bytes = static_cast<uint64_t>(x * scale);
-    } else if (a == "--size") {
-      if (!parse_int(value, 1, 4096, &n)) return fail("--size " + std::string(value) + ": expected 1..4096");
-      cfg.size = static_cast<int>(n);
-      cfg.size_given = true;
-    } else if (a == "--frames") {
-      if (!parse_int(value, 0, 100000, &n)) return fail("--frames " + std::string(value) + ": expected 0..100000");
-      cfg.frames = static_cast<int>(n);
-      cfg.frames_given = true;
-    } else if (a == "--materials") {
-      if (!parse_int(value, 1, 64, &n)) return fail("--materials " + std::string(value) + ": expected 1..64");
-      cfg.materials = static_cast<int>(n);
-      cfg.materials_given = true;
-    } else if (a == "--settle") {
-      if (!parse_int(value, 0, 100000, &n)) return fail("--settle " + std::string(value) + ": expected 0..100000");
-      cfg.settle = static_cast<int>(n);
-    } else if (a == "--backend") {
-      cfg.backend = value;
-      if (cfg.backend != "gl" && cfg.backend != "cpu") return fail("--backend " + cfg.backend + ": expected gl or cpu");
-    } else if (a == "--bandwidth") {
-      if (!parse_int(value, 1, 1000000, &n))
-        return fail("--bandwidth " + std::string(value) + ": expected 1..1000000 KiB/s");
-      cfg.bandwidth_kib = static_cast<double>(n);
-      cfg.bandwidth_given = true;
-    } else if (a == "--components") {
-      if (!parse_int(value, 1, kMaxDemoComponents, &n))
-        return fail("--components " + std::string(value) + ": expected 1.." + std::to_string(kMaxDemoComponents) +
-                    " (the shaders hold at most " + std::to_string(kMaxDemoComponents) + " components)");
-      cfg.components = static_cast<int>(n);
-    } else if (a == "--rank-target") {
-      char* end = nullptr;
-      const double t = std::strtod(value, &end);
-      if (end == value || *end != '\0' || !(t >= 0.0 && t <= 1.0))
-        return fail("--rank-target " + std::string(value) + ": expected an SSIM in [0, 1] (0: a fixed rank)");
-      cfg.rank_target = t;
-    } else if (a == "--seed") {
-      if (!parse_int(value, 0, (1ll << 62), &n)) return fail("--seed " + std::string(value) + ": expected >= 0");
-      cfg.seed = static_cast<uint64_t>(n);
-      cfg.seed_given = true;
-    } else if (a == "--value-encoding") {
-      ValueEncoding e = ValueEncoding::linear;
-      if (!parse_value_encoding(value, e))
-        return fail("--value-encoding " + std::string(value) + ": expected linear, sqrt, log or log_ycbcr");
+  }
+  cfg.record_feedback = args.string("record-feedback", cfg.record_feedback);
+  if (args.choice("profile", {"paper"})) cfg.profile = "paper";
+  if (const auto bytes = args.byte_size("memory")) cfg.memory_bytes = *bytes;
+  if (const auto n = args.optional_integer("size", 1, 4096)) cfg.size = static_cast<int>(*n), cfg.size_given = true;
+  if (const auto n = args.optional_integer("frames", 0, 100000))
+    cfg.frames = static_cast<int>(*n), cfg.frames_given = true;
+  if (const auto n = args.optional_integer("materials", 1, 64))
+    cfg.materials = static_cast<int>(*n), cfg.materials_given = true;
+  cfg.settle = args.integer_as("settle", cfg.settle, 0, 100000);
+  if (const auto b = args.choice("backend", {"gl", "cpu"})) cfg.backend = *b == 0 ? "gl" : "cpu";
+  if (const auto n = args.optional_integer("bandwidth", 1, 1000000))  // KiB/s
+    cfg.bandwidth_kib = static_cast<double>(*n), cfg.bandwidth_given = true;
+  cfg.components = args.integer_as("components", cfg.components, 1, kMaxDemoComponents);
+  if (const auto s = args.optional_number("rank-target", 0.0, 1.0)) cfg.rank_target = *s;  // 0: a fixed rank
+  if (const auto n = args.optional_integer("seed", 0, 1ll << 62))
+    cfg.seed = static_cast<uint64_t>(*n), cfg.seed_given = true;
+  if (const auto v = args.value("value-encoding")) {
+    ValueEncoding e = ValueEncoding::linear;
+    if (parse_value_encoding(*v, e))
       cfg.value_encoding = e;
-    } else if (a == "--material") {
-      auto m = material_from_name(value);
-      if (!m) return fail("--material " + std::string(value) + ": expected cloth, stone, leather or tiles");
+    else
+      args.error("--value-encoding " + *v + ": expected linear, sqrt, log or log_ycbcr");
+  }
+  if (const auto v = args.value("material")) {
+    if (const auto m = material_from_name(*v))
       cfg.material = *m;
-    } else {
-      return fail("unknown option " + std::string(a));
-    }
+    else
+      args.error("--material " + *v + ": expected cloth, stone, leather or tiles");
+  }
+  if (!args.finish(0)) {
+    std::fprintf(stderr, "%s\n", kDemoUsage);
+    return std::nullopt;
   }
   if (cfg.out_dir.empty()) return fail("--out DIR is required");
   cfg.components_given = cfg.components != 0;

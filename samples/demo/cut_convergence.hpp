@@ -2,7 +2,7 @@
 // its last view, the camera cuts to another view of the path and holds it while the Streamer
 // streams what that view needs, until streaming is quiet (nothing requested, pending or uploaded
 // for 5 frames, at least one vote window). That last frame is the converged image; every frame
-// since the cut is compared with it (SSIM of the sRGB-encoded images, metrics/image_metrics.hpp)
+// since the cut is compared with it (SSIM of the sRGB-encoded images, offline/metrics/image_metrics.hpp)
 // and the figure reported is the first frame from which every later frame stays within
 // SSIM 0.99 of it, with the payload bytes received and the seconds spent until then. The link
 // is the demo's throttled one (--bandwidth), so bytes and frames are what a viewer would wait.
@@ -16,7 +16,7 @@
 
 #include "btflod/core/image.hpp"
 #include "btflod/core/result.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 #include "stream_render.hpp"
 
 namespace btflod::demo {

@@ -14,7 +14,7 @@
 
 #include <sys/resource.h>
 
-#include "btflod/lod/feedback_trace.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
 #include "command_line.hpp"
 #include "demo_steps.hpp"
 #if BTFLOD_DEMO_HAS_GL
@@ -257,7 +257,7 @@ int main(int argc, char** argv) {
   Image<float> fmf_img(static_cast<int>(ss.width), static_cast<int>(ss.height), 4);
   std::vector<Image<float>> sheet;
   // --record-feedback: each frame's feedback words with its size, decimation, sample position
-  // and camera, as a trace (lod/feedback_trace.hpp) that btflod-bench replays.
+  // and camera, as a trace (runtime/lod/feedback_trace.hpp) that btflod-bench replays.
   std::optional<FeedbackTraceRecorder> feedback_trace;
   const uint32_t fb_d = 1u << ss.feedback_shift;
   const uint32_t fb_w = (ss.width + fb_d - 1) / fb_d, fb_h = (ss.height + fb_d - 1) / fb_d;

@@ -12,20 +12,20 @@
 #include <string>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/parameterization.hpp"
-#include "btflod/backend/backend.hpp"
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_out_of_core.hpp"
-#include "btflod/factor/fmf_rank.hpp"
-#include "btflod/factor/fmf_stream.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/parameterization.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_out_of_core.hpp"
+#include "btflod/offline/factor/fmf_rank.hpp"
+#include "btflod/offline/factor/fmf_stream.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/codec/container.hpp"
 #include "common/bsvtf_input.hpp"
 
 namespace btflod::demo {
@@ -37,7 +37,7 @@ struct MaterialSettings {
   /// FMF rank C (⌈C/4⌉ RGBA virtual textures; btflod-demo --components) when rank_target_ssim
   /// is 0; otherwise the largest rank a material may get.
   uint32_t components = 8;
-  /// > 0: each material's rank is chosen from what a viewer sees (factor/fmf_rank.hpp,
+  /// > 0: each material's rank is chosen from what a viewer sees (offline/factor/fmf_rank.hpp,
   /// choose_fmf_rank()): the smallest of rank_candidates whose displayed (view, light) images
   /// reach this mean SSIM on the training views; 0: every material at `components`. In-memory
   /// path only (the paper profile's out-of-core FMF has a fixed C).
@@ -59,7 +59,7 @@ struct MaterialSettings {
   ValueTransform transform{};
   /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
   /// into a BTF store of halves and factorised out of core within `memory_budget`
-  /// (factor/fmf_out_of_core.hpp); otherwise the small in-memory path (demo_directions()).
+  /// (offline/factor/fmf_out_of_core.hpp); otherwise the small in-memory path (demo_directions()).
   bool paper = false;
   uint64_t memory_budget = uint64_t{2} << 30;
   bool quiet = true;  ///< no progress lines on stderr
@@ -117,7 +117,7 @@ struct DemoMaterial {
   bool rank_target_met = false;
   uint32_t finest_level = 0;
   int texels = 0;               ///< material texels per side (the virtual texture repeats it)
-  std::string store_path;       ///< the raw BTF as a store (btf/btf_store.hpp): the raw reference
+  std::string store_path;       ///< the raw BTF as a store (offline/btf/btf_store.hpp): the raw reference
   bool store_prebuilt = false;  ///< the store came from MaterialSettings::inputs_dir (never deleted)
   bool fmf_prebuilt = false;    ///< the FMF came from MaterialSettings::inputs_dir
   uint64_t store_bytes = 0;     ///< its file size
@@ -126,6 +126,10 @@ struct DemoMaterial {
   double seconds_error = 0;  ///< the streamed error pass against the store (paper path)
   double seconds_raw = 0;    ///< its raw-BTF reference pass (raw_reference.hpp)
 
+  /// The angular lookup tables (spans into this object).
+  AngularTablesData angular_tables() const noexcept {
+    return AngularTablesData{angular_resolution, light_index, light_weight, view_index, view_weight};
+  }
   /// The backend description (spans into this object).
   FmfMaterialData data(bool with_textures) const {
     FmfMaterialData d;
@@ -135,7 +139,7 @@ struct DemoMaterial {
     d.eigen_abrdfs = u;
     if (with_textures) d.eigen_textures = eigen_textures.view();
     d.mipmaps = true;
-    d.angular = AngularTablesData{angular_resolution, light_index, light_weight, view_index, view_weight};
+    d.angular = angular_tables();
     d.transform = eigen.transform;
     return d;
   }
@@ -186,7 +190,7 @@ inline Result<DemoMaterial> finish_material(DemoMaterial m, const Fmf& fmf, cons
 /// store of halves and factorised out of core (never holding the BTF whole). Allocates; the
 /// slow part of the demo.
 /// The factorisation itself goes to `fmf_out` when it is not null (the rate–distortion tool
-/// truncates it to every rank it measures: factor/fmf_rank.hpp truncate_fmf); the second half
+/// truncates it to every rank it measures: offline/factor/fmf_rank.hpp truncate_fmf); the second half
 /// is finish_material().
 inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSettings& s, const std::string& out_dir,
                                              Fmf* fmf_out = nullptr) {
@@ -211,7 +215,7 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
     FmfOptions fo;
     fo.components = static_cast<int>(s.components);
     fo.transform = s.transform;
-    if (s.rank_target_ssim > 0.0) {  // the rank from displayed images (factor/fmf_rank.hpp)
+    if (s.rank_target_ssim > 0.0) {  // the rank from displayed images (offline/factor/fmf_rank.hpp)
       FmfRankOptions ro;
       ro.fmf = fo;
       ro.candidates.clear();

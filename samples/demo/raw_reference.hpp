@@ -1,9 +1,9 @@
 // btflod-demo — the RAW BTF reference of the report: the last view rendered from the tabulated
-// BTF itself (each material's store, btf/btf_store.hpp) instead of its factorisation, so the
+// BTF itself (each material's store, offline/btf/btf_store.hpp) instead of its factorisation, so the
 // report measures how far the streamed BSVTF image (and the FMF one) is from the material, not
 // only from the FMF.
 //
-// Both reference images are ray-cast on the CPU (backend/cpu_reference.hpp's analytic scene,
+// Both reference images are ray-cast on the CPU (offline/render/cpu_reference.hpp's analytic scene,
 // the renderers' camera and light) with `supersample`² rays per pixel (box filter), at the
 // finest level (bilinear texel interpolation, wrap), with the shaders' angular lookup tables
 // (paper 000 §4: 3 light × 3 view taps, multiplied barycentric weights):
@@ -26,8 +26,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
 #include "stream_render.hpp"
 
 namespace btflod::demo {
@@ -56,7 +56,7 @@ struct RawReference {
 /// Error of an image against the raw reference: SSIM of the sRGB-encoded images (as the frame
 /// SSIM), PSNR of the same (range 1), RMSE of the linear radiance, and ΔE*ab (CIE 1976, D65) of
 /// what the PNGs show — each pixel's linear RGB clamped to [0, 1] and converted to CIELAB
-/// (metrics/image_metrics.hpp's linear_srgb_to_lab) — as its mean and 99th percentile over the
+/// (offline/metrics/image_metrics.hpp's linear_srgb_to_lab) — as its mean and 99th percentile over the
 /// pixels. `pixels` counts the pixels compared.
 struct ImageError {
   double ssim = 0, psnr = 0, rmse = 0;
@@ -163,15 +163,9 @@ inline int exact_log2(int n) {
   return (1 << k) == n ? k : -1;
 }
 
-inline void lookup(const DemoMaterial& m, const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 dir,
-                   AngularSample& out) {
-  const glm::ivec2 t = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, dir),
-                                          m.angular_resolution);
-  const size_t o = (static_cast<size_t>(t.y) * m.angular_resolution + static_cast<size_t>(t.x)) * 3;
-  for (size_t k = 0; k < 3; ++k) {
-    out.index[k] = idx[o + k];
-    out.weight[k] = wt[o + k];
-  }
+// The shaders' angular lookup (offline/angular/table_lookup.hpp) of material m; layer 0 = light.
+inline void lookup(const DemoMaterial& m, int layer, glm::vec3 dir, AngularSample& out) {
+  out = angular_table_sample(m.angular_tables(), layer, DirectionParameterisation::parabolic, false, dir);
 }
 
 }  // namespace detail_raw
@@ -363,8 +357,8 @@ class RawReferenceBuilder {
             const Ray& r = pixel_rays_[pi];
             if (r.material != index) continue;
             detail_raw::FilteredSample& f = ftaps[pi];
-            detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, f.light);
-            detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, f.view);
+            detail_raw::lookup(m, 0, r.light_local, f.light);
+            detail_raw::lookup(m, 1, r.view_local, f.view);
             // OpenGL's LINEAR_MIPMAP_LINEAR: λ ≤ 0 magnifies (level 0), else levels ⌊λ⌋ and ⌊λ⌋ + 1.
             const float lambda = std::log2(std::max(r.footprint * static_cast<float>(Mv), 1e-20f));
             int k0 = 0, k1 = 0;
@@ -586,8 +580,8 @@ class RawReferenceBuilder {
   /// weights it read. Returns the radiance before the light colour.
   static glm::vec3 shade_ray(const DemoMaterial& m, const Ray& r, detail_raw::Sample& s, float* comps, int xs[2],
                              int ys[2], float wx[2], float wy[2]) {
-    detail_raw::lookup(m, m.light_index, m.light_weight, r.light_local, s.light);
-    detail_raw::lookup(m, m.view_index, m.view_weight, r.view_local, s.view);
+    detail_raw::lookup(m, 0, r.light_local, s.light);
+    detail_raw::lookup(m, 1, r.view_local, s.view);
     const Image<float>& v = m.eigen_textures;
     const float fx = r.texcoord.x * static_cast<float>(v.width()) - 0.5f;
     const float fy = r.texcoord.y * static_cast<float>(v.height()) - 0.5f;

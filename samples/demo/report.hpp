@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/core/image_io.hpp"
-#include "btflod/factor/fmf_rank.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/factor/fmf_rank.hpp"
 #include "cut_convergence.hpp"
 #include "raw_reference.hpp"
 #include "stream_render.hpp"

@@ -3,7 +3,7 @@
 // btflod::Streamer (runtime/streamer.hpp) serves every material: its update() turns the
 // feedback into votes (eq. 9), plans add/swap operations (§5, P = w·v), hands decode jobs to a
 // ThreadExecutor whose workers read the containers through THROTTLED sources, and returns this
-// frame's tile uploads and page-table texels, which backend/streamer_outputs.hpp applies to the
+// frame's tile uploads and page-table texels, which runtime/backend/streamer_outputs.hpp applies to the
 // renderer. The same view is also rendered with FMF (eq. 5, every eigen-texture resident,
 // uncompressed): that is the converged image the SSIM is measured against, and the frame time
 // of both programs is measured on the same view in the same frame, in alternating order.
@@ -18,19 +18,19 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
-#include "btflod/codec/container.hpp"
 #include "btflod/core/thread_pool.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/stream/file_source.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/file_source.hpp"
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 #include "materials.hpp"
 #include "scene/analytic_demo_scene.hpp"
 #include "scene/demo_scene.hpp"
@@ -57,7 +57,7 @@ struct StreamSettings {
   /// swap adds the new material first, shows it once it is ready (roots and U′ loaded), then
   /// removes the old one (Streamer::add_material / remove_material; its GPU material destroyed).
   uint32_t swap_out_frame = 0, swap_back_frame = 0;
-  /// Texel format of the tile cache (vt/cache_format.hpp): rgba16f, or rgba8_affine at half
+  /// Texel format of the tile cache (runtime/vt/cache_format.hpp): rgba16f, or rgba8_affine at half
   /// the memory (the Streamer's decode jobs quantise each tile with its own range).
   CacheFormat cache_format = CacheFormat::rgba16f;
 };
@@ -121,7 +121,7 @@ struct MemoryFigures {
 };
 
 /// What the streaming loop needs from a renderer: the GPU Backend (GpuFrameRenderer) or the CPU
-/// reference ray-caster of backend/cpu_reference.hpp (CpuFrameRenderer, the fallback).
+/// reference ray-caster of offline/render/cpu_reference.hpp (CpuFrameRenderer, the fallback).
 class FrameRenderer {
  public:
   virtual ~FrameRenderer() = default;
@@ -235,7 +235,7 @@ class GpuFrameRenderer final : public FrameRenderer {
 
  private:
   // Each feedback texel takes one screen pixel of its 2^shift × 2^shift block, a different one
-  // every frame (lod/feedback.hpp's feedback_sample_offset). By default the BSVTF colour pass
+  // every frame (runtime/lod/feedback.hpp's feedback_sample_offset). By default the BSVTF colour pass
   // writes every pixel's word (bsvtf_feedback) and the backend reads back that pixel of each
   // block: no second pass over the geometry. With a separate feedback pass (1/2^shift of the
   // screen, paper 000 §5) it is drawn for every mesh first, then the colour pass: one
@@ -312,7 +312,7 @@ class GpuFrameRenderer final : public FrameRenderer {
   std::vector<MaterialHandle> bsvtf_mats_;  // per Streamer material id
 };
 
-/// The CPU fallback: the analytic scene (plane + tori) ray-cast by backend/cpu_reference.hpp,
+/// The CPU fallback: the analytic scene (plane + tori) ray-cast by offline/render/cpu_reference.hpp,
 /// feedback by render_feedback (eq. 1–2), BSVTF through CpuCacheTexture (eq. 3, the deepest
 /// resident tile), FMF from V' at the finest level (bilinear, repeat), both shaded by
 /// shade_fmf's 9 taps with the same lookup tables as the shaders. Rows run on the thread pool.
@@ -323,7 +323,7 @@ class CpuFrameRenderer final : public FrameRenderer {
   /// Keeps its cache texture in `format` instead of the Streamer cache's (the cache-format
   /// comparison fills it with upload_tile_values()).
   explicit CpuFrameRenderer(CacheFormat format) : format_override_(true), format_(format) {}
-  std::string name() const override { return "CPU reference (backend/cpu_reference.hpp ray-caster)"; }
+  std::string name() const override { return "CPU reference (offline/render/cpu_reference.hpp ray-caster)"; }
   VoidResult init(const ShaderConfig& config, const TileCache& cache, const std::vector<DemoMaterial>& materials,
                   const std::vector<scene::SceneObject>&) override {
     set_ = &cache.set();
@@ -387,64 +387,35 @@ class CpuFrameRenderer final : public FrameRenderer {
   }
 
  private:
-  void lookup(const DemoMaterial& m, const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 dir,
-              AngularSample& out) const {
-    const glm::ivec2 t = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, dir),
-                                            m.angular_resolution);
-    const size_t o = (static_cast<size_t>(t.y) * m.angular_resolution + static_cast<size_t>(t.x)) * 3;
-    for (int k = 0; k < 3; ++k) {
-      out.index[static_cast<size_t>(k)] = idx[o + static_cast<size_t>(k)];
-      out.weight[static_cast<size_t>(k)] = wt[o + static_cast<size_t>(k)];
-    }
-  }
   void shade(const Camera& cam, const ShaderParams& p, bool bsvtf, Image<float>& out) const {
-    default_thread_pool().parallel_for(0, cam.height, 4, [&](size_t y0, size_t y1) {
+    const auto pixel = [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& h) {
+      const int xi = static_cast<int>(x), yi = static_cast<int>(y);
+      if (!h.hit) {
+        out.at(xi, yi, 0) = 0.45f, out.at(xi, yi, 1) = 0.55f, out.at(xi, yi, 2) = 0.7f, out.at(xi, yi, 3) = 1.0f;
+        return;
+      }
       float comps[kMaxComponents];
-      for (size_t y = y0; y < y1; ++y)
-        for (uint32_t x = 0; x < cam.width; ++x) {
-          const int xi = static_cast<int>(x), yi = static_cast<int>(y);
-          const SurfaceHit h = scene_.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-          if (!h.hit) {
-            out.at(xi, yi, 0) = 0.45f, out.at(xi, yi, 1) = 0.55f, out.at(xi, yi, 2) = 0.7f, out.at(xi, yi, 3) = 1.0f;
-            continue;
-          }
-          const ShownMaterial shown = shown_[h.material];  // h.material: the scene slot
-          const DemoMaterial& m = (*materials_)[shown.demo];
-          const uint32_t groups = (m.components + 3) / 4;
-          for (uint32_t g = 0; g < groups; ++g) {
-            if (bsvtf) {
-              texture_->sample(*cache_, set_->material(shown.streamer_id).first_texture + g, h.texcoord.x, h.texcoord.y,
-                               comps + 4 * g);
-            } else {
-              const Image<float>& v = m.eigen_textures;
-              const float fx = h.texcoord.x * static_cast<float>(v.width()) - 0.5f,
-                          fy = h.texcoord.y * static_cast<float>(v.height()) - 0.5f;
-              const int x0 = static_cast<int>(std::floor(fx)), y0i = static_cast<int>(std::floor(fy));
-              const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0i);
-              const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
-              const int xa = wrap(x0, v.width()), xb = wrap(x0 + 1, v.width()), ya = wrap(y0i, v.height()),
-                        yb = wrap(y0i + 1, v.height());
-              for (uint32_t k = 0; k < 4; ++k) {
-                const int c = static_cast<int>(4 * g + k);
-                if (c >= v.channels()) {
-                  comps[4 * g + k] = 0.0f;
-                  continue;
-                }
-                const float top = v.at(xa, ya, c) + (v.at(xb, ya, c) - v.at(xa, ya, c)) * ax;
-                const float bot = v.at(xa, yb, c) + (v.at(xb, yb, c) - v.at(xa, yb, c)) * ax;
-                comps[4 * g + k] = top + (bot - top) * ay;
-              }
-            }
-          }
-          AngularSample ls, vs;
-          lookup(m, m.light_index, m.light_weight, to_local(h, glm::normalize(glm::vec3(p.light))), ls);
-          lookup(m, m.view_index, m.view_weight, to_local(h, glm::normalize(view_eye(cam) - h.position)), vs);
-          const glm::vec3 rgb =
-              shade_fmf(m.eigen, ls, vs, std::span<const float>(comps, m.components)) * glm::vec3(p.light_color);
-          for (int c = 0; c < 3; ++c) out.at(xi, yi, c) = rgb[c];
-          out.at(xi, yi, 3) = 1.0f;
-        }
-    });
+      const ShownMaterial shown = shown_[h.material];  // h.material: the scene slot
+      const DemoMaterial& m = (*materials_)[shown.demo];
+      const uint32_t groups = (m.components + 3) / 4;
+      if (bsvtf) {
+        for (uint32_t g = 0; g < groups; ++g)
+          texture_->sample(*cache_, set_->material(shown.streamer_id).first_texture + g, h.texcoord.x, h.texcoord.y,
+                           comps + 4 * g);
+      } else {
+        sample_repeat_bilinear(m.eigen_textures, h.texcoord, std::span<float>(comps, 4 * groups));
+      }
+      const AngularTablesData tables = m.angular_tables();
+      const AngularSample ls = angular_table_sample(tables, 0, DirectionParameterisation::parabolic, false,
+                                                    to_local(h, glm::normalize(glm::vec3(p.light))));
+      const AngularSample vs = angular_table_sample(tables, 1, DirectionParameterisation::parabolic, false,
+                                                    to_local(h, glm::normalize(view_eye(cam) - h.position)));
+      const glm::vec3 rgb =
+          shade_fmf(m.eigen, ls, vs, std::span<const float>(comps, m.components)) * glm::vec3(p.light_color);
+      for (int c = 0; c < 3; ++c) out.at(xi, yi, c) = rgb[c];
+      out.at(xi, yi, 3) = 1.0f;
+    };
+    for_each_pixel_hit(scene_, cam, pixel, &default_thread_pool());
   }
   static glm::vec3 view_eye(const Camera& c) { return c.position; }
 
@@ -461,7 +432,7 @@ class CpuFrameRenderer final : public FrameRenderer {
 /// The streaming renderer over a FrameRenderer: one btflod::Streamer for every material
 /// (runtime/streamer.hpp), its decode jobs on a ThreadExecutor, each container behind its own
 /// throttled link. Set-up allocates; frame() renders, calls Streamer::update() once and applies
-/// its outputs (backend/streamer_outputs.hpp).
+/// its outputs (runtime/backend/streamer_outputs.hpp).
 class StreamingRenderer {
  public:
   /// Creates the renderer's resources and the Streamer over one throttled link per material,

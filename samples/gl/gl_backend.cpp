@@ -132,7 +132,7 @@ class GlBackend final : public Backend {
     glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
     const float zero[4] = {0, 0, 0, 0};
     glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
-    if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (vt/cache_format.hpp)
+    if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (runtime/vt/cache_format.hpp)
       glCreateTextures(GL_TEXTURE_2D, 1, &slot_map_);
       glTextureStorage2D(slot_map_, 1, GL_RGBA32UI, static_cast<GLsizei>(cache_slot_map_width(vt)),
                          static_cast<GLsizei>(cache_slot_map_height(vt)));

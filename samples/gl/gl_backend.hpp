@@ -1,13 +1,13 @@
 // btflod sample — headless OpenGL 4.5 core backend (EGL; llvmpipe in CI).
 //
-// Implements btflod::Backend (include/btflod/backend/backend.hpp) with the generated GLSL 4.50
+// Implements btflod::Backend (include/btflod/runtime/backend/backend.hpp) with the generated GLSL 4.50
 // shaders. No GL header leaks out of this file: the GL objects live in gl_backend.cpp.
 #pragma once
 
 #include <memory>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/runtime/backend/backend.hpp"
 
 namespace btflod::samples {
 

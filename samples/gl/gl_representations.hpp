@@ -5,8 +5,8 @@
 
 #include <glad/gl.h>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/runtime/backend/backend.hpp"
 
 namespace btflod::samples {
 

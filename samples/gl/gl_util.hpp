@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/result.hpp"
-#include "btflod/shader/glsl_generator.hpp"
+#include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
 
 namespace btflod::samples {
 

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/runtime/backend/backend.hpp"
 #include "gl_backend.hpp"
 
 namespace btflod::samples {

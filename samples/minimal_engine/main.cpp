@@ -12,11 +12,11 @@
 #include <cstdio>
 #include <vector>
 
-#include "btflod/backend/streamer_outputs.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
 
 using namespace btflod;
 
@@ -49,7 +49,7 @@ struct FakeGpu {
 };
 
 // A camera sliding over two side-by-side materials (the bottom rows see the third): each
-// feedback texel names the tile (level, x, y) of the material it sees (lod/feedback.hpp).
+// feedback texel names the tile (level, x, y) of the material it sees (runtime/lod/feedback.hpp).
 std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
   std::vector<uint32_t> words;
   for (uint32_t y = 0; y < 45; ++y)
@@ -115,7 +115,7 @@ int main() {
     const std::vector<uint32_t> feedback = render_feedback(streamer, frame);  // GPU readback
     StreamerOutputs out{tiles, packets, writes, events, jobs};
     if (const Status st = streamer.update(feedback, out); st != Status::success) return st;
-    // Tiles first, then U′, then the page-table texels (backend/streamer_outputs.hpp; with a
+    // Tiles first, then U′, then the page-table texels (runtime/backend/streamer_outputs.hpp; with a
     // btflod::Backend this is apply_streamer_outputs(backend, out, material_handles)).
     const Status applied = forward_streamer_outputs(
         out,

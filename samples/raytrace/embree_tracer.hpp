@@ -1,4 +1,4 @@
-// btflod-raytrace — Intel Embree 3 behind btflod's RayTracer concept (render/surface.hpp): one
+// btflod-raytrace — Intel Embree 3 behind btflod's RayTracer concept (offline/render/surface.hpp): one
 // triangle geometry per SceneMesh (geometry id = mesh index) sharing the caller's MeshVertex
 // and index buffers, closest hit with rtcIntersect1 and any hit with rtcOccluded1. Embree lives
 // only in this sample; the library's integrator sees intersect()/occluded().
@@ -13,7 +13,7 @@
 #include <string>
 
 #include "btflod/core/result.hpp"
-#include "btflod/render/surface.hpp"
+#include "btflod/offline/render/surface.hpp"
 
 namespace btflod::raytrace {
 

@@ -20,15 +20,17 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <type_traits>
 #include <vector>
 
-#include "btflod/core/image_io.hpp"
 #include "btflod/core/thread_pool.hpp"
-#include "btflod/metrics/image_metrics.hpp"
-#include "btflod/render/integrator.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "btflod/offline/render/integrator.hpp"
+#include "common/arguments.hpp"
 #include "embree_tracer.hpp"
 #include "raytrace_scenes.hpp"
 #include "report.hpp"
@@ -54,62 +56,29 @@ struct Options {
   bool scaling = true;
 };
 
-bool parse_u64(const char* s, uint64_t lo, uint64_t hi, uint64_t& out) {
-  char* end = nullptr;
-  errno = 0;
-  const unsigned long long v = std::strtoull(s, &end, 10);
-  if (errno != 0 || end == s || *end != '\0' || v < lo || v > hi) return false;
-  out = v;
-  return true;
-}
-
-Result<Options> parse_options(int argc, char** argv) {
+// Parses argv (the samples' parser); nullopt after printing the problems. --quick sets small
+// defaults that explicit options still override.
+std::optional<Options> parse_options(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto number = [&](uint64_t lo, uint64_t hi, auto& field) -> VoidResult {
-      uint64_t v = 0;
-      if (i + 1 >= argc || !parse_u64(argv[i + 1], lo, hi, v))
-        return make_error(Status::invalid_argument, "%s needs an integer in [%llu, %llu]", a.c_str(),
-                          static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi));
-      field = static_cast<std::remove_reference_t<decltype(field)>>(v);
-      ++i;
-      return {};
-    };
-    VoidResult r;
-    if (a == "--out" && i + 1 < argc)
-      o.out = argv[++i];
-    else if (a == "--size")
-      r = number(8, 4096, o.size);
-    else if (a == "--threads")
-      r = number(1, 256, o.threads);
-    else if (a == "--seed")
-      r = number(0, UINT64_MAX, o.seed);
-    else if (a == "--path-frames")
-      r = number(1, 10000, o.path_frames);
-    else if (a == "--still-frames")
-      r = number(1, 100000, o.still_frames);
-    else if (a == "--reference-frames")
-      r = number(4, 100000, o.reference_frames);
-    else if (a == "--convergence-frames")
-      r = number(4, 100000, o.convergence_frames);
-    else if (a == "--max-triangles")
-      r = number(1000, 100000000, o.max_triangles);
-    else if (a == "--timing-frames")
-      r = number(1, 1000, o.timing_frames);
-    else if (a == "--material-size")
-      r = number(4, 256, o.material_size);
-    else if (a == "--check")
-      o.check = true;
-    else if (a == "--no-scaling")
-      o.scaling = false;
-    else if (a == "--quick") {
-      o.size = 48, o.path_frames = 4, o.still_frames = 8, o.reference_frames = 64, o.convergence_frames = 16;
-      o.max_triangles = 20000, o.timing_frames = 1, o.material_size = 16;
-    } else
-      return make_error(Status::invalid_argument, "unknown or incomplete argument '%s'", a.c_str());
-    if (!r) return r.error();
+  samples::Arguments args("btflod-raytrace", argc, argv);
+  if (args.flag("quick")) {
+    o.size = 48, o.path_frames = 4, o.still_frames = 8, o.reference_frames = 64, o.convergence_frames = 16;
+    o.max_triangles = 20000, o.timing_frames = 1, o.material_size = 16;
   }
+  o.out = args.string("out", o.out);
+  o.size = args.integer_as("size", o.size, 8, 4096);
+  o.threads = args.integer_as("threads", o.threads, 1, 256);
+  o.seed = args.unsigned_integer("seed", o.seed);
+  o.path_frames = args.integer_as("path-frames", o.path_frames, 1, 10000);
+  o.still_frames = args.integer_as("still-frames", o.still_frames, 1, 100000);
+  o.reference_frames = args.integer_as("reference-frames", o.reference_frames, 4, 100000);
+  o.convergence_frames = args.integer_as("convergence-frames", o.convergence_frames, 4, 100000);
+  o.max_triangles = args.integer_as("max-triangles", o.max_triangles, 1000, 100000000);
+  o.timing_frames = args.integer_as("timing-frames", o.timing_frames, 1, 1000);
+  o.material_size = args.integer_as("material-size", o.material_size, 4, 256);
+  o.check = args.flag("check");
+  if (args.flag("no-scaling")) o.scaling = false;
+  if (!args.finish(0)) return std::nullopt;
   return o;
 }
 
@@ -850,11 +819,8 @@ int run_checks(const Options& o, const Materials& mats) {
 }
 
 int run(int argc, char** argv) {
-  auto opts = parse_options(argc, argv);
-  if (!opts) {
-    std::fprintf(stderr, "btflod-raytrace: %s\n", opts.message().c_str());
-    return 2;
-  }
+  const std::optional<Options> opts = parse_options(argc, argv);
+  if (!opts) return 2;
   const Options& o = *opts;
   std::error_code ec;
   std::filesystem::create_directories(o.out, ec);

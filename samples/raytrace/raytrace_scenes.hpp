@@ -14,22 +14,22 @@
 
 #include <glm/glm.hpp>
 
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/laplacian_pca.hpp"
-#include "btflod/factor/local_pca.hpp"
-#include "btflod/factor/pca_views.hpp"
-#include "btflod/render/integrator.hpp"
-#include "btflod/render/owned_scene.hpp"
-#include "btflod/render/primitives.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/laplacian_pca.hpp"
+#include "btflod/offline/factor/local_pca.hpp"
+#include "btflod/offline/factor/pca_views.hpp"
+#include "btflod/offline/render/integrator.hpp"
+#include "btflod/offline/render/owned_scene.hpp"
+#include "btflod/offline/render/primitives.hpp"
 #include "scene/demo_scene.hpp"
 
 namespace btflod::raytrace {
 
 /// The representations a material can use. A representation added to AnyFactorization gets a
 /// case in factorize() and a name here; shading needs nothing more (it visits the variant,
-/// render/shading.hpp).
+/// offline/render/shading.hpp).
 enum class Representation : uint8_t { fmf, pca_k, laplacian, lpca, spmm };
 inline constexpr Representation kAllRepresentations[] = {
     Representation::fmf, Representation::pca_k, Representation::laplacian, Representation::lpca, Representation::spmm};

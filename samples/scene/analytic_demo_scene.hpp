@@ -1,12 +1,12 @@
 // btflod samples — the demo scene (scene/demo_scene.hpp) as analytic shapes for the CPU
-// ray-casters (backend/cpu_reference.hpp): the demo's CPU fallback and raw-BTF reference, and the
+// ray-casters (offline/render/cpu_reference.hpp): the demo's CPU fallback and raw-BTF reference, and the
 // progressive and visibility tools. Same layout as the triangle meshes (DemoLayout), and the same
 // texture frames: the ground's uv.y runs along −z, the tori are parameterised as make_torus.
 #pragma once
 
 #include <cstdint>
 
-#include "btflod/backend/cpu_reference.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
 #include "scene/demo_scene.hpp"
 
 namespace btflod::scene {

@@ -1,6 +1,6 @@
 // btflod samples — a shared demo scene: BTF-textured tori standing on a textured ground plane
 // (the kind of scene of paper 000's figures), triangle meshes for the GPU backends
-// (backend/backend.hpp MeshVertex), a camera fly-through and the matrices/uniforms of one view.
+// (runtime/backend/backend.hpp MeshVertex), a camera fly-through and the matrices/uniforms of one view.
 // Used by samples/demo and the golden tests. Header-only; set-up functions allocate.
 #pragma once
 
@@ -11,8 +11,8 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "btflod/backend/backend.hpp"
-#include "btflod/core/math.hpp"
+#include "btflod/offline/math/math.hpp"
+#include "btflod/runtime/backend/backend.hpp"
 
 namespace btflod::scene {
 

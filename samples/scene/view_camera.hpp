@@ -1,8 +1,8 @@
-// The CPU ray-caster's camera (backend/cpu_reference.hpp) for a scene view: the same eye, target,
+// The CPU ray-caster's camera (offline/render/cpu_reference.hpp) for a scene view: the same eye, target,
 // field of view and image size the GPU renderers project with (View::view_proj).
 #pragma once
 
-#include "btflod/backend/cpu_reference.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
 #include "demo_scene.hpp"
 
 namespace btflod::scene {

@@ -132,7 +132,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
                                     vt.cache_width(), vt.cache_height(), vt.cache_layers, 1);
       !r)
     return r;
-  // rgba8_affine: one RGBA32UI texel per slot (vt/cache_format.hpp); otherwise a 1×1 stand-in
+  // rgba8_affine: one RGBA32UI texel per slot (runtime/vt/cache_format.hpp); otherwise a 1×1 stand-in
   // the rgba16f programs never read. A 2D view: the shaders declare a usampler2D.
   if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_UINT, affine ? cache_slot_map_width(vt) : 1,
                                     affine ? cache_slot_map_height(vt) : 1, 1, 1, 0, false);

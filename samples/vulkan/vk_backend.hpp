@@ -1,14 +1,14 @@
 // btflod sample — headless Vulkan backend (lavapipe in CI): offscreen images, no swapchain.
 //
-// Implements btflod::Backend (include/btflod/backend/backend.hpp) with the generated Vulkan
+// Implements btflod::Backend (include/btflod/runtime/backend/backend.hpp) with the generated Vulkan
 // GLSL, compiled to SPIR-V by glslc (subprocess) when init() runs. Needs Vulkan 1.3 (dynamic
 // rendering). No Vulkan header leaks out of this file (internals: vk_internal.hpp).
 #pragma once
 
 #include <memory>
 
-#include "btflod/backend/backend.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/runtime/backend/backend.hpp"
 
 namespace btflod::samples {
 

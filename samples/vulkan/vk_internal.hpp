@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "btflod/shader/hlsl_generator.hpp"
+#include "btflod/runtime/shader/hlsl_generator.hpp"
 #include "vk_backend.hpp"
 
 namespace btflod::samples::vk_detail {

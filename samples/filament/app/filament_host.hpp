@@ -27,7 +27,7 @@
 #include <filament/View.h>
 #include <utils/Entity.h>
 
-#include "btflod/render/primitives.hpp"
+#include "btflod/offline/render/primitives.hpp"
 
 namespace host {
 

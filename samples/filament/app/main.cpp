@@ -2,7 +2,7 @@
 // backend, headless). Everything an engine does to adopt btflod is in this file:
 //
 //   1. at build time, btflod's Filament target writes the material sources (matgen.cpp, with
-//      shader/filament_material.hpp) and Filament's matc compiles them (CMakeLists.txt);
+//      runtime/shader/filament_material.hpp) and Filament's matc compiles them (CMakeLists.txt);
 //   2. at load time, one btflod::Streamer serves every .bsvtf material of the world; its
 //      gpu_layout() gives the shapes of the textures the materials read (tile cache, page
 //      table, U′) and each container's directions give its angular lookup tables;
@@ -30,15 +30,16 @@
 
 #include <math/vec4.h>
 
-#include "btflod/backend/bsvtf_angular_tables.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/core/file_io.hpp"
-#include "btflod/core/image_io.hpp"
-#include "btflod/render/primitives.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
+#include "btflod/offline/render/primitives.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/shader/filament_material.hpp"
+#include "btflod/runtime/stream/file_source.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/shader/filament_material.hpp"
-#include "btflod/stream/file_source.hpp"
-#include "btflod/stream/thread_executor.hpp"
+#include "common/arguments.hpp"
 #include "filament_host.hpp"
 #include "procedural_materials.hpp"
 #include "reference_check.hpp"
@@ -114,21 +115,13 @@ bool write_frame(const std::string& path, const std::vector<float>& rgba) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> paths;
-  std::string out_dir = ".";
-  uint32_t frames = 48;
-  bool check = false;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--out") && i + 1 < argc)
-      out_dir = argv[++i];
-    else if (!std::strcmp(argv[i], "--frames") && i + 1 < argc)
-      frames = static_cast<uint32_t>(std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--check"))
-      check = true;
-    else
-      paths.push_back(argv[i]);
-  }
-  if (paths.size() != 3 || frames < 4)
+  btflod::samples::Arguments args("btflod-filament", argc, argv);
+  const std::string out_dir = args.string("out", ".");
+  const uint32_t frames = args.integer_as<uint32_t>("frames", 48, 4, 100000);
+  const bool check = args.flag("check");
+  const bool parsed = args.finish(3);
+  const std::vector<std::string>& paths = args.positional();
+  if (!parsed || paths.size() != 3)
     return std::fprintf(
                stderr,
                "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"),

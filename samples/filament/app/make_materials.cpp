@@ -5,7 +5,7 @@
 #include <string>
 
 #include "btflod/core/file_io.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
 #include "procedural_materials.hpp"
 
 using namespace btflod;

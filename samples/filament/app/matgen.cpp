@@ -4,7 +4,7 @@
 #include <cstring>
 #include <string>
 
-#include "btflod/shader/filament_material.hpp"
+#include "btflod/runtime/shader/filament_material.hpp"
 #include "sample_config.hpp"
 
 int main(int argc, char** argv) {

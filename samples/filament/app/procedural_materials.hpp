@@ -10,8 +10,8 @@
 #include <cmath>
 #include <vector>
 
-#include "btflod/btf/directions.hpp"
-#include "btflod/vt/vt_layout.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
 #include "sample_config.hpp"
 
 namespace sample {

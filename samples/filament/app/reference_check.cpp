@@ -4,8 +4,8 @@
 #include <cstdio>
 
 #include "btflod/core/image.hpp"
-#include "btflod/core/image_io.hpp"
-#include "btflod/lod/lod_selector.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
 
 using namespace btflod;
 
@@ -34,28 +34,13 @@ void ReferenceCheck::mirror(const StreamerOutputs& out) {
   }
 }
 
-namespace {
-AngularSample lookup(const BsvtfAngularTables& t, const std::vector<uint32_t>& index, const std::vector<float>& weight,
-                     glm::vec3 d) {
-  const Int2 texel = shader_table_texel(
-      shader_direction_to_unit_square(DirectionParameterisation::parabolic, Float3(d.x, d.y, d.z)), t.resolution);
-  const size_t k = (static_cast<size_t>(texel.y) * t.resolution + static_cast<size_t>(texel.x)) * 3;
-  AngularSample s;
-  for (int i = 0; i < 3; ++i) {
-    s.index[i] = index[k + i];
-    s.weight[i] = weight[k + i];
-  }
-  return s;
-}
-}  // namespace
-
 glm::vec3 ReferenceCheck::shade(const SurfaceHit& hit, const Camera& cam, glm::vec3 to_light, glm::vec3 light_color,
                                 std::span<const float> v) const {
   const glm::vec3 wl = to_local(hit, glm::normalize(to_light));
   const glm::vec3 wv = to_local(hit, glm::normalize(cam.position - hit.position));
   const BsvtfAngularTables& t = *tables_[hit.material];
-  return shade_fmf(u_[hit.material], lookup(t, t.light_index, t.light_weight, wl),
-                   lookup(t, t.view_index, t.view_weight, wv), v) *
+  return shade_fmf(u_[hit.material], angular_table_sample(t.data(), 0, DirectionParameterisation::parabolic, false, wl),
+                   angular_table_sample(t.data(), 1, DirectionParameterisation::parabolic, false, wv), v) *
          light_color;
 }
 
@@ -80,22 +65,20 @@ bool ReferenceCheck::run(const Scene& scene, const Camera& cam, glm::vec3 to_lig
   Image<float> ref(static_cast<int>(cam.width), static_cast<int>(cam.height), 4, 0.0f);
   uint64_t pixels = 0, finest = 0;
   std::vector<float> comps;
-  for (uint32_t y = 0; y < cam.height; ++y)
-    for (uint32_t x = 0; x < cam.width; ++x) {
-      const SurfaceHit hit = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      if (!hit.hit) continue;
-      // V′ through the tile cache's own page table: the deepest resident tile, bilinear.
-      const uint32_t m = hit.material, first = streamer_.first_texture(m), n = streamer_.texture_count(m);
-      comps.assign(4 * n, 0.0f);
-      for (uint32_t k = 0; k < n; ++k) {
-        const uint32_t level = cache_.sample(cache, first + k, hit.texcoord.x, hit.texcoord.y, &comps[4 * k]);
-        if (k == 0 && level == cache.set().levels_of(first).finest_level()) ++finest;
-      }
-      comps.resize(streamer_.component_count(m));
-      const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
-      for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
-      ++pixels;
+  for_each_pixel_hit(scene, cam, [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& hit) {
+    if (!hit.hit) return;
+    // V′ through the tile cache's own page table: the deepest resident tile, bilinear.
+    const uint32_t m = hit.material, first = streamer_.first_texture(m), n = streamer_.texture_count(m);
+    comps.assign(4 * n, 0.0f);
+    for (uint32_t k = 0; k < n; ++k) {
+      const uint32_t level = cache_.sample(cache, first + k, hit.texcoord.x, hit.texcoord.y, &comps[4 * k]);
+      if (k == 0 && level == cache.set().levels_of(first).finest_level()) ++finest;
     }
+    comps.resize(streamer_.component_count(m));
+    const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
+    for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
+    ++pixels;
+  });
   const double db = psnr(ref, rgba, out_dir + "/reference.png");
   std::printf(
       "check: bsvtf: PSNR %.3f dB vs the CPU reference (bound %.1f), %llu of %llu covered pixels at the finest level\n",
@@ -110,26 +93,13 @@ bool ReferenceCheck::run_fmf(const Scene& scene, const Camera& cam, glm::vec3 to
   Image<float> ref(static_cast<int>(cam.width), static_cast<int>(cam.height), 4, 0.0f);
   std::vector<float> comps(static_cast<size_t>(v.channels()));
   uint64_t pixels = 0;
-  for (uint32_t y = 0; y < cam.height; ++y)
-    for (uint32_t x = 0; x < cam.width; ++x) {
-      const SurfaceHit hit = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      if (!hit.hit || hit.material != material) continue;
-      // Bilinear with repeat, texel centres at half-integers (GL_LINEAR, GL_REPEAT).
-      const float sx = hit.texcoord.x * static_cast<float>(v.width()) - 0.5f;
-      const float sy = hit.texcoord.y * static_cast<float>(v.height()) - 0.5f;
-      const float fx = std::floor(sx), fy = std::floor(sy), ax = sx - fx, ay = sy - fy;
-      const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
-      const int x0 = wrap(static_cast<int>(fx), v.width()), x1 = wrap(static_cast<int>(fx) + 1, v.width());
-      const int y0 = wrap(static_cast<int>(fy), v.height()), y1 = wrap(static_cast<int>(fy) + 1, v.height());
-      for (int c = 0; c < v.channels(); ++c) {
-        const float top = v.at(x0, y0, c) + (v.at(x1, y0, c) - v.at(x0, y0, c)) * ax;
-        const float bot = v.at(x0, y1, c) + (v.at(x1, y1, c) - v.at(x0, y1, c)) * ax;
-        comps[static_cast<size_t>(c)] = top + (bot - top) * ay;
-      }
-      const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
-      for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
-      ++pixels;
-    }
+  for_each_pixel_hit(scene, cam, [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& hit) {
+    if (!hit.hit || hit.material != material) return;
+    sample_repeat_bilinear(v, hit.texcoord, comps);  // GL_LINEAR, GL_REPEAT
+    const glm::vec3 rgb = shade(hit, cam, to_light, light_color, comps);
+    for (int c = 0; c < 3; ++c) ref.at(static_cast<int>(x), static_cast<int>(y), c) = rgb[c];
+    ++pixels;
+  });
   const double db = psnr(ref, rgba, out_dir + "/reference_fmf.png");
   std::printf("check: fmf (resident V'): PSNR %.3f dB vs the CPU reference (bound %.1f), %llu pixels\n", db, min_psnr,
               static_cast<unsigned long long>(pixels));
@@ -146,21 +116,18 @@ bool ReferenceCheck::compare_feedback(const char* label, const Scene& scene, con
   fcam.height = cam.height / decimation;
   const DerivativeLod selector{lod_bias - std::log2(static_cast<float>(decimation))};
   uint64_t equal = 0, one_level = 0, other = 0;
-  for (uint32_t y = 0; y < fcam.height; ++y)
-    for (uint32_t x = 0; x < fcam.width; ++x) {
-      const float px = static_cast<float>(x) + 0.5f, py = static_cast<float>(y) + 0.5f;
-      const uint32_t cpu =
-          feedback_word(fcam, scene.intersect(fcam.ray(px, py)), px, py, streamer_.cache().set(), selector);
-      const uint32_t gpu = words[size_t{y} * fcam.width + x];
-      if (cpu == gpu) {
-        ++equal;
-        continue;
-      }
-      const FeedbackTile a = unpack_feedback(cpu), b = unpack_feedback(gpu);
-      const bool near = cpu != kFeedbackNone && gpu != kFeedbackNone && a.material == b.material &&
-                        (a.level + 1 == b.level || b.level + 1 == a.level);
-      ++(near ? one_level : other);
+  for_each_pixel_hit(scene, fcam, [&](uint32_t x, uint32_t y, float px, float py, const SurfaceHit& hit) {
+    const uint32_t cpu = feedback_word(fcam, hit, px, py, streamer_.cache().set(), selector);
+    const uint32_t gpu = words[size_t{y} * fcam.width + x];
+    if (cpu == gpu) {
+      ++equal;
+      return;
     }
+    const FeedbackTile a = unpack_feedback(cpu), b = unpack_feedback(gpu);
+    const bool near = cpu != kFeedbackNone && gpu != kFeedbackNone && a.material == b.material &&
+                      (a.level + 1 == b.level || b.level + 1 == a.level);
+    ++(near ? one_level : other);
+  });
   const double total = static_cast<double>(equal + one_level + other);
   std::printf(
       "check: %s: feedback words %llu of %.0f equal to the CPU's (bound %.0f %%), %llu one level apart, "

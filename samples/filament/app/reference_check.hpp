@@ -1,5 +1,5 @@
 // --check: the converged Filament frame and feedback against btflod's CPU reference
-// (backend/cpu_reference.hpp) at the same view. Not part of an integration: a test of one.
+// (offline/render/cpu_reference.hpp) at the same view. Not part of an integration: a test of one.
 //
 // The CPU side mirrors what the GPU received (every tile upload into a CpuCacheTexture, every U′
 // packet into U), ray-casts the same shapes with the same camera, samples V′ through the tile
@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/bsvtf_angular_tables.hpp"
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
 #include "btflod/core/image.hpp"
+#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
 #include "btflod/runtime/streamer.hpp"
 
 namespace sample {

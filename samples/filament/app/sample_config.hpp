@@ -3,7 +3,7 @@
 // cache shape in as constants, so a change here regenerates the materials.
 #pragma once
 
-#include "btflod/shader/shader_config.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
 
 namespace sample {
 

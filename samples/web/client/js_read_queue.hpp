@@ -10,7 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "btflod/stream/tile_source.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 
 namespace btflod::web {
 

@@ -2,12 +2,12 @@
 // emscripten. Streaming is the engine runtime itself: one Streamer (runtime/streamer.hpp, the
 // object native engines use) over every material, its reads handed to JavaScript through
 // js_read_queue.hpp. The Streamer verifies payloads (size, CRC-32), decodes tiles against their
-// parent chains (codec/tile_codec.hpp: zstd tiles — tile format 3, the default coder — and
+// parent chains (runtime/codec/tile_codec.hpp: zstd tiles — tile format 3, the default coder — and
 // deflate tiles — format 2 — through zlib or libdeflate, all built from Debian's sources),
 // counts the feedback votes, runs the scheduler with U′ packet streaming (paper 000 §5–6) and
 // emits tile uploads and page-table writes. This file adds what the page needs around it: the
 // angular lookup tables and the U′ texture layout (web_material.hpp), the GLSL ES 3.00 programs
-// (shader/glsl_generator.hpp), and paper 004's fixed component order for comparison, which
+// (runtime/shader/glsl_generator.hpp), and paper 004's fixed component order for comparison, which
 // bypasses the scheduler and so has its own small cache.
 //
 // JavaScript (www/btflod_client.js) owns I/O and the GPU: per frame it hands the feedback words
@@ -34,15 +34,15 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/lod/feedback.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/shader/glsl_generator.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/shader/glsl_generator.hpp"
-#include "btflod/vt/tile_cache.hpp"
-#include "btflod/vt/vt_layout.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
 #include "js_read_queue.hpp"
 #include "web_material.hpp"
 
@@ -59,7 +59,7 @@ enum Code : int {
 
 struct ClientMaterial {
   BsvtfDirectory dir;
-  AngularTextures angular;
+  BsvtfAngularTables angular;
   std::vector<float> u_rgba;       ///< eigen_abrdfs texture: lights × views × C layers, RGBA32F
   uint32_t packets_loaded = 0;     ///< U′ packets uploaded (the highest g + 1)
   std::vector<uint8_t> delivered;  ///< per (local texture, flat tile): uploaded at least once
@@ -623,7 +623,7 @@ EMSCRIPTEN_KEEPALIVE const char* bw_pca_rings_program_source(int stage, uint32_t
   return c.shader_text.c_str();
 }
 
-/// CRC-32 (the container's, codec/container.hpp) of `len` bytes: the page checks .pcak chunks
+/// CRC-32 (the container's, runtime/codec/container.hpp) of `len` bytes: the page checks .pcak chunks
 /// with it before they reach a texture.
 EMSCRIPTEN_KEEPALIVE uint32_t bw_crc32(const uint8_t* bytes, uint32_t len) {
   return btflod::crc32_of(std::span<const uint8_t>(bytes, len));
@@ -669,11 +669,11 @@ EMSCRIPTEN_KEEPALIVE const float* bw_u_rgba(uint32_t m) {
 }
 EMSCRIPTEN_KEEPALIVE const uint32_t* bw_angular_index(uint32_t m) {
   auto& c = client();
-  return m < c.materials.size() ? c.materials[m]->angular.index.data() : nullptr;
+  return m < c.materials.size() ? c.materials[m]->angular.index_rgba.data() : nullptr;
 }
 EMSCRIPTEN_KEEPALIVE const float* bw_angular_weight(uint32_t m) {
   auto& c = client();
-  return m < c.materials.size() ? c.materials[m]->angular.weight.data() : nullptr;
+  return m < c.materials.size() ? c.materials[m]->angular.weight_rgba.data() : nullptr;
 }
 /// Σ w of uploaded tiles / Σ w of all tiles of material m (paper 000 eq. 8), in [0, 1].
 EMSCRIPTEN_KEEPALIVE double bw_converged_fraction(uint32_t m) {

@@ -13,68 +13,20 @@
 #include <string>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/parameterization.hpp"
-#include "btflod/btf/directions.hpp"
-#include "btflod/codec/container.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
+#include "btflod/runtime/codec/container.hpp"
 
 namespace btflod::web {
 
-/// A direction set from the container's xyz triples (local frame). θ and φ are recomputed from
-/// the vector; the lookup tables only use the vectors' parameterised positions.
-inline DirectionSet directions_from_xyz(const std::string& name, std::span<const float> xyz) {
-  std::vector<Direction> out;
-  out.reserve(xyz.size() / 3);
-  for (size_t i = 0; i + 2 < xyz.size(); i += 3) {
-    Direction d;
-    d.vector = glm::normalize(glm::vec3(xyz[i], xyz[i + 1], xyz[i + 2]));
-    d.theta = std::acos(std::clamp(d.vector.z, -1.0f, 1.0f));
-    d.phi = std::atan2(d.vector.y, d.vector.x);
-    out.push_back(d);
-  }
-  return DirectionSet(name, std::move(out));
-}
-
 /// Angular lookup tables of one material as the shaders' two 2-layer textures want them
-/// (backend/backend.hpp pack_angular_tables_rgba: layer 0 light, 1 view; RGBA32UI indices and
-/// RGBA32F weights, resolution² texels per layer, .w = 0).
-struct AngularTextures {
-  uint32_t resolution = 0;
-  std::vector<uint32_t> index;                    ///< resolution² · 2 · 4
-  std::vector<float> weight;                      ///< resolution² · 2 · 4
-  std::vector<uint32_t> light_index, view_index;  ///< resolution² · 3 (CPU lookups)
-  std::vector<float> light_weight, view_weight;
-};
-
-/// Builds the tables from the directory's direction sets. Returns the triangulation's errors
-/// (degenerate sets) or invalid_argument for a bad resolution. Allocates (set-up only).
-inline Result<AngularTextures> build_angular_textures(const BsvtfMetadata& md, uint32_t resolution) {
-  const DirectionSet lights = directions_from_xyz(md.light_set, md.light_directions);
-  const DirectionSet views = directions_from_xyz(md.view_set, md.view_directions);
-  auto lt = LookupTableInterpolator<ParabolicMap>::build(lights, static_cast<int>(resolution));
-  if (!lt) return lt.error();
-  auto vt = LookupTableInterpolator<ParabolicMap>::build(views, static_cast<int>(resolution));
-  if (!vt) return vt.error();
-  AngularTextures a;
-  a.resolution = resolution;
-  const auto li = lt->index_table().elements(), vi = vt->index_table().elements();
-  const auto lw = lt->weight_table().elements(), vw = vt->weight_table().elements();
-  a.light_index.assign(li.begin(), li.end());
-  a.view_index.assign(vi.begin(), vi.end());
-  a.light_weight.assign(lw.begin(), lw.end());
-  a.view_weight.assign(vw.begin(), vw.end());
-  const size_t n = static_cast<size_t>(resolution) * resolution;
-  a.index.assign(n * 2 * 4, 0u);
-  a.weight.assign(n * 2 * 4, 0.0f);
-  for (size_t i = 0; i < n; ++i)
-    for (size_t k = 0; k < 3; ++k) {
-      a.index[i * 4 + k] = li[i * 3 + k];
-      a.weight[i * 4 + k] = lw[i * 3 + k];
-      a.index[(n + i) * 4 + k] = vi[i * 3 + k];
-      a.weight[(n + i) * 4 + k] = vw[i * 3 + k];
-    }
-  return a;
+/// (BsvtfAngularTables: index_rgba / weight_rgba, layer 0 light, 1 view) and as the CPU looks
+/// them up, built by the library from the container's direction sets (parabolic map, the web
+/// shaders' parameterisation). Returns the library's errors for degenerate or non-finite
+/// directions and a bad resolution. Allocates (set-up only).
+inline Result<BsvtfAngularTables> build_angular_textures(const BsvtfMetadata& md, uint32_t resolution) {
+  return build_bsvtf_angular_tables(
+      md, AngularTableConfig{DirectionParameterisation::parabolic, AngularLookup::barycentric, resolution});
 }
 
 /// Checks that U has three linear RGB colour channels per (light, view) pair; its rows are
@@ -95,7 +47,7 @@ inline VoidResult check_u_layout(const BsvtfMetadata& md) {
 /// container's u_row_order for unpack_bsvtf_packet's output, version 2's unspecified order read
 /// as light-major as every producer wrote it; light-major for a Streamer's packet upload) into the
 /// eigen_abrdfs texture array `rgba` (texel (light, view), layer c, rgb = colour; layout of
-/// backend/backend.hpp pack_eigen_abrdfs_rgba: ((c · views + view) · lights + light) · 4), and
+/// runtime/backend/backend.hpp pack_eigen_abrdfs_rgba: ((c · views + view) · lights + light) · 4), and
 /// into E's light-major U `u` (((light · views + view) · 3 + colour) · C + c), both sized for
 /// every component (`u` may be empty: then only `rgba` is written). Components past C
 /// in the last packet are dropped. No allocation.

@@ -28,13 +28,13 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/page_table_writes.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/lod/feedback.hpp"
+#include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/vt/vt_layout.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
 #include "js_read_queue.hpp"
 
 namespace btflod::web {
@@ -218,7 +218,7 @@ EMSCRIPTEN_KEEPALIVE uint32_t bs_pump(uint32_t max_jobs) {
   return state().created ? state().streamer.pump(max_jobs) : 0;
 }
 
-/// The feedback word naming tile (level, x, y) of material m (lod/feedback.hpp).
+/// The feedback word naming tile (level, x, y) of material m (runtime/lod/feedback.hpp).
 EMSCRIPTEN_KEEPALIVE uint32_t bs_feedback_word(uint32_t m, uint32_t level, uint32_t x, uint32_t y) {
   return btflod::pack_feedback(btflod::FeedbackTile{m, level, x, y});
 }
@@ -254,7 +254,7 @@ EMSCRIPTEN_KEEPALIVE uint32_t bs_slot_of(uint32_t texture, uint32_t level, uint3
 }
 
 /// The page-table entry a rebuild from the cache gives tile (texture, level, x, y)
-/// (backend/page_table_writes.hpp gpu_page_entry), to check a mirror of the writes.
+/// (runtime/backend/page_table_writes.hpp gpu_page_entry), to check a mirror of the writes.
 EMSCRIPTEN_KEEPALIVE uint32_t bs_page_entry(uint32_t texture, uint32_t level, uint32_t x, uint32_t y) {
   auto& s = state();
   if (!s.created || texture >= s.streamer.cache().set().texture_count()) return 0;

@@ -7,14 +7,14 @@
 //   reference --out FILE.f32 --bsvtf A.bsvtf[,B.bsvtf…] --eye x,y,z --target x,y,z --fov deg
 //             --light x,y,z --light-color r,g,b --size WxH
 //       CPU reference frame of the page's scene (one 2×2 plane per material, side by side) with
-//       every tile of every material resident: backend/cpu_reference.hpp's ray caster, the vt/
+//       every tile of every material resident: offline/render/cpu_reference.hpp's ray caster, the vt/
 //       page table through CpuCacheTexture (half texels, like the GPU cache), eq. 5 with the
 //       same angular tables as the client (web_material.hpp). Raw RGBA float32, row 0 = top.
 //   compare --ref A.f32 --img B.f32 --size WxH
 //       PSNR (rgb, peak = reference maximum, as the GPU golden tests) and mean SSIM.
 //   pcak --out FILE.pcak --ref FILE.f32 [--index I] [--k 3] [--components 4] + the view options
 //       synthesises material I (as `materials` does), factorises it with PCA over groups of k
-//       views (paper 004, factor/pca_views.hpp), writes the pca_rings GPU layout (L planes and R
+//       views (paper 004, offline/factor/pca_views.hpp), writes the pca_rings GPU layout (L planes and R
 //       columns one component per chunk, the ring search's uniform block) as one static file
 //       for the page, and the CPU reference frame of one 2×2 plane at the origin
 //       (reference_pca_rings)
@@ -27,31 +27,37 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/representation_packing.hpp"
-#include "btflod/backend/ring_search_block.hpp"
-#include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/factor/pca_views.hpp"
-#include "btflod/metrics/image_metrics.hpp"
-#include "btflod/vt/tile_cache.hpp"
+#include "btflod/offline/factor/pca_views.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "btflod/offline/packing/representation_packing.hpp"
+#include "btflod/offline/packing/ring_search_block.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
 #include "client/web_material.hpp"
+#include "common/arguments.hpp"
 #include "demo/materials.hpp"
 
 namespace {
 
 using namespace btflod;
 
+// A command's options through the samples' parser: each command reads what it knows with get();
+// main() then reports anything left over (unknown options, stray words) and exits with 2.
 struct Args {
   std::string command;
-  std::map<std::string, std::string> options;
-  std::string get(const std::string& k, const std::string& fallback = "") const {
-    auto it = options.find(k);
-    return it == options.end() ? fallback : it->second;
+  samples::Arguments* parser = nullptr;
+  std::map<std::string, std::optional<std::string>, std::less<>> seen;  // options already read
+  std::string get(const std::string& k, const std::string& fallback = "") {
+    auto it = seen.find(k);
+    if (it == seen.end()) it = seen.emplace(k, parser->value(k)).first;
+    return it->second ? *it->second : fallback;
   }
 };
 
@@ -67,12 +73,12 @@ std::vector<float> floats(const std::string& s) {
   return v;
 }
 
-glm::vec3 vec3_arg(const Args& a, const std::string& k, glm::vec3 fallback) {
+glm::vec3 vec3_arg(Args& a, const std::string& k, glm::vec3 fallback) {
   const auto v = floats(a.get(k));
   return v.size() == 3 ? glm::vec3(v[0], v[1], v[2]) : fallback;
 }
 
-bool size_arg(const Args& a, int& w, int& h) {
+bool size_arg(Args& a, int& w, int& h) {
   return std::sscanf(a.get("size", "512x512").c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 8192 &&
          h <= 8192;
 }
@@ -88,7 +94,7 @@ glm::vec3 plane_origin(uint32_t i, uint32_t n) {
   return glm::vec3(-1.0f + 2.2f * (static_cast<float>(i) - 0.5f * static_cast<float>(n - 1)), -1.0f, 0.0f);
 }
 
-int cmd_materials(const Args& a) {
+int cmd_materials(Args& a) {
   const std::string out = a.get("out");
   if (out.empty()) return fail("materials: --out DIR required");
   std::filesystem::create_directories(out);
@@ -125,12 +131,12 @@ int cmd_materials(const Args& a) {
 struct RefMaterial {
   std::vector<uint8_t> file;
   BsvtfDirectory dir;
-  web::AngularTextures angular;
+  BsvtfAngularTables angular;
   std::vector<float> u_rgba, u;
   EigenTextures eigen;  // angular = u (E's layout), for shade_fmf
 };
 
-int cmd_reference(const Args& a) {
+int cmd_reference(Args& a) {
   int W, H;
   if (!size_arg(a, W, H)) return fail("reference: bad --size");
   std::vector<std::string> paths;
@@ -224,36 +230,25 @@ int cmd_reference(const Args& a) {
   const glm::vec3 light_color = vec3_arg(a, "light-color", glm::vec3(1.0f));
   std::vector<float> img(static_cast<size_t>(W) * H * 4, 0.0f);
   std::vector<float> comps(64);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      if (!h.hit) continue;
-      const RefMaterial& m = mats[h.material];
-      const uint32_t C = m.dir.metadata.component_count;
-      const VtMaterial& vm = set.material(h.material);
-      for (uint32_t k = 0; k < vm.texture_count; ++k) {
-        float v4[4];
-        texture.sample(cache, vm.first_texture + k, h.texcoord.x, h.texcoord.y, v4);
-        for (uint32_t c = 0; c < 4 && 4 * k + c < C; ++c) comps[4 * k + c] = v4[c];
-      }
-      const auto lookup = [&](const std::vector<uint32_t>& idx, const std::vector<float>& wt, glm::vec3 d) {
-        const glm::ivec2 t =
-            shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, d), res);
-        const size_t o = (static_cast<size_t>(t.y) * res + static_cast<size_t>(t.x)) * 3;
-        AngularSample s;
-        for (int k = 0; k < 3; ++k) {
-          s.index[k] = idx[o + k];
-          s.weight[k] = wt[o + k];
-        }
-        return s;
-      };
-      const AngularSample ls = lookup(m.angular.light_index, m.angular.light_weight, to_local(h, light));
-      const AngularSample vs =
-          lookup(m.angular.view_index, m.angular.view_weight, to_local(h, glm::normalize(cam.position - h.position)));
-      const glm::vec3 rgb = shade_fmf(m.eigen, ls, vs, std::span<const float>(comps.data(), C)) * light_color;
-      float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
-      p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
+  for_each_pixel_hit(scene, cam, [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& h) {
+    if (!h.hit) return;
+    const RefMaterial& m = mats[h.material];
+    const uint32_t C = m.dir.metadata.component_count;
+    const VtMaterial& vm = set.material(h.material);
+    for (uint32_t k = 0; k < vm.texture_count; ++k) {
+      float v4[4];
+      texture.sample(cache, vm.first_texture + k, h.texcoord.x, h.texcoord.y, v4);
+      for (uint32_t c = 0; c < 4 && 4 * k + c < C; ++c) comps[4 * k + c] = v4[c];
     }
+    const AngularTablesData tables = m.angular.data();
+    const AngularSample ls =
+        angular_table_sample(tables, 0, DirectionParameterisation::parabolic, false, to_local(h, light));
+    const AngularSample vs = angular_table_sample(tables, 1, DirectionParameterisation::parabolic, false,
+                                                  to_local(h, glm::normalize(cam.position - h.position)));
+    const glm::vec3 rgb = shade_fmf(m.eigen, ls, vs, std::span<const float>(comps.data(), C)) * light_color;
+    float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
+    p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
+  });
   const std::string out = a.get("out");
   if (out.empty()) return fail("reference: --out required");
   if (auto w =
@@ -273,7 +268,7 @@ int cmd_reference(const Args& a) {
 //     m (groups × H × W float32); chunk c ≥ 1: component c's plane of L = [m | UΣ]
 //     (groups × H × W float32) and column c − 1 of R = [1; Vᵀ] (lights · views RGBA32F texels)
 // Every chunk is one Range request; the page verifies its CRC before it touches a texture.
-int cmd_pcak(const Args& a) {
+int cmd_pcak(Args& a) {
   int W, H;
   if (!size_arg(a, W, H)) return fail("pcak: bad --size");
   const uint32_t index = static_cast<uint32_t>(std::atoi(a.get("index", "0").c_str()));
@@ -364,16 +359,14 @@ int cmd_pcak(const Args& a) {
   const glm::vec3 light = glm::normalize(vec3_arg(a, "light", glm::vec3(-0.5f, 0.4f, 0.8f)));
   const glm::vec3 light_color = vec3_arg(a, "light-color", glm::vec3(1.0f));
   std::vector<float> img(static_cast<size_t>(W) * H * 4, 0.0f);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      if (!h.hit) continue;
-      const glm::vec3 rgb = reference_pca_rings(*pca, *light_rings, *view_rings, h.texcoord, to_local(h, light),
-                                                to_local(h, glm::normalize(cam.position - h.position))) *
-                            light_color;
-      float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
-      p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
-    }
+  for_each_pixel_hit(scene, cam, [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& h) {
+    if (!h.hit) return;
+    const glm::vec3 rgb = reference_pca_rings(*pca, *light_rings, *view_rings, h.texcoord, to_local(h, light),
+                                              to_local(h, glm::normalize(cam.position - h.position))) *
+                          light_color;
+    float* p = img.data() + (static_cast<size_t>(y) * W + x) * 4;
+    p[0] = rgb.r, p[1] = rgb.g, p[2] = rgb.b, p[3] = 1.0f;
+  });
   if (auto w = write_file_bytes(a.get("ref"),
                                 std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(img.data()), img.size() * 4));
       !w)
@@ -394,7 +387,7 @@ Result<Image<float>> read_f32(const std::string& path, int w, int h) {
   return img;
 }
 
-int cmd_compare(const Args& a) {
+int cmd_compare(Args& a) {
   int W, H;
   if (!size_arg(a, W, H)) return fail("compare: bad --size");
   auto ref = read_f32(a.get("ref"), W, H);
@@ -419,7 +412,7 @@ int cmd_compare(const Args& a) {
   return 0;
 }
 
-int cmd_decode(const Args& a) {
+int cmd_decode(Args& a) {
   auto bytes = read_file_bytes(a.get("bsvtf"));
   if (!bytes) return fail(bytes.message());
   const int repeats = std::max(1, std::atoi(a.get("repeats", "3").c_str()));
@@ -449,14 +442,20 @@ int main(int argc, char** argv) {
     return 2;
   }
   a.command = argv[1];
-  for (int i = 2; i + 1 < argc; i += 2) {
-    if (std::strncmp(argv[i], "--", 2) != 0) return fail(std::string("unexpected argument ") + argv[i]);
-    a.options[argv[i] + 2] = argv[i + 1];
-  }
-  if (a.command == "materials") return cmd_materials(a);
-  if (a.command == "reference") return cmd_reference(a);
-  if (a.command == "compare") return cmd_compare(a);
-  if (a.command == "decode") return cmd_decode(a);
-  if (a.command == "pcak") return cmd_pcak(a);
-  return fail("unknown command " + a.command);
+  samples::Arguments parser("btflod-web-tool " + a.command, argc - 1, argv + 1);
+  a.parser = &parser;
+  int status = 0;
+  if (a.command == "materials")
+    status = cmd_materials(a);
+  else if (a.command == "reference")
+    status = cmd_reference(a);
+  else if (a.command == "compare")
+    status = cmd_compare(a);
+  else if (a.command == "decode")
+    status = cmd_decode(a);
+  else if (a.command == "pcak")
+    status = cmd_pcak(a);
+  else
+    return fail("unknown command " + a.command);
+  return parser.finish(0) ? status : 2;
 }

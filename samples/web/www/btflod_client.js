@@ -23,7 +23,7 @@ const BINDING = {
 };
 const ORDER_BASE = 0x50000000;
 const IO_ERROR = 5;  // Status::io_error, for bw_complete_read
-// The ring search's uniform block (backend/ring_search_block.hpp: RingSearchBlock) and the
+// The ring search's uniform block (offline/packing/ring_search_block.hpp: RingSearchBlock) and the
 // binding point the page gives it (ES: assigned by name, btflod_DirectionRings).
 const RING_BLOCK_BYTES = 2576;
 const RING_BLOCK_BINDING = 1;

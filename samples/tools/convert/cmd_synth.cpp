@@ -1,16 +1,16 @@
-// btflod-convert synth — write a procedurally synthesised BTF material (btf/synthesizer.hpp).
+// btflod-convert synth — write a procedurally synthesised BTF material (offline/btf/synthesizer.hpp).
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 
-#include "btflod/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
 #include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
-#include "btflod/btf/merl_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
+#include "btflod/offline/btf/merl_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
 
 namespace {
 
@@ -30,7 +30,7 @@ int run_synth(int argc, char** argv) {
         "  Values are rho*cos(theta_light), linear RGB; a .btf output says so in its cosine flag.\n"
         "  OUT ending in .btf is written as a Bonn DFMF file (K components per channel, default 16);\n"
         "  any other OUT as a UBO2003-style PNG image folder.\n"
-        "  OUT ending in .btfstore is a BTF store for out-of-core factorisation (btf/btf_store.hpp),\n"
+        "  OUT ending in .btfstore is a BTF store for out-of-core factorisation (offline/btf/btf_store.hpp),\n"
         "  written view by view (the BTF is never held whole): halves by default, B texels per block\n"
         "  (default 256). --profile paper: paper 000's configuration, 151 x 151 directions (ubo2014)\n"
         "  and 512 x 512 texels unless --dirs/--size say otherwise.\n"

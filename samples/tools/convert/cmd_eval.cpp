@@ -8,20 +8,20 @@
 #include <string>
 #include <vector>
 
-#include "btflod/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
 #include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/low_rank_btf.hpp"
-#include "btflod/metrics/btf_metrics.hpp"
-#include "btflod/metrics/btf_store_metrics.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf_store_metrics.hpp"
+#include "btflod/offline/factor/low_rank_btf.hpp"
+#include "btflod/offline/metrics/btf_metrics.hpp"
 
-// The shared data folder next to the repository (this file is samples/convert/cmd_eval.cpp).
+// The shared data folder next to the repository (this file is samples/tools/convert/cmd_eval.cpp).
 inline std::string default_shared_dir() {
   return (std::filesystem::path(__FILE__).parent_path() / ".." / ".." / ".." / "shared").lexically_normal().string();
 }
@@ -48,7 +48,7 @@ struct StoreEvalArgs {
   uint64_t memory = 0;
 };
 
-// eval against a BTF store: streamed within the budget (metrics/btf_store_metrics.hpp).
+// eval against a BTF store: streamed within the budget (offline/factor/fmf_store_metrics.hpp).
 int eval_against_store(const AnyFactorization& f, const std::string& path, const StoreEvalArgs& a) {
   auto store = BtfStore::open(path);
   if (!store) {
@@ -134,7 +134,7 @@ int run_eval(int argc, char** argv) {
         "  analytic part (paper 003 Table 4).\n"
         "  A SOURCE_BTF ending in .btfstore (btflod-convert synth --out X.btfstore) is streamed from disk\n"
         "  view by view, never loaded whole: the images held at once stay within --memory (default 1G;\n"
-        "  metrics/btf_store_metrics.hpp), and the figures equal those of the in-memory evaluation.\n"
+        "  offline/factor/fmf_store_metrics.hpp), and the figures equal those of the in-memory evaluation.\n"
         "  fmf files are reconstructed image by image; other kinds are reconstructed whole, which must\n"
         "  fit in the budget too.");
     return convert::kExitOk;
@@ -245,7 +245,7 @@ int run_factor_table(int argc, char** argv) {
     std::puts(
         "usage: btflod-convert factor-table [--size N] [--dirs ubo2003|small] [--materials LIST]\n"
         "                                   [--brdf FILE.mbsdf] [--rows SUBSTRING]\n"
-        "  Synthesises materials (btf/synthesizer.hpp; 'carpaint' = leather mesostructure with the\n"
+        "  Synthesises materials (offline/btf/synthesizer.hpp; 'carpaint' = leather mesostructure with the\n"
         "  measured car-paint BRDF as base reflectance), factorises each with every representation\n"
         "  at three sizes and prints a markdown table of error vs compression ratio (docs/factor.md).\n"
         "  --rows runs only the representations whose label contains SUBSTRING (e.g. 'lpca').\n"

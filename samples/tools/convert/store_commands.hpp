@@ -1,7 +1,7 @@
 // btflod-convert — the out-of-core paths of `synth` and `factor` (and the MPI `factor_mpi`):
-// synthesis into a BTF store view by view (btf/btf_store.hpp), and the FMF of a store within a
+// synthesis into a BTF store view by view (offline/btf/btf_store.hpp), and the FMF of a store within a
 // memory budget with a progress line per pass (rate and ETA), checkpoints and resume
-// (factor/fmf_out_of_core.hpp). Shared by cmd_synth.cpp, cmd_factor.cpp and cmd_factor_mpi.cpp.
+// (offline/factor/fmf_out_of_core.hpp). Shared by cmd_synth.cpp, cmd_factor.cpp and cmd_factor_mpi.cpp.
 #pragma once
 
 #include <chrono>
@@ -17,10 +17,10 @@
 
 #include "command.hpp"
 
-#include "btflod/btf/btf_store.hpp"
-#include "btflod/btf/synthesizer.hpp"
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/fmf_out_of_core.hpp"
+#include "btflod/offline/btf/btf_store.hpp"
+#include "btflod/offline/btf/synthesizer.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf_out_of_core.hpp"
 
 namespace btflod::convert {
 

@@ -1,5 +1,5 @@
 // btflod-convert factor_mpi — the FMF of a BTF store distributed over MPI ranks
-// (factor/mpi_svd.hpp): run under mpirun; each rank reads only its range of texel columns from
+// (offline/factor/mpi_svd.hpp): run under mpirun; each rank reads only its range of texel columns from
 // the (shared) store, rank 0 writes the factor file.
 // btflod-link: btflod_mpi
 #include <mpi.h>
@@ -10,7 +10,7 @@
 #include "command.hpp"
 #include "store_commands.hpp"
 
-#include "btflod/factor/mpi_svd.hpp"
+#include "btflod/offline/factor/mpi_svd.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // btflod-bench — replaying a feedback trace through the vote counter, scheduler and tile cache
-// (lod/feedback.hpp, vt/scheduler.hpp, vt/tile_cache.hpp) with an immediate tile source, timing
+// (runtime/lod/feedback.hpp, runtime/vt/scheduler.hpp, runtime/vt/tile_cache.hpp) with an immediate tile source, timing
 // each frame's CPU work next to one read of the same feedback buffer. Also used by
 // bench/bench_scheduler.cpp (--trace).
 #pragma once
@@ -10,15 +10,15 @@
 #include <string>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
 #include "btflod/core/file_io.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/feedback_trace.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/scheduler.hpp"
-#include "btflod/vt/tile_cache.hpp"
-#include "btflod/vt/vt_layout.hpp"
+#include "btflod/runtime/vt/scheduler.hpp"
+#include "btflod/runtime/vt/tile_cache.hpp"
+#include "btflod/runtime/vt/vt_layout.hpp"
 #include "report.hpp"
 
 namespace btflod::bench {

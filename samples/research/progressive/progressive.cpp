@@ -1,12 +1,12 @@
 // btflod-progressive — progressive quality vs bytes received for three streaming orders.
 //
-// Materials are synthesised (btf/synthesizer.hpp), factorised with FMF (paper 000 eq. 4–5), cut
+// Materials are synthesised (offline/btf/synthesizer.hpp), factorised with FMF (paper 000 eq. 4–5), cut
 // into tile pyramids and ENCODED into .bsvtf containers with the real codec — all through the
 // demo's prepare_material() (samples/demo/materials.hpp). Every payload is then decoded once,
 // coarse to fine against its decoded parent (the closed-loop residual codec, paper 000 §6), so
 // the client renders exactly what it would decode. A fixed view of the demo scene (the analytic
 // twin of samples/scene/demo_scene.hpp that the CPU fallback of the demo ray-casts) is rendered
-// by the CPU reference (backend/cpu_reference.hpp: ray casting, feedback words, shade_fmf's
+// by the CPU reference (offline/render/cpu_reference.hpp: ray casting, feedback words, shade_fmf's
 // 9-tap angular combination) from the tiles and U packets that have arrived. One simulated link
 // carries a fixed number of bytes per frame; "bytes" are compressed tile payload bytes plus U
 // packet bytes exactly as stored in the containers, in every order:
@@ -27,7 +27,7 @@
 // per group g whose U packet has arrived, the deepest arrived tile at or above that level
 // (bilinear inside its bordered tile, eq. 3 addressing); groups without a packet or a tile
 // contribute 0 (shade_fmf). Converged image = every tile + every packet, same renderer.
-// SSIM (metrics/image_metrics.hpp, Wang 2004, mean over RGB) of each frame against the converged
+// SSIM (offline/metrics/image_metrics.hpp, Wang 2004, mean over RGB) of each frame against the converged
 // image of the same view, on display values: linear radiance clamped to [0, 1] and sRGB-encoded
 // (data range 1), like the demo's report. Single-threaded where it matters: no thread races the result.
 //
@@ -52,17 +52,18 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/color.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/lod_selector.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/shader/shader_config.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "common/arguments.hpp"
 #include "common/doc_block.hpp"
 #include "materials.hpp"
 #include "scene/demo_scene.hpp"
@@ -85,74 +86,26 @@ struct Options : SceneOptions {
 // This program's World is always built from an Options (main): its own settings.
 const Options& options_of(const World& w) { return static_cast<const Options&>(w.opt); }
 
-bool parse_u64(const char* s, uint64_t& out, uint64_t lo, uint64_t hi) {
-  char* end = nullptr;
-  const unsigned long long v = std::strtoull(s, &end, 10);
-  if (end == s || *end != '\0' || v < lo || v > hi) return false;
-  out = v;
-  return true;
-}
-
 bool parse(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool has_value = i + 1 < argc;
-    const auto u32 = [&](uint32_t& v, uint64_t lo, uint64_t hi) {
-      uint64_t x = 0;
-      if (!has_value || !parse_u64(argv[i + 1], x, lo, hi)) {
-        std::fprintf(stderr, "btflod-progressive: %s needs an integer in [%llu, %llu]\n", a.c_str(),
-                     static_cast<unsigned long long>(lo), static_cast<unsigned long long>(hi));
-        return false;
-      }
-      v = static_cast<uint32_t>(x);
-      ++i;
-      return true;
-    };
-    bool ok = true;
-    if (a == "--out" && has_value)
-      o.out = argv[++i];
-    else if (a == "--doc" && has_value)
-      o.doc = argv[++i];
-    else if (a == "--svg" && has_value)
-      o.svg = argv[++i];
-    else if (a == "--materials")
-      ok = u32(o.materials, 1, 4);
-    else if (a == "--components")
-      ok = u32(o.components, 1, 32);
-    else if (a == "--size")
-      ok = u32(o.size, 8, 128);
-    else if (a == "--repeat")
-      ok = u32(o.repeat, 1, 32);
-    else if (a == "--width")
-      ok = u32(o.width, 16, 1920);
-    else if (a == "--height")
-      ok = u32(o.height, 16, 1080);
-    else if (a == "--views")
-      ok = u32(o.views, 1, 8);
-    else if (a == "--frames-to-all")
-      ok = u32(o.frames_to_all, 4, 100000);
-    else if (a == "--decimation")
-      ok = u32(o.decimation, 1, 16);
-    else if (a == "--max-frames")
-      ok = u32(o.max_frames, 4, 1000000);
-    else if (a == "--quality") {
-      uint32_t q = 0;
-      ok = u32(q, 1, 100);
-      o.quality = static_cast<float>(q);
-    } else if (a == "--bytes-per-frame") {
-      ok = has_value && parse_u64(argv[i + 1], o.bytes_per_frame, 1, 1ull << 40);
-      if (!ok) std::fprintf(stderr, "btflod-progressive: --bytes-per-frame needs a positive integer\n");
-      ++i;
-    } else if (a == "--check-determinism")
-      o.check_determinism = true;
-    else if (a == "--deflate")
-      o.entropy_coder = TileEntropyCoder::deflate;
-    else {
-      std::fprintf(stderr, "btflod-progressive: unknown or incomplete argument '%s'\n", a.c_str());
-      return false;
-    }
-    if (!ok) return false;
-  }
+  samples::Arguments args("btflod-progressive", argc, argv);
+  o.out = args.string("out", o.out);
+  o.doc = args.string("doc", o.doc);
+  o.svg = args.string("svg", o.svg);
+  o.materials = args.integer_as("materials", o.materials, 1, 4);
+  o.components = args.integer_as("components", o.components, 1, 32);
+  o.size = args.integer_as("size", o.size, 8, 128);
+  o.repeat = args.integer_as("repeat", o.repeat, 1, 32);
+  o.width = args.integer_as("width", o.width, 16, 1920);
+  o.height = args.integer_as("height", o.height, 16, 1080);
+  o.views = args.integer_as("views", o.views, 1, 8);
+  o.frames_to_all = args.integer_as("frames-to-all", o.frames_to_all, 4, 100000);
+  o.decimation = args.integer_as("decimation", o.decimation, 1, 16);
+  o.max_frames = args.integer_as("max-frames", o.max_frames, 4, 1000000);
+  if (const auto q = args.optional_integer("quality", 1, 100)) o.quality = static_cast<float>(*q);
+  o.bytes_per_frame = args.integer_as("bytes-per-frame", o.bytes_per_frame, 1, 1ll << 40);
+  o.check_determinism = args.flag("check-determinism");
+  if (args.flag("deflate")) o.entropy_coder = TileEntropyCoder::deflate;
+  if (!args.finish(0)) return false;
   if (o.out.empty()) {
     std::fprintf(stderr, "btflod-progressive: --out DIR is required\n");
     return false;

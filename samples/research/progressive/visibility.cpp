@@ -9,7 +9,7 @@
 // fine (closed loop). Both renders use every tile (the converged state), the same per-pixel
 // level (feedback pass, eq. 1) and the same float U, so the only difference is the codec. Both
 // are tone-mapped as the demo writes its frames: linear radiance clamped to [0, 1], sRGB-encoded
-// to 8 bits (core/image_io.hpp linear_to_srgb8_image). Per quality and material (its pixels over
+// to 8 bits (offline/btf/image_io.hpp linear_to_srgb8_image). Per quality and material (its pixels over
 // all views) it reports:
 //   ratio      raw half-float tiles / coded tile payloads (as `btflod-convert info` prints), and
 //              the whole container file against raw halves of its tiles and U;
@@ -44,7 +44,7 @@
 //   --luminance-as-floor  use the luminance tolerance as a floor under the reference's own
 //                      (BsvtfTileInput::tolerance_min_scale; with --per-component-tolerance:
 //                      max(per-component tolerance, display-referred tolerance))
-//   --perceptual       perceptual tolerances (codec/perceptual_tolerance.hpp
+//   --perceptual       perceptual tolerances (offline/build/perceptual_tolerance.hpp
 //                      perceptual_tolerance_scales, exposure = the scene's sun colour): each
 //                      component of each tile gets an equal share of a ΔE*ab budget;
 //                      --dark-floor F, --reference-de E, --gain-power P, --direction-samples N,
@@ -59,7 +59,7 @@
 //   --deflate          entropy-code the tiles with deflate (tile format 2) instead of the default
 //                      zstd (format 3; --zstd says so explicitly; BsvtfBuildOptions::entropy_coder)
 //   --rendered         (implies --perceptual) build with build_bsvtf_rendered
-//                      (codec/rendered_rate_control.hpp): every tile position's tolerances
+//                      (samples/research/progressive/rendered_rate_control.hpp): every tile position's tolerances
 //                      rescaled until its texture-space p99 ΔE*ab is the target at the quality;
 //                      --rendered-target X (at quality 50), --rendered-quantile Q,
 //                      --rendered-passes N, --rendered-footprint F tune it; with --scene-directions the error is
@@ -79,12 +79,13 @@
 #include <string>
 #include <vector>
 
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/codec/rendered_rate_control.hpp"
-#include "btflod/core/image_io.hpp"
-#include "btflod/metrics/image_metrics.hpp"
+#include "btflod/offline/btf/image_io.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/metrics/image_metrics.hpp"
+#include "common/arguments.hpp"
 #include "common/bsvtf_input.hpp"
 #include "common/doc_block.hpp"
+#include "rendered_rate_control.hpp"
 #include "scene_render.hpp"
 
 using namespace btflod;
@@ -132,139 +133,73 @@ uint32_t bo_weight_quarters(const Options& o) {
 }
 
 bool parse(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
-    const auto u32 = [&](uint32_t& out, unsigned long lo, unsigned long hi) {
-      char* end = nullptr;
-      const unsigned long x = v ? std::strtoul(v, &end, 10) : 0;
-      if (!v || end == v || *end != '\0' || x < lo || x > hi) {
-        std::fprintf(stderr, "btflod-visibility: %s needs an integer in [%lu, %lu]\n", a.c_str(), lo, hi);
-        return false;
-      }
-      out = static_cast<uint32_t>(x);
-      ++i;
-      return true;
-    };
-    bool ok = true;
-    if (a == "--out" && v)
-      o.out = argv[++i];
-    else if (a == "--doc" && v)
-      o.doc = argv[++i];
-    else if (a == "--check")
-      o.check = true;
-    else if (a == "--default-quality")
-      o.qualities = {BsvtfBuildOptions{}.quality};  // what build_bsvtf and the CLI use
-    else if (a == "--materials")
-      ok = u32(o.materials, 2, 4);
-    else if (a == "--components")
-      ok = u32(o.components, 4, 32);
-    else if (a == "--size")
-      ok = u32(o.size, 8, 128);
-    else if (a == "--repeat")
-      ok = u32(o.repeat, 1, 32);
-    else if (a == "--tile")
-      ok = u32(o.tile_size, 8, 256);
-    else if (a == "--width")
-      ok = u32(o.width, 16, 1920);
-    else if (a == "--height")
-      ok = u32(o.height, 16, 1080);
-    else if (a == "--views")
-      ok = u32(o.views, 1, 8);
-    else if (a == "--per-component-tolerance")
-      o.tolerance = ToleranceReference::per_component;
-    else if (a == "--luminance-as-floor")
-      o.luminance_as_floor = o.luminance = true;
-    else if (a == "--luminance-tolerance")
-      o.luminance = true;
-    else if (a == "--perceptual")
-      o.perceptual = true;
-    else if ((a == "--reference-de" || a == "--dark-floor") && v) {
-      char* end = nullptr;
-      const float x = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && x >= 0 && x < 1e6f;
-      (a == "--reference-de" ? o.perceptual_options.reference_delta_e : o.perceptual_options.dark_floor) = x;
-      o.perceptual = true;
-    } else if ((a == "--light-cos-power" || a == "--view-cos-power") && v) {
-      char* end = nullptr;
-      const float x = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && x >= 0 && x <= 64;
-      (a == "--light-cos-power" ? o.perceptual_options.light_cosine_power : o.perceptual_options.view_cosine_power) = x;
-      o.perceptual = true;
-    } else if (a == "--gain-power" && v) {
-      char* end = nullptr;
-      o.perceptual_options.gain_power = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && o.perceptual_options.gain_power >= 0.125 && o.perceptual_options.gain_power <= 64;
-      o.perceptual = true;
-    } else if (a == "--weight-quarters")
-      ok = u32(o.weight_quarters, 0, 4);
-    else if (a == "--zstd")
-      o.entropy_coder = TileEntropyCoder::zstd;
-    else if (a == "--deflate")
-      o.entropy_coder = TileEntropyCoder::deflate;
-    else if (a == "--dead-zone" && v) {
-      char* end = nullptr;
-      o.ac_rounding = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && o.ac_rounding >= 0.5f && o.ac_rounding < 1.0f;
-    } else if (a == "--level-scale" && v) {
-      char* end = nullptr;
-      o.level_scale = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && o.level_scale > 0.0f && o.level_scale < 16.0f;
-    } else if (a == "--rendered")
-      o.rendered = o.perceptual = true;
-    else if (a == "--rendered-footprint")
-      ok = u32(o.rendered_options.error.texel_footprint, 1, 5), o.rendered = o.perceptual = true;
-    else if (a == "--rendered-passes")
-      ok = u32(o.rendered_options.passes, 0, 16), o.rendered = o.perceptual = true;
-    else if ((a == "--rendered-target" || a == "--rendered-quantile") && v) {
-      char* end = nullptr;
-      const float x = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && x > 0 && x < 1e6f && (a == "--rendered-target" || x <= 1);
-      (a == "--rendered-target" ? o.rendered_options.target_at_quality50 : o.rendered_options.error.quantile) = x;
-      o.rendered = o.perceptual = true;
-    } else if (a == "--scene-directions")
-      ok = u32(o.scene_direction_views, 1, 64), o.perceptual = true;
-    else if (a == "--scene-prior" && v) {
-      char* end = nullptr;
-      const float x = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && x >= 0.0f && x < 1.0f;
-      o.perceptual_options.direction_prior = o.rendered_options.error.direction_prior = x;
-    } else if (a == "--direction-samples")
-      ok = u32(o.perceptual_options.direction_samples, 1, 1u << 20), o.perceptual = true;
-    else if (a == "--luminance-white" && v) {
-      char* end = nullptr;
-      o.luminance_white = std::strtof(argv[++i], &end);
-      ok = *end == '\0' && o.luminance_white > 0 && o.luminance_white < 1e6f;
-      o.luminance = true;
-    } else if ((a == "--luminance-percentile" || a == "--luminance-floor") && v) {
-      char* end = nullptr;
-      const double x = std::strtod(argv[++i], &end);
-      ok = *end == '\0' && x >= 0 && x <= 1 && (a == "--luminance-percentile" || x > 0);
-      (a == "--luminance-floor" ? o.luminance_floor : o.luminance_percentile) = static_cast<float>(x);
-    } else if (a == "--max-p99-de" && v) {
-      char* end = nullptr;
-      o.max_p99_de = std::strtod(argv[++i], &end);
-      ok = *end == '\0' && o.max_p99_de > 0;
-    } else if (a == "--qualities" && v) {
-      o.qualities.clear();
-      std::stringstream ss(argv[++i]);
-      std::string item;
-      while (ok && std::getline(ss, item, ',')) {
-        char* end = nullptr;
-        const double q = std::strtod(item.c_str(), &end);
-        ok = !item.empty() && *end == '\0' && q >= 1 && q <= 100;
-        o.qualities.push_back(static_cast<float>(q));
-      }
-      ok = ok && !o.qualities.empty();
-    } else {
-      std::fprintf(stderr, "btflod-visibility: unknown or incomplete argument '%s'\n", a.c_str());
-      return false;
+  samples::Arguments args("btflod-visibility", argc, argv);
+  // A number option that, when given, also turns on the mode it tunes (`*mode = true`).
+  const auto tune = [&](std::string_view name, float& out, double lo, double hi, bool* mode, bool* mode2 = nullptr) {
+    if (const auto x = args.optional_number(name, lo, hi)) {
+      out = static_cast<float>(*x);
+      if (mode) *mode = true;
+      if (mode2) *mode2 = true;
     }
-    if (!ok) {
-      std::fprintf(stderr, "btflod-visibility: bad value for %s\n", a.c_str());
-      return false;
+  };
+  const auto tune_u32 = [&](std::string_view name, uint32_t& out, long long lo, long long hi, bool* mode,
+                            bool* mode2 = nullptr) {
+    if (const auto x = args.optional_integer(name, lo, hi)) {
+      out = static_cast<uint32_t>(*x);
+      if (mode) *mode = true;
+      if (mode2) *mode2 = true;
+    }
+  };
+  constexpr double kBelowOne = 0.99999999, kPositive = 1e-12, kLarge = 999999.0;
+  o.out = args.string("out", o.out);
+  o.doc = args.string("doc", o.doc);
+  o.check = args.flag("check");
+  if (args.flag("default-quality")) o.qualities = {BsvtfBuildOptions{}.quality};  // what build_bsvtf and the CLI use
+  o.materials = args.integer_as("materials", o.materials, 2, 4);
+  o.components = args.integer_as("components", o.components, 4, 32);
+  o.size = args.integer_as("size", o.size, 8, 128);
+  o.repeat = args.integer_as("repeat", o.repeat, 1, 32);
+  o.tile_size = args.integer_as("tile", o.tile_size, 8, 256);
+  o.width = args.integer_as("width", o.width, 16, 1920);
+  o.height = args.integer_as("height", o.height, 16, 1080);
+  o.views = args.integer_as("views", o.views, 1, 8);
+  if (args.flag("per-component-tolerance")) o.tolerance = ToleranceReference::per_component;
+  if (args.flag("luminance-as-floor")) o.luminance_as_floor = o.luminance = true;
+  if (args.flag("luminance-tolerance")) o.luminance = true;
+  if (args.flag("perceptual")) o.perceptual = true;
+  tune("reference-de", o.perceptual_options.reference_delta_e, 0.0, kLarge, &o.perceptual);
+  tune("dark-floor", o.perceptual_options.dark_floor, 0.0, kLarge, &o.perceptual);
+  tune("light-cos-power", o.perceptual_options.light_cosine_power, 0.0, 64.0, &o.perceptual);
+  tune("view-cos-power", o.perceptual_options.view_cosine_power, 0.0, 64.0, &o.perceptual);
+  tune("gain-power", o.perceptual_options.gain_power, 0.125, 64.0, &o.perceptual);
+  o.weight_quarters = args.integer_as("weight-quarters", o.weight_quarters, 0, 4);
+  if (args.flag("zstd")) o.entropy_coder = TileEntropyCoder::zstd;
+  if (args.flag("deflate")) o.entropy_coder = TileEntropyCoder::deflate;
+  tune("dead-zone", o.ac_rounding, 0.5, kBelowOne, nullptr);
+  tune("level-scale", o.level_scale, kPositive, 15.999999, nullptr);
+  if (args.flag("rendered")) o.rendered = o.perceptual = true;
+  tune_u32("rendered-footprint", o.rendered_options.error.texel_footprint, 1, 5, &o.rendered, &o.perceptual);
+  tune_u32("rendered-passes", o.rendered_options.passes, 0, 16, &o.rendered, &o.perceptual);
+  tune("rendered-target", o.rendered_options.target_at_quality50, kPositive, kLarge, &o.rendered, &o.perceptual);
+  tune("rendered-quantile", o.rendered_options.error.quantile, kPositive, 1.0, &o.rendered, &o.perceptual);
+  tune_u32("scene-directions", o.scene_direction_views, 1, 64, &o.perceptual);
+  if (const auto x = args.optional_number("scene-prior", 0.0, kBelowOne))
+    o.perceptual_options.direction_prior = o.rendered_options.error.direction_prior = static_cast<float>(*x);
+  tune_u32("direction-samples", o.perceptual_options.direction_samples, 1, 1 << 20, &o.perceptual);
+  tune("luminance-white", o.luminance_white, kPositive, kLarge, &o.luminance);
+  tune("luminance-percentile", o.luminance_percentile, 0.0, 1.0, nullptr);
+  tune("luminance-floor", o.luminance_floor, kPositive, 1.0, nullptr);
+  if (const auto x = args.optional_number("max-p99-de", kPositive, 1e300)) o.max_p99_de = *x;
+  if (const auto qualities = args.list("qualities")) {
+    o.qualities.clear();
+    for (const std::string& item : *qualities) {
+      char* end = nullptr;
+      const double q = std::strtod(item.c_str(), &end);
+      if (*end != '\0' || !(q >= 1 && q <= 100)) args.error("--qualities " + item + ": expected numbers in [1, 100]");
+      o.qualities.push_back(static_cast<float>(q));
     }
   }
+  if (!args.finish(0)) return false;
   if (o.out.empty()) {
     std::fprintf(stderr, "btflod-visibility: --out DIR is required\n");
     return false;
@@ -649,7 +584,7 @@ int main(int argc, char** argv) {
                                                      : std::string()) +
                               "; scales per material:" + luminance_scales.str() + ")"
                         : std::string())
-        << (o.perceptual ? " × perceptual channel scales (codec/perceptual_tolerance.hpp, library defaults" +
+        << (o.perceptual ? " × perceptual channel scales (offline/build/perceptual_tolerance.hpp, library defaults" +
                                std::string(o.scene_direction_views > 0
                                                ? ", direction weights from " + std::to_string(o.scene_direction_views) +
                                                      " training views"

@@ -1,16 +1,16 @@
 // btflod-convert factor — factorise a BTF into one of the representations of factor/ and
-// write it in the factor file format (factor/factor_file.hpp).
+// write it in the factor file format (offline/factor/factor_file.hpp).
 #include <chrono>
 #include <cstdio>
 #include <string>
 
-#include "btflod/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
 #include "command.hpp"
 #include "common/progress_bar.hpp"
 #include "store_commands.hpp"
 
-#include "btflod/factor/any_factorization.hpp"
-#include "btflod/factor/fmf_rank.hpp"
+#include "btflod/offline/factor/any_factorization.hpp"
+#include "btflod/offline/factor/fmf_rank.hpp"
 
 namespace {
 
@@ -56,7 +56,7 @@ int run_factor(int argc, char** argv) {
         "  --target-ssim  fmf: choose the smallest rank among 4, 8, 12, 16, 24, 32, 48, 64, 100 up to\n"
         "             --components whose displayed images (x exposure --exposure, default 1, clamped,\n"
         "             sRGB) of the even views reach this mean SSIM against the BTF; the odd views are\n"
-        "             held out and reported (factor/fmf_rank.hpp, docs/fidelity.md).");
+        "             held out and reported (offline/factor/fmf_rank.hpp, docs/fidelity.md).");
     return convert::kExitOk;
   }
   const std::string method = opt.string("method", "fmf");

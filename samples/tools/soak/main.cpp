@@ -40,10 +40,11 @@
 
 #include "btflod/runtime/streamer.hpp"
 #if BTFLOD_SOAK_HTTP
-#include "btflod/stream/http_source.hpp"
+#include "btflod/runtime/stream/http_source.hpp"
 #endif
-#include "btflod/stream/thread_executor.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/runtime/stream/thread_executor.hpp"
+#include "common/arguments.hpp"
 #include "faulty_async_io.hpp"  // tests/: the engine's faulty I/O thread, shared with the thread tests
 #include "nginx_server.hpp"
 
@@ -106,41 +107,17 @@ struct Options {
 };
 
 bool parse(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--http") {
-      o.http = true;
-      continue;
-    }
-    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
-    if (v == nullptr) return std::fprintf(stderr, "btflod-soak: %s needs a value\n", a.c_str()), false;
-    char* end = nullptr;
-    const double x = std::strtod(v, &end);
-    const bool number = end != v && *end == '\0' && std::isfinite(x) && x >= 0;
-    if (a == "--json") {
-      o.json = v;
-    } else if (a == "--nginx") {
-      o.nginx = v;
-    } else if (!number) {
-      return std::fprintf(stderr, "btflod-soak: %s takes a number ≥ 0, not '%s'\n", a.c_str(), v), false;
-    } else if (a == "--seconds") {
-      o.seconds = x;
-    } else if (a == "--minutes") {
-      o.seconds = 60 * x;
-    } else if (a == "--seed") {
-      o.seed = static_cast<uint32_t>(x);
-    } else if (a == "--workers") {
-      o.workers = std::max(1u, static_cast<uint32_t>(x));
-    } else if (a == "--restart-every") {
-      o.restart_every = std::max(0.5, x);
-    } else if (a == "--rss-tolerance") {
-      o.rss_tolerance = x;
-    } else {
-      return std::fprintf(stderr, "btflod-soak: unknown option %s\n", a.c_str()), false;
-    }
-    ++i;
-  }
-  return true;
+  samples::Arguments args("btflod-soak", argc, argv);
+  o.http = args.flag("http");
+  o.json = args.string("json", o.json);
+  o.nginx = args.string("nginx", o.nginx);
+  o.seconds = args.number("seconds", o.seconds, 0.0, 1e9);
+  if (const auto minutes = args.optional_number("minutes", 0.0, 1e7)) o.seconds = 60 * *minutes;
+  o.seed = args.integer_as("seed", o.seed, 0, 0xffffffffll);
+  o.workers = args.integer_as("workers", o.workers, 1, 256);
+  o.restart_every = args.number("restart-every", o.restart_every, 0.5, 1e9);
+  o.rss_tolerance = args.number("rss-tolerance", o.rss_tolerance, 0.0, 1e9);
+  return args.finish(0);
 }
 
 // Resident set size of this process (bytes), from /proc/self/statm.

@@ -29,11 +29,11 @@
 #include <turbojpeg.h>
 #endif
 
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/perceptual_tolerance.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
 #include "report.hpp"
 
 namespace btflod::bench {

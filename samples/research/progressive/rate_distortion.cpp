@@ -14,7 +14,7 @@
 //            parent (closed loop, paper 000 §6), finest level — what a client holds once every
 //            tile arrived.
 // The rank-C factorisations are truncations of one rank-C_max factorisation per encoding
-// (factor/fmf_rank.hpp truncate_fmf: the SVD's leading components, paper 000 eq. 4).
+// (offline/factor/fmf_rank.hpp truncate_fmf: the SVD's leading components, paper 000 eq. 4).
 //
 // A BTF sample is one RGB value ρ(x, l, v) of the virtual texture (M × N texels × lights × views;
 // raw halves: 48 bits). Screen figures per material over the pixels whose centre ray hits it:
@@ -48,7 +48,8 @@
 #include <string>
 #include <vector>
 
-#include "btflod/factor/fmf_rank.hpp"
+#include "btflod/offline/factor/fmf_rank.hpp"
+#include "common/arguments.hpp"
 #include "common/doc_block.hpp"
 #include "raw_reference.hpp"
 #include "scene_render.hpp"
@@ -66,81 +67,52 @@ struct Options {
   std::vector<ValueEncoding> encodings{ValueEncoding::linear, ValueEncoding::log};
 };
 
-template <class T, class Parse>
-bool parse_list(const char* text, std::vector<T>& out, Parse parse_one) {
-  out.clear();
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    T v{};
-    if (item.empty() || !parse_one(item, v)) return false;
-    out.push_back(v);
-  }
-  return !out.empty();
-}
-
 bool parse(int argc, char** argv, Options& o) {
-  bool materials_set = false, size_set = false, components_set = false, rays_set = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const char* v = i + 1 < argc ? argv[i + 1] : nullptr;
-    const auto u32 = [&](uint32_t& out, unsigned long lo, unsigned long hi) {
+  samples::Arguments args("btflod-rate-distortion", argc, argv);
+  o.out = args.string("out", o.out);
+  o.svg = args.string("svg", o.svg);
+  o.doc = args.string("doc", o.doc);
+  o.check = args.flag("check");
+  if (const auto p = args.choice("profile", {"default", "paper"})) o.paper = *p == 1;
+  const auto materials = args.optional_integer("materials", 1, 4);
+  const auto size = args.optional_integer("size", 8, 256);
+  const auto rays = args.optional_integer("rays", 1, 8);
+  o.width = args.integer_as("width", o.width, 16, 1920);
+  o.height = args.integer_as("height", o.height, 16, 1080);
+  const auto components = args.list("components");
+  if (components) {
+    o.components.clear();
+    for (const std::string& s : *components) {
       char* end = nullptr;
-      const unsigned long x = v ? std::strtoul(v, &end, 10) : 0;
-      if (!v || end == v || *end != '\0' || x < lo || x > hi) return false;
-      out = static_cast<uint32_t>(x);
-      ++i;
-      return true;
-    };
-    bool ok = true;
-    if (a == "--out" && v)
-      o.out = argv[++i];
-    else if (a == "--svg" && v)
-      o.svg = argv[++i];
-    else if (a == "--doc" && v)
-      o.doc = argv[++i];
-    else if (a == "--check")
-      o.check = true;
-    else if (a == "--profile" && v) {
-      const std::string p = argv[++i];
-      ok = p == "default" || p == "paper";
-      o.paper = p == "paper";
-    } else if (a == "--materials")
-      ok = u32(o.materials, 1, 4), materials_set = true;
-    else if (a == "--size")
-      ok = u32(o.size, 8, 256), size_set = true;
-    else if (a == "--width")
-      ok = u32(o.width, 16, 1920);
-    else if (a == "--height")
-      ok = u32(o.height, 16, 1080);
-    else if (a == "--rays")
-      ok = u32(o.rays, 1, 8), rays_set = true;
-    else if (a == "--components" && v) {
-      ok = parse_list(argv[++i], o.components, [](const std::string& s, uint32_t& c) {
-        char* end = nullptr;
-        const unsigned long x = std::strtoul(s.c_str(), &end, 10);
-        c = static_cast<uint32_t>(x);
-        return *end == '\0' && x >= 1 && x <= 128;
-      });
-      components_set = true;
-    } else if (a == "--qualities" && v)
-      ok = parse_list(argv[++i], o.qualities, [](const std::string& s, float& q) {
-        char* end = nullptr;
-        q = std::strtof(s.c_str(), &end);
-        return *end == '\0' && q >= 1.0f && q <= 100.0f;
-      });
-    else if (a == "--encodings" && v)
-      ok = parse_list(argv[++i], o.encodings,
-                      [](const std::string& s, ValueEncoding& e) { return parse_value_encoding(s, e); });
-    else {
-      std::fprintf(stderr, "btflod-rate-distortion: unknown or incomplete argument '%s'\n", a.c_str());
-      return false;
-    }
-    if (!ok) {
-      std::fprintf(stderr, "btflod-rate-distortion: bad value for %s\n", a.c_str());
-      return false;
+      const unsigned long x = std::strtoul(s.c_str(), &end, 10);
+      if (*end != '\0' || x < 1 || x > 128) args.error("--components " + s + ": expected integers in [1, 128]");
+      o.components.push_back(static_cast<uint32_t>(x));
     }
   }
+  if (const auto qualities = args.list("qualities")) {
+    o.qualities.clear();
+    for (const std::string& s : *qualities) {
+      char* end = nullptr;
+      const float q = std::strtof(s.c_str(), &end);
+      if (*end != '\0' || !(q >= 1.0f && q <= 100.0f))
+        args.error("--qualities " + s + ": expected numbers in [1, 100]");
+      o.qualities.push_back(q);
+    }
+  }
+  if (const auto encodings = args.list("encodings")) {
+    o.encodings.clear();
+    for (const std::string& s : *encodings) {
+      ValueEncoding e = ValueEncoding::linear;
+      if (!parse_value_encoding(s, e)) args.error("--encodings " + s + ": expected linear, sqrt, log or log_ycbcr");
+      o.encodings.push_back(e);
+    }
+  }
+  if (!args.finish(0)) return false;
+  if (materials) o.materials = static_cast<uint32_t>(*materials);
+  if (size) o.size = static_cast<uint32_t>(*size);
+  if (rays) o.rays = static_cast<uint32_t>(*rays);
+  const bool materials_set = materials.has_value(), size_set = size.has_value(), rays_set = rays.has_value();
+  const bool components_set = components.has_value();
   if (o.out.empty()) {
     std::fprintf(stderr, "btflod-rate-distortion: --out DIR is required\n");
     return false;

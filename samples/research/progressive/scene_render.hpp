@@ -1,5 +1,5 @@
 // btflod-progressive and btflod-visibility: the demo scene rendered on the CPU from a material's
-// tiles (samples/progressive/progressive.cpp describes the renderer: per pixel the level the
+// tiles (samples/research/progressive/progressive.cpp describes the renderer: per pixel the level the
 // feedback pass requests, eq. 1; the deepest held tile at or above it, bilinear inside its
 // bordered tile, eq. 3; shade_fmf's 9-tap angular combination, eq. 5). Shared by both programs.
 #pragma once
@@ -11,14 +11,14 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/tile_codec.hpp"
 #include "btflod/core/color.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/lod_selector.hpp"
-#include "btflod/shader/shader_config.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/codec/tile_codec.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
 #include "materials.hpp"
 #include "scene/analytic_demo_scene.hpp"
 #include "scene/demo_scene.hpp"
@@ -186,37 +186,25 @@ struct Pixel {
 };
 
 // Angular lookup of the shaders (parabolic map, rasterised Delaunay tables, paper 000 §4).
-inline AngularSample lookup(const demo::DemoMaterial& m, const std::vector<uint32_t>& idx, const std::vector<float>& wt,
-                            glm::vec3 dir) {
-  const glm::ivec2 t = shader_table_texel(shader_direction_to_unit_square(DirectionParameterisation::parabolic, dir),
-                                          m.angular_resolution);
-  const size_t o = (static_cast<size_t>(t.y) * m.angular_resolution + static_cast<size_t>(t.x)) * 3;
-  AngularSample s;
-  for (size_t k = 0; k < 3; ++k) {
-    s.index[k] = idx[o + k];
-    s.weight[k] = wt[o + k];
-  }
-  return s;
+inline AngularSample lookup(const demo::DemoMaterial& m, int layer, glm::vec3 dir) {
+  return angular_table_sample(m.angular_tables(), layer, DirectionParameterisation::parabolic, false, dir);
 }
 
 inline std::vector<Pixel> prepare_view(const World& w, const Camera& cam) {
   std::vector<Pixel> px(static_cast<size_t>(cam.width) * cam.height);
-  for (uint32_t y = 0; y < cam.height; ++y)
-    for (uint32_t x = 0; x < cam.width; ++x) {
-      const float fx = static_cast<float>(x) + 0.5f, fy = static_cast<float>(y) + 0.5f;
-      const SurfaceHit h = w.scene.intersect(cam.ray(fx, fy));
-      Pixel& p = px[static_cast<size_t>(y) * cam.width + x];
-      const uint32_t word = feedback_word(cam, h, fx, fy, w.set, DerivativeLod{});
-      if (!h.hit || word == kFeedbackNone) continue;
-      const demo::DemoMaterial& m = w.materials[h.material].demo;
-      p.hit = true;
-      p.material = h.material;
-      p.level = unpack_feedback(word).level;
-      p.u = h.texcoord.x;
-      p.v = h.texcoord.y;
-      p.light = lookup(m, m.light_index, m.light_weight, to_local(h, w.light_dir));
-      p.view = lookup(m, m.view_index, m.view_weight, to_local(h, glm::normalize(cam.position - h.position)));
-    }
+  for_each_pixel_hit(w.scene, cam, [&](uint32_t x, uint32_t y, float fx, float fy, const SurfaceHit& h) {
+    Pixel& p = px[static_cast<size_t>(y) * cam.width + x];
+    const uint32_t word = feedback_word(cam, h, fx, fy, w.set, DerivativeLod{});
+    if (!h.hit || word == kFeedbackNone) return;
+    const demo::DemoMaterial& m = w.materials[h.material].demo;
+    p.hit = true;
+    p.material = h.material;
+    p.level = unpack_feedback(word).level;
+    p.u = h.texcoord.x;
+    p.v = h.texcoord.y;
+    p.light = lookup(m, 0, to_local(h, w.light_dir));
+    p.view = lookup(m, 1, to_local(h, glm::normalize(cam.position - h.position)));
+  });
   return px;
 }
 

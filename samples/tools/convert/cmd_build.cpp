@@ -1,6 +1,6 @@
 // btflod-convert build — an FMF factor file → the `.bsvtf` streaming container
-// (docs/bsvtf_format.md): eigen-texture tile pyramid (vt/tile_pyramid.hpp), tiles coded coarse to
-// fine as closed-loop residuals to their parents (codec/tile_codec.hpp), U in packets of 4.
+// (docs/bsvtf_format.md): eigen-texture tile pyramid (offline/build/tile_pyramid.hpp), tiles coded coarse to
+// fine as closed-loop residuals to their parents (runtime/codec/tile_codec.hpp), U in packets of 4.
 #include <chrono>
 #include <cstdio>
 #include <string>
@@ -10,13 +10,13 @@
 #include "common/bsvtf_input.hpp"
 #include "common/progress_bar.hpp"
 
-#include "btflod/codec/container.hpp"
-#include "btflod/codec/perceptual_tolerance.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
-#include "btflod/factor/fmf.hpp"
-#include "btflod/factor/fmf_stream.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "btflod/offline/build/perceptual_tolerance.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/factor/fmf.hpp"
+#include "btflod/offline/factor/fmf_stream.hpp"
+#include "btflod/runtime/codec/container.hpp"
 
 namespace {
 
@@ -36,7 +36,7 @@ int run_build(int argc, char** argv) {
         "  --tile T         interior texels per tile (default 64); --border B texels (default 4)\n"
         "  --tolerance      perceptual (default): every component of every tile gets an equal share\n"
         "                   of a CIELAB dE budget from its effect on the displayed colour\n"
-        "                   (codec/perceptual_tolerance.hpp; quality 50 was invisible, p99 dE < 2.3,\n"
+        "                   (offline/build/perceptual_tolerance.hpp; quality 50 was invisible, p99 dE < 2.3,\n"
         "                   on the demo materials); shared: one tolerance from the largest component\n"
         "                   range (minimises the BTF's error); per-component: each range its own\n"
         "  --per-component  the same as --tolerance per-component\n"

@@ -1,7 +1,7 @@
 // btflod-replay — replay harness for the sparse virtual texture path (paper 000 §5).
 //
 // A camera path over a scene of four FMF materials (a plane, a sphere, two tori), each encoded
-// into a `.bsvtf` container (vt/bsvtf_build.hpp) served from memory. Per frame the CPU reference
+// into a `.bsvtf` container (offline/build/bsvtf_build.hpp) served from memory. Per frame the CPU reference
 // renders the feedback buffer (decimated, rotating sample) and hands it to one btflod::Streamer
 // (runtime/streamer.hpp: votes of eq. 9, add/swap within the budgets, decode jobs run by pump());
 // its tile uploads go into a CPU copy of the cache, and the ABRDF error E of eq. 7 (against FMF
@@ -28,15 +28,16 @@
 #include <string>
 #include <vector>
 
-#include "btflod/backend/cpu_reference.hpp"
-#include "btflod/backend/streamer_outputs.hpp"
-#include "btflod/codec/container.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/lod_selector.hpp"
+#include "btflod/offline/build/bsvtf_build.hpp"
+#include "btflod/offline/build/tile_pyramid.hpp"
+#include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/backend/streamer_outputs.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/lod_selector.hpp"
+#include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
-#include "btflod/stream/tile_source.hpp"
-#include "btflod/vt/bsvtf_build.hpp"
-#include "btflod/vt/tile_pyramid.hpp"
+#include "common/arguments.hpp"
 #include "common/doc_block.hpp"
 
 using namespace btflod;
@@ -57,59 +58,20 @@ struct Options {
   bool check_determinism = false;
 };
 
-bool parse_u32(const char* s, uint32_t& out) {
-  char* end = nullptr;
-  const unsigned long v = std::strtoul(s, &end, 10);
-  if (end == s || *end != '\0' || v == 0 || v > 1000000) return false;
-  out = static_cast<uint32_t>(v);
-  return true;
-}
-
 bool parse(int argc, char** argv, Options& o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto next_u32 = [&](uint32_t& v) {
-      if (i + 1 >= argc || !parse_u32(argv[i + 1], v)) {
-        std::fprintf(stderr, "btflod-replay: %s needs a positive integer\n", a.c_str());
-        return false;
-      }
-      ++i;
-      return true;
-    };
-    bool ok = true;
-    if (a == "--frames")
-      ok = next_u32(o.frames);
-    else if (a == "--width")
-      ok = next_u32(o.width);
-    else if (a == "--height")
-      ok = next_u32(o.height);
-    else if (a == "--decimation")
-      ok = next_u32(o.decimation);
-    else if (a == "--texture")
-      ok = next_u32(o.texture);
-    else if (a == "--components")
-      ok = next_u32(o.components);
-    else if (a == "--slots-x")
-      ok = next_u32(o.slots_x);
-    else if (a == "--slots-y")
-      ok = next_u32(o.slots_y);
-    else if (a == "--uploads")
-      ok = next_u32(o.uploads);
-    else if (a == "--check-determinism")
-      o.check_determinism = true;
-    else if (a == "--doc" && i + 1 < argc)
-      o.doc = argv[++i];
-    else {
-      std::fprintf(stderr, "btflod-replay: unknown argument '%s'\n", a.c_str());
-      return false;
-    }
-    if (!ok) return false;
-  }
-  if (o.texture < 64) {
-    std::fprintf(stderr, "btflod-replay: --texture must be >= 64\n");
-    return false;
-  }
-  return true;
+  samples::Arguments args("btflod-replay", argc, argv);
+  o.frames = args.integer_as("frames", o.frames, 1, 1000000);
+  o.width = args.integer_as("width", o.width, 1, 1000000);
+  o.height = args.integer_as("height", o.height, 1, 1000000);
+  o.decimation = args.integer_as("decimation", o.decimation, 1, 1000000);
+  o.texture = args.integer_as("texture", o.texture, 64, 1000000);
+  o.components = args.integer_as("components", o.components, 1, 1000000);
+  o.slots_x = args.integer_as("slots-x", o.slots_x, 1, 1000000);
+  o.slots_y = args.integer_as("slots-y", o.slots_y, 1, 1000000);
+  o.uploads = args.integer_as("uploads", o.uploads, 1, 1000000);
+  o.check_determinism = args.flag("check-determinism");
+  o.doc = args.string("doc", o.doc);
+  return args.finish(0);
 }
 
 uint32_t hash32(uint32_t x) {
@@ -252,16 +214,14 @@ void prepare_frame(const World& w, const Camera& cam, uint64_t frame, FrameData&
   for (const auto& p : w.pyramids) fd.max_vts = std::max(fd.max_vts, p.texture_count());
   fd.hits.resize(n);
   fd.reference.assign(n * fd.max_vts * 4, 0.0f);
-  for (uint32_t y = 0; y < cam.height; ++y)
-    for (uint32_t x = 0; x < cam.width; ++x) {
-      const size_t i = static_cast<size_t>(y) * cam.width + x;
-      fd.hits[i] = w.scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      const SurfaceHit& h = fd.hits[i];
-      if (!h.hit) continue;
-      const TilePyramid& p = w.pyramids[h.material];
-      for (uint32_t k = 0; k < p.texture_count(); ++k)
-        p.sample(k, p.geometry().finest_level, h.texcoord.x, h.texcoord.y, &fd.reference[(i * fd.max_vts + k) * 4]);
-    }
+  for_each_pixel_hit(w.scene, cam, [&](uint32_t x, uint32_t y, float, float, const SurfaceHit& h) {
+    const size_t i = static_cast<size_t>(y) * cam.width + x;
+    fd.hits[i] = h;
+    if (!h.hit) return;
+    const TilePyramid& p = w.pyramids[h.material];
+    for (uint32_t k = 0; k < p.texture_count(); ++k)
+      p.sample(k, p.geometry().finest_level, h.texcoord.x, h.texcoord.y, &fd.reference[(i * fd.max_vts + k) * 4]);
+  });
   const uint32_t d = w.opt.decimation;
   fd.feedback.assign(static_cast<size_t>((cam.width + d - 1) / d) * ((cam.height + d - 1) / d), kFeedbackNone);
   render_feedback(w.scene, cam, w.set, DerivativeLod{}, d, frame, fd.feedback);

@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
+#include "btflod/runtime/codec/container.hpp"
 
-#include "btflod/btf/btf_files.hpp"
+#include "btflod/offline/btf/btf_files.hpp"
 #include "command.hpp"
 
 namespace {
@@ -85,7 +85,7 @@ const char* color_mode_name(ColorMode m) {
   return "unknown";
 }
 
-// Describes a .bsvtf container (codec/container.hpp, docs/bsvtf_format.md). `values`: also
+// Describes a .bsvtf container (runtime/codec/container.hpp, docs/bsvtf_format.md). `values`: also
 // check every payload's CRC-32 and decode every tile down the hierarchy.
 int info_bsvtf(const std::string& path, bool values) {
   auto bytes = read_file_bytes(path);

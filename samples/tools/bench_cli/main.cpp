@@ -20,10 +20,11 @@
 #include <string>
 #include <vector>
 
-#include "btflod/codec/container.hpp"
-#include "btflod/lod/feedback.hpp"
-#include "btflod/lod/feedback_trace.hpp"
+#include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/lod/feedback.hpp"
+#include "btflod/runtime/lod/feedback_trace.hpp"
 #include "codec_bench.hpp"
+#include "common/arguments.hpp"
 #include "report.hpp"
 #include "scheduler_replay.hpp"
 #include "sweep_plot.hpp"
@@ -59,38 +60,6 @@ constexpr const char* kUsage =
 int fail(const std::string& msg) {
   std::fprintf(stderr, "btflod-bench: %s\n", msg.c_str());
   return 2;
-}
-
-bool parse_u64(const char* s, uint64_t lo, uint64_t hi, uint64_t& out) {
-  char* end = nullptr;
-  errno = 0;
-  const unsigned long long v = std::strtoull(s, &end, 10);
-  if (errno || end == s || *end != '\0' || v < lo || v > hi || s[0] == '-') return false;
-  out = v;
-  return true;
-}
-bool parse_u32(const char* s, uint32_t lo, uint32_t hi, uint32_t& out) {
-  uint64_t v = 0;
-  if (!parse_u64(s, lo, hi, v)) return false;
-  out = static_cast<uint32_t>(v);
-  return true;
-}
-template <class T, class F>
-bool parse_list(const char* s, std::vector<T>& out, F&& one) {
-  out.clear();
-  std::string item;
-  const std::string text = s;
-  size_t start = 0;
-  while (start <= text.size()) {
-    const size_t comma = text.find(',', start);
-    item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    T v{};
-    if (!one(item.c_str(), v)) return false;
-    out.push_back(v);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return !out.empty();
 }
 
 // Slots of a near-square cache: slots_x = ⌈√N⌉, slots_y = ⌈N / slots_x⌉.
@@ -201,75 +170,63 @@ void print_scheduler(const Report& rep, const std::string& p) {
       v("rejected_words"));
 }
 
+// A subcommand's options: argv[1] is the subcommand, skipped with argv[0].
+samples::Arguments subcommand_arguments(int argc, char** argv) {
+  return samples::Arguments(std::string("btflod-bench ") + argv[1], argc - 1, argv + 1);
+}
+
+// The integers of a comma-separated list option, each in [lo, hi].
+std::vector<uint32_t> integer_list(samples::Arguments& args, std::string_view name, uint32_t lo, uint32_t hi,
+                                   std::vector<uint32_t> fallback) {
+  const auto items = args.list(name);
+  if (!items) return fallback;
+  std::vector<uint32_t> out;
+  for (const std::string& s : *items) {
+    char* end = nullptr;
+    const unsigned long long x = std::strtoull(s.c_str(), &end, 10);
+    const uint32_t v = static_cast<uint32_t>(x);
+    if (end == s.c_str() || *end != '\0' || s[0] == '-' || x < lo || x > hi)
+      args.error("--" + std::string(name) + " " + s + ": expected integers in [" + std::to_string(lo) + ", " +
+                 std::to_string(hi) + "]");
+    out.push_back(v);
+  }
+  return out;
+}
+
 int cmd_scheduler(int argc, char** argv) {
   SchedulerArgs a;
-  for (int i = 2; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--check-determinism") {
-      a.check_determinism = true;
-      continue;
+  samples::Arguments args = subcommand_arguments(argc, argv);
+  a.check_determinism = args.flag("check-determinism");
+  a.sweep = args.flag("sweep");
+  a.runtime = args.flag("runtime");
+  a.trace = args.string("trace", a.trace);
+  a.bsvtf = args.values("bsvtf");
+  a.materials = args.integer_as("materials", a.materials, 1, kFeedbackMaxMaterials);
+  a.texture = args.integer_as("texture", a.texture, 64, 1 << 15);
+  a.components = args.integer_as("components", a.components, 1, 4096);
+  a.slots = args.integer_as("slots", a.slots, 1, 1 << 22);
+  auto& budgets = a.replay.scheduler.budgets;
+  budgets.uploads_per_frame = args.integer_as("uploads", budgets.uploads_per_frame, 1, 1 << 20);
+  budgets.tiles_decoding = args.integer_as("decoding", budgets.tiles_decoding, 1, 1 << 20);
+  budgets.requests_in_flight = args.integer_as("requests", budgets.requests_in_flight, 1, 1 << 20);
+  budgets.bytes_in_flight = args.integer_as("bytes-in-flight", budgets.bytes_in_flight, 1, 1ll << 40);
+  a.replay.window = args.integer_as("window", a.replay.window, 1, 4096);
+  a.repeat = args.integer_as("repeat", a.repeat, 1, 1000);
+  a.json = args.string("json", a.json);
+  a.csv = args.string("csv", a.csv);
+  a.svg = args.string("svg", a.svg);
+  if (const auto m = args.choice("mode", {"weighted", "votes-only"}))
+    a.replay.scheduler.mode = *m == 1 ? PriorityMode::votes_only : PriorityMode::weighted;
+  a.sweep_slots = integer_list(args, "sweep-slots", 1, 1u << 22, a.sweep_slots);
+  a.sweep_uploads = integer_list(args, "sweep-uploads", 1, 1u << 20, a.sweep_uploads);
+  if (const auto modes = args.list("sweep-modes")) {
+    a.sweep_modes.clear();
+    for (const std::string& s : *modes) {
+      if (s != "weighted" && s != "votes-only") args.error("--sweep-modes " + s + ": expected weighted or votes-only");
+      a.sweep_modes.push_back(s == "votes-only" ? PriorityMode::votes_only : PriorityMode::weighted);
     }
-    if (k == "--sweep") {
-      a.sweep = true;
-      continue;
-    }
-    if (k == "--runtime") {
-      a.runtime = true;
-      continue;
-    }
-    if (i + 1 >= argc) return fail("option " + k + " needs a value (or is unknown)\n" + kUsage);
-    const char* v = argv[++i];
-    bool ok = true;
-    auto u32 = [&](uint32_t lo, uint32_t hi, uint32_t& out) { ok = parse_u32(v, lo, hi, out); };
-    if (k == "--trace")
-      a.trace = v;
-    else if (k == "--bsvtf")
-      a.bsvtf.push_back(v);
-    else if (k == "--materials")
-      u32(1, kFeedbackMaxMaterials, a.materials);
-    else if (k == "--texture")
-      u32(64, 1u << 15, a.texture);
-    else if (k == "--components")
-      u32(1, 4096, a.components);
-    else if (k == "--slots")
-      u32(1, 1u << 22, a.slots);
-    else if (k == "--uploads")
-      u32(1, 1u << 20, a.replay.scheduler.budgets.uploads_per_frame);
-    else if (k == "--decoding")
-      u32(1, 1u << 20, a.replay.scheduler.budgets.tiles_decoding);
-    else if (k == "--requests")
-      u32(1, 1u << 20, a.replay.scheduler.budgets.requests_in_flight);
-    else if (k == "--bytes-in-flight")
-      ok = parse_u64(v, 1, uint64_t{1} << 40, a.replay.scheduler.budgets.bytes_in_flight);
-    else if (k == "--window")
-      u32(1, 4096, a.replay.window);
-    else if (k == "--repeat")
-      u32(1, 1000, a.repeat);
-    else if (k == "--json")
-      a.json = v;
-    else if (k == "--csv")
-      a.csv = v;
-    else if (k == "--svg")
-      a.svg = v;
-    else if (k == "--mode") {
-      const std::string m = v;
-      ok = m == "weighted" || m == "votes-only";
-      a.replay.scheduler.mode = m == "votes-only" ? PriorityMode::votes_only : PriorityMode::weighted;
-    } else if (k == "--sweep-slots")
-      ok = parse_list<uint32_t>(v, a.sweep_slots,
-                                [](const char* s, uint32_t& o) { return parse_u32(s, 1, 1u << 22, o); });
-    else if (k == "--sweep-uploads")
-      ok = parse_list<uint32_t>(v, a.sweep_uploads,
-                                [](const char* s, uint32_t& o) { return parse_u32(s, 1, 1u << 20, o); });
-    else if (k == "--sweep-modes")
-      ok = parse_list<PriorityMode>(v, a.sweep_modes, [](const char* s, PriorityMode& o) {
-        o = std::strcmp(s, "votes-only") == 0 ? PriorityMode::votes_only : PriorityMode::weighted;
-        return std::strcmp(s, "weighted") == 0 || std::strcmp(s, "votes-only") == 0;
-      });
-    else
-      return fail("unknown option " + k + "\n" + kUsage);
-    if (!ok) return fail(k + " " + v + ": not a valid value");
   }
+  if (!args.finish(0)) return fail(kUsage);
   if (a.trace.empty()) return fail("scheduler: --trace FILE is required\n" + std::string(kUsage));
   if (a.bsvtf.empty() && a.materials == 0)
     return fail("scheduler: give --bsvtf FILE (one per material) or --materials N");
@@ -424,34 +381,23 @@ int cmd_codec(int argc, char** argv) {
   std::vector<std::string> files;
   CodecOptions o;
   std::string json;
-  for (int i = 2; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--encode") {
-      o.encode = true;
-      continue;
+  samples::Arguments args = subcommand_arguments(argc, argv);
+  o.encode = args.flag("encode");
+  files = args.values("bsvtf");
+  json = args.string("json", json);
+  o.repetitions = args.integer_as("repeat", o.repetitions, 1, 1000);
+  o.jpeg_quality = args.integer_as("jpeg-quality", o.jpeg_quality, 1, 100);
+  if (const auto qualities = args.list("quality")) {
+    o.qualities.clear();
+    for (const std::string& s : *qualities) {
+      char* end = nullptr;
+      const float q = std::strtof(s.c_str(), &end);
+      if (end == s.c_str() || *end != '\0' || !(q >= 1.0f && q <= 100.0f))
+        args.error("--quality " + s + ": expected numbers in [1, 100]");
+      o.qualities.push_back(q);
     }
-    if (i + 1 >= argc) return fail("option " + k + " needs a value (or is unknown)\n" + kUsage);
-    const char* v = argv[++i];
-    bool ok = true;
-    uint32_t n = 0;
-    if (k == "--bsvtf")
-      files.push_back(v);
-    else if (k == "--json")
-      json = v;
-    else if (k == "--repeat")
-      ok = parse_u32(v, 1, 1000, n), o.repetitions = static_cast<int>(n);
-    else if (k == "--jpeg-quality")
-      ok = parse_u32(v, 1, 100, n), o.jpeg_quality = static_cast<int>(n);
-    else if (k == "--quality")
-      ok = parse_list<float>(v, o.qualities, [](const char* s, float& out) {
-        char* end = nullptr;
-        out = std::strtof(s, &end);
-        return end != s && *end == '\0' && out >= 1.0f && out <= 100.0f;
-      });
-    else
-      return fail("unknown option " + k + "\n" + kUsage);
-    if (!ok) return fail(k + " " + v + ": not a valid value");
   }
+  if (!args.finish(0)) return fail(kUsage);
   if (files.empty()) return fail("codec: --bsvtf FILE is required\n" + std::string(kUsage));
   Report report("codec");
   report.input("repetitions", o.repetitions);
@@ -526,18 +472,10 @@ int cmd_codec(int argc, char** argv) {
 int cmd_compare(int argc, char** argv) {
   std::vector<std::string> files;
   double min_band = 0.05;
-  for (int i = 2; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--min-band" && i + 1 < argc) {
-      char* end = nullptr;
-      min_band = std::strtod(argv[++i], &end);
-      if (*end != '\0' || !(min_band >= 0) || !(min_band < 100)) return fail("--min-band: expected a number >= 0");
-    } else if (!k.empty() && k[0] == '-') {
-      return fail("unknown option " + k);
-    } else {
-      files.push_back(k);
-    }
-  }
+  samples::Arguments args = subcommand_arguments(argc, argv);
+  min_band = args.number("min-band", min_band, 0.0, 99.999);
+  if (!args.finish()) return fail(kUsage);
+  files = args.positional();
   if (files.size() != 2) return fail("compare: expected two reports, A.json B.json\n" + std::string(kUsage));
   auto a = read_report(files[0]);
   if (!a) return fail(a.message());
@@ -590,29 +528,15 @@ int cmd_compare(int argc, char** argv) {
 int cmd_generate(int argc, char** argv) {
   std::string trace_path, bsvtf_path;
   uint32_t frames = 48, width = 80, height = 45, decimation = 4, texture = 512;
-  for (int i = 2; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (i + 1 >= argc) return fail("option " + k + " needs a value (or is unknown)");
-    const char* v = argv[++i];
-    bool ok = true;
-    if (k == "--trace")
-      trace_path = v;
-    else if (k == "--bsvtf")
-      bsvtf_path = v;
-    else if (k == "--frames")
-      ok = parse_u32(v, 1, 100000, frames);
-    else if (k == "--width")
-      ok = parse_u32(v, 1, 4096, width);
-    else if (k == "--height")
-      ok = parse_u32(v, 1, 4096, height);
-    else if (k == "--decimation")
-      ok = parse_u32(v, 1, 64, decimation);
-    else if (k == "--texture")
-      ok = parse_u32(v, 64, 8192, texture);
-    else
-      return fail("unknown option " + k);
-    if (!ok) return fail(k + " " + v + ": not a valid value");
-  }
+  samples::Arguments args = subcommand_arguments(argc, argv);
+  trace_path = args.string("trace", trace_path);
+  bsvtf_path = args.string("bsvtf", bsvtf_path);
+  frames = args.integer_as("frames", frames, 1, 100000);
+  width = args.integer_as("width", width, 1, 4096);
+  height = args.integer_as("height", height, 1, 4096);
+  decimation = args.integer_as("decimation", decimation, 1, 64);
+  texture = args.integer_as("texture", texture, 64, 8192);
+  if (!args.finish(0)) return fail(kUsage);
   if (trace_path.empty()) return fail("generate: --trace OUT is required");
   const VtGeometry g = VtGeometry::make(texture, texture);
   const uint32_t L = std::min(g.finest_level, kFeedbackMaxLevel);

@@ -8,7 +8,7 @@
 // "3D linear + one manual lerp"). Prints a Markdown table; with --doc FILE it replaces the
 // block between "<!-- angular-eval:begin -->" and "<!-- angular-eval:end -->" in FILE.
 //
-// --merl: the materials are MERL .binary BRDFs instead (btf/merl_brdf.hpp) — analytic BRDFs
+// --merl: the materials are MERL .binary BRDFs instead (offline/btf/merl_brdf.hpp) — analytic BRDFs
 // written in MERL's layout by this tool (real MERL files are not needed), read back by the MERL
 // reader and resampled to MeasuredBrdf's grid; the table goes into the
 // "<!-- angular-eval-merl:begin -->" … "<!-- angular-eval-merl:end -->" block.
@@ -27,14 +27,15 @@
 #include <string>
 #include <vector>
 
-#include "btflod/angular/interpolators.hpp"
-#include "btflod/angular/nine_tap.hpp"
-#include "btflod/angular/regular_grid.hpp"
-#include "btflod/angular/ring_search.hpp"
-#include "btflod/btf/directions.hpp"
-#include "btflod/btf/measured_brdf.hpp"
-#include "btflod/btf/merl_brdf.hpp"
 #include "btflod/core/file_io.hpp"
+#include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/angular/interpolators.hpp"
+#include "btflod/offline/angular/nine_tap.hpp"
+#include "btflod/offline/angular/regular_grid.hpp"
+#include "btflod/offline/angular/ring_search.hpp"
+#include "btflod/offline/btf/measured_brdf.hpp"
+#include "btflod/offline/btf/merl_brdf.hpp"
+#include "common/arguments.hpp"
 
 namespace {
 
@@ -175,38 +176,18 @@ int main(int argc, char** argv) {
   int grid = 32;
   uint64_t seed = 20260101;
   bool merl = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "btflod-angular-eval: %s needs a value\n", a.c_str());
-        std::exit(1);
-      }
-      return argv[++i];
-    };
-    if (a == "--shared")
-      shared = value();
-    else if (a == "--doc")
-      doc = value();
-    else if (a == "--samples")
-      samples = std::atoi(value().c_str());
-    else if (a == "--grid")
-      grid = std::atoi(value().c_str());
-    else if (a == "--seed")
-      seed = std::strtoull(value().c_str(), nullptr, 10);
-    else if (a == "--merl")
-      merl = true;
-    else {
-      std::fprintf(stderr,
-                   "usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--merl] "
-                   "[--doc FILE]\n");
-      return a == "--help" ? 0 : 1;
-    }
+  btflod::samples::Arguments args("btflod-angular-eval", argc, argv);
+  if (args.wants_help()) {
+    std::puts("usage: btflod-angular-eval [--shared DIR] [--samples N] [--grid N] [--seed S] [--merl] [--doc FILE]");
+    return 0;
   }
-  if (samples < 1 || grid < 2 || grid > 64) {
-    std::fprintf(stderr, "btflod-angular-eval: --samples must be ≥ 1 and --grid in [2, 64]\n");
-    return 1;
-  }
+  shared = args.string("shared", shared);
+  doc = args.string("doc", doc);
+  samples = args.integer_as("samples", samples, 1, 100000000);
+  grid = args.integer_as("grid", grid, 2, 64);
+  seed = args.unsigned_integer("seed", seed);
+  merl = args.flag("merl");
+  if (!args.finish(0)) return 2;
   const char* names[] = {"carpaint_red", "carpaint_green", "carpaint_blue"};
   std::vector<MeasuredBrdf> brdfs;
   const MerlAnalytic merl_materials[] = {

@@ -1,6 +1,6 @@
 // btflod-label: unit threads
 // Tests for materials that come and go on a running Streamer (runtime/streamer.hpp
-// add_material / remove_material, runtime/streamer_materials.hpp): ten thousand random
+// add_material / remove_material, runtime/impl/streamer_materials.hpp): ten thousand random
 // operations (adds, removes, frames with feedback naming live, removed and unknown materials,
 // jobs run in any amount) keep the cache and page-table invariants after every one, with the
 // engine's copy of the cache texels and page tables exact; ids and layers never move while a

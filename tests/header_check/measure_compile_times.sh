@@ -17,11 +17,12 @@ INC="-I$ROOT/include -isystem /usr/include/eigen3 -isystem /usr/include/stb"
 printf '#include <vector>\nint main() { std::vector<int> v(3); return static_cast<int>(v.size()) - 3; }\n' > "$DIR/baseline.cpp"
 # The per-frame headers: what check_runtime_headers.cmake checks (every header under
 # btflod/runtime/ and btflod/core/), without the thread-owning conveniences (measured on their
-# own), the libcurl source and the x86 kernels of the implementation. $1: the include folder.
+# own), the libcurl source, and the implementation-only headers (runtime/impl/, the x86 kernels).
+# $1: the include folder.
 per_frame_tu() {
   (cd "$1" && find btflod/runtime btflod/core -name '*.hpp' | sort) | while read -r h; do
     case "$h" in
-      */stream/http_source.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp | */core/thread_pool.hpp | */core/simd_kernels.hpp) continue ;;
+      */stream/http_source.hpp | */stream/thread_executor.hpp | */stream/file_source.hpp | */core/thread_pool.hpp | */core/simd_kernels.hpp | */runtime/impl/*) continue ;;
     esac
     echo "#include \"$h\""
   done

@@ -484,9 +484,9 @@ class Streamer {
 
 // The implementation is compiled once per program, in the runtime implementation TU
 // (cmake/btflod_runtime_implementation.cpp, VMA's pattern): a per-frame TU that calls update()
-// sees the declarations above only. Split for reading: runtime/streamer_impl.hpp (the per-frame
-// object), which ends with runtime/streamer_create.hpp (creation and accessors),
-// runtime/streamer_failures.hpp and runtime/streamer_materials.hpp.
+// sees the declarations above only. Split for reading: runtime/impl/streamer_impl.hpp (the per-frame
+// object), which ends with runtime/impl/streamer_create.hpp (creation and accessors),
+// runtime/impl/streamer_failures.hpp and runtime/impl/streamer_materials.hpp.
 #if defined(BTFLOD_IMPLEMENTATION) || defined(BTFLOD_RUNTIME_IMPLEMENTATION)
-#include "btflod/runtime/streamer_impl.hpp"
+#include "btflod/runtime/impl/streamer_impl.hpp"
 #endif

@@ -210,7 +210,7 @@ struct Streamer::Impl final : StreamerJobQueue {
   uint64_t tile_failure_count = 0, packet_failure_count = 0, retry_count = 0, cancelled_count = 0;
   uint64_t feedback_ignored = 0;
   bool quiescing = false;
-  // Materials that come and go (runtime/streamer_materials.hpp).
+  // Materials that come and go (runtime/impl/streamer_materials.hpp).
   StreamerCapacity capacity;  // resolved at create()
   uint32_t live_materials = 0;
   uint64_t materials_added = 0, materials_removed_count = 0, jobs_dropped = 0;
@@ -677,7 +677,7 @@ struct Streamer::Impl final : StreamerJobQueue {
     ++startup_count;
   }
 
-  // Failures (runtime/streamer_failures.hpp).
+  // Failures (runtime/impl/streamer_failures.hpp).
   void startup_failed_job(uint32_t j, StreamerOutputs& out) noexcept;
   void request_failed_job(const detail::StreamerJob& job, StreamerOutputs& out) noexcept;
   void release_held() noexcept;
@@ -885,7 +885,7 @@ struct Streamer::Impl final : StreamerJobQueue {
 }  // namespace btflod
 
 // The failure policy and the live materials, then creation and the accessors, which use both.
-#include "btflod/runtime/streamer_failures.hpp"
-#include "btflod/runtime/streamer_materials.hpp"
+#include "btflod/runtime/impl/streamer_failures.hpp"
+#include "btflod/runtime/impl/streamer_materials.hpp"
 
-#include "btflod/runtime/streamer_create.hpp"
+#include "btflod/runtime/impl/streamer_create.hpp"

@@ -2,7 +2,7 @@
 // add_material() and remove_material()): the checks a container must pass, the tables a
 // material fills in the room StreamerConfig::capacity reserved, and the two-step removal
 // (at once: requests, slots, layers, votes; once its last job ended: its id and sources).
-// Included by runtime/streamer_impl.hpp; compiles alone too.
+// Included by runtime/impl/streamer_impl.hpp; compiles alone too.
 #pragma once
 
 #include <algorithm>
@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "btflod/runtime/streamer_impl.hpp"
+#include "btflod/runtime/impl/streamer_impl.hpp"
 
 namespace btflod {
 

@@ -1,13 +1,13 @@
 // btflod — the Streamer's failure policy (StreamerFailurePolicy, runtime/streamer.hpp; docs/vt.md
 // "Failures, jobs, quiescing"): a failed start-up job backs off or fails its material, a failed
 // request holds its tile or packet back or gives it up, held work returns after its back-off,
-// and retry_material() forgets a material's failures. Included by runtime/streamer_impl.hpp;
+// and retry_material() forgets a material's failures. Included by runtime/impl/streamer_impl.hpp;
 // compiles alone too.
 #pragma once
 
 #include <cstdint>
 
-#include "btflod/runtime/streamer_impl.hpp"
+#include "btflod/runtime/impl/streamer_impl.hpp"
 
 namespace btflod {
 

@@ -7,7 +7,7 @@
 #include <new>
 #include <utility>
 
-#include "btflod/runtime/streamer_impl.hpp"
+#include "btflod/runtime/impl/streamer_impl.hpp"
 
 namespace btflod {
 

@@ -39,6 +39,9 @@ std::vector<std::pair<std::string, ShaderConfig>> configs() {
   b.vt.trilinear = false;
   b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
   out.emplace_back("variant", b);
+  ShaderConfig c;  // the compact cache: RGBA8 texels and the slot-map table
+  c.vt.format = CacheFormat::rgba8_affine;
+  out.emplace_back("rgba8", c);
   return out;
 }
 
@@ -101,8 +104,8 @@ TEST(ShaderFilament, StaysWithinFilamentLimitsMatcDoesNotEnforce) {
       for (auto it = std::sregex_iterator(mat->begin(), mat->end(), sampler_param); it != std::sregex_iterator(); ++it)
         declared.insert((*it)[1]);
       EXPECT_LE(declared.size(), 8u) << config_name;
-      EXPECT_EQ(declared.size(), filament_material_samplers(kind).size());
-      for (ShaderBinding role : filament_material_samplers(kind))
+      EXPECT_EQ(declared.size(), filament_material_samplers(kind, config.vt.format).size());
+      for (ShaderBinding role : filament_material_samplers(kind, config.vt.format))
         EXPECT_TRUE(declared.count(filament_sampler_parameter(role))) << shader_binding_name(role);
       // Material code: GLSL 4.10 / ESSL 3.00, no declarations Filament makes itself.
       const std::string code = fragment_block(*mat);
@@ -178,13 +181,22 @@ TEST(ShaderFilament, RefusesBadOptionsAndConfigs) {
   EXPECT_NE(named->find("culling : back,"), std::string::npos);
 }
 
-TEST(ShaderFilament, CompactCacheFormatIsRefusedWithAMessage) {
+TEST(ShaderFilament, CompactCacheMaterialsDeclareTheSlotMapTable) {
   ShaderConfig config;
-  config.vt.format = CacheFormat::rgba8_affine;  // the materials' sampler list has no slot-map table
-  for (FilamentMaterialKind kind : kKinds) {
-    auto mat = generate_filament_material(kind, config);
-    ASSERT_FALSE(mat.ok());
-    EXPECT_EQ(mat.status(), Status::unsupported);
-    EXPECT_NE(mat.message().find("rgba8_affine"), std::string::npos) << mat.message();
-  }
+  config.vt.format = CacheFormat::rgba8_affine;
+  auto bsvtf = generate_filament_material(FilamentMaterialKind::bsvtf, config);
+  ASSERT_TRUE(bsvtf.ok()) << bsvtf.message();
+  // The per-slot maps: a uint 2D sampler the cache sample reads after its fetch (unpackHalf2x16).
+  EXPECT_NE(bsvtf->find("{ type : sampler2d, name : btflod_slot_map, format : uint, precision : high }"),
+            std::string::npos)
+      << *bsvtf;
+  EXPECT_NE(fragment_block(*bsvtf).find("materialParams_btflod_slot_map"), std::string::npos);
+  EXPECT_EQ(filament_material_samplers(FilamentMaterialKind::bsvtf, CacheFormat::rgba8_affine).size(),
+            filament_material_samplers(FilamentMaterialKind::bsvtf).size() + 1);
+  // The other materials read no cache texel: the same text as for an rgba16f cache.
+  for (FilamentMaterialKind kind : {FilamentMaterialKind::fmf, FilamentMaterialKind::feedback})
+    EXPECT_EQ(*generate_filament_material(kind, config), *generate_filament_material(kind, ShaderConfig{}));
+  auto plain = generate_filament_material(FilamentMaterialKind::bsvtf, ShaderConfig{});
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(plain->find("slot_map"), std::string::npos);
 }

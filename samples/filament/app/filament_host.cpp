@@ -207,6 +207,14 @@ void set_image(Host& h, Texture* t, uint32_t level, uint32_t x, uint32_t y, uint
               Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); }));
 }
 
+void set_image_2d(Host& h, Texture* t, uint32_t x, uint32_t y, uint32_t w, uint32_t hgt, const void* bytes, size_t size,
+                  Texture::Format format, Texture::Type type) {
+  void* copy = std::malloc(size);
+  std::memcpy(copy, bytes, size);
+  t->setImage(*h.engine, 0, x, y, w, hgt,
+              Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); }));
+}
+
 bool render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color) {
   const size_t feedback_bytes = size_t{h.feedback_width} * h.feedback_height * 4;
   if (color) {  // a frame to write or check: drain the ring so that this frame's feedback is returned

@@ -91,6 +91,9 @@ void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fo
 void set_image(Host& h, filament::Texture* t, uint32_t level, uint32_t x, uint32_t y, uint32_t z, uint32_t w,
                uint32_t hgt, uint32_t d, const void* bytes, size_t size, filament::Texture::Format format,
                filament::Texture::Type type);
+/// The same for the sub-rectangle (x, y) + (w, h) of mip 0 of a 2D texture.
+void set_image_2d(Host& h, filament::Texture* t, uint32_t x, uint32_t y, uint32_t w, uint32_t hgt, const void* bytes,
+                  size_t size, filament::Texture::Format format, filament::Texture::Type type);
 
 /// Renders both views and starts a readback of the feedback target (RGBA8) into a ring of
 /// kReadbacks buffers; never waits for it. Returns true with the newest feedback image that has

@@ -18,7 +18,9 @@
 // with the fmf material (a resident material: V′ from an ordinary texture) and checks it.
 //
 // usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N] [--check]
+//                        [--cache-format rgba16f|rgba8]
 // (one material per shape of the scene: the floor, the sphere, the wall)
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -119,12 +121,16 @@ int main(int argc, char** argv) {
   const std::string out_dir = args.string("out", ".");
   const uint32_t frames = args.integer_as<uint32_t>("frames", 48, 4, 100000);
   const bool check = args.flag("check");
+  // --cache-format rgba8: the compact tile cache (RGBA8 texels, each slot's affine map in an
+  // RGBA32UI slot-map texture; its own bsvtf material).
+  const bool compact = args.choice("cache-format", {"rgba16f", "rgba8"}).value_or(0) == 1;
   const bool parsed = args.finish(3);
   const std::vector<std::string>& paths = args.positional();
   if (!parsed || paths.size() != 3)
     return std::fprintf(
                stderr,
-               "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"),
+               "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"
+               "                       [--cache-format rgba16f|rgba8]\n"),
            2;
 
   std::filesystem::create_directories(out_dir);
@@ -133,14 +139,16 @@ int main(int argc, char** argv) {
   host::Host h;
   if (!host::create(h, kWidth, kHeight, kWidth / kDecimation, kHeight / kDecimation)) return 77;  // test: skipped
   filament::Engine& engine = *h.engine;
-  filament::Material* bsvtf_material = host::load_material(h, BTFLOD_FILAMATS_DIR "/btflod_bsvtf.filamat");
+  filament::Material* bsvtf_material = host::load_material(
+      h, compact ? BTFLOD_FILAMATS_DIR "/btflod_bsvtf_rgba8.filamat" : BTFLOD_FILAMATS_DIR "/btflod_bsvtf.filamat");
   filament::Material* feedback_material = host::load_material(h, BTFLOD_FILAMATS_DIR "/btflod_feedback.filamat");
   if (!bsvtf_material || !feedback_material) return 1;
   // (The feedback target is cleared to 0; the feedback material writes word ^ empty word, so a
   // pixel no material covers reads back as the empty word.)
 
   // --- one Streamer for the world's .bsvtf files ----------------------------------------------
-  const ShaderConfig shader = sample::shader_config();  // what the .filamat files were generated for
+  // What the .filamat files were generated for.
+  const ShaderConfig shader = sample::shader_config(compact ? CacheFormat::rgba8_affine : CacheFormat::rgba16f);
   std::vector<BsvtfDirectory> directories;
   std::vector<std::unique_ptr<FileSource>> sources;
   for (const std::string& p : paths) {
@@ -174,8 +182,18 @@ int main(int argc, char** argv) {
                        .height(layout.cache_height)
                        .depth(layout.cache_layers)
                        .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                       .format(Texture::InternalFormat::RGBA16F)
+                       .format(compact ? Texture::InternalFormat::RGBA8 : Texture::InternalFormat::RGBA16F)
                        .build(engine);
+  // The compact cache's per-slot affine maps: one RGBA32UI texel per slot (cache_slot_map_texel).
+  Texture* slot_map = nullptr;
+  if (compact) {
+    slot_map = Texture::Builder()
+                   .width(cache_slot_map_width(shader.vt))
+                   .height(cache_slot_map_height(shader.vt))
+                   .sampler(Texture::Sampler::SAMPLER_2D)
+                   .format(Texture::InternalFormat::RGBA32UI)
+                   .build(engine);
+  }
   Texture* page_table = Texture::Builder()
                             .width(layout.page_table_width)
                             .height(layout.page_table_height)
@@ -240,6 +258,7 @@ int main(int argc, char** argv) {
     g.color->setParameter(kFilamentParamLight, fm::float4(kToLight.x, kToLight.y, kToLight.z, 0));  // w = 0: direction
     g.color->setParameter(kFilamentParamLightColor, fm::float4(kLightColor.x, kLightColor.y, kLightColor.z, 1));
     g.color->setParameter(param(ShaderBinding::tile_cache).c_str(), cache, bilinear);
+    if (slot_map != nullptr) g.color->setParameter(param(ShaderBinding::slot_map).c_str(), slot_map, nearest);
     g.color->setParameter(param(ShaderBinding::eigen_abrdfs).c_str(), g.eigen_abrdfs, nearest);
     g.color->setParameter(param(ShaderBinding::angular_index).c_str(), g.angular_index, nearest);
     g.color->setParameter(param(ShaderBinding::angular_weight).c_str(), g.angular_weight, nearest);
@@ -276,8 +295,17 @@ int main(int argc, char** argv) {
           for (const TileUpload& t : batch) {
             const SlotPlacement at = slot_placement(shader.vt, t.slot);
             const uint32_t n = shader.vt.padded_tile_size();  // T + 2B, border included
-            host::set_image(h, cache, 0, at.x, at.y, at.layer, n, n, 1, t.texels.data(), t.texels.size_bytes(),
-                            Texture::Format::RGBA, Texture::Type::HALF);
+            if (compact) {
+              host::set_image(h, cache, 0, at.x, at.y, at.layer, n, n, 1, t.unorm8.data(), t.unorm8.size_bytes(),
+                              Texture::Format::RGBA, Texture::Type::UBYTE);
+              const std::array<uint32_t, 4> map = pack_cache_slot_map(t.map);
+              const CacheSlotMapTexel m = cache_slot_map_texel(shader.vt, t.slot);
+              host::set_image_2d(h, slot_map, m.x, m.y, 1, 1, map.data(), sizeof(map), Texture::Format::RGBA_INTEGER,
+                                 Texture::Type::UINT);
+            } else {
+              host::set_image(h, cache, 0, at.x, at.y, at.layer, n, n, 1, t.texels.data(), t.texels.size_bytes(),
+                              Texture::Format::RGBA, Texture::Type::HALF);
+            }
           }
           return Status::success;
         },
@@ -401,6 +429,7 @@ int main(int argc, char** argv) {
   if (eigen_textures) engine.destroy(eigen_textures);
   engine.destroy(cache);
   engine.destroy(page_table);
+  if (slot_map != nullptr) engine.destroy(slot_map);
   engine.destroy(bsvtf_material);
   engine.destroy(feedback_material);
   host::destroy(h);

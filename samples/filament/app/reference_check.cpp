@@ -24,8 +24,10 @@ ReferenceCheck::ReferenceCheck(const Streamer& s, std::vector<const BsvtfAngular
 }
 
 void ReferenceCheck::mirror(const StreamerOutputs& out) {
-  for (size_t i = 0; i < out.tile_upload_count; ++i)
-    cache_.upload(streamer_.cache(), out.tile_uploads[i].slot, out.tile_uploads[i].texels);
+  for (size_t i = 0; i < out.tile_upload_count; ++i) {  // in the cache's format (rgba16f or rgba8_affine)
+    const StreamerTileUpload& u = out.tile_uploads[i];
+    cache_.upload(streamer_.cache(), u.slot, u.texels, u.unorm8, u.map);
+  }
   for (size_t i = 0; i < out.packet_upload_count; ++i) {
     const StreamerPacketUpload& p = out.packet_uploads[i];
     EigenTextures& e = u_[p.material];

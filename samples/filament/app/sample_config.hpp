@@ -12,7 +12,8 @@ inline constexpr uint32_t kTexels = 256;    // M = N of the procedural materials
 inline constexpr uint32_t kTileSize = 32;   // T → finest level 3 (8 × 8 tiles)
 inline constexpr uint32_t kFinestLevel = 3;
 
-inline btflod::ShaderConfig shader_config() {
+/// `format`: the tile cache's texel format (rgba8_affine: the compact cache, its own bsvtf material).
+inline btflod::ShaderConfig shader_config(btflod::CacheFormat format = btflod::CacheFormat::rgba16f) {
   btflod::ShaderConfig c;
   c.components = kComponents;
   c.angular.parameterisation = btflod::DirectionParameterisation::parabolic;
@@ -25,6 +26,7 @@ inline btflod::ShaderConfig shader_config() {
   c.vt.cache_layers = 1;  // one layer: the CPU reference (CpuCacheTexture) mirrors one
   c.vt.finest_level = kFinestLevel;
   c.vt.trilinear = true;
+  c.vt.format = format;
   return c;
 }
 

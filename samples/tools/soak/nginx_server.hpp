@@ -97,16 +97,26 @@ class NginxServer {
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     return a;
   }
+  // A free port below Linux's ephemeral range (ip_local_port_range, 32768 and up by default): the
+  // server is restarted on the same port, and while it is down an ephemeral port could be handed
+  // to any outgoing connection on the machine (a browser test, this process's own curl), so that
+  // the restart would fail to listen. The search starts at a place that differs between
+  // processes, so that concurrent runs rarely probe the same ports.
   static int free_port() {
-    const int s = ::socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a = loopback(0);
-    socklen_t n = sizeof a;
-    int port = 0;
-    if (s >= 0 && ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
-        ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &n) == 0)
-      port = ntohs(a.sin_port);
-    if (s >= 0) ::close(s);
-    return port;
+    const int span = 12000, first = 20000;
+    const int start = static_cast<int>((static_cast<unsigned>(::getpid()) * 2654435761u) % span);
+    for (int i = 0; i < span; ++i) {
+      const int port = first + (start + i) % span;
+      const int s = ::socket(AF_INET, SOCK_STREAM, 0);
+      if (s < 0) return 0;
+      const int one = 1;
+      ::setsockopt(s, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);  // as nginx binds it
+      sockaddr_in a = loopback(port);
+      const bool free = ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+      ::close(s);
+      if (free) return port;
+    }
+    return 0;
   }
   bool listening() const {
     const int s = ::socket(AF_INET, SOCK_STREAM, 0);

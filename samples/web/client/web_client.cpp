@@ -84,7 +84,9 @@ struct UploadInfo {
   uint32_t slot;
   uint32_t material;
   uint32_t packet;
-  uint32_t texels;  ///< heap pointer to (T+2B)² · 4 half bits (kind 0)
+  uint32_t texels;  ///< heap pointer to (T+2B)² · 4 half bits (kind 0, rgba16f cache)
+  uint32_t unorm8;  ///< heap pointer to (T+2B)² · 4 bytes (kind 0, rgba8_affine cache)
+  uint32_t map[4];  ///< the slot's map as its slot-map texel (pack_cache_slot_map; rgba8_affine)
 };
 
 /// One page-table texel JavaScript writes: layer, mip, x, y, entry.
@@ -116,6 +118,7 @@ class Client {
   TileLayout layout{};
   uint32_t angular_resolution = 32;
   uint32_t decoded_cache_tiles = 16;
+  CacheFormat cache_format = CacheFormat::rgba16f;  ///< bw_set_cache_format, before bw_start
   ShaderConfig base_config;
   std::string shader_text;
   // The engine runtime and its I/O.
@@ -176,6 +179,7 @@ class Client {
       return fail(kBadArgument, "start: feedback shift above 4 or a zero budget");
     StreamerConfig config;
     config.cache = CacheConfig{slots_x, slots_y, 1u << 16, layout.tile_size, layout.border, 1};
+    config.cache.format = cache_format;
     config.scheduler.budgets.uploads_per_frame = uploads_per_frame;
     config.scheduler.budgets.requests_in_flight = requests_in_flight;
     config.scheduler.budgets.tiles_decoding = requests_in_flight;  // jobs run within bw_frame
@@ -228,6 +232,7 @@ class Client {
     base_config.vt.cache_layers = 1;
     base_config.vt.finest_level = finest_level;
     base_config.vt.trilinear = true;
+    base_config.vt.format = cache_format;
     started = true;
     return kOk;
   }
@@ -254,7 +259,7 @@ class Client {
     for (size_t i = 0; i < halves.size(); ++i) packet[i] = half_bits_to_float(halves[i]);
     scatter_u_packet(m.dir.metadata, g, packet, m.u_rgba, {}, AngularRowOrder::light_major);
     m.packets_loaded = std::max(m.packets_loaded, g + 1);
-    uploads.push_back(UploadInfo{1, 0, mi, g, 0});
+    uploads.push_back(UploadInfo{1, 0, mi, g, 0, 0, {}});
   }
 
   // One frame of the Streamer: the decode jobs whose bytes arrived run, then update() with this
@@ -276,8 +281,14 @@ class Client {
       const TileId local{u.tile.texture - first, u.tile.level, u.tile.x, u.tile.y};
       count_delivered(*materials[mi], streamer.cache().set().levels_of(u.tile.texture), streamer.texture_count(mi),
                       local);
-      uploads.push_back(
-          UploadInfo{0, u.slot, mi, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.texels.data()))});
+      const std::array<uint32_t, 4> map = pack_cache_slot_map(u.map);
+      uploads.push_back(UploadInfo{0,
+                                   u.slot,
+                                   mi,
+                                   0,
+                                   static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.texels.data())),
+                                   static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.unorm8.data())),
+                                   {map[0], map[1], map[2], map[3]}});
     }
     for (size_t i = 0; i < out.packet_upload_count; ++i)
       load_packet(packet_uploads[i].material, packet_uploads[i].packet, packet_uploads[i].halves);
@@ -303,6 +314,9 @@ class Client {
   int build_component_order() {
     if (!started) return -fail(kBadArgument, "component order before start");
     if (order) return static_cast<int>(order->items.size());
+    // The fixed order stages half texels for an rgba16f cache texture (the comparison of paper
+    // 004 §5's order needs no compact cache).
+    if (cache_format != CacheFormat::rgba16f) return -fail(kBadArgument, "the fixed component order needs rgba16f");
     auto o = std::make_unique<FixedOrder>();
     for (const auto& m : materials) {
       const BsvtfMetadata& md = m->dir.metadata;
@@ -365,7 +379,7 @@ class Client {
       unpack_bsvtf_packet(bytes, packet_scratch);
       scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, {}, m.dir.metadata.u_row_order);
       m.packets_loaded = std::max(m.packets_loaded, info.key_lo + 1);
-      uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0});
+      uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0, 0, {}});
       return kOk;
     }
     const TileId local = TileId::from_key(static_cast<uint64_t>(info.key_hi) << 32 | info.key_lo);
@@ -401,7 +415,7 @@ class Client {
     count_delivered(m, vm.levels, vm.texture_count, local);
     o.dirty[global.texture] = 1;
     uploads.push_back(
-        UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves))});
+        UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves)), 0, {}});
     return kOk;
   }
 
@@ -485,6 +499,16 @@ EMSCRIPTEN_KEEPALIVE double bw_directory_size(const uint8_t* header, uint32_t le
 /// over 4^feedback_shift frames, the scheduler's upload and request budgets, U′ columns streamed
 /// by priority when stream_u. Its first bw_frame() asks for the pinned roots (and, without
 /// stream_u, every U′ packet). Returns 0 or a code.
+/// Sets the tile cache's texel format (0 rgba16f, 1 rgba8_affine: 4 bytes a texel, each slot
+/// with its affine map in the slot-map texture) before bw_start. Returns 0, or an error code after
+/// the start or for an unknown format.
+EMSCRIPTEN_KEEPALIVE int bw_set_cache_format(uint32_t format) {
+  btflod::web::Client& c = client();
+  if (c.started || format > 1) return c.fail(btflod::web::kBadArgument, "cache format: 0 or 1, before bw_start");
+  c.cache_format = format == 1 ? btflod::CacheFormat::rgba8_affine : btflod::CacheFormat::rgba16f;
+  return btflod::web::kOk;
+}
+
 EMSCRIPTEN_KEEPALIVE int bw_start(uint32_t slots_x, uint32_t slots_y, uint32_t feedback_shift,
                                   uint32_t uploads_per_frame, uint32_t requests_in_flight, int stream_u) {
   return client().start(slots_x, slots_y, feedback_shift, uploads_per_frame, requests_in_flight, stream_u != 0);

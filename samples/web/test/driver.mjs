@@ -4,6 +4,9 @@
 //               fixed view until converged; final frame vs the CPU reference (PSNR ≥ 40 dB);
 //               bytes over time and SSIM vs the converged frame; all .bsvtf requests are Range
 //               requests (nginx access log)
+//   rgba8       the same golden view with the compact cache (?cacheFormat=rgba8: RGBA8 texels, each
+//               slot's affine map in an RGBA32UI slot-map texture) vs the CPU reference that
+//               quantises the same tiles (PSNR ≥ 40 dB), and its distance to the rgba16f reference
 //   components  the same data in paper 004's component-by-component order: bytes to SSIM 0.95
 //   needed      a view of material 0 only: the other materials get only directory and roots
 //   faults      every tile's first transfer dropped by the server (444) or served from a copy
@@ -80,6 +83,12 @@ const view = { eye: [0.35, -2.9, 3.3], target: [0, 0.1, 0], fov: 45, light: [-0.
 const refPath = path.join(WORK, `reference_${SIZE}.f32`);
 tool('reference', '--out', refPath, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
   '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`);
+// The same view through the compact cache (rgba8 + per-slot affine map), tile by tile quantised
+// as the Streamer's decode jobs do: the reference of the page run with ?cacheFormat=rgba8.
+const refRgba8Path = path.join(WORK, `reference_rgba8_${SIZE}.f32`);
+tool('reference', '--out', refRgba8Path, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
+  '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`,
+  '--cache-format', 'rgba8');
 const compare = (img, ref = refPath) => {
   const p = path.join(WORK, 'tmp_compare.f32');
   writeFileSync(p, Buffer.from(img.buffer, img.byteOffset, img.byteLength));
@@ -228,6 +237,27 @@ async function correctness(browser, gl, r) {
     const p95 = bytesToSsim(pri.shots, pri.final.stats.bytes, 0.95);
     r.priority_curve = p95.curve;
     qualityCheck(gl, 'BSVTF', p95.curve, pri.final.quality, r);
+    await page.close();
+
+    // --- golden: the compact cache (rgba8 + per-slot affine map, half the cache memory) ----
+    page = await openPage(browser, '&cacheFormat=rgba8');
+    const c8 = await stream(page, { maxFrames: reduced ? 400 : 800, every: 1000, snapshots: false });
+    const g8 = compare(c8.final.image, refRgba8Path), g8vs16 = compare(c8.final.image);
+    const s8 = c8.final.stats, s16 = pri.final.stats;
+    r.golden_rgba8 = { frames: c8.frames, converged: c8.converged, psnr_db: g8.psnr_db, ssim: g8.ssim,
+      psnr_vs_rgba16f_reference_db: g8vs16.psnr_db, ssim_vs_rgba16f_reference: g8vs16.ssim,
+      cache_bytes: s8.cacheBytes, rgba16f_cache_bytes: s16.cacheBytes, tile_uploads: s8.tileUploads,
+      slot_map_uploads: s8.slotMapUploads };
+    // Every tile went into the RGBA8 texture with its slot's map (the image is only right when the
+    // shader applies the map), and the cache holds half the bytes (plus 16 per slot for the maps).
+    check(`${gl}: rgba8 cache: a slot map per tile upload, half the cache memory`,
+      s8.tileUploads > 0 && s8.slotMapUploads === s8.tileUploads && s16.slotMapUploads === 0 &&
+        s8.cacheBytes < 0.51 * s16.cacheBytes,
+      `${s8.tileUploads} tiles, ${s8.slotMapUploads} slot maps; ${s8.cacheBytes} vs ${s16.cacheBytes} bytes`);
+    check(`${gl}: golden BSVTF, rgba8 cache, vs the CPU reference reading the same bytes ≥ 40 dB`,
+      c8.converged && g8.psnr_db >= 40,
+      `${g8.psnr_db.toFixed(2)} dB, SSIM ${g8.ssim.toFixed(4)}; against the rgba16f reference ${g8vs16.psnr_db.toFixed(2)} dB, ` +
+      `SSIM ${g8vs16.ssim.toFixed(4)}`);
     await page.close();
 
     // The reduced run's second GL path (llvmpipe) repeats the golden checks only.

@@ -182,9 +182,15 @@ int cmd_reference(Args& a) {
   auto cache_r = TileCache::create(set, TileCacheConfig{64, 64, 1u << 16});
   if (!cache_r) return fail(cache_r.message());
   TileCache& cache = *cache_r;
-  CpuCacheTexture texture(cache);
+  // --cache-format rgba8: the compact cache (each tile quantised to unorm8 with its slot's affine
+  // map from the decoded values, as the Streamer's decode jobs do); rgba16f otherwise.
+  const std::string format_name = a.get("cache-format", "rgba16f");
+  if (format_name != "rgba16f" && format_name != "rgba8") return fail("reference: --cache-format rgba16f or rgba8");
+  const CacheFormat format = format_name == "rgba8" ? CacheFormat::rgba8_affine : CacheFormat::rgba16f;
+  CpuCacheTexture texture(cache, format);
   // Every tile, coarse to fine, decoded against its parent (like the client) and inserted.
   std::vector<uint16_t> halves;
+  std::vector<uint8_t> unorm8;
   for (size_t i = 0; i < mats.size(); ++i) {
     const BsvtfDirectory& dir = mats[i].dir;
     const TileLayout layout = dir.metadata.layout();
@@ -204,7 +210,13 @@ int cmd_reference(Args& a) {
       if (decoder.decode(std::span<const uint8_t>(mats[i].file).subspan(e.offset, e.size), parent, e.id.x & 1,
                          e.id.y & 1, out) != Status::success)
         return fail(std::string("decode: ") + decoder.message());
-      float_to_half(out, halves);
+      CacheSlotMap map;
+      if (format == CacheFormat::rgba8_affine) {
+        unorm8.resize(out.size());
+        map = encode_cache_tile_unorm8(out, unorm8);
+      } else {
+        float_to_half(out, halves);
+      }
       const TileId g{first + e.id.texture, e.id.level, e.id.x, e.id.y};
       uint32_t slot = cache.slot_of(g);  // roots are pinned by the cache itself
       if (slot == kNoSlot) {
@@ -212,7 +224,7 @@ int cmd_reference(Args& a) {
         if (slot == kNoSlot) return fail("reference cache too small");
         if (cache.insert(g, slot, 0) != Status::success) return fail("insert failed");
       }
-      if (!texture.upload(cache, slot, halves)) return fail("upload failed");
+      if (!texture.upload(cache, slot, halves, unorm8, map)) return fail("upload failed");
     }
   }
   Scene scene;

@@ -19,8 +19,13 @@ const BW = { ok: 0, badArgument: 1, corrupt: 2, decodeFailed: 3, failed: 5 };
 const PROGRAM = { fmf: 0, bsvtf: 1, feedback: 2, laplacian: 3, lpca: 4, pca_views: 5, spmm: 6, pca_rings: 7 };
 const BINDING = {
   btflod_eigen_abrdfs: 1, btflod_angular_index: 2, btflod_angular_weight: 3, btflod_eigen_textures: 4,
-  btflod_tile_cache: 5, btflod_page_table: 6, btflod_pca_l: 13, btflod_pca_r: 14,
+  btflod_tile_cache: 5, btflod_page_table: 6, btflod_slot_map: 7, btflod_pca_l: 13, btflod_pca_r: 14,
 };
+// Texel formats of the tile cache (bw_set_cache_format): rgba16f (8 bytes a texel) or rgba8, the
+// compact one (4 bytes a texel; each slot's affine map in the slot-map texture, one RGBA32UI
+// texel per slot: runtime/vt/cache_format.hpp).
+const CACHE_FORMAT = { rgba16f: 0, rgba8: 1 };
+const UPLOAD_STRIDE = 10;  // UploadInfo: kind, slot, material, packet, texels, unorm8, map[4]
 const ORDER_BASE = 0x50000000;
 const IO_ERROR = 5;  // Status::io_error, for bw_complete_read
 // The ring search's uniform block (offline/packing/ring_search_block.hpp: RingSearchBlock) and the
@@ -122,14 +127,15 @@ export class BtflodClient {
     this.opt = Object.assign({
       slotsX: 24, slotsY: 24, uploadsPerFrame: 16, requestsInFlight: 48, fetchConcurrency: 6,
       angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4, readbackBuffers: 3,
-      readbackMaxFrames: 3, qualityEvery: 2,
+      readbackMaxFrames: 3, qualityEvery: 2, cacheFormat: 'rgba16f',
     }, options);
+    if (!(this.opt.cacheFormat in CACHE_FORMAT)) throw new Error(`cacheFormat ${this.opt.cacheFormat}: rgba16f or rgba8`);
     this.gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
     if (!this.gl) throw new Error('WebGL 2 is not available');
     if (!this.gl.getExtension('EXT_color_buffer_float')) throw new Error('EXT_color_buffer_float is not available');
     this.materials = [];
     this.stats = { requests: 0, bytes: 0, payloadBytes: 0, corrupt: 0, retries: 0, failures: 0, uploads: 0, frames: 0,
-      directoryBytes: 0 };
+      directoryBytes: 0, tileUploads: 0, slotMapUploads: 0, cacheBytes: 0 };
     this.timeline = [];     // { t, bytes, quality }
     this.queue = [];        // requests waiting for a fetch slot
     this.active = 0;
@@ -174,6 +180,7 @@ export class BtflodClient {
     }
     const o = this.opt;
     if (o.decodedTiles) M._bw_set_decoded_capacity(o.decodedTiles);  // decoded ancestors kept
+    if (M._bw_set_cache_format(CACHE_FORMAT[o.cacheFormat]) !== 0) throw new Error(this.error());
     if (M._bw_start(o.slotsX, o.slotsY, 0, o.uploadsPerFrame, o.requestsInFlight, o.streamU ? 1 : 0) !== 0)
       throw new Error(this.error());
     this.initGpu();
@@ -342,7 +349,19 @@ export class BtflodClient {
     }
     M._free(ip);
     const S = this.stored;
-    this.cacheTex = this.texArray(gl.RGBA16F, this.slots[0] * S, this.slots[1] * S, 1, gl.LINEAR);
+    this.compactCache = this.opt.cacheFormat === 'rgba8';
+    // GPU memory of the cache: its texels (4 or 8 bytes each) and, compact, the slot-map texels.
+    this.stats.cacheBytes = this.slots[0] * S * this.slots[1] * S * (this.compactCache ? 4 : 8) +
+      (this.compactCache ? this.slots[0] * this.slots[1] * 16 : 0);
+    this.cacheTex = this.texArray(this.compactCache ? gl.RGBA8 : gl.RGBA16F, this.slots[0] * S, this.slots[1] * S, 1,
+      gl.LINEAR);
+    if (this.compactCache) {  // one RGBA32UI texel per slot (cache_slot_map_texel: one layer)
+      this.slotMapTex = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, this.slotMapTex);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32UI, this.slots[0], this.slots[1]);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    }
     const layers = M._bw_texture_count();
     const pageLevels = Math.log2(this.pageSide) + 1;
     this.pageTex = this.texArray(gl.R32UI, this.pageSide, this.pageSide, layers, gl.NEAREST, pageLevels);
@@ -494,6 +513,10 @@ export class BtflodClient {
     bind(3, m.angWeight);
     bind(5, this.cacheTex);
     bind(6, this.pageTex);
+    if (this.compactCache) {
+      gl.activeTexture(gl.TEXTURE0 + BINDING.btflod_slot_map);
+      gl.bindTexture(gl.TEXTURE_2D, this.slotMapTex);
+    }
   }
 
   // Uploads released tiles and packets and the page-table texels they changed.
@@ -502,14 +525,24 @@ export class BtflodClient {
     const n = M._bw_apply_uploads();
     if (n < 0) throw new Error(this.error());
     const S = this.stored;
-    const ups = new Uint32Array(M.HEAPU8.buffer, M._bw_uploads(), n * 5).slice();
+    const ups = new Uint32Array(M.HEAPU8.buffer, M._bw_uploads(), n * UPLOAD_STRIDE).slice();
     for (let i = 0; i < n; ++i) {
-      const [kind, slot, material] = [ups[i * 5], ups[i * 5 + 1], ups[i * 5 + 2]];
+      const u = i * UPLOAD_STRIDE;
+      const [kind, slot, material] = [ups[u], ups[u + 1], ups[u + 2]];
       if (kind === 0) {
-        const texels = new Uint16Array(M.HEAPU8.buffer, ups[i * 5 + 4], S * S * 4);
-        const x = (slot % this.slots[0]) * S, y = Math.floor(slot / this.slots[0]) * S;
+        this.stats.tileUploads += 1;
+        const sx = slot % this.slots[0], sy = Math.floor(slot / this.slots[0]);
         gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.cacheTex);
-        gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, x, y, 0, S, S, 1, gl.RGBA, gl.HALF_FLOAT, texels);
+        if (this.compactCache) {
+          const bytes = new Uint8Array(M.HEAPU8.buffer, ups[u + 5], S * S * 4);
+          gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, 0, S, S, 1, gl.RGBA, gl.UNSIGNED_BYTE, bytes);
+          gl.bindTexture(gl.TEXTURE_2D, this.slotMapTex);
+          gl.texSubImage2D(gl.TEXTURE_2D, 0, sx, sy, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, ups.subarray(u + 6, u + 10));
+          this.stats.slotMapUploads += 1;
+        } else {
+          const texels = new Uint16Array(M.HEAPU8.buffer, ups[u + 4], S * S * 4);
+          gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, 0, S, S, 1, gl.RGBA, gl.HALF_FLOAT, texels);
+        }
       } else {
         const m = this.materials[material];
         gl.bindTexture(gl.TEXTURE_2D_ARRAY, m.uTex);

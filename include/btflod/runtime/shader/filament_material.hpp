@@ -93,12 +93,19 @@ inline bool filament_word(const std::string& s) noexcept {
 
 }  // namespace detail
 
-/// The Filament sampler parameters a material of `kind` declares, in declaration order (each
-/// is set with MaterialInstance::setParameter(filament_sampler_parameter(role), texture, sampler)).
-/// All are 2D arrays (sampler2dArray); angular_index and page_table hold uint texels (RGBA32UI,
-/// R32UI: `format : uint`), the others float. precision is high for all: the page-table entry
-/// and the cache coordinates need 32-bit integers and floats.
-inline std::span<const ShaderBinding> filament_material_samplers(FilamentMaterialKind kind) noexcept {
+/// The Filament sampler parameters a material of `kind` declares for a tile cache of `format`, in
+/// declaration order (each is set with MaterialInstance::setParameter(filament_sampler_parameter(role),
+/// texture, sampler)). All are 2D arrays (sampler2dArray) but the slot-map table (sampler2d, the
+/// bsvtf material of an rgba8_affine cache only: runtime/vt/cache_format.hpp); angular_index,
+/// page_table and slot_map hold uint texels (RGBA32UI, R32UI: `format : uint`), the others float.
+/// precision is high for all: the page-table entry and the cache coordinates need 32-bit integers
+/// and floats.
+inline std::span<const ShaderBinding> filament_material_samplers(FilamentMaterialKind kind,
+                                                                 CacheFormat format = CacheFormat::rgba16f) noexcept {
+  static constexpr ShaderBinding kBsvtfRgba8[] = {ShaderBinding::eigen_abrdfs,   ShaderBinding::angular_index,
+                                                  ShaderBinding::angular_weight, ShaderBinding::tile_cache,
+                                                  ShaderBinding::page_table,     ShaderBinding::slot_map};
+  if (kind == FilamentMaterialKind::bsvtf && format == CacheFormat::rgba8_affine) return kBsvtfRgba8;
   static constexpr ShaderBinding kBsvtf[] = {ShaderBinding::eigen_abrdfs, ShaderBinding::angular_index,
                                              ShaderBinding::angular_weight, ShaderBinding::tile_cache,
                                              ShaderBinding::page_table};
@@ -126,7 +133,7 @@ inline std::span<const ShaderBinding> filament_material_samplers(FilamentMateria
 /// instance draws one btflod material: btflod_vt_extent, btflod_ids (first page-table layer,
 /// texture id) per instance.
 /// Returns invalid_argument for a config failing validate_shader_config() or a name/culling
-/// that is not a plain word, unsupported for a cache format other than rgba16f. Deterministic. Allocates (set-up time).
+/// that is not a plain word. Deterministic. Allocates (set-up time).
 /// Thread-safe.
 inline Result<std::string> generate_filament_material(FilamentMaterialKind kind, const ShaderConfig& config,
                                                       const FilamentMaterialOptions& options = {}) {
@@ -137,11 +144,6 @@ inline Result<std::string> generate_filament_material(FilamentMaterialKind kind,
                       "generate_filament_material: name \"%.80s\" or culling \"%.80s\" "
                       "is not a word of letters, digits and '_'",
                       name.c_str(), options.culling.c_str());
-  if (config.vt.format != CacheFormat::rgba16f)  // its sampler list holds no slot-map table (2D arrays only)
-    return make_error(Status::unsupported,
-                      "generate_filament_material: cache format %s; the Filament materials read "
-                      "rgba16f caches only",
-                      cache_format_name(config.vt.format));
   GlslFunctionOptions fo;
   fo.prefix = "btflod_";
   for (uint32_t i = 1; i < kShaderBindingCount; ++i) {
@@ -178,9 +180,11 @@ inline Result<std::string> generate_filament_material(FilamentMaterialKind kind,
        options.culling + ",\n";
   s += kind == FilamentMaterialKind::feedback ? "    requires : [ uv0 ],\n" : "    requires : [ uv0, tangents ],\n";
   s += "    parameters : [\n";
-  for (ShaderBinding role : filament_material_samplers(kind)) {  // every one a 2D array
-    const bool uint_texels = role == ShaderBinding::angular_index || role == ShaderBinding::page_table;
-    s += "        { type : sampler2dArray, name : " + filament_sampler_parameter(role);
+  for (ShaderBinding role : filament_material_samplers(kind, config.vt.format)) {
+    const bool uint_texels =
+        role == ShaderBinding::angular_index || role == ShaderBinding::page_table || role == ShaderBinding::slot_map;
+    s += std::string("        { type : ") + (role == ShaderBinding::slot_map ? "sampler2d" : "sampler2dArray") +
+         ", name : " + filament_sampler_parameter(role);
     s += uint_texels ? ", format : uint, precision : high },\n" : ", precision : high },\n";
   }
   s += std::string("        { type : float4, name : ") + kFilamentParamVtExtent + " },\n";

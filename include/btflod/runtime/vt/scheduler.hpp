@@ -354,10 +354,10 @@ class Scheduler {
     collect_adds(cache, votes);
     // The swap candidates are needed only once the cache is full and an add wants a slot
     // (decide_adds collects them then: nothing it does before the first swap changes a used
-    // slot), except for §6's packet priorities, which come from the same pass.
+    // slot); §6's packet priorities come from the voted tiles alone.
     leaves_ready_ = 0;
     pairs_sorted_ = 0;
-    if (config_.stream_u_columns) collect_leaves(cache, votes);
+    if (config_.stream_u_columns) collect_u_priorities(cache, votes);
     decide(cache, votes);
     update_bias();
     total_counters_.accumulate(frame_counters_);
@@ -621,7 +621,26 @@ class Scheduler {
     }
   }
 
-  // One pass over the slots: per-texture cheapest leaves and §6 U' packet priorities.
+  // Paper 000 §6: a material's next U' packet has priority Σ v·‖T‖²_F over the resident tiles
+  // of the virtual texture that packet completes. Tiles without votes add 0, so the sum runs
+  // over this frame's voted tiles (every tile with v > 0), not over the whole cache.
+  void collect_u_priorities(const TileCache& cache, const VoteCounter& votes) noexcept {
+    const VtSet& set = cache.set();
+    std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
+    for (const uint32_t word : votes.touched()) {
+      const FeedbackTile ft = unpack_feedback(word);
+      if (ft.material >= set.material_count()) continue;
+      const VtMaterial& m = set.material(ft.material);
+      const uint32_t k = u_loaded_[ft.material];
+      if (ft.level > m.levels.finest_level() || k >= m.texture_count) continue;
+      const uint32_t flat = m.levels.index(ft.level, ft.x, ft.y);
+      if (cache.material_slots(ft.material, flat)[k] == kNoSlot) continue;
+      u_priority_[ft.material] +=
+          static_cast<double>(votes.votes_at(ft.material, flat)) * energies_[index(m.first_texture + k, flat)];
+    }
+  }
+
+  // One pass over the slots: per-texture cheapest leaves (the swap candidates of §5.2).
   void collect_leaves(const TileCache& cache, const VoteCounter& votes) noexcept {
     const VtSet& set = cache.set();
     for (uint32_t t : leaf_textures_) leaf_count_[t] = 0;
@@ -629,18 +648,12 @@ class Scheduler {
     pairs_.clear();
     pairs_sorted_ = 0;
     leaves_ready_ = 1;
-    std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
     for (uint32_t s = 0; s < cache.slot_count(); ++s) {
       const SlotInfo& si = cache.slot(s);
       if (si.state != SlotInfo::State::used) continue;
       const uint32_t tex = si.tile.texture;
       const uint32_t mat = set.material_of(tex);
       const uint32_t v = votes.votes_at(mat, si.flat_index);
-      if (config_.stream_u_columns) {
-        const uint32_t k = tex - set.material(mat).first_texture;
-        if (k == u_loaded_[mat])  // paper 000 §6: Σ v·‖T‖²_F over tiles of the next packet
-          u_priority_[mat] += static_cast<double>(v) * energies_[index(tex, si.flat_index)];
-      }
       if (si.tile.level == 0 || cache.resident_below_at(tex, si.flat_index) != 0) continue;
       if (si.added_frame + config_.hysteresis_frames > frame_) continue;  // hysteresis
       const VtLevelTable& lv = set.levels_of(tex);

@@ -94,7 +94,8 @@ foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknow
              "--components;0;--components 0: expected an integer in [1, 128]" "--components;129;--components 129: expected an integer in [1, 128]"
              "--material;glass;--material glass: expected cloth, stone, leather or tiles"
              "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f, rgba8 or rgba8_affine"
-             "--rank-target;1.5;--rank-target 1.5: expected a number in [0, 1]")
+             "--rank-target;1.5;--rank-target 1.5: expected a number in [0, 1]"
+             "--brdf;${DIR}/no_such.mbsdf;--brdf ${DIR}/no_such.mbsdf:")
   list(POP_BACK case message)
   execute_process(COMMAND ${DEMO} --out ${DIR}/refused ${case} RESULT_VARIABLE rc OUTPUT_VARIABLE out
                   ERROR_VARIABLE err)

@@ -35,6 +35,8 @@ struct DemoConfig {
   /// --material NAME: every material is synthesised as NAME (seed + index still differs);
   /// unset: cloth, stone, leather, tiles in turn.
   std::optional<SynthMaterial> material;
+  /// --brdf FILE.mbsdf: a measured BRDF as every material's base reflectance (empty: analytic).
+  std::string brdf_path;
   uint64_t seed = 1;   ///< --seed N
   int components = 0;  ///< --components C: FMF rank (0: the profile's default)
   /// --rank-target S: each material's rank is the smallest of 4, 8, 12, 16 (up to --components)
@@ -100,7 +102,7 @@ inline constexpr const char* kDemoUsage =
     "                   [--profile paper] [--memory SIZE] [--deflate] [--feedback-pass]\n"
     "                   [--keep-stores] [--inputs DIR] [--frame-size WxH] [--components C]\n"
     "                   [--material cloth|stone|leather|tiles] [--interreflection] [--cut]\n"
-    "                   [--cache-format rgba16f|rgba8] [--rank-target S]\n"
+    "                   [--cache-format rgba16f|rgba8] [--rank-target S] [--brdf FILE.mbsdf]\n"
     "  Synthesises N small procedural BTFs (N x N texels, 23 x 23 directions), factorises them\n"
     "  (FMF; each material's rank chosen from its displayed images, up to C = " BTFLOD_DEMO_STR(
         BTFLOD_DEMO_DEFAULT_COMPONENTS) "), builds one\n"
@@ -126,6 +128,8 @@ inline constexpr const char* kDemoUsage =
     "  scale (runtime/vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves).\n"
     "  Either way the report compares the two formats on the settled view's resident tiles (CPU\n"
     "  ray-caster, same rays).\n"
+    "  --brdf FILE.mbsdf: every material's base reflectance is that measured BRDF (NVIDIA MBSDF, e.g.\n"
+    "  the car paints of the shared data) under its mesostructure; names gain the file's stem.\n"
     "  --feedback-pass draws the feedback words in a pass of their own at 1/16 of the screen\n"
     "  (GPU path) instead of writing them from the BSVTF colour pass (the default).\n"
     "  for btflod-bench scheduler --trace FILE.\n"
@@ -194,6 +198,7 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
       cfg.frame_width = w, cfg.frame_height = h;
   }
   cfg.record_feedback = args.string("record-feedback", cfg.record_feedback);
+  cfg.brdf_path = args.string("brdf", cfg.brdf_path);
   if (args.choice("profile", {"paper"})) cfg.profile = "paper";
   if (const auto bytes = args.byte_size("memory")) cfg.memory_bytes = *bytes;
   if (const auto n = args.optional_integer("size", 1, 4096)) cfg.size = static_cast<int>(*n), cfg.size_given = true;

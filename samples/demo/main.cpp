@@ -121,6 +121,17 @@ int main(int argc, char** argv) {
   ms.rank_target_ssim = cfg->rank_target;
   ms.kind = cfg->material;
   ms.interreflection = cfg->interreflection;
+  MeasuredBrdf measured_brdf;
+  if (!cfg->brdf_path.empty()) {
+    auto brdf = read_mbsdf(cfg->brdf_path);
+    if (!brdf) {
+      std::fprintf(stderr, "btflod-demo: --brdf %s: %s\n", cfg->brdf_path.c_str(), brdf.message().c_str());
+      return 2;
+    }
+    measured_brdf = std::move(*brdf);
+    ms.measured_brdf = &measured_brdf;
+    ms.brdf_name = std::filesystem::path(cfg->brdf_path).stem().string();
+  }
   ms.transform.encoding = cfg->value_encoding ? *cfg->value_encoding
                           : paper             ? ValueEncoding::linear
                                               : demo::kDefaultDemoEncoding;
@@ -597,8 +608,8 @@ int main(int argc, char** argv) {
     // rank", for the measurement behind the bounds). Other materials, ranks or profiles are what
     // the user asked for and are only reported.
     const bool default_materials = !paper && !cfg->components_given && !cfg->material && !cfg->interreflection &&
-                                   !cfg->value_encoding && !cfg->size_given && !cfg->seed_given &&
-                                   cfg->rank_target == demo::kDefaultDemoRankTarget;
+                                   cfg->brdf_path.empty() && !cfg->value_encoding && !cfg->size_given &&
+                                   !cfg->seed_given && cfg->rank_target == demo::kDefaultDemoRankTarget;
     bool raw_ok = true;
     std::string raw_note;
     if (default_materials && run.raw.done) {

@@ -55,6 +55,10 @@ struct MaterialSettings {
   std::optional<SynthMaterial> kind;
   /// One bounce of diffuse interreflection in the synthesis (--interreflection; SynthesisOptions).
   bool interreflection = false;
+  /// A measured BRDF as every material's base reflectance (--brdf; SynthesisOptions::measured_brdf),
+  /// named `brdf_name` in the material names; null: the analytic one.
+  const MeasuredBrdf* measured_brdf = nullptr;
+  std::string brdf_name;
   /// The domain the FMF is computed in (--value-encoding; core/value_transform.hpp).
   ValueTransform transform{};
   /// Paper 000's configuration: 151 × 151 directions (ubo2014), the BTF synthesised view by view
@@ -199,10 +203,11 @@ inline Result<DemoMaterial> prepare_material(uint32_t index, const MaterialSetti
   const SynthMaterial kind = s.kind ? *s.kind : kinds[index % 4];
   SynthesisOptions so;
   so.interreflection = s.interreflection;
+  so.measured_brdf = s.measured_brdf;
   so.views = s.paper ? DirectionSet::ubo2014() : demo_directions();
   so.lights = so.views;
   DemoMaterial m;
-  m.name = std::string(material_name(kind)) + "-" + std::to_string(index);
+  m.name = (s.brdf_name.empty() ? "" : s.brdf_name + "-") + material_name(kind) + "-" + std::to_string(index);
   m.store_path = (std::filesystem::path(out_dir) / (m.name + ".btfstore")).string();
   m.texels = s.size;
   Fmf fmf;

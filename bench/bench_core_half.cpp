@@ -4,10 +4,12 @@
 // (rgba8_affine, encode_cache_tile_unorm8).
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <random>
 #include <vector>
 
 #include "btflod/core/half.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
 
 namespace {
@@ -96,6 +98,25 @@ void BM_CacheTile_Rgba8Affine(benchmark::State& state) {
   state.SetItemsProcessed(int64_t(state.iterations()));  // tiles
 }
 BENCHMARK(BM_CacheTile_Rgba8Affine);
+
+// The two-plane BC5 layout (runtime/vt/cache_bc5.hpp): the unorm8 quantisation above, then a BC4
+// block per component and 4 × 4 texels. Smooth values, as eigen-texture tiles are (random ones
+// would make every block span its whole range).
+void BM_CacheTile_Bc5(benchmark::State& state) {
+  const uint32_t side = 72;  // T = 64 with a 4-texel border, as kCount's tile
+  std::vector<float> in(size_t{side} * side * 4);
+  for (size_t i = 0; i < in.size(); ++i)
+    in[i] = static_cast<float>(std::sin(0.05 * static_cast<double>(i / 4 % side)) *
+                               std::cos(0.03 * static_cast<double>(i / 4 / side) + static_cast<double>(i % 4)));
+  std::vector<uint8_t> scratch(in.size()), blocks(btflod::cache_bc5_tile_bytes(side));
+  for (auto _ : state) {
+    const btflod::CacheSlotMap map = btflod::encode_cache_tile_bc5(in, side, scratch, blocks);
+    benchmark::DoNotOptimize(map);
+    benchmark::DoNotOptimize(blocks.data());
+  }
+  state.SetItemsProcessed(int64_t(state.iterations()));  // tiles
+}
+BENCHMARK(BM_CacheTile_Bc5);
 
 }  // namespace
 

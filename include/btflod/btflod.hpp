@@ -84,6 +84,7 @@
 #include "btflod/runtime/stream/tile_source.hpp"
 
 // runtime/vt
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_config.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
 #include "btflod/runtime/vt/scheduler.hpp"

@@ -467,6 +467,9 @@ int main(int argc, char** argv) {
       if (!a) return fail("cache formats", a.message());
       auto b = (*streamer)->render_cache_format_on_cpu(CacheFormat::rgba8_affine, frames - 1, frames, compact);
       if (!b) return fail("cache formats", b.message());
+      Image<float> blocks = wide;  // the two-plane BC5 layout, a quarter of rgba16f's bytes
+      auto c = (*streamer)->render_cache_format_on_cpu(CacheFormat::rgba16f, frames - 1, frames, blocks, true);
+      if (!c) return fail("cache formats", c.message());
       auto& cf = run.cache_format;
       cf.done = true;
       cf.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -479,12 +482,18 @@ int main(int argc, char** argv) {
           "resident levels";
       cf.rgba8_vs_rgba16f = demo::image_error(wide, compact);
       cf.rgba8_vs_rgba16f.filter = same;
+      cf.bytes_bc5 = shape.cache_bytes() / 2 + shape.slot_map_bytes();  // 2 bytes a texel + the maps
+      cf.bc5_vs_rgba16f = demo::image_error(wide, blocks);
+      cf.bc5_vs_rgba16f.filter = same;
+      cf.bc5_vs_raw = demo::image_error(ref->raw, blocks);
       cf.rgba16f_vs_raw = demo::image_error(ref->raw, wide);
       cf.rgba8_vs_raw = demo::image_error(ref->raw, compact);
       cf.rgba16f_vs_raw.filter = cf.rgba8_vs_raw.filter = "different filters: " + same + " vs raw " + ss_desc;
       for (uint32_t i = 0; i < materials.size(); ++i) {
         cf.per_material.push_back(demo::image_error(wide, compact, &ref->pixel_material, i));
         cf.per_material.back().filter = same;
+        cf.per_material_bc5.push_back(demo::image_error(wide, blocks, &ref->pixel_material, i));
+        cf.per_material_bc5.back().filter = same;
       }
       std::printf(
           "  cache       %s: %.0f KiB (rgba16f %.0f KiB, rgba8 %.0f KiB with its slot maps); settled view, same rays: "
@@ -499,6 +508,12 @@ int main(int argc, char** argv) {
             return worst;
           }(),
           cf.rgba16f_vs_raw.ssim, cf.rgba8_vs_raw.ssim, cf.seconds);
+      std::printf(
+          "              bc5 (two BC5 planes and the slot maps, %.0f KiB; CPU reference decoder): vs rgba16f SSIM "
+          "%.5f  dE*ab p99 %.3f (per material",
+          cf.bytes_bc5 / 1024.0, cf.bc5_vs_rgba16f.ssim, cf.bc5_vs_rgba16f.de_p99);
+      for (const auto& e : cf.per_material_bc5) std::printf(" %.3f", e.de_p99);
+      std::printf("); vs raw SSIM %.4f\n", cf.bc5_vs_raw.ssim);
     }
   } else {
     run.raw.note = "no frames rendered";

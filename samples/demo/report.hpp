@@ -95,6 +95,11 @@ struct RunSummary {
     std::string format = "rgba16f";
     uint64_t bytes_rgba16f = 0, bytes_rgba8 = 0;  ///< the cache texture (rgba8: with its slot-map table)
     ImageError rgba8_vs_rgba16f, rgba16f_vs_raw, rgba8_vs_raw;
+    /// The two-plane BC5 layout (runtime/vt/cache_bc5.hpp) through its reference decoder: not a
+    /// GPU path yet, the error such a cache would add.
+    uint64_t bytes_bc5 = 0;
+    ImageError bc5_vs_rgba16f, bc5_vs_raw;
+    std::vector<ImageError> per_material_bc5;
     std::vector<ImageError> per_material;  ///< rgba8_affine vs rgba16f over each material's pixels
     double seconds = 0;
   } cache_format;
@@ -371,7 +376,12 @@ inline std::string config_and_raw_json(const RunSummary& r) {
     for (size_t i = 0; i < c.per_material.size(); ++i)
       o << (i ? ", " : "") << "{\"material\": \"" << (i < r.material_names.size() ? r.material_names[i] : "")
         << "\", \"error\": " << image_error_json(c.per_material[i]) << "}";
-    o << "]},\n";
+    o << "], \"bc5\": {\"cache_bytes\": " << c.bytes_bc5 << ", \"vs_rgba16f\": " << image_error_json(c.bc5_vs_rgba16f)
+      << ", \"vs_raw\": " << image_error_json(c.bc5_vs_raw) << ", \"per_material_vs_rgba16f\": [";
+    for (size_t i = 0; i < c.per_material_bc5.size(); ++i)
+      o << (i ? ", " : "") << "{\"material\": \"" << (i < r.material_names.size() ? r.material_names[i] : "")
+        << "\", \"error\": " << image_error_json(c.per_material_bc5[i]) << "}";
+    o << "]}},\n";
   } else {
     o << "  \"cache_format\": {\"format\": \"" << r.cache_format.format << "\", \"not_done\": \"" << r.cache_format.note
       << "\"},\n";

@@ -30,6 +30,7 @@
 #include "btflod/runtime/stream/thread_executor.hpp"
 #include "btflod/runtime/stream/tile_source.hpp"
 #include "btflod/runtime/streamer.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
 #include "materials.hpp"
 #include "scene/analytic_demo_scene.hpp"
@@ -371,7 +372,20 @@ class CpuFrameRenderer final : public FrameRenderer {
   }
   /// Puts a decoded tile (`values`: (T+2B)² × 4 floats) into `slot` of the cache texture,
   /// converted to its format as the Streamer's decode jobs do. False on a size or slot mismatch.
-  bool upload_tile_values(uint32_t slot, std::span<const float> values) {
+  /// With `bc5`, the values pass through the two-plane BC5 layout first (runtime/vt/cache_bc5.hpp:
+  /// encoded, then decoded by the reference decoder and mapped) into an rgba16f texture: the image
+  /// a BC5 cache would give, up to the halves' rounding.
+  bool upload_tile_values(uint32_t slot, std::span<const float> values, bool bc5 = false) {
+    if (bc5) {
+      const uint32_t side = static_cast<uint32_t>(std::lround(std::sqrt(static_cast<double>(values.size() / 4))));
+      std::vector<uint8_t> scratch(values.size()), blocks(cache_bc5_tile_bytes(side));
+      const CacheSlotMap map = encode_cache_tile_bc5(values, side, scratch, blocks);
+      std::vector<float> decoded(values.size());
+      decode_cache_tile_bc5(blocks, side, map, decoded);
+      std::vector<uint16_t> h(values.size());
+      float_to_half(decoded, h);
+      return texture_->format() == CacheFormat::rgba16f && texture_->upload(*cache_, slot, h);
+    }
     if (texture_->format() == CacheFormat::rgba8_affine) {
       std::vector<uint8_t> q(values.size());
       const CacheSlotMap map = encode_cache_tile_unorm8(values, q);
@@ -692,7 +706,9 @@ class StreamingRenderer {
   /// from its container (decode_bsvtf_tile) and converted as the decode jobs convert it, sampled
   /// through the Streamer cache's page table. Two calls with different formats differ in the
   /// cache format alone (same rays, tiles and page table). Set-up cost (a CPU render).
-  VoidResult render_cache_format_on_cpu(CacheFormat format, uint32_t view_frame, uint32_t frames, Image<float>& out) {
+  /// `bc5` (with format rgba16f): the tiles as the two-plane BC5 layout gives them back.
+  VoidResult render_cache_format_on_cpu(CacheFormat format, uint32_t view_frame, uint32_t frames, Image<float>& out,
+                                        bool bc5 = false) {
     CpuFrameRenderer cpu(format);
     ShaderConfig config = shader_config_;
     config.vt.format = format;
@@ -718,7 +734,8 @@ class StreamingRenderer {
           st != Status::success)
         return make_error(st, "%s: tile (%u, %u, %u, %u) does not decode: %s", materials_[demo].name.c_str(),
                           local.texture, local.level, local.x, local.y, decoder.message());
-      if (!cpu.upload_tile_values(s, values)) return make_error(Status::invalid_argument, "slot %u: upload failed", s);
+      if (!cpu.upload_tile_values(s, values, bc5))
+        return make_error(Status::invalid_argument, "slot %u: upload failed", s);
     }
     const scene::View view = scene::camera_path(view_frame, frames, s_.width, s_.height);
     const ShaderParams base = scene::view_params(view, glm::vec3(0.5f, 0.8f, 0.35f), glm::vec3(2.2f, 2.1f, 2.0f));

@@ -97,6 +97,19 @@ if(NOT cf_format STREQUAL "rgba8_affine" OR cf_8 GREATER cf_half OR NOT cf_de LE
                       "dE p99 ${cf_de} SSIM ${cf_ssim}")
 endif()
 message(STATUS "cache format ${cf_format}: ${cf_8} of ${cf_16} bytes, dE*ab p99 ${cf_de} against rgba16f")
+# The two-plane BC5 layout through its reference decoder: a quarter of rgba16f's texel bytes (plus
+# the slot maps), lossier than rgba8 but the same image (SSIM ≥ 0.99), and a value per material.
+string(JSON bc5_bytes GET "${json}" cache_format bc5 cache_bytes)
+string(JSON bc5_de GET "${json}" cache_format bc5 vs_rgba16f delta_e_p99)
+string(JSON bc5_ssim GET "${json}" cache_format bc5 vs_rgba16f ssim)
+string(JSON bc5_materials LENGTH "${json}" cache_format bc5 per_material_vs_rgba16f)
+string(JSON n_files LENGTH "${json}" files)
+math(EXPR cf_quarter "${cf_16} * 27 / 100")
+if(bc5_bytes GREATER cf_quarter OR NOT bc5_de GREATER cf_de OR bc5_ssim LESS 0.99 OR NOT bc5_materials EQUAL n_files)
+  message(FATAL_ERROR "report.json cache_format.bc5: ${bc5_bytes} of ${cf_16} bytes, dE p99 ${bc5_de} (rgba8 ${cf_de}), "
+                      "SSIM ${bc5_ssim}, ${bc5_materials} materials of ${n_files}")
+endif()
+message(STATUS "bc5 layout: ${bc5_bytes} of ${cf_16} bytes, dE*ab p99 ${bc5_de} against rgba16f")
 file(READ ${DIR}/report.html html)
 string(FIND "${html}" "<svg" at)
 if(at EQUAL -1)

@@ -30,7 +30,7 @@ PACKAGES=(g++ cmake make ninja-build pkgconf libglm-dev libstb-dev python3-glad 
   libgl1-mesa-dri mesa-vulkan-drivers libvulkan-dev glslc glslang-tools vulkan-tools
   libzstd-dev libcurl4-openssl-dev nginx-light clang libclang-rt-14-dev libx11-dev xvfb libopenexr-dev libembree-dev emscripten
   chromium nodejs npm libopenmpi-dev openmpi-bin libopenblas-dev libfilament-dev libfilament-tools
-  gnuplot-nox clang-format)
+  gnuplot-nox clang-format libsquish-dev)
 
 install_packages() {
   local missing=()

@@ -7,7 +7,7 @@
 #
 # Optional libraries found here and usable in btflod-link lines:
 #   CURL::libcurl, PkgConfig::BTFLOD_TURBOJPEG, PkgConfig::BTFLOD_LIBDEFLATE,
-#   PkgConfig::BTFLOD_ZSTD, PkgConfig::BTFLOD_JPEG, OpenGL::EGL, OpenGL::OpenGL, Vulkan::Vulkan, and any target that
+#   PkgConfig::BTFLOD_ZSTD, PkgConfig::BTFLOD_JPEG, btflod_squish, OpenGL::EGL, OpenGL::OpenGL, Vulkan::Vulkan, and any target that
 #   samples/ defines (samples are added before tests and benchmarks).
 find_package(CURL QUIET)
 find_package(OpenGL QUIET COMPONENTS EGL OpenGL)
@@ -17,6 +17,15 @@ pkg_check_modules(BTFLOD_TURBOJPEG QUIET IMPORTED_TARGET GLOBAL libturbojpeg)
 pkg_check_modules(BTFLOD_ZSTD QUIET IMPORTED_TARGET GLOBAL libzstd)
 # libjpeg (Debian libjpeg62-turbo-dev): the coefficient API, for bench_codec_entropy's JPEG Huffman row.
 pkg_check_modules(BTFLOD_JPEG QUIET IMPORTED_TARGET GLOBAL libjpeg)
+# libsquish (Debian libsquish-dev): the BC4 encoder bench_cache_bc5 compares the project's with.
+# Found by its header and library: Debian 12's libsquish.pc names /include as its include folder.
+find_path(BTFLOD_SQUISH_INCLUDE_DIR squish.h)
+find_library(BTFLOD_SQUISH_LIBRARY squish)
+if(BTFLOD_SQUISH_INCLUDE_DIR AND BTFLOD_SQUISH_LIBRARY AND NOT TARGET btflod_squish)
+  add_library(btflod_squish INTERFACE)
+  target_include_directories(btflod_squish SYSTEM INTERFACE ${BTFLOD_SQUISH_INCLUDE_DIR})
+  target_link_libraries(btflod_squish INTERFACE ${BTFLOD_SQUISH_LIBRARY})
+endif()
 # MPI (Debian: libopenmpi-dev, openmpi-bin): the distributed factorisation (offline/factor/mpi_svd.hpp).
 # ON defines the target btflod_mpi (MPI::MPI_CXX), usable in btflod-link lines; OFF leaves the
 # MPI command, tests and benchmarks out.

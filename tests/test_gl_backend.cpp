@@ -6,17 +6,13 @@
 #include <gtest/gtest.h>
 
 #include "gl_backend.hpp"
+#include "test_backend_factory.hpp"
 #include "test_shader_backend_cases.hpp"
 
 namespace {
 
 std::unique_ptr<btflod::Backend> make_gl(std::string& why) {
-  auto r = btflod::samples::create_gl_backend();
-  if (!r) {
-    why = r.message();
-    return nullptr;
-  }
-  return std::move(r.value());
+  return btflod::test::backend_or_why(btflod::samples::create_gl_backend(), why);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "gl_backend.hpp"
+#include "test_backend_factory.hpp"
 #include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
 #include "test_golden_streamer.hpp"
@@ -18,12 +19,7 @@
 namespace {
 
 std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
-  auto r = btflod::samples::create_gl_backend();
-  if (!r) {
-    why = r.message();
-    return nullptr;
-  }
-  return std::move(r.value());
+  return btflod::test::backend_or_why(btflod::samples::create_gl_backend(), why);
 }
 
 }  // namespace

@@ -13,6 +13,8 @@
 // btflod-label: gpu
 #include <gtest/gtest.h>
 
+#define BTFLOD_TEST_VK_FACTORY 1
+#include "test_backend_factory.hpp"
 #include "test_golden_representations.hpp"
 #include "test_golden_scene.hpp"
 #include "test_golden_streamer.hpp"
@@ -20,18 +22,10 @@
 
 namespace {
 
-std::unique_ptr<btflod::Backend> make_vk_backend(std::string& why, bool hlsl) {
-  btflod::samples::VkBackendOptions o;
-  o.hlsl_programs = hlsl;
-  auto r = btflod::samples::create_vk_backend(o);
-  if (!r) {
-    why = r.message();
-    return nullptr;
-  }
-  return std::move(r.value());
+std::unique_ptr<btflod::Backend> make_backend(std::string& why) { return btflod::test::make_vk_backend(why, false); }
+std::unique_ptr<btflod::Backend> make_hlsl_backend(std::string& why) {
+  return btflod::test::make_vk_backend(why, true);
 }
-std::unique_ptr<btflod::Backend> make_backend(std::string& why) { return make_vk_backend(why, false); }
-std::unique_ptr<btflod::Backend> make_hlsl_backend(std::string& why) { return make_vk_backend(why, true); }
 
 // The image of `program` on the golden scene (the partial cache for bsvtf) drawn by `be`.
 void render_golden(btflod::Backend& be, btflod::ShaderProgram program, btflod::Image<float>& img) {
@@ -65,9 +59,9 @@ void render_golden(btflod::Backend& be, btflod::ShaderProgram program, btflod::I
 
 void hlsl_matches_glsl(btflod::ShaderProgram program) {
   std::string why;
-  std::unique_ptr<btflod::Backend> glsl = make_vk_backend(why, false);
+  std::unique_ptr<btflod::Backend> glsl = btflod::test::make_vk_backend(why, false);
   if (!glsl) GTEST_SKIP() << "GPU API unavailable: " << why;
-  std::unique_ptr<btflod::Backend> hlsl = make_vk_backend(why, true);
+  std::unique_ptr<btflod::Backend> hlsl = btflod::test::make_vk_backend(why, true);
   ASSERT_TRUE(hlsl) << why;
   btflod::Image<float> a(btflod::golden::kSize, btflod::golden::kSize, 4);
   btflod::Image<float> b(btflod::golden::kSize, btflod::golden::kSize, 4);

@@ -6,23 +6,15 @@
 // btflod-label: gpu
 #include <gtest/gtest.h>
 
+#define BTFLOD_TEST_VK_FACTORY 1
+#include "test_backend_factory.hpp"
 #include "test_shader_backend_cases.hpp"
 #include "vk_backend.hpp"
 
 namespace {
 
-std::unique_ptr<btflod::Backend> make_vk_with(std::string& why, bool hlsl) {
-  btflod::samples::VkBackendOptions o;
-  o.hlsl_programs = hlsl;
-  auto r = btflod::samples::create_vk_backend(o);
-  if (!r) {
-    why = r.message();
-    return nullptr;
-  }
-  return std::move(r.value());
-}
-std::unique_ptr<btflod::Backend> make_vk(std::string& why) { return make_vk_with(why, false); }
-std::unique_ptr<btflod::Backend> make_vk_hlsl(std::string& why) { return make_vk_with(why, true); }
+std::unique_ptr<btflod::Backend> make_vk(std::string& why) { return btflod::test::make_vk_backend(why, false); }
+std::unique_ptr<btflod::Backend> make_vk_hlsl(std::string& why) { return btflod::test::make_vk_backend(why, true); }
 
 }  // namespace
 

@@ -540,9 +540,13 @@ class StreamingRenderer {
   }
 
   // A planned swap whose frame has come (and none under way): the new material is added to the
-  // live Streamer — it streams its roots and U′ while the old one is still drawn.
+  // live Streamer — it streams its roots and U′ while the old one is still drawn. The previous
+  // swap's removed id must have been released first (material_released: its last job ended):
+  // the Streamer's capacity holds one material more than are shown, so adding earlier finds no
+  // free id when a loaded machine runs that id's jobs late.
   VoidResult start_planned_swap(uint32_t f) {
     if (next_swap_ >= swap_plan_.size() || f < swap_plan_[next_swap_].frame || pending_swap_) return {};
+    if (!swaps_.empty() && swaps_.back().released_frame == SwapRecord::kNever) return {};
     const PlannedSwap plan = swap_plan_[next_swap_++];
     uint32_t id = 0;
     const char* why = "";

@@ -83,6 +83,18 @@ bool size_arg(Args& a, int& w, int& h) {
          h <= 8192;
 }
 
+// The reference camera of --eye, --target, --up and --fov at W × H pixels.
+Camera camera_arg(Args& a, int W, int H) {
+  Camera cam;
+  cam.position = vec3_arg(a, "eye", glm::vec3(0, -2, 3));
+  cam.target = vec3_arg(a, "target", glm::vec3(0));
+  cam.up = vec3_arg(a, "up", glm::vec3(0, 0, 1));
+  cam.fov_y_degrees = std::strtof(a.get("fov", "45").c_str(), nullptr);
+  cam.width = static_cast<uint32_t>(W);
+  cam.height = static_cast<uint32_t>(H);
+  return cam;
+}
+
 int fail(const std::string& msg) {
   std::fprintf(stderr, "btflod-web-tool: %s\n", msg.c_str());
   return 1;
@@ -231,13 +243,7 @@ int cmd_reference(Args& a) {
   const uint32_t n = static_cast<uint32_t>(mats.size());
   for (uint32_t i = 0; i < n; ++i)
     scene.add(Shape::plane(i, plane_origin(i, n), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), 2.0f, 2.0f));
-  Camera cam;
-  cam.position = vec3_arg(a, "eye", glm::vec3(0, -2, 3));
-  cam.target = vec3_arg(a, "target", glm::vec3(0));
-  cam.up = vec3_arg(a, "up", glm::vec3(0, 0, 1));
-  cam.fov_y_degrees = std::strtof(a.get("fov", "45").c_str(), nullptr);
-  cam.width = static_cast<uint32_t>(W);
-  cam.height = static_cast<uint32_t>(H);
+  const Camera cam = camera_arg(a, W, H);
   const glm::vec3 light = glm::normalize(vec3_arg(a, "light", glm::vec3(-0.5f, 0.4f, 0.8f)));
   const glm::vec3 light_color = vec3_arg(a, "light-color", glm::vec3(1.0f));
   std::vector<float> img(static_cast<size_t>(W) * H * 4, 0.0f);
@@ -361,13 +367,7 @@ int cmd_pcak(Args& a) {
   // Reference frame: one plane at the origin, the program's arithmetic on the CPU.
   Scene scene;
   scene.add(Shape::plane(0, plane_origin(0, 1), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0), 2.0f, 2.0f));
-  Camera cam;
-  cam.position = vec3_arg(a, "eye", glm::vec3(0, -2, 3));
-  cam.target = vec3_arg(a, "target", glm::vec3(0));
-  cam.up = glm::vec3(0, 0, 1);
-  cam.fov_y_degrees = std::strtof(a.get("fov", "45").c_str(), nullptr);
-  cam.width = static_cast<uint32_t>(W);
-  cam.height = static_cast<uint32_t>(H);
+  const Camera cam = camera_arg(a, W, H);
   const glm::vec3 light = glm::normalize(vec3_arg(a, "light", glm::vec3(-0.5f, 0.4f, 0.8f)));
   const glm::vec3 light_color = vec3_arg(a, "light-color", glm::vec3(1.0f));
   std::vector<float> img(static_cast<size_t>(W) * H * 4, 0.0f);

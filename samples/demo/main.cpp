@@ -482,7 +482,7 @@ int main(int argc, char** argv) {
           "resident levels";
       cf.rgba8_vs_rgba16f = demo::image_error(wide, compact);
       cf.rgba8_vs_rgba16f.filter = same;
-      cf.bytes_bc5 = shape.cache_bytes() / 2 + shape.slot_map_bytes();  // 2 bytes a texel + the maps
+      cf.bytes_bc5 = cache_bc5_tile_bytes(run.tile_size + 2 * run.border) * shape.slot_count() + shape.slot_map_bytes();
       cf.bc5_vs_rgba16f = demo::image_error(wide, blocks);
       cf.bc5_vs_rgba16f.filter = same;
       cf.bc5_vs_raw = demo::image_error(ref->raw, blocks);

@@ -377,7 +377,7 @@ class CpuFrameRenderer final : public FrameRenderer {
   /// a BC5 cache would give, up to the halves' rounding.
   bool upload_tile_values(uint32_t slot, std::span<const float> values, bool bc5 = false) {
     if (bc5) {
-      const uint32_t side = static_cast<uint32_t>(std::lround(std::sqrt(static_cast<double>(values.size() / 4))));
+      const uint32_t side = cache_->set().levels_of(0).geometry.stored_size();  // T + 2B, as the slot
       std::vector<uint8_t> scratch(values.size()), blocks(cache_bc5_tile_bytes(side));
       const CacheSlotMap map = encode_cache_tile_bc5(values, side, scratch, blocks);
       std::vector<float> decoded(values.size());

@@ -199,20 +199,23 @@ void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fo
   h.camera->lookAt({eye.x, eye.y, eye.z}, {target.x, target.y, target.z}, {up.x, up.y, up.z});
 }
 
-void set_image(Host& h, Texture* t, uint32_t level, uint32_t x, uint32_t y, uint32_t z, uint32_t w, uint32_t hgt,
-               uint32_t d, const void* bytes, size_t size, Texture::Format format, Texture::Type type) {
+namespace {
+// A copy of `bytes` that Filament frees once the driver consumed it.
+Texture::PixelBufferDescriptor owned_copy(const void* bytes, size_t size, Texture::Format format, Texture::Type type) {
   void* copy = std::malloc(size);
   std::memcpy(copy, bytes, size);
-  t->setImage(*h.engine, level, x, y, z, w, hgt, d,
-              Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); }));
+  return Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); });
+}
+}  // namespace
+
+void set_image(Host& h, Texture* t, uint32_t level, uint32_t x, uint32_t y, uint32_t z, uint32_t w, uint32_t hgt,
+               uint32_t d, const void* bytes, size_t size, Texture::Format format, Texture::Type type) {
+  t->setImage(*h.engine, level, x, y, z, w, hgt, d, owned_copy(bytes, size, format, type));
 }
 
 void set_image_2d(Host& h, Texture* t, uint32_t x, uint32_t y, uint32_t w, uint32_t hgt, const void* bytes, size_t size,
                   Texture::Format format, Texture::Type type) {
-  void* copy = std::malloc(size);
-  std::memcpy(copy, bytes, size);
-  t->setImage(*h.engine, 0, x, y, w, hgt,
-              Texture::PixelBufferDescriptor(copy, size, format, type, [](void* p, size_t, void*) { std::free(p); }));
+  t->setImage(*h.engine, 0, x, y, w, hgt, owned_copy(bytes, size, format, type));
 }
 
 bool render(Host& h, std::vector<uint8_t>& feedback_rgba, std::vector<float>* color) {

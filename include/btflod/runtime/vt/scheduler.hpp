@@ -354,10 +354,9 @@ class Scheduler {
     collect_adds(cache, votes);
     // The swap candidates are needed only once the cache is full and an add wants a slot
     // (decide_adds collects them then: nothing it does before the first swap changes a used
-    // slot); §6's packet priorities come from the voted tiles alone.
+    // slot); §6's packet priorities come from collect_adds' pass over the voted tiles.
     leaves_ready_ = 0;
     pairs_sorted_ = 0;
-    if (config_.stream_u_columns) collect_u_priorities(cache, votes);
     decide(cache, votes);
     update_bias();
     total_counters_.accumulate(frame_counters_);
@@ -570,8 +569,13 @@ class Scheduler {
     return a.flat < b.flat;
   }
 
+  // The add candidates of this frame's voted tiles and, in the same pass, §6's U' packet
+  // priorities: a material's next packet has priority Σ v·‖T‖²_F over the resident tiles of the
+  // virtual texture it completes; tiles without votes add 0, so the voted tiles (every tile with
+  // v > 0) give the whole sum.
   void collect_adds(const TileCache& cache, const VoteCounter& votes) noexcept {
     adds_.clear();
+    if (config_.stream_u_columns) std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
     const VtSet& set = cache.set();
     // One more than can be requested, so a refusal by the request budget is seen and counted.
     const size_t keep = config_.budgets.requests_in_flight + 1;
@@ -588,6 +592,11 @@ class Scheduler {
       const uint32_t* slots = cache.material_slots(ft.material, flat);
       const uint32_t* parent_slots = cache.material_slots(ft.material, parent_flat);
       const size_t base = material_base_[ft.material] + static_cast<size_t>(flat) * m.texture_count;
+      if (config_.stream_u_columns) {
+        const uint32_t next = u_loaded_[ft.material];
+        if (next < m.texture_count && slots[next] != kNoSlot)
+          u_priority_[ft.material] += static_cast<double>(v) * energies_[base + next];
+      }
       const uint8_t* requested = requested_.data() + base;
       const float* weights = weights_.data() + base;
       // Branch-light: the tests below combine with | and & (no short circuit), so the loop
@@ -618,25 +627,6 @@ class Scheduler {
         adds_.insert(it, c);
       }
       if (voted) frame_counters_.visible_missing += missing_count;
-    }
-  }
-
-  // Paper 000 §6: a material's next U' packet has priority Σ v·‖T‖²_F over the resident tiles
-  // of the virtual texture that packet completes. Tiles without votes add 0, so the sum runs
-  // over this frame's voted tiles (every tile with v > 0), not over the whole cache.
-  void collect_u_priorities(const TileCache& cache, const VoteCounter& votes) noexcept {
-    const VtSet& set = cache.set();
-    std::fill(u_priority_.begin(), u_priority_.end(), 0.0);
-    for (const uint32_t word : votes.touched()) {
-      const FeedbackTile ft = unpack_feedback(word);
-      if (ft.material >= set.material_count()) continue;
-      const VtMaterial& m = set.material(ft.material);
-      const uint32_t k = u_loaded_[ft.material];
-      if (ft.level > m.levels.finest_level() || k >= m.texture_count) continue;
-      const uint32_t flat = m.levels.index(ft.level, ft.x, ft.y);
-      if (cache.material_slots(ft.material, flat)[k] == kNoSlot) continue;
-      u_priority_[ft.material] +=
-          static_cast<double>(votes.votes_at(ft.material, flat)) * energies_[index(m.first_texture + k, flat)];
     }
   }
 

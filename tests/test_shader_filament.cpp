@@ -18,6 +18,7 @@
 
 #include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/shader/filament_material.hpp"
+#include "test_shader_text_cases.hpp"
 
 using namespace btflod;
 
@@ -26,19 +27,7 @@ namespace {
 std::vector<std::pair<std::string, ShaderConfig>> configs() {
   std::vector<std::pair<std::string, ShaderConfig>> out;
   out.emplace_back("default", ShaderConfig{});
-  ShaderConfig b;  // odd C, the other parameterisation, nearest lookup, a moved feedback word
-  b.components = 3;
-  b.angular.parameterisation = DirectionParameterisation::elevated_concentric;
-  b.angular.lookup = AngularLookup::nearest;
-  b.vt.tile_size = 128;
-  b.vt.border = 1;
-  b.vt.slots_x = 8;
-  b.vt.slots_y = 4;
-  b.vt.cache_layers = 3;
-  b.vt.finest_level = 7;
-  b.vt.trilinear = false;
-  b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
-  out.emplace_back("variant", b);
+  out.emplace_back("variant", shader_text::variant_vt_config());  // odd C, concentric, nearest, moved word
   ShaderConfig c;  // the compact cache: RGBA8 texels and the slot-map table
   c.vt.format = CacheFormat::rgba8_affine;
   out.emplace_back("rgba8", c);

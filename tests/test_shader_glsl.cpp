@@ -23,8 +23,10 @@
 #endif
 #include "btflod/runtime/shader/glsl_generator.hpp"
 #include "btflod/runtime/shader/shader_config.hpp"
+#include "test_shader_text_cases.hpp"
 
 using namespace btflod;
+using namespace btflod::shader_text;
 
 namespace {
 
@@ -45,42 +47,6 @@ std::string validate_stage(const std::string& source, GlslTarget target, const c
   std::ifstream in(log);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   return "exit " + std::to_string(rc) + ": " + text;
-}
-
-std::vector<std::pair<std::string, ShaderConfig>> configs() {
-  std::vector<std::pair<std::string, ShaderConfig>> out;
-  ShaderConfig a;  // defaults: C = 8, parabolic, barycentric, T = 64 + 4
-  out.emplace_back("default", a);
-  ShaderConfig b;
-  b.components = 3;  // a partial component group
-  b.angular.parameterisation = DirectionParameterisation::elevated_concentric;
-  b.angular.lookup = AngularLookup::nearest;
-  b.vt.tile_size = 128;
-  b.vt.border = 1;
-  b.vt.slots_x = 8;
-  b.vt.slots_y = 4;
-  b.vt.cache_layers = 3;
-  b.vt.finest_level = 7;
-  b.vt.trilinear = false;
-  b.vt.format = CacheFormat::rgba8_affine;  // the slot-map table and its fetches
-  b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
-  b.laplacian.max_level = 0;
-  b.laplacian.ycbcr_output = false;
-  b.lpca.clusters = 1;
-  b.lpca.grid_resolution = 2;
-  b.pca.views_per_group = 151;
-  b.pca.light_count = 151;
-  b.spmm.slots = 1;  // one slot, mean-only residual (N_PCA = 0)
-  b.spmm.residual_components = 0;
-  out.emplace_back("variant", b);
-  ShaderConfig c;
-  c.components = 16;
-  c.angular.parameterisation = DirectionParameterisation::elevated_concentric;
-  c.vt.finest_level = 0;
-  c.spmm.slots = 9;  // more slots and components than one RGBA texel holds
-  c.spmm.residual_components = 7;
-  out.emplace_back("c16_l0", c);
-  return out;
 }
 
 }  // namespace
@@ -106,7 +72,7 @@ TEST(ShaderGlsl, EveryProgramAndTargetCompilesWithGlslang) {
   for (GlslTarget t : kAllGlslTargets) {
     std::vector<std::string> paths;
     std::vector<std::pair<std::string, std::string>> sources;  // (path, text) for the fallback
-    for (const auto& [name, config] : configs()) {
+    for (const auto& [name, config] : generator_configs()) {
       for (ShaderProgram p : kAllShaderPrograms) {
         Result<GlslProgramSource> src = generate_program(p, t, config);
         ASSERT_TRUE(src.ok()) << src.message();
@@ -284,34 +250,8 @@ TEST(ShaderConfig, ParameterisationsMapKnownDirections) {
 
 namespace {
 
-constexpr GlslPiece kAllPieces[] = {
-    GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,     GlslPiece::fmf_brdf,  GlslPiece::fmf,
-    GlslPiece::page_table,    GlslPiece::bsvtf,       GlslPiece::feedback,    GlslPiece::laplacian, GlslPiece::lpca,
-    GlslPiece::pca_views,     GlslPiece::spmm,        GlslPiece::ring_search, GlslPiece::pca_rings};
-
-// Options an engine might choose: its own prefix, bindings from 20 up, Vulkan sets 1 and 2, one
-// sampler declared by the engine itself, uniform sources in its own block.
-GlslFunctionOptions engine_options() {
-  GlslFunctionOptions o;
-  o.prefix = "eng_btf_";
-  for (uint32_t i = 1; i < kShaderBindingCount; ++i) {
-    o.resources[i].binding = 20 + i;
-    o.resources[i].set = 1 + i % 2;
-  }
-  o.resource(ShaderBinding::angular_weight) = GlslResource{"engine_angular_weights", 40, 3, false};
-  o.uniforms.vt_extent = "material.extent";
-  o.uniforms.lod_bias = "material.lod.x + frame_bias";
-  o.uniforms.feedback_lod_offset = "material.lod.y";
-  o.uniforms.range_lod_scale = "material.lod.z";
-  o.uniforms.first_layer = "material.ids.x";
-  o.uniforms.texture_id = "material.ids[1]";
-  o.uniforms.spmm_mode = "material.ids.w";
-  o.uniforms.component_count = "material.extent.w";
-  return o;
-}
-
-// An engine fragment shader around `functions`: its own block, varyings and main(). `calls`
-// says which pieces' entry points main() calls.
+// An engine fragment shader around `functions`: its own block, varyings and main(), which calls
+// the entry points of `pieces` (engine_main_body()).
 std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t pieces) {
   std::string s;
   const bool es = t == GlslTarget::es300;
@@ -337,37 +277,7 @@ std::string engine_shader(GlslTarget t, const std::string& functions, uint32_t p
        "in vec4 f_tangent;\n" + loc[3] + "in vec2 f_uv;\n" + loc[4] + "out vec4 f_color;\n";
   s += "float frame_bias = 0.25;\n";
   s += functions;
-  auto has = [&](GlslPiece p) { return (pieces & glsl_pieces({p})) != 0; };
-  s += "void main() {\n  vec3 wl; vec3 wv;\n  vec3 rho = vec3(0.0);\n  uint word = 0u;\n";
-  if (has(GlslPiece::local_frame))
-    s += "  eng_btf_local_dirs(f_normal, f_tangent, vec3(0.0, 0.0, 1.0), normalize(-f_position), wl, wv);\n";
-  else
-    s += "  wl = vec3(0.0, 0.0, 1.0); wv = normalize(vec3(0.2, 0.1, 1.0));\n";
-  if (has(GlslPiece::direction_map)) s += "  rho.xy += eng_btf_direction_map(wl);\n";
-  if (has(GlslPiece::angular)) {
-    s += "  ivec3 idx; vec3 w;\n  eng_btf_angular(0, wl, idx, w);\n";
-    s += "  rho += w * float(idx.x + eng_btf_angular_nearest(1, wv));\n";
-  }
-  if (has(GlslPiece::fmf_brdf))
-    s += "  vec4 v[eng_btf_kFmfGroups];\n  for (int g = 0; g < eng_btf_kFmfGroups; ++g) v[g] = vec4(0.5);\n"
-         "  rho += eng_btf_fmf_brdf(v, wl, wv);\n";
-  if (has(GlslPiece::fmf)) s += "  rho += eng_btf_fmf(f_uv, wl, wv) + eng_btf_fmf_raw(f_uv).rgb;\n";
-  if (has(GlslPiece::page_table))
-    s += "  ivec2 tile = eng_btf_tile_of(fract(f_uv), 1);\n"
-         "  word += eng_btf_page_entry(0, tile, 1) + uint(eng_btf_vt_lambda(f_uv));\n";
-  if (has(GlslPiece::bsvtf)) {
-    s += "  vec4 bv[eng_btf_kFmfGroups];\n  eng_btf_bsvtf_components(f_uv, bv);\n"
-         "  rho += eng_btf_bsvtf(f_uv, wl, wv) + bv[0].rgb + eng_btf_bsvtf_raw(f_uv).rgb;\n";
-  }
-  if (has(GlslPiece::feedback)) s += "  word += eng_btf_feedback_word(f_uv);\n";
-  if (has(GlslPiece::laplacian))
-    s += "  rho += eng_btf_laplacian(f_uv, wl, wv, eng_btf_laplacian_lambda(length(f_position)));\n";
-  if (has(GlslPiece::lpca)) s += "  rho += eng_btf_lpca(f_uv, wl, wv);\n";
-  if (has(GlslPiece::pca_views)) s += "  rho += eng_btf_pca_views(f_uv, wl, wv);\n";
-  if (has(GlslPiece::ring_search))
-    s += "  ivec3 ri; vec3 rw;\n  eng_btf_ring_search(1, wv, ri, rw);\n  rho += rw * float(ri.y);\n";
-  if (has(GlslPiece::pca_rings)) s += "  rho += eng_btf_pca_rings(f_uv, wl, wv);\n";
-  if (has(GlslPiece::spmm)) s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon(ivec2(0), wl, wv, 2);\n";
+  s += "void main() {\n" + engine_main_body(pieces, false);
   s += "  f_color = vec4(rho, float(word & 255u));\n}\n";
   return s;
 }
@@ -378,19 +288,13 @@ TEST(ShaderGlsl, FunctionsInAnEngineShaderCompileForEveryTarget) {
   // Each piece on its own (with what it calls; one config) and all pieces together (every
   // config), for every target, embedded in an engine shader with its own block, varyings, bindings and main().
   if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
-  const GlslFunctionOptions options = engine_options();
+  const GlslFunctionOptions options = engine_options({}, "material.");
   int generated = 0;
   for (GlslTarget t : kAllGlslTargets) {
     std::vector<std::string> paths;
     std::vector<std::pair<std::string, std::string>> sources;
-    for (const auto& [name, config] : configs()) {
-      std::vector<std::pair<std::string, uint32_t>> sets;
-      if (name == "variant")  // each piece alone once (keeps the number of glslang runs small)
-        for (GlslPiece p : kAllPieces) sets.emplace_back(glsl_piece_name(p), glsl_pieces({p}));
-      uint32_t all = 0;
-      for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
-      sets.emplace_back("all", all);
-      for (const auto& [piece, set] : sets) {
+    for (const auto& [name, config] : generator_configs()) {
+      for (const auto& [piece, set] : engine_piece_sets(name)) {
         Result<GlslFunctionSource> fn = generate_functions(set, t, config, options);
         ASSERT_TRUE(fn.ok()) << fn.message();
         EXPECT_EQ(fn->code.find("#version"), std::string::npos);
@@ -424,7 +328,7 @@ TEST(ShaderGlsl, FunctionsInAnEngineShaderCompileForEveryTarget) {
 }
 
 TEST(ShaderGlsl, FunctionsFollowTheCallersNamesBindingsSetsAndSources) {
-  const GlslFunctionOptions o = engine_options();
+  const GlslFunctionOptions o = engine_options({}, "material.");
   const ShaderConfig c;
   const uint32_t set = glsl_pieces({GlslPiece::bsvtf, GlslPiece::feedback});
   auto vk = generate_functions(set, GlslTarget::vulkan450, c, o);
@@ -551,8 +455,7 @@ TEST(ShaderGlsl, DefaultFunctionNamesAreTheWholeProgramSamplerNames) {
   // An ES host sets the whole programs' samplers by the names of shader_sampler_names(); the
   // default options must produce exactly those names and bindings, or such a host binds nothing.
   const GlslFunctionOptions o;
-  uint32_t all = 0;
-  for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
+  const uint32_t all = all_pieces();
   ShaderConfig config;
   config.vt.format = CacheFormat::rgba8_affine;  // every sampler, the slot map too
   auto fn = generate_functions(all, GlslTarget::es300, config, o);

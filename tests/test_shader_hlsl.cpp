@@ -17,50 +17,12 @@
 #include "btflod/runtime/shader/glsl_generator.hpp"
 #include "btflod/runtime/shader/hlsl_generator.hpp"
 #include "btflod/runtime/shader/shader_config.hpp"
+#include "test_shader_text_cases.hpp"
 
 using namespace btflod;
+using namespace btflod::shader_text;
 
 namespace {
-
-std::vector<std::pair<std::string, ShaderConfig>> configs() {  // the configs of test_shader_glsl.cpp
-  std::vector<std::pair<std::string, ShaderConfig>> out;
-  out.emplace_back("default", ShaderConfig{});
-  ShaderConfig b;
-  b.components = 3;
-  b.angular.parameterisation = DirectionParameterisation::elevated_concentric;
-  b.angular.lookup = AngularLookup::nearest;
-  b.vt.tile_size = 128;
-  b.vt.border = 1;
-  b.vt.slots_x = 8;
-  b.vt.slots_y = 4;
-  b.vt.cache_layers = 3;
-  b.vt.finest_level = 7;
-  b.vt.trilinear = false;
-  b.vt.format = CacheFormat::rgba8_affine;  // the slot-map table and its loads
-  b.vt.feedback = FeedbackWordLayout{16, 8, 24, 8, 0, 4, 4, 12, 0u};
-  b.laplacian.max_level = 0;
-  b.laplacian.ycbcr_output = false;
-  b.lpca.clusters = 1;
-  b.lpca.grid_resolution = 2;
-  b.pca.views_per_group = 151;
-  b.pca.light_count = 151;
-  b.spmm.slots = 1;
-  b.spmm.residual_components = 0;
-  out.emplace_back("variant", b);
-  ShaderConfig c;
-  c.components = 16;
-  c.angular.parameterisation = DirectionParameterisation::elevated_concentric;
-  c.vt.finest_level = 0;
-  c.spmm.slots = 9;
-  c.spmm.residual_components = 7;
-  out.emplace_back("c16_l0", c);
-  return out;
-}
-
-constexpr GlslPiece kAllPieces[] = {
-    GlslPiece::direction_map, GlslPiece::local_frame, GlslPiece::angular,     GlslPiece::fmf_brdf,  GlslPiece::fmf,
-    GlslPiece::page_table,    GlslPiece::bsvtf,       GlslPiece::feedback,    GlslPiece::laplacian, GlslPiece::lpca,
-    GlslPiece::pca_views,     GlslPiece::spmm,        GlslPiece::ring_search, GlslPiece::pca_rings};
 
 // glslangValidator's HLSL front end on one file of stage "vert" or "frag"; "" on success, else the log.
 std::string validate_hlsl(const std::string& source, const char* stage, const std::string& tag) {
@@ -98,7 +60,7 @@ std::set<std::string> called_names(const std::string& code, const std::string& p
 TEST(ShaderHlsl, EveryProgramCompilesWithGlslangHlslFrontEnd) {
   if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
   int compiled = 0;
-  for (const auto& [name, config] : configs()) {
+  for (const auto& [name, config] : generator_configs()) {
     for (ShaderProgram p : kAllShaderPrograms) {
       Result<HlslProgramSource> src = generate_hlsl_program(p, config);
       ASSERT_TRUE(src.ok()) << src.message();
@@ -120,27 +82,8 @@ TEST(ShaderHlsl, ValidatorRejectsBrokenHlsl) {
 
 namespace {
 
-// An engine's choice: its own prefix, registers from 20 up in spaces 1 and 2, one texture it
-// declares itself, uniform sources in its own cbuffer.
-GlslFunctionOptions engine_options() {
-  HlslFunctionOptions o;
-  o.prefix = "eng_btf_";
-  for (uint32_t i = 1; i < kShaderBindingCount; ++i) {
-    o.resources[i].binding = 20 + i;
-    o.resources[i].set = 1 + i % 2;
-  }
-  o.resource(ShaderBinding::angular_weight) = GlslResource{"engine_angular_weights", 40, 3, false};
-  o.uniforms.vt_extent = "material_extent";
-  o.uniforms.lod_bias = "material_lod.x + frame_bias";
-  o.uniforms.feedback_lod_offset = "material_lod.y";
-  o.uniforms.range_lod_scale = "material_lod.z";
-  o.uniforms.first_layer = "material_ids.x";
-  o.uniforms.texture_id = "material_ids[1]";
-  o.uniforms.spmm_mode = "material_ids.w";
-  o.uniforms.component_count = "material_extent.w";
-  return o;
-}
-
+// An engine pixel shader around `functions`: its own cbuffer, the texture it declares itself and
+// main(), which calls the entry points of `pieces` (engine_main_body()).
 std::string engine_shader(const std::string& functions, uint32_t pieces) {
   std::string s =
       "cbuffer EngineMaterial : register(b7, space0) {\n"
@@ -148,37 +91,9 @@ std::string engine_shader(const std::string& functions, uint32_t pieces) {
       "Texture2DArray<float4> engine_angular_weights : register(t40, space3);\n"
       "static const float frame_bias = 0.25;\n";
   s += functions;
-  auto has = [&](GlslPiece p) { return (pieces & glsl_pieces({p})) != 0; };
   s += "float4 main(float3 f_position : TEXCOORD0, float3 f_normal : TEXCOORD1, float4 f_tangent : TEXCOORD2,"
-       " float2 f_uv : TEXCOORD3) : SV_Target0 {\n"
-       "  float3 wl; float3 wv;\n  float3 rho = (float3)0.0;\n  uint word = 0u;\n";
-  if (has(GlslPiece::local_frame))
-    s += "  eng_btf_local_dirs(f_normal, f_tangent, float3(0.0, 0.0, 1.0), normalize(-f_position), wl, wv);\n";
-  else
-    s += "  wl = float3(0.0, 0.0, 1.0); wv = normalize(float3(0.2, 0.1, 1.0));\n";
-  if (has(GlslPiece::direction_map)) s += "  rho.xy += eng_btf_direction_map(wl);\n";
-  if (has(GlslPiece::angular))
-    s += "  int3 idx; float3 w;\n  eng_btf_angular(0, wl, idx, w);\n"
-         "  rho += w * float(idx.x + eng_btf_angular_nearest(1, wv));\n";
-  if (has(GlslPiece::fmf_brdf))
-    s += "  float4 v[eng_btf_kFmfGroups];\n  for (int g = 0; g < eng_btf_kFmfGroups; ++g) v[g] = (float4)0.5;\n"
-         "  rho += eng_btf_fmf_brdf(v, wl, wv);\n";
-  if (has(GlslPiece::fmf)) s += "  rho += eng_btf_fmf(f_uv, wl, wv) + eng_btf_fmf_raw(f_uv).rgb;\n";
-  if (has(GlslPiece::page_table))
-    s += "  int2 tile = eng_btf_tile_of(frac(f_uv), 1);\n"
-         "  word += eng_btf_page_entry(0, tile, 1) + uint(eng_btf_vt_lambda(f_uv));\n";
-  if (has(GlslPiece::bsvtf))
-    s += "  float4 bv[eng_btf_kFmfGroups];\n  eng_btf_bsvtf_components(f_uv, bv);\n"
-         "  rho += eng_btf_bsvtf(f_uv, wl, wv) + bv[0].rgb + eng_btf_bsvtf_raw(f_uv).rgb;\n";
-  if (has(GlslPiece::feedback)) s += "  word += eng_btf_feedback_word(f_uv);\n";
-  if (has(GlslPiece::laplacian))
-    s += "  rho += eng_btf_laplacian(f_uv, wl, wv, eng_btf_laplacian_lambda(length(f_position)));\n";
-  if (has(GlslPiece::lpca)) s += "  rho += eng_btf_lpca(f_uv, wl, wv);\n";
-  if (has(GlslPiece::pca_views)) s += "  rho += eng_btf_pca_views(f_uv, wl, wv);\n";
-  if (has(GlslPiece::ring_search))
-    s += "  int3 ri; float3 rw;\n  eng_btf_ring_search(1, wv, ri, rw);\n  rho += rw * float(ri.y);\n";
-  if (has(GlslPiece::pca_rings)) s += "  rho += eng_btf_pca_rings(f_uv, wl, wv);\n";
-  if (has(GlslPiece::spmm)) s += "  rho += eng_btf_spmm(f_uv, wl, wv) + eng_btf_spmm_epsilon((int2)0, wl, wv, 2);\n";
+       " float2 f_uv : TEXCOORD3) : SV_Target0 {\n" +
+       engine_main_body(pieces, true);
   s += "  return float4(rho, float(word & 255u));\n}\n";
   return s;
 }
@@ -187,16 +102,10 @@ std::string engine_shader(const std::string& functions, uint32_t pieces) {
 
 TEST(ShaderHlsl, FunctionsInAnEngineShaderCompile) {
   if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) GTEST_SKIP() << "glslangValidator not found at configure time";
-  const GlslFunctionOptions options = engine_options();
+  const GlslFunctionOptions options = engine_options(HlslFunctionOptions{}, "material_");
   int compiled = 0;
-  for (const auto& [name, config] : configs()) {
-    std::vector<std::pair<std::string, uint32_t>> sets;
-    if (name == "variant")
-      for (GlslPiece p : kAllPieces) sets.emplace_back(glsl_piece_name(p), glsl_pieces({p}));
-    uint32_t all = 0;
-    for (GlslPiece p : kAllPieces) all |= glsl_pieces({p});
-    sets.emplace_back("all", all);
-    for (const auto& [piece, set] : sets) {
+  for (const auto& [name, config] : generator_configs()) {
+    for (const auto& [piece, set] : engine_piece_sets(name)) {
       Result<HlslFunctionSource> fn = generate_hlsl_functions(set, config, options);
       ASSERT_TRUE(fn.ok()) << fn.message();
       EXPECT_EQ(fn->code.find("main("), std::string::npos);
@@ -210,7 +119,7 @@ TEST(ShaderHlsl, FunctionsInAnEngineShaderCompile) {
 }
 
 TEST(ShaderHlsl, EveryGlslFunctionHasItsHlslTwin) {
-  for (const auto& [name, config] : configs()) {
+  for (const auto& [name, config] : generator_configs()) {
     for (GlslPiece p : kAllPieces) {
       Result<GlslFunctionSource> glsl = generate_functions(glsl_pieces({p}), GlslTarget::vulkan450, config);
       Result<HlslFunctionSource> hlsl = generate_hlsl_functions(glsl_pieces({p}), config);

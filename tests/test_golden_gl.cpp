@@ -12,8 +12,7 @@
 
 #include "gl_backend.hpp"
 #include "test_backend_factory.hpp"
-#include "test_golden_representations.hpp"
-#include "test_golden_scene.hpp"
+#include "test_golden_cases.hpp"
 #include "test_golden_streamer.hpp"
 
 namespace {
@@ -24,18 +23,8 @@ std::unique_ptr<btflod::Backend> make_backend(std::string& why) {
 
 }  // namespace
 
-TEST(GoldenGl, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
-TEST(GoldenGl, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
-TEST(GoldenGl, FmfMaterialsOfEveryRankUnderOneProgram) { btflod::golden::golden_fmf_component_counts(make_backend); }
+BTFLOD_GOLDEN_PROGRAM_TESTS(GoldenGl, , make_backend)
 TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
-TEST(GoldenGl, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
-TEST(GoldenGl, BsvtfRgba8PartialCacheMatchesCpuReference) {
-  btflod::golden::golden_bsvtf_partial(make_backend, btflod::CacheFormat::rgba8_affine);
-}
 TEST(GoldenGl, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
 }
-TEST(GoldenGl, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
-TEST(GoldenGl, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
-TEST(GoldenGl, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }
-TEST(GoldenGl, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_backend); }

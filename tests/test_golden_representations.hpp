@@ -48,35 +48,11 @@ inline void make_tables(const BtfFloat& btf, DirectionParameterisation p, uint32
   t.data = AngularTablesData{res, t.light_index, t.light_weight, t.view_index, t.view_weight};
 }
 
-/// CPU reference image of the golden plane: shade(hit, wl, wv) → rgb, times the light colour.
-template <class Shade>
-Image<float> cpu_render_with(const ShaderParams& p, Shade&& shade) {
-  const PlaneSetup s;
-  Scene scene;
-  scene.add(Shape::plane(0, s.origin, s.axis_u, s.axis_v, s.size, s.size));
-  const Camera cam = golden_camera();
-  Image<float> out(kSize, kSize, 4, 0.0f);
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      const SurfaceHit h = scene.intersect(cam.ray(static_cast<float>(x) + 0.5f, static_cast<float>(y) + 0.5f));
-      if (!h.hit) continue;
-      const glm::vec3 wl = to_local(h, glm::normalize(glm::vec3(p.light)));
-      const glm::vec3 wv = to_local(h, glm::normalize(glm::vec3(p.camera_pos) - h.position));
-      const glm::vec3 rgb = shade(h, wl, wv) * glm::vec3(p.light_color);
-      for (int c = 0; c < 3; ++c) out.at(x, y, c) = rgb[c];
-      out.at(x, y, 3) = 1.0f;
-    }
-  return out;
-}
-
 /// Draws the golden plane with `program` and `material` on a fresh frame; returns the image.
 inline Image<float> draw_plane(Backend& be, ShaderProgram program, MaterialHandle material,
                                const ShaderParams& params) {
   Image<float> img(kSize, kSize, 4);
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
-  auto mesh = be.create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(be);
   EXPECT_TRUE(mesh.ok()) << mesh.message();
   if (!mesh) return img;
   EXPECT_EQ(be.begin_frame(backend_frame()), Status::success);
@@ -91,13 +67,10 @@ inline Image<float> draw_plane(Backend& be, ShaderProgram program, MaterialHandl
 /// Laplacian-pyramid PCA, λmax = 2, components (4, 2, 2): λ = log2(d·lod.z) spans ~[0.6, 1.2]
 /// over the plane, so eq. 7 blends levels 0–1 and 1–2 with fractional weights. A renderer that
 /// used ⌊λ⌋ only (no blending) must not pass.
-template <class Factory>
-void golden_laplacian(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+inline void golden_laplacian(BackendFactory make) {
   const ShaderConfig config = golden_config();
-  ASSERT_TRUE(be->init(config, 1).ok());
+  const std::unique_ptr<Backend> be = start_backend(make, config, 1);
+  if (!be) return;
   const BtfFloat btf = representation_btf();
   LaplacianPcaOptions opt;
   opt.mip_count = 2;
@@ -132,28 +105,20 @@ void golden_laplacian(Factory make) {
       return reference_laplacian(*lap, tables.data, config.angular.parameterisation, h.texcoord, wl, wv, d);
     });
   };
-  const Image<float> ref = reference(true), wrong = reference(false);
-  expect_content(ref);
-  expect_content(img);
-  const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
+  const GoldenPsnr psnr = expect_golden_match(reference(true), img, reference(false));
   std::printf(
       "[ %s ] golden laplacian (lambda 0.60..%.2f) vs CPU reference: PSNR %.2f dB (vs no level blending %.2f dB)\n",
-      be->name(), static_cast<double>(lambda_far), psnr, psnr_wrong);
-  EXPECT_GE(psnr, 40.0);
-  EXPECT_LT(psnr_wrong, psnr - 3.0);
+      be->name(), static_cast<double>(lambda_far), psnr.ref, psnr.wrong);
 }
 
 /// Local PCA, K = 3 clusters, C = 3, 8-bit eigen-BRDFs, R = 8 grid, elevated concentric map; the
 /// GPU volume is snorm8 with the scales in the weights (paper 002 §6.3). The image must match
 /// the CPU twin on that quantised material and the float LocalPca::evaluate oracle (≥ 40 dB
 /// each). A renderer that ignored the per-texel cluster (cluster 0 everywhere) must not pass.
-template <class Factory>
-void golden_lpca(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+inline void golden_lpca(BackendFactory make) {
   const ShaderConfig config = golden_config();
-  ASSERT_TRUE(be->init(config, 1).ok());
+  const std::unique_ptr<Backend> be = start_backend(make, config, 1);
+  if (!be) return;
   const BtfFloat btf = representation_btf();
   LocalPcaOptions opt;
   opt.clusters = 3;
@@ -207,13 +172,10 @@ void golden_lpca(Factory make) {
 
 /// PCA over groups of k = 3 of the 9 views (1 < k < all), C = 4, barycentric 3 × 3 taps.
 /// Shading every view with group 0's L and R (k = all with the wrong basis) must not pass.
-template <class Factory>
-void golden_pca_views(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+inline void golden_pca_views(BackendFactory make) {
   const ShaderConfig config = golden_config();
-  ASSERT_TRUE(be->init(config, 1).ok());
+  const std::unique_ptr<Backend> be = start_backend(make, config, 1);
+  if (!be) return;
   const BtfFloat btf = representation_btf();
   PcaViewsOptions opt;
   opt.views_per_group = 3;
@@ -244,15 +206,11 @@ void golden_pca_views(Factory make) {
     return pca->evaluate(t.x, t.y, ls, vs);
   });
   EXPECT_GE(groups_seen.size(), 2u) << "the view must use several view groups";
-  expect_content(ref);
-  expect_content(img);
-  const double psnr = psnr_rgb(ref, img), psnr_wrong = psnr_rgb(wrong, img);
+  const GoldenPsnr psnr = expect_golden_match(ref, img, wrong);
   std::printf(
       "[ %s ] golden pca_views (k = 3 of 9 views, %zu groups used) vs CPU reference: PSNR %.2f dB (vs group 0 only "
       "%.2f dB)\n",
-      be->name(), groups_seen.size(), psnr, psnr_wrong);
-  EXPECT_GE(psnr, 40.0);
-  EXPECT_LT(psnr_wrong, psnr - 3.0);
+      be->name(), groups_seen.size(), psnr.ref, psnr.wrong);
 }
 
 /// SPMM (paper 003 eq. 1–3): K = 3 clusters, up to 4 basis functions per texel, N_PCA = 3 stored.
@@ -261,13 +219,10 @@ void golden_pca_views(Factory make) {
 /// (analytic part at the exact directions, residual through the tables' 3 × 3 taps) at ≥ 40 dB.
 /// A renderer that skipped the residual, or read the residual of cluster 0 everywhere, must not
 /// pass the full-residual comparison.
-template <class Factory>
-void golden_spmm(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+inline void golden_spmm(BackendFactory make) {
   const ShaderConfig config = golden_config();
-  ASSERT_TRUE(be->init(config, 1).ok());
+  const std::unique_ptr<Backend> be = start_backend(make, config, 1);
+  if (!be) return;
   const BtfFloat btf = representation_btf();
   SpmmOptions opt;
   opt.clusters = 3;

@@ -36,11 +36,7 @@ struct StreamedGoldenMaterial {
 inline void make_streamed_material(const ShaderConfig& config, uint32_t seed, StreamedGoldenMaterial& out) {
   out.material = make_material(config, kTexture, kTexture, seed);
   const Material& m = out.material;
-  EigenTextures e;
-  e.textures = m.v;
-  e.angular = m.u;
-  e.light_count = m.lights;
-  e.view_count = m.views;
+  const EigenTextures e = eigen_textures_of(m);
   BsvtfFromEigenOptions o;
   o.tile_size = config.vt.tile_size;
   o.border = config.vt.border;
@@ -121,12 +117,7 @@ struct GoldenStreamingEngine {
   Image<float> render(MeshHandle mesh, uint32_t m) {
     ShaderParams p = golden_params(golden_camera());
     p.ids = glm::uvec4(streamer->first_texture(m), m, 0u, 0u);
-    Image<float> img(kSize, kSize, 4);
-    EXPECT_EQ(backend->begin_frame(backend_frame()), Status::success);
-    EXPECT_EQ(backend->draw(ShaderProgram::bsvtf, mesh, handles[m], p), Status::success);
-    EXPECT_EQ(backend->end_frame(), Status::success);
-    EXPECT_EQ(backend->read_color(img.view()), Status::success);
-    return img;
+    return render_frame(*backend, ShaderProgram::bsvtf, mesh, handles[m], p);
   }
 };
 
@@ -144,11 +135,7 @@ inline StreamerConfig golden_streamer_config(const ShaderConfig& c) {
   return sc;
 }
 
-template <class Factory>
-void golden_streamer_materials_come_and_go(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU API unavailable: " << why;
+inline void golden_streamer_materials_come_and_go(BackendFactory make) {
   const ShaderConfig config = golden_streaming_config();
   StreamedGoldenMaterial mats[3];
   for (uint32_t i = 0; i < 3; ++i) {
@@ -162,7 +149,8 @@ void golden_streamer_materials_come_and_go(Factory make) {
   sc.capacity = streamer_capacity_for(all, 2);
   auto a = Streamer::create(std::span<const StreamerMaterial>(all, 2), sc);
   ASSERT_TRUE(a.ok()) << a.message();
-  ASSERT_TRUE(be->init(config, a->gpu_layout().page_table_layers).ok());
+  const std::unique_ptr<Backend> be = start_backend(make, config, a->gpu_layout().page_table_layers);
+  if (!be) return;
   auto mesh = create_plane_mesh(*be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   GoldenStreamingEngine ea;
@@ -198,6 +186,7 @@ void golden_streamer_materials_come_and_go(Factory make) {
   const Image<float> a_m2 = ea.render(*mesh, id), a_m1 = ea.render(*mesh, 1);
 
   // World B: a fresh Streamer and backend with materials 1 and 2 (other ids, layers and slots).
+  std::string why;
   std::unique_ptr<Backend> be_b = make(why);
   ASSERT_TRUE(be_b) << why;
   const StreamerMaterial final_set[2] = {mats[1].streamer(), mats[2].streamer()};

@@ -15,8 +15,7 @@
 
 #define BTFLOD_TEST_VK_FACTORY 1
 #include "test_backend_factory.hpp"
-#include "test_golden_representations.hpp"
-#include "test_golden_scene.hpp"
+#include "test_golden_cases.hpp"
 #include "test_golden_streamer.hpp"
 #include "vk_backend.hpp"
 
@@ -42,19 +41,13 @@ void render_golden(btflod::Backend& be, btflod::ShaderProgram program, btflod::I
     ASSERT_EQ(be.upload_tiles(vt.uploads), Status::success);
     ASSERT_EQ(be.apply_page_table_writes(vt.writes), Status::success);
   }
-  std::vector<MeshVertex> verts;
-  std::vector<uint32_t> idx;
-  plane_mesh(PlaneSetup{}, verts, idx);
-  auto mesh = be.create_mesh(MeshData{verts, idx});
+  auto mesh = create_plane_mesh(be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
   FmfMaterialData d = m.data(!bsvtf);
   d.mipmaps = false;
   auto mat = be.create_material(d);
   ASSERT_TRUE(mat.ok()) << mat.message();
-  ASSERT_EQ(be.begin_frame(backend_frame()), Status::success);
-  ASSERT_EQ(be.draw(program, *mesh, *mat, golden_params(golden_camera())), Status::success);
-  ASSERT_EQ(be.end_frame(), Status::success);
-  ASSERT_EQ(be.read_color(img.view()), Status::success);
+  assert_render_frame(be, program, *mesh, *mat, golden_params(golden_camera()), img);
 }
 
 void hlsl_matches_glsl(btflod::ShaderProgram program) {
@@ -77,35 +70,11 @@ void hlsl_matches_glsl(btflod::ShaderProgram program) {
 
 }  // namespace
 
-TEST(GoldenVk, FmfMatchesCpuReference) { btflod::golden::golden_fmf(make_backend); }
-TEST(GoldenVk, FmfValueTransformsMatchCpuReference) { btflod::golden::golden_fmf_value_transforms(make_backend); }
-TEST(GoldenVk, FmfMaterialsOfEveryRankUnderOneProgram) { btflod::golden::golden_fmf_component_counts(make_backend); }
+BTFLOD_GOLDEN_PROGRAM_TESTS(GoldenVk, , make_backend)
+BTFLOD_GOLDEN_PROGRAM_TESTS(GoldenVk, Hlsl, make_hlsl_backend)
 TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
-TEST(GoldenVk, BsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_backend); }
-TEST(GoldenVk, BsvtfRgba8PartialCacheMatchesCpuReference) {
-  btflod::golden::golden_bsvtf_partial(make_backend, btflod::CacheFormat::rgba8_affine);
-}
 TEST(GoldenVk, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
 }
-TEST(GoldenVk, LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_backend); }
-TEST(GoldenVk, LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_backend); }
-TEST(GoldenVk, PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_backend); }
-TEST(GoldenVk, SpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_backend); }
 TEST(GoldenVk, HlslFmfRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::fmf); }
 TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::bsvtf); }
-TEST(GoldenVk, HlslFmfMatchesCpuReference) { btflod::golden::golden_fmf(make_hlsl_backend); }
-TEST(GoldenVk, HlslFmfValueTransformsMatchCpuReference) {
-  btflod::golden::golden_fmf_value_transforms(make_hlsl_backend);
-}
-TEST(GoldenVk, HlslFmfMaterialsOfEveryRankUnderOneProgram) {
-  btflod::golden::golden_fmf_component_counts(make_hlsl_backend);
-}
-TEST(GoldenVk, HlslBsvtfPartialCacheMatchesCpuReference) { btflod::golden::golden_bsvtf_partial(make_hlsl_backend); }
-TEST(GoldenVk, HlslBsvtfRgba8PartialCacheMatchesCpuReference) {
-  btflod::golden::golden_bsvtf_partial(make_hlsl_backend, btflod::CacheFormat::rgba8_affine);
-}
-TEST(GoldenVk, HlslLaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make_hlsl_backend); }
-TEST(GoldenVk, HlslLpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make_hlsl_backend); }
-TEST(GoldenVk, HlslPcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make_hlsl_backend); }
-TEST(GoldenVk, HlslSpmmMixturesAndResidualMatchCpuReference) { btflod::golden::golden_spmm(make_hlsl_backend); }

@@ -22,36 +22,7 @@ namespace {
 
 using namespace btflod;
 
-int run_build(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert build IN.fmf OUT.bsvtf [--quality Q] [--tile T] [--border B]\n"
-        "                            [--tolerance perceptual|shared|per-component] [--exposure E]\n"
-        "                            [--weight-quarters W] [--wrap] [--deflate [--deflate-level N]]\n"
-        "                            [--zstd-level N] [--quiet]\n"
-        "  IN is an FMF factor file (btflod-convert factor --method fmf).\n"
-        "  --quality Q      1..100 (default 50): scales the block-RMS error tolerances like JPEG's\n"
-        "                   quality (docs/bsvtf_format.md)\n"
-        "  --tile T         interior texels per tile (default 64); --border B texels (default 4)\n"
-        "  --tolerance      perceptual (default): every component of every tile gets an equal share\n"
-        "                   of a CIELAB dE budget from its effect on the displayed colour\n"
-        "                   (offline/build/perceptual_tolerance.hpp; quality 50 was invisible, p99 dE < 2.3,\n"
-        "                   on the demo materials); shared: one tolerance from the largest component\n"
-        "                   range (minimises the BTF's error); per-component: each range its own\n"
-        "  --per-component  the same as --tolerance per-component\n"
-        "  --exposure E     perceptual: display-linear value = E x BTF value, white = 1 (default 1)\n"
-        "  --weight-quarters W  frequency weighting JPEG table^(W/4), 0..4 (default 1 with\n"
-        "                   perceptual tolerances, else 4 = JPEG's table)\n"
-        "  --wrap           the material repeats: outer tile borders wrap to the opposite edge\n"
-        "                   (default: clamp; wrapped borders avoid a seam where uv repeats)\n"
-        "  --deflate        entropy-code the tiles with deflate (tile format 2, the bytes of earlier\n"
-        "                   versions, read by every client) instead of the default zstd (format 3:\n"
-        "                   smaller tiles that decode faster; docs/bsvtf_format.md \"Entropy stage\")\n"
-        "  --deflate-level  zlib level 0..9 (default 6)\n"
-        "  --zstd-level     zstd level 1..22 (default 19)");
-    return convert::kExitOk;
-  }
+int run_build(convert::Options& opt) {
   const double quality = opt.number("quality", 50.0, 1.0, 100.0);
   const auto tile = static_cast<uint32_t>(opt.integer("tile", 64, 8, 1016));
   const auto border = static_cast<uint32_t>(opt.integer("border", 4, 1, 64));
@@ -178,7 +149,33 @@ int run_build(int argc, char** argv) {
   return convert::kExitOk;
 }
 
+constexpr char kBuildUsage[] =
+    "usage: btflod-convert build IN.fmf OUT.bsvtf [--quality Q] [--tile T] [--border B]\n"
+    "                            [--tolerance perceptual|shared|per-component] [--exposure E]\n"
+    "                            [--weight-quarters W] [--wrap] [--deflate [--deflate-level N]]\n"
+    "                            [--zstd-level N] [--quiet]\n"
+    "  IN is an FMF factor file (btflod-convert factor --method fmf).\n"
+    "  --quality Q      1..100 (default 50): scales the block-RMS error tolerances like JPEG's\n"
+    "                   quality (docs/bsvtf_format.md)\n"
+    "  --tile T         interior texels per tile (default 64); --border B texels (default 4)\n"
+    "  --tolerance      perceptual (default): every component of every tile gets an equal share\n"
+    "                   of a CIELAB dE budget from its effect on the displayed colour\n"
+    "                   (offline/build/perceptual_tolerance.hpp; quality 50 was invisible, p99 dE < 2.3,\n"
+    "                   on the demo materials); shared: one tolerance from the largest component\n"
+    "                   range (minimises the BTF's error); per-component: each range its own\n"
+    "  --per-component  the same as --tolerance per-component\n"
+    "  --exposure E     perceptual: display-linear value = E x BTF value, white = 1 (default 1)\n"
+    "  --weight-quarters W  frequency weighting JPEG table^(W/4), 0..4 (default 1 with\n"
+    "                   perceptual tolerances, else 4 = JPEG's table)\n"
+    "  --wrap           the material repeats: outer tile borders wrap to the opposite edge\n"
+    "                   (default: clamp; wrapped borders avoid a seam where uv repeats)\n"
+    "  --deflate        entropy-code the tiles with deflate (tile format 2, the bytes of earlier\n"
+    "                   versions, read by every client) instead of the default zstd (format 3:\n"
+    "                   smaller tiles that decode faster; docs/bsvtf_format.md \"Entropy stage\")\n"
+    "  --deflate-level  zlib level 0..9 (default 6)\n"
+    "  --zstd-level     zstd level 1..22 (default 19)";
+
 }  // namespace
 
 BTFLOD_CONVERT_COMMAND(build, "code an FMF factor file into a .bsvtf streaming container (tiles, U packets, index)",
-                       run_build);
+                       kBuildUsage, run_build);

@@ -121,24 +121,7 @@ int eval_against_store(const AnyFactorization& f, const std::string& path, const
   return convert::kExitOk;
 }
 
-int run_eval(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert eval FACTOR_FILE SOURCE_BTF [--lambda L] [--range R] [--pca N] [--no-residual]\n"
-        "                           [--memory SIZE]\n"
-        "  Reconstructs the factorised BTF (at LOD lambda for laplacian files, default 0 = finest)\n"
-        "  and prints RMSE, PSNR, mean SSIM (Wang 2004), CIELAB MAE and YCbCr MSE against the source.\n"
-        "  R is the data range for PSNR/SSIM (default: the source's largest value).\n"
-        "  spmm files: --pca N evaluates N residual components (default all), --no-residual only the\n"
-        "  analytic part (paper 003 Table 4).\n"
-        "  A SOURCE_BTF ending in .btfstore (btflod-convert synth --out X.btfstore) is streamed from disk\n"
-        "  view by view, never loaded whole: the images held at once stay within --memory (default 1G;\n"
-        "  offline/factor/fmf_store_metrics.hpp), and the figures equal those of the in-memory evaluation.\n"
-        "  fmf files are reconstructed image by image; other kinds are reconstructed whole, which must\n"
-        "  fit in the budget too.");
-    return convert::kExitOk;
-  }
+int run_eval(convert::Options& opt) {
   const double lambda = opt.number("lambda", 0.0, 0.0, 64.0);
   const double range = opt.number("range", 0.0, 0.0, 1e30);
   const int pca = static_cast<int>(opt.integer("pca", -1, -1, 1 << 20));
@@ -239,20 +222,7 @@ std::vector<Config> table_configs(size_t n_view) {
   return c;
 }
 
-int run_factor_table(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert factor-table [--size N] [--dirs ubo2003|small] [--materials LIST]\n"
-        "                                   [--brdf FILE.mbsdf] [--rows SUBSTRING]\n"
-        "  Synthesises materials (offline/btf/synthesizer.hpp; 'carpaint' = leather mesostructure with the\n"
-        "  measured car-paint BRDF as base reflectance), factorises each with every representation\n"
-        "  at three sizes and prints a markdown table of error vs compression ratio (docs/factor.md).\n"
-        "  --rows runs only the representations whose label contains SUBSTRING (e.g. 'lpca').\n"
-        "  defaults: --size 32 --dirs ubo2003 --materials cloth,stone,carpaint\n"
-        "            --brdf <shared>/data/measured/carpaint_red.mbsdf");
-    return convert::kExitOk;
-  }
+int run_factor_table(convert::Options& opt) {
   const int size = static_cast<int>(opt.integer("size", 32, 4, 1024));
   const std::string dirs = opt.string("dirs", "ubo2003");
   const std::string materials = opt.string("materials", "cloth,stone,carpaint");
@@ -316,17 +286,7 @@ int run_factor_table(int argc, char** argv) {
 // Paper 003 Table 4: one SPMM fit, then "no residual" and N_PCA = 0 … max, each against the
 // full-residual evaluation: time per sample of evaluate() (analytic part at the exact
 // directions plus the residual through the exact-grid interpolators), RMSE and mean SSIM.
-int run_spmm_table(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert spmm_table [--size N] [--material NAME] [--clusters K] [--bf B] [--pca N]\n"
-        "                                 [--samples S]\n"
-        "  Fits one SPMM (paper 003) to a synthesised material (default cloth, 32x32, UBO2003 directions)\n"
-        "  and prints the analogue of paper 003 Table 4: eval ns per sample, RMSE and mean SSIM of the\n"
-        "  no-residual and N_PCA = 0..N evaluations against the full residual (N = --pca, default 4).");
-    return convert::kExitOk;
-  }
+int run_spmm_table(convert::Options& opt) {
   const int size = static_cast<int>(opt.integer("size", 32, 4, 1024));
   const std::string material = opt.string("material", "cloth");
   const int clusters = static_cast<int>(opt.integer("clusters", 8, 1, 65535));
@@ -401,11 +361,42 @@ int run_spmm_table(int argc, char** argv) {
   return convert::kExitOk;
 }
 
+constexpr char kEvalUsage[] =
+    "usage: btflod-convert eval FACTOR_FILE SOURCE_BTF [--lambda L] [--range R] [--pca N] [--no-residual]\n"
+    "                           [--memory SIZE]\n"
+    "  Reconstructs the factorised BTF (at LOD lambda for laplacian files, default 0 = finest)\n"
+    "  and prints RMSE, PSNR, mean SSIM (Wang 2004), CIELAB MAE and YCbCr MSE against the source.\n"
+    "  R is the data range for PSNR/SSIM (default: the source's largest value).\n"
+    "  spmm files: --pca N evaluates N residual components (default all), --no-residual only the\n"
+    "  analytic part (paper 003 Table 4).\n"
+    "  A SOURCE_BTF ending in .btfstore (btflod-convert synth --out X.btfstore) is streamed from disk\n"
+    "  view by view, never loaded whole: the images held at once stay within --memory (default 1G;\n"
+    "  offline/factor/fmf_store_metrics.hpp), and the figures equal those of the in-memory evaluation.\n"
+    "  fmf files are reconstructed image by image; other kinds are reconstructed whole, which must\n"
+    "  fit in the budget too.";
+
+constexpr char kFactorTableUsage[] =
+    "usage: btflod-convert factor-table [--size N] [--dirs ubo2003|small] [--materials LIST]\n"
+    "                                   [--brdf FILE.mbsdf] [--rows SUBSTRING]\n"
+    "  Synthesises materials (offline/btf/synthesizer.hpp; 'carpaint' = leather mesostructure with the\n"
+    "  measured car-paint BRDF as base reflectance), factorises each with every representation\n"
+    "  at three sizes and prints a markdown table of error vs compression ratio (docs/factor.md).\n"
+    "  --rows runs only the representations whose label contains SUBSTRING (e.g. 'lpca').\n"
+    "  defaults: --size 32 --dirs ubo2003 --materials cloth,stone,carpaint\n"
+    "            --brdf <shared>/data/measured/carpaint_red.mbsdf";
+
+constexpr char kSpmmTableUsage[] =
+    "usage: btflod-convert spmm_table [--size N] [--material NAME] [--clusters K] [--bf B] [--pca N]\n"
+    "                                 [--samples S]\n"
+    "  Fits one SPMM (paper 003) to a synthesised material (default cloth, 32x32, UBO2003 directions)\n"
+    "  and prints the analogue of paper 003 Table 4: eval ns per sample, RMSE and mean SSIM of the\n"
+    "  no-residual and N_PCA = 0..N evaluations against the full residual (N = --pca, default 4).";
+
 }  // namespace
 
 BTFLOD_CONVERT_COMMAND(spmm_table, "paper 003 Table 4 analogue: SPMM residual N_PCA vs eval time, MSSIM, RMSE",
-                       run_spmm_table);
+                       kSpmmTableUsage, run_spmm_table);
 BTFLOD_CONVERT_COMMAND(eval, "error table (RMSE, PSNR, SSIM, CIELAB MAE, YCbCr MSE) of a factor file vs its BTF",
-                       run_eval);
+                       kEvalUsage, run_eval);
 BTFLOD_CONVERT_COMMAND(factor_table, "docs/factor.md comparison table: every representation on synthesised materials",
-                       run_factor_table);
+                       kFactorTableUsage, run_factor_table);

@@ -16,52 +16,9 @@ namespace {
 
 using namespace btflod;
 
-int run_factor(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca|spmm [--components C]\n"
-        "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
-        "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
-        "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
-        "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
-        "                             [--float] [--basis-per-texel B] [--representatives R]\n"
-        "                             [--lobes L] [--value-encoding linear|sqrt|log|log_ycbcr]\n"
-        "                             [--target-ssim S [--exposure E]] [--quiet]\n"
-        "                             [--profile paper] [--memory SIZE] [--checkpoint FILE]\n"
-        "                             [--block-columns N] [--stop-after-passes K]\n"
-        "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
-        "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
-        "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
-        "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
-        "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
-        "             8-bit eigen-BRDFs unless --float\n"
-        "  spmm       paper 003 sparse parametric mixture: --clusters K (default 4), at most B analytic\n"
-        "             basis functions per texel (default 4), R representatives per cluster (default 4),\n"
-        "             L lobes fitted per representative (default 2), C residual PCA components (default 4)\n"
-        "  randomised SVD: at least Q power iterations (default 2), more while the estimated error\n"
-        "             is still improving (up to QMAX, default 6; QMAX <= Q: exactly Q), stopping when the\n"
-        "             predicted excess over the optimum of the squared error is <= T (default 0.005), P oversampling\n"
-        "             (default 50), Z nonzeros per row of the sparse sketch (default 8, 0 = Gaussian)\n"
-        "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.\n"
-        "  IN ending in .btfstore (btflod-convert synth -o X.btfstore) is factorised out of core (fmf only):\n"
-        "             read in column blocks with peak memory under --memory (default 4G; e.g. 512M, 1.5G),\n"
-        "             a progress line per pass, a checkpoint after every pass (default OUT.checkpoint) that\n"
-        "             the same command resumes; --stop-after-passes K stops after K passes (e.g. to fit a\n"
-        "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.\n"
-        "  --value-encoding  fmf: factorise the values (linear, the default), their square root or\n"
-        "             ln(x + 0.05), a dynamic-range reduction for glossy materials, or log_ycbcr:\n"
-        "             ln(Y + 0.05) with chroma over Y + 0.05 (decorrelated colour); stored in the\n"
-        "             file and decoded by every renderer (core/value_transform.hpp).\n"
-        "  --target-ssim  fmf: choose the smallest rank among 4, 8, 12, 16, 24, 32, 48, 64, 100 up to\n"
-        "             --components whose displayed images (x exposure --exposure, default 1, clamped,\n"
-        "             sRGB) of the even views reach this mean SSIM against the BTF; the odd views are\n"
-        "             held out and reported (offline/factor/fmf_rank.hpp, docs/fidelity.md).");
-    return convert::kExitOk;
-  }
+int run_factor(convert::Options& opt) {
   const std::string method = opt.string("method", "fmf");
-  const std::string profile = opt.string("profile", "");
-  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
+  const bool paper = convert::paper_profile(opt);
   const std::string memory_text = opt.string("memory", "4G");
   const auto memory = convert::parse_byte_size(memory_text);
   if (!memory) opt.error("--memory " + memory_text + ": expected a size such as 4G, 512M or 1500000000");
@@ -112,7 +69,7 @@ int run_factor(int argc, char** argv) {
   if (target_text && method != "fmf") opt.error("--target-ssim: only the fmf method chooses its rank");
   if (svd != "auto" && svd != "exact" && svd != "randomized")
     opt.error("--svd " + svd + ": expected auto, exact or randomized");
-  int components = method == "fmf" ? (profile == "paper" ? 100 : 16) : (method == "lpca" || method == "spmm") ? 4 : 8;
+  int components = method == "fmf" ? (paper ? 100 : 16) : (method == "lpca" || method == "spmm") ? 4 : 8;
   if (components_text) {
     char* end = nullptr;
     const long c = std::strtol(components_text->c_str(), &end, 10);
@@ -268,6 +225,46 @@ int run_factor(int argc, char** argv) {
   return convert::kExitOk;
 }
 
+constexpr char kFactorUsage[] =
+    "usage: btflod-convert factor IN OUT --method fmf|pca-k|laplacian|lpca|spmm [--components C]\n"
+    "                             [--k K] [--clusters K] [--iterations N] [--mips N]\n"
+    "                             [--components-cbcr C] [--svd auto|exact|randomized]\n"
+    "                             [--power-iterations Q] [--max-power-iterations QMAX]\n"
+    "                             [--power-tolerance T] [--oversampling P] [--sketch-nonzeros Z]\n"
+    "                             [--float] [--basis-per-texel B] [--representatives R]\n"
+    "                             [--lobes L] [--value-encoding linear|sqrt|log|log_ycbcr]\n"
+    "                             [--target-ssim S [--exposure E]] [--quiet]\n"
+    "                             [--profile paper] [--memory SIZE] [--checkpoint FILE]\n"
+    "                             [--block-columns N] [--stop-after-passes K]\n"
+    "  fmf        paper 000 SVD, rank C (default 16), plus the ambient basis\n"
+    "  pca-k      paper 004 PCA over K neighbouring views (default K 3, C 8; K 0 = all views)\n"
+    "  laplacian  paper 001 Laplacian-pyramid PCA, C for Y (default 8), --components-cbcr for\n"
+    "             Cb/Cr (default 2), --mips pyramid bands (default automatic)\n"
+    "  lpca       paper 002 local PCA, --clusters K (default 8), C per cluster (default 4),\n"
+    "             8-bit eigen-BRDFs unless --float\n"
+    "  spmm       paper 003 sparse parametric mixture: --clusters K (default 4), at most B analytic\n"
+    "             basis functions per texel (default 4), R representatives per cluster (default 4),\n"
+    "             L lobes fitted per representative (default 2), C residual PCA components (default 4)\n"
+    "  randomised SVD: at least Q power iterations (default 2), more while the estimated error\n"
+    "             is still improving (up to QMAX, default 6; QMAX <= Q: exactly Q), stopping when the\n"
+    "             predicted excess over the optimum of the squared error is <= T (default 0.005), P oversampling\n"
+    "             (default 50), Z nonzeros per row of the sparse sketch (default 8, 0 = Gaussian)\n"
+    "  IN is any BTF btflod reads (Bonn .btf, image folder, .mbsdf); OUT is a factor file.\n"
+    "  IN ending in .btfstore (btflod-convert synth -o X.btfstore) is factorised out of core (fmf only):\n"
+    "             read in column blocks with peak memory under --memory (default 4G; e.g. 512M, 1.5G),\n"
+    "             a progress line per pass, a checkpoint after every pass (default OUT.checkpoint) that\n"
+    "             the same command resumes; --stop-after-passes K stops after K passes (e.g. to fit a\n"
+    "             scheduler's time limit). --profile paper: paper 000's rank, C = 100.\n"
+    "  --value-encoding  fmf: factorise the values (linear, the default), their square root or\n"
+    "             ln(x + 0.05), a dynamic-range reduction for glossy materials, or log_ycbcr:\n"
+    "             ln(Y + 0.05) with chroma over Y + 0.05 (decorrelated colour); stored in the\n"
+    "             file and decoded by every renderer (core/value_transform.hpp).\n"
+    "  --target-ssim  fmf: choose the smallest rank among 4, 8, 12, 16, 24, 32, 48, 64, 100 up to\n"
+    "             --components whose displayed images (x exposure --exposure, default 1, clamped,\n"
+    "             sRGB) of the even views reach this mean SSIM against the BTF; the odd views are\n"
+    "             held out and reported (offline/factor/fmf_rank.hpp, docs/fidelity.md).";
+
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(factor, "factorise a BTF (fmf, pca-k, laplacian, lpca, spmm) into a factor file", run_factor);
+BTFLOD_CONVERT_COMMAND(factor, "factorise a BTF (fmf, pca-k, laplacian, lpca, spmm) into a factor file", kFactorUsage,
+                       run_factor);

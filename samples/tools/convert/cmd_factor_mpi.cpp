@@ -16,26 +16,11 @@ namespace {
 
 using namespace btflod;
 
-int run_factor_mpi(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: mpirun -np P btflod-convert factor_mpi IN.btfstore OUT [--components C] [--profile paper]\n"
-        "                             [--memory SIZE] [--checkpoint FILE] [--block-columns N]\n"
-        "                             [--power-iterations Q] [--max-power-iterations QMAX] [--power-tolerance T]\n"
-        "                             [--oversampling P] [--sketch-nonzeros Z] [--stop-after-passes K] [--quiet]\n"
-        "  FMF (paper 000) of a BTF store on P MPI ranks: rank r reads only its contiguous range of texel\n"
-        "  columns (whole store blocks); sketch, power iterations and projections are combined with MPI\n"
-        "  collectives; rank 0 writes OUT and the checkpoint after every pass (resumed by the same\n"
-        "  command). --memory is the budget of each rank (default 4G). Same algorithm and seed as\n"
-        "  `btflod-convert factor IN.btfstore OUT`; the results agree to rounding (1e-6 relative).");
-    return convert::kExitOk;
-  }
-  const std::string profile = opt.string("profile", "");
-  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
+int run_factor_mpi(convert::Options& opt) {
+  const bool paper = convert::paper_profile(opt);
   const SvdOptions d{};
   convert::StoreFactorArgs a;
-  a.components = static_cast<int>(opt.integer("components", profile == "paper" ? 100 : 16, 1, 100000));
+  a.components = static_cast<int>(opt.integer("components", paper ? 100 : 16, 1, 100000));
   const std::string memory_text = opt.string("memory", "4G");
   const auto memory = convert::parse_byte_size(memory_text);
   if (!memory) opt.error("--memory " + memory_text + ": expected a size such as 4G, 512M or 1500000000");
@@ -58,7 +43,7 @@ int run_factor_mpi(int argc, char** argv) {
   a.out = opt.positional()[1];
   a.memory_budget = *memory;
   int provided = 0;
-  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  MPI_Init_thread(&opt.argc(), &opt.argv(), MPI_THREAD_FUNNELED, &provided);
   int code = convert::kExitFailure;
   {
     MpiSvdCommunicator comm(MPI_COMM_WORLD);
@@ -72,6 +57,18 @@ int run_factor_mpi(int argc, char** argv) {
   return code;
 }
 
+constexpr char kFactorMpiUsage[] =
+    "usage: mpirun -np P btflod-convert factor_mpi IN.btfstore OUT [--components C] [--profile paper]\n"
+    "                             [--memory SIZE] [--checkpoint FILE] [--block-columns N]\n"
+    "                             [--power-iterations Q] [--max-power-iterations QMAX] [--power-tolerance T]\n"
+    "                             [--oversampling P] [--sketch-nonzeros Z] [--stop-after-passes K] [--quiet]\n"
+    "  FMF (paper 000) of a BTF store on P MPI ranks: rank r reads only its contiguous range of texel\n"
+    "  columns (whole store blocks); sketch, power iterations and projections are combined with MPI\n"
+    "  collectives; rank 0 writes OUT and the checkpoint after every pass (resumed by the same\n"
+    "  command). --memory is the budget of each rank (default 4G). Same algorithm and seed as\n"
+    "  `btflod-convert factor IN.btfstore OUT`; the results agree to rounding (1e-6 relative).";
+
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(factor_mpi, "FMF of a .btfstore on MPI ranks (run under mpirun)", run_factor_mpi);
+BTFLOD_CONVERT_COMMAND(factor_mpi, "FMF of a .btfstore on MPI ranks (run under mpirun)", kFactorMpiUsage,
+                       run_factor_mpi);

@@ -255,19 +255,7 @@ int info_folder(const std::string& path) {
   return convert::kExitOk;
 }
 
-int run_info(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert info FILE... [--values]\n"
-        "  Prints what each file holds: format, texel size, view and light directions, and for\n"
-        "  measured BRDFs the grid and a few values. Reads NVIDIA ARC .mbsdf files, Bonn .btf files\n"
-        "  (!DFMF08FCR, !FMF12FCER), UBO2003-style image folders (when compiled in) and .bsvtf\n"
-        "  streaming containers (header, metadata, U packets, tiles and bytes per level).\n"
-        "  --values   also reconstruct the data and print its value range (may be slow); for .bsvtf:\n"
-        "             check every payload checksum and decode every tile");
-    return convert::kExitOk;
-  }
+int run_info(convert::Options& opt) {
   const bool values = opt.flag("values");
   if (!opt.finish()) return convert::kExitUsage;
   if (opt.positional().empty()) {
@@ -304,6 +292,16 @@ int run_info(int argc, char** argv) {
   return result;
 }
 
+constexpr char kInfoUsage[] =
+    "usage: btflod-convert info FILE... [--values]\n"
+    "  Prints what each file holds: format, texel size, view and light directions, and for\n"
+    "  measured BRDFs the grid and a few values. Reads NVIDIA ARC .mbsdf files, Bonn .btf files\n"
+    "  (!DFMF08FCR, !FMF12FCER), UBO2003-style image folders (when compiled in) and .bsvtf\n"
+    "  streaming containers (header, metadata, U packets, tiles and bytes per level).\n"
+    "  --values   also reconstruct the data and print its value range (may be slow); for .bsvtf:\n"
+    "             check every payload checksum and decode every tile";
+
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(info, "what a material file holds (.mbsdf, Bonn .btf, UBO2003 folder, .bsvtf)", run_info);
+BTFLOD_CONVERT_COMMAND(info, "what a material file holds (.mbsdf, Bonn .btf, UBO2003 folder, .bsvtf)", kInfoUsage,
+                       run_info);

@@ -16,31 +16,9 @@ namespace {
 
 using namespace btflod;
 
-int run_synth(int argc, char** argv) {
-  convert::Options opt(argc, argv);
-  if (opt.wants_help()) {
-    std::puts(
-        "usage: btflod-convert synth -o OUT [--material cloth|stone|leather|tiles] [--size N]\n"
-        "                            [--dirs ubo2003|ubo2014] [--seed N] [--brdf FILE.mbsdf|FILE.binary]\n"
-        "                            [--interreflection] [--depth X] [--components K] [--quiet]\n"
-        "                            [--profile paper] [--store-type half|float] [--block-texels B]\n"
-        "  Synthesises a tileable BTF: a height-field mesostructure rendered for every (view, light)\n"
-        "  pair with ray-marched masking and self-shadowing, Lambert+GGX base reflectance (or the\n"
-        "  measured BRDF given with --brdf: NVIDIA MBSDF, or MERL .binary resampled to 90 x 90 x 180).\n"
-        "  Values are rho*cos(theta_light), linear RGB; a .btf output says so in its cosine flag.\n"
-        "  OUT ending in .btf is written as a Bonn DFMF file (K components per channel, default 16);\n"
-        "  any other OUT as a UBO2003-style PNG image folder.\n"
-        "  OUT ending in .btfstore is a BTF store for out-of-core factorisation (offline/btf/btf_store.hpp),\n"
-        "  written view by view (the BTF is never held whole): halves by default, B texels per block\n"
-        "  (default 256). --profile paper: paper 000's configuration, 151 x 151 directions (ubo2014)\n"
-        "  and 512 x 512 texels unless --dirs/--size say otherwise.\n"
-        "  defaults: --material cloth --size 64 --dirs ubo2003 --seed 1 --depth 1");
-    return convert::kExitOk;
-  }
+int run_synth(convert::Options& opt) {
   const std::string material_text = opt.string("material", "cloth");
-  const std::string profile = opt.string("profile", "");
-  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
-  const bool paper = profile == "paper";
+  const bool paper = convert::paper_profile(opt);
   const int size = static_cast<int>(opt.integer("size", paper ? 512 : 64, 1, 4096));
   const std::string dirs = opt.string("dirs", paper ? "ubo2014" : "ubo2003");
   const std::string store_type = opt.string("store-type", "half");
@@ -129,6 +107,23 @@ int run_synth(int argc, char** argv) {
   return convert::kExitOk;
 }
 
+constexpr char kSynthUsage[] =
+    "usage: btflod-convert synth -o OUT [--material cloth|stone|leather|tiles] [--size N]\n"
+    "                            [--dirs ubo2003|ubo2014] [--seed N] [--brdf FILE.mbsdf|FILE.binary]\n"
+    "                            [--interreflection] [--depth X] [--components K] [--quiet]\n"
+    "                            [--profile paper] [--store-type half|float] [--block-texels B]\n"
+    "  Synthesises a tileable BTF: a height-field mesostructure rendered for every (view, light)\n"
+    "  pair with ray-marched masking and self-shadowing, Lambert+GGX base reflectance (or the\n"
+    "  measured BRDF given with --brdf: NVIDIA MBSDF, or MERL .binary resampled to 90 x 90 x 180).\n"
+    "  Values are rho*cos(theta_light), linear RGB; a .btf output says so in its cosine flag.\n"
+    "  OUT ending in .btf is written as a Bonn DFMF file (K components per channel, default 16);\n"
+    "  any other OUT as a UBO2003-style PNG image folder.\n"
+    "  OUT ending in .btfstore is a BTF store for out-of-core factorisation (offline/btf/btf_store.hpp),\n"
+    "  written view by view (the BTF is never held whole): halves by default, B texels per block\n"
+    "  (default 256). --profile paper: paper 000's configuration, 151 x 151 directions (ubo2014)\n"
+    "  and 512 x 512 texels unless --dirs/--size say otherwise.\n"
+    "  defaults: --material cloth --size 64 --dirs ubo2003 --seed 1 --depth 1";
+
 }  // namespace
 
-BTFLOD_CONVERT_COMMAND(synth, "write a synthesised material (cloth, stone, leather, tiles)", run_synth);
+BTFLOD_CONVERT_COMMAND(synth, "write a synthesised material (cloth, stone, leather, tiles)", kSynthUsage, run_synth);

@@ -6,22 +6,22 @@
 //
 //   #include "command.hpp"
 //   namespace {
-//   int run_frobnicate(int argc, char** argv) {      // argv[0] is "frobnicate"
-//     btflod::convert::Options opt(argc, argv);
-//     if (opt.wants_help()) { std::puts("usage: btflod-convert frobnicate FILE [--level N]"); return 0; }
-//     auto level = opt.integer("level", 3, 0, 9);     // --level N or --level=N
+//   constexpr char kUsage[] = "usage: btflod-convert frobnicate FILE [--level N]";
+//   int run_frobnicate(btflod::convert::Options& opt) {  // --help was handled by the dispatcher
+//     auto level = opt.integer("level", 3, 0, 9);         // --level N or --level=N
 //     ...
-//     if (!opt.finish()) return 2;                    // unknown options / bad values → usage error
+//     if (!opt.finish()) return 2;                        // unknown options / bad values → usage error
 //     ...
-//     return 0;                                       // 0 ok, 1 failure, 2 usage error
+//     return 0;                                           // 0 ok, 1 failure, 2 usage error
 //   }
 //   }  // namespace
-//   BTFLOD_CONVERT_COMMAND(frobnicate, "one line of help", run_frobnicate);
+//   BTFLOD_CONVERT_COMMAND(frobnicate, "one line of help", kUsage, run_frobnicate);
 //
 // Commands are listed sorted by name by `btflod-convert --help`.
 #pragma once
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,11 +35,15 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitUsage = 2;
 
-using CommandFunction = int (*)(int argc, char** argv);
+class Options;
+
+/// A command's body: called with its parsed command line once -h / --help has been ruled out.
+using CommandFunction = int (*)(Options& opt);
 
 struct Command {
   const char* name;
-  const char* help;
+  const char* help;   ///< one line, for the command list
+  const char* usage;  ///< the full text printed by `btflod-convert NAME --help`
   CommandFunction run;
 };
 
@@ -51,8 +55,8 @@ inline std::vector<Command>& command_registry() {
 
 /// Registers a command at static-initialisation time (use BTFLOD_CONVERT_COMMAND).
 struct CommandRegistrar {
-  CommandRegistrar(const char* name, const char* help, CommandFunction run) {
-    command_registry().push_back({name, help, run});
+  CommandRegistrar(const char* name, const char* help, const char* usage, CommandFunction run) {
+    command_registry().push_back({name, help, usage, run});
   }
 };
 
@@ -70,8 +74,8 @@ inline std::vector<Command> sorted_commands() {
   return v;
 }
 
-#define BTFLOD_CONVERT_COMMAND(name, help, function) \
-  static const ::btflod::convert::CommandRegistrar btflod_convert_command_##name { #name, help, function }
+#define BTFLOD_CONVERT_COMMAND(name, help, usage, function) \
+  static const ::btflod::convert::CommandRegistrar btflod_convert_command_##name { #name, help, usage, function }
 
 /// A command's options: the samples' parser (common/arguments.hpp), its messages prefixed with
 /// "btflod-convert <command>".
@@ -79,7 +83,37 @@ class Options : public samples::Arguments {
  public:
   /// argv[0] is the command name and is skipped.
   Options(int argc, char** argv)
-      : samples::Arguments(std::string("btflod-convert ") + (argc > 0 ? argv[0] : ""), argc, argv) {}
+      : samples::Arguments(std::string("btflod-convert ") + (argc > 0 ? argv[0] : ""), argc, argv),
+        argc_(argc),
+        argv_(argv) {}
+
+  /// The command line as given (argv[0] is the command name), for libraries that read it
+  /// themselves (MPI_Init).
+  int& argc() noexcept { return argc_; }
+  char**& argv() noexcept { return argv_; }
+
+ private:
+  int argc_;
+  char** argv_;
 };
+
+/// Reads --profile: true for `--profile paper` (the sizes of the papers' experiments), false
+/// when it is absent; any other value is reported as a usage error, so opt.finish() fails.
+inline bool paper_profile(Options& opt) {
+  const std::string profile = opt.string("profile", "");
+  if (!profile.empty() && profile != "paper") opt.error("--profile " + profile + ": expected paper");
+  return profile == "paper";
+}
+
+/// Runs `command` on its command line (argv[0] is the command name): prints its usage and
+/// returns kExitOk when -h / --help is present, otherwise returns what the command returns.
+inline int run_command(const Command& command, int argc, char** argv) {
+  Options opt(argc, argv);
+  if (opt.wants_help()) {
+    std::puts(command.usage);
+    return kExitOk;
+  }
+  return command.run(opt);
+}
 
 }  // namespace btflod::convert

@@ -27,9 +27,8 @@ int main(int argc, char** argv) {
   if (name == "--help" || name == "-h" || name == "help") {
     if (name == "help" && argc >= 3) {
       if (const auto* c = btflod::convert::find_command(argv[2])) {
-        char help_flag[] = "--help";
-        char* args[] = {argv[2], help_flag, nullptr};
-        return c->run(2, args);
+        std::puts(c->usage);
+        return btflod::convert::kExitOk;
       }
     }
     return print_usage(stdout);
@@ -39,5 +38,5 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "btflod-convert: unknown command '%s'\n\n", argv[1]);
     return print_usage(stderr);
   }
-  return command->run(argc - 1, argv + 1);
+  return btflod::convert::run_command(*command, argc - 1, argv + 1);
 }

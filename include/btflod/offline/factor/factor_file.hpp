@@ -1,5 +1,6 @@
 // btflod — the shared on-disk format of the factorised representations (factor/), plus small
-// helpers every representation uses (BTF shape, angular tap combination).
+// helpers every representation uses (BTF shape, angular tap combination, reconstruction at the
+// measured directions, the common start of a reader).
 //
 // File layout (little-endian):
 //   char[8]  magic "BTFLODFR"
@@ -28,6 +29,7 @@
 #include "btflod/core/result.hpp"
 #include "btflod/offline/angular/angular_sample.hpp"
 #include "btflod/offline/angular/directions.hpp"
+#include "btflod/offline/btf/tabulated_btf.hpp"
 
 namespace btflod {
 
@@ -76,6 +78,22 @@ inline glm::vec3 combine_angular_taps(const AngularSample& light, const AngularS
     }
   }
   return acc;
+}
+
+/// The whole BTF of `shape` at its measured directions (allocates): every texel (x, y), view and
+/// light holds the RGB `f(x, y, view, light)` returns (a glm::vec3; x and y int, view and light
+/// uint32_t). How every representation's reconstruct() fills its output.
+template <class F>
+BtfFloat reconstruct_measured(const BtfShape& shape, F&& f) {
+  BtfFloat out(shape.width, shape.height, shape.views, shape.lights);
+  for (size_t v = 0; v < shape.view_count(); ++v)
+    for (size_t l = 0; l < shape.light_count(); ++l)
+      for (int y = 0; y < shape.height; ++y)
+        for (int x = 0; x < shape.width; ++x) {
+          const glm::vec3 c = f(x, y, static_cast<uint32_t>(v), static_cast<uint32_t>(l));
+          for (int ch = 0; ch < 3; ++ch) out.at(x, y, v, l, ch) = c[ch];
+        }
+  return out;
 }
 
 /// Assembles a factor file from sections. Offline code: allocates.
@@ -248,5 +266,32 @@ class FactorFile {
  private:
   std::vector<std::pair<uint32_t, std::span<const uint8_t>>> sections_;
 };
+
+/// What every representation's deserialize() starts from: the parsed container, its shape (the
+/// SHAP section) and its META section (a view into the caller's buffer, which must outlive it).
+struct FactorFileHead {
+  FactorFile file;
+  BtfShape shape;
+  std::span<const uint8_t> meta;
+};
+
+/// Parses `bytes` as a factor file holding representation `kind` (`kind_name` names it in the
+/// error, e.g. "Local PCA") and reads its SHAP and META sections. Returns the first error: the
+/// container's (FactorFile::parse), "factor file: kind K is not <kind_name> (<kind>)", the
+/// shape's (FactorFile::shape) or the missing META section's. Safe for untrusted input; does not
+/// copy payloads.
+inline Result<FactorFileHead> parse_factor_file_head(std::span<const uint8_t> bytes, FactorKind kind,
+                                                     const char* kind_name) {
+  auto file = FactorFile::parse(bytes);
+  if (!file) return file.error();
+  if (file->kind != kind)
+    return make_error(Status::bad_data, "factor file: kind %u is not %s (%u)", static_cast<unsigned>(file->kind),
+                      kind_name, static_cast<unsigned>(kind));
+  auto shape = file->shape();
+  if (!shape) return shape.error();
+  auto meta = file->section(factor_tag("META"));
+  if (!meta) return meta.error();
+  return FactorFileHead{std::move(*file), std::move(*shape), *meta};
+}
 
 }  // namespace btflod

@@ -157,37 +157,33 @@ struct Fmf {
   /// Parses a serialised FMF. Safe for untrusted input: every size is checked against the
   /// shape; returns an error naming the bad section.
   static Result<Fmf> deserialize(std::span<const uint8_t> bytes) {
-    auto file = FactorFile::parse(bytes);
-    if (!file) return file.error();
-    if (file->kind != FactorKind::fmf)
-      return make_error(Status::bad_data, "factor file: kind %u is not FMF (1)", static_cast<unsigned>(file->kind));
-    auto shape = file->shape();
-    if (!shape) return shape.error();
-    auto meta = file->section(factor_tag("META"));
-    if (!meta) return meta.error();
-    ByteReader r(*meta);
+    auto head = parse_factor_file_head(bytes, FactorKind::fmf, "FMF");
+    if (!head) return head.error();
+    const FactorFile& file = head->file;
+    const BtfShape& shape = head->shape;
+    ByteReader r(head->meta);
     const uint32_t comps = r.u32();
     if (!r.ok() || r.remaining() != 0)
-      return make_error(Status::bad_data, "FMF: META has %zu bytes, expected 4", meta->size());
-    const size_t m = shape->view_count() * shape->light_count() * 3;
-    const size_t n = shape->texel_count();
+      return make_error(Status::bad_data, "FMF: META has %zu bytes, expected 4", head->meta.size());
+    const size_t m = shape.view_count() * shape.light_count() * 3;
+    const size_t n = shape.texel_count();
     if (comps == 0 || comps > std::min(m, n))
       return make_error(Status::bad_data, "FMF: %u components for a %zu x %zu matrix", comps, m, n);
     const size_t remaining = bytes.size();
     // Division instead of a product: comps·(m + n)·4 may overflow for hostile shapes.
-    if (comps > remaining / ((m + n + shape->view_count() * 3) * 4))
+    if (comps > remaining / ((m + n + shape.view_count() * 3) * 4))
       return make_error(Status::short_output, "FMF: %u components need more than the %zu bytes of the file", comps,
                         remaining);
     Fmf f;
-    f.shape = std::move(*shape);
+    f.shape = std::move(head->shape);
     f.components = static_cast<int>(comps);
-    if (auto s = file->read_array<float>(factor_tag("FMFU"), m * comps, f.u); !s) return s.error();
-    if (auto s = file->read_array<float>(factor_tag("FMFV"), n * comps, f.v); !s) return s.error();
-    if (auto s = file->read_array<float>(factor_tag("FMFA"), f.shape.view_count() * 3 * comps, f.u_ambient); !s)
+    if (auto s = file.read_array<float>(factor_tag("FMFU"), m * comps, f.u); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("FMFV"), n * comps, f.v); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("FMFA"), f.shape.view_count() * 3 * comps, f.u_ambient); !s)
       return s.error();
-    if (auto s = file->read_array<float>(factor_tag("FMFS"), comps, f.singular_values); !s) return s.error();
-    if (file->has_section(factor_tag("VENC"))) {
-      auto venc = file->section(factor_tag("VENC"));
+    if (auto s = file.read_array<float>(factor_tag("FMFS"), comps, f.singular_values); !s) return s.error();
+    if (file.has_section(factor_tag("VENC"))) {
+      auto venc = file.section(factor_tag("VENC"));
       if (!venc) return venc.error();
       ByteReader vr(*venc);
       f.transform.encoding = static_cast<ValueEncoding>(vr.u32());

@@ -116,15 +116,8 @@ struct LaplacianPca {
   }
   /// The whole BTF evaluated at one LOD λ (allocates).
   BtfFloat reconstruct(float lambda = 0.0f) const {
-    BtfFloat out(shape.width, shape.height, shape.views, shape.lights);
-    for (size_t v = 0; v < shape.view_count(); ++v)
-      for (size_t l = 0; l < shape.light_count(); ++l)
-        for (int y = 0; y < shape.height; ++y)
-          for (int x = 0; x < shape.width; ++x) {
-            const glm::vec3 c = evaluate_measured(x, y, static_cast<uint32_t>(v), static_cast<uint32_t>(l), lambda);
-            for (int ch = 0; ch < 3; ++ch) out.at(x, y, v, l, ch) = c[ch];
-          }
-    return out;
+    return reconstruct_measured(
+        shape, [&](int x, int y, uint32_t v, uint32_t l) { return evaluate_measured(x, y, v, l, lambda); });
   }
 
   /// Float32 bytes of all weights and eigen vectors plus the 6 mean parameters.
@@ -184,21 +177,16 @@ struct LaplacianPca {
   /// Parses a serialised Laplacian PCA. Safe for untrusted input: mip sizes must follow the
   /// halving rule from the shape, component counts are bounded, arrays sized exactly.
   static Result<LaplacianPca> deserialize(std::span<const uint8_t> bytes) {
-    auto file = FactorFile::parse(bytes);
-    if (!file) return file.error();
-    if (file->kind != FactorKind::laplacian_pca)
-      return make_error(Status::bad_data, "factor file: kind %u is not Laplacian PCA (3)",
-                        static_cast<unsigned>(file->kind));
-    auto shape = file->shape();
-    if (!shape) return shape.error();
+    auto head = parse_factor_file_head(bytes, FactorKind::laplacian_pca, "Laplacian PCA");
+    if (!head) return head.error();
+    const FactorFile& file = head->file;
     LaplacianPca p;
-    p.shape = std::move(*shape);
-    auto meta = file->section(factor_tag("META"));
-    if (!meta) return meta.error();
-    ByteReader r(*meta);
+    p.shape = std::move(head->shape);
+    ByteReader r(head->meta);
     const uint32_t count = r.u32();
     if (!r.ok() || count == 0 || count > 17 || r.remaining() != static_cast<size_t>(count) * 20)
-      return make_error(Status::bad_data, "Laplacian PCA: META declares %u mips in %zu bytes", count, meta->size());
+      return make_error(Status::bad_data, "Laplacian PCA: META declares %u mips in %zu bytes", count,
+                        head->meta.size());
     const size_t images = p.shape.view_count() * p.shape.light_count();
     size_t wsize = 0, esize = 0;
     int w = p.shape.width, h = p.shape.height;
@@ -228,9 +216,9 @@ struct LaplacianPca {
       return make_error(Status::short_output, "Laplacian PCA: mips need %zu bytes, file has %zu", (wsize + esize) * 4,
                         bytes.size());
     std::vector<float> means, wall, eall;
-    if (auto s = file->read_array<float>(factor_tag("MEAN"), 6, means); !s) return s.error();
-    if (auto s = file->read_array<float>(factor_tag("WALL"), wsize, wall); !s) return s.error();
-    if (auto s = file->read_array<float>(factor_tag("EALL"), esize, eall); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("MEAN"), 6, means); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("WALL"), wsize, wall); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("EALL"), esize, eall); !s) return s.error();
     p.phong = PhongParams{means[0], means[1], means[2], means[3]};
     if (!(p.phong.alpha >= 0.0f && p.phong.alpha <= 1e4f))
       return make_error(Status::bad_data, "Laplacian PCA: Phong exponent %g out of [0, 1e4]",

@@ -97,15 +97,8 @@ struct LocalPca {
   }
   /// Full reconstruction (allocates the BTF).
   BtfFloat reconstruct() const {
-    BtfFloat out(shape.width, shape.height, shape.views, shape.lights);
-    for (size_t v = 0; v < shape.view_count(); ++v)
-      for (size_t l = 0; l < shape.light_count(); ++l)
-        for (int y = 0; y < shape.height; ++y)
-          for (int x = 0; x < shape.width; ++x) {
-            const glm::vec3 c = evaluate_measured(x, y, static_cast<uint32_t>(v), static_cast<uint32_t>(l));
-            for (int ch = 0; ch < 3; ++ch) out.at(x, y, v, l, ch) = c[ch];
-          }
-    return out;
+    return reconstruct_measured(shape,
+                                [this](int x, int y, uint32_t v, uint32_t l) { return evaluate_measured(x, y, v, l); });
   }
 
   /// Serialises (SHAP; META = K, C, quantised flag, iterations; CLID u16; MEAN; EIGF float or
@@ -131,18 +124,12 @@ struct LocalPca {
   /// Parses a serialised Local PCA. Safe for untrusted input: sizes are checked against the
   /// shape, every cluster id against K.
   static Result<LocalPca> deserialize(std::span<const uint8_t> bytes) {
-    auto file = FactorFile::parse(bytes);
-    if (!file) return file.error();
-    if (file->kind != FactorKind::local_pca)
-      return make_error(Status::bad_data, "factor file: kind %u is not Local PCA (4)",
-                        static_cast<unsigned>(file->kind));
-    auto shape = file->shape();
-    if (!shape) return shape.error();
+    auto head = parse_factor_file_head(bytes, FactorKind::local_pca, "Local PCA");
+    if (!head) return head.error();
+    const FactorFile& file = head->file;
     LocalPca p;
-    p.shape = std::move(*shape);
-    auto meta = file->section(factor_tag("META"));
-    if (!meta) return meta.error();
-    ByteReader r(*meta);
+    p.shape = std::move(head->shape);
+    ByteReader r(head->meta);
     const uint32_t k = r.u32(), c = r.u32(), q = r.u32(), it = r.u32();
     const size_t d = p.angular_size(), n = p.shape.texel_count();
     if (!r.ok() || r.remaining() != 0 || k == 0 || k > 65535 || k > n || c > d || q > 1)
@@ -156,17 +143,17 @@ struct LocalPca {
     p.components = static_cast<int>(c);
     p.quantized = q == 1;
     p.iterations = static_cast<int>(std::min<uint32_t>(it, 1u << 20));
-    if (auto s = file->read_array<uint16_t>(factor_tag("CLID"), n, p.cluster_of); !s) return s.error();
+    if (auto s = file.read_array<uint16_t>(factor_tag("CLID"), n, p.cluster_of); !s) return s.error();
     for (size_t t = 0; t < n; ++t)
       if (p.cluster_of[t] >= k)
         return make_error(Status::bad_data, "Local PCA: texel %zu has cluster %u, K = %u", t, p.cluster_of[t], k);
-    if (auto s = file->read_array<float>(factor_tag("MEAN"), k * d, p.means); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("MEAN"), k * d, p.means); !s) return s.error();
     if (p.quantized) {
-      if (auto s = file->read_array<int8_t>(factor_tag("EIGQ"), k * d * c, p.eigen_q); !s) return s.error();
+      if (auto s = file.read_array<int8_t>(factor_tag("EIGQ"), k * d * c, p.eigen_q); !s) return s.error();
     } else {
-      if (auto s = file->read_array<float>(factor_tag("EIGF"), k * d * c, p.eigen); !s) return s.error();
+      if (auto s = file.read_array<float>(factor_tag("EIGF"), k * d * c, p.eigen); !s) return s.error();
     }
-    if (auto s = file->read_array<float>(factor_tag("WGHT"), n * c, p.weights); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("WGHT"), n * c, p.weights); !s) return s.error();
     return p;
   }
 };

@@ -574,9 +574,10 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
 
   MatrixXf z(nli, k);
   MatrixXf y;
-  Eigen::HouseholderQR<MatrixXf> zqr, sqr, mqr;
-  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd, msvd;
-  Index kk = 0, km = 0;
+  Eigen::HouseholderQR<MatrixXf> zqr, sqr;
+  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd;
+  detail::PowerIterationCandidate candidate;
+  Index kk = 0;
   const Index kl = std::min<Index>(nli, k);  // rows of this process's R factor
   double predicted_excess = 0.0;
   for (;;) {
@@ -625,15 +626,8 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
       rep.bytes_communicated = comm.bytes_sent();
       return result;
     }
-    const Eigen::MatrixXd w = rsvd.matrixV().leftCols(kk) * sr.head(kk).cwiseInverse().asDiagonal();
-    mqr.compute(y * w.template cast<float>());
-    km = std::min<Index>(kk, mi);
-    const Eigen::MatrixXd rm =
-        mqr.matrixQR().topRows(km).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
-    msvd.compute(rm, Eigen::ComputeFullU | Eigen::ComputeFullV);
     auto& h = st.h;
-    h.push_back(std::max(0.0, st.norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
-    h.push_back(std::max(0.0, st.norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
+    candidate.project(y, rsvd, kk, c, st.norm2, h);
     // The same adaptive rule as truncated_svd (detail::power_iteration_bound), so both stop
     // after the same iteration and give identical bits.
     const detail::PowerIterationBound bound = detail::power_iteration_bound(h, so.power_tolerance, st.norm2);
@@ -656,20 +650,7 @@ Result<OutOfCoreSvd> out_of_core_svd(size_t m, size_t n, int rank, const SvdColu
   const auto& h = st.h;
   TruncatedSvd& out = result.svd;
   out.report.power_iterations = static_cast<int>(st.iterations);
-  out.report.error_estimate = std::sqrt(h.back());
-  out.report.predicted_ratio = predicted_excess <= 0.0       ? 1.0
-                               : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
-                                                             : HUGE_VAL;
-  const Index cc = std::min<Index>(c, km), pad = c - cc;
-  const MatrixXf qm = mqr.householderQ() * MatrixXf::Identity(mi, km + pad);
-  out.u.resize(mi, c);
-  out.u.leftCols(cc) = qm.leftCols(km) * msvd.matrixU().leftCols(cc).template cast<float>();
-  out.u.rightCols(pad) = qm.rightCols(pad);
-  out.s = Eigen::VectorXf::Zero(c);
-  out.s.head(cc) = msvd.singularValues().head(cc).template cast<float>();
-  MatrixXf rot(k, c);
-  rot.leftCols(cc) = (rsvd.matrixU().leftCols(kk) * msvd.matrixV().leftCols(cc)).template cast<float>();
-  rot.rightCols(pad) = rsvd.matrixU().middleCols(kk, pad).template cast<float>();
+  const MatrixXf rot = candidate.finish(out, rsvd, k, kk, c, h, predicted_excess);
   if (comm.size() == 1) {
     const MatrixXf pz = zqr.householderQ() * MatrixXf::Identity(nli, k);
     out.v = pz * rot;

@@ -118,17 +118,12 @@ struct PcaViews {
   /// Parses a serialised PCA-k. Safe for untrusted input (checks the grouping covers every
   /// view exactly once in order, component counts, and array sizes).
   static Result<PcaViews> deserialize(std::span<const uint8_t> bytes) {
-    auto file = FactorFile::parse(bytes);
-    if (!file) return file.error();
-    if (file->kind != FactorKind::pca_views)
-      return make_error(Status::bad_data, "factor file: kind %u is not PCA-k (2)", static_cast<unsigned>(file->kind));
-    auto shape = file->shape();
-    if (!shape) return shape.error();
-    auto meta = file->section(factor_tag("META"));
-    if (!meta) return meta.error();
-    ByteReader r(*meta);
+    auto head = parse_factor_file_head(bytes, FactorKind::pca_views, "PCA-k");
+    if (!head) return head.error();
+    const FactorFile& file = head->file;
+    ByteReader r(head->meta);
     PcaViews p;
-    p.shape = std::move(*shape);
+    p.shape = std::move(head->shape);
     const uint32_t k = r.u32(), count = r.u32();
     const size_t nv = p.shape.view_count(), nl = p.shape.light_count(), n = p.shape.texel_count();
     if (!r.ok() || k == 0 || k > nv || count != (nv + k - 1) / k || r.remaining() != static_cast<size_t>(count) * 12)
@@ -156,8 +151,8 @@ struct PcaViews {
       return make_error(Status::short_output, "PCA-k: groups need %zu bytes, file has %zu", (lsize + rsize) * 4,
                         bytes.size());
     std::vector<float> lall, rall;
-    if (auto s = file->read_array<float>(factor_tag("LALL"), lsize, lall); !s) return s.error();
-    if (auto s = file->read_array<float>(factor_tag("RALL"), rsize, rall); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("LALL"), lsize, lall); !s) return s.error();
+    if (auto s = file.read_array<float>(factor_tag("RALL"), rsize, rall); !s) return s.error();
     size_t lo = 0, ro = 0;
     for (auto& g : p.groups) {
       const size_t ls = n * static_cast<size_t>(g.components + 1);

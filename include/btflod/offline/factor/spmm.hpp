@@ -187,15 +187,8 @@ struct Spmm {
   }
   /// The whole BTF at the measured directions (allocates).
   BtfFloat reconstruct(const SpmmEvalOptions& options = {}) const {
-    BtfFloat out(shape.width, shape.height, shape.views, shape.lights);
-    for (size_t v = 0; v < shape.view_count(); ++v)
-      for (size_t l = 0; l < shape.light_count(); ++l)
-        for (int y = 0; y < shape.height; ++y)
-          for (int x = 0; x < shape.width; ++x) {
-            const glm::vec3 c = evaluate_measured(x, y, static_cast<uint32_t>(v), static_cast<uint32_t>(l), options);
-            for (int ch = 0; ch < 3; ++ch) out.at(x, y, v, l, ch) = c[ch];
-          }
-    return out;
+    return reconstruct_measured(
+        shape, [&](int x, int y, uint32_t v, uint32_t l) { return evaluate_measured(x, y, v, l, options); });
   }
 
   /// Stored bytes: 28 per basis (u32 model, 3 float κ, float normal), u16 cluster ids, u16
@@ -378,17 +371,12 @@ struct Spmm {
   /// range (validate_analytic_basis), every cluster id < K, every slot index < its cluster's
   /// dictionary size, weights finite and ≥ 0 (every float section is checked finite).
   static Result<Spmm> deserialize(std::span<const uint8_t> bytes) {
-    auto file = FactorFile::parse(bytes);
-    if (!file) return file.error();
-    if (file->kind != FactorKind::spmm)
-      return make_error(Status::bad_data, "factor file: kind %u is not SPMM (5)", static_cast<unsigned>(file->kind));
-    auto shape = file->shape();
-    if (!shape) return shape.error();
+    auto head = parse_factor_file_head(bytes, FactorKind::spmm, "SPMM");
+    if (!head) return head.error();
+    const FactorFile& file = head->file;
     Spmm p;
-    p.shape = std::move(*shape);
-    auto meta = file->section(factor_tag("META"));
-    if (!meta) return meta.error();
-    ByteReader r(*meta);
+    p.shape = std::move(head->shape);
+    ByteReader r(head->meta);
     const uint32_t k = r.u32(), s = r.u32(), pc = r.u32(), total = r.u32();
     const size_t d = p.angular_size(), n = p.shape.texel_count();
     if (!r.ok() || r.remaining() != 0 || k == 0 || k > 65535 || k > n || s == 0 || s > 64 || pc > d || total < k)
@@ -404,7 +392,7 @@ struct Spmm {
                         total, bytes.size());
     p.slots = static_cast<int>(s);
     p.residual_components = static_cast<int>(pc);
-    auto dict = file->section(factor_tag("DICT"));
+    auto dict = file.section(factor_tag("DICT"));
     if (!dict) return dict.error();
     if (dict->size() != static_cast<size_t>(k) * 4 + static_cast<size_t>(total) * 28)
       return make_error(Status::bad_data, "SPMM: DICT has %zu bytes, expected %zu for K=%u and %u bases", dict->size(),
@@ -436,11 +424,11 @@ struct Spmm {
         p.dictionaries[j][i] = b;
       }
     }
-    if (auto e = file->read_array<uint16_t>(factor_tag("CLID"), n, p.cluster_of); !e) return e.error();
+    if (auto e = file.read_array<uint16_t>(factor_tag("CLID"), n, p.cluster_of); !e) return e.error();
     for (size_t t = 0; t < n; ++t)
       if (p.cluster_of[t] >= k)
         return make_error(Status::bad_data, "SPMM: texel %zu has cluster %u, K = %u", t, p.cluster_of[t], k);
-    if (auto e = file->read_array<uint16_t>(factor_tag("SIDX"), n * s, p.slot_basis); !e) return e.error();
+    if (auto e = file.read_array<uint16_t>(factor_tag("SIDX"), n * s, p.slot_basis); !e) return e.error();
     for (size_t t = 0; t < n; ++t)
       for (size_t q = 0; q < s; ++q) {
         const uint16_t j = p.slot_basis[t * s + q];
@@ -448,12 +436,12 @@ struct Spmm {
           return make_error(Status::bad_data, "SPMM: texel %zu slot %zu uses basis %u, cluster %u has %u", t, q, j,
                             p.cluster_of[t], counts[p.cluster_of[t]]);
       }
-    if (auto e = file->read_array<float>(factor_tag("SWGT"), n * s * 3, p.slot_weight); !e) return e.error();
+    if (auto e = file.read_array<float>(factor_tag("SWGT"), n * s * 3, p.slot_weight); !e) return e.error();
     for (size_t i = 0; i < p.slot_weight.size(); ++i)
       if (p.slot_weight[i] < 0.0f) return make_error(Status::bad_data, "SPMM: weight %zu is negative", i);
-    if (auto e = file->read_array<float>(factor_tag("RMEA"), k * d, p.residual_mean); !e) return e.error();
-    if (auto e = file->read_array<float>(factor_tag("RBAS"), k * d * pc, p.residual_basis); !e) return e.error();
-    if (auto e = file->read_array<float>(factor_tag("RCOF"), n * pc, p.residual_coef); !e) return e.error();
+    if (auto e = file.read_array<float>(factor_tag("RMEA"), k * d, p.residual_mean); !e) return e.error();
+    if (auto e = file.read_array<float>(factor_tag("RBAS"), k * d * pc, p.residual_basis); !e) return e.error();
+    if (auto e = file.read_array<float>(factor_tag("RCOF"), n * pc, p.residual_coef); !e) return e.error();
     return p;
   }
 

@@ -227,6 +227,29 @@ class NormalGenerator {
 /// Thin orthonormal basis of the columns of y (m × k, m ≥ k) by Householder QR.
 Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y);
 
+/// The candidate result of one power iteration beyond the SVD of Z's R factor (`rsvd`,
+/// R = Ur·Sr·Vrᵀ, whose first `kk` singular values lie above the noise threshold):
+/// M = A·P' = Y·Vr·Sr⁻¹ = Qm·Rm (`mqr`) and Rm = Um·S·Wmᵀ (`msvd`), `km` = min(kk, rows of Y).
+/// Shared by truncated_svd and out_of_core_svd, which must give identical bits.
+struct PowerIterationCandidate {
+  Eigen::HouseholderQR<Eigen::MatrixXf> mqr;
+  Eigen::JacobiSVD<Eigen::MatrixXd> msvd;
+  Eigen::Index km = 0;
+
+  /// Forms M from `y` (the pass's Y, one row per row of A) and `rsvd`, factorises it, and
+  /// appends to `h` the two half-step residuals ‖A‖² − Σσ² (`norm2` = ‖A‖²) of the first `c`
+  /// singular values of R and of Rm, both clamped at 0. Precondition: 1 ≤ kk ≤ rank of rsvd.
+  void project(const Eigen::MatrixXf& y, const Eigen::JacobiSVD<Eigen::MatrixXd>& rsvd, Eigen::Index kk, Eigen::Index c,
+               double norm2, std::vector<double>& h);
+  /// Writes the rank-`c` factors U and S of the last projected candidate into `out`, with its
+  /// report's error_estimate (√ of the last residual in `h`) and predicted_ratio (from
+  /// `predicted_excess`), and returns the k × c rotation `rot` with V = P·rot (P the orthonormal
+  /// basis of Z). When rank(A) < c the remaining c − min(c, km) components get singular value 0
+  /// and orthonormal completions (unused columns of the two Householder bases).
+  Eigen::MatrixXf finish(TruncatedSvd& out, const Eigen::JacobiSVD<Eigen::MatrixXd>& rsvd, Eigen::Index k,
+                         Eigen::Index kk, Eigen::Index c, const std::vector<double>& h, double predicted_excess) const;
+};
+
 }  // namespace detail
 
 /// The column source of the blocked truncated_svd(): copies columns [col0, col0 + count) of A
@@ -289,6 +312,44 @@ struct SingleThreadedBlas {
 Eigen::MatrixXf orthonormal_basis(const Eigen::MatrixXf& y) {
   Eigen::HouseholderQR<Eigen::MatrixXf> qr(y);
   return qr.householderQ() * Eigen::MatrixXf::Identity(y.rows(), y.cols());
+}
+
+void PowerIterationCandidate::project(const Eigen::MatrixXf& y, const Eigen::JacobiSVD<Eigen::MatrixXd>& rsvd,
+                                      Eigen::Index kk, Eigen::Index c, double norm2, std::vector<double>& h) {
+  using Eigen::Index;
+  const Eigen::VectorXd& sr = rsvd.singularValues();
+  const Eigen::MatrixXd w = rsvd.matrixV().leftCols(kk) * sr.head(kk).cwiseInverse().asDiagonal();
+  mqr.compute(y * w.template cast<float>());
+  km = std::min<Index>(kk, y.rows());
+  const Eigen::MatrixXd rm =
+      mqr.matrixQR().topRows(km).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
+  msvd.compute(rm, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  h.push_back(std::max(0.0, norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
+  h.push_back(std::max(0.0, norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
+}
+
+Eigen::MatrixXf PowerIterationCandidate::finish(TruncatedSvd& out, const Eigen::JacobiSVD<Eigen::MatrixXd>& rsvd,
+                                                Eigen::Index k, Eigen::Index kk, Eigen::Index c,
+                                                const std::vector<double>& h, double predicted_excess) const {
+  using Eigen::Index;
+  using Eigen::MatrixXf;
+  out.report.error_estimate = std::sqrt(h.back());
+  out.report.predicted_ratio = predicted_excess <= 0.0       ? 1.0
+                               : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
+                                                             : HUGE_VAL;
+  // U = Qm·Um, V = P'·Wm = P·(Ur·Wm).
+  const Index mi = mqr.rows();
+  const Index cc = std::min<Index>(c, km), pad = c - cc;
+  const MatrixXf qm = mqr.householderQ() * MatrixXf::Identity(mi, km + pad);
+  out.u.resize(mi, c);
+  out.u.leftCols(cc) = qm.leftCols(km) * msvd.matrixU().leftCols(cc).template cast<float>();
+  out.u.rightCols(pad) = qm.rightCols(pad);
+  out.s = Eigen::VectorXf::Zero(c);
+  out.s.head(cc) = msvd.singularValues().head(cc).template cast<float>();
+  MatrixXf rot(k, c);  // V = P·rot
+  rot.leftCols(cc) = (rsvd.matrixU().leftCols(kk) * msvd.matrixV().leftCols(cc)).template cast<float>();
+  rot.rightCols(pad) = rsvd.matrixU().middleCols(kk, pad).template cast<float>();
+  return rot;
 }
 }  // namespace detail
 
@@ -510,10 +571,11 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   MatrixXf z(static_cast<Index>(n), k);
   MatrixXf y;
   // The candidate result of the latest iteration: Z = P·R (zqr), R = Ur·Sr·Vrᵀ (rsvd, double
-  // Jacobi), M = A·P' = Y·Vr·Sr⁻¹ = Qm·Rm (mqr), Rm = Um·S·Wmᵀ (msvd).
-  Eigen::HouseholderQR<MatrixXf> zqr, mqr;
-  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd, msvd;
-  Index kk = 0, km = 0;
+  // Jacobi), M = A·P' = Y·Vr·Sr⁻¹ = Qm·Rm (candidate.mqr), Rm = Um·S·Wmᵀ (candidate.msvd).
+  Eigen::HouseholderQR<MatrixXf> zqr;
+  Eigen::JacobiSVD<Eigen::MatrixXd> rsvd;
+  detail::PowerIterationCandidate candidate;
+  Index kk = 0;
   std::vector<double> h;  // g_1, e_1, g_2, e_2, … (squared errors)
   double predicted_excess = 0.0;
   int iterations = 0;
@@ -550,14 +612,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
       return out;
     }
     // M = A·P' = Y·Vr·Sr⁻¹ (m × kk), P' = P·Ur (n × kk, orthonormal). A ≈ M·P'ᵀ.
-    const Eigen::MatrixXd w = rsvd.matrixV().leftCols(kk) * sr.head(kk).cwiseInverse().asDiagonal();
-    mqr.compute(y * w.template cast<float>());
-    km = std::min<Index>(kk, mi);
-    const Eigen::MatrixXd rm =
-        mqr.matrixQR().topRows(km).template triangularView<Eigen::Upper>().toDenseMatrix().template cast<double>();
-    msvd.compute(rm, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    h.push_back(std::max(0.0, norm2 - sr.head(std::min<Index>(c, sr.size())).squaredNorm()));
-    h.push_back(std::max(0.0, norm2 - msvd.singularValues().head(std::min<Index>(c, km)).squaredNorm()));
+    candidate.project(y, rsvd, kk, c, norm2, h);
     // Extrapolation of the half-step improvements (see above).
     const detail::PowerIterationBound bound = detail::power_iteration_bound(h, options.power_tolerance, norm2);
     predicted_excess = bound.predicted_excess;
@@ -573,23 +628,7 @@ Result<TruncatedSvd> truncated_svd_blocked(size_t m, size_t n, int rank, const S
   }
   y.resize(0, 0);
   out.report.power_iterations = iterations;
-  out.report.error_estimate = std::sqrt(h.back());
-  out.report.predicted_ratio = predicted_excess <= 0.0       ? 1.0
-                               : predicted_excess < h.back() ? std::sqrt(h.back() / (h.back() - predicted_excess))
-                                                             : HUGE_VAL;
-  // U = Qm·Um, V = P'·Wm = P·(Ur·Wm).
-  // cc = min(c, kk) components carry the approximation; if rank(A) < c the remaining c − cc get
-  // singular value 0 and orthonormal completions (unused columns of the two Householder bases).
-  const Index cc = std::min<Index>(c, km), pad = c - cc;
-  const MatrixXf qm = mqr.householderQ() * MatrixXf::Identity(mi, km + pad);
-  out.u.resize(mi, c);
-  out.u.leftCols(cc) = qm.leftCols(km) * msvd.matrixU().leftCols(cc).template cast<float>();
-  out.u.rightCols(pad) = qm.rightCols(pad);
-  out.s = Eigen::VectorXf::Zero(c);
-  out.s.head(cc) = msvd.singularValues().head(cc).template cast<float>();
-  MatrixXf rot(k, c);  // V = P·rot
-  rot.leftCols(cc) = (rsvd.matrixU().leftCols(kk) * msvd.matrixV().leftCols(cc)).template cast<float>();
-  rot.rightCols(pad) = rsvd.matrixU().middleCols(kk, pad).template cast<float>();
+  const MatrixXf rot = candidate.finish(out, rsvd, k, kk, c, h, predicted_excess);
   const MatrixXf pz = zqr.householderQ() * MatrixXf::Identity(static_cast<Index>(n), k);
   out.v = pz * rot;
   finish_timing();

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <span>
 #include <string>
 #include <thread>
 
@@ -42,6 +43,57 @@ inline FrameDesc frame_desc() {
   return f;
 }
 
+/// fmf_config() with the parabolic map and the 9-tap barycentric lookup.
+inline ShaderConfig default_fmf_config() {
+  return fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+}
+
+/// The quad of quad_vertices() / quad_indices() on `be`.
+inline Result<MeshHandle> create_quad_mesh(Backend& be) {
+  const auto verts = quad_vertices();
+  const auto idx = quad_indices();
+  return be.create_mesh(MeshData{verts, idx});
+}
+
+/// Runs `test_case(Backend&)` on a backend made by `make`; skips with the reason when the
+/// backend cannot be created.
+template <class Factory, class Case>
+void with_backend(Factory make, Case test_case) {
+  std::string why;
+  std::unique_ptr<Backend> be = make(why);
+  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+  test_case(*be);
+}
+
+/// Checks the feedback words `words` (32 × 32 texels) against eq. 1–2 for the quad over the
+/// middle half of a `width` × `height` screen (make_params(0.5f), texture 37, λ = 1 over 256 ×
+/// 256 texels): texel (x, y) samples pixel (block_w · x + sx, block_h · y + sy); pixels on the
+/// quad give its word, the others the empty word. `covered` is the number of texels on the quad.
+inline void expect_quad_feedback(std::span<const uint32_t> words, int width, int height, int block_w, int block_h,
+                                 int sx, int sy, int covered, const std::string& what) {
+  ASSERT_EQ(words.size(), 32u * 32u);
+  const FeedbackWordLayout layout;
+  int on_quad = 0, mismatches = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) {
+      const int px = block_w * x + sx, py = block_h * y + sy;
+      uint32_t expect = layout.empty_word;
+      if (px >= width / 4 && px < 3 * width / 4 && py < height) {
+        glm::vec3 world;
+        glm::vec2 uv;
+        pixel_to_quad(px, py, width, height, 0.5f, world, uv);
+        expect = pack_feedback_word(
+            layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
+        ++on_quad;
+      }
+      const uint32_t w = words[static_cast<size_t>(y) * 32 + static_cast<size_t>(x)];
+      if (w != expect && ++mismatches <= 5)
+        ADD_FAILURE() << what << " texel (" << x << ", " << y << "): word " << std::hex << w << " expected " << expect;
+    }
+  EXPECT_EQ(on_quad, covered) << what;
+  EXPECT_EQ(mismatches, 0) << what;
+}
+
 /// Mean and spread of the rgb values: a blank or constant render must not pass.
 inline void expect_has_content(const Image<float>& img) {
   double sum = 0, sq = 0;
@@ -58,31 +110,25 @@ inline void expect_has_content(const Image<float>& img) {
   EXPECT_GT(sq / static_cast<double>(n) - mean * mean, 1e-4);
 }
 
-template <class Factory>
-void fmf_matches_cpu(Factory make, DirectionParameterisation p, AngularLookup lookup) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
+inline void fmf_matches_cpu(Backend& be, DirectionParameterisation p, AngularLookup lookup) {
   const ShaderConfig config = fmf_config(p, lookup);
-  ASSERT_TRUE(be->init(config, 2).ok());
+  ASSERT_TRUE(be.init(config, 2).ok());
   const Material m = make_material(config, 40, 24);
-  const auto verts = quad_vertices();
-  const auto idx = quad_indices();
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  auto mesh = create_quad_mesh(be);
   ASSERT_TRUE(mesh.ok()) << mesh.message();
-  auto mat = be->create_material(m.data(true));
+  auto mat = be.create_material(m.data(true));
   ASSERT_TRUE(mat.ok()) << mat.message();
   const ShaderParams params = make_params();
-  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
-  ASSERT_EQ(be->draw(ShaderProgram::fmf, *mesh, *mat, params), Status::success);
-  ASSERT_EQ(be->end_frame(), Status::success);
+  ASSERT_EQ(be.begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be.draw(ShaderProgram::fmf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be.end_frame(), Status::success);
   Image<float> img(kSize, kSize, 4);
-  ASSERT_EQ(be->read_color(img.view()), Status::success);
+  ASSERT_EQ(be.read_color(img.view()), Status::success);
   const Image<float> ref = reference_fmf(m, params);
   expect_has_content(ref);
   expect_has_content(img);
   const double psnr = psnr_rgb(ref, img);
-  std::printf("[ %s ] FMF %s/%s PSNR vs CPU = %.2f dB\n", be->name(),
+  std::printf("[ %s ] FMF %s/%s PSNR vs CPU = %.2f dB\n", be.name(),
               p == DirectionParameterisation::parabolic ? "parabolic" : "concentric",
               lookup == AngularLookup::barycentric ? "9-tap" : "nearest", psnr);
   EXPECT_GE(psnr, 40.0);
@@ -91,25 +137,19 @@ void fmf_matches_cpu(Factory make, DirectionParameterisation p, AngularLookup lo
 /// BSVTF through a partially filled cache: raw component group 0 (debug view) and the shaded
 /// image agree with the CPU reference at LOD bias 0 (finest level where resident) and 0.5
 /// (trilinear where both levels are resident).
-template <class Factory>
-void bsvtf_partial_cache(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
-  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+inline void bsvtf_partial_cache(Backend& be) {
+  const ShaderConfig config = default_fmf_config();
   const int M = 256, N = 256;  // T = 64 → L = 2: 1 + 4 + 16 tiles per group
-  ASSERT_TRUE(be->init(config, 2).ok());
+  ASSERT_TRUE(be.init(config, 2).ok());
   const Material m = make_material(config, M, N);
   const Pyramid pyr = build_pyramid(m, 2);
   const CacheFill fill = fill_cache(pyr, config.vt, M, N);
   ASSERT_EQ(fill.uploads.size(), 2u * (1 + 4 + 8));
-  ASSERT_EQ(be->upload_tiles(fill.uploads), Status::success);
-  ASSERT_EQ(be->apply_page_table_writes(fill.deltas), Status::success);
-  const auto verts = quad_vertices();
-  const auto idx = quad_indices();
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_EQ(be.upload_tiles(fill.uploads), Status::success);
+  ASSERT_EQ(be.apply_page_table_writes(fill.deltas), Status::success);
+  auto mesh = create_quad_mesh(be);
   ASSERT_TRUE(mesh.ok());
-  auto mat = be->create_material(m.data(false));  // V' comes only from the cache
+  auto mat = be.create_material(m.data(false));  // V' comes only from the cache
   ASSERT_TRUE(mat.ok()) << mat.message();
   for (float bias : {0.0f, 0.5f}) {
     ShaderParams params = make_params();
@@ -118,11 +158,11 @@ void bsvtf_partial_cache(Factory make) {
     const float lambda = 2.0f - std::log2(static_cast<float>(M) / kSize) - bias;
     for (uint32_t debug : {1u, 0u}) {
       params.ids = glm::uvec4(0, 0, debug, 0);
-      ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
-      ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
-      ASSERT_EQ(be->end_frame(), Status::success);
+      ASSERT_EQ(be.begin_frame(frame_desc()), Status::success);
+      ASSERT_EQ(be.draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+      ASSERT_EQ(be.end_frame(), Status::success);
       Image<float> img(kSize, kSize, 4);
-      ASSERT_EQ(be->read_color(img.view()), Status::success);
+      ASSERT_EQ(be.read_color(img.view()), Status::success);
       Image<float> ref(kSize, kSize, 4, 0.0f);
       Image<float> finest_only(kSize, kSize, 4, 0.0f);  // what a renderer ignoring the page table shows
       for (int y = 0; y < kSize; ++y)
@@ -152,7 +192,7 @@ void bsvtf_partial_cache(Factory make) {
       expect_has_content(img);
       const double psnr = psnr_rgb(ref, img);
       const double psnr_wrong = psnr_rgb(finest_only, img);
-      std::printf("[ %s ] BSVTF bias %.1f %s: PSNR vs CPU = %.2f dB (vs finest-only %.2f dB)\n", be->name(), bias,
+      std::printf("[ %s ] BSVTF bias %.1f %s: PSNR vs CPU = %.2f dB (vs finest-only %.2f dB)\n", be.name(), bias,
                   debug ? "raw V" : "shaded", psnr, psnr_wrong);
       EXPECT_GE(psnr, 40.0);
       EXPECT_LT(psnr_wrong, psnr - 6.0) << "the partial cache must be visible: the right half is coarser";
@@ -160,16 +200,10 @@ void bsvtf_partial_cache(Factory make) {
   }
 }
 
-template <class Factory>
-void feedback_words(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
-  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
-  ASSERT_TRUE(be->init(config, 2).ok());
-  const auto verts = quad_vertices();
-  const auto idx = quad_indices();
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+inline void feedback_words(Backend& be) {
+  const ShaderConfig config = default_fmf_config();
+  ASSERT_TRUE(be.init(config, 2).ok());
+  auto mesh = create_quad_mesh(be);
   ASSERT_TRUE(mesh.ok());
   // Quad over the middle half of the screen: at 32×32 feedback, 16 texels/pixel in x, 8 in y;
   // lod.y = log2(256/32) = 3 restores screen-resolution derivatives: λ = 2 − log2(16) + 3 = 1.
@@ -177,79 +211,55 @@ void feedback_words(Factory make) {
   params.vt_extent = glm::vec4(256, 256, 2, 0);
   params.lod.y = 3.0f;
   params.ids = glm::uvec4(0, 37, 0, 0);
-  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
-  ASSERT_EQ(be->draw_feedback(*mesh, params), Status::success);
-  ASSERT_EQ(be->end_frame(), Status::success);
-  ASSERT_EQ(be->wait_idle(), Status::success);
+  ASSERT_EQ(be.begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be.draw_feedback(*mesh, params), Status::success);
+  ASSERT_EQ(be.end_frame(), Status::success);
+  ASSERT_EQ(be.wait_idle(), Status::success);
   FeedbackFrame fb;
-  ASSERT_TRUE(be->poll_feedback(fb));
+  ASSERT_TRUE(be.poll_feedback(fb));
   ASSERT_EQ(fb.width, 32u);
   ASSERT_EQ(fb.height, 32u);
   ASSERT_EQ(fb.words.size(), 32u * 32u);
-  const FeedbackWordLayout layout;
-  int covered = 0, mismatches = 0;
-  for (int y = 0; y < 32; ++y)
-    for (int x = 0; x < 32; ++x) {
-      const uint32_t w = fb.words[static_cast<size_t>(y) * 32 + static_cast<size_t>(x)];
-      uint32_t expect = layout.empty_word;
-      if (x >= 8 && x < 24) {
-        glm::vec3 world;
-        glm::vec2 uv;
-        pixel_to_quad(x, y, 32, 32, 0.5f, world, uv);
-        expect = pack_feedback_word(
-            layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
-        ++covered;
-      }
-      if (w != expect && ++mismatches <= 5)
-        ADD_FAILURE() << "feedback (" << x << ", " << y << "): word " << std::hex << w << " expected " << expect;
-    }
-  EXPECT_EQ(covered, 16 * 32);
-  EXPECT_EQ(mismatches, 0);
-  EXPECT_FALSE(be->poll_feedback(fb)) << "one frame gives one readback";
+  // Texel (x, y) of the feedback pass is pixel (x, y) of a 32 × 32 screen.
+  expect_quad_feedback(fb.words, 32, 32, 1, 1, 0, 0, 16 * 32, "feedback pass");
+  EXPECT_FALSE(be.poll_feedback(fb)) << "one frame gives one readback";
 }
 
 /// bsvtf_feedback: the colour pass writes the colour of bsvtf and every pixel's feedback word;
 /// the readback is FrameDesc's sample of each 8 × 8 block, the word a feedback pass jittered onto
 /// that pixel writes (and the word eq. 1–2 give there).
-template <class Factory>
-void colour_pass_feedback(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
-  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
+inline void colour_pass_feedback(Backend& be) {
+  const ShaderConfig config = default_fmf_config();
   const int M = 256, N = 256;
-  ASSERT_TRUE(be->init(config, 2).ok());
+  ASSERT_TRUE(be.init(config, 2).ok());
   const Material m = make_material(config, M, N);
   const Pyramid pyr = build_pyramid(m, 2);
   const CacheFill fill = fill_cache(pyr, config.vt, M, N);
-  ASSERT_EQ(be->upload_tiles(fill.uploads), Status::success);
-  ASSERT_EQ(be->apply_page_table_writes(fill.deltas), Status::success);
-  const auto verts = quad_vertices();
-  const auto idx = quad_indices();
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+  ASSERT_EQ(be.upload_tiles(fill.uploads), Status::success);
+  ASSERT_EQ(be.apply_page_table_writes(fill.deltas), Status::success);
+  auto mesh = create_quad_mesh(be);
   ASSERT_TRUE(mesh.ok());
-  auto mat = be->create_material(m.data(false));
+  auto mat = be.create_material(m.data(false));
   ASSERT_TRUE(mat.ok()) << mat.message();
   // Quad over the middle half of the screen: 2 texels per pixel in x, 1 in y → λ = 1.
   ShaderParams params = make_params(0.5f);
   params.vt_extent = glm::vec4(M, N, 2, 0);
   params.ids = glm::uvec4(0, 37, 0, 0);
-  const FeedbackWordLayout layout;
   FrameDesc bad = frame_desc();
   bad.feedback_sample_x = 8;  // blocks are 256 / 32 = 8 pixels wide
-  EXPECT_EQ(be->begin_frame(bad), Status::invalid_argument);
+  EXPECT_EQ(be.begin_frame(bad), Status::invalid_argument);
   for (const auto& [sx, sy] : {std::pair<uint32_t, uint32_t>{5, 2}, {0, 7}}) {
     FrameDesc desc = frame_desc();
     desc.feedback_sample_x = sx;
     desc.feedback_sample_y = sy;
     Image<float> colour(kSize, kSize, 4), plain(kSize, kSize, 4);
     FeedbackFrame fb;
-    ASSERT_EQ(be->begin_frame(desc), Status::success);
-    ASSERT_EQ(be->draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
-    ASSERT_EQ(be->end_frame(), Status::success);
-    ASSERT_EQ(be->read_color(colour.view()), Status::success);
-    ASSERT_EQ(be->wait_idle(), Status::success);
-    ASSERT_TRUE(be->poll_feedback(fb));
+    ASSERT_EQ(be.begin_frame(desc), Status::success);
+    ASSERT_EQ(be.draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
+    ASSERT_EQ(be.end_frame(), Status::success);
+    ASSERT_EQ(be.read_color(colour.view()), Status::success);
+    ASSERT_EQ(be.wait_idle(), Status::success);
+    ASSERT_TRUE(be.poll_feedback(fb));
     ASSERT_EQ(fb.words.size(), 32u * 32u);
     const std::vector<uint32_t> words(fb.words.begin(), fb.words.end());
     // The same view through bsvtf and a separate feedback pass (lod.y = log2 8) whose projection
@@ -261,34 +271,19 @@ void colour_pass_feedback(Factory make) {
                                                   (0.5f - (dy_from_bottom + 0.5f) / 8.0f) * 2.0f / 32.0f, 0.0f)) *
         glm::mat4(params.model_view_proj);
     jittered.lod.y = 3.0f;
-    ASSERT_EQ(be->begin_frame(desc), Status::success);
-    ASSERT_EQ(be->draw_feedback(*mesh, jittered), Status::success);
-    ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
-    ASSERT_EQ(be->end_frame(), Status::success);
-    ASSERT_EQ(be->read_color(plain.view()), Status::success);
-    ASSERT_EQ(be->wait_idle(), Status::success);
-    ASSERT_TRUE(be->poll_feedback(fb));
+    ASSERT_EQ(be.begin_frame(desc), Status::success);
+    ASSERT_EQ(be.draw_feedback(*mesh, jittered), Status::success);
+    ASSERT_EQ(be.draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+    ASSERT_EQ(be.end_frame(), Status::success);
+    ASSERT_EQ(be.read_color(plain.view()), Status::success);
+    ASSERT_EQ(be.wait_idle(), Status::success);
+    ASSERT_TRUE(be.poll_feedback(fb));
     ASSERT_EQ(fb.words.size(), 32u * 32u);
-    int covered = 0, mismatches = 0;
-    for (int y = 0; y < 32; ++y)
-      for (int x = 0; x < 32; ++x) {
-        const size_t i = static_cast<size_t>(y) * 32 + static_cast<size_t>(x);
-        const int px = 8 * x + static_cast<int>(sx), py = 8 * y + static_cast<int>(sy);
-        uint32_t expect = layout.empty_word;
-        if (px >= 64 && px < 192) {
-          glm::vec3 world;
-          glm::vec2 uv;
-          pixel_to_quad(px, py, kSize, kSize, 0.5f, world, uv);
-          expect = pack_feedback_word(
-              layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
-          ++covered;
-        }
-        if ((words[i] != expect || fb.words[i] != expect) && ++mismatches <= 5)
-          ADD_FAILURE() << "sample (" << sx << ", " << sy << ") texel (" << x << ", " << y << "): colour pass "
-                        << std::hex << words[i] << ", feedback pass " << fb.words[i] << ", expected " << expect;
-      }
-    EXPECT_EQ(covered, 16 * 32);
-    EXPECT_EQ(mismatches, 0);
+    const std::string sample = "sample (" + std::to_string(sx) + ", " + std::to_string(sy) + ") ";
+    expect_quad_feedback(words, kSize, kSize, 8, 8, static_cast<int>(sx), static_cast<int>(sy), 16 * 32,
+                         sample + "colour pass");
+    expect_quad_feedback(fb.words, kSize, kSize, 8, 8, static_cast<int>(sx), static_cast<int>(sy), 16 * 32,
+                         sample + "feedback pass");
     expect_has_content(colour);
     EXPECT_GE(psnr_rgb(plain, colour), 200.0) << "output 0 of bsvtf_feedback is bsvtf's colour";
   }
@@ -300,69 +295,45 @@ void colour_pass_feedback(Factory make) {
   odd.feedback_sample_x = 3;
   odd.feedback_sample_y = 5;
   ASSERT_EQ(odd.feedback_block_height(), 6u);
-  ASSERT_EQ(be->begin_frame(odd), Status::success);
-  ASSERT_EQ(be->draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
-  ASSERT_EQ(be->end_frame(), Status::success);
-  ASSERT_EQ(be->wait_idle(), Status::success);
+  ASSERT_EQ(be.begin_frame(odd), Status::success);
+  ASSERT_EQ(be.draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be.end_frame(), Status::success);
+  ASSERT_EQ(be.wait_idle(), Status::success);
   FeedbackFrame odd_fb;
-  ASSERT_TRUE(be->poll_feedback(odd_fb));
+  ASSERT_TRUE(be.poll_feedback(odd_fb));
   ASSERT_EQ(odd_fb.words.size(), 32u * 32u);
-  int odd_covered = 0, odd_mismatches = 0;
-  for (int y = 0; y < 32; ++y)
-    for (int x = 0; x < 32; ++x) {
-      const int px = 8 * x + 3, py = 6 * y + 5;
-      uint32_t expect = layout.empty_word;
-      if (px >= 64 && px < 192 && py < 190) {
-        glm::vec3 world;
-        glm::vec2 uv;
-        pixel_to_quad(px, py, kSize, 190, 0.5f, world, uv);
-        expect = pack_feedback_word(
-            layout, FeedbackSample{37, 1, static_cast<uint32_t>(uv.x * 2.0f), static_cast<uint32_t>(uv.y * 2.0f)});
-        ++odd_covered;
-      }
-      const uint32_t w = odd_fb.words[static_cast<size_t>(y) * 32 + static_cast<size_t>(x)];
-      if (w != expect && ++odd_mismatches <= 5)
-        ADD_FAILURE() << "190 rows, texel (" << x << ", " << y << "): " << std::hex << w << " expected " << expect;
-    }
-  EXPECT_EQ(odd_covered, 16 * 31);
-  EXPECT_EQ(odd_mismatches, 0);
+  expect_quad_feedback(odd_fb.words, kSize, 190, 8, 6, 3, 5, 16 * 31, "190 rows");
   // The next frame, with neither a feedback pass nor bsvtf_feedback, reads nothing back.
-  ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
-  ASSERT_EQ(be->draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
-  ASSERT_EQ(be->end_frame(), Status::success);
-  ASSERT_EQ(be->wait_idle(), Status::success);
+  ASSERT_EQ(be.begin_frame(frame_desc()), Status::success);
+  ASSERT_EQ(be.draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
+  ASSERT_EQ(be.end_frame(), Status::success);
+  ASSERT_EQ(be.wait_idle(), Status::success);
   FeedbackFrame fb;
-  EXPECT_FALSE(be->poll_feedback(fb)) << "no feedback drawn, none read back";
+  EXPECT_FALSE(be.poll_feedback(fb)) << "no feedback drawn, none read back";
 }
 
-template <class Factory>
-void feedback_ring(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
-  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
-  ASSERT_TRUE(be->init(config, 2).ok());
-  const auto verts = quad_vertices();
-  const auto idx = quad_indices();
-  auto mesh = be->create_mesh(MeshData{verts, idx});
+inline void feedback_ring(Backend& be) {
+  const ShaderConfig config = default_fmf_config();
+  ASSERT_TRUE(be.init(config, 2).ok());
+  auto mesh = create_quad_mesh(be);
   ASSERT_TRUE(mesh.ok());
-  const uint32_t ring = be->feedback_ring_size();
+  const uint32_t ring = be.feedback_ring_size();
   ASSERT_GE(ring, 2u);
   ShaderParams params = make_params();
   params.vt_extent = glm::vec4(256, 256, 2, 0);
   const uint32_t frames = ring + 2;
   for (uint32_t f = 0; f < frames; ++f) {
     params.ids.y = f;  // the frame number travels in the material field
-    ASSERT_EQ(be->begin_frame(frame_desc()), Status::success);
-    ASSERT_EQ(be->draw_feedback(*mesh, params), Status::success);
-    ASSERT_EQ(be->end_frame(), Status::success);  // never waits: the oldest readbacks are dropped
+    ASSERT_EQ(be.begin_frame(frame_desc()), Status::success);
+    ASSERT_EQ(be.draw_feedback(*mesh, params), Status::success);
+    ASSERT_EQ(be.end_frame(), Status::success);  // never waits: the oldest readbacks are dropped
   }
-  EXPECT_EQ(be->dropped_feedback(), 2u);
+  EXPECT_EQ(be.dropped_feedback(), 2u);
   // Poll without waiting until everything arrives (bounded), in frame order.
   uint64_t expected = 2;
   FeedbackFrame fb;
   for (int spin = 0; spin < 2000 && expected < frames; ++spin) {
-    if (be->poll_feedback(fb)) {
+    if (be.poll_feedback(fb)) {
       EXPECT_EQ(fb.frame, expected);
       EXPECT_EQ(unpack_feedback_word(FeedbackWordLayout{}, fb.words[16 * 32 + 16]).texture, expected);
       ++expected;
@@ -371,56 +342,64 @@ void feedback_ring(Factory make) {
     }
   }
   EXPECT_EQ(expected, frames);
-  EXPECT_FALSE(be->poll_feedback(fb));
+  EXPECT_FALSE(be.poll_feedback(fb));
 }
 
-template <class Factory>
-void rejects_bad_input(Factory make) {
-  std::string why;
-  std::unique_ptr<Backend> be = make(why);
-  if (!be) GTEST_SKIP() << "GPU backend unavailable: " << why;
-  const ShaderConfig config = fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric);
-  ASSERT_TRUE(be->init(config, 2).ok());
+inline void rejects_bad_input(Backend& be) {
+  const ShaderConfig config = default_fmf_config();
+  ASSERT_TRUE(be.init(config, 2).ok());
   std::vector<uint16_t> texels(72 * 72 * 4, 0);
   const TileUpload bad_slot{config.vt.slot_count(), texels};
-  EXPECT_EQ(be->upload_tiles({&bad_slot, 1}), Status::invalid_argument);
+  EXPECT_EQ(be.upload_tiles({&bad_slot, 1}), Status::invalid_argument);
   const TileUpload short_tile{0, std::span<const uint16_t>(texels).first(100)};
-  EXPECT_EQ(be->upload_tiles({&short_tile, 1}), Status::invalid_argument);
+  EXPECT_EQ(be.upload_tiles({&short_tile, 1}), Status::invalid_argument);
   const PageTableWrite bad_layer{TileId{2, 0, 0, 0}, 2, 0};
-  EXPECT_EQ(be->apply_page_table_writes({&bad_layer, 1}), Status::invalid_argument);
+  EXPECT_EQ(be.apply_page_table_writes({&bad_layer, 1}), Status::invalid_argument);
   const PageTableWrite bad_texel{TileId{0, 1, 2, 0}, 1, 0};  // mip 1 is 2×2
-  EXPECT_EQ(be->apply_page_table_writes({&bad_texel, 1}), Status::invalid_argument);
+  EXPECT_EQ(be.apply_page_table_writes({&bad_texel, 1}), Status::invalid_argument);
   Material m = make_material(config, 8, 8);
   m.light_index[5] = 999;  // names a direction that does not exist
-  auto mat = be->create_material(m.data(true));
+  auto mat = be.create_material(m.data(true));
   ASSERT_FALSE(mat.ok());
   EXPECT_NE(mat.message().find("angular index"), std::string::npos) << mat.message();
-  Material wrong_c = make_material(fmf_config(DirectionParameterisation::parabolic, AngularLookup::barycentric), 8, 8);
+  Material wrong_c = make_material(default_fmf_config(), 8, 8);
   wrong_c.config.components = 4;
   FmfMaterialData d = wrong_c.data(true);
   d.components = 4;
-  EXPECT_FALSE(be->create_material(d).ok());
+  EXPECT_FALSE(be.create_material(d).ok());
   const std::vector<uint32_t> bad_idx = {0, 1, 7};
   const auto verts = quad_vertices();
-  EXPECT_FALSE(be->create_mesh(MeshData{verts, bad_idx}).ok());
-  EXPECT_EQ(be->draw(ShaderProgram::fmf, MeshHandle{1}, MaterialHandle{1}, ShaderParams{}), Status::invalid_argument);
+  EXPECT_FALSE(be.create_mesh(MeshData{verts, bad_idx}).ok());
+  EXPECT_EQ(be.draw(ShaderProgram::fmf, MeshHandle{1}, MaterialHandle{1}, ShaderParams{}), Status::invalid_argument);
 }
 
 }  // namespace btflod::backend_cases
 
-#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                                       \
-  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                                           \
-    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::parabolic,                      \
-                                           btflod::AngularLookup::barycentric);                                        \
-  }                                                                                                                    \
-  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                                       \
-    btflod::backend_cases::fmf_matches_cpu(factory, btflod::DirectionParameterisation::elevated_concentric,            \
-                                           btflod::AngularLookup::nearest);                                            \
-  }                                                                                                                    \
-  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) {                                                   \
-    btflod::backend_cases::bsvtf_partial_cache(factory);                                                               \
-  }                                                                                                                    \
-  TEST(Name##Backend, FeedbackDecodesToExpectedWords) { btflod::backend_cases::feedback_words(factory); }              \
-  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) { btflod::backend_cases::feedback_ring(factory); }         \
-  TEST(Name##Backend, ColourPassFeedbackMatchesFeedbackPass) { btflod::backend_cases::colour_pass_feedback(factory); } \
-  TEST(Name##Backend, RejectsBadInput) { btflod::backend_cases::rejects_bad_input(factory); }
+#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                         \
+  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                             \
+    btflod::backend_cases::with_backend(factory, [](btflod::Backend& be) {                               \
+      btflod::backend_cases::fmf_matches_cpu(be, btflod::DirectionParameterisation::parabolic,           \
+                                             btflod::AngularLookup::barycentric);                        \
+    });                                                                                                  \
+  }                                                                                                      \
+  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                         \
+    btflod::backend_cases::with_backend(factory, [](btflod::Backend& be) {                               \
+      btflod::backend_cases::fmf_matches_cpu(be, btflod::DirectionParameterisation::elevated_concentric, \
+                                             btflod::AngularLookup::nearest);                            \
+    });                                                                                                  \
+  }                                                                                                      \
+  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) {                                     \
+    btflod::backend_cases::with_backend(factory, btflod::backend_cases::bsvtf_partial_cache);            \
+  }                                                                                                      \
+  TEST(Name##Backend, FeedbackDecodesToExpectedWords) {                                                  \
+    btflod::backend_cases::with_backend(factory, btflod::backend_cases::feedback_words);                 \
+  }                                                                                                      \
+  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) {                                            \
+    btflod::backend_cases::with_backend(factory, btflod::backend_cases::feedback_ring);                  \
+  }                                                                                                      \
+  TEST(Name##Backend, ColourPassFeedbackMatchesFeedbackPass) {                                           \
+    btflod::backend_cases::with_backend(factory, btflod::backend_cases::colour_pass_feedback);           \
+  }                                                                                                      \
+  TEST(Name##Backend, RejectsBadInput) {                                                                 \
+    btflod::backend_cases::with_backend(factory, btflod::backend_cases::rejects_bad_input);              \
+  }

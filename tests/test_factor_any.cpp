@@ -8,9 +8,12 @@
 #include "btflod/offline/factor/any_factorization.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
 #include "btflod/offline/metrics/btf_metrics.hpp"
+#include "test_factor_helpers.hpp"
 
 namespace btflod {
 namespace {
+
+using namespace btflod_test;
 
 BtfFloat tiny_btf() {
   return make_low_rank_btf(4, 4, small_direction_set(2, 2, "v"), small_direction_set(2, 3, "l"), 3, 0.5f, 0.01f, 2);
@@ -18,21 +21,10 @@ BtfFloat tiny_btf() {
 
 std::vector<AnyFactorization> all_kinds(const BtfFloat& btf) {
   std::vector<AnyFactorization> out;
-  FmfOptions fo;
-  fo.components = 2;
-  out.emplace_back(factorize_fmf(btf, fo).value());
-  PcaViewsOptions po;
-  po.views_per_group = 2;
-  po.components = 2;
-  out.emplace_back(factorize_pca_views(btf, po).value());
-  LaplacianPcaOptions lo;
-  lo.mip_count = 1;
-  lo.components = {2, 1, 1};
-  out.emplace_back(factorize_laplacian_pca(btf, lo).value());
-  LocalPcaOptions co;
-  co.clusters = 2;
-  co.components = 1;
-  out.emplace_back(factorize_local_pca(btf, co).value());
+  out.emplace_back(factorize_fmf(btf, fmf_options(2)).value());
+  out.emplace_back(factorize_pca_views(btf, pca_views_options(2, 2)).value());
+  out.emplace_back(factorize_laplacian_pca(btf, laplacian_options(1, {2, 1, 1})).value());
+  out.emplace_back(factorize_local_pca(btf, local_pca_options(2, 1)).value());
   return out;
 }
 

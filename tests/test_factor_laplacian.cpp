@@ -4,9 +4,12 @@
 
 #include "btflod/offline/factor/laplacian_pca.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
+#include "test_factor_helpers.hpp"
 
 namespace btflod {
 namespace {
+
+using namespace btflod_test;
 
 BtfFloat test_btf(int w = 8, int h = 6) {
   return make_low_rank_btf(w, h, small_direction_set(2, 3, "v"), small_direction_set(3, 3, "l"), 6, 0.8f, 0.02f, 11);
@@ -22,10 +25,7 @@ double max_abs_diff(const BtfFloat& a, const BtfFloat& b) {
 TEST(FactorLaplacian, FullPyramidAllComponentsReconstructsExactly) {
   const auto btf = test_btf();
   for (int mips : {1, 2, 3}) {
-    LaplacianPcaOptions o;
-    o.mip_count = mips;
-    o.components = {1000, 1000, 1000};  // clamped to full rank
-    auto p = factorize_laplacian_pca(btf, o);
+    auto p = factorize_laplacian_pca(btf, laplacian_options(mips, {1000, 1000, 1000}));  // clamped to full rank
     ASSERT_TRUE(p.ok()) << p.message();
     EXPECT_EQ(p->lambda_max(), mips);
     EXPECT_LT(max_abs_diff(btf, p->reconstruct(0.0f)), 2e-5) << mips;
@@ -36,10 +36,7 @@ TEST(FactorLaplacian, IntegerLodIsNearestUpsampledLowPass) {
   // With all components, λ = 1 drops band 0: the result is ↑F_1, i.e. the 3×3 box mean
   // around (2⌊x/2⌋, 2⌊y/2⌋) with clamped borders (YCbCr is linear, so this holds in RGB).
   const auto btf = test_btf();
-  LaplacianPcaOptions o;
-  o.mip_count = 2;
-  o.components = {1000, 1000, 1000};
-  auto p = factorize_laplacian_pca(btf, o);
+  auto p = factorize_laplacian_pca(btf, laplacian_options(2, {1000, 1000, 1000}));
   ASSERT_TRUE(p.ok());
   for (auto [x, y] : {std::pair{0, 0}, std::pair{3, 2}, std::pair{7, 5}}) {
     const glm::vec3 got = p->evaluate_measured(x, y, 2, 4, 1.0f);
@@ -93,18 +90,12 @@ TEST(FactorLaplacian, DefaultsAndPackedSizesOfSection33) {
 
 TEST(FactorLaplacian, RoundTripAndRejectsInconsistentMips) {
   const auto btf = test_btf();
-  LaplacianPcaOptions o;
-  o.mip_count = 2;
-  o.components = {3, 1, 1};
-  auto p = factorize_laplacian_pca(btf, o);
+  auto p = factorize_laplacian_pca(btf, laplacian_options(2, {3, 1, 1}));
   ASSERT_TRUE(p.ok());
-  const auto bytes = p->serialize();
-  auto back = LaplacianPca::deserialize(bytes);
-  ASSERT_TRUE(back.ok()) << back.message();
-  EXPECT_EQ(back->serialize(), bytes);
+  const auto back = expect_reads_back(*p);
+  ASSERT_TRUE(back);
   EXPECT_EQ(back->evaluate_measured(3, 3, 1, 2, 0.5f), p->evaluate_measured(3, 3, 1, 2, 0.5f));
-  for (size_t cut = 0; cut < bytes.size(); cut += 61)
-    EXPECT_FALSE(LaplacianPca::deserialize(std::span(bytes).first(cut)).ok());
+  expect_prefixes_refused<LaplacianPca>(p->serialize(), 61);
   LaplacianPcaOptions bad;
   bad.mip_count = 5;  // 8×6 has at most 3 halvings
   EXPECT_EQ(factorize_laplacian_pca(btf, bad).status(), Status::invalid_argument);

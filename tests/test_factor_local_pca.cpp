@@ -8,9 +8,12 @@
 #include "btflod/offline/factor/local_pca.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
 #include "btflod/offline/metrics/image_metrics.hpp"
+#include "test_factor_helpers.hpp"
 
 namespace btflod {
 namespace {
+
+using namespace btflod_test;
 
 // Texel t belongs to "material" t·3 / n (three vertical bands); each material is its own
 // mean plus a 2-dimensional subspace, so K = 3, C = 2 represents the BTF exactly.
@@ -35,11 +38,7 @@ double rms(const BtfFloat& a, const BtfFloat& b) { return rmse(a.samples(), b.sa
 
 TEST(FactorLocalPca, RecoversClustersAndIsExactOnUnionOfSubspaces) {
   const auto btf = three_subspace_btf();
-  LocalPcaOptions o;
-  o.clusters = 3;
-  o.components = 2;
-  o.quantize_8bit = false;
-  auto p = factorize_local_pca(btf, o);
+  auto p = factorize_local_pca(btf, local_pca_options(3, 2, false));
   ASSERT_TRUE(p.ok()) << p.message();
   EXPECT_LT(rms(btf, p->reconstruct()), 1e-4);
   // Each band maps to one cluster and the three bands to different clusters.
@@ -55,10 +54,7 @@ TEST(FactorLocalPca, RecoversClustersAndIsExactOnUnionOfSubspaces) {
 
 TEST(FactorLocalPca, ReclusteringLowersTheError) {
   const auto btf = make_low_rank_btf(12, 8, small_direction_set(2, 3), small_direction_set(3, 3), 10, 0.9f, 0.02f, 4);
-  LocalPcaOptions o;
-  o.clusters = 4;
-  o.components = 2;
-  o.quantize_8bit = false;
+  LocalPcaOptions o = local_pca_options(4, 2, false);
   o.max_iterations = 0;  // initial (nearest-seed) clusters only
   const double e0 = rms(btf, factorize_local_pca(btf, o)->reconstruct());
   o.max_iterations = 30;
@@ -73,10 +69,7 @@ TEST(FactorLocalPca, ReclusteringNeverIncreasesTheTotalError) {
   // (256 members), so both per-cluster PCA paths (exact Gram, randomised SVD with the previous
   // basis kept when it is better) take part.
   const auto btf = make_low_rank_btf(30, 20, small_direction_set(2, 3), small_direction_set(3, 3), 12, 0.85f, 0.05f, 8);
-  LocalPcaOptions o;
-  o.clusters = 3;
-  o.components = 3;
-  o.quantize_8bit = false;
+  LocalPcaOptions o = local_pca_options(3, 3, false);
   o.max_iterations = 30;
   o.svd.method = SvdMethod::randomized;  // large clusters: randomised even though d is small
   auto p = factorize_local_pca(btf, o);
@@ -91,12 +84,7 @@ TEST(FactorLocalPca, ReclusteringNeverIncreasesTheTotalError) {
   for (auto c : p->cluster_of) largest = std::max(largest, ++count[c]);
   EXPECT_GT(largest, 256u) << "the randomised per-cluster PCA path is not exercised";
   // The last entry is the error of the returned (unquantised) representation.
-  double sum = 0.0;
-  const auto rec = p->reconstruct();
-  for (size_t i = 0; i < rec.samples().size(); ++i) {
-    const double d = static_cast<double>(rec.samples()[i]) - btf.samples()[i];
-    sum += d * d;
-  }
+  const double sum = squared_error(p->reconstruct(), btf);
   if (p->iterations < o.max_iterations) {
     EXPECT_NEAR(sum, p->error_history.back(), 1e-3 * sum);
   }
@@ -104,10 +92,7 @@ TEST(FactorLocalPca, ReclusteringNeverIncreasesTheTotalError) {
 
 TEST(FactorLocalPca, EightBitQuantisationFoldsScalesIntoWeights) {
   const auto btf = three_subspace_btf();
-  LocalPcaOptions o;
-  o.clusters = 3;
-  o.components = 2;
-  o.quantize_8bit = false;
+  LocalPcaOptions o = local_pca_options(3, 2, false);
   auto f = factorize_local_pca(btf, o);
   o.quantize_8bit = true;
   auto q = factorize_local_pca(btf, o);
@@ -131,15 +116,10 @@ TEST(FactorLocalPca, EightBitQuantisationFoldsScalesIntoWeights) {
 
 TEST(FactorLocalPca, RoundTripAndRejectsBadClusterIds) {
   const auto btf = three_subspace_btf();
-  LocalPcaOptions o;
-  o.clusters = 3;
-  o.components = 2;
-  auto p = factorize_local_pca(btf, o);
+  auto p = factorize_local_pca(btf, local_pca_options(3, 2));
   ASSERT_TRUE(p.ok());
-  const auto bytes = p->serialize();
-  auto back = LocalPca::deserialize(bytes);
-  ASSERT_TRUE(back.ok()) << back.message();
-  EXPECT_EQ(back->serialize(), bytes);
+  const auto back = expect_reads_back(*p);
+  ASSERT_TRUE(back);
   AngularSample l{{0, 1, 2}, {0.5f, 0.5f, 0.0f}}, v{{3, 3, 3}, {1.0f, 0.0f, 0.0f}};
   EXPECT_EQ(back->evaluate(5, 5, l, v), p->evaluate(5, 5, l, v));
   LocalPca bad = *p;
@@ -147,8 +127,7 @@ TEST(FactorLocalPca, RoundTripAndRejectsBadClusterIds) {
   auto r = LocalPca::deserialize(bad.serialize());
   EXPECT_FALSE(r.ok());
   EXPECT_NE(r.message().find("texel 7"), std::string::npos);
-  for (size_t cut = 0; cut < bytes.size(); cut += 89)
-    EXPECT_FALSE(LocalPca::deserialize(std::span(bytes).first(cut)).ok());
+  expect_prefixes_refused<LocalPca>(p->serialize(), 89);
   LocalPcaOptions too_many;
   too_many.clusters = 1000;
   EXPECT_EQ(factorize_local_pca(btf, too_many).status(), Status::invalid_argument);

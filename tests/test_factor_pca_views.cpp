@@ -5,21 +5,15 @@
 
 #include "btflod/offline/factor/low_rank_btf.hpp"
 #include "btflod/offline/factor/pca_views.hpp"
+#include "test_factor_helpers.hpp"
 
 namespace btflod {
 namespace {
 
+using namespace btflod_test;
+
 BtfFloat test_btf() {
   return make_low_rank_btf(8, 6, small_direction_set(3, 3, "v"), small_direction_set(3, 4, "l"), 10, 0.7f, 0.01f, 5);
-}
-
-double sq_error(const BtfFloat& a, const BtfFloat& b) {
-  double s = 0.0;
-  for (size_t i = 0; i < a.samples().size(); ++i) {
-    const double d = static_cast<double>(a.samples()[i]) - b.samples()[i];
-    s += d * d;
-  }
-  return s;
 }
 
 TEST(FactorPcaViews, KEqualsAllIsPcaBtf) {
@@ -38,9 +32,7 @@ TEST(FactorPcaViews, KEqualsAllIsPcaBtf) {
   a.colwise() -= mean;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(a);
   for (int comps : {2, 5}) {
-    PcaViewsOptions all;
-    all.views_per_group = 0;  // all views
-    all.components = comps;
+    PcaViewsOptions all = pca_views_options(0, comps);  // all views
     auto p0 = factorize_pca_views(btf, all);
     all.views_per_group = static_cast<int>(nv);
     auto p1 = factorize_pca_views(btf, all);
@@ -54,15 +46,13 @@ TEST(FactorPcaViews, KEqualsAllIsPcaBtf) {
     double tail = 0.0;
     for (Eigen::Index i = comps; i < svd.singularValues().size(); ++i)
       tail += svd.singularValues()[i] * svd.singularValues()[i];
-    EXPECT_NEAR(sq_error(btf, p0->reconstruct()) / tail, 1.0, 2e-3) << comps;
+    EXPECT_NEAR(squared_error(btf, p0->reconstruct()) / tail, 1.0, 2e-3) << comps;
   }
 }
 
 TEST(FactorPcaViews, KOneIsPcaRfOneGroupPerView) {
   const auto btf = test_btf();
-  PcaViewsOptions o;
-  o.views_per_group = 1;
-  o.components = 3;
+  PcaViewsOptions o = pca_views_options(1, 3);
   auto p = factorize_pca_views(btf, o);
   ASSERT_TRUE(p.ok());
   ASSERT_EQ(p->groups.size(), btf.view_count());
@@ -74,44 +64,29 @@ TEST(FactorPcaViews, KOneIsPcaRfOneGroupPerView) {
   o.views_per_group = 0;
   auto all = factorize_pca_views(btf, o);
   EXPECT_GT(p->size_bytes(), all->size_bytes());
-  EXPECT_LT(sq_error(btf, p->reconstruct()), sq_error(btf, all->reconstruct()));
+  EXPECT_LT(squared_error(btf, p->reconstruct()), squared_error(btf, all->reconstruct()));
 }
 
 TEST(FactorPcaViews, RaggedLastGroupAndFullRankIsExact) {
-  const auto btf = test_btf();  // 7 views, k = 3 → groups of 3, 3, 1
-  PcaViewsOptions o;
-  o.views_per_group = 3;
-  o.components = 48;  // ≥ texel count: exact
-  auto p = factorize_pca_views(btf, o);
+  const auto btf = test_btf();                                  // 7 views, k = 3 → groups of 3, 3, 1
+  auto p = factorize_pca_views(btf, pca_views_options(3, 48));  // C ≥ texel count: exact
   ASSERT_TRUE(p.ok());
   ASSERT_EQ(p->groups.size(), 3u);
   EXPECT_EQ(p->groups[2].view_count, 1u);
-  EXPECT_LT(sq_error(btf, p->reconstruct()), 1e-6);
+  EXPECT_LT(squared_error(btf, p->reconstruct()), 1e-6);
   AngularSample light{{1, 2, 3}, {0.2f, 0.3f, 0.5f}}, view{{6, 2, 4}, {0.5f, 0.25f, 0.25f}};
-  const glm::vec3 got = p->evaluate(5, 3, light, view);
-  for (int c = 0; c < 3; ++c) {
-    double want = 0.0;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        want += view.weight[i] * light.weight[j] * btf.value(5, 3, view.index[i], light.index[j], c);
-    EXPECT_NEAR(got[c], want, 1e-4);
-  }
+  expect_nine_tap_blend(btf, 5, 3, light, view, p->evaluate(5, 3, light, view));
 }
 
 TEST(FactorPcaViews, RoundTripAndRejectsBadGrouping) {
   const auto btf = test_btf();
-  PcaViewsOptions o;
-  o.views_per_group = 2;
-  o.components = 3;
-  auto p = factorize_pca_views(btf, o);
+  auto p = factorize_pca_views(btf, pca_views_options(2, 3));
   ASSERT_TRUE(p.ok());
-  const auto bytes = p->serialize();
-  auto back = PcaViews::deserialize(bytes);
-  ASSERT_TRUE(back.ok()) << back.message();
-  EXPECT_EQ(back->serialize(), bytes);
+  const auto back = expect_reads_back(*p);
+  ASSERT_TRUE(back);
   EXPECT_EQ(back->evaluate_measured(1, 2, 3, 4), p->evaluate_measured(1, 2, 3, 4));
-  for (size_t cut = 0; cut < bytes.size(); cut += 97)
-    EXPECT_FALSE(PcaViews::deserialize(std::span(bytes).first(cut)).ok());
+  const auto bytes = p->serialize();
+  expect_prefixes_refused<PcaViews>(bytes, 97);
   // A file of another kind is refused by kind, not misparsed.
   std::vector<uint8_t> other = bytes;
   other[12] = 1;  // kind field → FMF; CRCs cover payloads only

@@ -79,13 +79,17 @@ configure_and_build() {  # dir, extra cmake args... (BTFLOD_TARGET: build only t
   cmake --build "$dir" -j "$JOBS" ${BTFLOD_TARGET:+--target "$BTFLOD_TARGET"}
 }
 
+build_sample() {  # target: the one sample target, in a release build without tests, benchmarks or fuzzers
+  BTFLOD_TARGET=$1 configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
+    -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+}
+
 cmd=${1:-}
 shift || true
 case "$cmd" in
   demo)
     install_packages
-    BTFLOD_TARGET=btflod-demo configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
-      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    build_sample btflod-demo
     mkdir -p out
     "$BUILD"/samples/demo/btflod-demo --out out/demo "$@"
     ;;
@@ -155,8 +159,7 @@ case "$cmd" in
     ;;
   web)
     install_packages
-    BTFLOD_TARGET=btflod-web-tool configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
-      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    build_sample btflod-web-tool
     samples/web/run_web.sh serve --tool "$BUILD"/samples/web/btflod-web-tool --work "$BUILD"/web "$@"
     ;;
   svd-compare)
@@ -171,8 +174,7 @@ case "$cmd" in
     ;;
   raytrace)
     install_packages
-    BTFLOD_TARGET=btflod-raytrace configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
-      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    build_sample btflod-raytrace
     mkdir -p out
     "$BUILD"/samples/raytrace/btflod-raytrace --out out/raytrace "$@"
     ;;
@@ -180,8 +182,7 @@ case "$cmd" in
     install_packages
     minutes=${1:-10}
     case "$minutes" in '' | *[!0-9]*) echo "usage: ./run.sh soak [minutes]" >&2; exit 2 ;; esac
-    BTFLOD_TARGET=btflod-soak configure_and_build "$BUILD" -DBTFLOD_BUILD_SAMPLES=ON -DBTFLOD_BUILD_TESTS=OFF \
-      -DBTFLOD_BUILD_BENCH=OFF -DBTFLOD_BUILD_FUZZ=OFF -DBTFLOD_SANITIZE=OFF
+    build_sample btflod-soak
     mkdir -p out
     status=0
     "$BUILD"/samples/tools/soak/btflod-soak --minutes "$minutes" --json out/soak.json || status=1

@@ -94,6 +94,16 @@ inline void expect_quad_feedback(std::span<const uint32_t> words, int width, int
   EXPECT_EQ(mismatches, 0) << what;
 }
 
+/// Ends the frame, reads its colour target into `colour`, waits for the GPU and takes the
+/// frame's 32 × 32 feedback words into `fb`; every step must succeed.
+inline void end_frame_and_read_back(Backend& be, Image<float>& colour, FeedbackFrame& fb) {
+  ASSERT_EQ(be.end_frame(), Status::success);
+  ASSERT_EQ(be.read_color(colour.view()), Status::success);
+  ASSERT_EQ(be.wait_idle(), Status::success);
+  ASSERT_TRUE(be.poll_feedback(fb));
+  ASSERT_EQ(fb.words.size(), 32u * 32u);
+}
+
 /// Mean and spread of the rgb values: a blank or constant render must not pass.
 inline void expect_has_content(const Image<float>& img) {
   double sum = 0, sq = 0;
@@ -132,6 +142,14 @@ inline void fmf_matches_cpu(Backend& be, DirectionParameterisation p, AngularLoo
               p == DirectionParameterisation::parabolic ? "parabolic" : "concentric",
               lookup == AngularLookup::barycentric ? "9-tap" : "nearest", psnr);
   EXPECT_GE(psnr, 40.0);
+}
+
+inline void fmf_parabolic_9tap(Backend& be) {
+  fmf_matches_cpu(be, DirectionParameterisation::parabolic, AngularLookup::barycentric);
+}
+
+inline void fmf_concentric_nearest(Backend& be) {
+  fmf_matches_cpu(be, DirectionParameterisation::elevated_concentric, AngularLookup::nearest);
 }
 
 /// BSVTF through a partially filled cache: raw component group 0 (debug view) and the shaded
@@ -256,11 +274,7 @@ inline void colour_pass_feedback(Backend& be) {
     FeedbackFrame fb;
     ASSERT_EQ(be.begin_frame(desc), Status::success);
     ASSERT_EQ(be.draw(ShaderProgram::bsvtf_feedback, *mesh, *mat, params), Status::success);
-    ASSERT_EQ(be.end_frame(), Status::success);
-    ASSERT_EQ(be.read_color(colour.view()), Status::success);
-    ASSERT_EQ(be.wait_idle(), Status::success);
-    ASSERT_TRUE(be.poll_feedback(fb));
-    ASSERT_EQ(fb.words.size(), 32u * 32u);
+    ASSERT_NO_FATAL_FAILURE(end_frame_and_read_back(be, colour, fb));
     const std::vector<uint32_t> words(fb.words.begin(), fb.words.end());
     // The same view through bsvtf and a separate feedback pass (lod.y = log2 8) whose projection
     // is shifted so that each texel centre sees pixel (sx, sy) of its block (y from the top).
@@ -274,11 +288,7 @@ inline void colour_pass_feedback(Backend& be) {
     ASSERT_EQ(be.begin_frame(desc), Status::success);
     ASSERT_EQ(be.draw_feedback(*mesh, jittered), Status::success);
     ASSERT_EQ(be.draw(ShaderProgram::bsvtf, *mesh, *mat, params), Status::success);
-    ASSERT_EQ(be.end_frame(), Status::success);
-    ASSERT_EQ(be.read_color(plain.view()), Status::success);
-    ASSERT_EQ(be.wait_idle(), Status::success);
-    ASSERT_TRUE(be.poll_feedback(fb));
-    ASSERT_EQ(fb.words.size(), 32u * 32u);
+    ASSERT_NO_FATAL_FAILURE(end_frame_and_read_back(be, plain, fb));
     const std::string sample = "sample (" + std::to_string(sx) + ", " + std::to_string(sy) + ") ";
     expect_quad_feedback(words, kSize, kSize, 8, 8, static_cast<int>(sx), static_cast<int>(sy), 16 * 32,
                          sample + "colour pass");
@@ -375,31 +385,15 @@ inline void rejects_bad_input(Backend& be) {
 
 }  // namespace btflod::backend_cases
 
-#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                         \
-  TEST(Name##Backend, FmfParabolic9TapMatchesCpuReference) {                                             \
-    btflod::backend_cases::with_backend(factory, [](btflod::Backend& be) {                               \
-      btflod::backend_cases::fmf_matches_cpu(be, btflod::DirectionParameterisation::parabolic,           \
-                                             btflod::AngularLookup::barycentric);                        \
-    });                                                                                                  \
-  }                                                                                                      \
-  TEST(Name##Backend, FmfConcentricNearestMatchesCpuReference) {                                         \
-    btflod::backend_cases::with_backend(factory, [](btflod::Backend& be) {                               \
-      btflod::backend_cases::fmf_matches_cpu(be, btflod::DirectionParameterisation::elevated_concentric, \
-                                             btflod::AngularLookup::nearest);                            \
-    });                                                                                                  \
-  }                                                                                                      \
-  TEST(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference) {                                     \
-    btflod::backend_cases::with_backend(factory, btflod::backend_cases::bsvtf_partial_cache);            \
-  }                                                                                                      \
-  TEST(Name##Backend, FeedbackDecodesToExpectedWords) {                                                  \
-    btflod::backend_cases::with_backend(factory, btflod::backend_cases::feedback_words);                 \
-  }                                                                                                      \
-  TEST(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest) {                                            \
-    btflod::backend_cases::with_backend(factory, btflod::backend_cases::feedback_ring);                  \
-  }                                                                                                      \
-  TEST(Name##Backend, ColourPassFeedbackMatchesFeedbackPass) {                                           \
-    btflod::backend_cases::with_backend(factory, btflod::backend_cases::colour_pass_feedback);           \
-  }                                                                                                      \
-  TEST(Name##Backend, RejectsBadInput) {                                                                 \
-    btflod::backend_cases::with_backend(factory, btflod::backend_cases::rejects_bad_input);              \
-  }
+// One test of the suite `suite` running backend_cases::`test_case` on a backend from `factory`.
+#define BTFLOD_BACKEND_TEST_CASE(suite, test, factory, test_case) \
+  TEST(suite, test) { btflod::backend_cases::with_backend(factory, btflod::backend_cases::test_case); }
+
+#define BTFLOD_BACKEND_TEST_CASES(Name, factory)                                                                     \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, FmfParabolic9TapMatchesCpuReference, factory, fmf_parabolic_9tap)          \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, FmfConcentricNearestMatchesCpuReference, factory, fmf_concentric_nearest)  \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, BsvtfThroughPartialCacheMatchesCpuReference, factory, bsvtf_partial_cache) \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, FeedbackDecodesToExpectedWords, factory, feedback_words)                   \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, FeedbackRingNeverWaitsAndDropsOldest, factory, feedback_ring)              \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, ColourPassFeedbackMatchesFeedbackPass, factory, colour_pass_feedback)      \
+  BTFLOD_BACKEND_TEST_CASE(Name##Backend, RejectsBadInput, factory, rejects_bad_input)

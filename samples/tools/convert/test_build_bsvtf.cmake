@@ -5,20 +5,13 @@
 # factorised on ln(x + 0.05) with the rank chosen from a displayed-SSIM target builds a container
 # that says so (`values log`) and decodes completely.
 # Run with -DCONVERT=<btflod-convert> -DOUT=<scratch dir>.
+include(${CMAKE_CURRENT_LIST_DIR}/convert_test_synth.cmake)
 set(btf ${OUT}/build_test.btf)
 set(fmf ${OUT}/build_test.fmf)
 foreach(f ${btf} ${fmf} ${OUT}/build_p.bsvtf ${OUT}/build_s.bsvtf)
   file(REMOVE ${f})
 endforeach()
-execute_process(COMMAND ${CONVERT} synth --material leather --size 32 --seed 3 --quiet -o ${btf}
-                RESULT_VARIABLE rc ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  if(err MATCHES "has no Bonn")
-    message(STATUS "Bonn writer not compiled in: ${err}")
-    return()
-  endif()
-  message(FATAL_ERROR "synth failed (${rc}): ${err}")
-endif()
+convert_synth(Bonn "Bonn writer not compiled in" "synth failed" --material leather --size 32 --seed 3 --quiet -o ${btf})
 execute_process(COMMAND ${CONVERT} factor ${btf} ${fmf} --method fmf --components 8 --quiet
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)

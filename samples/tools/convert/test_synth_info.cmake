@@ -1,16 +1,10 @@
 # convert_synth_info: synthesise a tiny material with btflod-convert, then read it back with
 # `info --values`. Run with -DCONVERT=<btflod-convert> -DOUT=<scratch dir>.
+include(${CMAKE_CURRENT_LIST_DIR}/convert_test_synth.cmake)
 set(out ${OUT}/synth_test.btf)
 file(REMOVE ${out})
-execute_process(COMMAND ${CONVERT} synth --material tiles --size 8 --seed 3 --components 8 --quiet -o ${out}
-                RESULT_VARIABLE rc ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  if(err MATCHES "has no Bonn")
-    message(STATUS "Bonn writer not compiled in; synth checked up to the writer: ${err}")
-    return()
-  endif()
-  message(FATAL_ERROR "synth failed (${rc}): ${err}")
-endif()
+convert_synth(Bonn "Bonn writer not compiled in; synth checked up to the writer" "synth failed"
+              --material tiles --size 8 --seed 3 --components 8 --quiet -o ${out})
 execute_process(COMMAND ${CONVERT} info --values ${out} RESULT_VARIABLE rc OUTPUT_VARIABLE info ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "info failed (${rc}): ${err}")
@@ -27,15 +21,8 @@ endif()
 # The same through a UBO2003-style PNG folder (any output path not ending in .btf).
 set(folder ${OUT}/synth_test_folder)
 file(REMOVE_RECURSE ${folder})
-execute_process(COMMAND ${CONVERT} synth --material cloth --size 4 --seed 5 --quiet -o ${folder}
-                RESULT_VARIABLE rc ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  if(err MATCHES "has no UBO2003")
-    message(STATUS "folder writer not compiled in: ${err}")
-    return()
-  endif()
-  message(FATAL_ERROR "synth to a folder failed (${rc}): ${err}")
-endif()
+convert_synth(UBO2003 "folder writer not compiled in" "synth to a folder failed"
+              --material cloth --size 4 --seed 5 --quiet -o ${folder})
 execute_process(COMMAND ${CONVERT} info ${folder} RESULT_VARIABLE rc OUTPUT_VARIABLE info ERROR_VARIABLE err)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "info on the folder failed (${rc}): ${err}")

@@ -55,31 +55,6 @@ in vec3 p_world; in vec3 p_normal; in vec4 p_tangent; in vec2 p_uv;
 layout(location = 0) out vec4 frag_color;
 )";
 
-const char* kEngineFragmentMain = R"(
-void main() {
-  vec3 wl; vec3 wv;
-  mat_local_dirs(p_normal, p_tangent, normalize(surface.sun_direction.xyz), normalize(camera.eye.xyz - p_world), wl, wv);
-  vec3 rho = surface.layers.y == 1u ? mat_bsvtf(p_uv, wl, wv) : mat_fmf(p_uv, wl, wv);
-  frag_color = vec4(rho * surface.sun_radiance.rgb, 1.0);
-}
-)";
-
-GlslFunctionOptions engine_options() {
-  GlslFunctionOptions o;
-  o.prefix = "mat_";
-  const ShaderBinding roles[] = {ShaderBinding::eigen_abrdfs, ShaderBinding::angular_index,
-                                 ShaderBinding::angular_weight, ShaderBinding::eigen_textures,
-                                 ShaderBinding::page_table};
-  uint32_t binding = 8;
-  for (ShaderBinding r : roles) o.resource(r).binding = binding++;
-  o.resource(ShaderBinding::tile_cache) = GlslResource{"g_vt_cache", kEngineCacheBinding, 0, false};
-  o.uniforms.vt_extent = "surface.vt_extent";
-  o.uniforms.lod_bias = "surface.lod.x";
-  o.uniforms.first_layer = "surface.layers.x";
-  o.uniforms.component_count = "surface.vt_extent.w";
-  return o;
-}
-
 GLuint texture_of(const GlslFunctionSource& fn, ShaderBinding role) {
   for (const GlslSamplerUse& s : fn.samplers)
     if (s.role == role) return s.binding;
@@ -118,7 +93,7 @@ TEST(GoldenEngineGl, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   if (!backend) GTEST_SKIP() << "GPU API unavailable: " << backend.message();
 
   const ShaderConfig config = golden_config();
-  const GlslFunctionOptions options = engine_options();
+  const GlslFunctionOptions options = engine_function_options(8, 0, kEngineCacheBinding);
   Result<GlslFunctionSource> fn = generate_functions(
       glsl_pieces({GlslPiece::fmf, GlslPiece::bsvtf, GlslPiece::local_frame}), GlslTarget::gl450_core, config, options);
   ASSERT_TRUE(fn.ok()) << fn.message();
@@ -132,23 +107,20 @@ TEST(GoldenEngineGl, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   ASSERT_TRUE(program.ok()) << program.message() << "\n" << src.fragment;
 
   // Material (FMF textures and U') and the partially filled tile cache of the golden scene.
-  const Material m = make_material(config, kTexture, kTexture);
-  PartialCacheScene vt;
-  build_partial_cache(config, m, vt);
+  const EngineMaterial mat(config);
   if (HasFatalFailure()) return;
-  FmfMaterialData d = m.data(true);
-  const std::vector<float> u = pack_eigen_abrdfs_rgba(d);
-  const std::vector<float> v = pack_eigen_textures_rgba(d.eigen_textures);
+  const Material& m = mat.m;
+  const PartialCacheScene& vt = mat.vt;
   GLuint tex[4] = {};
   glCreateTextures(GL_TEXTURE_2D_ARRAY, 4, tex);
   glTextureStorage3D(tex[0], 1, GL_RGBA32F, static_cast<GLsizei>(m.lights), static_cast<GLsizei>(m.views),
                      static_cast<GLsizei>(config.components));
   glTextureSubImage3D(tex[0], 0, 0, 0, 0, static_cast<GLsizei>(m.lights), static_cast<GLsizei>(m.views),
-                      static_cast<GLsizei>(config.components), GL_RGBA, GL_FLOAT, u.data());
+                      static_cast<GLsizei>(config.components), GL_RGBA, GL_FLOAT, mat.u.data());
   samples::set_gl_sampling(tex[0], GL_NEAREST, GL_NEAREST, GL_CLAMP_TO_EDGE);
   const GLsizei groups = static_cast<GLsizei>(config.component_groups());
   glTextureStorage3D(tex[1], 1, GL_RGBA32F, kTexture, kTexture, groups);
-  glTextureSubImage3D(tex[1], 0, 0, 0, 0, kTexture, kTexture, groups, GL_RGBA, GL_FLOAT, v.data());
+  glTextureSubImage3D(tex[1], 0, 0, 0, 0, kTexture, kTexture, groups, GL_RGBA, GL_FLOAT, mat.v.data());
   samples::set_gl_sampling(tex[1], GL_LINEAR, GL_LINEAR, GL_REPEAT);
   const VirtualTextureConfig& vc = config.vt;
   glTextureStorage3D(tex[2], 1, GL_RGBA16F, static_cast<GLsizei>(vc.cache_width()),
@@ -168,7 +140,7 @@ TEST(GoldenEngineGl, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
     glTextureSubImage3D(tex[3], static_cast<GLint>(w.page_mip), static_cast<GLint>(w.tile.x),
                         static_cast<GLint>(w.tile.y), static_cast<GLint>(w.tile.texture), 1, 1, 1, GL_RED_INTEGER,
                         GL_UNSIGNED_INT, &w.entry);
-  const samples::GlAngularTables tables = samples::create_gl_angular_tables(d.angular);
+  const samples::GlAngularTables tables = samples::create_gl_angular_tables(mat.d.angular);
   // Bind each texture where the options put it (the engine's own table).
   glBindTextureUnit(texture_of(*fn, ShaderBinding::eigen_abrdfs), tex[0]);
   glBindTextureUnit(texture_of(*fn, ShaderBinding::eigen_textures), tex[1]);
@@ -225,28 +197,7 @@ TEST(GoldenEngineGl, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   const Image<float> bsvtf_img = render(*program, vao, fbo, ubo[0], ubo[1]);
   ASSERT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR));
 
-  const Image<float> fmf_ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
-  });
-  const Image<float> bsvtf_ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    for (uint32_t k = 0; k < vt.set.texture_count(); ++k) {
-      float v4[4];
-      vt.cpu->sample(*vt.cache, k, h.texcoord.x, h.texcoord.y, v4);
-      for (int c = 0; c < 4; ++c) out[4 * k + c] = v4[c];
-    }
-  });
-  const Image<float> bsvtf_wrong = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    for (uint32_t k = 0; k < vt.set.texture_count(); ++k) vt.pyr->sample(k, 2, h.texcoord.x, h.texcoord.y, out + 4 * k);
-  });
-  expect_content(fmf_img);
-  expect_content(bsvtf_img);
-  const double p_fmf = psnr_rgb(fmf_ref, fmf_img), p_bsvtf = psnr_rgb(bsvtf_ref, bsvtf_img);
-  const double p_wrong = psnr_rgb(bsvtf_wrong, bsvtf_img);
-  std::printf("[ engine-style GL shader ] fmf %.2f dB, bsvtf %.2f dB vs CPU reference (bsvtf vs finest-only %.2f dB)\n",
-              p_fmf, p_bsvtf, p_wrong);
-  EXPECT_GE(p_fmf, 40.0);
-  EXPECT_GE(p_bsvtf, 40.0);
-  EXPECT_LT(p_wrong, p_bsvtf - 3.0);
+  expect_engine_images_match("GL", m, params, vt, fmf_img, bsvtf_img);
 
   glDeleteFramebuffers(1, &fbo);
   glDeleteTextures(1, &color);

@@ -62,57 +62,14 @@ layout(location = 2) in vec4 p_tangent; layout(location = 3) in vec2 p_uv;
 layout(location = 0) out vec4 frag_color;
 )";
 
-const char* kEngineFragmentMain = R"(
-void main() {
-  vec3 wl; vec3 wv;
-  mat_local_dirs(p_normal, p_tangent, normalize(surface.sun_direction.xyz), normalize(camera.eye.xyz - p_world), wl, wv);
-  vec3 rho = surface.layers.y == 1u ? mat_bsvtf(p_uv, wl, wv) : mat_fmf(p_uv, wl, wv);
-  frag_color = vec4(rho * surface.sun_radiance.rgb, 1.0);
-}
-)";
-
-GlslFunctionOptions engine_options() {
-  GlslFunctionOptions o;
-  o.prefix = "mat_";
-  const ShaderBinding roles[] = {ShaderBinding::eigen_abrdfs, ShaderBinding::angular_index,
-                                 ShaderBinding::angular_weight, ShaderBinding::eigen_textures,
-                                 ShaderBinding::page_table};
-  uint32_t binding = 2;
-  for (ShaderBinding r : roles) {
-    o.resource(r).binding = binding++;
-    o.resource(r).set = kMaterialSet;
-  }
-  o.resource(ShaderBinding::tile_cache) = GlslResource{"g_vt_cache", kEngineCacheBinding, kMaterialSet, false};
-  o.uniforms.vt_extent = "surface.vt_extent";
-  o.uniforms.lod_bias = "surface.lod.x";
-  o.uniforms.first_layer = "surface.layers.x";
-  o.uniforms.component_count = "surface.vt_extent.w";
-  return o;
-}
-
 #define VK_OK(expr) ASSERT_EQ((expr), VK_SUCCESS) << #expr
 
 // A minimal engine-side Vulkan context: device, one queue, host-visible resources, one-shot
 // submissions. Everything is destroyed by the destructor.
-struct Engine {
-  VkInstance instance = VK_NULL_HANDLE;
-  VkPhysicalDevice physical = VK_NULL_HANDLE;
-  VkPhysicalDeviceMemoryProperties memory{};
-  uint32_t family = 0;
-  VkDevice device = VK_NULL_HANDLE;
-  VkQueue queue = VK_NULL_HANDLE;
+struct Engine : samples::vk_detail::VkDeviceContext {
   VkCommandPool pool = VK_NULL_HANDLE;
-  struct Tex {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory mem = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
-    uint32_t mips = 1, layers = 1;
-  };
-  struct Buffer {
-    VkBuffer buffer = VK_NULL_HANDLE;
-    VkDeviceMemory mem = VK_NULL_HANDLE;
-    void* mapped = nullptr;
-  };
+  using Tex = samples::vk_detail::Texture;
+  using Buffer = samples::vk_detail::Buffer;
   std::deque<Tex> images;
   std::deque<Buffer> buffers;  // deque: references stay valid
   std::vector<VkSampler> samplers;
@@ -120,15 +77,8 @@ struct Engine {
   ~Engine() {
     if (device) {
       vkDeviceWaitIdle(device);
-      for (Tex& i : images) {
-        vkDestroyImageView(device, i.view, nullptr);
-        vkDestroyImage(device, i.image, nullptr);
-        vkFreeMemory(device, i.mem, nullptr);
-      }
-      for (Buffer& b : buffers) {
-        vkDestroyBuffer(device, b.buffer, nullptr);
-        vkFreeMemory(device, b.mem, nullptr);
-      }
+      for (Tex& i : images) samples::vk_detail::destroy_texture(device, i);
+      for (Buffer& b : buffers) samples::vk_detail::destroy_buffer(device, b);
       for (VkSampler s : samplers) vkDestroySampler(device, s, nullptr);
       vkDestroyCommandPool(device, pool, nullptr);
       vkDestroyDevice(device, nullptr);
@@ -138,106 +88,29 @@ struct Engine {
 
   // Returns "" on success, else why there is no usable device.
   std::string create() {
-    VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-    app.pApplicationName = "engine";
-    app.apiVersion = VK_API_VERSION_1_3;
-    VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-    ici.pApplicationInfo = &app;
-    if (vkCreateInstance(&ici, nullptr, &instance) != VK_SUCCESS) return "vkCreateInstance failed (no Vulkan driver?)";
-    uint32_t count = 0;
-    vkEnumeratePhysicalDevices(instance, &count, nullptr);
-    std::vector<VkPhysicalDevice> devices(count);
-    vkEnumeratePhysicalDevices(instance, &count, devices.data());
-    for (VkPhysicalDevice d : devices) {
-      VkPhysicalDeviceProperties props;
-      vkGetPhysicalDeviceProperties(d, &props);
-      if (props.apiVersion < VK_API_VERSION_1_3) continue;
-      uint32_t qn = 0;
-      vkGetPhysicalDeviceQueueFamilyProperties(d, &qn, nullptr);
-      std::vector<VkQueueFamilyProperties> qs(qn);
-      vkGetPhysicalDeviceQueueFamilyProperties(d, &qn, qs.data());
-      for (uint32_t q = 0; q < qn && !physical; ++q)
-        if (qs[q].queueFlags & VK_QUEUE_GRAPHICS_BIT) {
-          physical = d;
-          family = q;
-        }
-      if (physical) break;
-    }
-    if (!physical) return "no Vulkan 1.3 device with a graphics queue";
-    vkGetPhysicalDeviceMemoryProperties(physical, &memory);
-    const float priority = 1.0f;
-    VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-    qci.queueFamilyIndex = family;
-    qci.queueCount = 1;
-    qci.pQueuePriorities = &priority;
-    VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
-    f13.dynamicRendering = VK_TRUE;
-    VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-    dci.pNext = &f13;
-    dci.queueCreateInfoCount = 1;
-    dci.pQueueCreateInfos = &qci;
-    if (vkCreateDevice(physical, &dci, nullptr, &device) != VK_SUCCESS) return "vkCreateDevice failed";
-    vkGetDeviceQueue(device, family, 0, &queue);
+    if (VoidResult r = samples::vk_detail::create_vk13_device("engine", *this); !r) return r.message();
     VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    pci.queueFamilyIndex = family;
+    pci.queueFamilyIndex = queue_family;
     if (vkCreateCommandPool(device, &pci, nullptr, &pool) != VK_SUCCESS) return "vkCreateCommandPool failed";
     return "";
-  }
-
-  uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags want) const {
-    for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
-      if ((bits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & want) == want) return i;
-    return UINT32_MAX;
   }
 
   // A host-visible, coherent, mapped buffer.
   Buffer& buffer(VkDeviceSize size, VkBufferUsageFlags usage) {
     Buffer b;
-    VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
-    bci.size = size;
-    bci.usage = usage;
-    EXPECT_EQ(vkCreateBuffer(device, &bci, nullptr, &b.buffer), VK_SUCCESS);
-    VkMemoryRequirements req;
-    vkGetBufferMemoryRequirements(device, b.buffer, &req);
-    VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    mai.allocationSize = req.size;
-    mai.memoryTypeIndex =
-        memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-    EXPECT_EQ(vkAllocateMemory(device, &mai, nullptr, &b.mem), VK_SUCCESS);
-    vkBindBufferMemory(device, b.buffer, b.mem, 0);
-    vkMapMemory(device, b.mem, 0, VK_WHOLE_SIZE, 0, &b.mapped);
+    const VoidResult r = samples::vk_detail::create_host_buffer(device, memory, b, size, usage);
+    EXPECT_TRUE(r.ok()) << r.message();
     buffers.push_back(b);
     return buffers.back();
   }
 
-  // A 2D array image in GENERAL layout (transitioned by the first one-shot that touches it).
+  // A 2D array image (a 2D one for a colour attachment) in layout UNDEFINED: to_general() moves it.
   Tex image(VkFormat format, uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, VkImageUsageFlags usage) {
     Tex i;
-    i.mips = mips;
-    i.layers = layers;
-    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ci.imageType = VK_IMAGE_TYPE_2D;
-    ci.format = format;
-    ci.extent = {w, h, 1};
-    ci.mipLevels = mips;
-    ci.arrayLayers = layers;
-    ci.samples = VK_SAMPLE_COUNT_1_BIT;
-    ci.tiling = VK_IMAGE_TILING_OPTIMAL;
-    ci.usage = usage | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-    EXPECT_EQ(vkCreateImage(device, &ci, nullptr, &i.image), VK_SUCCESS);
-    VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(device, i.image, &req);
-    VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    mai.allocationSize = req.size;
-    mai.memoryTypeIndex = memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    EXPECT_EQ(vkAllocateMemory(device, &mai, nullptr, &i.mem), VK_SUCCESS);
-    vkBindImageMemory(device, i.image, i.mem, 0);
-    VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vci.image = i.image;
-    vci.viewType = (usage & VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT) ? VK_IMAGE_VIEW_TYPE_2D : VK_IMAGE_VIEW_TYPE_2D_ARRAY;
-    vci.format = format;
-    vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, mips, 0, layers};
-    EXPECT_EQ(vkCreateImageView(device, &vci, nullptr, &i.view), VK_SUCCESS);
+    const VoidResult r = samples::vk_detail::create_image(device, memory, i, format, w, h, layers, mips,
+                                                          usage | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+                                                          (usage & VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT) == 0);
+    EXPECT_TRUE(r.ok()) << r.message();
     images.push_back(i);
     return i;
   }
@@ -254,49 +127,21 @@ struct Engine {
     return s;
   }
 
-  static void barrier(VkCommandBuffer cmd) {
-    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
-    mb.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
-    mb.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 1, &mb, 0,
-                         nullptr, 0, nullptr);
-  }
-
   static void to_general(VkCommandBuffer cmd, const Tex& i) {
-    VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-    b.srcAccessMask = 0;
-    b.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = i.image;
-    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, i.mips, 0, i.layers};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, nullptr, 0,
-                         nullptr, 1, &b);
+    samples::vk_detail::to_general_layout(cmd, i.image, samples::vk_detail::texture_range(i));
   }
 
   VkCommandBuffer begin() {
-    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-    cai.commandPool = pool;
-    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-    cai.commandBufferCount = 1;
     VkCommandBuffer cmd = VK_NULL_HANDLE;
-    EXPECT_EQ(vkAllocateCommandBuffers(device, &cai, &cmd), VK_SUCCESS);
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vkBeginCommandBuffer(cmd, &bi);
+    const VoidResult r = samples::vk_detail::begin_one_shot_commands(device, pool, cmd);
+    EXPECT_TRUE(r.ok()) << r.message();
     return cmd;
   }
 
   void submit(VkCommandBuffer cmd) {
-    barrier(cmd);
-    vkEndCommandBuffer(cmd);
-    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    si.commandBufferCount = 1;
-    si.pCommandBuffers = &cmd;
-    EXPECT_EQ(vkQueueSubmit(queue, 1, &si, VK_NULL_HANDLE), VK_SUCCESS);
-    EXPECT_EQ(vkQueueWaitIdle(queue), VK_SUCCESS);
-    vkFreeCommandBuffers(device, pool, 1, &cmd);
+    samples::vk_detail::full_barrier(cmd);
+    const VoidResult r = samples::vk_detail::submit_one_shot_commands(device, queue, pool, cmd);
+    EXPECT_TRUE(r.ok()) << r.message();
   }
 
   // Copies `bytes` into region (mip, x, y, layer, w × h × 1) of `i` (already GENERAL).
@@ -333,7 +178,7 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   if (std::string why = e.create(); !why.empty()) GTEST_SKIP() << "GPU API unavailable: " << why;
 
   const ShaderConfig config = golden_config();
-  const GlslFunctionOptions options = engine_options();
+  const GlslFunctionOptions options = engine_function_options(2, kMaterialSet, kEngineCacheBinding);
   Result<GlslFunctionSource> fn = generate_functions(
       glsl_pieces({GlslPiece::fmf, GlslPiece::bsvtf, GlslPiece::local_frame}), GlslTarget::vulkan450, config, options);
   ASSERT_TRUE(fn.ok()) << fn.message();
@@ -378,80 +223,39 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   VK_OK(vkCreatePipelineLayout(e.device, &plci, nullptr, &layout));
 
   // The engine's pipeline: its attribute locations (position 0, uv 1, normal 2, tangent 3).
-  VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
-                                               {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
-  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = *vs;
-  stages[0].pName = "main";
-  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = *fs;
-  stages[1].pName = "main";
-  const VkVertexInputBindingDescription vbinding{0, sizeof(MeshVertex), VK_VERTEX_INPUT_RATE_VERTEX};
   const VkVertexInputAttributeDescription attrs[4] = {
       {0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, position)},
       {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(MeshVertex, uv)},
       {2, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, normal)},
       {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(MeshVertex, tangent)}};
-  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-  vi.vertexBindingDescriptionCount = 1;
-  vi.pVertexBindingDescriptions = &vbinding;
-  vi.vertexAttributeDescriptionCount = 4;
-  vi.pVertexAttributeDescriptions = attrs;
-  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
   // Flipped viewport (negative height): row 0 of the target is the top of the image.
   const VkViewport viewport{
       0.0f, static_cast<float>(kSize), static_cast<float>(kSize), -static_cast<float>(kSize), 0.0f, 1.0f};
   const VkRect2D scissor{{0, 0}, {static_cast<uint32_t>(kSize), static_cast<uint32_t>(kSize)}};
-  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-  vp.viewportCount = 1;
-  vp.pViewports = &viewport;
-  vp.scissorCount = 1;
-  vp.pScissors = &scissor;
-  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-  rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.cullMode = VK_CULL_MODE_NONE;
-  rs.lineWidth = 1.0f;
-  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  VkPipelineColorBlendAttachmentState blend{};
-  blend.colorWriteMask =
-      VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  cb.attachmentCount = 1;
-  cb.pAttachments = &blend;
   const VkFormat color_format = VK_FORMAT_R32G32B32A32_SFLOAT;
-  VkPipelineRenderingCreateInfo rci{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  rci.colorAttachmentCount = 1;
-  rci.pColorAttachmentFormats = &color_format;
-  VkGraphicsPipelineCreateInfo gci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-  gci.pNext = &rci;
-  gci.stageCount = 2;
-  gci.pStages = stages;
-  gci.pVertexInputState = &vi;
-  gci.pInputAssemblyState = &ia;
-  gci.pViewportState = &vp;
-  gci.pRasterizationState = &rs;
-  gci.pMultisampleState = &ms;
-  gci.pColorBlendState = &cb;
-  gci.layout = layout;
+  samples::vk_detail::GraphicsPipelineDesc desc;
+  desc.vertex = *vs;
+  desc.fragment = *fs;
+  desc.attributes = attrs;
+  desc.attribute_count = 4;
+  desc.color_formats = &color_format;
+  desc.viewport = &viewport;
+  desc.scissor = &scissor;
+  desc.layout = layout;
   VkPipeline pipeline = VK_NULL_HANDLE;
-  VK_OK(vkCreateGraphicsPipelines(e.device, VK_NULL_HANDLE, 1, &gci, nullptr, &pipeline));
+  VK_OK(samples::vk_detail::create_graphics_pipeline(e.device, desc, pipeline));
   vkDestroyShaderModule(e.device, *vs, nullptr);
   vkDestroyShaderModule(e.device, *fs, nullptr);
 
   // Material (FMF textures and U') and the partially filled tile cache of the golden scene.
-  const Material m = make_material(config, kTexture, kTexture);
-  PartialCacheScene vt;
-  build_partial_cache(config, m, vt);
+  const EngineMaterial mat(config);
   if (HasFatalFailure()) return;
-  FmfMaterialData d = m.data(true);
-  const std::vector<float> u = pack_eigen_abrdfs_rgba(d);
-  const std::vector<float> v = pack_eigen_textures_rgba(d.eigen_textures);
+  const Material& m = mat.m;
+  const PartialCacheScene& vt = mat.vt;
   std::vector<uint32_t> angular_index;
   std::vector<float> angular_weight;
-  pack_angular_tables_rgba(d.angular, angular_index, angular_weight);
-  const uint32_t res = d.angular.resolution;
+  pack_angular_tables_rgba(mat.d.angular, angular_index, angular_weight);
+  const uint32_t res = mat.d.angular.resolution;
   const VirtualTextureConfig& vc = config.vt;
   const uint32_t groups = config.component_groups(), pt_side = 1u << vc.finest_level;
   const VkImageUsageFlags sampled = VK_IMAGE_USAGE_SAMPLED_BIT;
@@ -477,8 +281,8 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
     }
     e.submit(cmd);
   }
-  e.upload(img_u, u.data(), u.size() * 4, 0, 0, 0, 0, m.lights, m.views, config.components);
-  e.upload(img_v, v.data(), v.size() * 4, 0, 0, 0, 0, kTexture, kTexture, groups);
+  e.upload(img_u, mat.u.data(), mat.u.size() * 4, 0, 0, 0, 0, m.lights, m.views, config.components);
+  e.upload(img_v, mat.v.data(), mat.v.size() * 4, 0, 0, 0, 0, kTexture, kTexture, groups);
   e.upload(img_index, angular_index.data(), angular_index.size() * 4, 0, 0, 0, 0, res, res, 2);
   e.upload(img_weight, angular_weight.data(), angular_weight.size() * 4, 0, 0, 0, 0, res, res, 2);
   const uint32_t padded = vc.padded_tile_size();
@@ -495,24 +299,21 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   const VkSampler nearest = e.sampler(VK_FILTER_NEAREST, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE);
   const VkSampler linear_clamp = e.sampler(VK_FILTER_LINEAR, VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE);
   const VkSampler linear_repeat = e.sampler(VK_FILTER_LINEAR, VK_SAMPLER_ADDRESS_MODE_REPEAT);
+  const struct {
+    ShaderBinding role;
+    VkSampler sampler;
+    VkImageView view;
+  } textures[] = {{ShaderBinding::eigen_abrdfs, nearest, img_u.view},
+                  {ShaderBinding::eigen_textures, linear_repeat, img_v.view},
+                  {ShaderBinding::angular_index, nearest, img_index.view},
+                  {ShaderBinding::angular_weight, linear_clamp, img_weight.view},
+                  {ShaderBinding::tile_cache, linear_clamp, img_cache.view},
+                  {ShaderBinding::page_table, nearest, img_pt.view}};
   auto texture_of = [&](ShaderBinding role) -> VkDescriptorImageInfo {
-    switch (role) {
-      case ShaderBinding::eigen_abrdfs:
-        return {nearest, img_u.view, VK_IMAGE_LAYOUT_GENERAL};
-      case ShaderBinding::eigen_textures:
-        return {linear_repeat, img_v.view, VK_IMAGE_LAYOUT_GENERAL};
-      case ShaderBinding::angular_index:
-        return {nearest, img_index.view, VK_IMAGE_LAYOUT_GENERAL};
-      case ShaderBinding::angular_weight:
-        return {linear_clamp, img_weight.view, VK_IMAGE_LAYOUT_GENERAL};
-      case ShaderBinding::tile_cache:
-        return {linear_clamp, img_cache.view, VK_IMAGE_LAYOUT_GENERAL};
-      case ShaderBinding::page_table:
-        return {nearest, img_pt.view, VK_IMAGE_LAYOUT_GENERAL};
-      default:
-        ADD_FAILURE() << "unexpected sampler role " << shader_binding_name(role);
-        return {};
-    }
+    for (const auto& t : textures)
+      if (t.role == role) return {t.sampler, t.view, VK_IMAGE_LAYOUT_GENERAL};
+    ADD_FAILURE() << "unexpected sampler role " << shader_binding_name(role);
+    return {};
   };
 
   // The engine's uniforms, from the golden scene's parameters.
@@ -589,7 +390,7 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
     const VkClearColorValue zero{};
     const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(cmd, color.image, VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
-    Engine::barrier(cmd);
+    samples::vk_detail::full_barrier(cmd);
     VkRenderingAttachmentInfo att{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
     att.imageView = color.view;
     att.imageLayout = VK_IMAGE_LAYOUT_GENERAL;
@@ -609,7 +410,7 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
     vkCmdBindIndexBuffer(cmd, ibo.buffer, 0, VK_INDEX_TYPE_UINT32);
     vkCmdDrawIndexed(cmd, static_cast<uint32_t>(idx.size()), 1, 0, 0, 0);
     vkCmdEndRendering(cmd);
-    Engine::barrier(cmd);
+    samples::vk_detail::full_barrier(cmd);
     VkBufferImageCopy c{};
     c.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     c.imageExtent = {static_cast<uint32_t>(kSize), static_cast<uint32_t>(kSize), 1};
@@ -625,29 +426,7 @@ TEST(GoldenEngineVk, EngineShaderCallingGeneratedFunctionsMatchesCpuReference) {
   const Image<float> fmf_img = render(0);
   const Image<float> bsvtf_img = render(1);
 
-  const Image<float> fmf_ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    bilinear(m.v, h.texcoord.x * kTexture, h.texcoord.y * kTexture, true, out);
-  });
-  const Image<float> bsvtf_ref = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    for (uint32_t k = 0; k < vt.set.texture_count(); ++k) {
-      float v4[4];
-      vt.cpu->sample(*vt.cache, k, h.texcoord.x, h.texcoord.y, v4);
-      for (int c = 0; c < 4; ++c) out[4 * k + c] = v4[c];
-    }
-  });
-  const Image<float> bsvtf_wrong = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
-    for (uint32_t k = 0; k < vt.set.texture_count(); ++k) vt.pyr->sample(k, 2, h.texcoord.x, h.texcoord.y, out + 4 * k);
-  });
-  expect_content(fmf_img);
-  expect_content(bsvtf_img);
-  const double p_fmf = psnr_rgb(fmf_ref, fmf_img), p_bsvtf = psnr_rgb(bsvtf_ref, bsvtf_img);
-  const double p_wrong = psnr_rgb(bsvtf_wrong, bsvtf_img);
-  std::printf(
-      "[ engine-style Vulkan shader ] fmf %.2f dB, bsvtf %.2f dB vs CPU reference (bsvtf vs finest-only %.2f dB)\n",
-      p_fmf, p_bsvtf, p_wrong);
-  EXPECT_GE(p_fmf, 40.0);
-  EXPECT_GE(p_bsvtf, 40.0);
-  EXPECT_LT(p_wrong, p_bsvtf - 3.0);
+  expect_engine_images_match("Vulkan", m, params, vt, fmf_img, bsvtf_img);
 
   vkDeviceWaitIdle(e.device);
   vkDestroyDescriptorPool(e.device, dpool, nullptr);

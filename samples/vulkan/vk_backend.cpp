@@ -12,47 +12,47 @@
 namespace btflod::samples::vk_detail {
 
 VkBackend::~VkBackend() {
-  if (device_) {
-    vkDeviceWaitIdle(device_);
+  if (vk_.device) {
+    vkDeviceWaitIdle(vk_.device);
     for (VkMesh& m : meshes_) {
       destroy(m.vertices);
       destroy(m.indices);
     }
     for (VkMaterial& m : materials_) destroy_material(m);
-    for (VkPipelineLayout l : rep_pipeline_layout_) vkDestroyPipelineLayout(device_, l, nullptr);
-    for (VkDescriptorSetLayout l : rep_set_layout_) vkDestroyDescriptorSetLayout(device_, l, nullptr);
+    for (VkPipelineLayout l : rep_pipeline_layout_) vkDestroyPipelineLayout(vk_.device, l, nullptr);
+    for (VkDescriptorSetLayout l : rep_set_layout_) vkDestroyDescriptorSetLayout(vk_.device, l, nullptr);
     for (FrameContext& c : contexts_) {
       destroy(c.staging);
-      vkDestroyFence(device_, c.fence, nullptr);
+      vkDestroyFence(vk_.device, c.fence, nullptr);
     }
     for (FeedbackSlot& s : ring_) destroy(s.buffer);
     destroy(color_readback_);
     destroy(ubo_all_);
     destroy_targets();
     for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) destroy(*t);
-    for (VkPipeline p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) vkDestroyPipeline(device_, p, nullptr);
-    vkDestroyPipelineLayout(device_, pipeline_layout_, nullptr);
-    vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
-    vkDestroyDescriptorSetLayout(device_, set_layout_, nullptr);
-    for (VkSampler s : {nearest_, linear_clamp_, linear_repeat_}) vkDestroySampler(device_, s, nullptr);
-    vkDestroyCommandPool(device_, pool_, nullptr);
-    vkDestroyCommandPool(device_, one_shot_pool_, nullptr);
-    vkDestroyDevice(device_, nullptr);
+    for (VkPipeline p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) vkDestroyPipeline(vk_.device, p, nullptr);
+    vkDestroyPipelineLayout(vk_.device, pipeline_layout_, nullptr);
+    vkDestroyDescriptorPool(vk_.device, descriptor_pool_, nullptr);
+    vkDestroyDescriptorSetLayout(vk_.device, set_layout_, nullptr);
+    for (VkSampler s : {nearest_, linear_clamp_, linear_repeat_}) vkDestroySampler(vk_.device, s, nullptr);
+    vkDestroyCommandPool(vk_.device, pool_, nullptr);
+    vkDestroyCommandPool(vk_.device, one_shot_pool_, nullptr);
+    vkDestroyDevice(vk_.device, nullptr);
   }
-  if (instance_) vkDestroyInstance(instance_, nullptr);
+  if (vk_.instance) vkDestroyInstance(vk_.instance, nullptr);
 }
 
-VoidResult VkBackend::create_device() {
+VoidResult create_vk13_device(const char* app_name, VkDeviceContext& out) {
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-  app.pApplicationName = "btflod";
+  app.pApplicationName = app_name;
   app.apiVersion = VK_API_VERSION_1_3;
   VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
   ici.pApplicationInfo = &app;
-  BTFLOD_VK_CHECK(vkCreateInstance(&ici, nullptr, &instance_), "vkCreateInstance (no Vulkan driver?)");
+  BTFLOD_VK_CHECK(vkCreateInstance(&ici, nullptr, &out.instance), "vkCreateInstance (no Vulkan driver?)");
   uint32_t count = 0;
-  vkEnumeratePhysicalDevices(instance_, &count, nullptr);
+  vkEnumeratePhysicalDevices(out.instance, &count, nullptr);
   std::vector<VkPhysicalDevice> devices(count);
-  vkEnumeratePhysicalDevices(instance_, &count, devices.data());
+  vkEnumeratePhysicalDevices(out.instance, &count, devices.data());
   for (VkPhysicalDevice d : devices) {
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(d, &props);
@@ -63,21 +63,19 @@ VoidResult VkBackend::create_device() {
     vkGetPhysicalDeviceQueueFamilyProperties(d, &qn, qs.data());
     for (uint32_t q = 0; q < qn; ++q)
       if (qs[q].queueFlags & VK_QUEUE_GRAPHICS_BIT) {
-        physical_ = d;
-        queue_family_ = q;
-        limits_ = props.limits;
-        name_ = std::string("Vulkan ") + std::to_string(VK_API_VERSION_MAJOR(props.apiVersion)) + "." +
-                std::to_string(VK_API_VERSION_MINOR(props.apiVersion)) + " (" + props.deviceName + ")" +
-                (options_.hlsl_programs ? ", HLSL programs" : "");
+        out.physical = d;
+        out.queue_family = q;
+        out.properties = props;
         break;
       }
-    if (physical_) break;
+    if (out.physical) break;
   }
-  if (!physical_) return make_error(Status::unsupported, "Vulkan: no 1.3 device with a graphics queue among %u", count);
-  vkGetPhysicalDeviceMemoryProperties(physical_, &memory_props_);
+  if (!out.physical)
+    return make_error(Status::unsupported, "Vulkan: no 1.3 device with a graphics queue among %u", count);
+  vkGetPhysicalDeviceMemoryProperties(out.physical, &out.memory);
   const float priority = 1.0f;
   VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-  qci.queueFamilyIndex = queue_family_;
+  qci.queueFamilyIndex = out.queue_family;
   qci.queueCount = 1;
   qci.pQueuePriorities = &priority;
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
@@ -86,25 +84,36 @@ VoidResult VkBackend::create_device() {
   dci.pNext = &f13;
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
-  BTFLOD_VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_), "vkCreateDevice");
-  vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
+  BTFLOD_VK_CHECK(vkCreateDevice(out.physical, &dci, nullptr, &out.device), "vkCreateDevice");
+  vkGetDeviceQueue(out.device, out.queue_family, 0, &out.queue);
+  return {};
+}
+
+VoidResult VkBackend::create_device() {
+  if (VoidResult created = create_vk13_device("btflod", vk_); !created) return created;
+  const VkPhysicalDeviceProperties& props = vk_.properties;
+  name_ = std::string("Vulkan ") + std::to_string(VK_API_VERSION_MAJOR(props.apiVersion)) + "." +
+          std::to_string(VK_API_VERSION_MINOR(props.apiVersion)) + " (" + props.deviceName + ")" +
+          (options_.hlsl_programs ? ", HLSL programs" : "");
   VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
   pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-  pci.queueFamilyIndex = queue_family_;
-  BTFLOD_VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_), "vkCreateCommandPool");
+  pci.queueFamilyIndex = vk_.queue_family;
+  BTFLOD_VK_CHECK(vkCreateCommandPool(vk_.device, &pci, nullptr, &pool_), "vkCreateCommandPool");
   pci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;  // set-up and blocking readback command buffers
-  BTFLOD_VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &one_shot_pool_), "vkCreateCommandPool");
+  BTFLOD_VK_CHECK(vkCreateCommandPool(vk_.device, &pci, nullptr, &one_shot_pool_), "vkCreateCommandPool");
   return {};
 }
 
 VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_count) {
   if (VoidResult v = validate_shader_config(config); !v) return v;
-  if (virtual_texture_count == 0 || virtual_texture_count > limits_.maxImageArrayLayers)
+  if (virtual_texture_count == 0 || virtual_texture_count > vk_.properties.limits.maxImageArrayLayers)
     return make_error(Status::invalid_argument, "Vulkan: %u virtual textures, expected 1..%u", virtual_texture_count,
-                      limits_.maxImageArrayLayers);
+                      vk_.properties.limits.maxImageArrayLayers);
   const VirtualTextureConfig& vt = config.vt;
-  if (vt.cache_width() > limits_.maxImageDimension2D || vt.cache_height() > limits_.maxImageDimension2D ||
-      vt.cache_layers > limits_.maxImageArrayLayers || (1u << vt.finest_level) > limits_.maxImageDimension2D)
+  if (vt.cache_width() > vk_.properties.limits.maxImageDimension2D ||
+      vt.cache_height() > vk_.properties.limits.maxImageDimension2D ||
+      vt.cache_layers > vk_.properties.limits.maxImageArrayLayers ||
+      (1u << vt.finest_level) > vk_.properties.limits.maxImageDimension2D)
     return make_error(Status::unsupported, "Vulkan: cache %u×%u×%u or page table 2^%u exceeds the device limits",
                       vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level);
   config_ = config;
@@ -161,9 +170,9 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
     ai.commandPool = pool_;
     ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
     ai.commandBufferCount = 1;
-    BTFLOD_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &c.cmd), "vkAllocateCommandBuffers");
+    BTFLOD_VK_CHECK(vkAllocateCommandBuffers(vk_.device, &ai, &c.cmd), "vkAllocateCommandBuffers");
     VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    BTFLOD_VK_CHECK(vkCreateFence(device_, &fci, nullptr, &c.fence), "vkCreateFence");
+    BTFLOD_VK_CHECK(vkCreateFence(vk_.device, &fci, nullptr, &c.fence), "vkCreateFence");
     if (VoidResult r = create_buffer(c.staging, options_.staging_bytes_per_frame, VK_BUFFER_USAGE_TRANSFER_SRC_BIT); !r)
       return r;
   }
@@ -267,7 +276,7 @@ Status VkBackend::destroy_material(MaterialHandle material) {
   if (recording_ && !submit_context()) return Status::io_error;
   if (wait_idle() != Status::success) return Status::io_error;
   VkMaterial& m = materials_[material.id - 1];
-  if (m.set) vkFreeDescriptorSets(device_, descriptor_pool_, 1, &m.set);
+  if (m.set) vkFreeDescriptorSets(vk_.device, descriptor_pool_, 1, &m.set);
   destroy_material(m);
   m = VkMaterial{};
   m.live = false;
@@ -378,13 +387,14 @@ Status VkBackend::apply_page_table_writes(std::span<const PageTableWrite> writes
 
 Status VkBackend::begin_frame(const FrameDesc& frame) noexcept {
   if (!initialised_ || frame.width == 0 || frame.height == 0 || frame.feedback_width == 0 ||
-      frame.feedback_height == 0 || frame.width > limits_.maxImageDimension2D ||
-      frame.height > limits_.maxImageDimension2D || frame.feedback_sample_x >= frame.feedback_block_width() ||
+      frame.feedback_height == 0 || frame.width > vk_.properties.limits.maxImageDimension2D ||
+      frame.height > vk_.properties.limits.maxImageDimension2D ||
+      frame.feedback_sample_x >= frame.feedback_block_width() ||
       frame.feedback_sample_y >= frame.feedback_block_height())
     return Status::invalid_argument;
   if (frame.width != frame_.width || frame.height != frame_.height || frame.feedback_width != frame_.feedback_width ||
       frame.feedback_height != frame_.feedback_height || !color_.image) {
-    vkDeviceWaitIdle(device_);  // size change: set-up work
+    vkDeviceWaitIdle(vk_.device);  // size change: set-up work
     destroy_targets();
     frame_ = frame;
     if (!create_targets()) return Status::unsupported;
@@ -476,7 +486,7 @@ Status VkBackend::end_frame() noexcept {
     const VkDeviceSize bytes = VkDeviceSize{w} * h * 4;
     if (slot->buffer.size < bytes) {
       // Grows only when the feedback size grows; a dropped slot may still be read by the GPU.
-      vkDeviceWaitIdle(device_);
+      vkDeviceWaitIdle(vk_.device);
       destroy(slot->buffer);
       if (!create_buffer(slot->buffer, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT)) return Status::unsupported;
     }
@@ -550,15 +560,16 @@ Status VkBackend::read_color(ImageView<float> out) noexcept {
 }
 
 Status VkBackend::wait_idle() noexcept {
-  if (vkQueueWaitIdle(queue_) != VK_SUCCESS) return Status::io_error;
+  if (vkQueueWaitIdle(vk_.queue) != VK_SUCCESS) return Status::io_error;
   completed_serial_ = next_serial_ - 1;
   return Status::success;
 }
 
 VoidResult VkBackend::create_shared_ubo() {
   // One host-visible buffer sliced per frame context and per draw (dynamic offsets).
-  ubo_stride_ = (sizeof(ShaderParams) + limits_.minUniformBufferOffsetAlignment - 1) /
-                limits_.minUniformBufferOffsetAlignment * limits_.minUniformBufferOffsetAlignment;
+  ubo_stride_ = (sizeof(ShaderParams) + vk_.properties.limits.minUniformBufferOffsetAlignment - 1) /
+                vk_.properties.limits.minUniformBufferOffsetAlignment *
+                vk_.properties.limits.minUniformBufferOffsetAlignment;
   return create_buffer(ubo_all_, ubo_stride_ * options_.max_draws_per_frame * options_.frames_in_flight,
                        VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
 }

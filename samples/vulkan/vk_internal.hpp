@@ -101,6 +101,87 @@ struct FeedbackSlot {
     if (vk_result_ != VK_SUCCESS)                                                                                    \
       return make_error(Status::unsupported, "Vulkan: %s failed (VkResult %d)", what, static_cast<int>(vk_result_)); \
   } while (0)
+/// The device of a headless Vulkan 1.3 context, as create_vk13_device() makes it.
+struct VkDeviceContext {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkPhysicalDeviceProperties properties{};
+  VkPhysicalDeviceMemoryProperties memory{};
+  uint32_t queue_family = 0;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+};
+
+/// Creates a Vulkan 1.3 instance for application `app_name` and, on the first physical device
+/// of API 1.3 with a graphics queue family, a device (dynamic rendering on) with one queue of
+/// that family. Returns `unsupported` with the reason when there is no Vulkan driver, no such
+/// device or a create call fails; the handles created so far stay in `out` either way (the
+/// caller destroys them).
+VoidResult create_vk13_device(const char* app_name, VkDeviceContext& out);
+
+/// The index of a memory type allowed by `bits` with every property of `want`; UINT32_MAX if
+/// there is none.
+uint32_t find_memory_type(const VkPhysicalDeviceMemoryProperties& memory, uint32_t bits, VkMemoryPropertyFlags want);
+
+/// Creates `b`: a buffer of `size` bytes for `usage` in host-visible coherent memory, mapped at
+/// b.mapped. Returns `unsupported` when there is no such memory or a call fails; what was
+/// created stays in `b` (destroy_buffer() releases it).
+VoidResult create_host_buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, Buffer& b,
+                              VkDeviceSize size, VkBufferUsageFlags usage);
+
+/// Releases what `b` holds (any part may be null) and resets it.
+void destroy_buffer(VkDevice device, Buffer& b);
+
+/// Every mip and layer of `t` (the depth aspect for VK_FORMAT_D32_SFLOAT, else colour).
+inline VkImageSubresourceRange texture_range(const Texture& t) {
+  return {static_cast<VkImageAspectFlags>(t.format == VK_FORMAT_D32_SFLOAT ? VK_IMAGE_ASPECT_DEPTH_BIT
+                                                                           : VK_IMAGE_ASPECT_COLOR_BIT),
+          0, t.mips, 0, t.layers};
+}
+
+/// Creates `t`: an image of `format` and `usage`, w × h with `layers` layers and `mips` mips
+/// (3D with depth `depth3d` when it is > 1), in device-local memory (any memory type when there
+/// is none), in layout UNDEFINED, and its view over texture_range(t): 3D, 2D array
+/// (`array_view`) or 2D. Returns `unsupported` when a call fails; what was created stays in `t`
+/// (destroy_texture() releases it).
+VoidResult create_image(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, Texture& t, VkFormat format,
+                        uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, VkImageUsageFlags usage,
+                        bool array_view, uint32_t depth3d = 1);
+
+/// Releases what `t` holds (any part may be null) and resets it.
+void destroy_texture(VkDevice device, Texture& t);
+
+/// Records a barrier after which every earlier memory write is visible to every later command.
+void full_barrier(VkCommandBuffer cmd);
+
+/// Records the move of `range` of `image` from UNDEFINED to GENERAL, its layout from then on.
+void to_general_layout(VkCommandBuffer cmd, VkImage image, const VkImageSubresourceRange& range);
+
+/// A primary command buffer allocated from `pool` and begun for one submission.
+VoidResult begin_one_shot_commands(VkDevice device, VkCommandPool pool, VkCommandBuffer& cmd);
+
+/// Ends `cmd`, submits it to `queue`, waits until the queue is idle and frees `cmd` to `pool`
+/// (also on failure). Returns `io_error` when ending, submitting or waiting fails.
+VoidResult submit_one_shot_commands(VkDevice device, VkQueue queue, VkCommandPool pool, VkCommandBuffer cmd);
+
+/// What create_graphics_pipeline() builds: vertex and fragment stages (entry point main), one
+/// vertex buffer of MeshVertex with `attributes`, triangle lists, no culling, one sample, no
+/// blending, dynamic rendering into `color_formats` (one or two) and `depth_format`.
+struct GraphicsPipelineDesc {
+  VkShaderModule vertex = VK_NULL_HANDLE, fragment = VK_NULL_HANDLE;
+  const VkVertexInputAttributeDescription* attributes = nullptr;
+  uint32_t attribute_count = 0;
+  const VkFormat* color_formats = nullptr;
+  uint32_t color_count = 1;
+  VkFormat depth_format = VK_FORMAT_UNDEFINED;  ///< UNDEFINED: no depth attachment or test; else LESS_OR_EQUAL
+  const VkViewport* viewport = nullptr;         ///< null: viewport and scissor are dynamic state
+  const VkRect2D* scissor = nullptr;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+};
+
+/// Creates the pipeline of `desc` on `device` in `out`; returns vkCreateGraphicsPipelines' result.
+VkResult create_graphics_pipeline(VkDevice device, const GraphicsPipelineDesc& desc, VkPipeline& out);
+
 /// GLSL → SPIR-V with glslc (subprocess), cached in the temp directory under a hash of
 /// (compiler path, stage, source); `hlsl`: HLSL source (entry point main) through
 /// glslangValidator -D -V instead. Returns `unsupported` with the compiler log when glslc is
@@ -157,12 +238,13 @@ class VkBackend final : public Backend {
                                             const std::vector<RepTexture>& textures);
 
   // --- resources ---------------------------------------------------------------------------
-  uint32_t memory_type(uint32_t bits, VkMemoryPropertyFlags want) const;
-  VoidResult create_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage);
-  void destroy(Buffer& b);
+  VoidResult create_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) {
+    return create_host_buffer(vk_.device, vk_.memory, b, size, usage);
+  }
+  void destroy(Buffer& b) { destroy_buffer(vk_.device, b); }
   VoidResult create_texture(Texture& t, VkFormat format, uint32_t w, uint32_t h, uint32_t layers, uint32_t mips,
                             VkImageUsageFlags extra = 0, bool array_view = true, uint32_t depth3d = 1);
-  void destroy(Texture& t);
+  void destroy(Texture& t) { destroy_texture(vk_.device, t); }
   void destroy_material(VkMaterial& m);
 
   /// Uploads every mip (data[m]: all layers, layer-major, tightly packed) through a staging buffer.
@@ -184,7 +266,6 @@ class VkBackend final : public Backend {
                                      VkFormat second_format = VK_FORMAT_UNDEFINED, bool hlsl = false);
 
   // --- recording ---------------------------------------------------------------------------
-  static void full_barrier(VkCommandBuffer cmd);
   Status record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
                      const Texture& color, const Texture& depth, uint32_t w, uint32_t h,
                      VkPipelineLayout layout = VK_NULL_HANDLE, const Texture* second = nullptr);
@@ -197,11 +278,13 @@ class VkBackend final : public Backend {
   FrameContext& open_context();
   bool submit_context();
   void update_completed();
-  VoidResult begin_one_shot(VkCommandBuffer& cmd);
+  VoidResult begin_one_shot(VkCommandBuffer& cmd) { return begin_one_shot_commands(vk_.device, one_shot_pool_, cmd); }
 
   /// Submits and waits (set-up and blocking readback only; queue order keeps it after the
   /// frames submitted before).
-  VoidResult end_one_shot(VkCommandBuffer cmd);
+  VoidResult end_one_shot(VkCommandBuffer cmd) {
+    return submit_one_shot_commands(vk_.device, vk_.queue, one_shot_pool_, cmd);
+  }
 
  public:
   VoidResult create_shared_ubo();
@@ -209,13 +292,7 @@ class VkBackend final : public Backend {
  private:
   VkBackendOptions options_;
   std::string name_ = "Vulkan";
-  VkInstance instance_ = VK_NULL_HANDLE;
-  VkPhysicalDevice physical_ = VK_NULL_HANDLE;
-  VkPhysicalDeviceLimits limits_{};
-  VkPhysicalDeviceMemoryProperties memory_props_{};
-  uint32_t queue_family_ = 0;
-  VkDevice device_ = VK_NULL_HANDLE;
-  VkQueue queue_ = VK_NULL_HANDLE;
+  VkDeviceContext vk_;  ///< instance, device, queue (create_device)
   VkCommandPool pool_ = VK_NULL_HANDLE, one_shot_pool_ = VK_NULL_HANDLE;
   VkSampler nearest_ = VK_NULL_HANDLE, linear_clamp_ = VK_NULL_HANDLE, linear_repeat_ = VK_NULL_HANDLE;
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;

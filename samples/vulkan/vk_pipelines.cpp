@@ -16,14 +16,14 @@ VoidResult VkBackend::create_layout() {
   sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
   sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
   sci.maxLod = VK_LOD_CLAMP_NONE;
-  BTFLOD_VK_CHECK(vkCreateSampler(device_, &sci, nullptr, &nearest_), "vkCreateSampler");
+  BTFLOD_VK_CHECK(vkCreateSampler(vk_.device, &sci, nullptr, &nearest_), "vkCreateSampler");
   sci.magFilter = sci.minFilter = VK_FILTER_LINEAR;
   sci.maxLod = 0.0f;
-  BTFLOD_VK_CHECK(vkCreateSampler(device_, &sci, nullptr, &linear_clamp_), "vkCreateSampler");
+  BTFLOD_VK_CHECK(vkCreateSampler(vk_.device, &sci, nullptr, &linear_clamp_), "vkCreateSampler");
   sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_LINEAR;
   sci.addressModeU = sci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
   sci.maxLod = VK_LOD_CLAMP_NONE;
-  BTFLOD_VK_CHECK(vkCreateSampler(device_, &sci, nullptr, &linear_repeat_), "vkCreateSampler");
+  BTFLOD_VK_CHECK(vkCreateSampler(vk_.device, &sci, nullptr, &linear_repeat_), "vkCreateSampler");
   VkDescriptorSetLayoutBinding b[kSetBindingCount];
   for (uint32_t i = 0; i < kSetBindingCount; ++i) {
     b[i] = VkDescriptorSetLayoutBinding{};
@@ -36,11 +36,11 @@ VoidResult VkBackend::create_layout() {
   VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   lci.bindingCount = kSetBindingCount;
   lci.pBindings = b;
-  BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(device_, &lci, nullptr, &set_layout_), "vkCreateDescriptorSetLayout");
+  BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(vk_.device, &lci, nullptr, &set_layout_), "vkCreateDescriptorSetLayout");
   VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
   plci.setLayoutCount = 1;
   plci.pSetLayouts = &set_layout_;
-  BTFLOD_VK_CHECK(vkCreatePipelineLayout(device_, &plci, nullptr, &pipeline_layout_), "vkCreatePipelineLayout");
+  BTFLOD_VK_CHECK(vkCreatePipelineLayout(vk_.device, &plci, nullptr, &pipeline_layout_), "vkCreatePipelineLayout");
   constexpr uint32_t kMaxSets = 256;
   VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, kMaxSets},
                                    {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, kMaxSets * (kSetBindingCount - 1)}};
@@ -49,7 +49,7 @@ VoidResult VkBackend::create_layout() {
   dpci.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;  // destroy_material() returns its set
   dpci.poolSizeCount = 2;
   dpci.pPoolSizes = sizes;
-  BTFLOD_VK_CHECK(vkCreateDescriptorPool(device_, &dpci, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
+  BTFLOD_VK_CHECK(vkCreateDescriptorPool(vk_.device, &dpci, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
   return {};
 }
 
@@ -59,7 +59,7 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
   ai.descriptorSetCount = 1;
   ai.pSetLayouts = &set_layout_;
   VkDescriptorSet set = VK_NULL_HANDLE;
-  BTFLOD_VK_CHECK(vkAllocateDescriptorSets(device_, &ai, &set), "vkAllocateDescriptorSets (too many materials?)");
+  BTFLOD_VK_CHECK(vkAllocateDescriptorSets(vk_.device, &ai, &set), "vkAllocateDescriptorSets (too many materials?)");
   // All frame contexts share one uniform buffer, sliced by dynamic offsets (context, draw).
   VkDescriptorBufferInfo ubo{shared_ubo().buffer, 0, sizeof(ShaderParams)};
   auto image = [&](const Texture& t, VkSampler s) { return VkDescriptorImageInfo{s, t.view, VK_IMAGE_LAYOUT_GENERAL}; };
@@ -85,52 +85,32 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
     else
       w[i].pImageInfo = &images[i - 1];
   }
-  vkUpdateDescriptorSets(device_, kSetBindingCount, w, 0, nullptr);
+  vkUpdateDescriptorSets(vk_.device, kSetBindingCount, w, 0, nullptr);
   return set;
 }
 
-Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
-                                              VkPipelineLayout layout, VkFormat second_format, bool hlsl) {
-  Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name, hlsl);
-  if (!vs) return vs.error();
-  Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name, hlsl);
-  if (!fs) return fs.error();
-  VkShaderModule modules[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
-  const std::vector<uint32_t>* code[2] = {&*vs, &*fs};
-  for (int i = 0; i < 2; ++i) {
-    VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    smci.codeSize = code[i]->size() * 4;
-    smci.pCode = code[i]->data();
-    if (vkCreateShaderModule(device_, &smci, nullptr, &modules[i]) != VK_SUCCESS) {
-      if (i) vkDestroyShaderModule(device_, modules[0], nullptr);
-      return make_error(Status::unsupported, "Vulkan: vkCreateShaderModule failed for %s", name);
-    }
-  }
+VkResult create_graphics_pipeline(VkDevice device, const GraphicsPipelineDesc& desc, VkPipeline& out) {
   VkPipelineShaderStageCreateInfo stages[2] = {{VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO},
                                                {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO}};
   stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
-  stages[0].module = modules[0];
+  stages[0].module = desc.vertex;
   stages[0].pName = "main";
   stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
-  stages[1].module = modules[1];
+  stages[1].module = desc.fragment;
   stages[1].pName = "main";
-  VkVertexInputBindingDescription binding{0, sizeof(MeshVertex), VK_VERTEX_INPUT_RATE_VERTEX};
-  const VkVertexInputAttributeDescription attrs[4] = {
-      {static_cast<uint32_t>(VertexAttribute::position), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, position)},
-      {static_cast<uint32_t>(VertexAttribute::normal), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, normal)},
-      {static_cast<uint32_t>(VertexAttribute::tangent), 0, VK_FORMAT_R32G32B32A32_SFLOAT,
-       offsetof(MeshVertex, tangent)},
-      {static_cast<uint32_t>(VertexAttribute::uv), 0, VK_FORMAT_R32G32_SFLOAT, offsetof(MeshVertex, uv)}};
+  const VkVertexInputBindingDescription binding{0, sizeof(MeshVertex), VK_VERTEX_INPUT_RATE_VERTEX};
   VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   vi.vertexBindingDescriptionCount = 1;
   vi.pVertexBindingDescriptions = &binding;
-  vi.vertexAttributeDescriptionCount = 4;
-  vi.pVertexAttributeDescriptions = attrs;
+  vi.vertexAttributeDescriptionCount = desc.attribute_count;
+  vi.pVertexAttributeDescriptions = desc.attributes;
   VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
   ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
   VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
   vp.viewportCount = 1;
+  vp.pViewports = desc.viewport;
   vp.scissorCount = 1;
+  vp.pScissors = desc.scissor;
   VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
   rs.polygonMode = VK_POLYGON_MODE_FILL;
   rs.cullMode = VK_CULL_MODE_NONE;
@@ -145,20 +125,18 @@ Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, cons
   VkPipelineColorBlendAttachmentState blend{};
   blend.colorWriteMask =
       VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT | VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
-  const uint32_t attachments = second_format == VK_FORMAT_UNDEFINED ? 1 : 2;
   const VkPipelineColorBlendAttachmentState blends[2] = {blend, blend};
-  const VkFormat formats[2] = {color_format, second_format};
   VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-  cb.attachmentCount = attachments;
+  cb.attachmentCount = desc.color_count;
   cb.pAttachments = blends;
   const VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
   VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
   dy.dynamicStateCount = 2;
   dy.pDynamicStates = dyn;
   VkPipelineRenderingCreateInfo rci{VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO};
-  rci.colorAttachmentCount = attachments;
-  rci.pColorAttachmentFormats = formats;
-  rci.depthAttachmentFormat = VK_FORMAT_D32_SFLOAT;
+  rci.colorAttachmentCount = desc.color_count;
+  rci.pColorAttachmentFormats = desc.color_formats;
+  rci.depthAttachmentFormat = desc.depth_format;
   VkGraphicsPipelineCreateInfo gci{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
   gci.pNext = &rci;
   gci.stageCount = 2;
@@ -168,14 +146,50 @@ Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, cons
   gci.pViewportState = &vp;
   gci.pRasterizationState = &rs;
   gci.pMultisampleState = &ms;
-  gci.pDepthStencilState = &ds;
+  gci.pDepthStencilState = desc.depth_format == VK_FORMAT_UNDEFINED ? nullptr : &ds;
   gci.pColorBlendState = &cb;
-  gci.pDynamicState = &dy;
-  gci.layout = layout ? layout : pipeline_layout_;
+  gci.pDynamicState = desc.viewport ? nullptr : &dy;
+  gci.layout = desc.layout;
+  return vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &gci, nullptr, &out);
+}
+
+Result<VkPipeline> VkBackend::create_pipeline(const GlslProgramSource& src, const char* name, VkFormat color_format,
+                                              VkPipelineLayout layout, VkFormat second_format, bool hlsl) {
+  Result<std::vector<uint32_t>> vs = compile_spirv(src.vertex, "vert", name, hlsl);
+  if (!vs) return vs.error();
+  Result<std::vector<uint32_t>> fs = compile_spirv(src.fragment, "frag", name, hlsl);
+  if (!fs) return fs.error();
+  VkShaderModule modules[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  const std::vector<uint32_t>* code[2] = {&*vs, &*fs};
+  for (int i = 0; i < 2; ++i) {
+    VkShaderModuleCreateInfo smci{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    smci.codeSize = code[i]->size() * 4;
+    smci.pCode = code[i]->data();
+    if (vkCreateShaderModule(vk_.device, &smci, nullptr, &modules[i]) != VK_SUCCESS) {
+      if (i) vkDestroyShaderModule(vk_.device, modules[0], nullptr);
+      return make_error(Status::unsupported, "Vulkan: vkCreateShaderModule failed for %s", name);
+    }
+  }
+  const VkVertexInputAttributeDescription attrs[4] = {
+      {static_cast<uint32_t>(VertexAttribute::position), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, position)},
+      {static_cast<uint32_t>(VertexAttribute::normal), 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(MeshVertex, normal)},
+      {static_cast<uint32_t>(VertexAttribute::tangent), 0, VK_FORMAT_R32G32B32A32_SFLOAT,
+       offsetof(MeshVertex, tangent)},
+      {static_cast<uint32_t>(VertexAttribute::uv), 0, VK_FORMAT_R32G32_SFLOAT, offsetof(MeshVertex, uv)}};
+  const VkFormat formats[2] = {color_format, second_format};
+  GraphicsPipelineDesc desc;
+  desc.vertex = modules[0];
+  desc.fragment = modules[1];
+  desc.attributes = attrs;
+  desc.attribute_count = 4;
+  desc.color_formats = formats;
+  desc.color_count = second_format == VK_FORMAT_UNDEFINED ? 1 : 2;
+  desc.depth_format = VK_FORMAT_D32_SFLOAT;
+  desc.layout = layout ? layout : pipeline_layout_;
   VkPipeline pipeline = VK_NULL_HANDLE;
-  const VkResult r = vkCreateGraphicsPipelines(device_, VK_NULL_HANDLE, 1, &gci, nullptr, &pipeline);
-  vkDestroyShaderModule(device_, modules[0], nullptr);
-  vkDestroyShaderModule(device_, modules[1], nullptr);
+  const VkResult r = create_graphics_pipeline(vk_.device, desc, pipeline);
+  vkDestroyShaderModule(vk_.device, modules[0], nullptr);
+  vkDestroyShaderModule(vk_.device, modules[1], nullptr);
   if (r != VK_SUCCESS)
     return make_error(Status::unsupported, "Vulkan: vkCreateGraphicsPipelines failed for %s (%d)", name,
                       static_cast<int>(r));
@@ -207,12 +221,25 @@ static void begin_rendering(VkCommandBuffer cmd, const Texture& color, const Tex
   vkCmdBeginRendering(cmd, &ri);
 }
 
-void VkBackend::full_barrier(VkCommandBuffer cmd) {
+void full_barrier(VkCommandBuffer cmd) {
   VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
   b.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
   b.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
   vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 1, &b, 0,
                        nullptr, 0, nullptr);
+}
+
+void to_general_layout(VkCommandBuffer cmd, VkImage image, const VkImageSubresourceRange& range) {
+  VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+  b.srcAccessMask = 0;
+  b.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
+  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = range;
+  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, nullptr, 0,
+                       nullptr, 1, &b);
 }
 
 Status VkBackend::record_draw(VkPipeline pipeline, VkDescriptorSet set, const VkMesh& mesh, const ShaderParams& params,
@@ -252,9 +279,9 @@ FrameContext& VkBackend::open_context() {
   FrameContext& c = contexts_[current_];
   if (!recording_) {
     if (c.serial) {
-      vkWaitForFences(device_, 1, &c.fence, VK_TRUE, UINT64_MAX);
+      vkWaitForFences(vk_.device, 1, &c.fence, VK_TRUE, UINT64_MAX);
       completed_serial_ = std::max(completed_serial_, c.serial);
-      vkResetFences(device_, 1, &c.fence);
+      vkResetFences(vk_.device, 1, &c.fence);
     }
     vkResetCommandBuffer(c.cmd, 0);
     VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
@@ -273,7 +300,7 @@ bool VkBackend::submit_context() {
   VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
   si.commandBufferCount = 1;
   si.pCommandBuffers = &c.cmd;
-  const bool ok = vkQueueSubmit(queue_, 1, &si, c.fence) == VK_SUCCESS;
+  const bool ok = vkQueueSubmit(vk_.queue, 1, &si, c.fence) == VK_SUCCESS;
   c.serial = next_serial_++;
   recording_ = false;
   current_ = (current_ + 1) % static_cast<uint32_t>(contexts_.size());
@@ -282,31 +309,32 @@ bool VkBackend::submit_context() {
 
 void VkBackend::update_completed() {
   for (FrameContext& c : contexts_)
-    if (c.serial > completed_serial_ && vkGetFenceStatus(device_, c.fence) == VK_SUCCESS) completed_serial_ = c.serial;
+    if (c.serial > completed_serial_ && vkGetFenceStatus(vk_.device, c.fence) == VK_SUCCESS)
+      completed_serial_ = c.serial;
 }
 
-VoidResult VkBackend::begin_one_shot(VkCommandBuffer& cmd) {
+VoidResult begin_one_shot_commands(VkDevice device, VkCommandPool pool, VkCommandBuffer& cmd) {
   VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-  ai.commandPool = one_shot_pool_;
+  ai.commandPool = pool;
   ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
   ai.commandBufferCount = 1;
-  BTFLOD_VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &cmd), "vkAllocateCommandBuffers");
+  BTFLOD_VK_CHECK(vkAllocateCommandBuffers(device, &ai, &cmd), "vkAllocateCommandBuffers");
   VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   BTFLOD_VK_CHECK(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
   return {};
 }
 
-VoidResult VkBackend::end_one_shot(VkCommandBuffer cmd) {
+VoidResult submit_one_shot_commands(VkDevice device, VkQueue queue, VkCommandPool pool, VkCommandBuffer cmd) {
   VkResult r = vkEndCommandBuffer(cmd);
   if (r == VK_SUCCESS) {
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     si.commandBufferCount = 1;
     si.pCommandBuffers = &cmd;
-    r = vkQueueSubmit(queue_, 1, &si, VK_NULL_HANDLE);
-    if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue_);
+    r = vkQueueSubmit(queue, 1, &si, VK_NULL_HANDLE);
+    if (r == VK_SUCCESS) r = vkQueueWaitIdle(queue);
   }
-  vkFreeCommandBuffers(device_, one_shot_pool_, 1, &cmd);
+  vkFreeCommandBuffers(device, pool, 1, &cmd);
   if (r != VK_SUCCESS) return make_error(Status::io_error, "Vulkan: one-shot submit failed (%d)", static_cast<int>(r));
   return {};
 }

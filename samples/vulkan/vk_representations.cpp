@@ -52,10 +52,10 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
   // linearly as a 3D image (lavapipe does; checked so another driver fails here, not in a draw).
   const VkFormat volume_format = VK_FORMAT_R8G8B8A8_SNORM;
   VkFormatProperties fp{};
-  vkGetPhysicalDeviceFormatProperties(physical_, volume_format, &fp);
+  vkGetPhysicalDeviceFormatProperties(vk_.physical, volume_format, &fp);
   VkImageFormatProperties ifp{};
   if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) ||
-      vkGetPhysicalDeviceImageFormatProperties(physical_, volume_format, VK_IMAGE_TYPE_3D, VK_IMAGE_TILING_OPTIMAL,
+      vkGetPhysicalDeviceImageFormatProperties(vk_.physical, volume_format, VK_IMAGE_TYPE_3D, VK_IMAGE_TILING_OPTIMAL,
                                                VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT, 0,
                                                &ifp) != VK_SUCCESS ||
       ifp.maxExtent.width < (d.components + 1) * R || ifp.maxExtent.height < d.clusters * R ||
@@ -190,12 +190,12 @@ Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, cons
     VkDescriptorSetLayoutCreateInfo lci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     lci.bindingCount = static_cast<uint32_t>(textures.size() + 1);
     lci.pBindings = b;
-    BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(device_, &lci, nullptr, &rep_set_layout_[kind]),
+    BTFLOD_VK_CHECK(vkCreateDescriptorSetLayout(vk_.device, &lci, nullptr, &rep_set_layout_[kind]),
                     "vkCreateDescriptorSetLayout");
     VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     plci.setLayoutCount = 1;
     plci.pSetLayouts = &rep_set_layout_[kind];
-    BTFLOD_VK_CHECK(vkCreatePipelineLayout(device_, &plci, nullptr, &rep_pipeline_layout_[kind]),
+    BTFLOD_VK_CHECK(vkCreatePipelineLayout(vk_.device, &plci, nullptr, &rep_pipeline_layout_[kind]),
                     "vkCreatePipelineLayout");
   }
   VkMaterial m;
@@ -223,7 +223,7 @@ Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, cons
     ai.descriptorPool = descriptor_pool_;
     ai.descriptorSetCount = 1;
     ai.pSetLayouts = &rep_set_layout_[kind];
-    if (vkAllocateDescriptorSets(device_, &ai, &m.set) != VK_SUCCESS)
+    if (vkAllocateDescriptorSets(vk_.device, &ai, &m.set) != VK_SUCCESS)
       r = make_error(Status::unsupported, "Vulkan: vkAllocateDescriptorSets (too many materials?)");
   }
   if (!r) {
@@ -250,7 +250,7 @@ Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, cons
       w[i].pImageInfo = &images[i - 1];
     }
   }
-  vkUpdateDescriptorSets(device_, static_cast<uint32_t>(textures.size() + 1), w, 0, nullptr);
+  vkUpdateDescriptorSets(vk_.device, static_cast<uint32_t>(textures.size() + 1), w, 0, nullptr);
   materials_.push_back(m);
   return MaterialHandle{static_cast<uint32_t>(materials_.size())};
 }

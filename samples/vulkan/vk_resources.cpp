@@ -79,47 +79,61 @@ Result<std::vector<uint32_t>> compile_spirv(const std::string& source, const cha
   return words;
 }
 
-uint32_t VkBackend::memory_type(uint32_t bits, VkMemoryPropertyFlags want) const {
-  for (uint32_t i = 0; i < memory_props_.memoryTypeCount; ++i)
-    if ((bits & (1u << i)) && (memory_props_.memoryTypes[i].propertyFlags & want) == want) return i;
+uint32_t find_memory_type(const VkPhysicalDeviceMemoryProperties& memory, uint32_t bits, VkMemoryPropertyFlags want) {
+  for (uint32_t i = 0; i < memory.memoryTypeCount; ++i)
+    if ((bits & (1u << i)) && (memory.memoryTypes[i].propertyFlags & want) == want) return i;
   return UINT32_MAX;
 }
 
-VoidResult VkBackend::create_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) {
+namespace {
+
+// Allocates `req.size` bytes of memory type `type` in `out` and binds them with `bind(out)`;
+// `what` names the resource in errors.
+template <class Bind>
+VoidResult allocate_and_bind(VkDevice device, const VkMemoryRequirements& req, uint32_t type, const char* what,
+                             VkDeviceMemory& out, Bind&& bind) {
+  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  mai.allocationSize = req.size;
+  mai.memoryTypeIndex = type;
+  const VkResult allocated = vkAllocateMemory(device, &mai, nullptr, &out);
+  if (allocated != VK_SUCCESS)
+    return make_error(Status::unsupported, "Vulkan: vkAllocateMemory (%s) failed (VkResult %d)", what,
+                      static_cast<int>(allocated));
+  return bind(out);
+}
+
+}  // namespace
+
+VoidResult create_host_buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, Buffer& b,
+                              VkDeviceSize size, VkBufferUsageFlags usage) {
   b.size = size;
   VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   bci.size = size;
   bci.usage = usage;
-  BTFLOD_VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &b.buffer), "vkCreateBuffer");
+  BTFLOD_VK_CHECK(vkCreateBuffer(device, &bci, nullptr, &b.buffer), "vkCreateBuffer");
   VkMemoryRequirements req;
-  vkGetBufferMemoryRequirements(device_, b.buffer, &req);
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex =
-      memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
-  if (mai.memoryTypeIndex == UINT32_MAX)
+  vkGetBufferMemoryRequirements(device, b.buffer, &req);
+  const uint32_t type = find_memory_type(memory, req.memoryTypeBits,
+                                         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+  if (type == UINT32_MAX)
     return make_error(Status::unsupported, "Vulkan: no host-visible coherent memory for a buffer");
-  BTFLOD_VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &b.memory), "vkAllocateMemory (buffer)");
-  BTFLOD_VK_CHECK(vkBindBufferMemory(device_, b.buffer, b.memory, 0), "vkBindBufferMemory");
-  BTFLOD_VK_CHECK(vkMapMemory(device_, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
-  return {};
+  return allocate_and_bind(device, req, type, "buffer", b.memory, [&](VkDeviceMemory m) -> VoidResult {
+    BTFLOD_VK_CHECK(vkBindBufferMemory(device, b.buffer, m, 0), "vkBindBufferMemory");
+    BTFLOD_VK_CHECK(vkMapMemory(device, m, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+    return {};
+  });
 }
 
-void VkBackend::destroy(Buffer& b) {
-  if (b.buffer) vkDestroyBuffer(device_, b.buffer, nullptr);
-  if (b.memory) vkFreeMemory(device_, b.memory, nullptr);
+void destroy_buffer(VkDevice device, Buffer& b) {
+  if (b.buffer) vkDestroyBuffer(device, b.buffer, nullptr);
+  if (b.memory) vkFreeMemory(device, b.memory, nullptr);
   b = Buffer{};
 }
 
-VoidResult VkBackend::create_texture(Texture& t, VkFormat format, uint32_t w, uint32_t h, uint32_t layers,
-                                     uint32_t mips, VkImageUsageFlags extra, bool array_view, uint32_t depth3d) {
-  const bool depth = format == VK_FORMAT_D32_SFLOAT;
-  t.format = format;
-  t.width = w;
-  t.height = h;
-  t.layers = layers;
-  t.mips = mips;
-  t.depth = depth3d;
+VoidResult create_image(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, Texture& t, VkFormat format,
+                        uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, VkImageUsageFlags usage,
+                        bool array_view, uint32_t depth3d) {
+  t = Texture{.format = format, .width = w, .height = h, .layers = layers, .mips = mips, .depth = depth3d};
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = depth3d > 1 ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
   ici.format = format;
@@ -128,46 +142,46 @@ VoidResult VkBackend::create_texture(Texture& t, VkFormat format, uint32_t w, ui
   ici.arrayLayers = layers;
   ici.samples = VK_SAMPLE_COUNT_1_BIT;
   ici.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ici.usage = extra | VK_IMAGE_USAGE_TRANSFER_DST_BIT | (depth ? 0 : VK_IMAGE_USAGE_SAMPLED_BIT);
+  ici.usage = usage;
   ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  BTFLOD_VK_CHECK(vkCreateImage(device_, &ici, nullptr, &t.image), "vkCreateImage");
+  BTFLOD_VK_CHECK(vkCreateImage(device, &ici, nullptr, &t.image), "vkCreateImage");
   VkMemoryRequirements req;
-  vkGetImageMemoryRequirements(device_, t.image, &req);
-  VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-  mai.allocationSize = req.size;
-  mai.memoryTypeIndex = memory_type(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-  if (mai.memoryTypeIndex == UINT32_MAX) mai.memoryTypeIndex = memory_type(req.memoryTypeBits, 0);
-  BTFLOD_VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &t.memory), "vkAllocateMemory (image)");
-  BTFLOD_VK_CHECK(vkBindImageMemory(device_, t.image, t.memory, 0), "vkBindImageMemory");
-  VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-  vci.image = t.image;
-  vci.viewType = depth3d > 1 ? VK_IMAGE_VIEW_TYPE_3D : array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D;
-  vci.format = format;
-  vci.subresourceRange = {
-      static_cast<VkImageAspectFlags>(depth ? VK_IMAGE_ASPECT_DEPTH_BIT : VK_IMAGE_ASPECT_COLOR_BIT), 0, mips, 0,
-      layers};
-  BTFLOD_VK_CHECK(vkCreateImageView(device_, &vci, nullptr, &t.view), "vkCreateImageView");
+  vkGetImageMemoryRequirements(device, t.image, &req);
+  uint32_t type = find_memory_type(memory, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (type == UINT32_MAX) type = find_memory_type(memory, req.memoryTypeBits, 0);
+  return allocate_and_bind(device, req, type, "image", t.memory, [&](VkDeviceMemory m) -> VoidResult {
+    BTFLOD_VK_CHECK(vkBindImageMemory(device, t.image, m, 0), "vkBindImageMemory");
+    VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vci.image = t.image;
+    vci.viewType = depth3d > 1  ? VK_IMAGE_VIEW_TYPE_3D
+                   : array_view ? VK_IMAGE_VIEW_TYPE_2D_ARRAY
+                                : VK_IMAGE_VIEW_TYPE_2D;
+    vci.format = format;
+    vci.subresourceRange = texture_range(t);
+    BTFLOD_VK_CHECK(vkCreateImageView(device, &vci, nullptr, &t.view), "vkCreateImageView");
+    return {};
+  });
+}
+
+void destroy_texture(VkDevice device, Texture& t) {
+  if (t.view) vkDestroyImageView(device, t.view, nullptr);
+  if (t.image) vkDestroyImage(device, t.image, nullptr);
+  if (t.memory) vkFreeMemory(device, t.memory, nullptr);
+  t = Texture{};
+}
+
+VoidResult VkBackend::create_texture(Texture& t, VkFormat format, uint32_t w, uint32_t h, uint32_t layers,
+                                     uint32_t mips, VkImageUsageFlags extra, bool array_view, uint32_t depth3d) {
+  const bool depth = format == VK_FORMAT_D32_SFLOAT;
+  const VkImageUsageFlags usage = extra | VK_IMAGE_USAGE_TRANSFER_DST_BIT | (depth ? 0 : VK_IMAGE_USAGE_SAMPLED_BIT);
+  if (VoidResult r = create_image(vk_.device, vk_.memory, t, format, w, h, layers, mips, usage, array_view, depth3d);
+      !r)
+    return r;
   // Every image lives in GENERAL from here on.
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   if (VoidResult r = begin_one_shot(cmd); !r) return r;
-  VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-  b.srcAccessMask = 0;
-  b.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
-  b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = t.image;
-  b.subresourceRange = vci.subresourceRange;
-  vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, nullptr, 0,
-                       nullptr, 1, &b);
+  to_general_layout(cmd, t.image, texture_range(t));
   return end_one_shot(cmd);
-}
-
-void VkBackend::destroy(Texture& t) {
-  if (t.view) vkDestroyImageView(device_, t.view, nullptr);
-  if (t.image) vkDestroyImage(device_, t.image, nullptr);
-  if (t.memory) vkFreeMemory(device_, t.memory, nullptr);
-  t = Texture{};
 }
 
 void VkBackend::destroy_material(VkMaterial& m) {
@@ -176,7 +190,7 @@ void VkBackend::destroy_material(VkMaterial& m) {
   destroy(m.angular_weight);
   destroy(m.eigen_textures);
   for (Texture& t : m.rep) destroy(t);
-  if (m.pipeline) vkDestroyPipeline(device_, m.pipeline, nullptr);
+  if (m.pipeline) vkDestroyPipeline(vk_.device, m.pipeline, nullptr);
   m.pipeline = VK_NULL_HANDLE;
 }
 

@@ -10,6 +10,7 @@
 #include "btflod/offline/angular/directions.hpp"
 #include "btflod/offline/packing/ring_search_block.hpp"
 #include "btflod/runtime/shader/glsl_generator.hpp"
+#include "test_shader_text_cases.hpp"
 
 using namespace btflod;
 
@@ -109,12 +110,10 @@ TEST(BackendRingSearchBlock, GeneratedBlockMatchesTheMirror) {
   auto fn = generate_functions(glsl_pieces({GlslPiece::pca_rings}), GlslTarget::es300, c);
   ASSERT_TRUE(fn.ok()) << fn.message();
   const std::string& s = fn->code;
-  EXPECT_NE(s.find("layout(std140) uniform btflod_DirectionRings {"), std::string::npos) << s;
-  EXPECT_NE(s.find("vec4 btflod_rings[2 * btflod_kRingMax];"), std::string::npos);
-  EXPECT_NE(s.find("uvec4 btflod_ring_slots[btflod_kRingSlots / 2];"), std::string::npos);
-  EXPECT_NE(s.find("ivec4 btflod_ring_counts;"), std::string::npos);
-  EXPECT_NE(s.find("const int btflod_kRingMax = 16;"), std::string::npos);
-  EXPECT_NE(s.find("const int btflod_kRingSlots = 256;"), std::string::npos);
+  shader_text::expect_contains(
+      s, {"layout(std140) uniform btflod_DirectionRings {", "vec4 btflod_rings[2 * btflod_kRingMax];",
+          "uvec4 btflod_ring_slots[btflod_kRingSlots / 2];", "ivec4 btflod_ring_counts;",
+          "const int btflod_kRingMax = 16;", "const int btflod_kRingSlots = 256;"});
   // pca_rings reads the ring search, never the angular tables.
   EXPECT_NE(s.find("btflod_ring_search(0, wl, il, al);"), std::string::npos);
   EXPECT_EQ(s.find("angular_index"), std::string::npos);

@@ -119,9 +119,8 @@ TEST(ShaderGlsl, OutputIsDeterministicAndConfigDriven) {
   auto b = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->fragment, b->fragment);
-  EXPECT_NE(a->fragment.find("const int btflod_kFmfComponents = 8;"), std::string::npos);
-  EXPECT_NE(a->fragment.find("const float btflod_kPaddedTile = 72.0;"), std::string::npos);
-  EXPECT_NE(a->fragment.find("layout(binding = 5) uniform sampler2DArray btflod_tile_cache;"), std::string::npos);
+  expect_contains(a->fragment, {"const int btflod_kFmfComponents = 8;", "const float btflod_kPaddedTile = 72.0;",
+                                "layout(binding = 5) uniform sampler2DArray btflod_tile_cache;"});
   c.components = 5;
   auto d = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, c);
   ASSERT_TRUE(d.ok());
@@ -335,19 +334,16 @@ TEST(ShaderGlsl, FunctionsFollowTheCallersNamesBindingsSetsAndSources) {
   ASSERT_TRUE(vk.ok()) << vk.message();
   const std::string& s = vk->code;
   // bindings and sets as chosen (tile_cache = 5 → binding 25, set 2; page_table = 6 → 26, set 1)
-  EXPECT_NE(s.find("layout(set = 2, binding = 25) uniform sampler2DArray eng_btf_tile_cache;"), std::string::npos);
-  EXPECT_NE(s.find("layout(set = 1, binding = 26) uniform usampler2DArray eng_btf_page_table;"), std::string::npos);
+  expect_contains(s, {"layout(set = 2, binding = 25) uniform sampler2DArray eng_btf_tile_cache;",
+                      "layout(set = 1, binding = 26) uniform usampler2DArray eng_btf_page_table;"});
   // the engine declares the weights table itself: read under its name, not declared here
   EXPECT_NE(s.find("texelFetch(engine_angular_weights"), std::string::npos);
   EXPECT_EQ(s.find("uniform sampler2DArray engine_angular_weights"), std::string::npos);
   // uniform sources: the engine's expressions, parenthesised
-  EXPECT_NE(s.find("(material.extent).xy"), std::string::npos);
-  EXPECT_NE(s.find("- (material.lod.x + frame_bias)"), std::string::npos);
-  EXPECT_NE(s.find("int((material.ids.x))"), std::string::npos);
-  EXPECT_NE(s.find("uint((material.ids[1]))"), std::string::npos);
+  expect_contains(s, {"(material.extent).xy", "- (material.lod.x + frame_bias)", "int((material.ids.x))",
+                      "uint((material.ids[1]))"});
   // every function carries the prefix; the shared pieces appear once
-  EXPECT_NE(s.find("vec3 eng_btf_bsvtf(vec2 uv, vec3 wl, vec3 wv)"), std::string::npos);
-  EXPECT_NE(s.find("uint eng_btf_feedback_word(vec2 uv)"), std::string::npos);
+  expect_contains(s, {"vec3 eng_btf_bsvtf(vec2 uv, vec3 wl, vec3 wv)", "uint eng_btf_feedback_word(vec2 uv)"});
   for (const char* def : {"float eng_btf_vt_lambda(", "vec3 eng_btf_fmf_brdf(", "void eng_btf_angular(",
                           "vec2 eng_btf_direction_map(", "struct eng_btf_VtSite"}) {
     EXPECT_NE(s.find(def), std::string::npos) << def;

@@ -4,8 +4,11 @@
 // way whichever language it is written in.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cctype>
 #include <cstdint>
+#include <initializer_list>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -133,6 +136,11 @@ inline std::string hlsl_spelling(std::string_view glsl) {
     i = end;
   }
   return out;
+}
+
+/// Expects each of `needles` in `text`; a missing one fails naming it.
+inline void expect_contains(const std::string& text, std::initializer_list<std::string_view> needles) {
+  for (std::string_view needle : needles) EXPECT_NE(text.find(needle), std::string::npos) << "missing: " << needle;
 }
 
 /// The body of an engine shader's main() (without its braces and output): directions wl, wv

@@ -208,6 +208,19 @@ Run run_fixed(const World& w, const Camera& cam, const std::vector<Pixel>& px, c
   return r;
 }
 
+// Appends what material mi sends of component group k at level l: its U packet first (with
+// level 0), then the level's tiles in row order.
+void append_group_level(const World& w, uint32_t mi, uint32_t k, uint32_t l, std::vector<LinkItem>& out) {
+  const Material& m = w.materials[mi];
+  const VtLevelTable& lv = m.pyramid.levels();
+  if (l == 0) out.push_back({mi, k, 0, true, m.packet_bytes[k]});
+  for (uint32_t y = 0; y < lv.tiles_y[l]; ++y)
+    for (uint32_t x = 0; x < lv.tiles_x[l]; ++x) {
+      const uint32_t flat = lv.index(l, x, y);
+      out.push_back({mi, k, flat, false, m.tile_bytes[k][flat]});
+    }
+}
+
 std::vector<LinkItem> component_order(const World& w) {
   std::vector<LinkItem> out;
   uint32_t groups = 0, levels = 0;
@@ -219,14 +232,8 @@ std::vector<LinkItem> component_order(const World& w) {
     for (uint32_t l = 0; l < levels; ++l)
       for (uint32_t mi = 0; mi < w.materials.size(); ++mi) {
         const Material& m = w.materials[mi];
-        const VtLevelTable& lv = m.pyramid.levels();
         if (k >= m.decoded.size() || l >= m.pyramid.geometry().level_count()) continue;
-        if (l == 0) out.push_back({mi, k, 0, true, m.packet_bytes[k]});
-        for (uint32_t y = 0; y < lv.tiles_y[l]; ++y)
-          for (uint32_t x = 0; x < lv.tiles_x[l]; ++x) {
-            const uint32_t flat = lv.index(l, x, y);
-            out.push_back({mi, k, flat, false, m.tile_bytes[k][flat]});
-          }
+        append_group_level(w, mi, k, l, out);
       }
   return out;
 }
@@ -238,16 +245,8 @@ std::vector<LinkItem> level_order(const World& w) {
   for (uint32_t l = 0; l < levels; ++l)
     for (uint32_t mi = 0; mi < w.materials.size(); ++mi) {
       const Material& m = w.materials[mi];
-      const VtLevelTable& lv = m.pyramid.levels();
       if (l >= m.pyramid.geometry().level_count()) continue;
-      for (uint32_t k = 0; k < m.decoded.size(); ++k) {
-        if (l == 0) out.push_back({mi, k, 0, true, m.packet_bytes[k]});
-        for (uint32_t y = 0; y < lv.tiles_y[l]; ++y)
-          for (uint32_t x = 0; x < lv.tiles_x[l]; ++x) {
-            const uint32_t flat = lv.index(l, x, y);
-            out.push_back({mi, k, flat, false, m.tile_bytes[k][flat]});
-          }
-      }
+      for (uint32_t k = 0; k < m.decoded.size(); ++k) append_group_level(w, mi, k, l, out);
     }
   return out;
 }
@@ -475,16 +474,12 @@ bool write_text(const std::string& path, const std::string& text) {
 int main(int argc, char** argv) {
   Options o;
   if (!parse(argc, argv, o)) return 2;
-  std::string command = "btflod-progressive";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
-  std::error_code ec;
-  std::filesystem::create_directories(o.out, ec);
-  if (ec) {
-    std::fprintf(stderr, "btflod-progressive: %s: cannot create: %s\n", o.out.c_str(), ec.message().c_str());
+  const samples::MeasuredRun run("btflod-progressive", argc, argv, o.out);
+  if (run.folder_error()) {
+    std::fprintf(stderr, "btflod-progressive: %s: cannot create: %s\n", o.out.c_str(),
+                 run.folder_error().message().c_str());
     return 1;
   }
-  const auto start = std::chrono::steady_clock::now();
-  const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   World w(o);
   if (auto e = w.init(); !e) {
     std::fprintf(stderr, "btflod-progressive: %s\n", e.message().c_str());
@@ -512,7 +507,7 @@ int main(int argc, char** argv) {
       static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0, static_cast<unsigned long long>(packets),
       static_cast<double>(packet_bytes) / 1024.0, static_cast<double>(w.total_bytes) / 1024.0);
   std::printf("  link        %llu bytes per frame; %ux%u pixels; feedback 1/%u; prepared in %.1f s\n",
-              static_cast<unsigned long long>(per_frame), o.width, o.height, o.decimation, seconds());
+              static_cast<unsigned long long>(per_frame), o.width, o.height, o.decimation, run.seconds());
 
   std::vector<ViewResult> results;
   bool deterministic = true, converged_ok = true;
@@ -581,7 +576,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "btflod-progressive: cannot write %s / %s\n", csv_path.c_str(), svg_path.c_str());
     return 1;
   }
-  std::printf("  wrote       %s, %s (%.1f s)\n", csv_path.c_str(), svg_path.c_str(), seconds());
+  std::printf("  wrote       %s, %s (%.1f s)\n", csv_path.c_str(), svg_path.c_str(), run.seconds());
 
   // The results block of docs/progressive.md.
   std::ostringstream doc;
@@ -592,8 +587,8 @@ int main(int argc, char** argv) {
       "Data: %u materials, %ux%u texels, C = %u → %zu RGBA virtual textures each, T = %u, B = %u, %u levels, "
       "codec quality %.0f, %s: %llu tiles = %.1f KiB compressed (%.1f KiB as raw RGBA16F) + %llu U packets = %.1f KiB; "
       "all bytes %.1f KiB. Link: %llu bytes per frame. Image %ux%u, feedback 1/%u.\n\n",
-      command.c_str(), seconds(), o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height, o.components,
-      m0.decoded.size(), m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border,
+      run.command().c_str(), run.seconds(), o.materials, m0.pyramid.geometry().width, m0.pyramid.geometry().height,
+      o.components, m0.decoded.size(), m0.pyramid.geometry().tile_size, m0.pyramid.geometry().border,
       m0.pyramid.geometry().level_count(), static_cast<double>(o.quality),
       o.entropy_coder == TileEntropyCoder::zstd ? "zstd" : "deflate", static_cast<unsigned long long>(tiles),
       static_cast<double>(tile_bytes) / 1024.0, static_cast<double>(tiles * m0.pyramid.tile_bytes()) / 1024.0,

@@ -277,12 +277,7 @@ std::string gnuplot_script(const std::vector<Point>& pts, const std::vector<std:
 int main(int argc, char** argv) {
   Options o;
   if (!parse(argc, argv, o)) return 2;
-  std::string command = "btflod-rate-distortion";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
-  std::error_code ec;
-  std::filesystem::create_directories(o.out, ec);
-  const auto start = std::chrono::steady_clock::now();
-  const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const samples::MeasuredRun run("btflod-rate-distortion", argc, argv, o.out);
   const auto fail = [](const std::string& what, const std::string& msg) {
     std::fprintf(stderr, "btflod-rate-distortion: %s: %s\n", what.c_str(), msg.c_str());
     return 1;
@@ -325,7 +320,10 @@ int main(int argc, char** argv) {
         names.push_back(m->name);
         if (auto r = builder->add_material(i, *m); !r) return fail("raw reference", r.message());
       }
-      if (!o.paper) std::filesystem::remove(m->store_path, ec);
+      if (!o.paper) {
+        std::error_code ec;  // a store left behind is only disk space
+        std::filesystem::remove(m->store_path, ec);
+      }
       prepared.push_back(std::move(*m));
     }
     for (uint32_t i = 0; i < o.materials; ++i) {
@@ -463,12 +461,12 @@ int main(int argc, char** argv) {
                          : std::string("ΔE*ab p99 ≤ 2.3 not reached"))
             << "\n";
   }
-  std::printf("%s(%.1f s)\n", summary.str().c_str(), seconds());
+  std::printf("%s(%.1f s)\n", summary.str().c_str(), run.seconds());
 
   if (!o.doc.empty()) {
     std::ostringstream doc;
-    doc << "Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s on the 2-core machine). " << o.materials
-        << " materials of " << o.size << "² texels × " << directions.size() << " × " << directions.size()
+    doc << "Command: `" << run.command() << "` (" << fmt("%.0f", run.seconds()) << " s on the 2-core machine). "
+        << o.materials << " materials of " << o.size << "² texels × " << directions.size() << " × " << directions.size()
         << " directions, repeated to a "
         << (points.empty() ? 0 : o.size * (o.paper ? demo::paper_repeat(static_cast<int>(o.size)) : base.repeat))
         << "² virtual texture; T = " << base.tile_size << ", B = " << base.border << "; the demo's last view at "

@@ -335,12 +335,7 @@ std::string fmt(const char* f, double v) {
 int main(int argc, char** argv) {
   Options o;
   if (!parse(argc, argv, o)) return 2;
-  std::string command = "btflod-visibility";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
-  std::error_code ec;
-  std::filesystem::create_directories(o.out, ec);
-  const auto start = std::chrono::steady_clock::now();
-  const auto seconds = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const samples::MeasuredRun run("btflod-visibility", argc, argv, o.out);
   World w(o);
   if (auto e = w.init(); !e) {
     std::fprintf(stderr, "btflod-visibility: %s\n", e.message().c_str());
@@ -573,7 +568,7 @@ int main(int argc, char** argv) {
           << (two > 0 ? fmt("%.2f:1", two) + " (q" + fmt("%.0f", two_q) + ")" : std::string("none"))
           << "; on every material at one quality: "
           << (every > 0 ? fmt("%.2f:1", every) + " (q" + fmt("%.0f", every_q) + ")" : std::string("none")) << ".\n";
-  std::printf("%s  (%.1f s)\n", summary.str().c_str(), seconds());
+  std::printf("%s  (%.1f s)\n", summary.str().c_str(), run.seconds());
   if (!o.doc.empty()) {
     std::ostringstream doc;
     doc << "Tolerances: "
@@ -593,12 +588,12 @@ int main(int argc, char** argv) {
                          : std::string())
         << ", frequency weighting JPEG^(" << bo_weight_quarters(o) << "/4)"
         << (o.entropy_coder == TileEntropyCoder::zstd ? ", tiles coded with zstd" : ", tiles coded with deflate")
-        << ". Command: `" << command << "` (" << fmt("%.0f", seconds()) << " s). " << o.materials << " materials, "
-        << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size << "² repeated "
-        << o.repeat << "×" << o.repeat << "), C = " << o.components << ", T = " << m0.dir.metadata.tile_size
-        << ", B = " << m0.dir.metadata.border << ", " << m0.dir.metadata.level_count << " levels; " << o.views
-        << " views of " << o.width << "×" << o.height << "; statistics over each material's pixels in all views. "
-        << peaks.str() << "\n\n"
+        << ". Command: `" << run.command() << "` (" << fmt("%.0f", run.seconds()) << " s). " << o.materials
+        << " materials, " << m0.pyramid.geometry().width << "×" << m0.pyramid.geometry().height << " texels (" << o.size
+        << "² repeated " << o.repeat << "×" << o.repeat << "), C = " << o.components
+        << ", T = " << m0.dir.metadata.tile_size << ", B = " << m0.dir.metadata.border << ", "
+        << m0.dir.metadata.level_count << " levels; " << o.views << " views of " << o.width << "×" << o.height
+        << "; statistics over each material's pixels in all views. " << peaks.str() << "\n\n"
         << table.str() << "\n"
         << summary.str();
     const bool shared = o.tolerance == ToleranceReference::shared_max;

@@ -39,6 +39,7 @@
 #include "btflod/runtime/streamer.hpp"
 #include "common/arguments.hpp"
 #include "common/doc_block.hpp"
+#include "common/hash32.hpp"
 
 using namespace btflod;
 
@@ -74,15 +75,6 @@ bool parse(int argc, char** argv, Options& o) {
   return args.finish(0);
 }
 
-uint32_t hash32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
-
 // Tileable value noise in [−1, 1] with `cells` lattice cells across the texture.
 float value_noise(uint32_t seed, float x, float y, uint32_t cells) {
   const float fx = x * static_cast<float>(cells), fy = y * static_cast<float>(cells);
@@ -93,7 +85,9 @@ float value_noise(uint32_t seed, float x, float y, uint32_t cells) {
         static_cast<uint32_t>((ix % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
     const uint32_t cy =
         static_cast<uint32_t>((iy % static_cast<int>(cells) + static_cast<int>(cells)) % static_cast<int>(cells));
-    return static_cast<float>(hash32(seed ^ hash32(cx * 73856093u ^ cy * 19349663u)) & 0xffffu) / 32767.5f - 1.0f;
+    return static_cast<float>(samples::hash32(seed ^ samples::hash32(cx * 73856093u ^ cy * 19349663u)) & 0xffffu) /
+               32767.5f -
+           1.0f;
   };
   const float sx = ax * ax * (3 - 2 * ax), sy = ay * ay * (3 - 2 * ay);
   const float top = lattice(x0, y0) + (lattice(x0 + 1, y0) - lattice(x0, y0)) * sx;
@@ -460,8 +454,7 @@ std::string report(const Options& o, const World& w, const Result& a, const Resu
 int main(int argc, char** argv) {
   Options o;
   if (!parse(argc, argv, o)) return 2;
-  std::string command = "btflod-replay";
-  for (int i = 1; i < argc; ++i) command += std::string(" ") + argv[i];
+  const std::string command = samples::command_line("btflod-replay", argc, argv);
 
   const World w(o);
   CachedStrategy weighted(w, PriorityMode::weighted), votes_only(w, PriorityMode::votes_only);

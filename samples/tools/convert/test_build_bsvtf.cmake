@@ -5,7 +5,7 @@
 # factorised on ln(x + 0.05) with the rank chosen from a displayed-SSIM target builds a container
 # that says so (`values log`) and decodes completely.
 # Run with -DCONVERT=<btflod-convert> -DOUT=<scratch dir>.
-include(${CMAKE_CURRENT_LIST_DIR}/convert_test_synth.cmake)
+include(${CMAKE_CURRENT_LIST_DIR}/convert_test_commands.cmake)
 set(btf ${OUT}/build_test.btf)
 set(fmf ${OUT}/build_test.fmf)
 foreach(f ${btf} ${fmf} ${OUT}/build_p.bsvtf ${OUT}/build_s.bsvtf)

@@ -72,3 +72,19 @@ function(btflod_read_directives src out_links out_labels out_ok)
   set(${out_labels} ${labels} PARENT_SCOPE)
   set(${out_ok} ${ok} PARENT_SCOPE)
 endfunction()
+
+# btflod_add_directed_executable(<source> <out_name> [<library>...]): an executable named after
+# <source> (its file name without extension), linked with the <library> arguments followed by
+# the source's btflod-link targets. <out_name> receives its name, or is empty (and nothing is
+# added) when a btflod-link target is missing.
+function(btflod_add_directed_executable src out_name)
+  get_filename_component(name ${src} NAME_WE)
+  btflod_read_directives(${src} links labels ok)
+  if(NOT ok)
+    set(${out_name} "" PARENT_SCOPE)
+    return()
+  endif()
+  add_executable(${name} ${src})
+  target_link_libraries(${name} PRIVATE ${ARGN} ${links})
+  set(${out_name} ${name} PARENT_SCOPE)
+endfunction()

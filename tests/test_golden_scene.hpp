@@ -18,6 +18,7 @@
 #include "btflod/offline/render/cpu_reference.hpp"
 #include "btflod/runtime/backend/page_table_writes.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
+#include "test_shader_backend_cases.hpp"
 #include "test_shader_scene.hpp"
 
 namespace btflod::golden {
@@ -26,18 +27,13 @@ using namespace btflod::test_scene;
 
 inline constexpr int kTexture = 256;  // M = N; T = 64 → finest level 2
 
+/// The backend cases' FMF configuration (parabolic map, barycentric lookup, T = 64, B = 4) with
+/// C = 8 and a single-layer 6 × 6 cache sampled trilinearly.
 inline ShaderConfig golden_config() {
-  ShaderConfig c;
+  ShaderConfig c = backend_cases::default_fmf_config();
   c.components = 8;
-  c.angular.parameterisation = DirectionParameterisation::parabolic;
-  c.angular.lookup = AngularLookup::barycentric;
-  c.angular.resolution = 32;
-  c.vt.tile_size = 64;
-  c.vt.border = 4;
-  c.vt.slots_x = 6;
-  c.vt.slots_y = 6;
+  c.vt.slots_x = c.vt.slots_y = 6;
   c.vt.cache_layers = 1;
-  c.vt.finest_level = 2;
   c.vt.trilinear = true;
   return c;
 }
@@ -144,14 +140,8 @@ Image<float> cpu_render(const Material& m, const ShaderParams& p, SampleV&& samp
   });
 }
 
-inline FrameDesc backend_frame() {
-  FrameDesc f;
-  f.width = kSize;
-  f.height = kSize;
-  f.feedback_width = 32;
-  f.feedback_height = 32;
-  return f;
-}
+/// A kSize × kSize frame with 32 × 32 feedback.
+inline FrameDesc backend_frame() { return backend_cases::frame_desc(); }
 
 /// One frame of `program` drawing `material` on `mesh`; returns the colour target. Every step
 /// must succeed.

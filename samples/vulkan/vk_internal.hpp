@@ -232,10 +232,20 @@ class VkBackend final : public Backend {
     return p == ShaderProgram::laplacian ? 0 : p == ShaderProgram::lpca ? 1 : p == ShaderProgram::pca_views ? 2 : 3;
   }
 
-  /// Creates and uploads `textures`, the program's set layout (first use), its pipeline and
-  /// descriptor set. Set-up only; nothing leaks on failure.
+  /// The set-up checks of create_*_material(d) (`call` names it in the error): init() ran and
+  /// `d` passes validate_material() for the programs' configuration.
+  template <class MaterialData>
+  VoidResult check_material(const MaterialData& d, const char* call) const {
+    if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: %s before init", call);
+    return validate_material(d, config_);
+  }
+
+  /// Creates and uploads `textures` (followed, when `angular` is not null, by its tables packed
+  /// as the angular_index and angular_weight textures), the program's set layout (first use),
+  /// its pipeline and descriptor set. Set-up only; nothing leaks on failure.
   Result<MaterialHandle> add_representation(ShaderProgram program, const ShaderConfig& config,
-                                            const std::vector<RepTexture>& textures);
+                                            std::vector<RepTexture> textures,
+                                            const AngularTablesData* angular = nullptr);
 
   // --- resources ---------------------------------------------------------------------------
   VoidResult create_buffer(Buffer& b, VkDeviceSize size, VkBufferUsageFlags usage) {

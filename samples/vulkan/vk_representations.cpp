@@ -9,8 +9,7 @@
 namespace btflod::samples::vk_detail {
 
 Result<MaterialHandle> VkBackend::create_laplacian_material(const LaplacianMaterialData& d) {
-  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_laplacian_material before init");
-  if (VoidResult v = validate_material(d, config_); !v) return v.error();
+  if (VoidResult v = check_material(d, "create_laplacian_material"); !v) return v.error();
   const uint32_t groups = (d.components + 3) / 4;
   std::vector<const void*> weight_mips;  // mip k = pyramid level k (paper 001 §3.3)
   const float* w = d.weights.data();
@@ -18,10 +17,6 @@ Result<MaterialHandle> VkBackend::create_laplacian_material(const LaplacianMater
     weight_mips.push_back(w);
     w += static_cast<size_t>(std::max(1u, d.width >> k)) * std::max(1u, d.height >> k) * groups * 4;
   }
-  std::vector<uint32_t> index;
-  std::vector<float> weight;
-  pack_angular_tables_rgba(d.angular, index, weight);
-  const uint32_t res = d.angular.resolution;
   const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
   return add_representation(
       ShaderProgram::laplacian, representation_config(config_, d),
@@ -38,14 +33,12 @@ Result<MaterialHandle> VkBackend::create_laplacian_material(const LaplacianMater
         false},
        {ShaderBinding::laplacian_weights, f4, d.width, d.height, groups, d.max_level + 1, 1, true, weight_mips, 16,
         false},
-       {ShaderBinding::laplacian_mean, f4, d.light_count, d.view_count, 1, 1, 1, false, {d.mean.data()}, 16, false},
-       {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
-       {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+       {ShaderBinding::laplacian_mean, f4, d.light_count, d.view_count, 1, 1, 1, false, {d.mean.data()}, 16, false}},
+      &d.angular);
 }
 
 Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d) {
-  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_lpca_material before init");
-  if (VoidResult v = validate_material(d, config_); !v) return v.error();
+  if (VoidResult v = check_material(d, "create_lpca_material"); !v) return v.error();
   const uint32_t R = d.grid_resolution;
   const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
   // paper 002 §6.3: the eigen-BRDF volume is 8-bit; snorm8 returns q/127 and must filter
@@ -101,12 +94,8 @@ Result<MaterialHandle> VkBackend::create_lpca_material(const LpcaMaterialData& d
 }
 
 Result<MaterialHandle> VkBackend::create_pca_views_material(const PcaViewsMaterialData& d) {
-  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_pca_views_material before init");
-  if (VoidResult v = validate_material(d, config_); !v) return v.error();
-  std::vector<uint32_t> index;
-  std::vector<float> weight;
-  pack_angular_tables_rgba(d.angular, index, weight);
-  const uint32_t res = d.angular.resolution, groups = (d.view_count + d.views_per_group - 1) / d.views_per_group;
+  if (VoidResult v = check_material(d, "create_pca_views_material"); !v) return v.error();
+  const uint32_t groups = (d.view_count + d.views_per_group - 1) / d.views_per_group;
   const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
   return add_representation(
       ShaderProgram::pca_views, representation_config(config_, d),
@@ -121,63 +110,71 @@ Result<MaterialHandle> VkBackend::create_pca_views_material(const PcaViewsMateri
         {d.l.data()},
         16,
         false},
-       {ShaderBinding::pca_r, f4, d.components, d.light_count * d.view_count, 1, 1, 1, false, {d.r.data()}, 16, false},
-       {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
-       {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+       {ShaderBinding::pca_r, f4, d.components, d.light_count * d.view_count, 1, 1, 1, false, {d.r.data()}, 16, false}},
+      &d.angular);
 }
 
 Result<MaterialHandle> VkBackend::create_spmm_material(const SpmmMaterialData& d) {
-  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_spmm_material before init");
-  if (VoidResult v = validate_material(d, config_); !v) return v.error();
-  std::vector<uint32_t> index;
-  std::vector<float> weight;
-  pack_angular_tables_rgba(d.angular, index, weight);
-  const uint32_t res = d.angular.resolution, rows = (d.bases + kSpmmBasesPerRow - 1) / kSpmmBasesPerRow;
+  if (VoidResult v = check_material(d, "create_spmm_material"); !v) return v.error();
+  const uint32_t rows = (d.bases + kSpmmBasesPerRow - 1) / kSpmmBasesPerRow;
   const VkFormat f4 = VK_FORMAT_R32G32B32A32_SFLOAT;
-  return add_representation(
-      ShaderProgram::spmm, representation_config(config_, d),
-      {// paper 003 eq. 1, 3: slots (basis index, α) and cluster + residual coefficients per texel
-       {ShaderBinding::spmm_texels,
-        VK_FORMAT_R32G32B32A32_UINT,
-        d.width,
-        d.height,
-        d.slots + spmm_residual_layers(d.residual_components),
-        1,
-        1,
-        true,
-        {d.texels.data()},
-        16,
-        false},
-       // eq. 2: model id, κ_j, n_j, 2 texels per basis function
-       {ShaderBinding::spmm_dictionary,
-        f4,
-        2 * kSpmmBasesPerRow,
-        rows,
-        1,
-        1,
-        1,
-        false,
-        {d.dictionary.data()},
-        16,
-        false},
-       // eq. 3: residual mean and components per cluster, texel (light, view)
-       {ShaderBinding::spmm_residual,
-        f4,
-        d.light_count,
-        d.view_count,
-        d.clusters * (d.residual_components + 1),
-        1,
-        1,
-        true,
-        {d.residual.data()},
-        16,
-        false},
-       {ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, res, res, 2, 1, 1, true, {index.data()}, 16, false},
-       {ShaderBinding::angular_weight, f4, res, res, 2, 1, 1, true, {weight.data()}, 16, false}});
+  return add_representation(ShaderProgram::spmm, representation_config(config_, d),
+                            {// paper 003 eq. 1, 3: slots (basis index, α) and cluster + residual coefficients per texel
+                             {ShaderBinding::spmm_texels,
+                              VK_FORMAT_R32G32B32A32_UINT,
+                              d.width,
+                              d.height,
+                              d.slots + spmm_residual_layers(d.residual_components),
+                              1,
+                              1,
+                              true,
+                              {d.texels.data()},
+                              16,
+                              false},
+                             // eq. 2: model id, κ_j, n_j, 2 texels per basis function
+                             {ShaderBinding::spmm_dictionary,
+                              f4,
+                              2 * kSpmmBasesPerRow,
+                              rows,
+                              1,
+                              1,
+                              1,
+                              false,
+                              {d.dictionary.data()},
+                              16,
+                              false},
+                             // eq. 3: residual mean and components per cluster, texel (light, view)
+                             {ShaderBinding::spmm_residual,
+                              f4,
+                              d.light_count,
+                              d.view_count,
+                              d.clusters * (d.residual_components + 1),
+                              1,
+                              1,
+                              true,
+                              {d.residual.data()},
+                              16,
+                              false}},
+                            &d.angular);
 }
 
 Result<MaterialHandle> VkBackend::add_representation(ShaderProgram program, const ShaderConfig& config,
-                                                     const std::vector<RepTexture>& textures) {
+                                                     std::vector<RepTexture> textures,
+                                                     const AngularTablesData* angular) {
+  std::vector<uint32_t> index;  // the angular tables as RGBA texels (backend.hpp), while they upload
+  std::vector<float> weight;
+  if (angular) {
+    pack_angular_tables_rgba(*angular, index, weight);
+    const uint32_t res = angular->resolution;
+    const struct {
+      ShaderBinding binding;
+      VkFormat format;
+      const void* data;
+    } tables[2] = {{ShaderBinding::angular_index, VK_FORMAT_R32G32B32A32_UINT, index.data()},
+                   {ShaderBinding::angular_weight, VK_FORMAT_R32G32B32A32_SFLOAT, weight.data()}};
+    for (const auto& t : tables)
+      textures.push_back({t.binding, t.format, res, res, 2, 1, 1, true, {t.data}, 16, false});
+  }
   const int kind = rep_kind(program);
   if (!rep_set_layout_[kind]) {
     VkDescriptorSetLayoutBinding b[7];

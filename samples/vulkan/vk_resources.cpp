@@ -133,7 +133,12 @@ void destroy_buffer(VkDevice device, Buffer& b) {
 VoidResult create_image(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, Texture& t, VkFormat format,
                         uint32_t w, uint32_t h, uint32_t layers, uint32_t mips, VkImageUsageFlags usage,
                         bool array_view, uint32_t depth3d) {
-  t = Texture{.format = format, .width = w, .height = h, .layers = layers, .mips = mips, .depth = depth3d};
+  t.format = format;
+  t.width = w;
+  t.height = h;
+  t.layers = layers;
+  t.mips = mips;
+  t.depth = depth3d;
   VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
   ici.imageType = depth3d > 1 ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
   ici.format = format;

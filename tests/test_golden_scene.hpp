@@ -223,10 +223,9 @@ inline void expect_content(const Image<float>& img) {
   EXPECT_GT(sq / static_cast<double>(n) - mean * mean, 1e-4);
 }
 
-/// FMF: V' bilinear with repeat at the finest level on both sides (no mip chain on the GPU).
 /// The check of a golden image `img` against its CPU reference `ref` and a `wrong` reference (what
-/// a renderer with a known mistake draws): both images have content, `img` is within 40 dB
-/// PSNR of `ref` and at least 3 dB further from `wrong`. Returns the two PSNRs (ref, wrong).
+/// a renderer with a known mistake draws): both images have content, `img` matches `ref` at
+/// PSNR ≥ 40 dB and is at least 3 dB further from `wrong`. Returns the two PSNRs (ref, wrong).
 struct GoldenPsnr {
   double ref, wrong;
 };
@@ -239,6 +238,7 @@ inline GoldenPsnr expect_golden_match(const Image<float>& ref, const Image<float
   return p;
 }
 
+/// FMF: V' bilinear with repeat at the finest level on both sides (no mip chain on the GPU).
 inline void golden_fmf(BackendFactory make) {
   const ShaderConfig config = golden_config();
   const std::unique_ptr<Backend> be = start_backend(make, config, 2);

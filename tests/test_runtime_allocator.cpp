@@ -20,6 +20,7 @@
 #include "btflod/runtime/vt/scheduler.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
 #include "test_counting_new.hpp"
+#include "test_wave_container.hpp"
 
 using namespace btflod;
 
@@ -178,20 +179,8 @@ TEST(RuntimeAllocator, TileDecoderAllocatesThroughTheCallbacks) {
 // the temporaries of create() go through the callbacks; destruction returns every byte and
 // streaming allocates nothing.
 TEST(RuntimeAllocator, StreamerCreateAllocatesOnlyThroughTheCallbacks) {
-  EigenTextures e;
-  e.textures.resize(96, 96, 6);
-  for (int y = 0; y < 96; ++y)
-    for (int x = 0; x < 96; ++x)
-      for (int c = 0; c < 6; ++c) e.textures.at(x, y, c) = 0.5f + 0.3f * std::sin(0.1f * x * (c + 1) + 0.07f * y);
-  e.light_count = 2;
-  e.view_count = 3;
-  e.angular.assign(size_t{2} * 3 * 3 * 6, 0.25f);
-  BsvtfFromEigenOptions o;
-  o.tile_size = 32;
-  o.border = 4;
-  o.light_directions = {0, 0, 1, 0.6f, 0, 0.8f};
-  o.view_directions = {0, 0, 1, 0, 0.6f, 0.8f, -0.6f, 0, 0.8f};
-  const std::vector<uint8_t> file = build_bsvtf_from_eigen_textures(e, o).value();
+  const std::vector<uint8_t> file =
+      btflod_test::build_wave_container(96, 6, 0.1f, 0.07f, {0, 0, 1, 0, 0.6f, 0.8f, -0.6f, 0, 0.8f}).value();
   const BsvtfDirectory dir = read_bsvtf(file).value();
   MemorySource source{std::span<const uint8_t>(file)};
   const StreamerMaterial material{&dir, &source, nullptr};

@@ -24,12 +24,7 @@ namespace {
 
 EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
   EigenTextures e;
-  e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
-  for (uint32_t y = 0; y < size; ++y)
-    for (uint32_t x = 0; x < size; ++x)
-      for (uint32_t c = 0; c < components; ++c)
-        e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
-            0.5f + 0.4f * std::sin(0.09f * (x + 1.0f) * (c + 1) + 0.05f * y * (seed + 1));
+  btflod_test::fill_smooth_textures(e, size, components, seed, 0.09f, 0.05f, 0.0f);
   e.light_count = 2;
   e.view_count = 2;
   e.angular.assign(size_t{2} * 2 * 3 * components, 0.2f);

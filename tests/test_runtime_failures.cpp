@@ -48,12 +48,25 @@ struct EventLog {
 void run_logged(Streamer& s, Engine& e, EventLog& log, uint32_t frames) {
   const auto fb = full_feedback(s);
   for (uint32_t f = 0; f < frames; ++f) {
-    StreamerOutputs o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
+    StreamerOutputs o;
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
     log.add(o);
     s.pump();
   }
+}
+
+// Resumes s and runs 40 frames whose reads q serves: the material gets ready and the engine's
+// copies are exact.
+void resume_and_expect_loaded(const World& w, Streamer& s, Engine& e, QueueSource& q, const std::vector<uint32_t>& fb) {
+  s.resume();
+  for (int f = 0; f < 40; ++f) {
+    StreamerOutputs o;
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
+    q.complete_all(s);
+    s.pump();
+  }
+  EXPECT_TRUE(s.material_ready(0));
+  check_engine(w, s, e);
 }
 
 }  // namespace
@@ -130,9 +143,8 @@ TEST(RuntimeFailures, OnlyConsecutiveFailuresCountTowardsGivingUp) {
     std::vector<uint32_t> fb;
     for (uint32_t y = 0; y < 2; ++y)
       for (uint32_t x = 0; x < 2; ++x) fb.push_back(pack_feedback(FeedbackTile{0, 2, 2 * half + x, 2 * half + y}));
-    StreamerOutputs o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
+    StreamerOutputs o;
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
     log.add(o);
     s.pump();
     visits_resident += f % 30 == 29 && half == 0 && s.cache().resident(TileId{s.first_texture(0), 2, 0, 0});
@@ -249,8 +261,7 @@ TEST(RuntimeFailures, JobsHandedOutByUpdateAndByCompleteReadRunOnce) {
   World w;
   w.add(build(make_eigen(128, 6, 5)));
   QueueSource q;
-  q.files = &w.files;
-  w.finish(&q);
+  finish_queued(w, q);
   auto s = std::move(Streamer::create(w.materials, small_config()).value());
   Engine e(s);
   std::vector<uint32_t> handed(64);
@@ -267,10 +278,7 @@ TEST(RuntimeFailures, JobsHandedOutByUpdateAndByCompleteReadRunOnce) {
     from_update += o.runnable_job_count;
     // The engine's I/O completes; each completion that makes a job runnable names it.
     while (!q.reads.empty()) {
-      const QueueSource::Read r = q.reads.front();
-      q.reads.pop_front();
-      std::memcpy(r.out.data(), w.files[r.file].data() + r.offset, r.out.size());
-      const uint32_t j = s.complete_read(r.ticket, Status::success);
+      const uint32_t j = q.complete_front(s);
       if (j == Streamer::kNoJob) continue;
       ASSERT_TRUE(s.claim_job(j));
       EXPECT_FALSE(s.claim_job(j));
@@ -293,15 +301,12 @@ TEST(RuntimeFailures, QuiesceWithCancelledReadsDrainsWithoutFailures) {
   World w;
   w.add(build(make_eigen(128, 6, 6)));
   QueueSource q;
-  q.files = &w.files;
-  q.refuse_next = false;
-  w.finish(&q);
+  finish_queued(w, q, false);
   auto s = std::move(Streamer::create(w.materials, small_config()).value());
   Engine e(s);
   const auto fb = full_feedback(s);
-  StreamerOutputs o = e.outputs();
-  ASSERT_EQ(s.update(fb, o), Status::success);  // roots and packets: reads started
-  e.apply(s, o);
+  StreamerOutputs o;
+  ASSERT_EQ(e.frame(s, fb, o), Status::success);  // roots and packets: reads started
   ASSERT_FALSE(q.reads.empty());
   EXPECT_FALSE(s.idle());
   s.quiesce();
@@ -311,9 +316,7 @@ TEST(RuntimeFailures, QuiesceWithCancelledReadsDrainsWithoutFailures) {
     q.reads.pop_front();
   }
   for (int f = 0; f < 3; ++f) {
-    o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
     EXPECT_TRUE(q.reads.empty());
     EXPECT_EQ(o.tile_upload_count, 0u);
   }
@@ -322,16 +325,7 @@ TEST(RuntimeFailures, QuiesceWithCancelledReadsDrainsWithoutFailures) {
   EXPECT_GT(st.cancelled, 0u);
   EXPECT_EQ(st.tile_failures + st.packet_failures, 0u);
   // Resumed, the cancelled work is asked for again and the material loads.
-  s.resume();
-  for (int f = 0; f < 40; ++f) {
-    o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
-    q.complete_all(s);
-    s.pump();
-  }
-  EXPECT_TRUE(s.material_ready(0));
-  check_engine(w, s, e);
+  resume_and_expect_loaded(w, s, e, q, fb);
 }
 
 // A read the source refused is not retried while quiescing: its job ends (cancelled) so the
@@ -340,45 +334,29 @@ TEST(RuntimeFailures, QuiesceDrainsWhenTheSourceRefusedAReadAndResumeLoads) {
   World w;
   w.add(build(make_eigen(128, 6, 6)));
   QueueSource q;
-  q.files = &w.files;
-  q.refuse_next = true;  // the first read of the first update is refused
-  w.finish(&q);
+  finish_queued(w, q, true);  // the first read of the first update is refused
   auto s = std::move(Streamer::create(w.materials, small_config()).value());
   Engine e(s);
   const auto fb = full_feedback(s);
-  StreamerOutputs o = e.outputs();
-  ASSERT_EQ(s.update(fb, o), Status::success);
-  e.apply(s, o);
+  StreamerOutputs o;
+  ASSERT_EQ(e.frame(s, fb, o), Status::success);
   s.quiesce();
   for (int f = 0; f < 5 && !s.idle(); ++f) {
     q.complete_all(s);  // the reads that were started complete
-    o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
     s.pump();
   }
   EXPECT_TRUE(s.idle()) << "a job waiting for a refused read never ended";
   EXPECT_TRUE(q.reads.empty());
   EXPECT_EQ(s.stats().tile_failures + s.stats().packet_failures, 0u);
-  s.resume();
-  for (int f = 0; f < 40; ++f) {
-    o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
-    q.complete_all(s);
-    s.pump();
-  }
-  EXPECT_TRUE(s.material_ready(0));
-  check_engine(w, s, e);
+  resume_and_expect_loaded(w, s, e, q, fb);
 }
 
 TEST(RuntimeFailures, DestroyedWithReadsOutstandingReturnsEveryByte) {
   World w;
   w.add(build(make_eigen(128, 6, 7)));
   QueueSource q;
-  q.files = &w.files;
-  q.refuse_next = false;
-  w.finish(&q);
+  finish_queued(w, q, false);
   CountingHeap ledger;
   {
     StreamerConfig cfg = small_config();
@@ -437,17 +415,15 @@ TEST(RuntimeFailures, OneDecoderServesSeveralThreadsAndFeedbackForUnknownMateria
   {
     ThreadExecutor workers(s.jobs(), 3);
     for (uint32_t f = 0; f < 60; ++f) {
-      StreamerOutputs o = e.outputs();
-      ASSERT_EQ(s.update(fb, o), Status::success);
-      e.apply(s, o);
+      StreamerOutputs o;
+      ASSERT_EQ(e.frame(s, fb, o), Status::success);
       workers.notify();
       for (int spin = 0; spin < 4000 && s.jobs_in_flight() > 0; ++spin) std::this_thread::yield();
     }
   }
   while (!s.idle()) s.pump();
-  StreamerOutputs o = e.outputs();
-  ASSERT_EQ(s.update(fb, o), Status::success);
-  e.apply(s, o);
+  StreamerOutputs o;
+  ASSERT_EQ(e.frame(s, fb, o), Status::success);
   EXPECT_TRUE(s.material_ready(0));
   EXPECT_GE(s.stats().feedback_rejected - rejected_before, 61u);  // one unknown word per frame at least
   check_engine(w, s, e);

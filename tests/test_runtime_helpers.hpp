@@ -52,16 +52,23 @@ using namespace btflod;
 
 inline constexpr uint32_t kLights = 4, kViews = 5;
 
-// A smooth synthetic material: C components over W×H texels, U′ with kLights × kViews × 3 rows
-// light-major (rows (l · V + v) · 3 + c).
-inline EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
-  EigenTextures e;
+// Fills e's textures (size × size texels, C components) with smooth waves:
+// 0.5 + 0.4 sin(fx (x + 1)(c + 1) + fy y (seed + 1)) / (1 + falloff · c).
+inline void fill_smooth_textures(EigenTextures& e, uint32_t size, uint32_t components, uint32_t seed, float fx,
+                                 float fy, float falloff) {
   e.textures.resize(static_cast<int>(size), static_cast<int>(size), static_cast<int>(components));
   for (uint32_t y = 0; y < size; ++y)
     for (uint32_t x = 0; x < size; ++x)
       for (uint32_t c = 0; c < components; ++c)
         e.textures.at(static_cast<int>(x), static_cast<int>(y), static_cast<int>(c)) =
-            0.5f + 0.4f * std::sin(0.05f * (x + 1.0f) * (c + 1) + 0.03f * y * (seed + 1)) / (1.0f + c);
+            0.5f + 0.4f * std::sin(fx * (x + 1.0f) * (c + 1) + fy * y * (seed + 1)) / (1.0f + falloff * c);
+}
+
+// A smooth synthetic material: C components over W×H texels, U′ with kLights × kViews × 3 rows
+// light-major (rows (l · V + v) · 3 + c).
+inline EigenTextures make_eigen(uint32_t size, uint32_t components, uint32_t seed) {
+  EigenTextures e;
+  fill_smooth_textures(e, size, components, seed, 0.05f, 0.03f, 1.0f);
   e.light_count = kLights;
   e.view_count = kViews;
   e.angular.resize(size_t{kLights} * kViews * 3 * components);
@@ -161,28 +168,34 @@ inline std::vector<uint32_t> full_feedback(const Streamer& s) {
   return words;
 }
 
-// What an engine keeps: the cache texture (per slot texels), the GPU page table, U′ packets.
-struct Engine {
+// The output buffers an engine hands to Streamer::update(): room for every upload one update
+// can make, `writes` page-table writes and `events` residency events.
+struct StreamerOutputBuffers {
   std::vector<StreamerTileUpload> tile_out;
   std::vector<StreamerPacketUpload> packet_out;
   std::vector<PageTableWrite> writes_out;
   std::vector<ResidencyEvent> events_out;
+  StreamerOutputBuffers(const Streamer& s, size_t writes, size_t events)
+      : tile_out(s.tile_uploads_bound()),
+        packet_out(s.packet_uploads_bound()),
+        writes_out(writes),
+        events_out(events) {}
+  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
+};
+
+// What an engine keeps: the cache texture (per slot texels), the GPU page table, U′ packets.
+struct Engine : StreamerOutputBuffers {
   std::vector<std::vector<uint16_t>> slots;
   std::vector<std::vector<uint32_t>> page_table;  // per texture, flat tile index
   std::vector<std::vector<uint16_t>> packets;     // per global texture
   std::vector<uint32_t> ready;
   uint64_t tile_uploads = 0;
-  explicit Engine(const Streamer& s, size_t writes = 4096) {
-    tile_out.resize(s.tile_uploads_bound());
-    packet_out.resize(s.packet_uploads_bound());
-    writes_out.resize(writes);
-    events_out.resize(64);
+  explicit Engine(const Streamer& s, size_t writes = 4096) : StreamerOutputBuffers(s, writes, 64) {
     slots.resize(s.cache().slot_count());
     for (uint32_t t = 0; t < s.cache().set().texture_count(); ++t)
       page_table.emplace_back(s.cache().set().levels_of(t).tile_count(), 0xffffffffu);
     packets.resize(s.cache().set().texture_count());
   }
-  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
   void apply(const Streamer& s, const StreamerOutputs& o) {
     for (size_t i = 0; i < o.tile_upload_count; ++i) {
       slots[o.tile_uploads[i].slot].assign(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end());
@@ -196,6 +209,14 @@ struct Engine {
     }
     for (size_t i = 0; i < o.event_count; ++i)
       if (o.events[i].kind == ResidencyEventKind::material_ready) ready.push_back(o.events[i].material);
+  }
+  // One frame: fresh output spans in o, s.update(feedback, o) and, when it succeeds, its
+  // outputs applied. Returns what update() returned.
+  Status frame(Streamer& s, std::span<const uint32_t> feedback, StreamerOutputs& o) {
+    o = outputs();
+    const Status status = s.update(feedback, o);
+    if (status == Status::success) apply(s, o);
+    return status;
   }
 };
 
@@ -254,14 +275,24 @@ struct QueueSource final : AsyncTileSource {
     reads.push_back(Read{offset, out, ticket, file});
     return true;
   }
+  // Serves the oldest read from memory and reports it complete; returns what complete_read()
+  // returned (the job it made runnable, or Streamer::kNoJob). reads must not be empty.
+  uint32_t complete_front(Streamer& s) {
+    const Read r = reads.front();
+    reads.pop_front();
+    std::memcpy(r.out.data(), (*files)[r.file].data() + r.offset, r.out.size());
+    return s.complete_read(r.ticket, Status::success);
+  }
   void complete_all(Streamer& s) {
-    while (!reads.empty()) {
-      const Read r = reads.front();
-      reads.pop_front();
-      std::memcpy(r.out.data(), (*files)[r.file].data() + r.offset, r.out.size());
-      s.complete_read(r.ticket, Status::success);
-    }
+    while (!reads.empty()) complete_front(s);
   }
 };
+
+// Finishes w with every read going through q, which refuses its first read when refuse_first.
+inline void finish_queued(World& w, QueueSource& q, bool refuse_first = true) {
+  q.files = &w.files;
+  q.refuse_next = refuse_first;
+  w.finish(&q);
+}
 
 }  // namespace btflod_test

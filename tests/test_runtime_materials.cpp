@@ -51,25 +51,16 @@ StreamerCapacity capacity_for(const World& w, uint32_t live) {
 }
 
 // An engine that keeps per-layer page tables large enough for any material (layers are reused).
-struct LiveEngine {
-  std::vector<StreamerTileUpload> tile_out;
-  std::vector<StreamerPacketUpload> packet_out;
-  std::vector<PageTableWrite> writes_out;
-  std::vector<ResidencyEvent> events_out;
+struct LiveEngine : StreamerOutputBuffers {
   std::vector<std::vector<uint16_t>> slots;
   std::vector<std::vector<uint32_t>> page_table;  // per layer, flat tile index
   std::vector<ResidencyEvent> events;
-  LiveEngine(const Streamer& s, uint32_t layer_tiles) {
-    tile_out.resize(s.tile_uploads_bound());
-    packet_out.resize(s.packet_uploads_bound());
-    writes_out.resize(512);
-    events_out.resize(64);
+  LiveEngine(const Streamer& s, uint32_t layer_tiles) : StreamerOutputBuffers(s, 512, 64) {
     const uint32_t stored = s.cache().config().padded_tile_size();
     slots.assign(s.cache().slot_count(), std::vector<uint16_t>(size_t{stored} * stored * 4, 0));
     page_table.assign(s.gpu_layout().page_table_layers, std::vector<uint32_t>(layer_tiles, 0xffffffffu));
     events.reserve(1u << 16);
   }
-  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
   void apply(const Streamer& s, const StreamerOutputs& o) {
     for (size_t i = 0; i < o.tile_upload_count; ++i)
       std::copy(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end(),

@@ -79,9 +79,8 @@ TEST(RuntimeStreamer, SwapsUnderPressureKeepTexelsAndPageTablesExact) {
     for (int k = 0; k < 6; ++k)
       fb.push_back(
           pack_feedback(FeedbackTile{0, 2, static_cast<uint32_t>(rng() % 4), static_cast<uint32_t>(rng() % 4)}));
-    StreamerOutputs o = e.outputs();
-    ASSERT_EQ(s.update(fb, o), Status::success);
-    e.apply(s, o);
+    StreamerOutputs o;
+    ASSERT_EQ(e.frame(s, fb, o), Status::success);
     swaps += s.scheduler().frame().swaps;
     s.pump();
     check_engine(w, s, e);
@@ -163,17 +162,15 @@ TEST(RuntimeStreamer, AsyncSourceAndThreadExecutorConvergeToTheSameTiles) {
   World w;
   w.add(build(make_eigen(128, 6, 6)));
   QueueSource q;
-  q.files = &w.files;
-  w.finish(&q);
+  finish_queued(w, q);
   auto s = std::move(Streamer::create(w.materials, small_config()).value());
   Engine e(s);
   const auto fb = full_feedback(s);
   {
     ThreadExecutor executor(s.jobs(), 2);
     for (uint32_t f = 0; f < 80 && (!s.material_ready(0) || s.jobs_in_flight() > 0 || f < 40); ++f) {
-      StreamerOutputs o = e.outputs();
-      ASSERT_EQ(s.update(fb, o), Status::success);
-      e.apply(s, o);
+      StreamerOutputs o;
+      ASSERT_EQ(e.frame(s, fb, o), Status::success);
       q.complete_all(s);
       executor.notify();
       for (int spin = 0; spin < 2000 && s.jobs_in_flight() > 0; ++spin) std::this_thread::yield();

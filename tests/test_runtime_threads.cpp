@@ -130,13 +130,9 @@ class Workers {
 
 // What the engine keeps (cache texture slots, page table, U′ packets), checked against fresh
 // decodes of the containers.
-struct Engine {
+struct Engine : btflod_test::StreamerOutputBuffers {
   const std::vector<std::vector<uint8_t>>& files;
   const std::vector<BsvtfDirectory>& dirs;
-  std::vector<StreamerTileUpload> tile_out;
-  std::vector<StreamerPacketUpload> packet_out;
-  std::vector<PageTableWrite> writes_out;
-  std::vector<ResidencyEvent> events_out;
   std::vector<std::vector<uint16_t>> slots;
   std::vector<std::vector<uint32_t>> page_table;
   std::map<std::pair<uint32_t, uint64_t>, std::vector<uint16_t>> reference;  // (material, local key)
@@ -144,16 +140,11 @@ struct Engine {
   bool bad_failure_status = false;
 
   Engine(const Streamer& s, const std::vector<std::vector<uint8_t>>& f, const std::vector<BsvtfDirectory>& d)
-      : files(f), dirs(d) {
-    tile_out.resize(s.tile_uploads_bound());
-    packet_out.resize(s.packet_uploads_bound());
-    writes_out.resize(4096);
-    events_out.resize(1024);
+      : StreamerOutputBuffers(s, 4096, 1024), files(f), dirs(d) {
     slots.resize(s.cache().slot_count());
     for (uint32_t t = 0; t < s.cache().set().texture_count(); ++t)
       page_table.emplace_back(s.cache().set().levels_of(t).tile_count(), 0xffffffffu);
   }
-  StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
 
   // The texels tile `global` must have: decoded straight from its container, once.
   const std::vector<uint16_t>& expected(const Streamer& s, const TileId& global) {

@@ -17,10 +17,13 @@
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/offline/btf/bonn_btf.hpp"
+#include "test_btf_helpers.hpp"
 
 namespace {
 
 using namespace btflod;
+using btflod_test::expect_one_warning;
+using btflod_test::expect_refused;
 
 // ---- an independent byte-level builder ---------------------------------------------------------
 
@@ -162,6 +165,15 @@ void put(std::vector<uint8_t>& bytes, size_t at, T v) {
   std::memcpy(bytes.data() + at, &v, sizeof v);
 }
 
+// Calls f(v, l, x, c) for every sample of a spec's first texel row: views, lights, x, RGB.
+template <class Fn>
+void for_each_sample(const Spec& s, Fn&& f) {
+  for (uint32_t v = 0; v < s.n_view; ++v)
+    for (uint32_t l = 0; l < s.n_light; ++l)
+      for (int x = 0; x < static_cast<int>(s.w); ++x)
+        for (int c = 0; c < 3; ++c) f(v, l, x, c);
+}
+
 // ---- decoding hand-built files --------------------------------------------------------------------
 
 TEST(BonnBtf, HandBuiltDfmfDecodesRowLPlusNlTimesVAndColumnXPlusWTimesY) {
@@ -185,13 +197,10 @@ TEST(BonnBtf, HandBuiltDfmfDecodesRowLPlusNlTimesVAndColumnXPlusWTimesY) {
   EXPECT_TRUE(f->warnings.empty());
   auto btf = reconstruct_bonn_btf(*f);
   ASSERT_TRUE(btf) << btf.message();
-  for (uint32_t v = 0; v < 2; ++v)
-    for (uint32_t l = 0; l < 3; ++l)
-      for (int x = 0; x < 2; ++x)
-        for (int c = 0; c < 3; ++c) {
-          const float expected = s.u[c][l + 3 * v] * s.sxv[c][x];
-          EXPECT_FLOAT_EQ(btf->at(x, 0, v, l, c), expected) << v << " " << l << " " << x << " " << c;
-        }
+  for_each_sample(s, [&](uint32_t v, uint32_t l, int x, int c) {
+    const float expected = s.u[c][l + 3 * v] * s.sxv[c][x];
+    EXPECT_FLOAT_EQ(btf->at(x, 0, v, l, c), expected) << v << " " << l << " " << x << " " << c;
+  });
 }
 
 TEST(BonnBtf, HalfScalarsDecodeToTheSameValues) {
@@ -272,13 +281,10 @@ TEST(BonnBtf, FmfRowsAreChannelFastestAndDynamicRangeIsRestored) {
   EXPECT_FLOAT_EQ(f->height_map[1], -1.0f);
   auto btf = reconstruct_bonn_btf(*f);
   ASSERT_TRUE(btf) << btf.message();
-  for (uint32_t v = 0; v < 2; ++v)
-    for (uint32_t l = 0; l < 3; ++l)
-      for (int x = 0; x < 2; ++x)
-        for (int c = 0; c < 3; ++c) {
-          const float logv = s.u[0][c + 3 * (l + 3 * v)] * s.sxv[0][x];
-          EXPECT_NEAR(btf->at(x, 0, v, l, c), std::exp(logv) - 1e-5f, 1e-5f);
-        }
+  for_each_sample(s, [&](uint32_t v, uint32_t l, int x, int c) {
+    const float logv = s.u[0][c + 3 * (l + 3 * v)] * s.sxv[0][x];
+    EXPECT_NEAR(btf->at(x, 0, v, l, c), std::exp(logv) - 1e-5f, 1e-5f);
+  });
 }
 
 TEST(BonnBtf, TransposedMatricesAreSwappedWithAWarning) {
@@ -425,20 +431,25 @@ TEST(BonnBtf, FmfHeightMapHeaderIsAcceptedInEitherOrderWhenTheTextureSizeDecides
   s.height_samples = {0.0f, 0.25f, 0.5f, 1.0f, 1.25f, 1.5f};  // row-major, 2 rows of 3
   s.hm_first = 2;                                             // rows first (btflod)
   s.hm_second = 3;
-  auto rows_first = read_bonn_btf(build(s));
-  ASSERT_TRUE(rows_first) << rows_first.message();
-  EXPECT_EQ(rows_first->height_map_rows, 2);
-  EXPECT_EQ(rows_first->height_map_cols, 3);
-  EXPECT_FALSE(rows_first->height_map_width_first);
+  // Reads bytes and checks the height map's shape and the order its header was read in.
+  const auto read_height_map = [](const std::vector<uint8_t>& bytes, int rows, int cols, bool width_first) {
+    auto f = read_bonn_btf(bytes);
+    EXPECT_TRUE(f) << f.message();
+    if (f) {
+      EXPECT_EQ(f->height_map_rows, rows);
+      EXPECT_EQ(f->height_map_cols, cols);
+      EXPECT_EQ(f->height_map_width_first, width_first);
+    }
+    return f;
+  };
+  auto rows_first = read_height_map(build(s), 2, 3, false);
+  ASSERT_TRUE(rows_first);
   EXPECT_TRUE(rows_first->warnings.empty());
   s.hm_first = 3;  // width first (btflib's writer)
   s.hm_second = 2;
   const auto width_first_bytes = build(s);
-  auto width_first = read_bonn_btf(width_first_bytes);
-  ASSERT_TRUE(width_first) << width_first.message();
-  EXPECT_EQ(width_first->height_map_rows, 2);
-  EXPECT_EQ(width_first->height_map_cols, 3);
-  EXPECT_TRUE(width_first->height_map_width_first);
+  auto width_first = read_height_map(width_first_bytes, 2, 3, true);
+  ASSERT_TRUE(width_first);
   EXPECT_EQ(width_first->height_map, rows_first->height_map);
   ASSERT_EQ(width_first->warnings.size(), 1u);
   EXPECT_NE(width_first->warnings[0].find("width first"), std::string::npos) << width_first->warnings[0];
@@ -449,11 +460,7 @@ TEST(BonnBtf, FmfHeightMapHeaderIsAcceptedInEitherOrderWhenTheTextureSizeDecides
   // A height map of another size is read rows first, as the header says.
   s.hm_first = 1;
   s.hm_second = 6;
-  auto other = read_bonn_btf(build(s));
-  ASSERT_TRUE(other) << other.message();
-  EXPECT_EQ(other->height_map_rows, 1);
-  EXPECT_EQ(other->height_map_cols, 6);
-  EXPECT_FALSE(other->height_map_width_first);
+  ASSERT_TRUE(read_height_map(build(s), 1, 6, false));
 }
 
 // A file cut anywhere is truncation (short_output), never "oversized count" or any other class,
@@ -475,19 +482,14 @@ TEST(BonnBtf, TruncatedInputIsShortOutputAtEveryLength) {
 TEST(BonnBtf, TruncatedInputInsideTheMatricesIsShortOutput) {
   Offsets o;
   const auto bytes = build(dfmf_spec(), &o);
-  auto f = read_bonn_btf(std::span<const uint8_t>(bytes.data(), o.first_sxv + 2));
-  ASSERT_FALSE(f);
-  EXPECT_EQ(f.status(), Status::short_output);
-  EXPECT_NE(f.message().find("truncated"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(std::span<const uint8_t>(bytes.data(), o.first_sxv + 2)), Status::short_output,
+                 "truncated");
 }
 
 TEST(BonnBtf, WrongSignatureIsRejected) {
   auto bytes = build(dfmf_spec());
   bytes[9] = 'X';
-  auto f = read_bonn_btf(bytes);
-  ASSERT_FALSE(f);
-  EXPECT_EQ(f.status(), Status::bad_data);
-  EXPECT_NE(f.message().find("wrong signature '!DFMF08FCX'"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(bytes), Status::bad_data, "wrong signature '!DFMF08FCX'");
   std::memcpy(bytes.data(), "!PVF06FCR\0", 10);
   EXPECT_EQ(read_bonn_btf(bytes).status(), Status::unsupported);
   EXPECT_EQ(read_bonn_btf(std::vector<uint8_t>{'!', 'D'}).status(), Status::short_output);
@@ -499,20 +501,14 @@ TEST(BonnBtf, SizeDoesNotMatchFileInMetaBlock) {
   uint32_t size;
   std::memcpy(&size, bytes.data() + o.meta_size, 4);
   put<uint32_t>(bytes, o.meta_size, size + 4);
-  auto f = read_bonn_btf(bytes);
-  ASSERT_FALSE(f);
-  EXPECT_EQ(f.status(), Status::bad_data);
-  EXPECT_NE(f.message().find("size does not match"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(bytes), Status::bad_data, "size does not match");
 }
 
 TEST(BonnBtf, SizeDoesNotMatchFileInMatrixShape) {
   Offsets o;
   auto bytes = build(dfmf_spec(), &o);
   put<uint32_t>(bytes, o.first_rows, 7);  // nL·nV is 6
-  auto f = read_bonn_btf(bytes);
-  ASSERT_FALSE(f);
-  EXPECT_EQ(f.status(), Status::bad_data);
-  EXPECT_NE(f.message().find("7 × 2, expected 6 × 2"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(bytes), Status::bad_data, "7 × 2, expected 6 × 2");
 }
 
 TEST(BonnBtf, NaNInHeaderIsRejected) {
@@ -541,24 +537,16 @@ TEST(BonnBtf, NaNInHeaderIsRejected) {
   // NaN inside a matrix is rejected too.
   auto bytes = good;
   put<float>(bytes, o.first_sxv, nan);
-  auto f = read_bonn_btf(bytes);
-  ASSERT_FALSE(f);
-  EXPECT_NE(f.message().find("SxV"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(bytes), "SxV");
 }
 
 TEST(BonnBtf, TrailingBytesAreReported) {
   auto bytes = build(dfmf_spec());
   bytes.insert(bytes.end(), {1, 2, 3});
-  auto f = read_bonn_btf(bytes);
-  ASSERT_FALSE(f);
-  EXPECT_EQ(f.status(), Status::bad_data);
-  EXPECT_NE(f.message().find("trailing bytes: 3 bytes"), std::string::npos) << f.message();
+  expect_refused(read_bonn_btf(bytes), Status::bad_data, "trailing bytes: 3 bytes");
   BonnReadOptions allow;
   allow.allow_trailing_bytes = true;
-  auto ok = read_bonn_btf(bytes, allow);
-  ASSERT_TRUE(ok) << ok.message();
-  ASSERT_EQ(ok->warnings.size(), 1u);
-  EXPECT_NE(ok->warnings[0].find("3 trailing bytes"), std::string::npos);
+  expect_one_warning(read_bonn_btf(bytes, allow), "3 trailing bytes");
 }
 
 TEST(BonnBtf, OversizedCountIsRejectedBeforeAllocating) {

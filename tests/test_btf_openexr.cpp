@@ -16,17 +16,14 @@
 
 #include "btflod/core/half.hpp"
 #include "btflod/offline/btf/openexr_image_set.hpp"
+#include "test_btf_helpers.hpp"
 
 namespace {
 
 using namespace btflod;
 namespace fs = std::filesystem;
 
-std::string tmp(const std::string& name) {
-  const fs::path p = fs::path(BTFLOD_TEST_TMP_DIR) / ("exr_" + name);
-  fs::remove_all(p);
-  return p.string();
-}
+std::string tmp(const std::string& name) { return btflod_test::fresh_tmp_path("exr_" + name).string(); }
 
 Image<float> gradient(int w, int h, float scale = 1.0f) {
   Image<float> img(w, h, 3);

@@ -12,6 +12,7 @@
 #include "btflod/offline/btf/btf_store.hpp"
 #include "btflod/offline/btf/synthesizer.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
+#include "test_btf_helpers.hpp"
 
 using namespace btflod;
 
@@ -39,8 +40,7 @@ TEST(BtfStore, Float32RoundTripIsExactForEveryBlockSize) {
   const BtfFloat btf = small_btf();  // 91 texels: blocks of 1, 16, 91 and 200 (one partial block)
   for (uint32_t block : {1u, 16u, 91u, 200u}) {
     const std::string path = tmp_path("f32_" + std::to_string(block));
-    ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float32, block));
-    auto store = BtfStore::open(path);
+    auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float32, block);
     ASSERT_TRUE(store) << store.message();
     EXPECT_EQ(store->rows(), btf.view_count() * btf.light_count() * 3);
     EXPECT_EQ(store->columns(), btf.texel_count());
@@ -56,9 +56,8 @@ TEST(BtfStore, Float32RoundTripIsExactForEveryBlockSize) {
 TEST(BtfStore, ReadColumnsMatchesTheFmfMatrixForUnalignedRanges) {
   const BtfFloat btf = small_btf();
   const std::string path = tmp_path("cols");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float32, 16));
-  auto store = BtfStore::open(path);
-  ASSERT_TRUE(store);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float32, 16);
+  ASSERT_TRUE(store) << store.message();
   const size_t m = store->rows(), n = btf.texel_count();
   std::vector<uint8_t> scratch;
   for (auto [t0, cnt] : {std::pair<size_t, size_t>{0, 91}, {5, 30}, {15, 2}, {90, 1}, {33, 0}}) {
@@ -76,9 +75,8 @@ TEST(BtfStore, ReadColumnsMatchesTheFmfMatrixForUnalignedRanges) {
 TEST(BtfStore, HalfStoreRoundsToNearestHalf) {
   const BtfFloat btf = small_btf();
   const std::string path = tmp_path("f16");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float16, 32));
-  auto store = BtfStore::open(path);
-  ASSERT_TRUE(store);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float16, 32);
+  ASSERT_TRUE(store) << store.message();
   auto back = store->read_all();
   ASSERT_TRUE(back);
   for (size_t i = 0; i < btf.samples().size(); ++i)
@@ -173,9 +171,8 @@ TEST(BtfStore, CorruptHeaderIsRefusedByItsCrc) {
 TEST(BtfStore, CorruptDataIsReportedWithItsBlockAndView) {
   const BtfFloat btf = small_btf();
   const std::string path = tmp_path("bad_data");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float32, 16));
-  auto store = BtfStore::open(path);
-  ASSERT_TRUE(store);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float32, 16);
+  ASSERT_TRUE(store) << store.message();
   const BtfStoreInfo info = store->info();
   auto bytes = file_bytes(path);
   // A value of block 2, view 1.

@@ -15,15 +15,16 @@
 
 #include "btflod/core/bytes.hpp"
 #include "btflod/offline/btf/ubo2003_folder.hpp"
+#include "test_btf_helpers.hpp"
 
 namespace {
 
 using namespace btflod;
+using namespace btflod_test;
 namespace fs = std::filesystem;
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path p = fs::path(BTFLOD_TEST_TMP_DIR) / ("ubo_" + name);
-  fs::remove_all(p);
+  const fs::path p = fresh_tmp_path("ubo_" + name);
   fs::create_directories(p);
   return p;
 }
@@ -252,35 +253,24 @@ TEST(Ubo2003Folder, SizeDoesNotMatchOtherImages) {
 TEST(Ubo2003Folder, UnparseableImageNameFailsUnlessIgnored) {
   const auto dir = small_folder("unparseable");
   fs::copy_file(dir / "00000_tl000_pl000_tv000_pv000.png", dir / "thumbnail.png");
-  auto r = read_ubo2003_folder(dir);
-  ASSERT_FALSE(r);
-  EXPECT_NE(r.message().find("'thumbnail.png': cannot parse the angles"), std::string::npos) << r.message();
+  expect_refused(read_ubo2003_folder(dir), "'thumbnail.png': cannot parse the angles");
   Ubo2003ReadOptions ro;
   ro.ignore_unparseable_images = true;
-  auto ok = read_ubo2003_folder(dir, ro);
-  ASSERT_TRUE(ok) << ok.message();
-  ASSERT_EQ(ok->warnings.size(), 1u);
-  EXPECT_NE(ok->warnings[0].find("thumbnail.png"), std::string::npos);
+  expect_one_warning(read_ubo2003_folder(dir, ro), "thumbnail.png");
 }
 
 TEST(Ubo2003Folder, TruncatedInputImageIsNamed) {
   const auto dir = small_folder("truncated");
   const auto victim = dir / "00003_tl000_pl000_tv030_pv060.png";
   fs::resize_file(victim, fs::file_size(victim) / 2);
-  auto r = read_ubo2003_folder(dir);
-  ASSERT_FALSE(r);
-  EXPECT_EQ(r.status(), Status::bad_data);
-  EXPECT_NE(r.message().find("00003_tl000_pl000_tv030_pv060.png"), std::string::npos) << r.message();
+  expect_refused(read_ubo2003_folder(dir), Status::bad_data, "00003_tl000_pl000_tv030_pv060.png");
 }
 
 TEST(Ubo2003Folder, WrongSignatureImageIsNamed) {
   const auto dir = small_folder("signature");
   std::ofstream(dir / "00002_tl015_pl120_tv000_pv000.png", std::ios::binary | std::ios::trunc)
       << "this is not an image at all";
-  auto r = read_ubo2003_folder(dir);
-  ASSERT_FALSE(r);
-  EXPECT_EQ(r.status(), Status::bad_data);
-  EXPECT_NE(r.message().find("00002_tl015_pl120_tv000_pv000.png"), std::string::npos) << r.message();
+  expect_refused(read_ubo2003_folder(dir), Status::bad_data, "00002_tl015_pl120_tv000_pv000.png");
 }
 
 TEST(Ubo2003Folder, OversizedCountIsRejected) {
@@ -302,10 +292,7 @@ TEST(Ubo2003Folder, AngleOutsideTheChosenSetIsNamed) {
   Ubo2003ReadOptions ro;
   ro.directions = UboDirections::ubo2003;  // 30/60 is a UBO2003 view, 15/120 is a light ... but
   fs::rename(dir / "00005_tl015_pl120_tv030_pv060.png", dir / "00005_tl015_pl120_tv030_pv061.png");
-  auto r = read_ubo2003_folder(dir, ro);
-  ASSERT_FALSE(r);
-  EXPECT_NE(r.message().find("view direction (θ=30, φ=61) is not in the view set 'UBO2003'"), std::string::npos)
-      << r.message();
+  expect_refused(read_ubo2003_folder(dir, ro), "view direction (θ=30, φ=61) is not in the view set 'UBO2003'");
 }
 
 TEST(Ubo2003Folder, EmptyOrMissingFolder) {

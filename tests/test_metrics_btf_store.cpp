@@ -12,6 +12,7 @@
 #include "btflod/offline/factor/fmf.hpp"
 #include "btflod/offline/factor/fmf_store_metrics.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
+#include "test_btf_helpers.hpp"
 
 using namespace btflod;
 
@@ -70,8 +71,7 @@ TEST(BtfStoreEval, FmfImageEqualsWholeReconstruction) {
 TEST(BtfStoreEval, ReadViewImagesEqualsReadAll) {
   const BtfFloat btf = test_btf();
   const std::string path = tmp_path("views.btfstore");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float16, 80));
-  auto store = BtfStore::open(path);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float16, 80);
   ASSERT_TRUE(store) << store.message();
   auto all = store->read_all();
   ASSERT_TRUE(all);
@@ -107,8 +107,7 @@ TEST(BtfStoreEval, StreamedEqualsInMemoryAtEveryBudget) {
   ASSERT_GT(mem.rmse, 0.0);
   ASSERT_LT(mem.mean_ssim, 1.0);
   const std::string path = tmp_path("f32.btfstore");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float32, 80));
-  auto store = BtfStore::open(path);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float32, 80);
   ASSERT_TRUE(store) << store.message();
   const uint64_t min_budget = btf_store_eval_min_budget(store->info());
   for (const uint64_t budget : {min_budget, min_budget + 2 * btf.texel_count() * 12 * 2, uint64_t{1} << 30}) {
@@ -137,9 +136,8 @@ TEST(BtfStoreEval, HalfStoreEqualsInMemoryOfItsValues) {
   const BtfFloat btf = test_btf();
   const Fmf f = test_fmf(btf);
   const std::string path = tmp_path("f16.btfstore");
-  ASSERT_TRUE(write_btf_store(btf, path, BtfStoreValueType::float16, 64));
-  auto store = BtfStore::open(path);
-  ASSERT_TRUE(store);
+  auto store = btflod_test::write_and_open_store(btf, path, BtfStoreValueType::float16, 64);
+  ASSERT_TRUE(store) << store.message();
   auto all = store->read_all();
   ASSERT_TRUE(all);
   BtfStoreEvalOptions o;

@@ -22,6 +22,7 @@
 
 #include "btflod/core/thread_pool.hpp"
 #include "btflod/runtime/codec/container.hpp"
+#include "test_fuzz_seeds.hpp"
 
 namespace {
 
@@ -426,27 +427,14 @@ TEST_F(CodecContainerFailures, RandomDirectoryCorruptionNeverCrashes) {
 // back, each does what the fuzzer needs of it: the whole files parse, verify and decode every
 // tile (parents first) and U packet, the truncated one is refused with a message.
 TEST(CodecContainer, WritesFuzzSeedsThatParseTheFuzzersWay) {
-  const char* env = std::getenv("BTFLOD_WRITE_CONTAINER_SEEDS");
-  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
-                                        ? std::filesystem::path(env)
-                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_container_reader";
-  std::filesystem::create_directories(dir);
-  auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
-    std::ofstream f(dir / name, std::ios::binary);
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    ASSERT_TRUE(f.good()) << name;
-  };
-  auto read = [&](const std::string& name) {
-    std::ifstream f(dir / name, std::ios::binary);
-    return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
-  };
+  const btflod_test::FuzzSeedFolder seeds("BTFLOD_WRITE_CONTAINER_SEEDS", "seeds_container_reader");
   const auto small = build(make_material(2, 4), 30);
-  write("seed_small.bsvtf", small);
-  write("seed_two_textures.bsvtf", build(make_material(2, 6), 10));
-  write("seed_truncated.bsvtf",
-        std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
+  seeds.write("seed_small.bsvtf", small);
+  seeds.write("seed_two_textures.bsvtf", build(make_material(2, 6), 10));
+  seeds.write("seed_truncated.bsvtf",
+              std::vector<uint8_t>(small.begin(), small.begin() + static_cast<std::ptrdiff_t>(small.size() / 2)));
   for (const char* name : {"seed_small.bsvtf", "seed_two_textures.bsvtf"}) {
-    const std::vector<uint8_t> file = read(name);
+    const std::vector<uint8_t> file = seeds.read(name);
     auto dir_or = read_bsvtf(file);
     ASSERT_TRUE(dir_or.ok()) << name << ": " << dir_or.message();
     const BsvtfDirectory& d = dir_or.value();
@@ -474,7 +462,7 @@ TEST(CodecContainer, WritesFuzzSeedsThatParseTheFuzzersWay) {
       }
     EXPECT_EQ(decoded.size(), d.tiles.size()) << name;
   }
-  auto truncated = read_bsvtf(read("seed_truncated.bsvtf"));
+  auto truncated = read_bsvtf(seeds.read("seed_truncated.bsvtf"));
   EXPECT_FALSE(truncated.ok());
   EXPECT_FALSE(truncated.message().empty());
 }

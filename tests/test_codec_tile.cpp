@@ -20,6 +20,8 @@
 #include <zlib.h>
 
 #include "btflod/runtime/codec/tile_codec.hpp"
+#include "test_deflate_bomb.hpp"
+#include "test_fuzz_seeds.hpp"
 
 // The inflate backend of every decoder here; test_codec_tile_zlib.cpp runs this file again with
 // zlib (the backend is a run-time choice, runtime/codec/tile_codec.hpp).
@@ -363,17 +365,8 @@ TEST_F(CodecTileFailures, HeaderFieldsOutOfRangeAreBadData) {
 TEST_F(CodecTileFailures, DecompressionBombIsRejectedWithoutInflatingIt) {
   // A valid header followed by 64 MiB of zeros deflated (≈ 64 KiB): the decoder must stop at the
   // declared symbol count instead of inflating it all.
-  std::vector<uint8_t> zeros(64u << 20, 0);
-  z_stream z{};
-  ASSERT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  std::vector<uint8_t> packed(deflateBound(&z, zeros.size()));
-  z.next_in = zeros.data();
-  z.avail_in = static_cast<uInt>(zeros.size());
-  z.next_out = packed.data();
-  z.avail_out = static_cast<uInt>(packed.size());
-  ASSERT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
-  packed.resize(z.total_out);
-  deflateEnd(&z);
+  const std::vector<uint8_t> packed = btflod_test::deflated_zeros(64u << 20);
+  ASSERT_FALSE(packed.empty());
   std::vector<uint8_t> bomb(encoded_.bytes.begin(), encoded_.bytes.begin() + btflod::tile_header_size(4));
   bomb.insert(bomb.end(), packed.begin(), packed.end());
   EXPECT_EQ(dec_.decode(bomb, parent_, 0, 1, out()), Status::bad_data);
@@ -604,17 +597,13 @@ Status fuzzer_decode(const std::vector<uint8_t>& input) {
 // folder. Read back and fed as the fuzzer does, every decode-mode seed must decode (a seed that
 // stops at a header check would fuzz nothing beyond it) and every other one fail with a message.
 TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
-  const char* env = std::getenv("BTFLOD_WRITE_TILE_SEEDS");
-  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
-                                        ? std::filesystem::path(env)
-                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_decoder";
-  std::filesystem::create_directories(dir);
+  const btflod_test::FuzzSeedFolder seeds("BTFLOD_WRITE_TILE_SEEDS", "seeds_tile_decoder");
   std::vector<std::string> decoding, failing;
+  // A seed is the mode byte, then the payload.
   auto write = [&](const std::string& name, uint8_t mode, const std::vector<uint8_t>& payload) {
-    std::ofstream f(dir / name, std::ios::binary);
-    f.put(static_cast<char>(mode));
-    f.write(reinterpret_cast<const char*>(payload.data()), static_cast<std::streamsize>(payload.size()));
-    ASSERT_TRUE(f.good()) << name;
+    std::vector<uint8_t> seed{mode};
+    seed.insert(seed.end(), payload.begin(), payload.end());
+    seeds.write(name, seed);
     (mode & 1u ? failing : decoding).push_back(name);
   };
   for (uint32_t stored : {24u, 72u}) {
@@ -651,14 +640,12 @@ TEST(CodecTile, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
   write("seed_roundtrip_jpeg", 1 | 4 << 1, std::vector<uint8_t>{9, 100, 3, 250, 5, 80, 1});  // JPEG table
   EXPECT_EQ(decoding.size(), 10u);
   for (const auto& name : decoding) {
-    std::ifstream f(dir / name, std::ios::binary);
-    const std::vector<uint8_t> seed{std::istreambuf_iterator<char>(f), {}};
+    const std::vector<uint8_t> seed = seeds.read(name);
     ASSERT_GT(seed.size(), 1u) << name;
     EXPECT_EQ(fuzzer_decode(seed), Status::success) << name;
   }
   for (const auto& name : failing) {
-    std::ifstream f(dir / name, std::ios::binary);
-    const std::vector<uint8_t> seed{std::istreambuf_iterator<char>(f), {}};
+    const std::vector<uint8_t> seed = seeds.read(name);
     EXPECT_NE(fuzzer_decode(seed), Status::success) << name;
   }
 }

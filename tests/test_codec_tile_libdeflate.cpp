@@ -14,6 +14,7 @@
 #include <zlib.h>
 
 #include "btflod/runtime/codec/tile_codec.hpp"
+#include "test_deflate_bomb.hpp"
 
 namespace {
 
@@ -70,16 +71,8 @@ TEST(CodecTileLibdeflate, FailureClassesAreRejected) {
   EXPECT_EQ(dec.decode(trailing, {}, 0, 0, out), Status::bad_data);
   EXPECT_STREQ(dec.message(), "trailing bytes after the deflate stream");
   // Bomb: the header of a valid tile followed by 16 MiB of deflated zeros.
-  std::vector<uint8_t> zeros(16u << 20, 0), packed(compressBound(static_cast<uLong>(zeros.size())));
-  z_stream z{};
-  ASSERT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  z.next_in = zeros.data();
-  z.avail_in = static_cast<uInt>(zeros.size());
-  z.next_out = packed.data();
-  z.avail_out = static_cast<uInt>(packed.size());
-  ASSERT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
-  packed.resize(z.total_out);
-  deflateEnd(&z);
+  const std::vector<uint8_t> packed = btflod_test::deflated_zeros(16u << 20);
+  ASSERT_FALSE(packed.empty());
   std::vector<uint8_t> bomb(payload.begin(), payload.begin() + tile_header_size(4));
   bomb.insert(bomb.end(), packed.begin(), packed.end());
   EXPECT_EQ(dec.decode(bomb, {}, 0, 0, out), Status::bad_data);

@@ -14,6 +14,7 @@
 
 #include "btflod/runtime/codec/tile_codec.hpp"
 #include "test_counting_new.hpp"
+#include "test_fuzz_seeds.hpp"
 
 namespace {
 using btflod::Status;
@@ -257,20 +258,7 @@ Status fuzzer_decode_mode(const std::vector<uint8_t>& input, std::vector<float>&
 // the fuzzer feeds it: a seed that stops at a header check would fuzz nothing beyond it.
 TEST(TileZstdSeeds, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
   if (!btflod::tile_entropy_coder_available(TileEntropyCoder::zstd)) GTEST_SKIP() << "built without zstd";
-  const char* env = std::getenv("BTFLOD_WRITE_ZSTD_SEEDS");
-  const std::filesystem::path dir = env != nullptr && env[0] != '\0'
-                                        ? std::filesystem::path(env)
-                                        : std::filesystem::path(BTFLOD_TEST_TMP_DIR) / "seeds_tile_zstd";
-  std::filesystem::create_directories(dir);
-  auto write = [&](const std::string& name, const std::vector<uint8_t>& bytes) {
-    std::ofstream f(dir / name, std::ios::binary);
-    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    ASSERT_TRUE(f.good()) << name;
-  };
-  auto read = [&](const std::string& name) {
-    std::ifstream f(dir / name, std::ios::binary);
-    return std::vector<uint8_t>(std::istreambuf_iterator<char>(f), {});
-  };
+  const btflod_test::FuzzSeedFolder seeds("BTFLOD_WRITE_ZSTD_SEEDS", "seeds_tile_zstd");
   TileEncoder enc(kLayout);
   ASSERT_TRUE(enc.set_entropy_coder(TileEntropyCoder::zstd));
   const size_t header = btflod::tile_header_size(4);
@@ -284,18 +272,18 @@ TEST(TileZstdSeeds, WritesFuzzSeedsThatDecodeTheFuzzersWay) {
     std::vector<uint8_t> s{0, static_cast<uint8_t>(folded), static_cast<uint8_t>(folded >> 8)};
     s.insert(s.end(), c.bytes.begin() + static_cast<ptrdiff_t>(header), c.bytes.end());
     const std::string name = "seed_frame_" + std::to_string(seed);
-    write(name, s);
+    seeds.write(name, s);
     // Read back and fed as the fuzzer does: the frame decodes (under the fuzzer's header, whose
     // tolerances differ from the encoder's, so the samples are finite but not the tile's).
-    const std::vector<uint8_t> back = read(name);
+    const std::vector<uint8_t> back = seeds.read(name);
     ASSERT_EQ(back, s) << name;
     std::vector<float> out;
     ASSERT_EQ(fuzzer_decode_mode(back, out), Status::success) << name;
     for (float v : out) ASSERT_TRUE(std::isfinite(v)) << name;
   }
   const std::vector<uint8_t> round_trip{1, 7, 200, 13, 99, 0, 255, 128, 64, 32, 16, 8};
-  write("seed_round_trip", round_trip);
-  EXPECT_EQ(read("seed_round_trip"), round_trip);
+  seeds.write("seed_round_trip", round_trip);
+  EXPECT_EQ(seeds.read("seed_round_trip"), round_trip);
   EXPECT_EQ(round_trip[0] & 1u, 1u);  // odd: the fuzzer's round-trip mode
 }
 }  // namespace

@@ -13,6 +13,7 @@
 #include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/lod/feedback_trace.hpp"
 #include "btflod/runtime/vt/scheduler.hpp"
+#include "test_deflate_bomb.hpp"
 
 using namespace btflod;
 
@@ -253,18 +254,8 @@ TEST(FeedbackTraceFailure, SizesThatDoNotMatch) {
 TEST(FeedbackTraceFailure, DecompressionBombIsRefusedWithoutAllocatingIt) {
   // A payload that inflates to 64 MiB of zeros behind a frame that declares 4×4 words. The
   // reader inflates into exactly 16 words and stops.
-  std::vector<uint8_t> zeros(64u << 20, 0);
-  uLongf size = compressBound(static_cast<uLong>(zeros.size()));
-  std::vector<uint8_t> deflated(size);
-  z_stream z{};
-  ASSERT_EQ(deflateInit2(&z, 9, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY), Z_OK);
-  z.next_in = zeros.data();
-  z.avail_in = static_cast<uInt>(zeros.size());
-  z.next_out = deflated.data();
-  z.avail_out = static_cast<uInt>(deflated.size());
-  ASSERT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
-  deflated.resize(z.total_out);
-  deflateEnd(&z);
+  const std::vector<uint8_t> deflated = btflod_test::deflated_zeros(64u << 20);
+  ASSERT_FALSE(deflated.empty());
   EXPECT_LT(deflated.size(), 100000u);
 
   auto w = FeedbackTraceWriter::create({16, 1});

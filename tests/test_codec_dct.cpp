@@ -14,41 +14,38 @@
 
 namespace {
 
-// Direct definition, in long double: Y[v][u] = s(v) s(u) Σ_y Σ_x X[y][x] cos(π(2y+1)v/2N) cos(π(2x+1)u/2N).
-std::vector<long double> reference_forward(const std::vector<double>& x, int n) {
-  std::vector<long double> y(static_cast<size_t>(n) * n);
+// The orthonormal DCT basis in long double: s(v) s(u) cos(π(2r+1)v/2N) cos(π(2c+1)u/2N), the
+// weight of coefficient (v, u) at sample (r, c), with s(0) = √(1/N) and s(k > 0) = √(2/N).
+long double dct_basis(int n, int r, int c, int v, int u) {
   const long double pi = std::numbers::pi_v<long double>;
-  for (int v = 0; v < n; ++v)
-    for (int u = 0; u < n; ++u) {
+  const long double sv = v == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
+  const long double su = u == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
+  return sv * su * std::cos(pi * (2 * r + 1) * v / (2.0L * n)) * std::cos(pi * (2 * c + 1) * u / (2.0L * n));
+}
+
+// The direct O(N⁴) sums: out[i][j] = Σ_k Σ_l in[k][l] · basis, with (i, j) the coefficient and
+// (k, l) the sample for the forward DCT-II, and the roles swapped for the inverse (DCT-III).
+std::vector<long double> reference_transform(const std::vector<double>& in, int n, bool inverse) {
+  std::vector<long double> out(static_cast<size_t>(n) * n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
       long double acc = 0;
-      for (int r = 0; r < n; ++r)
-        for (int c = 0; c < n; ++c)
-          acc +=
-              x[r * n + c] * std::cos(pi * (2 * r + 1) * v / (2.0L * n)) * std::cos(pi * (2 * c + 1) * u / (2.0L * n));
-      const long double sv = v == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
-      const long double su = u == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
-      y[v * n + u] = sv * su * acc;
+      for (int k = 0; k < n; ++k)
+        for (int l = 0; l < n; ++l)
+          acc += in[k * n + l] * (inverse ? dct_basis(n, i, j, k, l) : dct_basis(n, k, l, i, j));
+      out[i * n + j] = acc;
     }
-  return y;
+  return out;
+}
+
+// Direct definition: Y[v][u] = s(v) s(u) Σ_y Σ_x X[y][x] cos(π(2y+1)v/2N) cos(π(2x+1)u/2N).
+std::vector<long double> reference_forward(const std::vector<double>& x, int n) {
+  return reference_transform(x, n, false);
 }
 
 // Direct DCT-III (inverse) definition.
 std::vector<long double> reference_inverse(const std::vector<double>& y, int n) {
-  std::vector<long double> x(static_cast<size_t>(n) * n);
-  const long double pi = std::numbers::pi_v<long double>;
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c) {
-      long double acc = 0;
-      for (int v = 0; v < n; ++v)
-        for (int u = 0; u < n; ++u) {
-          const long double sv = v == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
-          const long double su = u == 0 ? std::sqrt(1.0L / n) : std::sqrt(2.0L / n);
-          acc += sv * su * y[v * n + u] * std::cos(pi * (2 * r + 1) * v / (2.0L * n)) *
-                 std::cos(pi * (2 * c + 1) * u / (2.0L * n));
-        }
-      x[r * n + c] = acc;
-    }
-  return x;
+  return reference_transform(y, n, true);
 }
 
 std::vector<double> random_block(int n, std::mt19937& rng, double scale) {

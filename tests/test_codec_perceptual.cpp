@@ -11,6 +11,7 @@
 
 #include "btflod/offline/build/perceptual_tolerance.hpp"
 #include "btflod/offline/metrics/image_metrics.hpp"
+#include "test_codec_two_level_texture.hpp"
 
 namespace {
 
@@ -46,40 +47,23 @@ TEST(CodecPerceptual, GainMatchesFiniteDifferencesOfCielab) {
 // One texture (4 components), T = 16, B = 4, 2 levels; 2 lights × 2 views × RGB. Component 0
 // is a grey "mean" column (constant over the 4 directions), component 1 lives only at angular
 // row 3 (light 1, view 1), components 2 and 3 are 0. Level-1 tile (x, y) has v_0 = base[x + 2y].
-struct Fixture {
-  BsvtfMetadata md;
-  std::vector<float> u;
-  std::vector<std::vector<float>> samples;
-  std::vector<BsvtfTileInput> tiles;
-
-  explicit Fixture(std::array<float, 4> base = {0.05f, 0.5f, 5.0f, 50.0f}) {
-    md.tile_size = 16;
-    md.border = 4;
-    md.level_count = 2;
-    md.width = md.height = 32;
-    md.component_count = 4;
-    md.u_rows = 2 * 2 * 3;
+struct Fixture : btflod_test::TwoLevelTexture {
+  explicit Fixture(std::array<float, 4> base = {0.05f, 0.5f, 5.0f, 50.0f}) : TwoLevelTexture(2 * 2 * 3) {
     md.light_directions = {0, 0, 1, 0.8f, 0, 0.6f};
     md.view_directions = {0, 0, 1, 0, 0.6f, 0.8f};
-    u.assign(size_t{md.u_rows} * 4, 0.0f);
     for (uint32_t a = 0; a < 4; ++a)
       for (uint32_t k = 0; k < 3; ++k) {
         u[(a * 3 + k) * 4 + 0] = 0.01f;
         if (a == 3) u[(a * 3 + k) * 4 + 1] = 0.01f;
       }
     const TileLayout layout = md.layout();
-    const auto add = [&](TileId id, float v0) {
+    add_tiles([&](uint32_t index) {
+      const float v0 = index == 0 ? 1.0f : base[index - 1];
       std::vector<float> t(layout.sample_count(), 0.0f);
       for (size_t i = 0; i < layout.texel_count(); ++i) t[i * 4] = v0;  // v_1 = 0: every row renders alike
-      samples.push_back(std::move(t));
-      tiles.push_back({id, {}, 1.0f});
-    };
-    add({0, 0, 0, 0}, 1.0f);
-    for (uint32_t y = 0; y < 2; ++y)
-      for (uint32_t x = 0; x < 2; ++x) add({0, 1, x, y}, base[x + 2 * y]);
-    for (size_t i = 0; i < tiles.size(); ++i) tiles[i].samples = samples[i];
+      return t;
+    });
   }
-  const BsvtfTileInput& level1(uint32_t x, uint32_t y) const { return tiles[1 + x + 2 * y]; }
 };
 
 PerceptualToleranceOptions plain_options() {

@@ -15,6 +15,7 @@
 #include "../samples/research/progressive/rendered_rate_control.hpp"
 #include "btflod/core/dct.hpp"
 #include "btflod/offline/metrics/image_metrics.hpp"
+#include "test_codec_two_level_texture.hpp"
 
 namespace {
 
@@ -128,23 +129,11 @@ TEST(CodecDeadZone, BuildBsvtfRejectsAThresholdOutsideTheRange) {
 // One texture of 4 components, T = 16, B = 4, 2 levels, 3 lights × 3 views, RGB. Component 0 is a
 // grey mean column; 1..3 add coloured variation. Level-1 tile (x, y) renders at brightness
 // base[x + 2y] (an order of magnitude apart: CIELAB makes the dark ones far more sensitive).
-struct Material {
-  BsvtfMetadata md;
-  std::vector<float> u;
-  std::vector<std::vector<float>> samples;
-  std::vector<BsvtfTileInput> tiles;
-
-  Material() {
-    md.tile_size = 16;
-    md.border = 4;
-    md.level_count = 2;
-    md.width = md.height = 32;
-    md.component_count = 4;
-    md.u_rows = 3 * 3 * 3;
+struct Material : btflod_test::TwoLevelTexture {
+  Material() : TwoLevelTexture(3 * 3 * 3) {
     md.u_row_order = AngularRowOrder::light_major;
     md.light_directions = {0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f};
     md.view_directions = {0, 0, 1, 0.8f, 0, 0.6f, 0, -0.6f, 0.8f};
-    u.assign(size_t{md.u_rows} * 4, 0.0f);
     for (uint32_t a = 0; a < 9; ++a)
       for (uint32_t k = 0; k < 3; ++k) {
         u[(a * 3 + k) * 4 + 0] = 0.3f;
@@ -152,16 +141,12 @@ struct Material {
       }
     const TileLayout layout = md.layout();
     const float base[4] = {0.01f, 0.1f, 0.5f, 2.0f};
-    const auto add = [&](TileId id, float v0, uint32_t seed) {
-      std::vector<float> t = noisy_tile(layout, seed, 0.2f * v0);
+    add_tiles([&](uint32_t index) {  // seeds 10 (root) and 11 + x + 2y
+      const float v0 = index == 0 ? 0.5f : base[index - 1];
+      std::vector<float> t = noisy_tile(layout, 10 + index, 0.2f * v0);
       for (size_t i = 0; i < layout.texel_count(); ++i) t[i * 4] += v0;
-      samples.push_back(std::move(t));
-      tiles.push_back({id, {}, 1.0f});
-    };
-    add({0, 0, 0, 0}, 0.5f, 10);
-    for (uint32_t y = 0; y < 2; ++y)
-      for (uint32_t x = 0; x < 2; ++x) add({0, 1, x, y}, base[x + 2 * y], 11 + x + 2 * y);
-    for (size_t i = 0; i < tiles.size(); ++i) tiles[i].samples = samples[i];
+      return t;
+    });
   }
 };
 

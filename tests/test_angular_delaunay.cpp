@@ -13,6 +13,7 @@
 #include "btflod/offline/angular/directions.hpp"
 #include "btflod/offline/angular/interpolators.hpp"
 #include "btflod/offline/angular/parameterization.hpp"
+#include "test_angular_helpers.hpp"
 
 namespace btflod {
 namespace {
@@ -275,11 +276,8 @@ void expect_no_degenerate_triangle(const DirectionSet& set) {
 }
 
 TEST(DelaunayDirectionSets, NoDegenerateTriangleInAnyBuiltInSetAndMap) {
-  for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
-    expect_no_degenerate_triangle<ElevatedConcentricMap>(set);
-    expect_no_degenerate_triangle<ParabolicMap>(set);
-    expect_no_degenerate_triangle<OrthographicMap>(set);
-  }
+  btflod_test::for_each_builtin_set_and_map(
+      []<class Map>(const DirectionSet& set) { expect_no_degenerate_triangle<Map>(set); });
 }
 
 TEST(DelaunayDirectionSets, DoublePrecisionPathMatchesTheFloatMapToFloatPrecision) {

@@ -14,6 +14,7 @@
 #include "btflod/offline/angular/interpolators.hpp"
 #include "btflod/offline/angular/nine_tap.hpp"
 #include "btflod/offline/angular/ring_search.hpp"
+#include "test_angular_helpers.hpp"
 
 namespace btflod {
 namespace {
@@ -102,11 +103,7 @@ void check_exact_grid(const DirectionSet& set) {
 }
 
 TEST(AngularInterpolators, ExactGridAllMapsBothSets) {
-  for (const DirectionSet& set : {DirectionSet::ubo2003(), DirectionSet::ubo2014()}) {
-    check_exact_grid<ParabolicMap>(set);
-    check_exact_grid<ElevatedConcentricMap>(set);
-    check_exact_grid<OrthographicMap>(set);
-  }
+  btflod_test::for_each_builtin_set_and_map([]<class Map>(const DirectionSet& set) { check_exact_grid<Map>(set); });
 }
 
 TEST(AngularInterpolators, OutsideHullMapsToNearestHullPoint) {

@@ -37,14 +37,17 @@ TestScene cornell_box() {
   return s;
 }
 
-PinholeCamera room_camera() {
+// A kSize × kSize camera at eye looking at target.
+PinholeCamera square_camera(glm::vec3 eye, glm::vec3 target, float fov_y_degrees = PinholeCamera{}.fov_y_degrees) {
   PinholeCamera c;
-  c.eye = {0.0f, 0.0f, 0.95f};
-  c.target = {0.0f, -0.2f, -1.0f};
-  c.fov_y_degrees = 75.0f;
+  c.eye = eye;
+  c.target = target;
+  c.fov_y_degrees = fov_y_degrees;
   c.width = c.height = kSize;
   return c;
 }
+
+PinholeCamera room_camera() { return square_camera({0.0f, 0.0f, 0.95f}, {0.0f, -0.2f, -1.0f}, 75.0f); }
 
 SceneKeys keys_of(const TestScene& s, const PinholeCamera& c, uint64_t geometry = 1) {
   return SceneKeys{hash_camera(c), geometry, hash_light_geometry(s.points, s.areas)};
@@ -88,10 +91,7 @@ TEST(RenderIntegrator, AmbientOcclusionOfAnUnoccludedPlaneIsOne) {
   s.materials = {SurfaceMaterial::lambertian(glm::vec3(0.5f))};
   s.add(make_quad({-4, 0, 4}, {8, 0, 0}, {0, 0, -8}, {1, 1}, 2), 0);
   s.ambient = AmbientLight{glm::vec3(0.8f), 10.0f};
-  PinholeCamera cam;
-  cam.eye = {0, 2, 0.5f};
-  cam.target = {0, 0, 0};
-  cam.width = cam.height = kSize;
+  const PinholeCamera cam = square_camera({0, 2, 0.5f}, {0, 0, 0});
   ProgressiveAccumulator acc;
   ASSERT_TRUE(acc.allocate(kSize, kSize, 0));
   RenderSettings rs;
@@ -109,11 +109,7 @@ TEST(RenderIntegrator, AmbientOcclusionDeepInAClosedBoxIsZero) {
   s.materials = {SurfaceMaterial::lambertian(glm::vec3(0.5f))};
   s.add(make_box({-0.5f, -0.5f, -0.5f}, {0.5f, 0.5f, 0.5f}, true), 0);
   s.ambient = AmbientLight{glm::vec3(1.0f), 3.0f};  // beyond the farthest wall (√3)
-  PinholeCamera cam;
-  cam.eye = {0, 0, 0};
-  cam.target = {0.2f, -0.3f, -1};
-  cam.fov_y_degrees = 90.0f;
-  cam.width = cam.height = kSize;
+  const PinholeCamera cam = square_camera({0, 0, 0}, {0.2f, -0.3f, -1}, 90.0f);
   ProgressiveAccumulator acc;
   ASSERT_TRUE(acc.allocate(kSize, kSize, 0));
   render(s, cam, RenderSettings{}, acc, 16);
@@ -135,12 +131,8 @@ TEST(RenderIntegrator, TinyAreaLightConvergesToPointLight) {
   // Facing down: edge_u × edge_v = x × z = −y.
   s.areas.push_back(AreaLight{c - glm::vec3(side / 2, 0, side / 2), {side, 0, 0}, {0, 0, side}, glm::vec3(radiance)});
   s.ambient = AmbientLight{glm::vec3(0.0f), 1.0f};
-  PinholeCamera cam;
-  cam.eye = {0.0f, 3.0f, 0.0f};
-  cam.target = {0, 0, 0};
+  PinholeCamera cam = square_camera({0.0f, 3.0f, 0.0f}, {0, 0, 0}, 40.0f);
   cam.up = {0, 0, -1};
-  cam.fov_y_degrees = 40.0f;
-  cam.width = cam.height = kSize;
   RenderSettings rs;
   rs.ambient_occlusion = false;
   ProgressiveAccumulator acc;
@@ -301,11 +293,7 @@ TEST(RenderIntegrator, MirrorsReflectOncePerBounce) {
   s.materials = {SurfaceMaterial::mirror(glm::vec3(0.5f, 0.25f, 1.0f))};
   s.add(make_quad({-4, 0, 4}, {8, 0, 0}, {0, 0, -8}), 0);
   s.background = glm::vec3(1.0f, 0.8f, 0.6f);
-  PinholeCamera cam;
-  cam.eye = {0, 1, 1};
-  cam.target = {0, 0, 0};
-  cam.fov_y_degrees = 30.0f;
-  cam.width = cam.height = kSize;
+  const PinholeCamera cam = square_camera({0, 1, 1}, {0, 0, 0}, 30.0f);
   ProgressiveAccumulator acc;
   ASSERT_TRUE(acc.allocate(kSize, kSize, 0));
   render(s, cam, RenderSettings{}, acc, 1);

@@ -5,7 +5,8 @@
 // attribute locations) and fragment main(), and calls the functions of generate_functions()
 // (prefix "mat_", GlslTarget::vulkan450, per-role set and binding from GlslFunctionOptions,
 // uniform sources pointing at the engine's block), compiled to SPIR-V with the Vulkan sample's
-// glslc helper. One shader holds the fmf and bsvtf pieces and picks one per draw from its
+// glslc helper; its device, buffers, images and pipeline come from the sample's helpers too
+// (vk_internal.hpp). One shader holds the fmf and bsvtf pieces and picks one per draw from its
 // surface block. The scene, material and partial tile cache are those of test_golden_scene.hpp;
 // the image must match the CPU reference (offline/render/cpu_reference.hpp) at PSNR >= 40 dB, and a
 // wrong variant (BSVTF read at the finest level everywhere) must not.

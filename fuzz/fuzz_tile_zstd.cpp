@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "btflod/runtime/codec/tile_codec.hpp"
+#include "tile_zstd_decode_payload.hpp"
 
 namespace {
 using namespace btflod;
@@ -34,27 +35,8 @@ void decode_mode(const uint8_t* data, size_t size, uint8_t selector) {
     for (size_t i = 0; i < p.size(); ++i) p[i] = static_cast<float>(i % 17) * 0.125f;
     return p;
   }();
-  const size_t blocks = tile_block_count(kLayout.stored_size(), kLayout.channels);
-  const uint32_t lo = static_cast<uint32_t>(blocks * kTileMinBlockCode);
-  const uint32_t hi = static_cast<uint32_t>(blocks * kTileMaxBlockCode);
-  uint32_t declared = size >= 3 ? uint32_t{data[1]} | uint32_t{data[2]} << 8 : lo;
-  declared = lo + declared % (hi - lo + 1);
-  const size_t header = tile_header_size(kLayout.channels);
   static std::vector<uint8_t> payload;
-  payload.assign(header, 0);
-  payload[0] = kTileFormatVersionCoder;
-  payload[1] = kTileBlock;
-  payload[2] = static_cast<uint8_t>(kLayout.channels);
-  payload[3] = static_cast<uint8_t>((selector >> 1 & 1u) | static_cast<uint32_t>(TileEntropyCoder::zstd) << 4);
-  const uint16_t s = static_cast<uint16_t>(kLayout.stored_size());
-  std::memcpy(payload.data() + 4, &s, 2);
-  std::memcpy(payload.data() + 6, &s, 2);
-  for (uint32_t c = 0; c < kLayout.channels; ++c) {
-    const float t = 0.01f * static_cast<float>(c + 1);
-    std::memcpy(payload.data() + 8 + 4 * c, &t, 4);
-  }
-  std::memcpy(payload.data() + header - 4, &declared, 4);
-  if (size > 3) payload.insert(payload.end(), data + 3, data + size);
+  btflod_fuzz::tile_zstd_decode_payload(kLayout, data, size, payload);
   static std::vector<float> out(kLayout.sample_count());
   const Status st = decoder.decode(payload, parent, selector >> 2 & 1u, selector >> 3 & 1u, out);
   if (st == Status::success) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "../fuzz/tile_zstd_decode_payload.hpp"
 #include "btflod/runtime/codec/tile_codec.hpp"
 #include "test_counting_new.hpp"
 #include "test_fuzz_seeds.hpp"
@@ -226,26 +227,8 @@ namespace {
 // into the declared symbol byte count, the rest is the zstd frame behind the fuzzer's own
 // format-3 header. Returns the decoder's status; `out` gets the samples.
 Status fuzzer_decode_mode(const std::vector<uint8_t>& input, std::vector<float>& out) {
-  const size_t blocks = btflod::tile_block_count(kLayout.stored_size(), kLayout.channels);
-  const uint32_t lo = static_cast<uint32_t>(blocks * btflod::kTileMinBlockCode);
-  const uint32_t hi = static_cast<uint32_t>(blocks * btflod::kTileMaxBlockCode);
-  uint32_t declared = input.size() >= 3 ? uint32_t{input[1]} | uint32_t{input[2]} << 8 : lo;
-  declared = lo + declared % (hi - lo + 1);
-  const size_t header = btflod::tile_header_size(kLayout.channels);
-  std::vector<uint8_t> payload(header);
-  payload[0] = btflod::kTileFormatVersionCoder;
-  payload[1] = btflod::kTileBlock;
-  payload[2] = static_cast<uint8_t>(kLayout.channels);
-  payload[3] = static_cast<uint8_t>((input[0] >> 1 & 1u) | static_cast<uint32_t>(TileEntropyCoder::zstd) << 4);
-  const uint16_t stored = static_cast<uint16_t>(kLayout.stored_size());
-  std::memcpy(payload.data() + 4, &stored, 2);
-  std::memcpy(payload.data() + 6, &stored, 2);
-  for (uint32_t c = 0; c < kLayout.channels; ++c) {
-    const float t = 0.01f * static_cast<float>(c + 1);
-    std::memcpy(payload.data() + 8 + 4 * c, &t, 4);
-  }
-  std::memcpy(payload.data() + header - 4, &declared, 4);
-  if (input.size() > 3) payload.insert(payload.end(), input.begin() + 3, input.end());
+  std::vector<uint8_t> payload;
+  btflod_fuzz::tile_zstd_decode_payload(kLayout, input.data(), input.size(), payload);
   TileDecoder dec(kLayout);
   out.assign(kLayout.sample_count(), 0.0f);
   return dec.decode(payload, {}, input[0] >> 2 & 1u, input[0] >> 3 & 1u, out);

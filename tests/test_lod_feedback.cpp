@@ -108,6 +108,16 @@ std::map<std::tuple<uint32_t, uint32_t, uint32_t, uint32_t>, uint32_t> brute_vot
   }
   return v;
 }
+
+// A word naming a random tile of a random material at a random level of `layouts` (rng draws:
+// material, level, x, y).
+uint32_t random_valid_word(const std::vector<VoteLayout>& layouts, std::mt19937& rng) {
+  const uint32_t m = uint32_t(rng()) % static_cast<uint32_t>(layouts.size());
+  const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
+  const uint32_t s = layouts[m].finest_level - l;
+  const uint32_t tx = (layouts[m].tiles_x + (1u << s) - 1) >> s, ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
+  return pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty});
+}
 }  // namespace
 
 TEST(Votes, MatchBruteForceEquation9OnRandomBuffers) {
@@ -124,13 +134,8 @@ TEST(Votes, MatchBruteForceEquation9OnRandomBuffers) {
         words.push_back(uint32_t(rng()));  // hostile: any bits
       else if (r < 5 && !words.empty())
         words.push_back(words.back());  // runs
-      else {
-        const uint32_t m = uint32_t(rng()) % 3;
-        const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
-        const uint32_t s = layouts[m].finest_level - l;
-        const uint32_t tx = (layouts[m].tiles_x + (1u << s) - 1) >> s, ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
-        words.push_back(pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty}));
-      }
+      else
+        words.push_back(random_valid_word(layouts, rng));
     }
     counter.count(words);
     const auto want = brute_votes(words, layouts);
@@ -225,11 +230,7 @@ TEST(Votes, RunDetectionAndMemoGiveTheWordByWordResult) {
         } else if (r == 1) {
           w = uint32_t(rng());  // hostile: any bits
         } else {
-          const uint32_t m = uint32_t(rng()) % 3;
-          const uint32_t l = uint32_t(rng()) % (layouts[m].finest_level + 1);
-          const uint32_t s = layouts[m].finest_level - l;
-          const uint32_t tx = (layouts[m].tiles_x + (1u << s) - 1) >> s, ty = (layouts[m].tiles_y + (1u << s) - 1) >> s;
-          w = pack_feedback({m, l, uint32_t(rng()) % tx, uint32_t(rng()) % ty});
+          w = random_valid_word(layouts, rng);
         }
         // Runs from 1 word to longer than a pass.
         const size_t run =

@@ -54,6 +54,48 @@ inline size_t page_table_writes_bound(const TileCache& cache, std::span<const Pa
   return n;
 }
 
+namespace detail {
+/// Calls sink(const PageTableWrite&) for every tile of every level over the rectangle of finest
+/// entries of delta `d` (nothing for an unknown texture or an empty rectangle). noexcept if sink
+/// is; no allocation.
+template <class Sink>
+void for_each_delta_page_table_write(const TileCache& cache, const PageTableDelta& d, Sink&& sink) {
+  if (d.texture >= cache.set().texture_count() || d.width == 0 || d.height == 0) return;
+  const VtLevelTable& lv = cache.set().levels_of(d.texture);
+  const uint32_t L = lv.finest_level();
+  for (uint32_t l = 0; l <= L; ++l) {
+    const uint32_t s = L - l;
+    const uint32_t x1 = std::min((d.x + d.width - 1) >> s, lv.tiles_x[l] - 1);
+    const uint32_t y1 = std::min((d.y + d.height - 1) >> s, lv.tiles_y[l] - 1);
+    for (uint32_t y = d.y >> s; y <= y1; ++y)
+      for (uint32_t x = d.x >> s; x <= x1; ++x) {
+        const TileId t{d.texture, l, x, y};
+        sink(PageTableWrite{t, s, gpu_page_entry(cache, t)});
+      }
+  }
+}
+
+/// Calls sink(const PageTableWrite&) for the own-level entry of tile t and of each of its
+/// ancestors (nothing for an unknown texture or a level beyond the finest). noexcept if sink is;
+/// no allocation.
+template <class Sink>
+void for_each_tile_chain_write(const TileCache& cache, TileId t, Sink&& sink) {
+  if (t.texture >= cache.set().texture_count()) return;
+  const uint32_t L = cache.set().levels_of(t.texture).finest_level();
+  if (t.level > L) return;
+  for (;;) {
+    sink(PageTableWrite{t, L - t.level, gpu_page_entry(cache, t)});
+    if (t.level == 0) return;
+    t = t.parent();
+  }
+}
+
+/// The delta covering every finest entry of texture `texture` with level table `lv`.
+inline PageTableDelta whole_table_delta(uint32_t texture, const VtLevelTable& lv) noexcept {
+  return PageTableDelta{texture, 0, 0, lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()], 0};
+}
+}  // namespace detail
+
 /// Appends the per-level writes that bring the GPU page table in line with the cache after
 /// `deltas` (TileCache::deltas()): for every level, every tile over each delta's rectangle
 /// gets gpu_page_entry(). Call after the cache operations of the frame (entries are read from
@@ -62,21 +104,8 @@ inline size_t page_table_writes_bound(const TileCache& cache, std::span<const Pa
 /// with respect to the cache.
 inline void append_page_table_writes(const TileCache& cache, std::span<const PageTableDelta> deltas,
                                      std::vector<PageTableWrite>& out) {
-  for (const PageTableDelta& d : deltas) {
-    if (d.texture >= cache.set().texture_count() || d.width == 0 || d.height == 0) continue;
-    const VtLevelTable& lv = cache.set().levels_of(d.texture);
-    const uint32_t L = lv.finest_level();
-    for (uint32_t l = 0; l <= L; ++l) {
-      const uint32_t s = L - l;
-      const uint32_t x1 = std::min((d.x + d.width - 1) >> s, lv.tiles_x[l] - 1);
-      const uint32_t y1 = std::min((d.y + d.height - 1) >> s, lv.tiles_y[l] - 1);
-      for (uint32_t y = d.y >> s; y <= y1; ++y)
-        for (uint32_t x = d.x >> s; x <= x1; ++x) {
-          const TileId t{d.texture, l, x, y};
-          out.push_back(PageTableWrite{t, s, gpu_page_entry(cache, t)});
-        }
-    }
-  }
+  for (const PageTableDelta& d : deltas)
+    detail::for_each_delta_page_table_write(cache, d, [&](const PageTableWrite& w) { out.push_back(w); });
 }
 
 /// Appends the own-level writes of tile t and of each of its ancestors (at most L + 1 writes).
@@ -84,22 +113,14 @@ inline void append_page_table_writes(const TileCache& cache, std::span<const Pag
 /// remove, swap_remove for both tiles), together with append_page_table_writes() for the
 /// deltas. Allocation-free with L + 1 spare capacity in `out`.
 inline void append_tile_chain_writes(const TileCache& cache, TileId t, std::vector<PageTableWrite>& out) {
-  if (t.texture >= cache.set().texture_count()) return;
-  const uint32_t L = cache.set().levels_of(t.texture).finest_level();
-  if (t.level > L) return;
-  for (;;) {
-    out.push_back(PageTableWrite{t, L - t.level, gpu_page_entry(cache, t)});
-    if (t.level == 0) return;
-    t = t.parent();
-  }
+  detail::for_each_tile_chain_write(cache, t, [&](const PageTableWrite& w) { out.push_back(w); });
 }
 
 /// Appends writes for every tile of every level of one virtual texture (initial upload, or
 /// after TileCache::deltas_overflowed()). Allocates as needed.
 inline void append_full_page_table_writes(const TileCache& cache, uint32_t texture, std::vector<PageTableWrite>& out) {
   if (texture >= cache.set().texture_count()) return;
-  const VtLevelTable& lv = cache.set().levels_of(texture);
-  const PageTableDelta all{texture, 0, 0, lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()], 0};
+  const PageTableDelta all = detail::whole_table_delta(texture, cache.set().levels_of(texture));
   append_page_table_writes(cache, {&all, 1}, out);
 }
 
@@ -113,39 +134,13 @@ inline void append_full_page_table_writes(const TileCache& cache, uint32_t textu
 template <class Sink>
 void for_each_frame_page_table_write(const TileCache& cache, Sink&& sink) {
   const VtSet& set = cache.set();
-  const auto rect = [&](const PageTableDelta& d) {
-    if (d.texture >= set.texture_count() || d.width == 0 || d.height == 0) return;
-    const VtLevelTable& lv = set.levels_of(d.texture);
-    const uint32_t L = lv.finest_level();
-    for (uint32_t l = 0; l <= L; ++l) {
-      const uint32_t s = L - l;
-      const uint32_t x1 = std::min((d.x + d.width - 1) >> s, lv.tiles_x[l] - 1);
-      const uint32_t y1 = std::min((d.y + d.height - 1) >> s, lv.tiles_y[l] - 1);
-      for (uint32_t y = d.y >> s; y <= y1; ++y)
-        for (uint32_t x = d.x >> s; x <= x1; ++x) {
-          const TileId t{d.texture, l, x, y};
-          sink(PageTableWrite{t, s, gpu_page_entry(cache, t)});
-        }
-    }
-  };
   if (cache.deltas_overflowed()) {
-    for (uint32_t t = 0; t < set.texture_count(); ++t) {
-      const VtLevelTable& lv = set.levels_of(t);
-      rect(PageTableDelta{t, 0, 0, lv.tiles_x[lv.finest_level()], lv.tiles_y[lv.finest_level()], 0});
-    }
+    for (uint32_t t = 0; t < set.texture_count(); ++t)
+      detail::for_each_delta_page_table_write(cache, detail::whole_table_delta(t, set.levels_of(t)), sink);
     return;
   }
-  for (const PageTableDelta& d : cache.deltas()) rect(d);
-  for (TileId t : cache.touched_tiles()) {
-    if (t.texture >= set.texture_count()) continue;
-    const uint32_t L = set.levels_of(t.texture).finest_level();
-    if (t.level > L) continue;
-    for (;;) {
-      sink(PageTableWrite{t, L - t.level, gpu_page_entry(cache, t)});
-      if (t.level == 0) break;
-      t = t.parent();
-    }
-  }
+  for (const PageTableDelta& d : cache.deltas()) detail::for_each_delta_page_table_write(cache, d, sink);
+  for (TileId t : cache.touched_tiles()) detail::for_each_tile_chain_write(cache, t, sink);
 }
 
 /// Upper bound of the writes append_frame_page_table_writes() emits now (every table when the

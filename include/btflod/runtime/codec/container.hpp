@@ -393,6 +393,26 @@ bool bsvtf_read_string(ByteReader& r, std::string& out) {
   return r.ok();
 }
 
+/// Calls f(field) for the header fields after the version and header size, in file order
+/// (u64 or u32 each): the one field list the writer and the reader share. `H` is BsvtfHeader or
+/// const BsvtfHeader.
+template <class H, class F>
+void bsvtf_for_each_header_field(H& h, F&& f) {
+  f(h.file_size);
+  f(h.directory_size);
+  f(h.metadata_offset);
+  f(h.metadata_size);
+  f(h.metadata_crc);
+  f(h.packet_table_offset);
+  f(h.packet_count);
+  f(h.packet_table_crc);
+  f(h.tile_index_offset);
+  f(h.tile_count);
+  f(h.tile_index_crc);
+  f(h.payload_offset);
+  f(h.payload_size);
+}
+
 }  // namespace detail
 
 Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::span<const float> u,
@@ -525,19 +545,12 @@ Result<std::vector<uint8_t>> write_bsvtf(const BsvtfMetadata& metadata, std::spa
   w.raw(kBsvtfMagic, 8);
   w.u32(h.version);
   w.u32(static_cast<uint32_t>(kBsvtfHeaderSize));
-  w.u64(h.file_size);
-  w.u64(h.directory_size);
-  w.u64(h.metadata_offset);
-  w.u32(h.metadata_size);
-  w.u32(h.metadata_crc);
-  w.u64(h.packet_table_offset);
-  w.u32(h.packet_count);
-  w.u32(h.packet_table_crc);
-  w.u64(h.tile_index_offset);
-  w.u32(h.tile_count);
-  w.u32(h.tile_index_crc);
-  w.u64(h.payload_offset);
-  w.u64(h.payload_size);
+  detail::bsvtf_for_each_header_field(h, [&w](auto v) {
+    if constexpr (sizeof v == 8)
+      w.u64(v);
+    else
+      w.u32(v);
+  });
   while (w.size() < kBsvtfHeaderSize - 4) w.u8(0);
   w.u32(crc32_of(std::span<const uint8_t>(w.bytes().data(), kBsvtfHeaderSize - 4)));
   w.bytes().reserve(h.file_size);
@@ -573,19 +586,12 @@ Result<BsvtfHeader> parse_bsvtf_header(std::span<const uint8_t> bytes, uint64_t 
   const uint32_t header_size = r.u32();
   if (header_size != kBsvtfHeaderSize)
     return make_error(Status::bad_data, "bsvtf header: header size %u, expected %zu", header_size, kBsvtfHeaderSize);
-  h.file_size = r.u64();
-  h.directory_size = r.u64();
-  h.metadata_offset = r.u64();
-  h.metadata_size = r.u32();
-  h.metadata_crc = r.u32();
-  h.packet_table_offset = r.u64();
-  h.packet_count = r.u32();
-  h.packet_table_crc = r.u32();
-  h.tile_index_offset = r.u64();
-  h.tile_count = r.u32();
-  h.tile_index_crc = r.u32();
-  h.payload_offset = r.u64();
-  h.payload_size = r.u64();
+  detail::bsvtf_for_each_header_field(h, [&r](auto& v) {
+    if constexpr (sizeof v == 8)
+      v = r.u64();
+    else
+      v = r.u32();
+  });
   const auto reserved = r.take(kBsvtfHeaderSize - 4 - 96);
   if (std::any_of(reserved.begin(), reserved.end(), [](uint8_t b) { return b != 0; }))
     return make_error(Status::bad_data, "bsvtf header: reserved bytes 96..123 are not zero");
@@ -632,13 +638,9 @@ Result<BsvtfDirectory> parse_bsvtf_directory(std::span<const uint8_t> prefix, ui
     return make_error(Status::bad_data, "bsvtf metadata: checksum %08x, stored %08x", c, h.metadata_crc);
   ByteReader r(meta_bytes);
   BsvtfMetadata& m = d.metadata;
-  m.width = r.u32();
-  m.height = r.u32();
-  m.tile_size = r.u32();
-  m.border = r.u32();
-  m.level_count = r.u32();
-  m.component_count = r.u32();
-  m.color_channels = r.u32();
+  for (uint32_t* v :
+       {&m.width, &m.height, &m.tile_size, &m.border, &m.level_count, &m.component_count, &m.color_channels})
+    *v = r.u32();
   m.color_mode = static_cast<ColorMode>(r.u32());
   m.u_rows = r.u32();
   const uint32_t light_count = r.u32();

@@ -298,15 +298,37 @@ bool inflate_backend_available(InflateBackend backend) noexcept;
 /// The decoders' default backend: libdeflate when available, else zlib. Thread-safe.
 InflateBackend default_inflate_backend() noexcept;
 
+namespace detail {
+struct RawInflaterState;
+struct RawDeflaterState;
+struct ZstdDecompressorState;
+struct ZstdCompressorState;
+
+/// What the (de)compressor handles below share: one pointer to a state `S` defined in the
+/// implementation TU, null until the derived class's create() succeeds; not copyable. The derived
+/// class's destructor frees the state.
+template <class S>
+class OpaqueStateHandle {
+ public:
+  OpaqueStateHandle() noexcept = default;
+  OpaqueStateHandle(const OpaqueStateHandle&) = delete;
+  OpaqueStateHandle& operator=(const OpaqueStateHandle&) = delete;
+  /// True after a successful create().
+  bool ready() const noexcept { return state_ != nullptr; }
+
+ protected:
+  ~OpaqueStateHandle() = default;
+  using State = S;
+  State* state_ = nullptr;
+};
+}  // namespace detail
+
 /// Raw deflate (RFC 1951, no zlib header) decompressor behind an opaque handle: one pointer, the
 /// same layout whatever backends are compiled in; the state lives in the implementation TU.
 /// create() allocates everything inflate() needs (zlib's 32 KiB window included), so inflate()
 /// never allocates. One object per thread.
-class RawInflater {
+class RawInflater : public detail::OpaqueStateHandle<detail::RawInflaterState> {
  public:
-  RawInflater() noexcept = default;
-  RawInflater(const RawInflater&) = delete;
-  RawInflater& operator=(const RawInflater&) = delete;
   ~RawInflater();
 
   /// Allocates the state for `backend` (libdeflate falls back to zlib when not compiled in; zlib
@@ -316,8 +338,6 @@ class RawInflater {
   /// 1.14 has no per-object allocator) comes from malloc: pass InflateBackend::zlib when every
   /// byte must go through the callbacks.
   bool create(InflateBackend backend, const RuntimeAllocator& allocator = {}) noexcept;
-  /// True after a successful create().
-  bool ready() const noexcept { return state_ != nullptr; }
   /// The backend in use (zlib before create()).
   InflateBackend backend() const noexcept;
 
@@ -327,48 +347,32 @@ class RawInflater {
   /// invalid_argument (not created). `*why` (when non-null) then names the failure (static
   /// string). Safe on untrusted input; no allocation; not thread-safe on one object.
   Status inflate(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept;
-
- private:
-  struct State;
-  State* state_ = nullptr;
 };
 
 /// Raw deflate compressor (zlib's deflate, levels 0..9) behind an opaque handle; the state lives
 /// in the implementation TU. Offline code; deflate() does not allocate. One object per thread.
-class RawDeflater {
+class RawDeflater : public detail::OpaqueStateHandle<detail::RawDeflaterState> {
  public:
-  RawDeflater() noexcept = default;
-  RawDeflater(const RawDeflater&) = delete;
-  RawDeflater& operator=(const RawDeflater&) = delete;
   ~RawDeflater();
 
   /// Allocates zlib's deflate state at `level` (clamped to 0..9). False on failure. Set-up only.
   bool create(int level) noexcept;
-  bool ready() const noexcept { return state_ != nullptr; }
 
   /// Compresses all of `in` into `out` as one raw deflate stream and sets `written`. Returns
   /// success, insufficient_space (out too small) or invalid_argument (not created). No
   /// allocation; not thread-safe on one object.
   Status deflate(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept;
-
- private:
-  struct State;
-  State* state_ = nullptr;
 };
 
 /// zstd decompression context behind an opaque handle (a static ZSTD_DCtx in a workspace
 /// allocated by create(); the state lives in the implementation TU). One object per thread.
-class ZstdDecompressor {
+class ZstdDecompressor : public detail::OpaqueStateHandle<detail::ZstdDecompressorState> {
  public:
-  ZstdDecompressor() noexcept = default;
-  ZstdDecompressor(const ZstdDecompressor&) = delete;
-  ZstdDecompressor& operator=(const ZstdDecompressor&) = delete;
   ~ZstdDecompressor();
 
   /// Allocates the context (its workspace from `allocator`). False when zstd is not compiled in
   /// or allocation fails. Set-up only.
   bool create(const RuntimeAllocator& allocator = {}) noexcept;
-  bool ready() const noexcept { return state_ != nullptr; }
 
   /// Decompresses `in`, which must be exactly one zstd frame declaring a content size of
   /// out.size(), into `out`. Returns success; bad_data (not a zstd frame, more than one frame or
@@ -376,33 +380,21 @@ class ZstdDecompressor {
   /// invalid_argument (not created). `*why` names the failure (static string). Safe on untrusted
   /// input; no allocation; not thread-safe on one object.
   Status decompress(std::span<const uint8_t> in, std::span<uint8_t> out, const char** why) noexcept;
-
- private:
-  struct State;
-  State* state_ = nullptr;
 };
 
 /// zstd compression context behind an opaque handle (a static ZSTD_CCtx sized for `level` at
 /// create()). Offline code; compress() does not allocate. One object per thread.
-class ZstdCompressor {
+class ZstdCompressor : public detail::OpaqueStateHandle<detail::ZstdCompressorState> {
  public:
-  ZstdCompressor() noexcept = default;
-  ZstdCompressor(const ZstdCompressor&) = delete;
-  ZstdCompressor& operator=(const ZstdCompressor&) = delete;
   ~ZstdCompressor();
 
   /// Allocates a context for `level` (clamped to 1..22), replacing any earlier one. False when
   /// zstd is not compiled in or allocation fails (the object is then not ready). Set-up only.
   bool create(int level) noexcept;
-  bool ready() const noexcept { return state_ != nullptr; }
 
   /// Compresses all of `in` into `out` as one frame with its content size. Returns success,
   /// insufficient_space (out too small) or invalid_argument (not created).
   Status compress(std::span<const uint8_t> in, std::span<uint8_t> out, size_t& written) noexcept;
-
- private:
-  struct State;
-  State* state_ = nullptr;
 };
 
 namespace detail {
@@ -1031,7 +1023,7 @@ InflateBackend default_inflate_backend() noexcept {
   return inflate_backend_available(InflateBackend::libdeflate) ? InflateBackend::libdeflate : InflateBackend::zlib;
 }
 
-struct RawInflater::State {
+struct detail::RawInflaterState {
   RuntimeAllocator allocator;  // zlib's zalloc/zfree reach it through stream.opaque
   z_stream stream{};
 #if defined(BTFLOD_TILE_CODEC_LIBDEFLATE)
@@ -1184,7 +1176,7 @@ TileEntropyCoder default_tile_entropy_coder() noexcept {
 
 // Both zstd contexts live in a workspace owned here (ZSTD_initStatic*: the context never
 // allocates, so decompress() and compress() do not either).
-struct ZstdDecompressor::State {
+struct detail::ZstdDecompressorState {
   RuntimeAllocator allocator;
   size_t workspace_bytes = 0;
   unsigned char* workspace = nullptr;
@@ -1251,7 +1243,7 @@ Status ZstdDecompressor::decompress(std::span<const uint8_t> in, std::span<uint8
 #endif
 }
 
-struct ZstdCompressor::State {
+struct detail::ZstdCompressorState {
   unsigned char* workspace = nullptr;
 #if defined(BTFLOD_TILE_CODEC_ZSTD_ENCODER)
   ZSTD_CCtx* cctx = nullptr;
@@ -1306,7 +1298,7 @@ Status ZstdCompressor::compress(std::span<const uint8_t> in, std::span<uint8_t> 
 #endif
 }
 
-struct RawDeflater::State {
+struct detail::RawDeflaterState {
   z_stream stream{};
 };
 

@@ -278,19 +278,24 @@ StreamerMemory Streamer::memory_for(const StreamerConfig& config, const Streamer
   tables.array<decltype(Impl::queued)>(cap.tiles);
   tables.array<decltype(Impl::queue)>(cap.tiles);
   tables.array<decltype(Impl::mirror_texture)>(cap.tiles);
+  // Each category and its tally; total and allocations sum all of them.
+  struct Category {
+    uint64_t StreamerMemory::*bytes;
+    const AllocationTally* tally;
+  };
+  const Category categories[] = {
+      {&StreamerMemory::tile_cache, &cache},      {&StreamerMemory::scheduler, &sched},
+      {&StreamerMemory::votes, &votes},           {&StreamerMemory::payload_cache, &payloads},
+      {&StreamerMemory::job_buffers, &jobs},      {&StreamerMemory::decoders, &decoders},
+      {&StreamerMemory::decoded_cache, &decoded}, {&StreamerMemory::tables, &tables}};
   StreamerMemory m;
-  m.tile_cache = cache.bytes;
-  m.scheduler = sched.bytes;
-  m.votes = votes.bytes;
-  m.payload_cache = payloads.bytes;
-  m.job_buffers = jobs.bytes;
-  m.decoders = decoders.bytes;
-  m.decoded_cache = decoded.bytes;
-  m.tables = tables.bytes;
-  m.total =
-      m.tile_cache + m.scheduler + m.votes + m.payload_cache + m.job_buffers + m.decoders + m.decoded_cache + m.tables;
-  m.allocations = cache.allocations + sched.allocations + votes.allocations + payloads.allocations + jobs.allocations +
-                  decoders.allocations + decoded.allocations + tables.allocations;
+  AllocationTally all;
+  for (const Category& c : categories) {
+    m.*c.bytes = c.tally->bytes;
+    all += *c.tally;
+  }
+  m.total = all.bytes;
+  m.allocations = all.allocations;
   return m;
 }
 

@@ -30,6 +30,7 @@
 #include "btflod/core/bytes.hpp"
 #include "btflod/core/color.hpp"
 #include "btflod/core/dct.hpp"
+#include "btflod/core/enum_names.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"

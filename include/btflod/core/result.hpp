@@ -12,6 +12,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "btflod/core/enum_names.hpp"
+
 namespace btflod {
 
 /// Outcome of a codec, reader or pipeline step. Modelled on libdeflate's result enum.
@@ -26,28 +28,15 @@ enum class Status : unsigned char {
   cancelled,           ///< the operation was cancelled by the caller
 };
 
+namespace detail {
+/// status_name()'s table: one name per Status, in value order.
+inline constexpr const char* kStatusNames[] = {"success",          "bad_data", "short_output", "insufficient_space",
+                                               "invalid_argument", "io_error", "unsupported",  "cancelled"};
+static_assert(sizeof kStatusNames / sizeof kStatusNames[0] == static_cast<size_t>(Status::cancelled) + 1);
+}  // namespace detail
+
 /// Returns a stable lower-case name for a status, e.g. "bad_data". Never returns null.
-constexpr const char* status_name(Status s) noexcept {
-  switch (s) {
-    case Status::success:
-      return "success";
-    case Status::bad_data:
-      return "bad_data";
-    case Status::short_output:
-      return "short_output";
-    case Status::insufficient_space:
-      return "insufficient_space";
-    case Status::invalid_argument:
-      return "invalid_argument";
-    case Status::io_error:
-      return "io_error";
-    case Status::unsupported:
-      return "unsupported";
-    case Status::cancelled:
-      return "cancelled";
-  }
-  return "unknown";
-}
+constexpr const char* status_name(Status s) noexcept { return enum_value_name(s, detail::kStatusNames); }
 
 /// A failed operation: a status plus a message meant for a person.
 struct Error {

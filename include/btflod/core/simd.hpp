@@ -28,6 +28,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "btflod/core/enum_names.hpp"
+
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define BTFLOD_HAS_X86_DISPATCH 1
 #else
@@ -46,18 +48,14 @@ enum class SimdIsa : uint8_t {
 };
 inline constexpr int kSimdIsaCount = 3;
 
+namespace detail {
+/// simd_isa_name()'s table: one name per SimdIsa, in value order.
+inline constexpr const char* kSimdIsaNames[] = {"scalar", "avx2", "avx512"};
+static_assert(sizeof kSimdIsaNames / sizeof kSimdIsaNames[0] == kSimdIsaCount);
+}  // namespace detail
+
 /// Lower-case name of an ISA ("scalar", "avx2", "avx512"). Thread-safe.
-constexpr const char* simd_isa_name(SimdIsa isa) noexcept {
-  switch (isa) {
-    case SimdIsa::scalar:
-      return "scalar";
-    case SimdIsa::avx2:
-      return "avx2";
-    case SimdIsa::avx512:
-      return "avx512";
-  }
-  return "unknown";
-}
+constexpr const char* simd_isa_name(SimdIsa isa) noexcept { return enum_value_name(isa, detail::kSimdIsaNames); }
 
 /// The kernels of one ISA build. Every entry is non-null and thread-safe, allocates nothing and
 /// never throws; each build returns the scalar twin's bits (see the file comment).

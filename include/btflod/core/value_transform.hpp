@@ -34,6 +34,7 @@
 #include <string_view>
 
 #include "btflod/core/color.hpp"
+#include "btflod/core/enum_names.hpp"
 
 namespace btflod {
 
@@ -124,19 +125,16 @@ struct ValueTransform {
   }
 };
 
+namespace detail {
+/// value_encoding_name()'s table: one name per ValueEncoding, in value order.
+inline constexpr const char* kValueEncodingNames[] = {"linear", "sqrt", "log", "log_ycbcr"};
+static_assert(sizeof kValueEncodingNames / sizeof kValueEncodingNames[0] ==
+              static_cast<size_t>(ValueEncoding::log_ycbcr) + 1);
+}  // namespace detail
+
 /// "linear", "sqrt", "log", "log_ycbcr" (or "unknown").
 constexpr const char* value_encoding_name(ValueEncoding e) noexcept {
-  switch (e) {
-    case ValueEncoding::linear:
-      return "linear";
-    case ValueEncoding::sqrt:
-      return "sqrt";
-    case ValueEncoding::log:
-      return "log";
-    case ValueEncoding::log_ycbcr:
-      return "log_ycbcr";
-  }
-  return "unknown";
+  return enum_value_name(e, detail::kValueEncodingNames);
 }
 
 /// Parses a name of value_encoding_name(). Returns false (and leaves `out`) for anything else.

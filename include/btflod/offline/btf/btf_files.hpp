@@ -14,6 +14,7 @@
 #include <string>
 #include <string_view>
 
+#include "btflod/core/enum_names.hpp"
 #include "btflod/core/progress.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/offline/btf/bonn_btf.hpp"
@@ -28,19 +29,10 @@ enum class BtfFileKind { missing, unknown, mbsdf, bonn, image_folder };
 
 /// A readable name of a kind, for messages.
 inline const char* btf_file_kind_name(BtfFileKind k) noexcept {
-  switch (k) {
-    case BtfFileKind::missing:
-      return "missing";
-    case BtfFileKind::unknown:
-      return "unknown";
-    case BtfFileKind::mbsdf:
-      return "NVIDIA ARC MBSDF measured BRDF";
-    case BtfFileKind::bonn:
-      return "Bonn binary BTF";
-    case BtfFileKind::image_folder:
-      return "UBO2003-style image folder";
-  }
-  return "unknown";
+  static constexpr const char* kNames[] = {"missing", "unknown", "NVIDIA ARC MBSDF measured BRDF", "Bonn binary BTF",
+                                           "UBO2003-style image folder"};
+  static_assert(sizeof kNames / sizeof kNames[0] == static_cast<size_t>(BtfFileKind::image_folder) + 1);
+  return enum_value_name(k, kNames);
 }
 
 /// What a path holds, judged by its first bytes (files) or by being a directory.

@@ -23,6 +23,7 @@
 
 #include <glm/glm.hpp>
 
+#include "btflod/core/enum_names.hpp"
 #include "btflod/core/result.hpp"
 
 namespace btflod {
@@ -56,41 +57,10 @@ struct AnalyticParamInfo {
 /// Name of a model ("lambert", "oren-nayar", "blinn-phong", "ward", "cook-torrance",
 /// "lafortune", "ashikhmin-shirley"). Unknown ids give "unknown".
 inline const char* analytic_model_name(AnalyticModel m) noexcept {
-  switch (m) {
-    case AnalyticModel::lambert:
-      return "lambert";
-    case AnalyticModel::oren_nayar:
-      return "oren-nayar";
-    case AnalyticModel::blinn_phong:
-      return "blinn-phong";
-    case AnalyticModel::ward:
-      return "ward";
-    case AnalyticModel::cook_torrance:
-      return "cook-torrance";
-    case AnalyticModel::lafortune:
-      return "lafortune";
-    case AnalyticModel::ashikhmin_shirley:
-      return "ashikhmin-shirley";
-  }
-  return "unknown";
-}
-
-/// Number of parameters κ of a model (0 for Lambert, 3 at most; 0 for unknown ids).
-inline int analytic_param_count(AnalyticModel m) noexcept {
-  switch (m) {
-    case AnalyticModel::lambert:
-      return 0;
-    case AnalyticModel::oren_nayar:
-    case AnalyticModel::blinn_phong:
-      return 1;
-    case AnalyticModel::ward:
-    case AnalyticModel::cook_torrance:
-      return 2;
-    case AnalyticModel::lafortune:
-    case AnalyticModel::ashikhmin_shirley:
-      return 3;
-  }
-  return 0;
+  static constexpr const char* kNames[] = {"lambert",       "oren-nayar", "blinn-phong",      "ward",
+                                           "cook-torrance", "lafortune",  "ashikhmin-shirley"};
+  static_assert(sizeof kNames / sizeof kNames[0] == kAnalyticModelCount);
+  return enum_value_name(m, kNames);
 }
 
 /// The parameter table of a model (empty span for Lambert and unknown ids).
@@ -110,24 +80,16 @@ inline std::span<const AnalyticParamInfo> analytic_param_info(AnalyticModel m) n
       {"c_xy", -1.0f, 1.0f, -1.0f, false}, {"c_z", 0.0f, 1.0f, 1.0f, false}, {"exponent", 1.0f, 1e3f, 16.0f, true}};
   static constexpr AnalyticParamInfo kAsh[] = {
       {"n_u", 1.0f, 1e4f, 32.0f, true}, {"n_v", 1.0f, 1e4f, 32.0f, true}, {"r_s", 0.0f, 1.0f, 0.5f, false}};
-  switch (m) {
-    case AnalyticModel::lambert:
-      return {};
-    case AnalyticModel::oren_nayar:
-      return kOren;
-    case AnalyticModel::blinn_phong:
-      return kBlinn;
-    case AnalyticModel::ward:
-      return kWard;
-    case AnalyticModel::cook_torrance:
-      return kCook;
-    case AnalyticModel::lafortune:
-      return kLaf;
-    case AnalyticModel::ashikhmin_shirley:
-      return kAsh;
-  }
-  return {};
+  // Indexed by model id (AnalyticModel order).
+  static constexpr std::span<const AnalyticParamInfo> kByModel[kAnalyticModelCount] = {{},    kOren, kBlinn, kWard,
+                                                                                       kCook, kLaf,  kAsh};
+  const uint32_t id = static_cast<uint32_t>(m);
+  return id < kAnalyticModelCount ? kByModel[id] : std::span<const AnalyticParamInfo>{};
 }
+
+/// Number of parameters κ of a model (0 for Lambert, 3 at most; 0 for unknown ids): the size of
+/// its analytic_param_info() table.
+inline int analytic_param_count(AnalyticModel m) noexcept { return static_cast<int>(analytic_param_info(m).size()); }
 
 /// Converts a stored id to a model. Safe for untrusted input: unknown ids give Status::bad_data
 /// naming the id.

@@ -92,6 +92,26 @@ class ExactGridInterpolator {
   TriangleGridLocator locator_;
 };
 
+namespace detail {
+/// The table resolutions the lookup interpolators accept: 1 … 8192. Returns invalid_argument
+/// "<table>: resolution R outside [1, 8192]" otherwise.
+inline VoidResult check_lookup_resolution(const char* table, int resolution) {
+  if (resolution < 1 || resolution > 8192)
+    return make_error(Status::invalid_argument, "%s: resolution %d outside [1, 8192]", table, resolution);
+  return {};
+}
+/// Calls f(x, y, st) for every texel of a resolution × resolution table over the unit square,
+/// row by row: st = ((x + 0.5) / R, (y + 0.5) / R) is the texel centre.
+template <class F>
+void for_each_texel_centre(int resolution, F&& f) {
+  for (int y = 0; y < resolution; ++y)
+    for (int x = 0; x < resolution; ++x)
+      f(x, y,
+        glm::vec2((static_cast<float>(x) + 0.5f) / static_cast<float>(resolution),
+                  (static_cast<float>(y) + 0.5f) / static_cast<float>(resolution)));
+}
+}  // namespace detail
+
 /// The triangulation rasterised into two resolution × resolution tables (paper 000 §4): an
 /// index image (3 × uint32 per texel: the enclosing triangle's direction indices) and a weight
 /// image (3 × float: the barycentric weights at the texel centre). Texel (x, y) covers
@@ -104,8 +124,7 @@ class LookupTableInterpolator {
   /// Rasterises the triangulation of `set` at `resolution` (1 … 8192). Errors: bad resolution,
   /// or as triangulate_directions. Allocates; not per-frame.
   static Result<LookupTableInterpolator> build(const DirectionSet& set, int resolution = 256) {
-    if (resolution < 1 || resolution > 8192)
-      return make_error(Status::invalid_argument, "lookup table: resolution %d outside [1, 8192]", resolution);
+    if (auto ok = detail::check_lookup_resolution("lookup table", resolution); !ok) return ok.error();
     auto exact = ExactGridInterpolator<P>::build(set);
     if (!exact) return exact.error();
     LookupTableInterpolator out;
@@ -113,16 +132,13 @@ class LookupTableInterpolator {
     out.resolution_ = resolution;
     out.indices_ = Image<uint32_t>(resolution, resolution, 3);
     out.weights_ = Image<float>(resolution, resolution, 3);
-    for (int y = 0; y < resolution; ++y)
-      for (int x = 0; x < resolution; ++x) {
-        const glm::vec2 st((static_cast<float>(x) + 0.5f) / static_cast<float>(resolution),
-                           (static_cast<float>(y) + 0.5f) / static_cast<float>(resolution));
-        const AngularSample s = exact->query_square(st);
-        for (int c = 0; c < 3; ++c) {
-          out.indices_.at(x, y, c) = s.index[c];
-          out.weights_.at(x, y, c) = s.weight[c];
-        }
+    detail::for_each_texel_centre(resolution, [&](int x, int y, glm::vec2 st) {
+      const AngularSample s = exact->query_square(st);
+      for (int c = 0; c < 3; ++c) {
+        out.indices_.at(x, y, c) = s.index[c];
+        out.weights_.at(x, y, c) = s.weight[c];
       }
+    });
     return out;
   }
 
@@ -164,19 +180,15 @@ class NearestLookupInterpolator {
  public:
   /// Builds the table (resolution 1 … 8192). Errors: empty set, bad resolution. Allocates.
   static Result<NearestLookupInterpolator> build(const DirectionSet& set, int resolution = 256) {
-    if (resolution < 1 || resolution > 8192)
-      return make_error(Status::invalid_argument, "nearest table: resolution %d outside [1, 8192]", resolution);
+    if (auto ok = detail::check_lookup_resolution("nearest table", resolution); !ok) return ok.error();
     if (set.empty()) return make_error(Status::invalid_argument, "nearest table: the direction set is empty");
     NearestLookupInterpolator out;
     out.count_ = static_cast<uint32_t>(set.size());
     out.resolution_ = resolution;
     out.table_ = Image<uint32_t>(resolution, resolution, 1);
-    for (int y = 0; y < resolution; ++y)
-      for (int x = 0; x < resolution; ++x) {
-        const glm::vec2 st((static_cast<float>(x) + 0.5f) / static_cast<float>(resolution),
-                           (static_cast<float>(y) + 0.5f) / static_cast<float>(resolution));
-        out.table_.at(x, y) = static_cast<uint32_t>(set.nearest(P::from_square(st)));
-      }
+    detail::for_each_texel_centre(resolution, [&](int x, int y, glm::vec2 st) {
+      out.table_.at(x, y) = static_cast<uint32_t>(set.nearest(P::from_square(st)));
+    });
     return out;
   }
 

@@ -33,18 +33,24 @@ concept HemisphereParameterization = requires(glm::vec3 d, glm::vec2 st) {
   { P::kName } -> std::convertible_to<const char*>;
 };
 
+namespace detail {
+/// clamp_to_hemisphere in the precision T of the vector (every step rounds to T).
+template <class T>
+glm::vec<3, T> clamp_to_hemisphere_in(glm::vec<3, T> d) noexcept {
+  const T len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
+  if (!(len > T(0)) || !std::isfinite(len)) return {T(0), T(0), T(1)};
+  d /= len;
+  if (d.z >= T(0)) return d;
+  const T lxy = std::sqrt(d.x * d.x + d.y * d.y);
+  if (!(lxy > T(0))) return {T(0), T(0), T(1)};
+  return {d.x / lxy, d.y / lxy, T(0)};
+}
+}  // namespace detail
+
 /// Normalises d and moves it onto the closed upper hemisphere: z < 0 is set to 0 (the
 /// direction is projected onto the horizon along z). Returns (0, 0, 1) for zero, NaN or
 /// straight-down inputs. Safe for any input; noexcept.
-inline glm::vec3 clamp_to_hemisphere(glm::vec3 d) noexcept {
-  const float len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  if (!(len > 0.0f) || !std::isfinite(len)) return {0.0f, 0.0f, 1.0f};
-  d /= len;
-  if (d.z >= 0.0f) return d;
-  const float lxy = std::sqrt(d.x * d.x + d.y * d.y);
-  if (!(lxy > 0.0f)) return {0.0f, 0.0f, 1.0f};
-  return {d.x / lxy, d.y / lxy, 0.0f};
-}
+inline glm::vec3 clamp_to_hemisphere(glm::vec3 d) noexcept { return detail::clamp_to_hemisphere_in(d); }
 
 namespace detail {
 inline glm::vec2 clamp_unit_square(glm::vec2 st) noexcept {
@@ -53,15 +59,7 @@ inline glm::vec2 clamp_unit_square(glm::vec2 st) noexcept {
   return {glm::clamp(st.x, 0.0f, 1.0f), glm::clamp(st.y, 0.0f, 1.0f)};
 }
 /// Double-precision clamp_to_hemisphere (same rules).
-inline glm::dvec3 clamp_to_hemisphere_precise(glm::dvec3 d) noexcept {
-  const double len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  if (!(len > 0.0) || !std::isfinite(len)) return {0.0, 0.0, 1.0};
-  d /= len;
-  if (d.z >= 0.0) return d;
-  const double lxy = std::sqrt(d.x * d.x + d.y * d.y);
-  if (!(lxy > 0.0)) return {0.0, 0.0, 1.0};
-  return {d.x / lxy, d.y / lxy, 0.0};
-}
+inline glm::dvec3 clamp_to_hemisphere_precise(glm::dvec3 d) noexcept { return clamp_to_hemisphere_in(d); }
 inline glm::dvec2 clamp_unit_square_precise(glm::dvec2 st) noexcept {
   return {std::clamp(st.x, 0.0, 1.0), std::clamp(st.y, 0.0, 1.0)};
 }

@@ -242,21 +242,9 @@ class BonnParser {
                 what, static_cast<unsigned long long>(count), static_cast<unsigned long long>(min_element_size),
                 r_.remaining());
   }
-  bool u8(uint8_t& out, const char* what) {
-    if (!need(1, 1, what)) return false;
-    out = r_.u8();
-    return true;
-  }
-  bool u32(uint32_t& out, const char* what) {
-    if (!need(1, 4, what)) return false;
-    out = r_.u32();
-    return true;
-  }
-  bool i32(int32_t& out, const char* what) {
-    if (!need(1, 4, what)) return false;
-    out = r_.i32();
-    return true;
-  }
+  bool u8(uint8_t& out, const char* what) { return scalar(out, what); }
+  bool u32(uint32_t& out, const char* what) { return scalar(out, what); }
+  bool i32(int32_t& out, const char* what) { return scalar(out, what); }
   /// A header float: NaN and ±Inf are rejected.
   bool finite_f32(float& out, const char* what) {
     if (!need(1, 4, what)) return false;
@@ -315,6 +303,14 @@ class BonnParser {
   }
 
  private:
+  // Reads one little-endian T named `what` (false, with the error set, when it is truncated).
+  template <class T>
+  bool scalar(T& out, const char* what) {
+    if (!need(1, sizeof(T), what)) return false;
+    out = r_.read<T>();
+    return true;
+  }
+
   ByteReader r_;
   Error error_{Status::bad_data, {}};
 };

@@ -18,6 +18,7 @@
 
 #include <glm/glm.hpp>
 
+#include "btflod/core/enum_names.hpp"
 #include "btflod/core/image.hpp"
 #include "btflod/core/result.hpp"
 #include "btflod/offline/math/math.hpp"
@@ -91,19 +92,16 @@ inline Mesostructure make_flat_mesostructure(int width, int height, glm::vec3 al
 /// The procedural materials.
 enum class SynthMaterial : unsigned char { cloth, stone, leather, tiles };
 
+namespace detail {
+/// material_name()'s table: one name per SynthMaterial, in value order.
+inline constexpr const char* kSynthMaterialNames[] = {"cloth", "stone", "leather", "tiles"};
+static_assert(sizeof kSynthMaterialNames / sizeof kSynthMaterialNames[0] ==
+              static_cast<size_t>(SynthMaterial::tiles) + 1);
+}  // namespace detail
+
 /// Lower-case name of a material ("cloth", "stone", "leather", "tiles").
 constexpr const char* material_name(SynthMaterial m) noexcept {
-  switch (m) {
-    case SynthMaterial::cloth:
-      return "cloth";
-    case SynthMaterial::stone:
-      return "stone";
-    case SynthMaterial::leather:
-      return "leather";
-    case SynthMaterial::tiles:
-      return "tiles";
-  }
-  return "unknown";
+  return enum_value_name(m, detail::kSynthMaterialNames);
 }
 
 /// Parses a material name (as material_name() spells it); nullopt when unknown.
@@ -115,17 +113,11 @@ inline std::optional<SynthMaterial> material_from_name(std::string_view name) no
 
 namespace detail {
 
-// SplitMix64 finaliser: a well-mixed 64-bit hash; the only source of randomness, so every
-// texel's value depends on (seed, salt, lattice coordinates) alone — never on thread order.
-constexpr uint64_t mix64(uint64_t z) noexcept {
-  z += 0x9e3779b97f4a7c15ull;
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  return z ^ (z >> 31);
-}
+// The SplitMix64 finaliser (mix_bits64) is the only source of randomness, so every texel's
+// value depends on (seed, salt, lattice coordinates) alone — never on thread order.
 constexpr uint64_t hash_ints(uint64_t seed, uint64_t salt, int64_t a, int64_t b = 0) noexcept {
-  return mix64(mix64(mix64(seed ^ (salt * 0x2545f4914f6cdd1dull)) + static_cast<uint64_t>(a)) +
-               static_cast<uint64_t>(b));
+  return mix_bits64(mix_bits64(mix_bits64(seed ^ (salt * 0x2545f4914f6cdd1dull)) + static_cast<uint64_t>(a)) +
+                    static_cast<uint64_t>(b));
 }
 // Uniform in [0, 1).
 constexpr float hash_unit(uint64_t seed, uint64_t salt, int64_t a, int64_t b = 0) noexcept {

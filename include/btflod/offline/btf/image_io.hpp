@@ -146,40 +146,39 @@ inline Result<Image<uint8_t>> load_image(const std::string& path, int desired_ch
   return image;
 }
 
+namespace detail {
+/// An image of the same size and channel count as `src` whose every sample is
+/// f(source sample, is_alpha); is_alpha is true for the last channel of a 2- or 4-channel image.
+template <class Out, class In, class F>
+Image<Out> map_colour_samples(ImageView<const In> src, F&& f) {
+  Image<Out> out(src.width(), src.height(), src.channels());
+  const bool has_alpha = src.channels() == 2 || src.channels() == 4;
+  for (int y = 0; y < src.height(); ++y)
+    for (int x = 0; x < src.width(); ++x)
+      for (int c = 0; c < src.channels(); ++c)
+        out.at(x, y, c) = f(src.at(x, y, c), has_alpha && c == src.channels() - 1);
+  return out;
+}
+}  // namespace detail
+
 /// Converts 8-bit sRGB-encoded samples to linear float with the exact 256-entry table
 /// (core/color.hpp). Channel 3 (alpha) of an RGBA image is not sRGB-encoded and is only scaled
 /// to [0,1]. Never fails. Thread-safe.
 inline Image<float> srgb8_to_linear_image(ImageView<const uint8_t> src) {
   const float* table = srgb8_to_linear_table();
-  Image<float> out(src.width(), src.height(), src.channels());
-  const bool has_alpha = src.channels() == 2 || src.channels() == 4;
-  for (int y = 0; y < src.height(); ++y)
-    for (int x = 0; x < src.width(); ++x)
-      for (int c = 0; c < src.channels(); ++c) {
-        const uint8_t v = src.at(x, y, c);
-        out.at(x, y, c) = (has_alpha && c == src.channels() - 1) ? static_cast<float>(v) / 255.0f : table[v];
-      }
-  return out;
+  return detail::map_colour_samples<float>(
+      src, [table](uint8_t v, bool alpha) { return alpha ? static_cast<float>(v) / 255.0f : table[v]; });
 }
 
 /// Converts linear float samples to 8-bit sRGB: clamps to [0,1], NaN → 0, rounds to nearest.
 /// The last channel of a 2- or 4-channel image is treated as alpha (linear, clamped, not
 /// gamma-encoded). Never fails. Thread-safe.
 inline Image<uint8_t> linear_to_srgb8_image(ImageView<const float> src) {
-  Image<uint8_t> out(src.width(), src.height(), src.channels());
-  const bool has_alpha = src.channels() == 2 || src.channels() == 4;
-  for (int y = 0; y < src.height(); ++y)
-    for (int x = 0; x < src.width(); ++x)
-      for (int c = 0; c < src.channels(); ++c) {
-        const float v = src.at(x, y, c);
-        if (has_alpha && c == src.channels() - 1) {
-          const float a = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN fails v > 0 → 0
-          out.at(x, y, c) = static_cast<uint8_t>(a * 255.0f + 0.5f);
-        } else {
-          out.at(x, y, c) = linear_to_srgb8(v);
-        }
-      }
-  return out;
+  return detail::map_colour_samples<uint8_t>(src, [](float v, bool alpha) {
+    if (!alpha) return linear_to_srgb8(v);
+    const float a = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN fails v > 0 → 0
+    return static_cast<uint8_t>(a * 255.0f + 0.5f);
+  });
 }
 
 /// Decodes an 8-bit sRGB image from memory into linear float RGB (3 channels; grey is

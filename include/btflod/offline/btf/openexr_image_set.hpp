@@ -162,6 +162,22 @@ inline const char* exr_pixel_type_name(Imf::PixelType t) {
   }
 }
 
+/// Runs `body` (a callable returning a Result) and turns an exception OpenEXR throws while
+/// reading `stream` into its error: short_output "exr: truncated input: <ends_early>" when the
+/// stream ran out of bytes, else bad_data "exr: <failure>: <exception text>" ("exr: <failure>"
+/// for an exception not derived from std::exception).
+template <class Body>
+auto exr_read_guarded(const ExrMemoryIStream& stream, const char* ends_early, const char* failure, Body&& body)
+    -> decltype(body()) {
+  try {
+    return body();
+  } catch (const std::exception& e) {
+    if (stream.truncated()) return make_error(Status::short_output, "exr: truncated input: %s", ends_early);
+    return make_error(Status::bad_data, "exr: %s: %s", failure, e.what());
+  } catch (...) {
+    return make_error(Status::bad_data, "exr: %s", failure);
+  }
+}
 }  // namespace detail
 
 /// Size and channel types of an EXR file held in memory, read from its header only.
@@ -195,7 +211,7 @@ inline Result<ExrInfo> probe_exr(std::span<const uint8_t> bytes, const ImageLimi
     return make_error(truncated ? Status::short_output : Status::bad_data, "exr: %s%s",
                       truncated ? "truncated input: " : "", why);
   detail::ExrMemoryIStream stream(bytes);
-  try {
+  return detail::exr_read_guarded(stream, "the header ends early", "bad header", [&]() -> Result<ExrInfo> {
     Imf::Header header;
     stream.seekg(8);
     header.readFrom(stream, version);
@@ -233,12 +249,7 @@ inline Result<ExrInfo> probe_exr(std::span<const uint8_t> bytes, const ImageLimi
     }
     info.rgb_half = halves == 3;
     return info;
-  } catch (const std::exception& e) {
-    if (stream.truncated()) return make_error(Status::short_output, "exr: truncated input: the header ends early");
-    return make_error(Status::bad_data, "exr: bad header: %s", e.what());
-  } catch (...) {
-    return make_error(Status::bad_data, "exr: bad header");
-  }
+  });
 }
 
 /// Decodes an OpenEXR file in memory into a width × height × 3 linear float image (R, G, B;
@@ -249,31 +260,27 @@ inline Result<Image<float>> decode_exr(std::span<const uint8_t> bytes, const Ima
   auto info = probe_exr(bytes, limits);
   if (!info) return info.error();
   detail::ExrMemoryIStream stream(bytes);
-  try {
-    Imf::InputFile file(stream);
-    const Imath::Box2i dw = file.header().dataWindow();
-    Image<float> out(info->width, info->height, 3);
-    Imf::FrameBuffer fb;
-    const size_t xs = 3 * sizeof(float), ys = xs * static_cast<size_t>(info->width);
-    const char* names[3] = {"R", "G", "B"};
-    for (int c = 0; c < 3; ++c) fb.insert(names[c], Imf::Slice::Make(Imf::FLOAT, out.data() + c, dw, xs, ys));
-    file.setFrameBuffer(fb);
-    file.readPixels(dw.min.y, dw.max.y);
-    if (!file.isComplete() || stream.truncated())
-      return make_error(Status::short_output, "exr: truncated input: pixel data ends early");
-    const float* p = out.data();
-    for (size_t i = 0; i < out.size(); ++i)
-      if (!std::isfinite(p[i]))
-        return make_error(Status::bad_data, "exr: pixel (%zu, %zu) channel %s is %s, expected a finite value",
-                          (i / 3) % static_cast<size_t>(info->width), (i / 3) / static_cast<size_t>(info->width),
-                          names[i % 3], std::isnan(p[i]) ? "NaN" : "infinite");
-    return out;
-  } catch (const std::exception& e) {
-    if (stream.truncated()) return make_error(Status::short_output, "exr: truncated input: pixel data ends early");
-    return make_error(Status::bad_data, "exr: cannot decode the pixels: %s", e.what());
-  } catch (...) {
-    return make_error(Status::bad_data, "exr: cannot decode the pixels");
-  }
+  return detail::exr_read_guarded(
+      stream, "pixel data ends early", "cannot decode the pixels", [&]() -> Result<Image<float>> {
+        Imf::InputFile file(stream);
+        const Imath::Box2i dw = file.header().dataWindow();
+        Image<float> out(info->width, info->height, 3);
+        Imf::FrameBuffer fb;
+        const size_t xs = 3 * sizeof(float), ys = xs * static_cast<size_t>(info->width);
+        const char* names[3] = {"R", "G", "B"};
+        for (int c = 0; c < 3; ++c) fb.insert(names[c], Imf::Slice::Make(Imf::FLOAT, out.data() + c, dw, xs, ys));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        if (!file.isComplete() || stream.truncated())
+          return make_error(Status::short_output, "exr: truncated input: pixel data ends early");
+        const float* p = out.data();
+        for (size_t i = 0; i < out.size(); ++i)
+          if (!std::isfinite(p[i]))
+            return make_error(Status::bad_data, "exr: pixel (%zu, %zu) channel %s is %s, expected a finite value",
+                              (i / 3) % static_cast<size_t>(info->width), (i / 3) / static_cast<size_t>(info->width),
+                              names[i % 3], std::isnan(p[i]) ? "NaN" : "infinite");
+        return out;
+      });
 }
 
 /// Encodes a 3-channel linear float image as a scanline OpenEXR file (R, G, B; ZIP compression)
@@ -334,10 +341,9 @@ inline AngleImageCodec exr_image_codec() {
     return ext == ".exr";
   };
   c.probe = [](const std::string& path, const ImageLimits& limits) -> Result<ImageInfo> {
-    auto bytes = read_file_bytes(path, limits.max_file_bytes);
-    if (!bytes) return bytes.error();
-    auto info = probe_exr(*bytes, limits);
-    if (!info) return Error{info.status(), path + ": " + info.message()};
+    auto info = detail::parse_image_file(path, limits,
+                                         [&](std::span<const uint8_t> bytes) { return probe_exr(bytes, limits); });
+    if (!info) return info.error();
     ImageInfo out;
     out.width = info->width;
     out.height = info->height;
@@ -345,10 +351,9 @@ inline AngleImageCodec exr_image_codec() {
     return out;
   };
   c.decode = [](const std::string& path, const ImageLimits& limits, int width, int height, float* dst) -> VoidResult {
-    auto bytes = read_file_bytes(path, limits.max_file_bytes);
-    if (!bytes) return bytes.error();
-    auto img = decode_exr(*bytes, limits);
-    if (!img) return Error{img.status(), path + ": " + img.message()};
+    auto img = detail::parse_image_file(path, limits,
+                                        [&](std::span<const uint8_t> bytes) { return decode_exr(bytes, limits); });
+    if (!img) return img.error();
     if (img->width() != width || img->height() != height)
       return make_error(Status::bad_data, "%s: image is %dx%d, expected %dx%d; all images must have one size",
                         path.c_str(), img->width(), img->height(), width, height);

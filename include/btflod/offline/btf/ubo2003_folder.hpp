@@ -275,16 +275,25 @@ struct AngleImageCodec {
 
 namespace detail {
 
+/// Reads the file at `path` (at most limits.max_file_bytes) and returns parse(its bytes as a
+/// std::span<const uint8_t>), a Result; a failed parse's message is prefixed with "<path>: ".
+/// Read failures are returned as read_file_bytes() reports them (they name the path already).
+template <class Parse>
+auto parse_image_file(const std::string& path, const ImageLimits& limits, Parse&& parse)
+    -> decltype(parse(std::span<const uint8_t>{})) {
+  auto bytes = read_file_bytes(path, limits.max_file_bytes);
+  if (!bytes) return bytes.error();
+  auto parsed = parse(std::span<const uint8_t>(*bytes));
+  if (!parsed) return Error{parsed.status(), path + ": " + parsed.message()};
+  return parsed;
+}
+
 inline AngleImageCodec srgb8_image_codec() {
   AngleImageCodec c;
   c.kind = "JPEG/PNG";
   c.accepts = [](const std::filesystem::path& p) { return ubo_is_image_extension(p); };
   c.probe = [](const std::string& path, const ImageLimits& limits) -> Result<ImageInfo> {
-    auto bytes = read_file_bytes(path, limits.max_file_bytes);
-    if (!bytes) return bytes.error();
-    auto info = probe_image(*bytes, limits);
-    if (!info) return Error{info.status(), path + ": " + info.message()};
-    return info;
+    return parse_image_file(path, limits, [&](std::span<const uint8_t> bytes) { return probe_image(bytes, limits); });
   };
   c.decode = [](const std::string& path, const ImageLimits& limits, int width, int height, float* dst) -> VoidResult {
     auto img = load_image(path, 3, limits);

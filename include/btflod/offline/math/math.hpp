@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <glm/glm.hpp>
@@ -11,6 +12,15 @@ namespace btflod {
 
 inline constexpr float kPi = std::numbers::pi_v<float>;
 inline constexpr float kTwoPi = 2.0f * std::numbers::pi_v<float>;
+
+/// splitmix64 finaliser: a bijective 64-bit mix with full avalanche (the hash behind the
+/// deterministic random numbers of the synthetic materials and the renderer). noexcept.
+constexpr uint64_t mix_bits64(uint64_t z) noexcept {
+  z += 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
 
 constexpr float degrees_to_radians(float deg) noexcept { return deg * (kPi / 180.0f); }
 constexpr float radians_to_degrees(float rad) noexcept { return rad * (180.0f / kPi); }

@@ -251,6 +251,46 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
   return out;
 }
 
+namespace detail {
+/// The cell of the lpca program's 4D direction grid (R points per axis) that local directions
+/// wl, wv fall in: grid coordinates g = (s_v, t_v, s_l, t_l) = clamp(unit square of `param`,
+/// 0, 1)·(R − 1), split into the lower corner lo[a] = min(⌊g[a]⌋, R − 1) and the fractions
+/// fr[a] = g[a] − lo[a]. Precondition: R ≥ 2, finite directions. noexcept.
+struct LpcaGridCell {
+  uint32_t lo[4];
+  float fr[4];
+};
+inline LpcaGridCell lpca_grid_cell(DirectionParameterisation param, uint32_t R, glm::vec3 wl, glm::vec3 wv) noexcept {
+  const float r1 = static_cast<float>(R - 1);
+  const glm::vec2 sv = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wv)), 0.0f, 1.0f) * r1;
+  const glm::vec2 sl = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wl)), 0.0f, 1.0f) * r1;
+  const float g[4] = {sv.x, sv.y, sl.x, sl.y};
+  LpcaGridCell c;
+  for (int a = 0; a < 4; ++a) {
+    c.lo[a] = std::min(static_cast<uint32_t>(std::floor(g[a])), R - 1);
+    c.fr[a] = g[a] - static_cast<float>(c.lo[a]);
+  }
+  return c;
+}
+/// Calls f(w, q) for each of the 16 corners of `cell` whose quadrilinear weight w (the product
+/// over the axes of fr[a] or 1 − fr[a], in axis order) is not 0; q[a] = min(lo[a] + bit a of the
+/// corner, R − 1) are the corner's grid indices. noexcept if f is.
+template <class F>
+void for_each_lpca_corner(const LpcaGridCell& cell, uint32_t R, F&& f) {
+  for (int corner = 0; corner < 16; ++corner) {
+    float w = 1.0f;
+    uint32_t q[4];
+    for (int a = 0; a < 4; ++a) {
+      const uint32_t up = (corner >> a) & 1;
+      w *= up ? cell.fr[a] : 1.0f - cell.fr[a];
+      q[a] = std::min(cell.lo[a] + up, R - 1);
+    }
+    if (w == 0.0f) continue;
+    f(w, q);
+  }
+}
+}  // namespace detail
+
 /// What the lpca program computes on the packed (8-bit) material `m` at uv for local
 /// directions wl, wv: Σ_j α'_j times the quadrilinear blend over the 16 grid corners of
 /// (s_v, t_v, s_l, t_l) (hardware trilinear + the manual t_l lerp of paper 002 §6.2) of the
@@ -258,16 +298,7 @@ inline Result<PackedLpca> pack_lpca_material(const LocalPca& p, uint32_t grid_re
 /// validate_material(m) passed. noexcept, allocation-free.
 inline glm::vec3 reference_lpca_packed(const LpcaMaterialData& m, glm::vec2 uv, glm::vec3 wl, glm::vec3 wv) noexcept {
   const uint32_t R = m.grid_resolution;
-  const float r1 = static_cast<float>(R - 1);
-  const glm::vec2 sv = glm::clamp(glm::vec2(shader_direction_to_unit_square(m.parameterisation, wv)), 0.0f, 1.0f) * r1;
-  const glm::vec2 sl = glm::clamp(glm::vec2(shader_direction_to_unit_square(m.parameterisation, wl)), 0.0f, 1.0f) * r1;
-  const float g[4] = {sv.x, sv.y, sl.x, sl.y};
-  uint32_t lo[4];
-  float fr[4];
-  for (int a = 0; a < 4; ++a) {
-    lo[a] = std::min(static_cast<uint32_t>(std::floor(g[a])), R - 1);
-    fr[a] = g[a] - static_cast<float>(lo[a]);
-  }
+  const detail::LpcaGridCell cell = detail::lpca_grid_cell(m.parameterisation, R, wl, wv);
   const glm::ivec2 t = representation_texel(uv, static_cast<int>(m.width), static_cast<int>(m.height));
   const size_t n = static_cast<size_t>(m.width) * m.height;
   const size_t texel = static_cast<size_t>(t.y) * m.width + static_cast<size_t>(t.x), k = m.cluster[texel];
@@ -275,18 +306,10 @@ inline glm::vec3 reference_lpca_packed(const LpcaMaterialData& m, glm::vec2 uv, 
   glm::vec3 acc(0.0f);
   for (size_t j = 0; j <= C; ++j) {
     glm::vec3 e(0.0f);
-    for (int corner = 0; corner < 16; ++corner) {
-      float w = 1.0f;
-      uint32_t q[4];
-      for (int a = 0; a < 4; ++a) {
-        const uint32_t up = (corner >> a) & 1;
-        w *= up ? fr[a] : 1.0f - fr[a];
-        q[a] = std::min(lo[a] + up, R - 1);
-      }
-      if (w == 0.0f) continue;
+    detail::for_each_lpca_corner(cell, R, [&](float w, const uint32_t(&q)[4]) {
       const int8_t* v = &m.volume[(((static_cast<size_t>(q[3]) * R + q[2]) * H + k * R + q[1]) * W + j * R + q[0]) * 4];
       e += w * glm::vec3(v[0], v[1], v[2]) * (1.0f / 127.0f);
-    }
+    });
     acc += m.weights[((j / 4) * n + texel) * 4 + j % 4] * e;
   }
   return acc;
@@ -304,31 +327,16 @@ inline glm::vec3 reference_lpca(const LocalPca& p, uint32_t grid_resolution, Dir
                                 const AngularTablesData& tables, bool nearest, glm::vec2 uv, glm::vec3 wl,
                                 glm::vec3 wv) noexcept {
   const float r1 = static_cast<float>(grid_resolution - 1);
-  const glm::vec2 sv = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wv)), 0.0f, 1.0f) * r1;
-  const glm::vec2 sl = glm::clamp(glm::vec2(shader_direction_to_unit_square(param, wl)), 0.0f, 1.0f) * r1;
-  const float g[4] = {sv.x, sv.y, sl.x, sl.y};
-  int lo[4];
-  float fr[4];
-  for (int a = 0; a < 4; ++a) {
-    lo[a] = std::min(static_cast<int>(std::floor(g[a])), static_cast<int>(grid_resolution) - 1);
-    fr[a] = g[a] - static_cast<float>(lo[a]);
-  }
+  const detail::LpcaGridCell cell = detail::lpca_grid_cell(param, grid_resolution, wl, wv);
   const glm::ivec2 t = representation_texel(uv, p.shape.width, p.shape.height);
   glm::vec3 acc(0.0f);
-  for (int corner = 0; corner < 16; ++corner) {
-    float w = 1.0f;
-    float q[4];
-    for (int a = 0; a < 4; ++a) {
-      const int up = (corner >> a) & 1;
-      w *= up ? fr[a] : 1.0f - fr[a];
-      q[a] = static_cast<float>(std::min(lo[a] + up, static_cast<int>(grid_resolution) - 1)) / r1;
-    }
-    if (w == 0.0f) continue;
-    const glm::vec3 dv = detail::unit_square_to_direction(param, glm::vec2(q[0], q[1]));
-    const glm::vec3 dl = detail::unit_square_to_direction(param, glm::vec2(q[2], q[3]));
+  detail::for_each_lpca_corner(cell, grid_resolution, [&](float w, const uint32_t(&q)[4]) {
+    const auto unit = [r1](uint32_t i) { return static_cast<float>(i) / r1; };
+    const glm::vec3 dv = detail::unit_square_to_direction(param, glm::vec2(unit(q[0]), unit(q[1])));
+    const glm::vec3 dl = detail::unit_square_to_direction(param, glm::vec2(unit(q[2]), unit(q[3])));
     acc += w * p.evaluate(t.x, t.y, angular_table_sample(tables, 0, param, nearest, dl),
                           angular_table_sample(tables, 1, param, nearest, dv));
-  }
+  });
   return acc;
 }
 

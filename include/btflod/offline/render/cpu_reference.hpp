@@ -67,36 +67,35 @@ struct Shape {
   /// Rectangle origin + u·size_u·axis_u + v·size_v·axis_v (axes normalised here), two-sided.
   static Shape plane(uint32_t material, glm::vec3 origin, glm::vec3 axis_u, glm::vec3 axis_v, float size_u,
                      float size_v, glm::vec2 uv_scale = {1, 1}) noexcept {
-    Shape s;
-    s.kind = ShapeKind::plane;
-    s.material = material;
-    s.center = origin;
+    Shape s = with_placement(ShapeKind::plane, material, origin, uv_scale);
     s.axis_u = glm::normalize(axis_u);
     s.axis_v = glm::normalize(axis_v);
     s.size_u = size_u;
     s.size_v = size_v;
-    s.uv_scale = uv_scale;
     return s;
   }
   /// Sphere of `radius` around center; u = azimuth / 2π, v = polar angle / π.
   static Shape sphere(uint32_t material, glm::vec3 center, float radius, glm::vec2 uv_scale = {1, 1}) noexcept {
-    Shape s;
-    s.kind = ShapeKind::sphere;
-    s.material = material;
-    s.center = center;
+    Shape s = with_placement(ShapeKind::sphere, material, center, uv_scale);
     s.size_u = radius;
-    s.uv_scale = uv_scale;
     return s;
   }
   /// Torus around +y: major radius `major`, tube radius `minor`; u around the ring, v around the tube.
   static Shape torus(uint32_t material, glm::vec3 center, float major, float minor,
                      glm::vec2 uv_scale = {1, 1}) noexcept {
-    Shape s;
-    s.kind = ShapeKind::torus;
-    s.material = material;
-    s.center = center;
+    Shape s = with_placement(ShapeKind::torus, material, center, uv_scale);
     s.size_u = major;
     s.size_v = minor;
+    return s;
+  }
+
+ private:
+  // A shape of `kind` at `center` with the fields every kind sets; sizes and axes at their defaults.
+  static Shape with_placement(ShapeKind kind, uint32_t material, glm::vec3 center, glm::vec2 uv_scale) noexcept {
+    Shape s;
+    s.kind = kind;
+    s.material = material;
+    s.center = center;
     s.uv_scale = uv_scale;
     return s;
   }

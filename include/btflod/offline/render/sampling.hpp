@@ -19,14 +19,6 @@
 
 namespace btflod {
 
-/// splitmix64 finaliser: a bijective 64-bit mix with full avalanche. noexcept.
-constexpr uint64_t mix_bits64(uint64_t z) noexcept {
-  z += 0x9E3779B97F4A7C15ull;
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
 /// A small counter-based random generator (splitmix64 over a keyed counter). The stream is
 /// fully determined by (seed, pixel, sample index, purpose), so a pixel draws the same numbers
 /// whichever thread renders it and in whatever order pixels are visited.

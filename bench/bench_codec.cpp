@@ -48,6 +48,8 @@
 #define BTFLOD_BENCH_HAS_TURBOJPEG 1
 #define BTFLOD_BENCH_HAS_LIBDEFLATE 1
 #include "../samples/tools/bench_cli/codec_bench.hpp"
+#include "bench_main.hpp"
+#include "bench_mip_levels.hpp"
 
 namespace {
 
@@ -105,17 +107,7 @@ Content make_content(SynthMaterial material, const MeasuredBrdf* brdf) {
         for (uint32_t k = 0; k < kComponents; ++k)
           level[kLevels - 1][(size_t{y} * side + x) * kComponents + k] =
               fmf->v[(size_t{y % w} * w + x % w) * kComponents + k];
-    for (uint32_t l = kLevels - 1; l-- > 0;) {
-      const uint32_t s = side >> (kLevels - 1 - l), fs = s * 2;
-      level[l].resize(size_t{s} * s * kComponents);
-      for (uint32_t y = 0; y < s; ++y)
-        for (uint32_t x = 0; x < s; ++x)
-          for (uint32_t k = 0; k < kComponents; ++k) {
-            auto at = [&](uint32_t xx, uint32_t yy) { return level[l + 1][(size_t{yy} * fs + xx) * kComponents + k]; };
-            level[l][(size_t{y} * s + x) * kComponents + k] =
-                0.25f * (at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1));
-          }
-    }
+    btflod::bench::box_filter_coarser_levels(level, side, kComponents);
     out.ranges.assign(kComponents, 0.0f);
     for (uint32_t k = 0; k < kComponents; ++k) {
       float lo = INFINITY, hi = -INFINITY;
@@ -350,9 +342,9 @@ void turbojpeg_decode_tile_at(tjhandle d, const JpegCoded& j, size_t i, std::vec
   }
 }
 
-void decode_tiles(benchmark::State& state, InflateBackend backend, const Coded& coded = coded_q()) {
+// Decodes the content's tiles in turn with `dec`, one per iteration; rates per tile sample.
+void decode_each_tile(benchmark::State& state, TileDecoder& dec, const Coded& coded) {
   const Content& c = content();
-  TileDecoder dec(kLayout, backend);
   std::vector<float> out(kLayout.sample_count());
   size_t i = 0;
   for (auto _ : state) {
@@ -360,7 +352,12 @@ void decode_tiles(benchmark::State& state, InflateBackend backend, const Coded& 
     i = (i + 1) % c.tiles.size();
   }
   set_rates(state, kLayout.sample_count());
-  state.counters["bytes_per_tile"] = static_cast<double>(coded.bytes) / c.tiles.size();
+}
+
+void decode_tiles(benchmark::State& state, InflateBackend backend, const Coded& coded = coded_q()) {
+  TileDecoder dec(kLayout, backend);
+  decode_each_tile(state, dec, coded);
+  state.counters["bytes_per_tile"] = static_cast<double>(coded.bytes) / content().tiles.size();
 }
 void BM_btflod_decode_tile_zlib(benchmark::State& state) { decode_tiles(state, InflateBackend::zlib); }
 BENCHMARK(BM_btflod_decode_tile_zlib);
@@ -419,17 +416,9 @@ void BM_btflod_decode_stage_upsample(benchmark::State& state) {
 }
 BENCHMARK(BM_btflod_decode_stage_upsample);
 void BM_btflod_decode_tile_libdeflate_scalar(benchmark::State& state) {
-  const Content& c = content();
-  const Coded& coded = coded_q();
   TileDecoder dec(kLayout, InflateBackend::libdeflate);
   dec.set_simd(false);
-  std::vector<float> out(kLayout.sample_count());
-  size_t i = 0;
-  for (auto _ : state) {
-    if (!decode_tile_at(dec, coded, i, out)) state.SkipWithError("decode");
-    i = (i + 1) % c.tiles.size();
-  }
-  set_rates(state, kLayout.sample_count());
+  decode_each_tile(state, dec, coded_q());
 }
 BENCHMARK(BM_btflod_decode_tile_libdeflate_scalar);
 
@@ -536,13 +525,8 @@ const DeflatedHalves& deflated_halves() {
     DeflatedHalves out;
     std::vector<uint16_t> halves(kLayout.sample_count());
     for (const Tile& t : content().tiles) {
-      float_to_half(t.samples, halves);
-      uLongf size = compressBound(static_cast<uLong>(halves.size() * 2));
-      std::vector<uint8_t> s(size);
-      compress2(s.data(), &size, reinterpret_cast<const Bytef*>(halves.data()), halves.size() * 2, 6);
-      s.resize(size);
-      out.bytes += size;
-      out.streams.push_back(std::move(s));
+      out.streams.push_back(btflod::bench::deflate_raw_halves(t.samples, halves));
+      out.bytes += out.streams.back().size();
     }
     return out;
   }();
@@ -782,7 +766,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> containers;
   int jpeg_quality = 90;
   std::vector<char*> args{argv[0]};
-  bool user_filter = false, user_repetitions = false;
+  bool user_filter = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if ((a == "--bsvtf" || a == "--jpeg-quality") && i + 1 < argc) {
@@ -793,28 +777,15 @@ int main(int argc, char** argv) {
       continue;
     }
     user_filter = user_filter || a.rfind("--benchmark_filter", 0) == 0;
-    user_repetitions = user_repetitions || a.rfind("--benchmark_repetitions", 0) == 0;
     args.push_back(argv[i]);
   }
   static char filter[] = "--benchmark_filter=^BM_bsvtf_decode/";
-  static char reps[] = "--benchmark_repetitions=5";
-  static char interleave[] = "--benchmark_enable_random_interleaving=true";
-  static char aggregates[] = "--benchmark_report_aggregates_only=true";
   if (!containers.empty()) {
     if (!register_container_benchmarks(containers, jpeg_quality)) return 2;
     if (!user_filter) args.push_back(filter);
-    if (!user_repetitions) {
-      args.push_back(reps);
-      args.push_back(interleave);
-      args.push_back(aggregates);
-    }
+    btflod::bench::add_steady_repetitions(args);
   }
-  int n = static_cast<int>(args.size());
-  args.push_back(nullptr);
-  benchmark::Initialize(&n, args.data());
-  if (benchmark::ReportUnrecognizedArguments(n, args.data())) return 1;
-  if (containers.empty()) print_ratio_tables();
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return btflod::bench::run_benchmarks(args, [&] {
+    if (containers.empty()) print_ratio_tables();
+  });
 }

@@ -53,6 +53,7 @@
 // jpeglib.h needs FILE and size_t declared first.
 #include <jpeglib.h>
 
+#include "bench_mip_levels.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/offline/btf/synthesizer.hpp"
 #include "btflod/offline/build/perceptual_tolerance.hpp"
@@ -332,17 +333,7 @@ bool synth_material(SynthMaterial which, int side, float quality, SynthCoded& ou
   const uint32_t finest = static_cast<uint32_t>(side);
   level[levels - 1].assign(fmf->v.begin(),
                            fmf->v.begin() + static_cast<ptrdiff_t>(size_t{finest} * finest * kComponents));
-  for (uint32_t l = levels - 1; l-- > 0;) {
-    const uint32_t s = finest >> (levels - 1 - l), fs = s * 2;
-    level[l].resize(size_t{s} * s * kComponents);
-    for (uint32_t y = 0; y < s; ++y)
-      for (uint32_t x = 0; x < s; ++x)
-        for (uint32_t k = 0; k < kComponents; ++k) {
-          auto at = [&](uint32_t xx, uint32_t yy) { return level[l + 1][(size_t{yy} * fs + xx) * kComponents + k]; };
-          level[l][(size_t{y} * s + x) * kComponents + k] =
-              0.25f * (at(2 * x, 2 * y) + at(2 * x + 1, 2 * y) + at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1));
-        }
-  }
+  btflod::bench::box_filter_coarser_levels(level, finest, kComponents);
   float lo = INFINITY, hi = -INFINITY;
   for (float v : level[levels - 1]) lo = std::min(lo, v), hi = std::max(hi, v);
   const float tol = tolerance_for_quality(quality, hi - lo);

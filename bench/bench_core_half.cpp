@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "bench_conversion.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
@@ -24,54 +25,38 @@ std::vector<float> random_floats(size_t n) {
 
 constexpr size_t kCount = 72 * 72 * 4;  // one padded RGBA tile
 
+// kCount random values (as halves for the half → float direction), converted by `convert`.
+template <class Convert>
+void float_to_half_values(benchmark::State& state, Convert convert) {
+  btflod::bench::time_bulk_conversion<uint16_t>(state, random_floats(kCount), convert);
+}
+template <class Convert>
+void half_to_float_values(benchmark::State& state, Convert convert) {
+  std::vector<uint16_t> in(kCount);
+  btflod::float_to_half_scalar(random_floats(kCount), in);
+  btflod::bench::time_bulk_conversion<float>(state, in, convert);
+}
+
 void BM_FloatToHalf_Scalar(benchmark::State& state) {
-  const auto in = random_floats(kCount);
-  std::vector<uint16_t> out(kCount);
-  for (auto _ : state) {
-    btflod::float_to_half_scalar(in, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+  float_to_half_values(state, [](const auto& in, auto& out) { btflod::float_to_half_scalar(in, out); });
 }
 BENCHMARK(BM_FloatToHalf_Scalar);
 
 void BM_HalfToFloat_Scalar(benchmark::State& state) {
-  const auto f = random_floats(kCount);
-  std::vector<uint16_t> in(kCount);
-  btflod::float_to_half_scalar(f, in);
-  std::vector<float> out(kCount);
-  for (auto _ : state) {
-    btflod::half_to_float_scalar(in, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+  half_to_float_values(state, [](const auto& in, auto& out) { btflod::half_to_float_scalar(in, out); });
 }
 BENCHMARK(BM_HalfToFloat_Scalar);
 
 #if BTFLOD_HAS_X86_DISPATCH
 void BM_FloatToHalf_F16C(benchmark::State& state) {
   if (!btflod::cpu_has_f16c()) return state.SkipWithError("no F16C on this CPU");
-  const auto in = random_floats(kCount);
-  std::vector<uint16_t> out(kCount);
-  for (auto _ : state) {
-    btflod::float_to_half_f16c(in, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+  float_to_half_values(state, [](const auto& in, auto& out) { btflod::float_to_half_f16c(in, out); });
 }
 BENCHMARK(BM_FloatToHalf_F16C);
 
 void BM_HalfToFloat_F16C(benchmark::State& state) {
   if (!btflod::cpu_has_f16c()) return state.SkipWithError("no F16C on this CPU");
-  const auto f = random_floats(kCount);
-  std::vector<uint16_t> in(kCount);
-  btflod::float_to_half_scalar(f, in);
-  std::vector<float> out(kCount);
-  for (auto _ : state) {
-    btflod::half_to_float_f16c(in, out);
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(kCount));
+  half_to_float_values(state, [](const auto& in, auto& out) { btflod::half_to_float_f16c(in, out); });
 }
 BENCHMARK(BM_HalfToFloat_F16C);
 #endif

@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "bench_conversion.hpp"
 #include "btflod/core/dct.hpp"
 #include "btflod/core/simd.hpp"
 
@@ -50,12 +51,8 @@ void BM_HalfToFloat(benchmark::State& state) {
   std::mt19937 rng(2);
   std::vector<uint16_t> in(1 << 16);
   for (auto& h : in) h = static_cast<uint16_t>(rng() & 0x7bffu);
-  std::vector<float> out(in.size());
-  for (auto _ : state) {
-    k->half_to_float(in.data(), out.data(), in.size());
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(in.size()));
+  btflod::bench::time_bulk_conversion<float>(
+      state, in, [k](const auto& from, auto& to) { k->half_to_float(from.data(), to.data(), from.size()); });
 }
 BENCHMARK(BM_HalfToFloat)->Arg(0)->Arg(1)->Arg(2);
 
@@ -66,12 +63,8 @@ void BM_FloatToHalf(benchmark::State& state) {
   std::uniform_real_distribution<float> d(-4.0f, 4.0f);
   std::vector<float> in(72 * 72 * 4);
   for (auto& f : in) f = d(rng);
-  std::vector<uint16_t> out(in.size());
-  for (auto _ : state) {
-    k->float_to_half(in.data(), out.data(), in.size());
-    benchmark::DoNotOptimize(out.data());
-  }
-  state.SetItemsProcessed(int64_t(state.iterations()) * int64_t(in.size()));
+  btflod::bench::time_bulk_conversion<uint16_t>(
+      state, in, [k](const auto& from, auto& to) { k->float_to_half(from.data(), to.data(), from.size()); });
 }
 BENCHMARK(BM_FloatToHalf)->Arg(0)->Arg(1)->Arg(2);
 

@@ -11,6 +11,7 @@
 #include <ctime>
 #include <vector>
 
+#include "../samples/common/hash32.hpp"
 #include "btflod/runtime/lod/feedback.hpp"
 
 namespace btflod::bench {
@@ -18,15 +19,8 @@ namespace btflod::bench {
 /// Pre-generated feedback frames, cycled by the benchmarks.
 inline constexpr int kFeedbackFrames = 8;
 
-/// A 32-bit integer hash (deterministic per-tile variation of the weights w).
-inline uint32_t hash32(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352du;
-  x ^= x >> 15;
-  x *= 0x846ca68bu;
-  x ^= x >> 16;
-  return x;
-}
+/// The samples' 32-bit integer hash (deterministic per-tile variation of the weights w).
+using samples::hash32;
 
 /// Tile weight w of flat tile `flat` of virtual texture `texture`, component group k of its
 /// material: later components matter less (SVD ordering), w varies per tile.

@@ -20,10 +20,10 @@
 
 #include "../samples/scene/demo_scene.hpp"
 #include "../tests/test_shader_scene.hpp"
-#include "gl_backend.hpp"
-#include "vk_backend.hpp"
+#include "bench_gpu.hpp"
 
 using namespace btflod;
+using namespace btflod::bench;
 using namespace btflod::test_scene;
 
 namespace {
@@ -43,12 +43,6 @@ struct Scene {
 
 Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   Scene s;
-  auto r = vulkan ? samples::create_vk_backend() : samples::create_gl_backend();
-  if (!r) {
-    s.error = r.message();
-    return s;
-  }
-  s.backend = std::move(r.value());
   ShaderConfig c;
   c.components = 8;
   c.angular.resolution = 32;
@@ -56,11 +50,8 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   c.vt.slots_y = 8;
   c.vt.finest_level = 3;
   c.vt.format = format;
-  if (VoidResult v = s.backend->init(c, 2); !v) {
-    s.error = v.message();
-    s.backend.reset();
-    return s;
-  }
+  s.backend = create_initialised_backend(vulkan, c, 2, s.error);
+  if (!s.backend) return s;
   static const Material m = make_material(c, kTextureSize, kTextureSize);
   const auto verts = quad_vertices();
   const auto idx = quad_indices();
@@ -102,22 +93,12 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   return s;
 }
 
-// The median of a benchmark's per-iteration figures (0 when there are none).
-double median_of(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 void render(benchmark::State& state, bool vulkan, ShaderProgram program) {
   const int size = static_cast<int>(state.range(0));
   static Scene scenes[2];  // one backend per API, built once per process
-  Scene& s = scenes[vulkan ? 1 : 0];
-  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
-  if (!s.backend) {
-    state.SkipWithError(("backend unavailable: " + s.error).c_str());
-    return;
-  }
+  Scene* const found = scene_or_skip(state, scenes, vulkan, [](bool v) { return make_scene(v); });
+  if (!found) return;
+  Scene& s = *found;
   const MaterialHandle mat = program == ShaderProgram::fmf ? s.fmf : s.bsvtf;
   s.frame.width = s.frame.height = static_cast<uint32_t>(size);
   for (int warm = 0; warm < 2; ++warm) {  // JIT of the shader variant and target (re)creation
@@ -142,34 +123,20 @@ void render(benchmark::State& state, bool vulkan, ShaderProgram program) {
 void render_pairs(benchmark::State& state, bool vulkan) {
   const int size = static_cast<int>(state.range(0));
   static Scene scenes[2];
-  Scene& s = scenes[vulkan ? 1 : 0];
-  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
-  if (!s.backend) {
-    state.SkipWithError(("backend unavailable: " + s.error).c_str());
-    return;
-  }
+  Scene* const found = scene_or_skip(state, scenes, vulkan, [](bool v) { return make_scene(v); });
+  if (!found) return;
+  Scene& s = *found;
   s.frame.width = s.frame.height = static_cast<uint32_t>(size);
   const auto one = [&](ShaderProgram program) {
-    const auto t0 = std::chrono::steady_clock::now();
-    s.backend->begin_frame(s.frame);
-    s.backend->draw(program, s.mesh, program == ShaderProgram::fmf ? s.fmf : s.bsvtf, s.params);
-    s.backend->end_frame();
-    s.backend->wait_idle();
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return time_frame_ms(*s.backend, s.frame, [&] {
+      s.backend->draw(program, s.mesh, program == ShaderProgram::fmf ? s.fmf : s.bsvtf, s.params);
+    });
   };
-  for (int warm = 0; warm < 2; ++warm) one(ShaderProgram::fmf), one(ShaderProgram::bsvtf);
-  std::vector<double> tf, tb, ratio;
-  for (auto _ : state) {
-    const bool fmf_first = (tf.size() & 1) == 0;
-    const double a = one(fmf_first ? ShaderProgram::fmf : ShaderProgram::bsvtf);
-    const double b = one(fmf_first ? ShaderProgram::bsvtf : ShaderProgram::fmf);
-    tf.push_back(fmf_first ? a : b);
-    tb.push_back(fmf_first ? b : a);
-    ratio.push_back(tf.back() / tb.back());
-  }
-  state.counters["ms_fmf"] = median_of(tf);
-  state.counters["ms_bsvtf"] = median_of(tb);
-  state.counters["bsvtf_fps_over_fmf"] = median_of(ratio);
+  const PairTimes t = time_interleaved_pairs(
+      state, [&] { return one(ShaderProgram::fmf); }, [&] { return one(ShaderProgram::bsvtf); });
+  state.counters["ms_fmf"] = median_of(t.a);
+  state.counters["ms_bsvtf"] = median_of(t.b);
+  state.counters["bsvtf_fps_over_fmf"] = median_of(per_pair_ratios(t.a, t.b));
 }
 
 // The demo's scene geometry (a 12 × 12 ground plane and four 96 × 48 tori, samples/scene/
@@ -199,38 +166,23 @@ void render_cache_format_pairs(benchmark::State& state, bool vulkan) {
   }
   const auto one = [&](Scene& s) {
     s.frame.width = s.frame.height = static_cast<uint32_t>(size);
-    const auto t0 = std::chrono::steady_clock::now();
-    s.backend->begin_frame(s.frame);
-    s.backend->draw(ShaderProgram::bsvtf, s.mesh, s.bsvtf, s.params);
-    s.backend->end_frame();
-    s.backend->wait_idle();
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return time_frame_ms(*s.backend, s.frame,
+                         [&] { s.backend->draw(ShaderProgram::bsvtf, s.mesh, s.bsvtf, s.params); });
   };
-  for (int warm = 0; warm < 2; ++warm) one(a), one(b);
-  std::vector<double> t16, t8, ratio;
-  for (auto _ : state) {
-    const bool wide_first = (t16.size() & 1) == 0;
-    const double x = one(wide_first ? a : b);
-    const double y = one(wide_first ? b : a);
-    t16.push_back(wide_first ? x : y);
-    t8.push_back(wide_first ? y : x);
-    ratio.push_back(t16.back() / t8.back());
-  }
-  state.counters["ms_rgba16f"] = median_of(t16);
-  state.counters["ms_rgba8"] = median_of(t8);
-  state.counters["rgba8_fps_over_rgba16f"] = median_of(ratio);
+  const PairTimes t = time_interleaved_pairs(
+      state, [&] { return one(a); }, [&] { return one(b); });
+  state.counters["ms_rgba16f"] = median_of(t.a);
+  state.counters["ms_rgba8"] = median_of(t.b);
+  state.counters["rgba8_fps_over_rgba16f"] = median_of(per_pair_ratios(t.a, t.b));
   state.counters["cache_MiB_rgba16f"] = a.bsvtf_bytes / (1024.0 * 1024.0);
   state.counters["cache_MiB_rgba8"] = b.bsvtf_bytes / (1024.0 * 1024.0);
 }
 
 void render_scene_passes(benchmark::State& state, bool vulkan) {
   static Scene scenes[2];
-  Scene& s = scenes[vulkan ? 1 : 0];
-  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
-  if (!s.backend) {
-    state.SkipWithError(("backend unavailable: " + s.error).c_str());
-    return;
-  }
+  Scene* const found = scene_or_skip(state, scenes, vulkan, [](bool v) { return make_scene(v); });
+  if (!found) return;
+  Scene& s = *found;
   const scene::View view = scene::camera_path(120, 200, 480, 270);
   ShaderParams p = scene::view_params(view, glm::vec3(0.4f, 1.0f, 0.3f), glm::vec3(3.0f));
   p.vt_extent = s.params.vt_extent;
@@ -317,22 +269,9 @@ BENCHMARK(BM_Vk_Bsvtf)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRe
 // fractional part and FMF's hardware trilinear fetch really blends two mips; at 256² lambda is
 // an integer (2:1) and llvmpipe samples only one mip for FMF, while BSVTF's shader fetches both
 // levels it may blend (docs/demo.md, "frame rate").
-BENCHMARK(BM_Gl_Pairs)
-    ->Arg(240)
-    ->Arg(256)
-    ->Arg(362)
-    ->Arg(512)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime()
-    ->MinTime(2.0);
-BENCHMARK(BM_Vk_Pairs)
-    ->Arg(240)
-    ->Arg(256)
-    ->Arg(362)
-    ->Arg(512)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime()
-    ->MinTime(2.0);
+static void pair_sizes(benchmark::internal::Benchmark* b) { b->Arg(240)->Arg(256)->Arg(362)->Arg(512); }
+BENCHMARK(BM_Gl_Pairs)->Apply(pair_sizes)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Vk_Pairs)->Apply(pair_sizes)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_Gl_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_Gl_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_Vk_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);

@@ -23,13 +23,13 @@
 #include <vector>
 
 #include "../tests/test_shader_scene.hpp"
+#include "bench_gpu.hpp"
 #include "btflod/offline/factor/low_rank_btf.hpp"
 #include "btflod/offline/factor/spmm.hpp"
 #include "btflod/offline/packing/spmm_packing.hpp"
-#include "gl_backend.hpp"
-#include "vk_backend.hpp"
 
 using namespace btflod;
+using namespace btflod::bench;
 using namespace btflod::test_scene;
 
 namespace {
@@ -46,20 +46,11 @@ struct SpmmScene {
 
 SpmmScene make_scene(bool vulkan) {
   SpmmScene s;
-  auto r = vulkan ? samples::create_vk_backend() : samples::create_gl_backend();
-  if (!r) {
-    s.error = r.message();
-    return s;
-  }
-  s.backend = std::move(r.value());
   ShaderConfig c;
   c.components = 8;
   c.angular.resolution = 32;
-  if (VoidResult v = s.backend->init(c, 1); !v) {
-    s.error = v.message();
-    s.backend.reset();
-    return s;
-  }
+  s.backend = create_initialised_backend(vulkan, c, 1, s.error);
+  if (!s.backend) return s;
   static const Material fmf = make_material(c, 256, 256);
   // The SPMM over 11 lights × 9 views (as the FMF material), its own angular tables.
   static const BtfFloat btf = make_low_rank_btf(32, 32, small_direction_set(3, 4, "views"),
@@ -108,42 +99,24 @@ SpmmScene make_scene(bool vulkan) {
 // One SPMM residual switch interleaved with FMF.
 void pairs(benchmark::State& state, bool vulkan, uint32_t mode) {
   static SpmmScene scenes[2];
-  SpmmScene& s = scenes[vulkan ? 1 : 0];
-  if (!s.backend && s.error.empty()) s = make_scene(vulkan);
-  if (!s.backend) {
-    state.SkipWithError(("backend unavailable: " + s.error).c_str());
-    return;
-  }
+  SpmmScene* const found = scene_or_skip(state, scenes, vulkan, [](bool v) { return make_scene(v); });
+  if (!found) return;
+  SpmmScene& s = *found;
   s.frame.width = s.frame.height = static_cast<uint32_t>(state.range(0));
   const auto one = [&](bool spmm, bool draw = true) {
     ShaderParams p = s.params;
     p.ids.w = mode;
-    const auto t0 = std::chrono::steady_clock::now();
-    s.backend->begin_frame(s.frame);
-    if (draw) s.backend->draw(spmm ? ShaderProgram::spmm : ShaderProgram::fmf, s.mesh, spmm ? s.spmm : s.fmf, p);
-    s.backend->end_frame();
-    s.backend->wait_idle();
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return time_frame_ms(*s.backend, s.frame, [&] {
+      if (draw) s.backend->draw(spmm ? ShaderProgram::spmm : ShaderProgram::fmf, s.mesh, spmm ? s.spmm : s.fmf, p);
+    });
   };
-  for (int warm = 0; warm < 2; ++warm) one(false), one(true);
-  std::vector<double> tf, ts, te, ratio;
-  for (auto _ : state) {
-    const bool fmf_first = (tf.size() & 1) == 0;
-    const double a = one(!fmf_first), b = one(fmf_first);
-    te.push_back(one(false, false));
-    tf.push_back(fmf_first ? a : b);
-    ts.push_back(fmf_first ? b : a);
-    ratio.push_back(ts.back() / tf.back());
-  }
-  const auto median = [](std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["ms_fmf"] = median(tf);
-  state.counters["ms_spmm"] = median(ts);
-  state.counters["ms_no_draw"] = median(te);  // clear + submit + wait: the fixed part of both
-  state.counters["spmm_time_over_fmf"] = median(ratio);
+  std::vector<double> te;
+  const PairTimes t = time_interleaved_pairs(
+      state, [&] { return one(false); }, [&] { return one(true); }, [&] { te.push_back(one(false, false)); });
+  state.counters["ms_fmf"] = median_of(t.a);
+  state.counters["ms_spmm"] = median_of(t.b);
+  state.counters["ms_no_draw"] = median_of(te);  // clear + submit + wait: the fixed part of both
+  state.counters["spmm_time_over_fmf"] = median_of(per_pair_ratios(t.b, t.a));
   state.counters["fetches_spmm"] = mode == 1u ? s.fetches_none : mode == 0u ? s.fetches_full : s.fetches_one;
   state.counters["fetches_fmf"] = s.fetches_fmf;
 }

@@ -27,6 +27,7 @@
 
 #include "../samples/tools/bench_cli/scheduler_replay.hpp"
 #include "bench_feedback.hpp"
+#include "bench_main.hpp"
 #include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/lod/feedback_trace.hpp"
 #include "btflod/runtime/vt/scheduler.hpp"
@@ -212,7 +213,6 @@ int main(int argc, char** argv) {
   std::string trace_path;
   uint32_t described = 0, texture = 2048, components = 32, slots = 256;
   std::vector<char*> args{argv[0]};
-  bool user_repetitions = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 < argc && (a == "--trace" || a == "--bsvtf" || a == "--materials" || a == "--texture" ||
@@ -238,12 +238,8 @@ int main(int argc, char** argv) {
         in.config.budgets.uploads_per_frame = std::max(n, 1u);
       continue;
     }
-    user_repetitions = user_repetitions || a.rfind("--benchmark_repetitions", 0) == 0;
     args.push_back(argv[i]);
   }
-  static char reps[] = "--benchmark_repetitions=5";
-  static char interleave[] = "--benchmark_enable_random_interleaving=true";
-  static char aggregates[] = "--benchmark_report_aggregates_only=true";
   if (!trace_path.empty()) {
     auto t = read_feedback_trace_file(trace_path);
     if (!t) {
@@ -261,17 +257,7 @@ int main(int argc, char** argv) {
     const uint32_t x = static_cast<uint32_t>(std::ceil(std::sqrt(static_cast<double>(slots))));
     in.cache = TileCacheConfig{x, (slots + x - 1) / x};
     benchmark::RegisterBenchmark("BM_TraceReplay", BM_TraceReplay, &in)->Unit(benchmark::kMicrosecond);
-    if (!user_repetitions) {
-      args.push_back(reps);
-      args.push_back(interleave);
-      args.push_back(aggregates);
-    }
+    btflod::bench::add_steady_repetitions(args);
   }
-  int n = static_cast<int>(args.size());
-  args.push_back(nullptr);
-  benchmark::Initialize(&n, args.data());
-  if (benchmark::ReportUnrecognizedArguments(n, args.data())) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  return btflod::bench::run_benchmarks(args);
 }

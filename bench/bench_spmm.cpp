@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <vector>
 
+#include "../samples/common/texel_direction_samples.hpp"
 #include "btflod/offline/angular/interpolators.hpp"
 #include "btflod/offline/btf/synthesizer.hpp"
 #include "btflod/offline/factor/fmf.hpp"
@@ -38,52 +39,29 @@ const BtfFloat& material() {
   return btf;
 }
 
+// The factorisation `fit()` returns (a Result that must hold a value), its seconds in `seconds`.
+template <class Fit>
+auto timed_fit(double& seconds, Fit&& fit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = fit().value();
+  seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
 double g_spmm_fit_s = 0.0;
 const Spmm& spmm() {
-  static const Spmm p = [] {
-    const auto t0 = std::chrono::steady_clock::now();
-    Spmm r = factorize_spmm(material(), SpmmOptions{.clusters = 8}).value();
-    g_spmm_fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return r;
-  }();
+  static const Spmm p = timed_fit(g_spmm_fit_s, [] { return factorize_spmm(material(), SpmmOptions{.clusters = 8}); });
   return p;
 }
 double g_fmf_fit_s = 0.0;
 const Fmf& fmf() {
-  static const Fmf f = [] {
-    const auto t0 = std::chrono::steady_clock::now();
-    Fmf r = factorize_fmf(material(), FmfOptions{.components = 16}).value();
-    g_fmf_fit_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return r;
-  }();
+  static const Fmf f = timed_fit(g_fmf_fit_s, [] { return factorize_fmf(material(), FmfOptions{.components = 16}); });
   return f;
 }
 
-struct Samples {
-  std::vector<int> x, y;
-  std::vector<glm::vec3> l, v;
-};
-const Samples& samples() {
-  static const Samples s = [] {
-    Samples r;
-    uint64_t state = 0x853c49e6748fea9bull;
-    auto next = [&state] {
-      state = state * 6364136223846793005ull + 1442695040888963407ull;
-      return static_cast<float>((state >> 40) & 0xffffff) / 16777216.0f;
-    };
-    auto hemi = [&] {
-      const float mu = 0.05f + 0.95f * next(), ph = 6.2831853f * next(), st = std::sqrt(1.0f - mu * mu);
-      return glm::vec3(st * std::cos(ph), st * std::sin(ph), mu);
-    };
-    const int n = material_size();
-    for (int i = 0; i < 4096; ++i) {
-      r.x.push_back(static_cast<int>(next() * static_cast<float>(n)) % n);
-      r.y.push_back(static_cast<int>(next() * static_cast<float>(n)) % n);
-      r.l.push_back(hemi());
-      r.v.push_back(hemi());
-    }
-    return r;
-  }();
+// Evaluation points of the evaluate() benchmarks (fixed seed).
+const samples::TexelDirectionSamples& eval_samples() {
+  static const auto s = samples::random_texel_direction_samples(material_size(), 4096, 0x853c49e6748fea9bull);
   return s;
 }
 
@@ -108,7 +86,7 @@ BENCHMARK(BM_SpmmFit)->Iterations(1)->Unit(benchmark::kSecond);
 
 double g_fmf_ns = 0.0;
 void BM_FmfEval(benchmark::State& state) {
-  const Samples& s = samples();
+  const samples::TexelDirectionSamples& s = eval_samples();
   const Fmf& f = fmf();
   size_t i = 0, count = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -125,7 +103,7 @@ BENCHMARK(BM_FmfEval);
 
 // Arg: −2 = no residual, −1 = all N_PCA, k ≥ 0 = N_PCA = k.
 void BM_SpmmEval(benchmark::State& state) {
-  const Samples& s = samples();
+  const samples::TexelDirectionSamples& s = eval_samples();
   const Spmm& p = spmm();
   const int arg = static_cast<int>(state.range(0));
   const SpmmEvalOptions o{.residual = arg != -2, .pca_components = arg < 0 ? -1 : arg};

@@ -19,6 +19,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -104,6 +105,17 @@ struct CodecOptions {
   std::vector<float> qualities{25.0f, 50.0f, 90.0f};
 };
 
+/// The zlib stream (level 6) of a tile's samples as raw halves: the "no codec" baseline.
+/// `halves` is scratch space of the tile's sample count.
+inline std::vector<uint8_t> deflate_raw_halves(std::span<const float> samples, std::span<uint16_t> halves) {
+  float_to_half(samples, halves);
+  uLongf size = compressBound(static_cast<uLong>(halves.size() * 2));
+  std::vector<uint8_t> s(size);
+  compress2(s.data(), &size, reinterpret_cast<const Bytef*>(halves.data()), halves.size() * 2, 6);
+  s.resize(size);
+  return s;
+}
+
 namespace detail {
 struct Baselines {
   std::vector<std::vector<uint8_t>> zlib_raw;  // deflated raw halves per tile
@@ -118,13 +130,8 @@ inline Baselines make_baselines(const ContainerTiles& c, int jpeg_quality) {
   Baselines b;
   std::vector<uint16_t> halves(c.layout.sample_count());
   for (const auto& d : c.decoded) {
-    float_to_half(d, halves);
-    uLongf size = compressBound(static_cast<uLong>(halves.size() * 2));
-    std::vector<uint8_t> s(size);
-    compress2(s.data(), &size, reinterpret_cast<const Bytef*>(halves.data()), halves.size() * 2, 6);
-    s.resize(size);
-    b.zlib_raw_bytes += size;
-    b.zlib_raw.push_back(std::move(s));
+    b.zlib_raw.push_back(deflate_raw_halves(d, halves));
+    b.zlib_raw_bytes += b.zlib_raw.back().size();
   }
 #if defined(BTFLOD_BENCH_HAS_TURBOJPEG)
   const int n = static_cast<int>(c.layout.stored_size());

@@ -11,6 +11,7 @@
 #include "btflod/offline/btf/btf_files.hpp"
 #include "command.hpp"
 #include "common/progress_bar.hpp"
+#include "common/texel_direction_samples.hpp"
 #include "store_commands.hpp"
 
 #include "btflod/offline/angular/interpolators.hpp"
@@ -322,23 +323,8 @@ int run_spmm_table(convert::Options& opt) {
     return convert::kExitFailure;
   }
   // Random texels and upper-hemisphere directions (fixed seed), shared by every row.
-  std::vector<int> xs(static_cast<size_t>(samples)), ys(xs.size());
-  std::vector<glm::vec3> ls(xs.size()), vs(xs.size());
-  uint64_t state = 0x9e3779b97f4a7c15ull;
-  auto next = [&state] {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<float>((state >> 40) & 0xffffff) / 16777216.0f;
-  };
-  auto hemi = [&] {
-    const float mu = 0.05f + 0.95f * next(), ph = 6.2831853f * next(), st = std::sqrt(1.0f - mu * mu);
-    return glm::vec3(st * std::cos(ph), st * std::sin(ph), mu);
-  };
-  for (size_t i = 0; i < xs.size(); ++i) {
-    xs[i] = static_cast<int>(next() * static_cast<float>(size)) % size;
-    ys[i] = static_cast<int>(next() * static_cast<float>(size)) % size;
-    ls[i] = hemi();
-    vs[i] = hemi();
-  }
+  const auto pts =
+      btflod::samples::random_texel_direction_samples(size, static_cast<size_t>(samples), 0x9e3779b97f4a7c15ull);
   const BtfFloat full = p->reconstruct();
   const double peak = btf_peak(full);
   std::printf(
@@ -351,9 +337,10 @@ int run_spmm_table(convert::Options& opt) {
     const SpmmEvalOptions eo{.residual = row >= 0, .pca_components = row < 0 ? 0 : row};
     float sink = 0.0f;
     const auto e0 = std::chrono::steady_clock::now();
-    for (size_t i = 0; i < xs.size(); ++i) sink += p->evaluate(xs[i], ys[i], ls[i], vs[i], *li, *vi, eo).g;
+    for (size_t i = 0; i < pts.x.size(); ++i)
+      sink += p->evaluate(pts.x[i], pts.y[i], pts.l[i], pts.v[i], *li, *vi, eo).g;
     const double ns = std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - e0).count() /
-                      static_cast<double>(xs.size());
+                      static_cast<double>(pts.x.size());
     const auto rep = compare_btfs(full, p->reconstruct(eo), peak);
     std::printf("| %s | %.1f | %.4f | %.5f |%s\n", row < 0 ? "no-RES" : std::to_string(row).c_str(), ns, rep.mean_ssim,
                 rep.rmse, sink == -1.0f ? " " : "");

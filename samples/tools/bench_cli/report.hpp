@@ -207,6 +207,24 @@ class JsonParser {
     ++pos_;
     return true;
   }
+  // The rest of an object or array after its opening bracket: `item()` parses one member or
+  // element (false on error), members are separated by ',' and `close` ends the list;
+  // `expected` is the error after a member that is followed by neither.
+  template <class Item>
+  bool items(char close, const char* expected, Item&& item) {
+    ws();
+    if (pos_ < s_.size() && s_[pos_] == close) return ++pos_, true;
+    for (;;) {
+      if (!item()) return false;
+      ws();
+      if (pos_ < s_.size() && s_[pos_] == ',') {
+        ++pos_;
+        continue;
+      }
+      if (pos_ < s_.size() && s_[pos_] == close) return ++pos_, true;
+      return fail(expected);
+    }
+  }
   bool value(JsonValue& v, int depth) {
     if (depth > 32) return fail("nesting too deep");
     ws();
@@ -215,9 +233,7 @@ class JsonParser {
     if (c == '{') {
       v.type = JsonValue::Type::object;
       ++pos_;
-      ws();
-      if (pos_ < s_.size() && s_[pos_] == '}') return ++pos_, true;
-      for (;;) {
+      return items('}', "expected ',' or '}'", [&] {
         ws();
         std::string key;
         if (!str(key)) return false;
@@ -227,32 +243,18 @@ class JsonParser {
         JsonValue item;
         if (!value(item, depth + 1)) return false;
         v.fields.emplace_back(std::move(key), std::move(item));
-        ws();
-        if (pos_ < s_.size() && s_[pos_] == ',') {
-          ++pos_;
-          continue;
-        }
-        if (pos_ < s_.size() && s_[pos_] == '}') return ++pos_, true;
-        return fail("expected ',' or '}'");
-      }
+        return true;
+      });
     }
     if (c == '[') {
       v.type = JsonValue::Type::array;
       ++pos_;
-      ws();
-      if (pos_ < s_.size() && s_[pos_] == ']') return ++pos_, true;
-      for (;;) {
+      return items(']', "expected ',' or ']'", [&] {
         JsonValue item;
         if (!value(item, depth + 1)) return false;
         v.items.push_back(std::move(item));
-        ws();
-        if (pos_ < s_.size() && s_[pos_] == ',') {
-          ++pos_;
-          continue;
-        }
-        if (pos_ < s_.size() && s_[pos_] == ']') return ++pos_, true;
-        return fail("expected ',' or ']'");
-      }
+        return true;
+      });
     }
     if (c == '"') {
       v.type = JsonValue::Type::string;

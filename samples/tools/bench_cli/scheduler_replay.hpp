@@ -133,6 +133,19 @@ inline uint64_t fnv(uint64_t h, uint64_t v) noexcept {
   return h;
 }
 
+/// The in-run baseline of both replays: appends, per frame of the trace, the thread CPU time of
+/// one read (sum) of its words to `read_ns`.
+inline void time_trace_reads(const FeedbackTrace& trace, std::vector<double>& read_ns) {
+  for (size_t i = 0; i < trace.frame_count(); ++i) {
+    const auto words = trace.frame_words(i);
+    const double t0 = thread_cpu_ns();
+    uint64_t sum = 0;
+    for (const uint32_t w : words) sum += w;
+    asm volatile("" : : "r"(sum) : "memory");  // keep the read
+    read_ns.push_back(thread_cpu_ns() - t0);
+  }
+}
+
 /// Replays every frame of the trace once with fresh cache and scheduler state. `read_first`
 /// alternates the order of the read baseline and the scheduler pass between repetitions.
 /// Returns invalid_argument/insufficient_space from cache or scheduler creation.
@@ -152,17 +165,7 @@ inline Result<ReplayRun> replay_trace(const Materials& materials, const Feedback
   run.frame_ns.reserve(trace.frame_count());
   run.read_ns.reserve(trace.frame_count());
   uint64_t digest = 0xcbf29ce484222325ull;
-  auto read_pass = [&] {
-    for (size_t i = 0; i < trace.frame_count(); ++i) {
-      const auto words = trace.frame_words(i);
-      const double t0 = thread_cpu_ns();
-      uint64_t sum = 0;
-      for (const uint32_t w : words) sum += w;
-      asm volatile("" : : "r"(sum) : "memory");  // keep the read
-      run.read_ns.push_back(thread_cpu_ns() - t0);
-    }
-  };
-  if (read_first) read_pass();
+  if (read_first) time_trace_reads(trace, run.read_ns);
   for (size_t i = 0; i < trace.frame_count(); ++i) {
     const uint64_t frame = trace.frames[i].frame_index;
     const double t0 = thread_cpu_ns();
@@ -191,7 +194,7 @@ inline Result<ReplayRun> replay_trace(const Materials& materials, const Feedback
       digest = fnv(digest, v);
     run.max_lod_bias = std::max(run.max_lod_bias, sched->lod_bias());
   }
-  if (!read_first) read_pass();
+  if (!read_first) time_trace_reads(trace, run.read_ns);
   run.total = sched->total();
   run.digest = digest;
   run.used_slots = cache->used_count();
@@ -243,17 +246,7 @@ inline Result<RuntimeRun> replay_trace_runtime(const std::vector<std::vector<uin
   std::vector<ResidencyEvent> events(256);
   RuntimeRun run;
   uint64_t digest = 0xcbf29ce484222325ull;
-  auto read_pass = [&] {
-    for (size_t i = 0; i < trace.frame_count(); ++i) {
-      const auto words = trace.frame_words(i);
-      const double t0 = thread_cpu_ns();
-      uint64_t sum = 0;
-      for (const uint32_t w : words) sum += w;
-      asm volatile("" : : "r"(sum) : "memory");
-      run.read_ns.push_back(thread_cpu_ns() - t0);
-    }
-  };
-  if (read_first) read_pass();
+  if (read_first) time_trace_reads(trace, run.read_ns);
   streamer->pump();  // the pinned roots and U' packets queued by create()
   for (size_t i = 0; i < trace.frame_count(); ++i) {
     StreamerOutputs out{tiles, packets, writes, events};
@@ -272,7 +265,7 @@ inline Result<RuntimeRun> replay_trace_runtime(const std::vector<std::vector<uin
     run.tile_uploads += out.tile_upload_count;
     run.page_table_writes += out.page_table_write_count;
   }
-  if (!read_first) read_pass();
+  if (!read_first) time_trace_reads(trace, run.read_ns);
   run.total = streamer->scheduler().total();
   run.digest = digest;
   run.bytes_read = streamer->bytes_read();

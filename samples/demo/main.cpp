@@ -386,23 +386,23 @@ int main(int argc, char** argv) {
                  "ray-caster)"
                : std::string("different filters: ") + gpu_desc + " vs " + cpu_filtered;
     const std::string same_rays_filtered = "same rays and filter: " + cpu_filtered;
-    run.raw.bsvtf_gpu = demo::image_error(ref->raw, bsvtf_img);
-    run.raw.bsvtf_gpu.filter = different;
-    run.raw.fmf_gpu = demo::image_error(ref->raw, fmf_img);
-    run.raw.fmf_gpu.filter = different;
-    run.raw.fmf_cpu = demo::image_error(ref->raw, ref->fmf_cpu);
-    run.raw.fmf_cpu.filter = same_rays;
+    // The error of an image against a reference, labelled with the rays and filter of both.
+    const auto labelled_error = [](const Image<float>& reference, const Image<float>& image,
+                                   const std::string& filter) {
+      demo::ImageError e = demo::image_error(reference, image);
+      e.filter = filter;
+      return e;
+    };
+    run.raw.bsvtf_gpu = labelled_error(ref->raw, bsvtf_img, different);
+    run.raw.fmf_gpu = labelled_error(ref->raw, fmf_img, different);
+    run.raw.fmf_cpu = labelled_error(ref->raw, ref->fmf_cpu, same_rays);
     run.raw.gpu_filter = ref->has_gpu_filter;
     run.raw.gpu_filter_note = ref->gpu_filter_note;
     if (ref->has_gpu_filter) {
-      run.raw.bsvtf_gpu_f = demo::image_error(ref->raw_gpu_filter, bsvtf_img);
-      run.raw.bsvtf_gpu_f.filter = gpu_vs_filtered;
-      run.raw.fmf_gpu_f = demo::image_error(ref->raw_gpu_filter, fmf_img);
-      run.raw.fmf_gpu_f.filter = gpu_vs_filtered;
-      run.raw.fmf_cpu_f = demo::image_error(ref->raw_gpu_filter, ref->fmf_gpu_filter);
-      run.raw.fmf_cpu_f.filter = same_rays_filtered;
-      run.raw.fmf_gpu_vs_cpu_f = demo::image_error(ref->fmf_gpu_filter, fmf_img);
-      run.raw.fmf_gpu_vs_cpu_f.filter = gpu_vs_filtered;
+      run.raw.bsvtf_gpu_f = labelled_error(ref->raw_gpu_filter, bsvtf_img, gpu_vs_filtered);
+      run.raw.fmf_gpu_f = labelled_error(ref->raw_gpu_filter, fmf_img, gpu_vs_filtered);
+      run.raw.fmf_cpu_f = labelled_error(ref->raw_gpu_filter, ref->fmf_gpu_filter, same_rays_filtered);
+      run.raw.fmf_gpu_vs_cpu_f = labelled_error(ref->fmf_gpu_filter, fmf_img, gpu_vs_filtered);
       if (auto w = write_png_srgb((out / "reference_raw_gpu_filter.png").string(), ref->raw_gpu_filter.view()); !w)
         return fail("png", w.message());
       if (auto w = write_png_srgb((out / "reference_fmf_gpu_filter.png").string(), ref->fmf_gpu_filter.view()); !w)

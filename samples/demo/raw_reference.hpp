@@ -283,25 +283,19 @@ class RawReferenceBuilder {
     // The angular taps, the FMF on the same rays, and each ray's four texel references.
     const size_t n = rays_.size();
     std::vector<detail_raw::Sample> taps(n);
-    const size_t chunks = std::max<size_t>(1, std::min<size_t>(256, n / 4096));
+    const size_t chunks = ray_chunks(n, 4096);
     std::vector<std::vector<detail_raw::TexelRef>> refs(chunks);
-    default_thread_pool().parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
-      float comps[CpuFrameRenderer::kMaxComponents];
-      for (size_t c = c0; c < c1; ++c)
-        for (size_t si = n * c / chunks; si < n * (c + 1) / chunks; ++si) {
-          const Ray& r = rays_[si];
-          if (r.material != index) continue;
-          detail_raw::Sample& s = taps[si];
-          int xs[2], ys[2];
-          float wx[2], wy[2];
-          fmf_[si] = shade_ray(m, r, s, comps, xs, ys, wx, wy);
-          for (int j = 0; j < 2; ++j)
-            for (int i = 0; i < 2; ++i) {
-              const float w = wx[i] * wy[j];
-              if (w == 0.0f) continue;
-              const uint32_t tx = static_cast<uint32_t>(xs[i] % m.texels), ty = static_cast<uint32_t>(ys[j] % m.texels);
-              refs[c].push_back({ty * static_cast<uint32_t>(m.texels) + tx, static_cast<uint32_t>(si), w});
-            }
+    for_material_rays(rays_, index, chunks, [&](size_t c, size_t si, float* comps) {
+      detail_raw::Sample& s = taps[si];
+      int xs[2], ys[2];
+      float wx[2], wy[2];
+      fmf_[si] = shade_ray(m, rays_[si], s, comps, xs, ys, wx, wy);
+      for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+          const float w = wx[i] * wy[j];
+          if (w == 0.0f) continue;
+          const uint32_t tx = static_cast<uint32_t>(xs[i] % m.texels), ty = static_cast<uint32_t>(ys[j] % m.texels);
+          refs[c].push_back({ty * static_cast<uint32_t>(m.texels) + tx, static_cast<uint32_t>(si), w});
         }
     });
     // The GPU-filter-matched pixel rays: trilinear taps into the material's texel pyramid, the
@@ -348,58 +342,53 @@ class RawReferenceBuilder {
       }
       const size_t np = pixel_rays_.size();
       ftaps.resize(np);
-      const size_t fchunks = std::max<size_t>(1, std::min<size_t>(256, np / 1024));
+      const size_t fchunks = ray_chunks(np, 1024);
       std::vector<std::vector<uint64_t>> req_chunks(fchunks);
-      default_thread_pool().parallel_for(0, fchunks, 1, [&](size_t c0, size_t c1) {
-        float comps[CpuFrameRenderer::kMaxComponents];
-        for (size_t c = c0; c < c1; ++c)
-          for (size_t pi = np * c / fchunks; pi < np * (c + 1) / fchunks; ++pi) {
-            const Ray& r = pixel_rays_[pi];
-            if (r.material != index) continue;
-            detail_raw::FilteredSample& f = ftaps[pi];
-            detail_raw::lookup(m, 0, r.light_local, f.light);
-            detail_raw::lookup(m, 1, r.view_local, f.view);
-            // OpenGL's LINEAR_MIPMAP_LINEAR: λ ≤ 0 magnifies (level 0), else levels ⌊λ⌋ and ⌊λ⌋ + 1.
-            const float lambda = std::log2(std::max(r.footprint * static_cast<float>(Mv), 1e-20f));
-            int k0 = 0, k1 = 0;
-            float w1 = 0.0f;
-            if (lambda > 0.0f) {
-              const float l = std::min(lambda, static_cast<float>(KM));
-              k0 = static_cast<int>(std::floor(l));
-              k1 = std::min(k0 + 1, KM);
-              w1 = k1 == k0 ? 0.0f : l - static_cast<float>(k0);
+      for_material_rays(pixel_rays_, index, fchunks, [&](size_t c, size_t pi, float* comps) {
+        const Ray& r = pixel_rays_[pi];
+        detail_raw::FilteredSample& f = ftaps[pi];
+        detail_raw::lookup(m, 0, r.light_local, f.light);
+        detail_raw::lookup(m, 1, r.view_local, f.view);
+        // OpenGL's LINEAR_MIPMAP_LINEAR: λ ≤ 0 magnifies (level 0), else levels ⌊λ⌋ and ⌊λ⌋ + 1.
+        const float lambda = std::log2(std::max(r.footprint * static_cast<float>(Mv), 1e-20f));
+        int k0 = 0, k1 = 0;
+        float w1 = 0.0f;
+        if (lambda > 0.0f) {
+          const float l = std::min(lambda, static_cast<float>(KM));
+          k0 = static_cast<int>(std::floor(l));
+          k1 = std::min(k0 + 1, KM);
+          w1 = k1 == k0 ? 0.0f : l - static_cast<float>(k0);
+        }
+        std::fill(comps, comps + C, 0.0f);
+        for (int li = 0; li < 2; ++li) {
+          const int k = li == 0 ? k0 : k1;
+          const float wl = li == 0 ? 1.0f - w1 : w1;
+          if (wl == 0.0f) continue;
+          const int sv = Mv >> k, kk = std::min(k, K), sm = S >> kk;
+          const float fx = r.texcoord.x * static_cast<float>(sv) - 0.5f;
+          const float fy = r.texcoord.y * static_cast<float>(sv) - 0.5f;
+          const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
+          const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
+          for (int j = 0; j < 2; ++j)
+            for (int i = 0; i < 2; ++i) {
+              const float w = wl * (i ? ax : 1.0f - ax) * (j ? ay : 1.0f - ay);
+              if (w == 0.0f) continue;
+              const int vx = (((x0 + i) % sv) + sv) % sv, vy = (((y0 + j) % sv) + sv) % sv;
+              const size_t local = static_cast<size_t>(vy % sm) * sm + static_cast<size_t>(vx % sm);
+              const float* vm = vmip[static_cast<size_t>(kk)].data() + local * C;
+              for (uint32_t q = 0; q < C; ++q) comps[q] += w * vm[q];
+              f.key[f.taps] = static_cast<uint32_t>(key_offset[static_cast<size_t>(kk)] + local);
+              f.weight[f.taps] = w;
+              ++f.taps;
             }
-            std::fill(comps, comps + C, 0.0f);
-            for (int li = 0; li < 2; ++li) {
-              const int k = li == 0 ? k0 : k1;
-              const float wl = li == 0 ? 1.0f - w1 : w1;
-              if (wl == 0.0f) continue;
-              const int sv = Mv >> k, kk = std::min(k, K), sm = S >> kk;
-              const float fx = r.texcoord.x * static_cast<float>(sv) - 0.5f;
-              const float fy = r.texcoord.y * static_cast<float>(sv) - 0.5f;
-              const int x0 = static_cast<int>(std::floor(fx)), y0 = static_cast<int>(std::floor(fy));
-              const float ax = fx - static_cast<float>(x0), ay = fy - static_cast<float>(y0);
-              for (int j = 0; j < 2; ++j)
-                for (int i = 0; i < 2; ++i) {
-                  const float w = wl * (i ? ax : 1.0f - ax) * (j ? ay : 1.0f - ay);
-                  if (w == 0.0f) continue;
-                  const int vx = (((x0 + i) % sv) + sv) % sv, vy = (((y0 + j) % sv) + sv) % sv;
-                  const size_t local = static_cast<size_t>(vy % sm) * sm + static_cast<size_t>(vx % sm);
-                  const float* vm = vmip[static_cast<size_t>(kk)].data() + local * C;
-                  for (uint32_t q = 0; q < C; ++q) comps[q] += w * vm[q];
-                  f.key[f.taps] = static_cast<uint32_t>(key_offset[static_cast<size_t>(kk)] + local);
-                  f.weight[f.taps] = w;
-                  ++f.taps;
-                }
-            }
-            fmf_f_[pi] = shade_fmf(m.eigen, f.light, f.view, std::span<const float>(comps, C));
-            for (uint32_t t = 0; t < f.taps; ++t)
-              for (size_t a = 0; a < 3; ++a)
-                for (size_t v = 0; v < 3; ++v)
-                  if (f.light.weight[a] * f.view.weight[v] != 0.0f)
-                    req_chunks[c].push_back(uint64_t{f.key[t]} << 20 |
-                                            (uint64_t{f.view.index[v]} * nl + uint64_t{f.light.index[a]}));
-          }
+        }
+        fmf_f_[pi] = shade_fmf(m.eigen, f.light, f.view, std::span<const float>(comps, C));
+        for (uint32_t t = 0; t < f.taps; ++t)
+          for (size_t a = 0; a < 3; ++a)
+            for (size_t v = 0; v < 3; ++v)
+              if (f.light.weight[a] * f.view.weight[v] != 0.0f)
+                req_chunks[c].push_back(uint64_t{f.key[t]} << 20 |
+                                        (uint64_t{f.view.index[v]} * nl + uint64_t{f.light.index[a]}));
       });
       for (auto& rc : req_chunks) {
         requests.insert(requests.end(), rc.begin(), rc.end());
@@ -575,6 +564,23 @@ class RawReferenceBuilder {
     glm::vec3 light_local{0.0f}, view_local{0.0f};
     float footprint = 0.0f;  ///< pixel rays: max |∂uv/∂x|, |∂uv/∂y| per pixel (uv in [0, 1))
   };
+  /// How many chunks a pass over `rays` rays is split into: one per `rays_per_chunk`, 1 to 256.
+  static size_t ray_chunks(size_t rays, size_t rays_per_chunk) {
+    return std::max<size_t>(1, std::min<size_t>(256, rays / rays_per_chunk));
+  }
+  /// Calls body(chunk, i, comps) on the thread pool for every ray i of `rays` that hit material
+  /// `material`; the rays are split into `chunks` contiguous chunks (chunk < chunks indexes the
+  /// caller's per-chunk outputs), `comps` is a per-thread scratch of kMaxComponents floats.
+  template <class Body>
+  static void for_material_rays(const std::vector<Ray>& rays, uint32_t material, size_t chunks, Body&& body) {
+    const size_t n = rays.size();
+    default_thread_pool().parallel_for(0, chunks, 1, [&](size_t c0, size_t c1) {
+      float comps[CpuFrameRenderer::kMaxComponents];
+      for (size_t c = c0; c < c1; ++c)
+        for (size_t i = n * c / chunks; i < n * (c + 1) / chunks; ++i)
+          if (rays[i].material == material) body(c, i, comps);
+    });
+  }
   /// One ray through `m`'s FMF (paper 000 eq. 5): its angular taps into `s`, V′ bilinear over
   /// the virtual texture (the material repeated, wrapped) into `comps`, and the four texels and
   /// weights it read. Returns the radiance before the light colour.

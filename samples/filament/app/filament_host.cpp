@@ -19,6 +19,45 @@ using namespace filament;
 
 namespace host {
 
+namespace {
+
+// An offscreen render target of width × height: a sampleable colour texture of `color_format`
+// and a DEPTH24 depth texture.
+void create_render_target(Engine& engine, uint32_t width, uint32_t height, Texture::InternalFormat color_format,
+                          Texture*& color, Texture*& depth, RenderTarget*& target) {
+  color = Texture::Builder()
+              .width(width)
+              .height(height)
+              .levels(1)
+              .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
+              .format(color_format)
+              .build(engine);
+  depth = Texture::Builder()
+              .width(width)
+              .height(height)
+              .levels(1)
+              .usage(Texture::Usage::DEPTH_ATTACHMENT)
+              .format(Texture::InternalFormat::DEPTH24)
+              .build(engine);
+  target = RenderTarget::Builder()
+               .texture(RenderTarget::AttachmentPoint::COLOR, color)
+               .texture(RenderTarget::AttachmentPoint::DEPTH, depth)
+               .build(engine);
+}
+
+}  // namespace
+
+Texture* create_array_texture(Engine& engine, uint32_t width, uint32_t height, uint32_t layers,
+                              Texture::InternalFormat format) {
+  return Texture::Builder()
+      .width(width)
+      .height(height)
+      .depth(layers)
+      .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
+      .format(format)
+      .build(engine);
+}
+
 bool create(Host& h, uint32_t width, uint32_t height, uint32_t fw, uint32_t fh) {
   h.width = width;
   h.height = height;
@@ -33,42 +72,10 @@ bool create(Host& h, uint32_t width, uint32_t height, uint32_t fw, uint32_t fh) 
   h.camera = h.engine->createCamera(h.camera_entity);
   h.color_scene = h.engine->createScene();
   h.feedback_scene = h.engine->createScene();
-  h.color_texture = Texture::Builder()
-                        .width(width)
-                        .height(height)
-                        .levels(1)
-                        .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
-                        .format(Texture::InternalFormat::RGBA32F)
-                        .build(*h.engine);
-  h.color_depth = Texture::Builder()
-                      .width(width)
-                      .height(height)
-                      .levels(1)
-                      .usage(Texture::Usage::DEPTH_ATTACHMENT)
-                      .format(Texture::InternalFormat::DEPTH24)
-                      .build(*h.engine);
-  h.color_target = RenderTarget::Builder()
-                       .texture(RenderTarget::AttachmentPoint::COLOR, h.color_texture)
-                       .texture(RenderTarget::AttachmentPoint::DEPTH, h.color_depth)
-                       .build(*h.engine);
-  h.feedback_color = Texture::Builder()
-                         .width(fw)
-                         .height(fh)
-                         .levels(1)
-                         .usage(Texture::Usage::COLOR_ATTACHMENT | Texture::Usage::SAMPLEABLE)
-                         .format(Texture::InternalFormat::RGBA8)
-                         .build(*h.engine);
-  h.feedback_depth = Texture::Builder()
-                         .width(fw)
-                         .height(fh)
-                         .levels(1)
-                         .usage(Texture::Usage::DEPTH_ATTACHMENT)
-                         .format(Texture::InternalFormat::DEPTH24)
-                         .build(*h.engine);
-  h.feedback_target = RenderTarget::Builder()
-                          .texture(RenderTarget::AttachmentPoint::COLOR, h.feedback_color)
-                          .texture(RenderTarget::AttachmentPoint::DEPTH, h.feedback_depth)
-                          .build(*h.engine);
+  create_render_target(*h.engine, width, height, Texture::InternalFormat::RGBA32F, h.color_texture, h.color_depth,
+                       h.color_target);
+  create_render_target(*h.engine, fw, fh, Texture::InternalFormat::RGBA8, h.feedback_color, h.feedback_depth,
+                       h.feedback_target);
   for (int k = 0; k < 2; ++k) {
     View* v = h.engine->createView();
     v->setCamera(h.camera);

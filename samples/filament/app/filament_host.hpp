@@ -86,6 +86,11 @@ void set_color_material(Host& h, size_t mesh, filament::MaterialInstance* color)
 /// Sets the camera of both views (vertical field of view in degrees).
 void set_camera(Host& h, glm::vec3 eye, glm::vec3 target, glm::vec3 up, float fov_y_degrees);
 
+/// A 2D-array texture of width × height texels and `layers` layers of `format`, one mip level,
+/// for a material to sample; its texels are set with set_image.
+filament::Texture* create_array_texture(filament::Engine& engine, uint32_t width, uint32_t height, uint32_t layers,
+                                        filament::Texture::InternalFormat format);
+
 /// Copies `bytes` and hands them to Texture::setImage for the sub-box (x, y, z) + (w, h, d) of
 /// mip `level` (Filament frees the copy once the driver consumed it).
 void set_image(Host& h, filament::Texture* t, uint32_t level, uint32_t x, uint32_t y, uint32_t z, uint32_t w,

@@ -177,13 +177,9 @@ int main(int argc, char** argv) {
 
   // --- the textures the generated shaders read, shaped by gpu_layout() -------------------------
   const StreamerGpuLayout layout = streamer.gpu_layout();
-  Texture* cache = Texture::Builder()
-                       .width(layout.cache_width)
-                       .height(layout.cache_height)
-                       .depth(layout.cache_layers)
-                       .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                       .format(compact ? Texture::InternalFormat::RGBA8 : Texture::InternalFormat::RGBA16F)
-                       .build(engine);
+  Texture* cache =
+      host::create_array_texture(engine, layout.cache_width, layout.cache_height, layout.cache_layers,
+                                 compact ? Texture::InternalFormat::RGBA8 : Texture::InternalFormat::RGBA16F);
   // The compact cache's per-slot affine maps: one RGBA32UI texel per slot (cache_slot_map_texel).
   Texture* slot_map = nullptr;
   if (compact) {
@@ -219,31 +215,14 @@ int main(int argc, char** argv) {
     if (!tables) return std::fprintf(stderr, "%s: %s\n", paths[m].c_str(), tables.message().c_str()), 1;
     g.angular = std::move(*tables);
     const uint32_t res = shader.angular.resolution;
-    g.angular_index = Texture::Builder()
-                          .width(res)
-                          .height(res)
-                          .depth(2)
-                          .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                          .format(Texture::InternalFormat::RGBA32UI)
-                          .build(engine);
-    g.angular_weight = Texture::Builder()
-                           .width(res)
-                           .height(res)
-                           .depth(2)
-                           .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                           .format(Texture::InternalFormat::RGBA32F)
-                           .build(engine);
+    g.angular_index = host::create_array_texture(engine, res, res, 2, Texture::InternalFormat::RGBA32UI);
+    g.angular_weight = host::create_array_texture(engine, res, res, 2, Texture::InternalFormat::RGBA32F);
     host::set_image(h, g.angular_index, 0, 0, 0, 0, res, res, 2, g.angular.index_rgba.data(),
                     g.angular.index_rgba.size() * 4, Texture::Format::RGBA_INTEGER, Texture::Type::UINT);
     host::set_image(h, g.angular_weight, 0, 0, 0, 0, res, res, 2, g.angular.weight_rgba.data(),
                     g.angular.weight_rgba.size() * 4, Texture::Format::RGBA, Texture::Type::FLOAT);
-    g.eigen_abrdfs = Texture::Builder()
-                         .width(g.angular.light_count)
-                         .height(g.angular.view_count)
-                         .depth(shader.components)
-                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                         .format(Texture::InternalFormat::RGBA32F)
-                         .build(engine);
+    g.eigen_abrdfs = host::create_array_texture(engine, g.angular.light_count, g.angular.view_count, shader.components,
+                                                Texture::InternalFormat::RGBA32F);
     // Per instance (= per btflod material), ShaderParams' values: vt_extent = (M, N, L_m),
     // lod = (bias, log2(screen / feedback size)), ids = (first page-table layer, feedback id).
     const BsvtfMetadata& md = directories[m].metadata;
@@ -387,13 +366,8 @@ int main(int argc, char** argv) {
     const EigenTextures floor = sample::make_eigen(0, directions);
     const std::vector<float> v = pack_eigen_textures_rgba(floor.textures.view());
     const uint32_t groups = shader.component_groups();
-    eigen_textures = Texture::Builder()
-                         .width(sample::kTexels)
-                         .height(sample::kTexels)
-                         .depth(groups)
-                         .sampler(Texture::Sampler::SAMPLER_2D_ARRAY)
-                         .format(Texture::InternalFormat::RGBA32F)
-                         .build(engine);
+    eigen_textures =
+        host::create_array_texture(engine, sample::kTexels, sample::kTexels, groups, Texture::InternalFormat::RGBA32F);
     host::set_image(h, eigen_textures, 0, 0, 0, 0, sample::kTexels, sample::kTexels, groups, v.data(), v.size() * 4,
                     Texture::Format::RGBA, Texture::Type::FLOAT);
     fmf_material = host::load_material(h, BTFLOD_FILAMATS_DIR "/btflod_fmf.filamat");

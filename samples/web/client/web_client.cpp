@@ -446,7 +446,13 @@ class Client {
     ShaderConfig c = base_config;
     c.components = materials[material]->dir.metadata.component_count;
     c.value_transform = materials[material]->dir.metadata.value_transform;  // decoded by the program
-    auto src = generate_program(static_cast<ShaderProgram>(program), GlslTarget::es300, c);
+    return stage_source(static_cast<ShaderProgram>(program), stage, c);
+  }
+
+  /// GLSL ES 3.00 source of stage 0 (vertex) or 1 (fragment) of `program` for `config`, held in
+  /// shader_text until the next call. Null on error (in `error`).
+  const char* stage_source(ShaderProgram program, int stage, const ShaderConfig& config) {
+    auto src = generate_program(program, GlslTarget::es300, config);
     if (!src) {
       error = src.message();
       return nullptr;
@@ -610,7 +616,6 @@ EMSCRIPTEN_KEEPALIVE const char* bw_program_source(int program, int stage, uint3
 /// directions and angular tables of `resolution`². Null on error (bw_last_error).
 EMSCRIPTEN_KEEPALIVE const char* bw_pca_program_source(int stage, uint32_t components, uint32_t views_per_group,
                                                        uint32_t lights, uint32_t resolution) {
-  auto& c = client();
   btflod::ShaderConfig config;
   config.components = components;
   config.angular.resolution = resolution;
@@ -618,13 +623,7 @@ EMSCRIPTEN_KEEPALIVE const char* bw_pca_program_source(int stage, uint32_t compo
   config.angular.lookup = btflod::AngularLookup::barycentric;
   config.pca.views_per_group = views_per_group;
   config.pca.light_count = lights;
-  auto src = btflod::generate_program(btflod::ShaderProgram::pca_views, btflod::GlslTarget::es300, config);
-  if (!src) {
-    c.error = src.message();
-    return nullptr;
-  }
-  c.shader_text = stage == 0 ? src->vertex : src->fragment;
-  return c.shader_text.c_str();
+  return client().stage_source(btflod::ShaderProgram::pca_views, stage, config);
 }
 
 /// GLSL ES 3.00 source of the pca_rings program (paper 004: PCA over groups of k views, the
@@ -633,18 +632,11 @@ EMSCRIPTEN_KEEPALIVE const char* bw_pca_program_source(int stage, uint32_t compo
 /// group and `lights` light directions. Null on error (bw_last_error).
 EMSCRIPTEN_KEEPALIVE const char* bw_pca_rings_program_source(int stage, uint32_t components, uint32_t views_per_group,
                                                              uint32_t lights) {
-  auto& c = client();
   btflod::ShaderConfig config;
   config.components = components;
   config.pca.views_per_group = views_per_group;
   config.pca.light_count = lights;
-  auto src = btflod::generate_program(btflod::ShaderProgram::pca_rings, btflod::GlslTarget::es300, config);
-  if (!src) {
-    c.error = src.message();
-    return nullptr;
-  }
-  c.shader_text = stage == 0 ? src->vertex : src->fragment;
-  return c.shader_text.c_str();
+  return client().stage_source(btflod::ShaderProgram::pca_rings, stage, config);
 }
 
 /// CRC-32 (the container's, runtime/codec/container.hpp) of `len` bytes: the page checks .pcak chunks

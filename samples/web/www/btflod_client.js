@@ -566,13 +566,20 @@ export class BtflodClient {
     return n;
   }
 
+  // Binds framebuffer `fbo` with a w × h viewport and depth testing, clears its colour with
+  // `clearColor()` and its depth.
+  beginPass(fbo, w, h, clearColor) {
+    const gl = this.gl;
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+    gl.viewport(0, 0, w, h);
+    gl.enable(gl.DEPTH_TEST);
+    clearColor();
+    gl.clear(gl.DEPTH_BUFFER_BIT);
+  }
+
   drawColor() {
     const gl = this.gl;
-    gl.bindFramebuffer(gl.FRAMEBUFFER, this.colorFbo);
-    gl.viewport(0, 0, this.width, this.height);
-    gl.enable(gl.DEPTH_TEST);
-    gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]);
-    gl.clear(gl.DEPTH_BUFFER_BIT);
+    this.beginPass(this.colorFbo, this.width, this.height, () => gl.clearBufferfv(gl.COLOR, 0, [0, 0, 0, 0]));
     for (const m of this.materials) {
       gl.useProgram(m.program);
       this.writeParams(m, 0);
@@ -606,11 +613,7 @@ export class BtflodClient {
     const gl = this.gl;
     const slot = this.readbacks.find((r) => !r.fence);
     if (slot) {
-      gl.bindFramebuffer(gl.FRAMEBUFFER, this.feedbackFbo);
-      gl.viewport(0, 0, this.fbW, this.fbH);
-      gl.enable(gl.DEPTH_TEST);
-      gl.clearBufferuiv(gl.COLOR, 0, [0xffffffff, 0, 0, 0]);
-      gl.clear(gl.DEPTH_BUFFER_BIT);
+      this.beginPass(this.feedbackFbo, this.fbW, this.fbH, () => gl.clearBufferuiv(gl.COLOR, 0, [0xffffffff, 0, 0, 0]));
       for (const m of this.materials) {
         gl.useProgram(m.feedbackProgram);
         this.writeParams(m, this.opt.feedbackShift);

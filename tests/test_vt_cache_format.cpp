@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <random>
 #include <set>
 #include <utility>
@@ -15,6 +16,8 @@
 
 #include "btflod/offline/render/cpu_reference.hpp"
 #include "btflod/runtime/backend/backend.hpp"
+#include "btflod/runtime/shader/shader_config.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
 #include "test_runtime_helpers.hpp"
 
@@ -272,4 +275,160 @@ TEST(CacheFormat, MapValuesAreZeroOrNormalHalves) {
   EXPECT_EQ(map.scale[2], 0.0f);         // constant 0.5
   for (size_t i = 0; i < v.size(); ++i)  // still within half a step of each value
     EXPECT_NEAR(decode_cache_unorm8(map, static_cast<uint32_t>(i % 4), q[i]), v[i], map.scale[i % 4] / 510.0f + 1e-9f);
+}
+
+// bc5_affine: 2 bytes a texel plus rgba8_affine's slot-map table, and only slot sides that are
+// whole 4 × 4 blocks.
+TEST(CacheFormatBc5, ConfigSizesAndSlotSide) {
+  CacheConfig c{16, 8, 1024, 64, 4, 2, CacheFormat::bc5_affine};
+  EXPECT_TRUE(c.valid());
+  EXPECT_EQ(c.texel_bytes(), 2u);
+  EXPECT_EQ(c.cache_bytes(), uint64_t{c.slot_count()} * cache_bc5_tile_bytes(c.padded_tile_size()));
+  EXPECT_EQ(c.slot_map_bytes(), uint64_t{c.slot_count()} * 16);
+  EXPECT_STREQ(cache_format_name(c.format), "bc5_affine");
+  c.border = 3;  // 70 texels a side: not whole blocks
+  EXPECT_FALSE(c.slot_side_fits_format());
+  EXPECT_FALSE(c.valid());
+  c.format = CacheFormat::rgba8_affine;  // any side for the other formats
+  EXPECT_TRUE(c.valid());
+}
+
+TEST(CacheFormatBc5, SlotSideNotAMultipleOf4IsRefusedWithAMessage) {
+  using namespace btflod_test;
+  World w;
+  w.add(build(make_eigen(64, 4, 4)));
+  w.finish();
+  StreamerConfig config = small_config();
+  config.cache.format = CacheFormat::bc5_affine;
+  config.cache.border = 3;  // 32 + 6 = 38
+  Result<Streamer> s = Streamer::create(w.materials, config);
+  ASSERT_FALSE(s);
+  EXPECT_EQ(s.status(), Status::invalid_argument);
+  EXPECT_NE(s.message().find("multiple of 4"), std::string::npos) << s.message();
+  ShaderConfig shader;
+  static_cast<CacheConfig&>(shader.vt) = config.cache;
+  const VoidResult v = validate_shader_config(shader);
+  ASSERT_FALSE(v);
+  EXPECT_NE(v.message().find("multiple of 4"), std::string::npos) << v.message();
+  shader.vt.border = 4;
+  EXPECT_TRUE(validate_shader_config(shader));
+}
+
+// check_tile_upload for bc5_affine, one failure class each: blocks of the wrong size, no blocks
+// (the unorm8 of the other affine format instead), a map that is not finite, a slot out of range.
+TEST(CacheFormatBc5, TileUploadChecks) {
+  const CacheConfig cache{2, 1, 16, 4, 2, 1, CacheFormat::bc5_affine};  // 8² texels a slot: 128 bytes
+  std::vector<uint8_t> blocks(cache_bc5_tile_bytes(8)), unorm8(8 * 8 * 4);
+  TileUpload u;
+  u.slot = 1;
+  u.bc5 = blocks;
+  EXPECT_EQ(check_tile_upload(u, cache), Status::success);
+  u.bc5 = std::span<const uint8_t>(blocks).first(blocks.size() - 16);
+  EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);  // wrong size
+  u.bc5 = {};
+  u.unorm8 = unorm8;
+  EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);  // missing blocks
+  u.bc5 = blocks;
+  u.map.offset[3] = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);  // non-finite map
+  u.map.offset[3] = 0.0f;
+  u.map.scale[0] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);
+  u.map = CacheSlotMap{};
+  u.slot = 2;
+  EXPECT_EQ(check_tile_upload(u, cache), Status::invalid_argument);  // slot out of range
+}
+
+// A Streamer in bc5_affine hands out, for every tile, exactly encode_cache_tile_bc5's blocks and
+// map of the tile decoded straight from its container; the rgba16f Streamer's upload of the
+// same tile decodes from those blocks within the BC4 bound; CpuCacheTexture fed the blocks
+// samples within that bound of the rgba16f cache.
+TEST(CacheFormatBc5, StreamerUploadsTheEncodedTiles) {
+  using namespace btflod_test;
+  World w;
+  w.add(build(make_eigen(96, 8, 3)));
+  w.add(build(make_eigen(64, 4, 4)));
+  w.finish();
+  StreamerConfig config = small_config();
+  Streamer wide = Streamer::create(w.materials, config).value();
+  config.cache.format = CacheFormat::bc5_affine;
+  Streamer compact = Streamer::create(w.materials, config).value();
+  const uint32_t side = config.cache.padded_tile_size();
+  std::vector<StreamerTileUpload> tiles(compact.tile_uploads_bound());
+  std::vector<StreamerPacketUpload> packets(compact.packet_uploads_bound());
+  std::vector<PageTableWrite> writes(4096);
+  std::vector<ResidencyEvent> events(64);
+  CpuCacheTexture tex5(compact.cache()), tex16(wide.cache());
+  ASSERT_EQ(tex5.format(), CacheFormat::bc5_affine);
+  const std::vector<uint32_t> fb = full_feedback(compact);
+  std::map<std::pair<uint32_t, uint64_t>, std::vector<uint16_t>> wide_tiles;  // (texture, tile key) → halves
+  std::vector<uint8_t> scratch(size_t{side} * side * 4), blocks(cache_bc5_tile_bytes(side));
+  std::vector<float> back(size_t{side} * side * 4);
+  uint64_t checked = 0, compared = 0;
+  double worst_tile = 0.0;
+  for (int frame = 0; frame < 40; ++frame) {
+    for (Streamer* s : {&wide, &compact}) {
+      StreamerOutputs o{tiles, packets, writes, events};
+      ASSERT_EQ(s->update(fb, o), Status::success);
+      for (size_t i = 0; i < o.tile_upload_count; ++i) {
+        const StreamerTileUpload& u = o.tile_uploads[i];
+        if (s == &wide) {
+          EXPECT_TRUE(u.bc5.empty());
+          ASSERT_TRUE(tex16.upload(wide.cache(), u.slot, u.texels));
+          wide_tiles[{u.tile.texture, u.tile.key()}].assign(u.texels.begin(), u.texels.end());
+          continue;
+        }
+        ASSERT_TRUE(u.texels.empty() && u.unorm8.empty());
+        const TileUpload t{u.slot, u.texels, u.unorm8, u.map, u.bc5};
+        ASSERT_EQ(check_tile_upload(t, config.cache), Status::success);
+        const uint32_t m = compact.cache().set().material_of(u.tile.texture);
+        const TileId local{u.tile.texture - compact.first_texture(m), u.tile.level, u.tile.x, u.tile.y};
+        const std::vector<float> ref = decode_direct_floats(w.files[m], w.dirs[m], local);
+        const CacheSlotMap map = encode_cache_tile_bc5(ref, side, scratch, blocks);
+        ASSERT_EQ(std::vector<uint8_t>(u.bc5.begin(), u.bc5.end()), blocks) << "tile " << checked;
+        for (int c = 0; c < 4; ++c) {
+          ASSERT_EQ(u.map.offset[c], map.offset[c]);
+          ASSERT_EQ(u.map.scale[c], map.scale[c]);
+        }
+        // The rgba16f upload of the same tile (the wide Streamer ran this frame first).
+        const auto it = wide_tiles.find({u.tile.texture, u.tile.key()});
+        if (it != wide_tiles.end()) {
+          decode_cache_tile_bc5(u.bc5, side, u.map, back);
+          for (size_t k = 0; k < back.size(); ++k) {
+            const double bound = u.map.scale[k % 4] * (2.0 / 7.0 / 2.0 + 1.0 / 255.0) + 1e-3;
+            const double d = std::fabs(static_cast<double>(back[k]) - half_bits_to_float(it->second[k]));
+            worst_tile = std::max(worst_tile, d / std::max(static_cast<double>(u.map.scale[k % 4]), 1e-9));
+            ASSERT_LE(d, bound) << "tile " << checked << " value " << k;
+          }
+          ++compared;
+        }
+        ASSERT_TRUE(tex5.upload(compact.cache(), u.slot, u.texels, u.unorm8, u.map, u.bc5));
+        ++checked;
+      }
+      s->pump();
+    }
+  }
+  EXPECT_GT(checked, 20u);
+  EXPECT_GT(compared, 20u);
+  ASSERT_EQ(compact.cache().used_count(), wide.cache().used_count());
+  double worst = 0.0, range = 0.0;
+  for (uint32_t t = 0; t < compact.cache().set().texture_count(); ++t)
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        float a[4], b[4];
+        const float u = (x + 0.5f) / 64.0f, v = (y + 0.5f) / 64.0f;
+        ASSERT_EQ(compact.cache().page_table(t)[0], wide.cache().page_table(t)[0]);
+        tex5.sample(compact.cache(), t, u, v, a);
+        tex16.sample(wide.cache(), t, u, v, b);
+        for (int c = 0; c < 4; ++c) {
+          worst = std::max(worst, std::fabs(static_cast<double>(a[c]) - b[c]));
+          range = std::max(range, std::fabs(static_cast<double>(b[c])));
+        }
+      }
+  std::printf(
+      "bc5_affine vs rgba16f: worst value error %.3g of the slot's scale; CPU cache max |diff| %.3g over "
+      "values up to %.3g\n",
+      worst_tile, worst, range);
+  EXPECT_GT(range, 0.1);
+  EXPECT_LT(worst, range / 7.0);  // within half a BC4 step (1/7 of a block's range) of the largest range
 }

@@ -68,6 +68,7 @@
 #include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/stream/payload_cache.hpp"
 #include "btflod/runtime/stream/tile_source.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_config.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
 #include "btflod/runtime/vt/scheduler.hpp"
@@ -135,7 +136,8 @@ struct StreamerConfig {
   /// match every container. The same value configures the shader generator
   /// (VirtualTextureConfig). With format rgba8_affine the decode jobs also quantise each tile
   /// (runtime/vt/cache_format.hpp), on the engine's workers, and the uploads carry unorm8 texels and
-  /// their slot map.
+  /// their slot map; with bc5_affine they also encode the quantised tile as BC5 blocks
+  /// (runtime/vt/cache_bc5.hpp), and the uploads carry the blocks and the slot map.
   CacheConfig cache;
   /// Budgets, priorities, hysteresis, LOD bias (runtime/vt/scheduler.hpp). Byte budgets count the
   /// containers' real payload sizes.
@@ -178,13 +180,15 @@ struct StreamerConfig {
 /// tile.texture is the global virtual texture (page-table layer). In the cache format of
 /// StreamerConfig::cache: rgba16f fills `texels` ((T+2B)² × 4 half bits) and leaves `unorm8`
 /// empty; rgba8_affine fills `unorm8` ((T+2B)² × 4 bytes) and `map` (the slot's texel of the
-/// slot-map table) and leaves `texels` empty.
+/// slot-map table) and leaves `texels` empty; bc5_affine fills `bc5` (cache_bc5_tile_bytes(T+2B)
+/// bytes, runtime/vt/cache_bc5.hpp's two-plane layout) and `map`.
 struct StreamerTileUpload {
   uint32_t slot = 0;
   TileId tile;
   std::span<const uint16_t> texels;
   std::span<const uint8_t> unorm8{};  // default member initialisers: {slot, tile, texels} stays warning-free
   CacheSlotMap map{};
+  std::span<const uint8_t> bc5{};
 };
 
 /// A U′ packet: four components (4g … 4g+3) of material `material`, rows × 4 halves in the

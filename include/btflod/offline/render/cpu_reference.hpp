@@ -26,6 +26,7 @@
 #include "btflod/offline/math/math.hpp"
 #include "btflod/runtime/lod/feedback.hpp"
 #include "btflod/runtime/lod/lod_selector.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/cache_format.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
 #include "btflod/runtime/vt/vt_layout.hpp"
@@ -340,9 +341,11 @@ bool render_feedback(const Scene& scene, const Camera& cam, const VtSet& set, co
 }
 
 /// CPU copy of the physical tile cache texture (slots_x·(T+2B) × slots_y·(T+2B) texels per
-/// layer) in the cache's format (CacheConfig::format): RGBA16F, or RGBA8 unorm with a map per
-/// slot (runtime/vt/cache_format.hpp), filtered and mapped as the shaders do. Allocates at construction;
-/// upload() and sample() are noexcept and allocation-free.
+/// layer) in the cache's format (CacheConfig::format): RGBA16F, RGBA8 unorm with a map per
+/// slot (runtime/vt/cache_format.hpp), or two BC5 planes with a map per slot (runtime/vt/cache_bc5.hpp:
+/// the blocks are decoded by the reference decoder at upload, as the GPU decodes them before
+/// filtering), filtered and mapped as the shaders do. Allocates at construction; upload() and
+/// sample() are noexcept and allocation-free.
 class CpuCacheTexture {
  public:
   CpuCacheTexture() = default;
@@ -357,7 +360,9 @@ class CpuCacheTexture {
         height_(cache.config().slots_y * stored_ * cache.config().cache_layers),
         texels_(format == CacheFormat::rgba16f ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
         unorm8_(format == CacheFormat::rgba8_affine ? static_cast<size_t>(width_) * height_ * 4 : 0, 0),
-        maps_(format == CacheFormat::rgba8_affine ? cache.slot_count() : 0) {}
+        bc5_(format == CacheFormat::bc5_affine ? static_cast<size_t>(width_) * height_ * 4 : 0, 0.0f),
+        bc5_scratch_(format == CacheFormat::bc5_affine ? static_cast<size_t>(stored_) * stored_ * 4 : 0, 0.0f),
+        maps_(cache_format_has_slot_map(format) ? cache.slot_count() : 0) {}
 
   /// Copies a stored tile ((T+2B)² RGBA half texels) into slot s (an rgba16f cache). Returns
   /// false on a size mismatch, a slot out of range or another cache format.
@@ -380,16 +385,34 @@ class CpuCacheTexture {
     return true;
   }
 
-  /// Copies a Streamer's (or backend's) tile upload in either format. Returns false as upload().
+  /// Decodes a stored tile in the two-plane BC5 layout (cache_bc5_tile_bytes((T+2B)) bytes,
+  /// runtime/vt/cache_bc5.hpp) with decode_cache_tile_bc5 and keeps it with its map in slot s (a
+  /// bc5_affine cache). Returns false on a size mismatch, a slot out of range, a side that is not
+  /// a multiple of 4 or another format.
+  bool upload_bc5(const TileCache& cache, uint32_t s, std::span<const uint8_t> blocks,
+                  const CacheSlotMap& map) noexcept {
+    if (format_ != CacheFormat::bc5_affine || stored_ % 4 != 0 || blocks.size() != cache_bc5_tile_bytes(stored_) ||
+        s >= cache.slot_count())
+      return false;
+    CacheSlotMap identity;  // the unorm values; the slot's map is applied after filtering
+    for (float& scale : identity.scale) scale = 1.0f;
+    decode_cache_tile_bc5(blocks, stored_, identity, bc5_scratch_);
+    copy_rows(cache, s, bc5_scratch_.data(), bc5_.data());
+    maps_[s] = map;
+    return true;
+  }
+
+  /// Copies a Streamer's (or backend's) tile upload in any format. Returns false as upload().
   bool upload(const TileCache& cache, uint32_t s, std::span<const uint16_t> halves, std::span<const uint8_t> unorm8,
-              const CacheSlotMap& map) noexcept {
+              const CacheSlotMap& map, std::span<const uint8_t> bc5 = {}) noexcept {
+    if (format_ == CacheFormat::bc5_affine) return upload_bc5(cache, s, bc5, map);
     return format_ == CacheFormat::rgba8_affine ? upload(cache, s, unorm8, map) : upload(cache, s, halves);
   }
 
   /// Samples virtual texture `texture` at texture coordinates (u, v) ∈ [0, 1) through its page
   /// table: the entry of the finest tile names level l' and slot; paper 000 eq. 3 gives the texel
   /// in the cache (slot origin + border + the position inside the level-l' tile), then bilinear
-  /// filtering inside the bordered tile, then (rgba8_affine) the slot's map. Writes 4 floats;
+  /// filtering inside the bordered tile, then (rgba8_affine, bc5_affine) the slot's map. Writes 4 floats;
   /// returns the level used. noexcept.
   uint32_t sample(const TileCache& cache, uint32_t texture, float u, float v, float* out) const noexcept {
     const VtLevelTable& lv = cache.set().levels_of(texture);
@@ -418,13 +441,15 @@ class CpuCacheTexture {
       if (format_ == CacheFormat::rgba8_affine) {
         a = unorm8_[i00 + c] * (1.0f / 255.0f), b = unorm8_[i00 + 4 + c] * (1.0f / 255.0f);
         d = unorm8_[i01 + c] * (1.0f / 255.0f), e = unorm8_[i01 + 4 + c] * (1.0f / 255.0f);
+      } else if (format_ == CacheFormat::bc5_affine) {
+        a = bc5_[i00 + c], b = bc5_[i00 + 4 + c], d = bc5_[i01 + c], e = bc5_[i01 + 4 + c];
       } else {
         a = half_bits_to_float(texels_[i00 + c]), b = half_bits_to_float(texels_[i00 + 4 + c]);
         d = half_bits_to_float(texels_[i01 + c]), e = half_bits_to_float(texels_[i01 + 4 + c]);
       }
       const float top = a + (b - a) * ax, bot = d + (e - d) * ax;
       out[c] = top + (bot - top) * ay;
-      if (format_ == CacheFormat::rgba8_affine) out[c] = maps_[slot].offset[c] + maps_[slot].scale[c] * out[c];
+      if (cache_format_has_slot_map(format_)) out[c] = maps_[slot].offset[c] + maps_[slot].scale[c] * out[c];
     }
     return level;
   }
@@ -450,6 +475,8 @@ class CpuCacheTexture {
   uint32_t height_ = 0;
   std::vector<uint16_t> texels_;
   std::vector<uint8_t> unorm8_;
+  std::vector<float> bc5_;          // bc5_affine: the decoded unorm values in [0, 1], RGBA per texel
+  std::vector<float> bc5_scratch_;  // bc5_affine: one decoded slot
   std::vector<CacheSlotMap> maps_;
 };
 

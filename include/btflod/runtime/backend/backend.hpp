@@ -78,23 +78,31 @@ struct FmfMaterialData {
 /// One tile to copy into a cache slot: (T + 2B)² RGBA texels (4 components), row-major,
 /// border included — the layout of offline/build/tile_pyramid.hpp's tiles — in the cache's format
 /// (VirtualTextureConfig::format): `texels` for rgba16f, `unorm8` and the slot's `map` for
-/// rgba8_affine (runtime/vt/cache_format.hpp; encode_cache_tile_unorm8() makes them from half texels).
+/// rgba8_affine (runtime/vt/cache_format.hpp; encode_cache_tile_unorm8() makes them from half texels),
+/// `bc5` and the slot's `map` for bc5_affine (runtime/vt/cache_bc5.hpp's two-plane layout;
+/// encode_cache_tile_bc5() makes them).
 struct TileUpload {
   uint32_t slot = 0;                  ///< < VirtualTextureConfig::slot_count()
   std::span<const uint16_t> texels;   ///< rgba16f: (T + 2B)² · 4 half bits
   std::span<const uint8_t> unorm8{};  ///< rgba8_affine: (T + 2B)² · 4 bytes
-  CacheSlotMap map{};                 ///< rgba8_affine: value = offset + scale · unorm8 / 255
+  CacheSlotMap map{};                 ///< rgba8_affine, bc5_affine: value = offset + scale · unorm
+  /// bc5_affine: cache_bc5_tile_bytes(T + 2B) = (T + 2B)² · 2 bytes, plane 0 (components 0, 1)
+  /// then plane 1 (components 2, 3), each (T + 2B)² / 16 BC5 blocks in row-major block order.
+  std::span<const uint8_t> bc5{};
 };
 
 /// Checks a tile upload against the cache: slot in range and the texels of the cache's format,
-/// (T + 2B)² · 4 of them (a finite map for rgba8_affine). Returns invalid_argument otherwise.
+/// (T + 2B)² · 4 of them for rgba16f and rgba8_affine, (T + 2B)² · 2 bytes of BC5 blocks for
+/// bc5_affine (a finite map for both affine formats). Returns invalid_argument otherwise.
 /// noexcept; safe for any input.
 inline Status check_tile_upload(const TileUpload& t, const CacheConfig& cache) noexcept {
   const size_t n = size_t{cache.padded_tile_size()} * cache.padded_tile_size() * 4;
   if (t.slot >= cache.slot_count()) return Status::invalid_argument;
-  if (cache.format == CacheFormat::rgba8_affine) {
+  if (cache_format_has_slot_map(cache.format)) {
     for (int c = 0; c < 4; ++c)
       if (!std::isfinite(t.map.offset[c]) || !std::isfinite(t.map.scale[c])) return Status::invalid_argument;
+    if (cache.format == CacheFormat::bc5_affine)
+      return cache.slot_side_fits_format() && t.bc5.size() == n / 2 ? Status::success : Status::invalid_argument;
     return t.unorm8.size() == n ? Status::success : Status::invalid_argument;
   }
   return t.texels.size() == n ? Status::success : Status::invalid_argument;

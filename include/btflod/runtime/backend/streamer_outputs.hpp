@@ -41,7 +41,7 @@ Status forward_streamer_outputs(const StreamerOutputs& out, UploadTiles&& upload
   size_t n = 0;
   for (size_t i = 0; i < out.tile_upload_count; ++i) {
     const StreamerTileUpload& u = out.tile_uploads[i];
-    batch[n++] = TileUpload{u.slot, u.texels, u.unorm8, u.map};
+    batch[n++] = TileUpload{u.slot, u.texels, u.unorm8, u.map, u.bc5};
     if (n == kStreamerUploadBatch || i + 1 == out.tile_upload_count) {
       if (const Status s = upload_tiles(std::span<const TileUpload>(batch, n)); s != Status::success) return s;
       n = 0;

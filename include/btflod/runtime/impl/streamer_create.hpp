@@ -18,6 +18,12 @@ struct Streamer::Room {
 
 Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> materials,
                                               const StreamerConfig& config) {
+  if (!config.cache.slot_side_fits_format())
+    return make_error(Status::invalid_argument,
+                      "streamer: a %s cache needs a slot side T+2B that is a multiple of 4 (whole BC5 blocks), "
+                      "found %u+2·%u = %u",
+                      cache_format_name(config.cache.format), config.cache.tile_size, config.cache.border,
+                      config.cache.padded_tile_size());
   if (!config.cache.valid())
     return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
                       config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,

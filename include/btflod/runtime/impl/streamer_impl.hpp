@@ -89,7 +89,7 @@ struct StreamerJob {
   uint8_t* bytes = nullptr;
   float* parent = nullptr;
   float* out = nullptr;
-  CacheSlotMap map;  // rgba8_affine: the map of the unorm8 tile in `halves`
+  CacheSlotMap map;  // rgba8_affine, bc5_affine: the map of the unorm8 or BC5 tile in `halves`
   uint16_t* halves = nullptr;
 };
 
@@ -371,19 +371,31 @@ struct Streamer::Impl final : StreamerJobQueue {
     job.result_in_out = decoded_levels > 0 && previous == job.out ? 1 : 0;
     job.parent_decoded = decoded_levels >= 2 ? 1 : 0;
     const std::span<const float> values(previous, layout.sample_count());
-    if (config.cache.format == CacheFormat::rgba8_affine)  // unorm8 in the first half of the buffer
-      job.map = encode_cache_tile_unorm8(
-          values, std::span<uint8_t>(reinterpret_cast<uint8_t*>(job.halves), layout.sample_count()));
-    else
+    uint8_t* bytes = reinterpret_cast<uint8_t*>(job.halves);  // sample_count · 2 bytes
+    if (config.cache.format == CacheFormat::rgba8_affine) {   // unorm8 in the first half of the buffer
+      job.map = encode_cache_tile_unorm8(values, std::span<uint8_t>(bytes, layout.sample_count()));
+    } else if (config.cache.format == CacheFormat::bc5_affine) {
+      // The blocks (sample_count / 2 bytes) in the first quarter of the buffer, the unorm8
+      // scratch (sample_count bytes) in its second half: the buffer of any format fits both.
+      const uint32_t side = config.cache.padded_tile_size();
+      job.map =
+          encode_cache_tile_bc5(values, side, std::span<uint8_t>(bytes + layout.sample_count(), layout.sample_count()),
+                                std::span<uint8_t>(bytes, cache_bc5_tile_bytes(side)));
+    } else {
       float_to_half(values, std::span<uint16_t>(job.halves, layout.sample_count()));
+    }
     return Status::success;
   }
 
   // The upload of a finished tile job into `slot`, in the cache's format.
   StreamerTileUpload tile_upload(uint32_t slot, const detail::StreamerJob& job) const noexcept {
-    StreamerTileUpload u{slot, job.tile, {}, {}, {}};
+    StreamerTileUpload u{slot, job.tile, {}, {}, {}, {}};
     if (config.cache.format == CacheFormat::rgba8_affine) {
       u.unorm8 = std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(job.halves), layout.sample_count());
+      u.map = job.map;
+    } else if (config.cache.format == CacheFormat::bc5_affine) {
+      u.bc5 = std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(job.halves),
+                                       cache_bc5_tile_bytes(config.cache.padded_tile_size()));
       u.map = job.map;
     } else {
       u.texels = std::span<const uint16_t>(job.halves, layout.sample_count());

@@ -259,7 +259,8 @@ enum class ShaderBinding : uint32_t {
   spmm_dictionary = 16,  ///< paper 003 eq. 2: model id, κ_j, n_j of every cluster's basis functions
   spmm_residual = 17,    ///< paper 003 eq. 3: ε̄ and b_i per cluster over the measured directions
   direction_rings = 18,  ///< paper 004 §4.4: uniform block <prefix>DirectionRings (ring_search)
-  slot_map = 19,  ///< BSVTF rgba8_affine cache: usampler2D RGBA32UI, one texel per slot (runtime/vt/cache_format.hpp)
+  slot_map = 19,         ///< BSVTF rgba8_affine and bc5_affine caches: usampler2D RGBA32UI, one texel per slot
+                         ///< (runtime/vt/cache_format.hpp)
 };
 
 /// Vertex attribute locations of every generated vertex shader.
@@ -332,9 +333,13 @@ inline VoidResult validate_shader_config(const ShaderConfig& c) {
       static_cast<uint64_t>(v.slots_x) * v.slots_y * v.cache_layers > kPageEntrySlotMask + 1ull)
     return make_error(Status::invalid_argument, "shader config: cache %u×%u×%u slots, expected 1..2^24 slots",
                       v.slots_x, v.slots_y, v.cache_layers);
-  if (v.format != CacheFormat::rgba16f && v.format != CacheFormat::rgba8_affine)
+  if (v.format != CacheFormat::rgba16f && v.format != CacheFormat::rgba8_affine && v.format != CacheFormat::bc5_affine)
     return make_error(Status::invalid_argument, "shader config: vt.format = %u is not a cache format",
                       static_cast<unsigned>(v.format));
+  if (!v.slot_side_fits_format())
+    return make_error(Status::invalid_argument,
+                      "shader config: a bc5_affine cache needs a slot side T+2B that is a multiple of 4, found %u",
+                      v.padded_tile_size());
   if (v.finest_level > 15)
     return make_error(Status::invalid_argument, "shader config: vt.finest_level = %u, expected ≤ 15", v.finest_level);
   const FeedbackWordLayout& f = v.feedback;

@@ -28,7 +28,15 @@ constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return ent
 enum class CacheFormat : uint8_t {
   rgba16f = 0,       ///< the decoded values as half floats: 8 bytes per texel
   rgba8_affine = 1,  ///< unorm8 with a per-slot, per-component offset and scale: 4 bytes per texel + 16 per slot
+  /// rgba8_affine's map over two BC5 (RGTC2) planes (runtime/vt/cache_bc5.hpp): 2 bytes per texel + 16 per
+  /// slot; the slot side T + 2B must be a multiple of 4 (whole 4 × 4 blocks per slot).
+  bc5_affine = 2,
 };
+
+/// True for the formats that keep a per-slot affine map (CacheSlotMap) in a slot-map table.
+constexpr bool cache_format_has_slot_map(CacheFormat f) noexcept {
+  return f == CacheFormat::rgba8_affine || f == CacheFormat::bc5_affine;
+}
 
 /// Shape of the physical tile cache. Plain value type, constexpr queries, no allocation.
 /// The first three members keep the order of the former TileCacheConfig, so `{slots_x,
@@ -52,22 +60,35 @@ struct CacheConfig {
   constexpr uint32_t cache_width() const noexcept { return slots_x * padded_tile_size(); }
   /// Height of one cache layer in texels.
   constexpr uint32_t cache_height() const noexcept { return slots_y * padded_tile_size(); }
-  /// Bytes of one cache texel in `format`.
-  constexpr uint32_t texel_bytes() const noexcept { return format == CacheFormat::rgba8_affine ? 4 : 8; }
+  /// Bytes of one cache texel in `format` (bc5_affine: a 16-byte block holds two components of
+  /// 4 × 4 texels, in two planes).
+  constexpr uint32_t texel_bytes() const noexcept {
+    return format == CacheFormat::rgba8_affine ? 4 : format == CacheFormat::bc5_affine ? 2 : 8;
+  }
   /// Bytes of the cache texture in `format` (what a GPU backend allocates).
   constexpr uint64_t cache_bytes() const noexcept {
     return static_cast<uint64_t>(cache_width()) * cache_height() * cache_layers * texel_bytes();
   }
-  /// Bytes of the per-slot map table (RGBA32UI, one texel per slot; rgba8_affine only, else 0).
+  /// Bytes of the per-slot map table (RGBA32UI, one texel per slot; rgba8_affine and bc5_affine,
+  /// else 0).
   constexpr uint64_t slot_map_bytes() const noexcept {
-    return format == CacheFormat::rgba8_affine ? static_cast<uint64_t>(slot_count()) * 16 : 0;
+    return cache_format_has_slot_map(format) ? static_cast<uint64_t>(slot_count()) * 16 : 0;
   }
-  /// True when every size is positive, the border is smaller than the tile and the slot count
-  /// fits the 24-bit slot field of a page-table entry.
+  /// True when the slot side suits the format: a multiple of 4 for bc5_affine (a slot is whole
+  /// BC5 blocks), any side for the others.
+  constexpr bool slot_side_fits_format() const noexcept {
+    return format != CacheFormat::bc5_affine || padded_tile_size() % 4 == 0;
+  }
+  /// True when every size is positive, the border is smaller than the tile, the slot count
+  /// fits the 24-bit slot field of a page-table entry, the format is known and the slot side
+  /// suits it (slot_side_fits_format).
   constexpr bool valid() const noexcept {
     const uint64_t slots = static_cast<uint64_t>(slots_x) * slots_y * cache_layers;
     return slots_x > 0 && slots_y > 0 && cache_layers > 0 && tile_size > 0 && border < tile_size && slots > 0 &&
-           slots < (1u << 24) && (format == CacheFormat::rgba16f || format == CacheFormat::rgba8_affine);
+           slots < (1u << 24) &&
+           (format == CacheFormat::rgba16f || format == CacheFormat::rgba8_affine ||
+            format == CacheFormat::bc5_affine) &&
+           slot_side_fits_format();
   }
 };
 

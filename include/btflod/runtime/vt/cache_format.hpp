@@ -43,9 +43,9 @@ struct CacheSlotMap {
   float scale[4] = {0.0f, 0.0f, 0.0f, 0.0f};
 };
 
-/// Name of a cache format ("rgba16f", "rgba8_affine").
+/// Name of a cache format ("rgba16f", "rgba8_affine", "bc5_affine").
 constexpr const char* cache_format_name(CacheFormat f) noexcept {
-  return f == CacheFormat::rgba8_affine ? "rgba8_affine" : "rgba16f";
+  return f == CacheFormat::rgba8_affine ? "rgba8_affine" : f == CacheFormat::bc5_affine ? "bc5_affine" : "rgba16f";
 }
 
 /// The slot-map table texel of a slot: one RGBA32UI texel, (half offset0 | half offset1 << 16,

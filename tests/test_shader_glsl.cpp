@@ -477,3 +477,36 @@ TEST(ShaderGlsl, DefaultFunctionNamesAreTheWholeProgramSamplerNames) {
   EXPECT_EQ(wide->samplers.size(), shader_sampler_names().size() - 1);
   EXPECT_EQ(wide->code.find("slot_map"), std::string::npos);
 }
+
+// A bc5_affine cache: the bsvtf programs of every target compile; the cache is read as two
+// planes (array layers 2L and 2L + 1) at one coordinate, then the slot map is applied as for
+// rgba8_affine, whose text is otherwise the same.
+TEST(ShaderGlsl, Bc5CacheProgramsCompileAndReadBothPlanes) {
+  ShaderConfig bc5;
+  bc5.vt.format = CacheFormat::bc5_affine;  // T + 2B = 72: whole 4 × 4 blocks
+  ShaderConfig rgba8 = bc5;
+  rgba8.vt.format = CacheFormat::rgba8_affine;
+  for (GlslTarget t : kAllGlslTargets)
+    for (ShaderProgram p : {ShaderProgram::bsvtf, ShaderProgram::bsvtf_feedback}) {
+      Result<GlslProgramSource> src = generate_program(p, t, bc5);
+      ASSERT_TRUE(src.ok()) << src.message();
+      const std::string& f = src->fragment;
+      expect_contains(f, {"float l = float(slot / btflod_kSlotsPerLayer) * 2.0;", "vec3(c, l + 1.0)", "btflod_slot_map",
+                          "return o + s * t;"});
+      // Everything but the cache fetch is rgba8_affine's text.
+      const std::string other = generate_program(p, t, rgba8)->fragment;
+      const size_t a = f.find("  vec2 c = "), b = f.find("  uvec4 m = texelFetch(");
+      const size_t a8 = other.find("  vec4 t = textureLod("), b8 = other.find("  uvec4 m = texelFetch(");
+      ASSERT_TRUE(a != std::string::npos && b != std::string::npos && a8 != std::string::npos &&
+                  b8 != std::string::npos);
+      EXPECT_EQ(f.substr(0, a) + f.substr(b), other.substr(0, a8) + other.substr(b8));
+      if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) continue;
+      const std::string tag = std::string("bc5_") + shader_program_name(p) + "_" + glsl_target_name(t);
+      EXPECT_EQ(validate_stage(f, t, "frag", tag), "") << tag;
+    }
+  // A slot side that is not whole blocks is refused.
+  bc5.vt.border = 3;
+  Result<GlslProgramSource> bad = generate_program(ShaderProgram::bsvtf, GlslTarget::gl450_core, bc5);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.message().find("multiple of 4"), std::string::npos) << bad.message();
+}

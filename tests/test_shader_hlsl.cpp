@@ -162,3 +162,18 @@ TEST(ShaderHlsl, OutputIsDeterministicAndRegistersFollowTheOptions) {
   EXPECT_FALSE(generate_hlsl_program(ShaderProgram::fmf, bad).ok());
   EXPECT_FALSE(generate_hlsl_functions(0, c).ok());
 }
+
+// A bc5_affine cache: the bsvtf programs compile and read both planes (array layers 2L, 2L + 1).
+TEST(ShaderHlsl, Bc5CacheProgramsCompile) {
+  ShaderConfig bc5;
+  bc5.vt.format = CacheFormat::bc5_affine;
+  for (ShaderProgram p : {ShaderProgram::bsvtf, ShaderProgram::bsvtf_feedback}) {
+    Result<HlslProgramSource> src = generate_hlsl_program(p, bc5);
+    ASSERT_TRUE(src.ok()) << src.message();
+    EXPECT_NE(src->fragment.find("float3(c, l + 1.0)"), std::string::npos);
+    EXPECT_NE(src->fragment.find("return o + s * t;"), std::string::npos);
+    if (std::string(BTFLOD_GLSLANG_VALIDATOR).empty()) continue;
+    const std::string tag = std::string("bc5_") + shader_program_name(p);
+    EXPECT_EQ(validate_hlsl(src->fragment, "frag", tag), "") << tag;
+  }
+}

@@ -96,7 +96,7 @@ inline bool filament_word(const std::string& s) noexcept {
 /// The Filament sampler parameters a material of `kind` declares for a tile cache of `format`, in
 /// declaration order (each is set with MaterialInstance::setParameter(filament_sampler_parameter(role),
 /// texture, sampler)). All are 2D arrays (sampler2dArray) but the slot-map table (sampler2d, the
-/// bsvtf material of an rgba8_affine cache only: runtime/vt/cache_format.hpp); angular_index,
+/// bsvtf material of an rgba8_affine or bc5_affine cache only: runtime/vt/cache_format.hpp); angular_index,
 /// page_table and slot_map hold uint texels (RGBA32UI, R32UI: `format : uint`), the others float.
 /// precision is high for all: the page-table entry and the cache coordinates need 32-bit integers
 /// and floats.
@@ -105,7 +105,7 @@ inline std::span<const ShaderBinding> filament_material_samplers(FilamentMateria
   static constexpr ShaderBinding kBsvtfRgba8[] = {ShaderBinding::eigen_abrdfs,   ShaderBinding::angular_index,
                                                   ShaderBinding::angular_weight, ShaderBinding::tile_cache,
                                                   ShaderBinding::page_table,     ShaderBinding::slot_map};
-  if (kind == FilamentMaterialKind::bsvtf && format == CacheFormat::rgba8_affine) return kBsvtfRgba8;
+  if (kind == FilamentMaterialKind::bsvtf && cache_format_has_slot_map(format)) return kBsvtfRgba8;
   static constexpr ShaderBinding kBsvtf[] = {ShaderBinding::eigen_abrdfs, ShaderBinding::angular_index,
                                              ShaderBinding::angular_weight, ShaderBinding::tile_cache,
                                              ShaderBinding::page_table};

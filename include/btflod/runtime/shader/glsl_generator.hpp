@@ -735,7 +735,8 @@ inline void piece_page_table(GlslEmitter& e) {
 // BSVTF: V through page table and tile cache (paper 000 eq. 3).
 inline void piece_bsvtf(GlslEmitter& e) {
   e.sampler("sampler2DArray", ShaderBinding::tile_cache);
-  const bool affine = e.config.vt.format == CacheFormat::rgba8_affine;
+  const bool affine = cache_format_has_slot_map(e.config.vt.format);
+  const bool bc5 = e.config.vt.format == CacheFormat::bc5_affine;
   if (affine) {
     e.sampler("usampler2D", ShaderBinding::slot_map);
     e.constant_uint("kSlotsY", e.config.vt.slots_y);
@@ -773,9 +774,17 @@ inline void piece_bsvtf(GlslEmitter& e) {
       "vec4 @cache_sample(uint entry, vec2 in_tile) {\n"
       "  uint slot = entry & 0xFFFFFFu;\n"
       "  uint r = slot % @kSlotsPerLayer;\n"
-      "  vec2 origin = vec2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n"
-      "  vec4 t = textureLod($tile_cache$, vec3((origin + in_tile) / @kCacheSize, float(slot / @kSlotsPerLayer)), "
-      "0.0);\n");
+      "  vec2 origin = vec2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n");
+  if (bc5)  // runtime/vt/cache_bc5.hpp: plane p of cache layer L is array layer 2L + p, both at one coordinate
+    e.emit(
+        "  vec2 c = (origin + in_tile) / @kCacheSize;\n"
+        "  float l = float(slot / @kSlotsPerLayer) * 2.0;\n"
+        "  vec4 t = vec4(textureLod($tile_cache$, vec3(c, l), 0.0).xy, textureLod($tile_cache$, vec3(c, l + 1.0), "
+        "0.0).xy);\n");
+  else
+    e.emit(
+        "  vec4 t = textureLod($tile_cache$, vec3((origin + in_tile) / @kCacheSize, float(slot / @kSlotsPerLayer)), "
+        "0.0);\n");
   // runtime/vt/cache_format.hpp: value = offset + scale · unorm, one map per slot (exact after filtering).
   // Its eight halves (0 or normal) are widened with integer operations and a multiply by 2^112
   // (the exponent rebias): on llvmpipe 2 % of the frame cheaper than unpackHalf2x16.

@@ -260,7 +260,8 @@ inline void hlsl_page_table(HlslEmitter& e) {
 
 inline void hlsl_bsvtf(HlslEmitter& e) {
   e.texture("Texture2DArray<float4>", ShaderBinding::tile_cache, true);
-  const bool affine = e.g.config.vt.format == CacheFormat::rgba8_affine;
+  const bool affine = cache_format_has_slot_map(e.g.config.vt.format);
+  const bool bc5 = e.g.config.vt.format == CacheFormat::bc5_affine;
   if (affine) {
     e.texture("Texture2D<uint4>", ShaderBinding::slot_map);
     e.constant_uint("kSlotsY", e.g.config.vt.slots_y);
@@ -292,9 +293,17 @@ inline void hlsl_bsvtf(HlslEmitter& e) {
       "float4 @cache_sample(uint entry, float2 in_tile) {\n"
       "  uint slot = entry & 0xFFFFFFu;\n"
       "  uint r = slot % @kSlotsPerLayer;\n"
-      "  float2 origin = float2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n"
-      "  float4 t = $tile_cache$.SampleLevel($tile_cache_sampler$, float3((origin + in_tile) / @kCacheSize, "
-      "float(slot / @kSlotsPerLayer)), 0.0);\n");
+      "  float2 origin = float2(float(r % @kSlotsX), float(r / @kSlotsX)) * @kPaddedTile + @kBorder;\n");
+  if (bc5)  // runtime/vt/cache_bc5.hpp: plane p of cache layer L is array layer 2L + p (glsl_generator.hpp)
+    e.emit(
+        "  float2 c = (origin + in_tile) / @kCacheSize;\n"
+        "  float l = float(slot / @kSlotsPerLayer) * 2.0;\n"
+        "  float4 t = float4($tile_cache$.SampleLevel($tile_cache_sampler$, float3(c, l), 0.0).xy, "
+        "$tile_cache$.SampleLevel($tile_cache_sampler$, float3(c, l + 1.0), 0.0).xy);\n");
+  else
+    e.emit(
+        "  float4 t = $tile_cache$.SampleLevel($tile_cache_sampler$, float3((origin + in_tile) / @kCacheSize, "
+        "float(slot / @kSlotsPerLayer)), 0.0);\n");
   if (affine)  // runtime/vt/cache_format.hpp: offset + scale · unorm, halves widened as glsl_generator.hpp does
     e.emit(
         "  uint4 m = $slot_map$.Load(int3(int(r % @kSlotsX), int((slot / @kSlotsPerLayer) * @kSlotsY + r / @kSlotsX), "

@@ -18,6 +18,9 @@
   TEST(Suite, Prefix##BsvtfRgba8PartialCacheMatchesCpuReference) {                                                   \
     btflod::golden::golden_bsvtf_partial(make, btflod::CacheFormat::rgba8_affine);                                   \
   }                                                                                                                  \
+  TEST(Suite, Prefix##BsvtfBc5PartialCacheMatchesCpuReference) {                                                     \
+    btflod::golden::golden_bsvtf_partial(make, btflod::CacheFormat::bc5_affine);                                     \
+  }                                                                                                                  \
   TEST(Suite, Prefix##LaplacianLevelBlendMatchesCpuReference) { btflod::golden::golden_laplacian(make); }            \
   TEST(Suite, Prefix##LpcaClustersMatchCpuReference) { btflod::golden::golden_lpca(make); }                          \
   TEST(Suite, Prefix##PcaViewsGroupsMatchCpuReference) { btflod::golden::golden_pca_views(make); }                   \

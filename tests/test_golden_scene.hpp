@@ -17,6 +17,7 @@
 #include "btflod/offline/build/tile_pyramid.hpp"
 #include "btflod/offline/render/cpu_reference.hpp"
 #include "btflod/runtime/backend/page_table_writes.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
 #include "test_shader_backend_cases.hpp"
 #include "test_shader_scene.hpp"
@@ -422,8 +423,8 @@ inline void golden_fmf_u_packets(BackendFactory make) {
 
 /// The BSVTF scene's virtual texture: a vt/ TileCache holding every tile of levels 0–1 and the
 /// left half of level 2, its tiles as GPU uploads and in a CpuCacheTexture (both in the cache
-/// format of config.vt.format: rgba8_affine tiles are encoded once and the same bytes go to
-/// both), and the page-table writes of the whole cache. Filled in place (the cache refers to
+/// format of config.vt.format: rgba8_affine and bc5_affine tiles are encoded once and the same
+/// bytes go to both), and the page-table writes of the whole cache. Filled in place (the cache refers to
 /// nothing outside it).
 struct PartialCacheScene {
   std::optional<TilePyramid> pyr;
@@ -431,6 +432,7 @@ struct PartialCacheScene {
   std::optional<TileCache> cache;
   std::optional<CpuCacheTexture> cpu;
   std::vector<std::vector<uint8_t>> unorm8;  // rgba8_affine: each upload's bytes
+  std::vector<std::vector<uint8_t>> bc5;     // bc5_affine: each upload's blocks
   std::vector<TileUpload> uploads;
   std::vector<PageTableWrite> writes;
 };
@@ -458,6 +460,7 @@ inline void build_partial_cache(const ShaderConfig& config, const Material& m, P
         }
   out.cpu.emplace(cache);
   out.unorm8.reserve(cache.slot_count());  // the uploads' spans point into these
+  out.bc5.reserve(cache.slot_count());
   for (uint32_t s = 0; s < cache.slot_count(); ++s) {
     const SlotInfo& info = cache.slot(s);
     if (info.state != SlotInfo::State::used) continue;
@@ -468,6 +471,15 @@ inline void build_partial_cache(const ShaderConfig& config, const Material& m, P
       const CacheSlotMap map = encode_cache_tile_unorm8(texels, scratch, bytes);
       ASSERT_TRUE(out.cpu->upload(cache, s, bytes, map));
       out.uploads.push_back(TileUpload{s, {}, bytes, map});
+    } else if (config.vt.format == CacheFormat::bc5_affine) {
+      const uint32_t side = config.vt.padded_tile_size();
+      std::vector<float> values(texels.size());
+      half_to_float(texels, values);
+      std::vector<uint8_t> scratch(texels.size());
+      std::vector<uint8_t>& blocks = out.bc5.emplace_back(cache_bc5_tile_bytes(side));
+      const CacheSlotMap map = encode_cache_tile_bc5(values, side, scratch, blocks);
+      ASSERT_TRUE(out.cpu->upload_bc5(cache, s, blocks, map));
+      out.uploads.push_back(TileUpload{s, {}, {}, map, blocks});
     } else {
       ASSERT_TRUE(out.cpu->upload(cache, s, texels));
       out.uploads.push_back(TileUpload{s, texels, {}, {}});
@@ -551,9 +563,9 @@ inline void golden_bsvtf_partial(BackendFactory make, CacheFormat format = Cache
     EXPECT_GE(psnr3, 40.0);
     EXPECT_LT(apart, psnr3 - 10.0);
   }
-  if (format == CacheFormat::rgba8_affine) {
-    // The same cache at rgba16f on the CPU: the 8-bit cache stays close to it (the tiles' own
-    // ranges keep the step small), and a renderer that skipped the slot maps would not.
+  if (cache_format_has_slot_map(format)) {
+    // The same cache at rgba16f on the CPU: the 8-bit (or BC5) cache stays close to it (the
+    // tiles' own ranges keep the step small), and a renderer that skipped the slot maps would not.
     PartialCacheScene wide;
     ShaderConfig wide_config = config;
     wide_config.vt.format = CacheFormat::rgba16f;
@@ -563,16 +575,17 @@ inline void golden_bsvtf_partial(BackendFactory make, CacheFormat format = Cache
       for (uint32_t k = 0; k < set.texture_count(); ++k)
         wide.cpu->sample(*wide.cache, k, h.texcoord.x, h.texcoord.y, out + 4 * k);
     });
-    CpuCacheTexture raw(cache);  // the same bytes read as plain unorm8 (identity maps)
+    CpuCacheTexture raw(cache);  // the same bytes read as plain unorm (identity maps)
     CacheSlotMap identity;
     for (int c = 0; c < 4; ++c) identity.scale[c] = 1.0f;
-    for (const TileUpload& u : vt.uploads) ASSERT_TRUE(raw.upload(cache, u.slot, u.unorm8, identity));
+    for (const TileUpload& u : vt.uploads) ASSERT_TRUE(raw.upload(cache, u.slot, {}, u.unorm8, identity, u.bc5));
     const Image<float> unmapped = cpu_render(m, params, [&](const SurfaceHit& h, float* out) {
       for (uint32_t k = 0; k < set.texture_count(); ++k) raw.sample(cache, k, h.texcoord.x, h.texcoord.y, out + 4 * k);
     });
     const double psnr16 = psnr_rgb(ref16, img), psnr_unmapped = psnr_rgb(unmapped, img);
-    std::printf("[ %s ] rgba8_affine GPU image vs the rgba16f CPU reference: PSNR %.2f dB\n", be->name(), psnr16);
-    EXPECT_GE(psnr16, 40.0);
+    std::printf("[ %s ] %s GPU image vs the rgba16f CPU reference: PSNR %.2f dB\n", be->name(),
+                cache_format_name(format), psnr16);
+    EXPECT_GE(psnr16, format == CacheFormat::bc5_affine ? 35.0 : 40.0);
     EXPECT_LT(psnr_unmapped, psnr16 - 3.0);
   }
 }

@@ -118,20 +118,36 @@ class GlBackend final : public Backend {
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
     glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
     if (vt.cache_width() > static_cast<uint32_t>(max_size) || vt.cache_height() > static_cast<uint32_t>(max_size) ||
-        vt.cache_layers > static_cast<uint32_t>(max_layers) ||
+        vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > static_cast<uint32_t>(max_layers) ||
         (1u << vt.finest_level) > static_cast<uint32_t>(max_size))
       return make_error(Status::unsupported, "GL: cache %u×%u×%u or page table 2^%u exceeds the limits (%d, %d layers)",
                         vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level, max_size, max_layers);
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_);
-    const bool affine = vt.format == CacheFormat::rgba8_affine;
-    glTextureStorage3D(cache_, 1, affine ? GL_RGBA8 : GL_RGBA16F, static_cast<GLsizei>(vt.cache_width()),
-                       static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers));
+    const bool affine = cache_format_has_slot_map(vt.format);
+    const bool bc5 = vt.format == CacheFormat::bc5_affine;
+    // bc5_affine: two RGTC2 planes per cache layer, plane p of layer L at array layer 2L + p
+    // (runtime/vt/cache_bc5.hpp; the shaders read both).
+    glTextureStorage3D(cache_, 1,
+                       bc5                                      ? GL_COMPRESSED_RG_RGTC2
+                       : vt.format == CacheFormat::rgba8_affine ? GL_RGBA8
+                                                                : GL_RGBA16F,
+                       static_cast<GLsizei>(vt.cache_width()), static_cast<GLsizei>(vt.cache_height()),
+                       static_cast<GLsizei>(vt.cache_layers * (bc5 ? 2 : 1)));
     glTextureParameteri(cache_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(cache_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(cache_, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
     glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    const float zero[4] = {0, 0, 0, 0};
-    glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
+    if (bc5) {  // glClearTexImage takes no compressed texture: all-zero blocks decode to 0
+      const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
+                                             vt.cache_layers);
+      glCompressedTextureSubImage3D(cache_, 0, 0, 0, 0, static_cast<GLsizei>(vt.cache_width()),
+                                    static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers * 2),
+                                    GL_COMPRESSED_RG_RGTC2, static_cast<GLsizei>(zero_blocks.size()),
+                                    zero_blocks.data());
+    } else {
+      const float zero[4] = {0, 0, 0, 0};
+      glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
+    }
     if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (runtime/vt/cache_format.hpp)
       glCreateTextures(GL_TEXTURE_2D, 1, &slot_map_);
       glTextureStorage2D(slot_map_, 1, GL_RGBA32UI, static_cast<GLsizei>(cache_slot_map_width(vt)),
@@ -265,13 +281,23 @@ class GlBackend final : public Backend {
     const size_t padded = vt.padded_tile_size();
     for (const TileUpload& t : tiles)
       if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
-    const bool affine = vt.format == CacheFormat::rgba8_affine;
+    const bool affine = cache_format_has_slot_map(vt.format);
+    const bool bc5 = vt.format == CacheFormat::bc5_affine;
+    const size_t plane_bytes = padded * padded;  // BC5: 16 bytes per 4 × 4 texels
     for (const TileUpload& t : tiles) {
       const SlotPlacement p = slot_placement(vt, t.slot);
-      glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
-                          static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA,
-                          affine ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
-                          affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data());
+      if (bc5) {
+        for (uint32_t plane = 0; plane < 2; ++plane)  // plane p of layer L at array layer 2L + p
+          glCompressedTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y),
+                                        static_cast<GLint>(2 * p.layer + plane), static_cast<GLsizei>(padded),
+                                        static_cast<GLsizei>(padded), 1, GL_COMPRESSED_RG_RGTC2,
+                                        static_cast<GLsizei>(plane_bytes), t.bc5.data() + plane * plane_bytes);
+      } else {
+        glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
+                            static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA,
+                            affine ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
+                            affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data());
+      }
       if (affine) {
         const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
         const std::array<uint32_t, 4> packed = pack_cache_slot_map(t.map);

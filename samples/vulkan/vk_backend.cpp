@@ -80,8 +80,14 @@ VoidResult create_vk13_device(const char* app_name, VkDeviceContext& out) {
   qci.pQueuePriorities = &priority;
   VkPhysicalDeviceVulkan13Features f13{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES};
   f13.dynamicRendering = VK_TRUE;
+  VkPhysicalDeviceFeatures supported{};
+  vkGetPhysicalDeviceFeatures(out.physical, &supported);
+  VkPhysicalDeviceFeatures enabled{};
+  enabled.textureCompressionBC = supported.textureCompressionBC;  // a bc5_affine cache (BC5_UNORM)
+  out.texture_compression_bc = supported.textureCompressionBC == VK_TRUE;
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.pNext = &f13;
+  dci.pEnabledFeatures = &enabled;
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
   BTFLOD_VK_CHECK(vkCreateDevice(out.physical, &dci, nullptr, &out.device), "vkCreateDevice");
@@ -112,7 +118,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
   const VirtualTextureConfig& vt = config.vt;
   if (vt.cache_width() > vk_.properties.limits.maxImageDimension2D ||
       vt.cache_height() > vk_.properties.limits.maxImageDimension2D ||
-      vt.cache_layers > vk_.properties.limits.maxImageArrayLayers ||
+      vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > vk_.properties.limits.maxImageArrayLayers ||
       (1u << vt.finest_level) > vk_.properties.limits.maxImageDimension2D)
     return make_error(Status::unsupported, "Vulkan: cache %u×%u×%u or page table 2^%u exceeds the device limits",
                       vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level);
@@ -136,11 +142,33 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
     *out[i] = *p;
   }
   // Cache and page table (GENERAL layout, cleared to 0: entry 0 = slot 0 at level 0).
-  const bool affine = vt.format == CacheFormat::rgba8_affine;
-  if (VoidResult r = create_texture(cache_, affine ? VK_FORMAT_R8G8B8A8_UNORM : VK_FORMAT_R16G16B16A16_SFLOAT,
-                                    vt.cache_width(), vt.cache_height(), vt.cache_layers, 1);
+  const bool affine = cache_format_has_slot_map(vt.format);
+  const bool bc5 = vt.format == CacheFormat::bc5_affine;
+  if (bc5) {
+    if (!vk_.texture_compression_bc)
+      return make_error(Status::unsupported,
+                        "Vulkan: a bc5_affine cache needs the textureCompressionBC feature, which %s lacks",
+                        vk_.properties.deviceName);
+    VkFormatProperties fp{};
+    vkGetPhysicalDeviceFormatProperties(vk_.physical, VK_FORMAT_BC5_UNORM_BLOCK, &fp);
+    if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
+      return make_error(Status::unsupported, "Vulkan: %s cannot filter VK_FORMAT_BC5_UNORM_BLOCK linearly",
+                        vk_.properties.deviceName);
+  }
+  // bc5_affine: two BC5 planes per cache layer, plane p of layer L at array layer 2L + p
+  // (runtime/vt/cache_bc5.hpp; the shaders read both).
+  if (VoidResult r = create_texture(cache_,
+                                    bc5                                      ? VK_FORMAT_BC5_UNORM_BLOCK
+                                    : vt.format == CacheFormat::rgba8_affine ? VK_FORMAT_R8G8B8A8_UNORM
+                                                                             : VK_FORMAT_R16G16B16A16_SFLOAT,
+                                    vt.cache_width(), vt.cache_height(), vt.cache_layers * (bc5 ? 2 : 1), 1);
       !r)
     return r;
+  if (bc5) {  // vkCmdClearColorImage takes no compressed image: all-zero blocks decode to 0
+    const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
+                                           vt.cache_layers);
+    if (VoidResult r = upload_texture(cache_, {zero_blocks.data()}, 1); !r) return r;  // 1 byte a texel
+  }
   // rgba8_affine: one RGBA32UI texel per slot (runtime/vt/cache_format.hpp); otherwise a 1×1 stand-in
   // the rgba16f programs never read. A 2D view: the shaders declare a usampler2D.
   if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_UINT, affine ? cache_slot_map_width(vt) : 1,
@@ -157,6 +185,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     if (VoidResult r = begin_one_shot(cmd); !r) return r;
     for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) {
+      if (t == &cache_ && bc5) continue;  // filled with zero blocks above
       VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, t->mips, 0, t->layers};
       VkClearColorValue zero{};  // all-zero bits: 0.0f and 0u alike
       vkCmdClearColorImage(cmd, t->image, VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
@@ -287,9 +316,10 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
   if (!initialised_) return Status::invalid_argument;
   const VirtualTextureConfig& vt = config_.vt;
   const size_t padded = vt.padded_tile_size();
-  const bool affine = vt.format == CacheFormat::rgba8_affine;
-  const size_t bytes = padded * padded * vt.texel_bytes();
-  const size_t map_bytes = affine ? 16 : 0;  // pack_cache_slot_map
+  const bool affine = cache_format_has_slot_map(vt.format);
+  const bool bc5 = vt.format == CacheFormat::bc5_affine;
+  const size_t bytes = padded * padded * vt.texel_bytes();  // bc5_affine: both planes
+  const size_t map_bytes = affine ? 16 : 0;                 // pack_cache_slot_map
   for (const TileUpload& t : tiles)
     if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
   FrameContext& c = open_context();
@@ -311,14 +341,23 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
       c.staging_offset += map_bytes;
     }
     std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset,
-                affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data(), bytes);
+                bc5      ? static_cast<const void*>(t.bc5.data())
+                : affine ? static_cast<const void*>(t.unorm8.data())
+                         : t.texels.data(),
+                bytes);
     const SlotPlacement p = slot_placement(vt, t.slot);
-    VkBufferImageCopy region{};
-    region.bufferOffset = c.staging_offset;
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, p.layer, 1};
-    region.imageOffset = {static_cast<int32_t>(p.x), static_cast<int32_t>(p.y), 0};
-    region.imageExtent = {static_cast<uint32_t>(padded), static_cast<uint32_t>(padded), 1};
-    vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, cache_.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+    // bc5_affine: one copy per plane (the blocks of plane p, bytes / 2 of them, to array layer
+    // 2L + p); the offsets stay 16-byte aligned (the map copy above, whole blocks).
+    const uint32_t planes = bc5 ? 2 : 1;
+    VkBufferImageCopy regions[2]{};
+    for (uint32_t plane = 0; plane < planes; ++plane) {
+      VkBufferImageCopy& region = regions[plane];
+      region.bufferOffset = c.staging_offset + plane * (bytes / planes);
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, bc5 ? 2 * p.layer + plane : p.layer, 1};
+      region.imageOffset = {static_cast<int32_t>(p.x), static_cast<int32_t>(p.y), 0};
+      region.imageExtent = {static_cast<uint32_t>(padded), static_cast<uint32_t>(padded), 1};
+    }
+    vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, cache_.image, VK_IMAGE_LAYOUT_GENERAL, planes, regions);
     c.staging_offset += bytes;
   }
   full_barrier(c.cmd);

@@ -110,10 +110,13 @@ struct VkDeviceContext {
   uint32_t queue_family = 0;
   VkDevice device = VK_NULL_HANDLE;
   VkQueue queue = VK_NULL_HANDLE;
+  /// textureCompressionBC is supported and enabled (a bc5_affine cache needs it).
+  bool texture_compression_bc = false;
 };
 
 /// Creates a Vulkan 1.3 instance for application `app_name` and, on the first physical device
-/// of API 1.3 with a graphics queue family, a device (dynamic rendering on) with one queue of
+/// of API 1.3 with a graphics queue family, a device (dynamic rendering on, textureCompressionBC
+/// on where supported: VkDeviceContext::texture_compression_bc) with one queue of
 /// that family. Returns `unsupported` with the reason when there is no Vulkan driver, no such
 /// device or a create call fails; the handles created so far stay in `out` either way (the
 /// caller destroys them).

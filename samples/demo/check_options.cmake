@@ -93,7 +93,7 @@ endif()
 foreach(case "--bogus-flag;unknown option --bogus-flag" "--bogus-option;3;unknown option --bogus-option"
              "--components;0;--components 0: expected an integer in [1, 128]" "--components;129;--components 129: expected an integer in [1, 128]"
              "--material;glass;--material glass: expected cloth, stone, leather or tiles"
-             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f, rgba8 or rgba8_affine"
+             "--components;needs a value" "--cache-format;bc7;--cache-format bc7: expected rgba16f, rgba8, rgba8_affine, bc5 or bc5_affine"
              "--rank-target;1.5;--rank-target 1.5: expected a number in [0, 1]"
              "--brdf;${DIR}/no_such.mbsdf;--brdf ${DIR}/no_such.mbsdf:")
   list(POP_BACK case message)

@@ -49,8 +49,8 @@ struct DemoConfig {
   bool deflate = false;                 ///< --deflate: deflate tiles (format 2), not zstd
   std::string record_feedback;          ///< --record-feedback FILE: feedback trace for btflod-bench
   bool separate_feedback_pass = false;  ///< --feedback-pass: feedback words in a pass of their own
-  /// --cache-format rgba16f|rgba8 (runtime/vt/cache_format.hpp). rgba8 by default: half the cache memory,
-  /// ΔE*ab p99 0.1 against rgba16f on the settled view (docs/bsvtf_format.md, "Cache formats").
+  /// --cache-format rgba16f|rgba8|bc5 (runtime/vt/cache_format.hpp, cache_bc5.hpp). rgba8 by default: half the cache
+  /// memory, ΔE*ab p99 0.1 against rgba16f on the settled view (docs/bsvtf_format.md, "Cache formats").
   CacheFormat cache_format = CacheFormat::rgba8_affine;
   /// --profile paper: paper 000's configuration (151 x 151 directions, C = 100, T = 64 + 4-texel
   /// border, a 56 x 56-slot cache, 1280 x 720); the materials are synthesised into BTF stores and
@@ -125,7 +125,9 @@ inline constexpr const char* kDemoUsage =
     "  zstd (format 3, the default: smaller tiles that decode faster).\n"
     "  --record-feedback FILE records every frame's feedback buffer as a trace (runtime/lod/feedback_trace.hpp)\n"
     "  --cache-format rgba8 (the default) keeps the tile cache as unorm8 with a per-slot offset and\n"
-    "  scale (runtime/vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves).\n"
+    "  scale (runtime/vt/cache_format.hpp), half the memory of rgba16f (the decoded values as halves);\n"
+    "  --cache-format bc5 keeps it as two BC5 planes under the same per-slot map (runtime/vt/cache_bc5.hpp),\n"
+    "  a quarter of rgba16f (needs T + 2B a multiple of 4 and BC texture support on the GPU).\n"
     "  Either way the report compares the two formats on the settled view's resident tiles (CPU\n"
     "  ray-caster, same rays).\n"
     "  --brdf FILE.mbsdf: every material's base reflectance is that measured BRDF (NVIDIA MBSDF, e.g.\n"
@@ -186,8 +188,8 @@ inline std::optional<DemoConfig> parse_command_line(int argc, char** argv, int* 
   cfg.keep_stores = args.flag("keep-stores");
   cfg.quiet = args.flag("quiet", 'q');
   cfg.out_dir = args.string("out", cfg.out_dir);
-  if (const auto f = args.choice("cache-format", {"rgba16f", "rgba8", "rgba8_affine"}))
-    cfg.cache_format = *f == 0 ? CacheFormat::rgba16f : CacheFormat::rgba8_affine;
+  if (const auto f = args.choice("cache-format", {"rgba16f", "rgba8", "rgba8_affine", "bc5", "bc5_affine"}))
+    cfg.cache_format = *f == 0 ? CacheFormat::rgba16f : *f <= 2 ? CacheFormat::rgba8_affine : CacheFormat::bc5_affine;
   cfg.inputs_dir = args.string("inputs", cfg.inputs_dir);
   if (const auto size = args.value("frame-size")) {
     int w = 0, h = 0;

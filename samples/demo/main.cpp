@@ -500,7 +500,10 @@ int main(int argc, char** argv) {
           "rgba8 vs rgba16f SSIM %.5f  dE*ab p99 %.3f (max over materials %.3f); vs raw rgba16f SSIM %.4f, rgba8 "
           "%.4f (%.1f s)\n",
           cf.format.c_str(),
-          (cfg->cache_format == CacheFormat::rgba8_affine ? cf.bytes_rgba8 : cf.bytes_rgba16f) / 1024.0,
+          (cfg->cache_format == CacheFormat::rgba8_affine ? cf.bytes_rgba8
+           : cfg->cache_format == CacheFormat::bc5_affine ? cf.bytes_bc5
+                                                          : cf.bytes_rgba16f) /
+              1024.0,
           cf.bytes_rgba16f / 1024.0, cf.bytes_rgba8 / 1024.0, cf.rgba8_vs_rgba16f.ssim, cf.rgba8_vs_rgba16f.de_p99,
           [&] {
             double worst = 0.0;

@@ -346,7 +346,7 @@ class CpuFrameRenderer final : public FrameRenderer {
         out,
         [&](std::span<const TileUpload> tiles) noexcept {
           for (const TileUpload& t : tiles)
-            if (!texture_->upload(*cache_, t.slot, t.texels, t.unorm8, t.map)) return Status::invalid_argument;
+            if (!texture_->upload(*cache_, t.slot, t.texels, t.unorm8, t.map, t.bc5)) return Status::invalid_argument;
           return Status::success;
         },
         [](std::span<const PageTableWrite>) noexcept { return Status::success; });

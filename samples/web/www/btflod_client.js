@@ -129,7 +129,9 @@ export class BtflodClient {
       angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4, readbackBuffers: 3,
       readbackMaxFrames: 3, qualityEvery: 2, cacheFormat: 'rgba16f',
     }, options);
-    if (!(this.opt.cacheFormat in CACHE_FORMAT)) throw new Error(`cacheFormat ${this.opt.cacheFormat}: rgba16f or rgba8`);
+    // No bc5 cache here: WebGL 2 samples BC5 only through EXT_texture_compression_rgtc.
+    if (!(this.opt.cacheFormat in CACHE_FORMAT))
+      throw new Error(`cacheFormat ${this.opt.cacheFormat}: rgba16f or rgba8 (no bc5 cache in the web client)`);
     this.gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
     if (!this.gl) throw new Error('WebGL 2 is not available');
     if (!this.gl.getExtension('EXT_color_buffer_float')) throw new Error('EXT_color_buffer_float is not available');

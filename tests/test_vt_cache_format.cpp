@@ -354,10 +354,7 @@ TEST(CacheFormatBc5, StreamerUploadsTheEncodedTiles) {
   config.cache.format = CacheFormat::bc5_affine;
   Streamer compact = Streamer::create(w.materials, config).value();
   const uint32_t side = config.cache.padded_tile_size();
-  std::vector<StreamerTileUpload> tiles(compact.tile_uploads_bound());
-  std::vector<StreamerPacketUpload> packets(compact.packet_uploads_bound());
-  std::vector<PageTableWrite> writes(4096);
-  std::vector<ResidencyEvent> events(64);
+  StreamerOutputBuffers buffers(compact, 4096, 64);  // the same bounds as wide's
   CpuCacheTexture tex5(compact.cache()), tex16(wide.cache());
   ASSERT_EQ(tex5.format(), CacheFormat::bc5_affine);
   const std::vector<uint32_t> fb = full_feedback(compact);
@@ -368,7 +365,7 @@ TEST(CacheFormatBc5, StreamerUploadsTheEncodedTiles) {
   double worst_tile = 0.0;
   for (int frame = 0; frame < 40; ++frame) {
     for (Streamer* s : {&wide, &compact}) {
-      StreamerOutputs o{tiles, packets, writes, events};
+      StreamerOutputs o = buffers.outputs();
       ASSERT_EQ(s->update(fb, o), Status::success);
       for (size_t i = 0; i < o.tile_upload_count; ++i) {
         const StreamerTileUpload& u = o.tile_uploads[i];

@@ -84,10 +84,14 @@ struct UploadInfo {
   uint32_t slot;
   uint32_t material;
   uint32_t packet;
-  uint32_t texels;  ///< heap pointer to (T+2B)² · 4 half bits (kind 0, rgba16f cache)
-  uint32_t unorm8;  ///< heap pointer to (T+2B)² · 4 bytes (kind 0, rgba8_affine cache)
-  uint32_t map[4];  ///< the slot's map as its slot-map texel (pack_cache_slot_map; rgba8_affine)
+  uint32_t texels;   ///< heap pointer to (T+2B)² · 4 half bits (kind 0, rgba16f cache)
+  uint32_t unorm8;   ///< heap pointer to (T+2B)² · 4 bytes (kind 0, rgba8_affine cache)
+  uint32_t map[4];   ///< the slot's map as its slot-map texel (pack_cache_slot_map; rgba8_affine, bc5_affine)
+  uint32_t bc5 = 0;  ///< heap pointer to two BC5 planes of (T+2B)² bytes each (kind 0, bc5_affine cache)
 };
+
+// btflod_client.js reads the uploads as a flat Uint32Array of UPLOAD_STRIDE words each.
+static_assert(sizeof(UploadInfo) == 11 * sizeof(uint32_t));
 
 /// One page-table texel JavaScript writes: layer, mip, x, y, entry.
 struct PageWrite {
@@ -259,7 +263,7 @@ class Client {
     for (size_t i = 0; i < halves.size(); ++i) packet[i] = half_bits_to_float(halves[i]);
     scatter_u_packet(m.dir.metadata, g, packet, m.u_rgba, {}, AngularRowOrder::light_major);
     m.packets_loaded = std::max(m.packets_loaded, g + 1);
-    uploads.push_back(UploadInfo{1, 0, mi, g, 0, 0, {}});
+    uploads.push_back(UploadInfo{1, 0, mi, g, 0, 0, {}, 0});
   }
 
   // One frame of the Streamer: the decode jobs whose bytes arrived run, then update() with this
@@ -288,7 +292,8 @@ class Client {
                                    0,
                                    static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.texels.data())),
                                    static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.unorm8.data())),
-                                   {map[0], map[1], map[2], map[3]}});
+                                   {map[0], map[1], map[2], map[3]},
+                                   static_cast<uint32_t>(reinterpret_cast<uintptr_t>(u.bc5.data()))});
     }
     for (size_t i = 0; i < out.packet_upload_count; ++i)
       load_packet(packet_uploads[i].material, packet_uploads[i].packet, packet_uploads[i].halves);
@@ -379,7 +384,7 @@ class Client {
       unpack_bsvtf_packet(bytes, packet_scratch);
       scatter_u_packet(m.dir.metadata, info.key_lo, packet_scratch, m.u_rgba, {}, m.dir.metadata.u_row_order);
       m.packets_loaded = std::max(m.packets_loaded, info.key_lo + 1);
-      uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0, 0, {}});
+      uploads.push_back(UploadInfo{1, 0, info.material, info.key_lo, 0, 0, {}, 0});
       return kOk;
     }
     const TileId local = TileId::from_key(static_cast<uint64_t>(info.key_hi) << 32 | info.key_lo);
@@ -415,7 +420,7 @@ class Client {
     count_delivered(m, vm.levels, vm.texture_count, local);
     o.dirty[global.texture] = 1;
     uploads.push_back(
-        UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves)), 0, {}});
+        UploadInfo{0, slot, info.material, 0, static_cast<uint32_t>(reinterpret_cast<uintptr_t>(halves)), 0, {}, 0});
     return kOk;
   }
 
@@ -506,12 +511,15 @@ EMSCRIPTEN_KEEPALIVE double bw_directory_size(const uint8_t* header, uint32_t le
 /// by priority when stream_u. Its first bw_frame() asks for the pinned roots (and, without
 /// stream_u, every U′ packet). Returns 0 or a code.
 /// Sets the tile cache's texel format (0 rgba16f, 1 rgba8_affine: 4 bytes a texel, each slot
-/// with its affine map in the slot-map texture) before bw_start. Returns 0, or an error code after
-/// the start or for an unknown format.
+/// with its affine map in the slot-map texture, 2 bc5_affine: two BC5 planes of 1 byte a texel
+/// with the same maps, encoded by the decode jobs) before bw_start. Returns 0, or an error code
+/// after the start or for an unknown format.
 EMSCRIPTEN_KEEPALIVE int bw_set_cache_format(uint32_t format) {
   btflod::web::Client& c = client();
-  if (c.started || format > 1) return c.fail(btflod::web::kBadArgument, "cache format: 0 or 1, before bw_start");
-  c.cache_format = format == 1 ? btflod::CacheFormat::rgba8_affine : btflod::CacheFormat::rgba16f;
+  if (c.started || format > 2) return c.fail(btflod::web::kBadArgument, "cache format: 0, 1 or 2, before bw_start");
+  c.cache_format = format == 2   ? btflod::CacheFormat::bc5_affine
+                   : format == 1 ? btflod::CacheFormat::rgba8_affine
+                                 : btflod::CacheFormat::rgba16f;
   return btflod::web::kOk;
 }
 

@@ -7,6 +7,11 @@
 //   rgba8       the same golden view with the compact cache (?cacheFormat=rgba8: RGBA8 texels, each
 //               slot's affine map in an RGBA32UI slot-map texture) vs the CPU reference that
 //               quantises the same tiles (PSNR ≥ 40 dB), and its distance to the rgba16f reference
+//   bc5         the same view with ?cacheFormat=bc5 (two RGTC2 planes through
+//               EXT_texture_compression_rgtc, offered by both GL paths) vs the CPU reference that
+//               BC5-encodes and decodes the same tiles (PSNR ≥ 40 dB) and vs the rgba16f reference,
+//               a quarter of the rgba16f texel bytes per tile upload; then with &noRgtc=1 (the
+//               extension taken as missing): the page falls back to the rgba8 cache and says so
 //   components  the same data in paper 004's component-by-component order: bytes to SSIM 0.95
 //   needed      a view of material 0 only: the other materials get only directory and roots
 //   faults      every tile's first transfer dropped by the server (444) or served from a copy
@@ -89,6 +94,12 @@ const refRgba8Path = path.join(WORK, `reference_rgba8_${SIZE}.f32`);
 tool('reference', '--out', refRgba8Path, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
   '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`,
   '--cache-format', 'rgba8');
+// And through the bc5 cache: the same unorm8 texels BC5-encoded as the decode jobs do, decoded
+// by the reference decoder (runtime/vt/cache_bc5.hpp).
+const refBc5Path = path.join(WORK, `reference_bc5_${SIZE}.f32`);
+tool('reference', '--out', refBc5Path, '--bsvtf', files.join(','), '--eye', view.eye.join(','), '--target', view.target.join(','),
+  '--fov', String(view.fov), '--light', view.light.join(','), '--light-color', view.lightColor.join(','), '--size', `${SIZE}x${SIZE}`,
+  '--cache-format', 'bc5');
 const compare = (img, ref = refPath) => {
   const p = path.join(WORK, 'tmp_compare.f32');
   writeFileSync(p, Buffer.from(img.buffer, img.byteOffset, img.byteLength));
@@ -118,7 +129,11 @@ function launchArgs(gl) {
 
 async function openPage(browser, query, v = view) {
   const page = await browser.newPage();
-  page.on('console', (m) => { if (m.type() === 'error' || m.type() === 'warning') console.log(`  [page] ${m.text()}`); });
+  page.btflodConsole = [];  // every console line of the page (the bc5 fallback says why there)
+  page.on('console', (m) => {
+    page.btflodConsole.push(m.text());
+    if (m.type() === 'error' || m.type() === 'warning') console.log(`  [page] ${m.text()}`);
+  });
   page.on('pageerror', (e) => console.log(`  [page error] ${e}`));
   const q = new URLSearchParams({ size: String(SIZE), materials: String(materials.length), paused: '1' });
   for (const [k, v] of new URLSearchParams(query || '')) q.set(k, v);
@@ -259,6 +274,55 @@ async function correctness(browser, gl, r) {
       `${g8.psnr_db.toFixed(2)} dB, SSIM ${g8.ssim.toFixed(4)}; against the rgba16f reference ${g8vs16.psnr_db.toFixed(2)} dB, ` +
       `SSIM ${g8vs16.ssim.toFixed(4)}`);
     await page.close();
+
+    // --- golden: the bc5 cache (two RGTC2 planes + the same slot maps, a quarter of rgba16f) --
+    page = await openPage(browser, '&cacheFormat=bc5');
+    const c5 = await stream(page, { maxFrames: reduced ? 400 : 800, every: 1000, snapshots: false });
+    // The rgba16f page's converged frame, the bc5 page's other comparison.
+    const page16Path = path.join(WORK, `golden_rgba16f_${gl}.f32`);
+    writeFileSync(page16Path, Buffer.from(pri.final.image.buffer, pri.final.image.byteOffset, pri.final.image.byteLength));
+    const g5 = compare(c5.final.image, refBc5Path), g5vs16 = compare(c5.final.image), g5vs8 = compare(c5.final.image, refRgba8Path);
+    const g5vsPage = compare(c5.final.image, page16Path);
+    const s5 = c5.final.stats;
+    const perTile = (st) => st.tileUploadBytes / Math.max(1, st.tileUploads);
+    r.golden_bc5 = { frames: c5.frames, converged: c5.converged, cache_format: s5.cacheFormat, psnr_db: g5.psnr_db, ssim: g5.ssim,
+      psnr_vs_rgba16f_reference_db: g5vs16.psnr_db, ssim_vs_rgba16f_reference: g5vs16.ssim,
+      psnr_vs_rgba8_reference_db: g5vs8.psnr_db, psnr_vs_rgba16f_page_db: g5vsPage.psnr_db, cache_bytes: s5.cacheBytes, tile_uploads: s5.tileUploads,
+      tile_upload_bytes: s5.tileUploadBytes, rgba16f_tile_upload_bytes_per_tile: perTile(s16) };
+    // The compressed texture holds what the page uploaded only if every block went to its slot
+    // and plane (the image would be wrong otherwise); a tile is S² · 2 bytes against S² · 8.
+    check(`${gl}: bc5 cache: RGTC2 texture, a slot map per tile upload, a quarter of the rgba16f texel bytes`,
+      s5.cacheFormat === 'bc5' && s5.cacheFormatFallback === '' && s5.tileUploads > 0 &&
+        s5.slotMapUploads === s5.tileUploads && perTile(s5) === perTile(s16) / 4 && s5.cacheBytes < 0.26 * s16.cacheBytes,
+      `${s5.cacheFormat}; ${s5.tileUploads} tiles, ${s5.slotMapUploads} slot maps; ${perTile(s5)} vs ${perTile(s16)} bytes a tile; ` +
+      `cache ${s5.cacheBytes} vs ${s16.cacheBytes} bytes`);
+    // Against the CPU reference decoding the same blocks: the GPU's RGTC2 decode, plane layout and
+    // slot maps; against the rgba16f page and reference: what BC5 costs in this view (44.6 dB on
+    // SwiftShader and 47.2 dB on llvmpipe against the reference when written; bound 40 dB).
+    check(`${gl}: golden BSVTF, bc5 cache, vs the CPU reference reading the same blocks, the rgba16f page and reference ≥ 40 dB`,
+      c5.converged && g5.psnr_db >= 40 && g5vsPage.psnr_db >= 40 && g5vs16.psnr_db >= 40,
+      `${g5.psnr_db.toFixed(2)} dB, SSIM ${g5.ssim.toFixed(4)}; against the rgba16f page ${g5vsPage.psnr_db.toFixed(2)} dB, ` +
+      `the rgba16f reference ${g5vs16.psnr_db.toFixed(2)} dB (SSIM ${g5vs16.ssim.toFixed(4)}), ` +
+      `the rgba8 reference ${g5vs8.psnr_db.toFixed(2)} dB`);
+    await page.close();
+
+    // --- bc5 requested without EXT_texture_compression_rgtc (noRgtc=1): the rgba8 cache ------
+    if (gl === 'swiftshader') {
+      page = await openPage(browser, '&cacheFormat=bc5&noRgtc=1');
+      const cf = await stream(page, { maxFrames: reduced ? 400 : 800, every: 1000, snapshots: false });
+      const gf = compare(cf.final.image, refRgba8Path);
+      const sf = cf.final.stats;
+      const said = page.btflodConsole.filter((l) => l.includes('bc5 → rgba8'));
+      r.bc5_fallback = { frames: cf.frames, converged: cf.converged, cache_format: sf.cacheFormat, fallback: sf.cacheFormatFallback,
+        psnr_vs_rgba8_reference_db: gf.psnr_db, tile_upload_bytes_per_tile: perTile(sf) };
+      check(`${gl}: bc5 without EXT_texture_compression_rgtc falls back to the rgba8 cache and says so`,
+        sf.cacheFormat === 'rgba8' && sf.cacheFormatFallback.includes('EXT_texture_compression_rgtc') && said.length === 1 &&
+          sf.tileUploads > 0 && sf.slotMapUploads === sf.tileUploads && perTile(sf) === perTile(s16) / 2 &&
+          cf.converged && gf.psnr_db >= 40,
+        `${sf.cacheFormat} ("${sf.cacheFormatFallback}", console: ${said.length} line); ${perTile(sf)} bytes a tile; ` +
+        `vs the rgba8 reference ${gf.psnr_db.toFixed(2)} dB`);
+      await page.close();
+    }
 
     // The reduced run's second GL path (llvmpipe) repeats the golden checks only.
     const lite = reduced && gl !== 'swiftshader';

@@ -39,6 +39,7 @@
 #include "btflod/offline/packing/ring_search_block.hpp"
 #include "btflod/offline/render/cpu_reference.hpp"
 #include "btflod/runtime/codec/container.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 #include "btflod/runtime/vt/tile_cache.hpp"
 #include "client/web_material.hpp"
 #include "common/arguments.hpp"
@@ -195,14 +196,19 @@ int cmd_reference(Args& a) {
   if (!cache_r) return fail(cache_r.message());
   TileCache& cache = *cache_r;
   // --cache-format rgba8: the compact cache (each tile quantised to unorm8 with its slot's affine
-  // map from the decoded values, as the Streamer's decode jobs do); rgba16f otherwise.
+  // map from the decoded values, as the Streamer's decode jobs do); bc5: those unorm8 texels
+  // BC5-encoded as the decode jobs do and decoded by the reference decoder; rgba16f otherwise.
   const std::string format_name = a.get("cache-format", "rgba16f");
-  if (format_name != "rgba16f" && format_name != "rgba8") return fail("reference: --cache-format rgba16f or rgba8");
-  const CacheFormat format = format_name == "rgba8" ? CacheFormat::rgba8_affine : CacheFormat::rgba16f;
+  if (format_name != "rgba16f" && format_name != "rgba8" && format_name != "bc5")
+    return fail("reference: --cache-format rgba16f, rgba8 or bc5");
+  const CacheFormat format = format_name == "rgba8" ? CacheFormat::rgba8_affine
+                             : format_name == "bc5" ? CacheFormat::bc5_affine
+                                                    : CacheFormat::rgba16f;
   CpuCacheTexture texture(cache, format);
   // Every tile, coarse to fine, decoded against its parent (like the client) and inserted.
   std::vector<uint16_t> halves;
   std::vector<uint8_t> unorm8;
+  std::vector<uint8_t> bc5;
   for (size_t i = 0; i < mats.size(); ++i) {
     const BsvtfDirectory& dir = mats[i].dir;
     const TileLayout layout = dir.metadata.layout();
@@ -226,6 +232,11 @@ int cmd_reference(Args& a) {
       if (format == CacheFormat::rgba8_affine) {
         unorm8.resize(out.size());
         map = encode_cache_tile_unorm8(out, unorm8);
+      } else if (format == CacheFormat::bc5_affine) {
+        const uint32_t side = layout.stored_size();
+        unorm8.resize(out.size());
+        bc5.resize(cache_bc5_tile_bytes(side));
+        map = encode_cache_tile_bc5(out, side, unorm8, bc5);
       } else {
         float_to_half(out, halves);
       }
@@ -236,7 +247,7 @@ int cmd_reference(Args& a) {
         if (slot == kNoSlot) return fail("reference cache too small");
         if (cache.insert(g, slot, 0) != Status::success) return fail("insert failed");
       }
-      if (!texture.upload(cache, slot, halves, unorm8, map)) return fail("upload failed");
+      if (!texture.upload(cache, slot, halves, unorm8, map, bc5)) return fail("upload failed");
     }
   }
   Scene scene;

@@ -21,11 +21,13 @@ const BINDING = {
   btflod_eigen_abrdfs: 1, btflod_angular_index: 2, btflod_angular_weight: 3, btflod_eigen_textures: 4,
   btflod_tile_cache: 5, btflod_page_table: 6, btflod_slot_map: 7, btflod_pca_l: 13, btflod_pca_r: 14,
 };
-// Texel formats of the tile cache (bw_set_cache_format): rgba16f (8 bytes a texel) or rgba8, the
+// Texel formats of the tile cache (bw_set_cache_format): rgba16f (8 bytes a texel), rgba8, the
 // compact one (4 bytes a texel; each slot's affine map in the slot-map texture, one RGBA32UI
-// texel per slot: runtime/vt/cache_format.hpp).
-const CACHE_FORMAT = { rgba16f: 0, rgba8: 1 };
-const UPLOAD_STRIDE = 10;  // UploadInfo: kind, slot, material, packet, texels, unorm8, map[4]
+// texel per slot: runtime/vt/cache_format.hpp), or bc5 (2 bytes a texel: two RGTC2 planes at
+// array layers 0 and 1 with the same slot map: runtime/vt/cache_bc5.hpp).
+const CACHE_FORMAT = { rgba16f: 0, rgba8: 1, bc5: 2 };
+const CACHE_TEXEL_BYTES = { rgba16f: 8, rgba8: 4, bc5: 2 };
+const UPLOAD_STRIDE = 11;  // UploadInfo: kind, slot, material, packet, texels, unorm8, map[4], bc5
 const ORDER_BASE = 0x50000000;
 const IO_ERROR = 5;  // Status::io_error, for bw_complete_read
 // The ring search's uniform block (offline/packing/ring_search_block.hpp: RingSearchBlock) and the
@@ -127,17 +129,30 @@ export class BtflodClient {
     this.opt = Object.assign({
       slotsX: 24, slotsY: 24, uploadsPerFrame: 16, requestsInFlight: 48, fetchConcurrency: 6,
       angularResolution: 32, feedbackShift: 2, streamU: true, maxRetries: 4, readbackBuffers: 3,
-      readbackMaxFrames: 3, qualityEvery: 2, cacheFormat: 'rgba16f',
+      readbackMaxFrames: 3, qualityEvery: 2, cacheFormat: 'rgba16f', noRgtc: false,
     }, options);
-    // No bc5 cache here: WebGL 2 samples BC5 only through EXT_texture_compression_rgtc.
     if (!(this.opt.cacheFormat in CACHE_FORMAT))
-      throw new Error(`cacheFormat ${this.opt.cacheFormat}: rgba16f or rgba8 (no bc5 cache in the web client)`);
+      throw new Error(`cacheFormat ${this.opt.cacheFormat}: rgba16f, rgba8 or bc5`);
     this.gl = canvas.getContext('webgl2', { antialias: false, preserveDrawingBuffer: true, premultipliedAlpha: false });
     if (!this.gl) throw new Error('WebGL 2 is not available');
     if (!this.gl.getExtension('EXT_color_buffer_float')) throw new Error('EXT_color_buffer_float is not available');
     this.materials = [];
     this.stats = { requests: 0, bytes: 0, payloadBytes: 0, corrupt: 0, retries: 0, failures: 0, uploads: 0, frames: 0,
-      directoryBytes: 0, tileUploads: 0, slotMapUploads: 0, cacheBytes: 0 };
+      directoryBytes: 0, tileUploads: 0, slotMapUploads: 0, cacheBytes: 0, tileUploadBytes: 0,
+      cacheFormat: this.opt.cacheFormat, cacheFormatFallback: '' };
+    // WebGL 2 samples BC5 (RGTC2) only through EXT_texture_compression_rgtc; without it (or with
+    // noRgtc, which pretends it is missing) a bc5 request keeps the rgba8 cache, which has the same
+    // slot maps at twice the bytes, and says so.
+    if (this.opt.cacheFormat === 'bc5') {
+      this.rgtc = this.opt.noRgtc ? null : this.gl.getExtension('EXT_texture_compression_rgtc');
+      if (!this.rgtc) {
+        this.stats.cacheFormat = 'rgba8';
+        this.stats.cacheFormatFallback = `bc5 → rgba8: EXT_texture_compression_rgtc is ${
+          this.opt.noRgtc ? 'switched off (noRgtc)' : 'not offered'}`;
+        console.log(`btflod: cache format ${this.stats.cacheFormatFallback}`);
+      }
+    }
+    this.cacheFormat = this.stats.cacheFormat;  // the one in use
     this.timeline = [];     // { t, bytes, quality }
     this.queue = [];        // requests waiting for a fetch slot
     this.active = 0;
@@ -182,7 +197,7 @@ export class BtflodClient {
     }
     const o = this.opt;
     if (o.decodedTiles) M._bw_set_decoded_capacity(o.decodedTiles);  // decoded ancestors kept
-    if (M._bw_set_cache_format(CACHE_FORMAT[o.cacheFormat]) !== 0) throw new Error(this.error());
+    if (M._bw_set_cache_format(CACHE_FORMAT[this.cacheFormat]) !== 0) throw new Error(this.error());
     if (M._bw_start(o.slotsX, o.slotsY, 0, o.uploadsPerFrame, o.requestsInFlight, o.streamU ? 1 : 0) !== 0)
       throw new Error(this.error());
     this.initGpu();
@@ -351,12 +366,17 @@ export class BtflodClient {
     }
     M._free(ip);
     const S = this.stored;
-    this.compactCache = this.opt.cacheFormat === 'rgba8';
-    // GPU memory of the cache: its texels (4 or 8 bytes each) and, compact, the slot-map texels.
-    this.stats.cacheBytes = this.slots[0] * S * this.slots[1] * S * (this.compactCache ? 4 : 8) +
+    this.compactCache = this.cacheFormat !== 'rgba16f';  // rgba8 or bc5: a slot map per slot
+    this.bc5Cache = this.cacheFormat === 'bc5';
+    // GPU memory of the cache: its texels (8, 4 or 2 bytes each) and, compact, the slot-map texels.
+    this.stats.cacheBytes = this.slots[0] * S * this.slots[1] * S * CACHE_TEXEL_BYTES[this.cacheFormat] +
       (this.compactCache ? this.slots[0] * this.slots[1] * 16 : 0);
-    this.cacheTex = this.texArray(this.compactCache ? gl.RGBA8 : gl.RGBA16F, this.slots[0] * S, this.slots[1] * S, 1,
-      gl.LINEAR);
+    // bc5: plane p (components 2p, 2p + 1) at array layer p; every slot origin is a multiple of
+    // S = T + 2B, a multiple of the 4 × 4 block (checked here: compressed sub-images need it).
+    if (this.bc5Cache && S % 4 !== 0) throw new Error(`bc5 cache: stored tile side ${S} is not a multiple of 4`);
+    this.cacheTex = this.texArray(
+      this.bc5Cache ? this.rgtc.COMPRESSED_RED_GREEN_RGTC2_EXT : this.compactCache ? gl.RGBA8 : gl.RGBA16F,
+      this.slots[0] * S, this.slots[1] * S, this.bc5Cache ? 2 : 1, gl.LINEAR);
     if (this.compactCache) {  // one RGBA32UI texel per slot (cache_slot_map_texel: one layer)
       this.slotMapTex = gl.createTexture();
       gl.bindTexture(gl.TEXTURE_2D, this.slotMapTex);
@@ -536,14 +556,23 @@ export class BtflodClient {
         const sx = slot % this.slots[0], sy = Math.floor(slot / this.slots[0]);
         gl.bindTexture(gl.TEXTURE_2D_ARRAY, this.cacheTex);
         if (this.compactCache) {
-          const bytes = new Uint8Array(M.HEAPU8.buffer, ups[u + 5], S * S * 4);
-          gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, 0, S, S, 1, gl.RGBA, gl.UNSIGNED_BYTE, bytes);
+          if (this.bc5Cache) {  // two planes of S² bytes (16 bytes per 4 × 4 texels), layers 0 and 1
+            for (let plane = 0; plane < 2; ++plane)
+              gl.compressedTexSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, plane, S, S, 1,
+                this.rgtc.COMPRESSED_RED_GREEN_RGTC2_EXT, new Uint8Array(M.HEAPU8.buffer, ups[u + 10] + plane * S * S, S * S));
+            this.stats.tileUploadBytes += 2 * S * S;
+          } else {
+            const bytes = new Uint8Array(M.HEAPU8.buffer, ups[u + 5], S * S * 4);
+            gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, 0, S, S, 1, gl.RGBA, gl.UNSIGNED_BYTE, bytes);
+            this.stats.tileUploadBytes += 4 * S * S;
+          }
           gl.bindTexture(gl.TEXTURE_2D, this.slotMapTex);
           gl.texSubImage2D(gl.TEXTURE_2D, 0, sx, sy, 1, 1, gl.RGBA_INTEGER, gl.UNSIGNED_INT, ups.subarray(u + 6, u + 10));
           this.stats.slotMapUploads += 1;
         } else {
           const texels = new Uint16Array(M.HEAPU8.buffer, ups[u + 4], S * S * 4);
           gl.texSubImage3D(gl.TEXTURE_2D_ARRAY, 0, sx * S, sy * S, 0, S, S, 1, gl.RGBA, gl.HALF_FLOAT, texels);
+          this.stats.tileUploadBytes += 8 * S * S;
         }
       } else {
         const m = this.materials[material];

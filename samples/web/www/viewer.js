@@ -18,7 +18,7 @@ async function main() {
   const pcak = params.get('pcak');
   const client = pcak ? new PcakClient(canvas, module)
     : new BtflodClient(canvas, module, { streamU: params.get('streamU') !== '0', decodedTiles: Number(params.get('decodedTiles') || 0),
-      cacheFormat: params.get('cacheFormat') || 'rgba16f' });
+      cacheFormat: params.get('cacheFormat') || 'rgba16f', noRgtc: params.get('noRgtc') === '1' });
   // ?paused=1: no frame runs until a driver steps them (tests set the view first).
   window.btflod = { client, running: params.get('paused') !== '1', lastFrameMs: 0 };
   await client.open(pcak ? 'data/' + pcak : urls);

@@ -18,7 +18,7 @@
 // with the fmf material (a resident material: V′ from an ordinary texture) and checks it.
 //
 // usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N] [--check]
-//                        [--cache-format rgba16f|rgba8]
+//                        [--cache-format rgba16f|rgba8|bc5]
 // (one material per shape of the scene: the floor, the sphere, the wall)
 #include <array>
 #include <cmath>
@@ -122,15 +122,22 @@ int main(int argc, char** argv) {
   const uint32_t frames = args.integer_as<uint32_t>("frames", 48, 4, 100000);
   const bool check = args.flag("check");
   // --cache-format rgba8: the compact tile cache (RGBA8 texels, each slot's affine map in an
-  // RGBA32UI slot-map texture; its own bsvtf material).
-  const bool compact = args.choice("cache-format", {"rgba16f", "rgba8"}).value_or(0) == 1;
+  // RGBA32UI slot-map texture; its own bsvtf material). bc5 asks for the block-compressed cache
+  // (runtime/vt/cache_bc5.hpp), which Filament 1.9 cannot hold: its Texture::InternalFormat and
+  // CompressedPixelDataType list EAC/ETC2, DXT1–5 (S3TC) and ASTC but no RGTC (BC4/BC5), so a
+  // bc5 request keeps the rgba8 cache (the same slot maps at twice the bytes) and says so.
+  const size_t format_choice = args.choice("cache-format", {"rgba16f", "rgba8", "bc5"}).value_or(0);
+  const bool compact = format_choice != 0;
+  if (format_choice == 2)
+    std::printf(
+        "btflod-filament: cache format bc5 falls back to rgba8: Filament 1.9 has no RGTC (BC5) texture format\n");
   const bool parsed = args.finish(3);
   const std::vector<std::string>& paths = args.positional();
   if (!parsed || paths.size() != 3)
     return std::fprintf(
                stderr,
                "usage: btflod-filament FLOOR.bsvtf SPHERE.bsvtf WALL.bsvtf [--out DIR] [--frames N ≥ 4] [--check]\n"
-               "                       [--cache-format rgba16f|rgba8]\n"),
+               "                       [--cache-format rgba16f|rgba8|bc5]\n"),
            2;
 
   std::filesystem::create_directories(out_dir);

@@ -8,6 +8,8 @@
 // BM_*_ScenePasses time the demo's scene geometry with the colour and feedback passes apart.
 // BM_*_CacheFormatPairs interleave BSVTF frames from an rgba16f and an rgba8_affine cache holding
 // the same tiles and report the median per-pair frame-rate ratio (runtime/vt/cache_format.hpp).
+// BM_Gl_CacheFormatScene draws the demo scene from rgba16f, rgba8_affine and bc5_affine caches
+// holding the same tiles, interleaved in a rotating order, and reports the ratios to rgba16f.
 // btflod-link: btflod_gl_backend btflod_vk_backend
 #include <benchmark/benchmark.h>
 
@@ -21,6 +23,7 @@
 #include "../samples/scene/demo_scene.hpp"
 #include "../tests/test_shader_scene.hpp"
 #include "bench_gpu.hpp"
+#include "btflod/runtime/vt/cache_bc5.hpp"
 
 using namespace btflod;
 using namespace btflod::bench;
@@ -63,7 +66,8 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   // Levels 0..2 resident everywhere, the finest level (3) over the left half: 2 × 53 slots.
   static const Pyramid pyr = build_pyramid(m, 3);
   CacheFill fill = fill_cache(pyr, c.vt, kTextureSize, kTextureSize);
-  std::vector<std::vector<uint8_t>> unorm8;  // rgba8_affine: the same tiles encoded as the Streamer encodes them
+  // rgba8_affine, bc5_affine: the same tiles encoded as the Streamer encodes them.
+  std::vector<std::vector<uint8_t>> unorm8, bc5;
   if (format == CacheFormat::rgba8_affine) {
     unorm8.reserve(fill.uploads.size());
     std::vector<float> scratch;
@@ -72,6 +76,20 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
       std::vector<uint8_t>& q = unorm8.emplace_back(u.texels.size());
       u.map = encode_cache_tile_unorm8(u.texels, scratch, q);
       u.unorm8 = q;
+      u.texels = {};
+    }
+  } else if (format == CacheFormat::bc5_affine) {
+    bc5.reserve(fill.uploads.size());
+    std::vector<float> values;
+    std::vector<uint8_t> scratch;
+    const uint32_t side = c.vt.padded_tile_size();
+    for (TileUpload& u : fill.uploads) {
+      values.resize(u.texels.size());
+      scratch.resize(u.texels.size());
+      half_to_float(u.texels, values);
+      std::vector<uint8_t>& b = bc5.emplace_back(cache_bc5_tile_bytes(side));
+      u.map = encode_cache_tile_bc5(values, side, scratch, b);
+      u.bc5 = b;
       u.texels = {};
     }
   }
@@ -88,7 +106,7 @@ Scene make_scene(bool vulkan, CacheFormat format = CacheFormat::rgba16f) {
   s.fmf_bytes = 16.0 * kTextureSize * kTextureSize * c.component_groups() * 4.0 / 3.0;
   s.bsvtf_bytes = c.vt.texel_bytes() * c.vt.padded_tile_size() * c.vt.padded_tile_size() *
                       static_cast<double>(fill.uploads.size()) +
-                  (format == CacheFormat::rgba8_affine ? 32.0 * static_cast<double>(fill.uploads.size()) : 0.0) +
+                  (cache_format_has_slot_map(format) ? 32.0 * static_cast<double>(fill.uploads.size()) : 0.0) +
                   4.0 * 2 * (64 + 16 + 4 + 1);
   return s;
 }
@@ -178,6 +196,67 @@ void render_cache_format_pairs(benchmark::State& state, bool vulkan) {
   state.counters["cache_MiB_rgba8"] = b.bsvtf_bytes / (1024.0 * 1024.0);
 }
 
+// The demo scene (samples/scene/demo_scene.hpp: ground plane and four tori, every object with
+// the bench material) at the demo's 480 × 270 from its camera path at frame 120 of 200, drawn
+// with the BSVTF program from three GL backends whose caches hold the same tiles as rgba16f,
+// rgba8_affine and bc5_affine (encoded as the Streamer encodes them). Per iteration one frame of
+// each, in an order rotating by one per iteration (load from other processes hits all alike),
+// each timed from begin_frame to the colour read-back as the demo times them. Counters: each
+// format's median frame time and the medians of the per-iteration frame-rate ratios to rgba16f
+// (t_rgba16f / t_format; above 1: faster than rgba16f), and each cache's resident bytes.
+void render_cache_format_scene(benchmark::State& state) {
+  static Scene scenes[3];
+  constexpr CacheFormat kFormats[3] = {CacheFormat::rgba16f, CacheFormat::rgba8_affine, CacheFormat::bc5_affine};
+  std::string error;
+  for (int f = 0; f < 3; ++f) {
+    if (!scenes[f].backend && scenes[f].error.empty()) scenes[f] = make_scene(false, kFormats[f]);
+    error += scenes[f].error;
+  }
+  if (!scenes[0].backend || !scenes[1].backend || !scenes[2].backend) {
+    state.SkipWithError(("backend unavailable: " + error).c_str());
+    return;
+  }
+  const scene::View view = scene::camera_path(120, 200, 480, 270);
+  ShaderParams p = scene::view_params(view, glm::vec3(0.4f, 1.0f, 0.3f), glm::vec3(3.0f));
+  p.vt_extent = scenes[0].params.vt_extent;
+  FrameDesc desc;
+  desc.width = view.width;
+  desc.height = view.height;
+  Image<float> color(static_cast<int>(view.width), static_cast<int>(view.height), 4);
+  const auto one = [&](int f) {
+    Scene& s = scenes[f];
+    const auto t0 = std::chrono::steady_clock::now();
+    s.backend->begin_frame(desc);
+    for (MeshHandle m : s.scene_meshes) s.backend->draw(ShaderProgram::bsvtf, m, s.bsvtf, p);
+    s.backend->end_frame();
+    s.backend->read_color(color.view());
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  };
+  for (int warm = 0; warm < 2; ++warm)
+    for (int f = 0; f < 3; ++f) one(f);
+  std::vector<double> t[3], r8, r5;
+  int rot = 0;
+  for (auto _ : state) {
+    double ms[3];
+    for (int k = 0; k < 3; ++k) {
+      const int f = (k + rot) % 3;
+      ms[f] = one(f);
+    }
+    ++rot;
+    for (int f = 0; f < 3; ++f) t[f].push_back(ms[f]);
+    r8.push_back(ms[0] / ms[1]);
+    r5.push_back(ms[0] / ms[2]);
+  }
+  state.counters["ms_rgba16f"] = median_of(t[0]);
+  state.counters["ms_rgba8"] = median_of(t[1]);
+  state.counters["ms_bc5"] = median_of(t[2]);
+  state.counters["rgba8_fps_over_rgba16f"] = median_of(r8);
+  state.counters["bc5_fps_over_rgba16f"] = median_of(r5);
+  state.counters["cache_MiB_rgba16f"] = scenes[0].bsvtf_bytes / (1024.0 * 1024.0);
+  state.counters["cache_MiB_rgba8"] = scenes[1].bsvtf_bytes / (1024.0 * 1024.0);
+  state.counters["cache_MiB_bc5"] = scenes[2].bsvtf_bytes / (1024.0 * 1024.0);
+}
+
 void render_scene_passes(benchmark::State& state, bool vulkan) {
   static Scene scenes[2];
   Scene* const found = scene_or_skip(state, scenes, vulkan, [](bool v) { return make_scene(v); });
@@ -257,6 +336,7 @@ void BM_Vk_Pairs(benchmark::State& st) { render_pairs(st, true); }
 void BM_Gl_ScenePasses(benchmark::State& st) { render_scene_passes(st, false); }
 void BM_Gl_CacheFormatPairs(benchmark::State& st) { render_cache_format_pairs(st, false); }
 void BM_Vk_CacheFormatPairs(benchmark::State& st) { render_cache_format_pairs(st, true); }
+void BM_Gl_CacheFormatScene(benchmark::State& st) { render_cache_format_scene(st); }
 void BM_Vk_ScenePasses(benchmark::State& st) { render_scene_passes(st, true); }
 
 }  // namespace
@@ -275,5 +355,6 @@ BENCHMARK(BM_Vk_Pairs)->Apply(pair_sizes)->Unit(benchmark::kMillisecond)->UseRea
 BENCHMARK(BM_Gl_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_Gl_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_Vk_CacheFormatPairs)->Arg(362)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
+BENCHMARK(BM_Gl_CacheFormatScene)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(15.0);
 BENCHMARK(BM_Vk_ScenePasses)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK_MAIN();

@@ -32,11 +32,12 @@ namespace detail {
 /// status_name()'s table: one name per Status, in value order.
 inline constexpr const char* kStatusNames[] = {"success",          "bad_data", "short_output", "insufficient_space",
                                                "invalid_argument", "io_error", "unsupported",  "cancelled"};
-static_assert(sizeof kStatusNames / sizeof kStatusNames[0] == static_cast<size_t>(Status::cancelled) + 1);
 }  // namespace detail
 
 /// Returns a stable lower-case name for a status, e.g. "bad_data". Never returns null.
-constexpr const char* status_name(Status s) noexcept { return enum_value_name(s, detail::kStatusNames); }
+constexpr const char* status_name(Status s) noexcept {
+  return enum_value_name<Status::cancelled>(s, detail::kStatusNames);
+}
 
 /// A failed operation: a status plus a message meant for a person.
 struct Error {

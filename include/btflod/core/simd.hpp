@@ -51,11 +51,12 @@ inline constexpr int kSimdIsaCount = 3;
 namespace detail {
 /// simd_isa_name()'s table: one name per SimdIsa, in value order.
 inline constexpr const char* kSimdIsaNames[] = {"scalar", "avx2", "avx512"};
-static_assert(sizeof kSimdIsaNames / sizeof kSimdIsaNames[0] == kSimdIsaCount);
 }  // namespace detail
 
 /// Lower-case name of an ISA ("scalar", "avx2", "avx512"). Thread-safe.
-constexpr const char* simd_isa_name(SimdIsa isa) noexcept { return enum_value_name(isa, detail::kSimdIsaNames); }
+constexpr const char* simd_isa_name(SimdIsa isa) noexcept {
+  return enum_value_name<SimdIsa::avx512>(isa, detail::kSimdIsaNames);
+}
 
 /// The kernels of one ISA build. Every entry is non-null and thread-safe, allocates nothing and
 /// never throws; each build returns the scalar twin's bits (see the file comment).

@@ -128,13 +128,11 @@ struct ValueTransform {
 namespace detail {
 /// value_encoding_name()'s table: one name per ValueEncoding, in value order.
 inline constexpr const char* kValueEncodingNames[] = {"linear", "sqrt", "log", "log_ycbcr"};
-static_assert(sizeof kValueEncodingNames / sizeof kValueEncodingNames[0] ==
-              static_cast<size_t>(ValueEncoding::log_ycbcr) + 1);
 }  // namespace detail
 
 /// "linear", "sqrt", "log", "log_ycbcr" (or "unknown").
 constexpr const char* value_encoding_name(ValueEncoding e) noexcept {
-  return enum_value_name(e, detail::kValueEncodingNames);
+  return enum_value_name<ValueEncoding::log_ycbcr>(e, detail::kValueEncodingNames);
 }
 
 /// Parses a name of value_encoding_name(). Returns false (and leaves `out`) for anything else.

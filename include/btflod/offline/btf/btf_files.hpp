@@ -31,8 +31,7 @@ enum class BtfFileKind { missing, unknown, mbsdf, bonn, image_folder };
 inline const char* btf_file_kind_name(BtfFileKind k) noexcept {
   static constexpr const char* kNames[] = {"missing", "unknown", "NVIDIA ARC MBSDF measured BRDF", "Bonn binary BTF",
                                            "UBO2003-style image folder"};
-  static_assert(sizeof kNames / sizeof kNames[0] == static_cast<size_t>(BtfFileKind::image_folder) + 1);
-  return enum_value_name(k, kNames);
+  return enum_value_name<BtfFileKind::image_folder>(k, kNames);
 }
 
 /// What a path holds, judged by its first bytes (files) or by being a directory.

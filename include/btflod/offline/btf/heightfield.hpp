@@ -95,13 +95,11 @@ enum class SynthMaterial : unsigned char { cloth, stone, leather, tiles };
 namespace detail {
 /// material_name()'s table: one name per SynthMaterial, in value order.
 inline constexpr const char* kSynthMaterialNames[] = {"cloth", "stone", "leather", "tiles"};
-static_assert(sizeof kSynthMaterialNames / sizeof kSynthMaterialNames[0] ==
-              static_cast<size_t>(SynthMaterial::tiles) + 1);
 }  // namespace detail
 
 /// Lower-case name of a material ("cloth", "stone", "leather", "tiles").
 constexpr const char* material_name(SynthMaterial m) noexcept {
-  return enum_value_name(m, detail::kSynthMaterialNames);
+  return enum_value_name<SynthMaterial::tiles>(m, detail::kSynthMaterialNames);
 }
 
 /// Parses a material name (as material_name() spells it); nullopt when unknown.

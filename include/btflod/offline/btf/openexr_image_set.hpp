@@ -41,6 +41,7 @@
 #include <ImfOutputFile.h>
 #include <ImfVersion.h>
 
+#include "btflod/core/enum_names.hpp"
 #include "btflod/core/file_io.hpp"
 #include "btflod/core/half.hpp"
 #include "btflod/core/image.hpp"
@@ -150,16 +151,8 @@ inline const char* exr_scan_attributes(std::span<const uint8_t> bytes, bool& tru
 }
 
 inline const char* exr_pixel_type_name(Imf::PixelType t) {
-  switch (t) {
-    case Imf::HALF:
-      return "HALF";
-    case Imf::FLOAT:
-      return "FLOAT";
-    case Imf::UINT:
-      return "UINT";
-    default:
-      return "unknown";
-  }
+  static constexpr const char* kNames[] = {"UINT", "HALF", "FLOAT"};  // Imf::PixelType order
+  return enum_value_name<Imf::FLOAT>(t, kNames);
 }
 
 /// Runs `body` (a callable returning a Result) and turns an exception OpenEXR throws while

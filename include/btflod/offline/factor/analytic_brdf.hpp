@@ -59,8 +59,7 @@ struct AnalyticParamInfo {
 inline const char* analytic_model_name(AnalyticModel m) noexcept {
   static constexpr const char* kNames[] = {"lambert",       "oren-nayar", "blinn-phong",      "ward",
                                            "cook-torrance", "lafortune",  "ashikhmin-shirley"};
-  static_assert(sizeof kNames / sizeof kNames[0] == kAnalyticModelCount);
-  return enum_value_name(m, kNames);
+  return enum_value_name<AnalyticModel::ashikhmin_shirley>(m, kNames);
 }
 
 /// The parameter table of a model (empty span for Lambert and unknown ids).

@@ -16,7 +16,7 @@
 
 #include "btflod/offline/angular/delaunay.hpp"
 #include "btflod/offline/angular/ring_search.hpp"
-#include "btflod/offline/angular/triangle_locator.hpp"
+#include "btflod/runtime/angular/triangle_locator.hpp"
 
 using namespace btflod;
 

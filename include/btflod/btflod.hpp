@@ -39,6 +39,7 @@
 #include "btflod/core/simd.hpp"
 #include "btflod/core/thread_pool.hpp"
 #include "btflod/core/unique_handle.hpp"
+#include "btflod/core/vec.hpp"
 #include "btflod/offline/math/math.hpp"
 
 // runtime
@@ -46,6 +47,14 @@
 #include "btflod/runtime/streamer.hpp"
 
 // runtime/angular
+#include "btflod/runtime/angular/angular_sample.hpp"
+#include "btflod/runtime/angular/bsvtf_angular_tables.hpp"
+#include "btflod/runtime/angular/delaunay.hpp"
+#include "btflod/runtime/angular/hemisphere_maps.hpp"
+#include "btflod/runtime/angular/lookup_table.hpp"
+#include "btflod/runtime/angular/triangle_locator.hpp"
+
+// offline/angular
 #include "btflod/offline/angular/angular_sample.hpp"
 #include "btflod/offline/angular/delaunay.hpp"
 #include "btflod/offline/angular/directions.hpp"
@@ -55,7 +64,6 @@
 #include "btflod/offline/angular/regular_grid.hpp"
 #include "btflod/offline/angular/ring_search.hpp"
 #include "btflod/offline/angular/table_lookup.hpp"
-#include "btflod/offline/angular/triangle_locator.hpp"
 
 // runtime/backend
 #include "btflod/runtime/backend/backend.hpp"

@@ -34,8 +34,8 @@
 
 #include "btflod/core/file_io.hpp"
 #include "btflod/offline/btf/image_io.hpp"
-#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
 #include "btflod/offline/render/primitives.hpp"
+#include "btflod/runtime/angular/bsvtf_angular_tables.hpp"
 #include "btflod/runtime/backend/streamer_outputs.hpp"
 #include "btflod/runtime/shader/filament_material.hpp"
 #include "btflod/runtime/stream/file_source.hpp"

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "btflod/core/image.hpp"
-#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
 #include "btflod/offline/render/cpu_reference.hpp"
+#include "btflod/runtime/angular/bsvtf_angular_tables.hpp"
 #include "btflod/runtime/backend/streamer_outputs.hpp"
 #include "btflod/runtime/streamer.hpp"
 

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "btflod/core/result.hpp"
-#include "btflod/offline/packing/bsvtf_angular_tables.hpp"
+#include "btflod/runtime/angular/bsvtf_angular_tables.hpp"
 #include "btflod/runtime/codec/container.hpp"
 
 namespace btflod::web {

@@ -19,21 +19,21 @@
 
 #include "btflod/core/image.hpp"
 #include "btflod/core/result.hpp"
+#include "btflod/core/vec.hpp"
 #include "btflod/offline/angular/angular_sample.hpp"
-#include "btflod/offline/angular/delaunay.hpp"
 #include "btflod/offline/angular/directions.hpp"
 #include "btflod/offline/angular/parameterization.hpp"
-#include "btflod/offline/angular/triangle_locator.hpp"
+#include "btflod/runtime/angular/delaunay.hpp"
+#include "btflod/runtime/angular/hemisphere_maps.hpp"
+#include "btflod/runtime/angular/lookup_table.hpp"
+#include "btflod/runtime/angular/triangle_locator.hpp"
 
 namespace btflod {
 
 /// The direction in double precision: from (θ, φ) in double when they describe d.vector (sets
 /// built from angles), else d.vector promoted. noexcept, thread-safe.
 inline glm::dvec3 direction_precise(const Direction& d) noexcept {
-  const double t = d.theta, p = d.phi, s = std::sin(t);
-  const glm::dvec3 v(s * std::cos(p), s * std::sin(p), std::cos(t));
-  const glm::dvec3 f(d.vector);
-  return glm::length(v - f) <= 1e-5 * std::max(1.0, glm::length(f)) ? v : f;
+  return direction_precise(d.theta, d.phi, Vector3f(d.vector));
 }
 
 /// Delaunay triangulation of a direction set in the [0, 1]² square of parameterisation P.
@@ -44,20 +44,20 @@ inline glm::dvec3 direction_precise(const Direction& d) noexcept {
 /// non-collinear directions or non-finite vectors. Allocates; thread-safe.
 template <HemisphereParameterization P>
 Result<Triangulation> triangulate_directions(const DirectionSet& set) {
-  std::vector<glm::dvec2> pts;
+  std::vector<Vector2d> pts;
   pts.reserve(set.size());
   for (const Direction& d : set) pts.emplace_back(to_square_precise<P>(direction_precise(d)));
-  return delaunay_triangulate(std::span<const glm::dvec2>(pts));
+  return delaunay_triangulate(std::span<const Vector2d>(pts));
 }
 
 /// Same, from direction vectors given in double precision (e.g. computed by the caller from
 /// exact angles). Errors as delaunay_triangulate. Allocates; thread-safe.
 template <HemisphereParameterization P>
 Result<Triangulation> triangulate_directions(std::span<const glm::dvec3> directions) {
-  std::vector<glm::dvec2> pts;
+  std::vector<Vector2d> pts;
   pts.reserve(directions.size());
   for (const glm::dvec3& d : directions) pts.emplace_back(to_square_precise<P>(d));
-  return delaunay_triangulate(std::span<const glm::dvec2>(pts));
+  return delaunay_triangulate(std::span<const Vector2d>(pts));
 }
 
 /// Exact barycentric interpolation over the Delaunay triangulation in P's plane, located with
@@ -92,32 +92,8 @@ class ExactGridInterpolator {
   TriangleGridLocator locator_;
 };
 
-namespace detail {
-/// The table resolutions the lookup interpolators accept: 1 … 8192. Returns invalid_argument
-/// "<table>: resolution R outside [1, 8192]" otherwise.
-inline VoidResult check_lookup_resolution(const char* table, int resolution) {
-  if (resolution < 1 || resolution > 8192)
-    return make_error(Status::invalid_argument, "%s: resolution %d outside [1, 8192]", table, resolution);
-  return {};
-}
-/// Calls f(x, y, st) for every texel of a resolution × resolution table over the unit square,
-/// row by row: st = ((x + 0.5) / R, (y + 0.5) / R) is the texel centre.
-template <class F>
-void for_each_texel_centre(int resolution, F&& f) {
-  for (int y = 0; y < resolution; ++y)
-    for (int x = 0; x < resolution; ++x)
-      f(x, y,
-        glm::vec2((static_cast<float>(x) + 0.5f) / static_cast<float>(resolution),
-                  (static_cast<float>(y) + 0.5f) / static_cast<float>(resolution)));
-}
-}  // namespace detail
-
-/// The triangulation rasterised into two resolution × resolution tables (paper 000 §4): an
-/// index image (3 × uint32 per texel: the enclosing triangle's direction indices) and a weight
-/// image (3 × float: the barycentric weights at the texel centre). Texel (x, y) covers
-/// st ∈ [x/R, (x+1)/R) × [y/R, (y+1)/R); image row y is t, so a shader uploading row 0 first
-/// samples it at t = (y + 0.5)/R with nearest filtering. Texels outside the hull hold the
-/// nearest hull point's weights.
+/// The triangulation rasterised into two resolution × resolution tables (paper 000 §4; layout in
+/// runtime/angular/lookup_table.hpp, rasterise_angular_lookup).
 template <HemisphereParameterization P>
 class LookupTableInterpolator {
  public:
@@ -127,18 +103,13 @@ class LookupTableInterpolator {
     if (auto ok = detail::check_lookup_resolution("lookup table", resolution); !ok) return ok.error();
     auto exact = ExactGridInterpolator<P>::build(set);
     if (!exact) return exact.error();
+    auto images = rasterise_angular_lookup(exact->locator(), resolution);
+    if (!images) return images.error();
     LookupTableInterpolator out;
     out.count_ = exact->direction_count();
     out.resolution_ = resolution;
-    out.indices_ = Image<uint32_t>(resolution, resolution, 3);
-    out.weights_ = Image<float>(resolution, resolution, 3);
-    detail::for_each_texel_centre(resolution, [&](int x, int y, glm::vec2 st) {
-      const AngularSample s = exact->query_square(st);
-      for (int c = 0; c < 3; ++c) {
-        out.indices_.at(x, y, c) = s.index[c];
-        out.weights_.at(x, y, c) = s.weight[c];
-      }
-    });
+    out.indices_ = std::move(images->indices);
+    out.weights_ = std::move(images->weights);
     return out;
   }
 

@@ -5,7 +5,9 @@
 // Every map is a struct with two static noexcept functions (the HemisphereParameterization
 // concept): to_square(direction) and from_square(st). The formulas use only +, −, ×, ÷,
 // sqrt, abs, atan2, cos and sin and are written line by line so that the shader generator can
-// emit the same arithmetic in GLSL (see docs/angular.md, "GLSL mirror").
+// emit the same arithmetic in GLSL (see docs/angular.md, "GLSL mirror"). The double-precision
+// forms (to_square_precise) are runtime/angular/hemisphere_maps.hpp's, which builds a streamed
+// material's angular tables without GLM.
 #pragma once
 
 #include <algorithm>
@@ -14,7 +16,9 @@
 
 #include <glm/glm.hpp>
 
+#include "btflod/core/vec.hpp"
 #include "btflod/offline/math/math.hpp"
+#include "btflod/runtime/angular/hemisphere_maps.hpp"
 
 namespace btflod {
 
@@ -33,36 +37,14 @@ concept HemisphereParameterization = requires(glm::vec3 d, glm::vec2 st) {
   { P::kName } -> std::convertible_to<const char*>;
 };
 
-namespace detail {
-/// clamp_to_hemisphere in the precision T of the vector (every step rounds to T).
-template <class T>
-glm::vec<3, T> clamp_to_hemisphere_in(glm::vec<3, T> d) noexcept {
-  const T len = std::sqrt(d.x * d.x + d.y * d.y + d.z * d.z);
-  if (!(len > T(0)) || !std::isfinite(len)) return {T(0), T(0), T(1)};
-  d /= len;
-  if (d.z >= T(0)) return d;
-  const T lxy = std::sqrt(d.x * d.x + d.y * d.y);
-  if (!(lxy > T(0))) return {T(0), T(0), T(1)};
-  return {d.x / lxy, d.y / lxy, T(0)};
-}
-}  // namespace detail
-
 /// Normalises d and moves it onto the closed upper hemisphere: z < 0 is set to 0 (the
 /// direction is projected onto the horizon along z). Returns (0, 0, 1) for zero, NaN or
 /// straight-down inputs. Safe for any input; noexcept.
-inline glm::vec3 clamp_to_hemisphere(glm::vec3 d) noexcept { return detail::clamp_to_hemisphere_in(d); }
+inline glm::vec3 clamp_to_hemisphere(glm::vec3 d) noexcept { return detail::clamp_to_hemisphere_in(Vector3f(d)); }
 
 namespace detail {
-inline glm::vec2 clamp_unit_square(glm::vec2 st) noexcept {
-  // NaN compares false: map it to the centre so no caller indexes with garbage.
-  if (!(st.x == st.x) || !(st.y == st.y)) return {0.5f, 0.5f};
-  return {glm::clamp(st.x, 0.0f, 1.0f), glm::clamp(st.y, 0.0f, 1.0f)};
-}
 /// Double-precision clamp_to_hemisphere (same rules).
-inline glm::dvec3 clamp_to_hemisphere_precise(glm::dvec3 d) noexcept { return clamp_to_hemisphere_in(d); }
-inline glm::dvec2 clamp_unit_square_precise(glm::dvec2 st) noexcept {
-  return {std::clamp(st.x, 0.0, 1.0), std::clamp(st.y, 0.0, 1.0)};
-}
+inline glm::dvec3 clamp_to_hemisphere_precise(glm::dvec3 d) noexcept { return clamp_to_hemisphere_in(Vector3d(d)); }
 /// Pulls a disk point with |p| > 1 back onto the unit circle.
 inline glm::vec2 clamp_unit_disk(glm::vec2 p) noexcept {
   const float r2 = p.x * p.x + p.y * p.y;
@@ -85,11 +67,7 @@ struct ParabolicMap {
   }
 
   /// to_square() in double precision (the triangulation's inputs). noexcept, thread-safe.
-  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
-    d = detail::clamp_to_hemisphere_precise(d);
-    const double inv = 1.0 / (1.0 + d.z);
-    return {0.5 * (d.x * inv + 1.0), 0.5 * (d.y * inv + 1.0)};
-  }
+  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept { return parabolic_to_square_precise(d); }
 
   /// [0, 1]² → unit direction with z ≥ 0 (corners outside the disk map onto the horizon).
   static glm::vec3 from_square(glm::vec2 st) noexcept {
@@ -123,21 +101,9 @@ struct ElevatedConcentricMap {
     return {(phi - 6.0f * kQuarter) * k, -r};                             // region 4: b = −ρ
   }
 
-  /// disk_to_centered_square() in double precision. Points of one ring (equal ρ) that lie on
-  /// one side of the square land on exactly the same line in double (in float, rounding of ρ
-  /// moves them apart by ~1e-7, enough to make sliver triangles of area ~1e-9).
+  /// disk_to_centered_square() in double precision (concentric_disk_to_centered_square_precise).
   static glm::dvec2 disk_to_centered_square_precise(glm::dvec2 p) noexcept {
-    const double r = std::sqrt(p.x * p.x + p.y * p.y);
-    if (!(r > 0.0)) return {0.0, 0.0};
-    constexpr double kPiD = 3.14159265358979323846;
-    constexpr double kQuarter = 0.25 * kPiD;
-    double phi = std::atan2(p.y, p.x);
-    if (phi < -kQuarter) phi += 2.0 * kPiD;
-    const double k = r / kQuarter;
-    if (phi < kQuarter) return {r, phi * k};
-    if (phi < 3.0 * kQuarter) return {(2.0 * kQuarter - phi) * k, r};
-    if (phi < 5.0 * kQuarter) return {-r, (4.0 * kQuarter - phi) * k};
-    return {(phi - 6.0 * kQuarter) * k, -r};
+    return concentric_disk_to_centered_square_precise(p);
   }
 
   /// [−1, 1]² → unit disk (Shirley–Chiu map, paper 002 §6.1 "first region" and its analogues).
@@ -167,12 +133,7 @@ struct ElevatedConcentricMap {
   }
 
   /// to_square() in double precision (the triangulation's inputs). noexcept, thread-safe.
-  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept {
-    d = detail::clamp_to_hemisphere_precise(d);
-    const double inv = 1.0 / std::sqrt(1.0 + d.z);
-    const glm::dvec2 ab = disk_to_centered_square_precise({d.x * inv, d.y * inv});
-    return detail::clamp_unit_square_precise({0.5 * (ab.x + 1.0), 0.5 * (ab.y + 1.0)});
-  }
+  static glm::dvec2 to_square_precise(glm::dvec3 d) noexcept { return elevated_concentric_to_square_precise(d); }
 
   /// [0, 1]² → unit direction with z ≥ 0. The whole square maps onto the hemisphere.
   static glm::vec3 from_square(glm::vec2 st) noexcept {

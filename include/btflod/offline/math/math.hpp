@@ -8,6 +8,8 @@
 
 #include <glm/glm.hpp>
 
+#include "btflod/core/vec.hpp"
+
 namespace btflod {
 
 inline constexpr float kPi = std::numbers::pi_v<float>;
@@ -27,8 +29,7 @@ constexpr float radians_to_degrees(float rad) noexcept { return rad * (180.0f / 
 
 /// Unit vector for polar angle theta (from +z) and azimuth phi, both in radians.
 inline glm::vec3 direction_from_spherical(float theta, float phi) noexcept {
-  const float s = std::sin(theta);
-  return {s * std::cos(phi), s * std::sin(phi), std::cos(theta)};
+  return unit_vector_from_spherical(theta, phi);
 }
 
 /// (theta, phi) in radians of a direction; phi in (−π, π]. The input need not be normalised;

@@ -6,6 +6,9 @@
 // to the NEAREST POINT OF THE HULL in the parameter plane: the result interpolates linearly
 // along the closest hull edge (two non-zero weights) or returns a single hull vertex; samples
 // are in the canonical form of angular_sample.hpp (each direction named once).
+//
+// Runtime set-up code on core vectors (no GLM): building a locator allocates; locate() is
+// noexcept and allocation-free.
 #pragma once
 
 #include <algorithm>
@@ -15,11 +18,10 @@
 #include <limits>
 #include <vector>
 
-#include <glm/glm.hpp>
-
-#include "btflod/offline/angular/angular_sample.hpp"
-#include "btflod/offline/angular/delaunay.hpp"
-#include "btflod/offline/angular/parameterization.hpp"
+#include "btflod/core/vec.hpp"
+#include "btflod/runtime/angular/angular_sample.hpp"
+#include "btflod/runtime/angular/delaunay.hpp"
+#include "btflod/runtime/angular/hemisphere_maps.hpp"
 
 namespace btflod {
 
@@ -27,7 +29,7 @@ namespace btflod {
 /// (paper 003 eq. 8; 9 floats/ids per triangle instead of the paper's 16 because our plane is 2D).
 struct LocatorTriangle {
   std::array<float, 4> inverse{};  ///< row-major 2×2 inverse of T = [v1 − v3, v2 − v3]
-  glm::vec2 v3{0.0f};
+  Vector2f v3{};
   std::array<uint32_t, 3> index{};  ///< direction indices of v1, v2, v3
 };
 
@@ -50,19 +52,19 @@ class TriangleGridLocator {
                                 : std::max(4, static_cast<int>(std::ceil(std::sqrt(static_cast<double>(nt)))));
     triangles_.reserve(nt);
     for (const auto& v : tri.triangles) {
-      const glm::dvec2 p1 = tri.points[v[0]], p2 = tri.points[v[1]], p3 = tri.points[v[2]];
-      const glm::dvec2 c1 = p1 - p3, c2 = p2 - p3;
+      const Vector2d p1 = tri.points[v[0]], p2 = tri.points[v[1]], p3 = tri.points[v[2]];
+      const Vector2d c1 = p1 - p3, c2 = p2 - p3;
       const double det = c1.x * c2.y - c2.x * c1.y;  // > 0: CCW, never 0 (no degenerate triangles)
       LocatorTriangle t;
       t.inverse = {static_cast<float>(c2.y / det), static_cast<float>(-c2.x / det), static_cast<float>(-c1.y / det),
                    static_cast<float>(c1.x / det)};
-      t.v3 = glm::vec2(p3);
+      t.v3 = Vector2f(p3);
       t.index = v;
       triangles_.push_back(t);
     }
     for (size_t k = 0; k < tri.hull.size(); ++k) {
       const uint32_t a = tri.hull[k], b = tri.hull[(k + 1) % tri.hull.size()];
-      hull_.push_back({glm::vec2(tri.points[a]), glm::vec2(tri.points[b]), a, b});
+      hull_.push_back({Vector2f(tri.points[a]), Vector2f(tri.points[b]), a, b});
     }
     const size_t cells = static_cast<size_t>(grid_) * static_cast<size_t>(grid_);
     std::vector<std::vector<uint32_t>> tri_lists(cells), hull_lists(cells);
@@ -70,10 +72,11 @@ class TriangleGridLocator {
     constexpr double kEps = 1e-6;
     for (uint32_t t = 0; t < nt; ++t) {
       const auto& v = tri.triangles[t];
-      glm::dvec2 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+      constexpr double kBig = std::numeric_limits<double>::max();
+      Vector2d lo(kBig, kBig), hi(-kBig, -kBig);
       for (uint32_t i : v) {
-        lo = glm::min(lo, tri.points[i]);
-        hi = glm::max(hi, tri.points[i]);
+        lo = min(lo, tri.points[i]);
+        hi = max(hi, tri.points[i]);
       }
       const int x0 = cell_of(lo.x - kEps), x1 = cell_of(hi.x + kEps);
       const int y0 = cell_of(lo.y - kEps), y1 = cell_of(hi.y + kEps);
@@ -86,13 +89,13 @@ class TriangleGridLocator {
     const double half_diag = 0.5 * std::sqrt(2.0) * cell;
     for (int y = 0; y < grid_; ++y)
       for (int x = 0; x < grid_; ++x) {
-        const glm::dvec2 c0(x * cell, y * cell);
-        const glm::dvec2 centre = c0 + 0.5 * cell;
+        const Vector2d c0(x * cell, y * cell);
+        const Vector2d centre = c0 + 0.5 * cell;
         double bound = std::numeric_limits<double>::max();
         for (const auto& e : hull_) {
           double worst = 0.0;
           for (int k = 0; k < 4; ++k) {
-            const glm::dvec2 corner = c0 + glm::dvec2((k & 1) * cell, (k >> 1) * cell);
+            const Vector2d corner = c0 + Vector2d((k & 1) * cell, (k >> 1) * cell);
             worst = std::max(worst, segment_distance(corner, e));
           }
           bound = std::min(bound, worst);
@@ -109,17 +112,17 @@ class TriangleGridLocator {
   /// Inside the hull: the barycentric coordinates of the containing triangle (paper 003 eq. 8).
   /// Outside: linear interpolation at the nearest hull point. Returns a default sample when
   /// the locator is empty. noexcept, allocation-free, thread-safe.
-  AngularSample locate(glm::vec2 st) const noexcept {
+  AngularSample locate(Vector2f st) const noexcept {
     AngularSample out;
     if (triangles_.empty()) return out;
     st = detail::clamp_unit_square(st);
     const size_t cell = static_cast<size_t>(cell_of(st.y)) * grid_ + static_cast<size_t>(cell_of(st.x));
     float best_min = -std::numeric_limits<float>::max();
-    glm::vec3 best_l(1.0f, 0.0f, 0.0f);
+    Vector3f best_l(1.0f, 0.0f, 0.0f);
     const LocatorTriangle* best = nullptr;
     for (uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
       const LocatorTriangle& t = triangles_[cell_items_[k]];
-      const glm::vec2 d = st - t.v3;  // paper 003 eq. 8: λ = T⁻¹ (r − v3)
+      const Vector2f d = st - t.v3;  // paper 003 eq. 8: λ = T⁻¹ (r − v3)
       const float l1 = t.inverse[0] * d.x + t.inverse[1] * d.y;
       const float l2 = t.inverse[2] * d.x + t.inverse[3] * d.y;
       const float l3 = 1.0f - l1 - l2;
@@ -132,7 +135,7 @@ class TriangleGridLocator {
       }
     }
     if (best != nullptr && best_min >= -kInsideTolerance) {
-      glm::vec3 l = glm::max(best_l, glm::vec3(0.0f));
+      Vector3f l = max(best_l, Vector3f(0.0f, 0.0f, 0.0f));
       const float s = l.x + l.y + l.z;
       l /= s;
       out.index = best->index;
@@ -143,11 +146,11 @@ class TriangleGridLocator {
     float best_d = std::numeric_limits<float>::max();
     for (uint32_t k = hull_start_[cell]; k < hull_start_[cell + 1]; ++k) {
       const HullEdge& e = hull_[hull_items_[k]];
-      const glm::vec2 ab = e.b - e.a;
-      const float len2 = glm::dot(ab, ab);
-      const float u = len2 > 0.0f ? glm::clamp(glm::dot(st - e.a, ab) / len2, 0.0f, 1.0f) : 0.0f;
-      const glm::vec2 q = e.a + u * ab - st;
-      const float d2 = glm::dot(q, q);
+      const Vector2f ab = e.b - e.a;
+      const float len2 = dot(ab, ab);
+      const float u = len2 > 0.0f ? std::min(std::max(dot(st - e.a, ab) / len2, 0.0f), 1.0f) : 0.0f;
+      const Vector2f q = e.a + u * ab - st;
+      const float d2 = dot(q, q);
       if (d2 < best_d) {
         best_d = d2;
         out.index = {e.ia, e.ib, e.ia};
@@ -169,7 +172,7 @@ class TriangleGridLocator {
 
  private:
   struct HullEdge {
-    glm::vec2 a, b;
+    Vector2f a, b;
     uint32_t ia, ib;
   };
 
@@ -178,11 +181,11 @@ class TriangleGridLocator {
     return std::clamp(c, 0, grid_ - 1);
   }
 
-  static double segment_distance(glm::dvec2 p, const HullEdge& e) {
-    const glm::dvec2 a(e.a), b(e.b), ab = b - a;
-    const double len2 = glm::dot(ab, ab);
-    const double u = len2 > 0.0 ? std::clamp(glm::dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
-    return glm::length(a + u * ab - p);
+  static double segment_distance(Vector2d p, const HullEdge& e) {
+    const Vector2d a(e.a), b(e.b), ab = b - a;
+    const double len2 = dot(ab, ab);
+    const double u = len2 > 0.0 ? std::clamp(dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+    return length(a + u * ab - p);
   }
 
   static void flatten(const std::vector<std::vector<uint32_t>>& lists, std::vector<uint32_t>& start,

@@ -129,7 +129,7 @@ TEST(AngularInterpolators, OutsideHullMapsToNearestHullPoint) {
     }
     const AngularSample s = interp->query(d);
     glm::dvec2 pos(0.0);
-    for (int k = 0; k < 3; ++k) pos += static_cast<double>(s.weight[k]) * tri.points[s.index[k]];
+    for (int k = 0; k < 3; ++k) pos += static_cast<double>(s.weight[k]) * glm::dvec2(tri.points[s.index[k]]);
     EXPECT_NEAR(pos.x, nearest.x, 1e-5);
     EXPECT_NEAR(pos.y, nearest.y, 1e-5);
     EXPECT_EQ(s.weight[2], 0.0f);
@@ -210,8 +210,8 @@ TEST(AngularInterpolators, LookupTableMatchesExactAtTexelCentres) {
     for (size_t i = 0; i < set.size(); ++i) {
       const AngularSample s = fine->query(set[i].vector);
       glm::dvec2 pos(0.0);
-      for (int k = 0; k < 3; ++k) pos += static_cast<double>(s.weight[k]) * pts[s.index[k]];
-      EXPECT_LT(glm::length(pos - pts[i]), std::sqrt(2.0) / 256.0) << set.name() << " direction " << i;
+      for (int k = 0; k < 3; ++k) pos += static_cast<double>(s.weight[k]) * glm::dvec2(pts[s.index[k]]);
+      EXPECT_LT(glm::length(pos - glm::dvec2(pts[i])), std::sqrt(2.0) / 256.0) << set.name() << " direction " << i;
     }
   }
   EXPECT_FALSE(LookupTableInterpolator<ParabolicMap>::build(DirectionSet::ubo2003(), 0).ok());

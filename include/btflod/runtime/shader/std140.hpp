@@ -3,17 +3,20 @@
 // the shaders' lookups (Float3: a direction, not a block member).
 //
 // They carry data only; the math stays in the engine's own library. Any math library's types
-// convert both ways without this header knowing them (no GLM, no include beyond <concepts>):
+// convert both ways without this header knowing them (no GLM; beyond <concepts> only core/vec.hpp):
 //   - from a vector with members x, y, z, w (or x, y) — glm::vec4, glm::uvec4, glm::vec2, …;
 //   - from a matrix indexed m[column][row] — glm::mat4, float[4][4];
 //   - to any type constructible from the components — glm::vec4(x, y, z, w), glm::mat4(16 floats).
 // so `params.model_view_proj = proj * view;` and `glm::vec4 l = params.light;` keep working in
-// code that uses GLM. Matrices are column-major, as in GLSL and GLM.
+// code that uses GLM. Matrices are column-major, as in GLSL and GLM. (The component-type checks
+// are core/vec.hpp's, whose Vector2/Vector3 convert the same way.)
 #pragma once
 
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
+
+#include "btflod/core/vec.hpp"
 
 namespace btflod {
 
@@ -39,18 +42,10 @@ inline constexpr bool kIsStd140<Float4x4> = true;
 /// math types only, never silently between Float4 and UInt4 (or Float2 and Int2).
 template <class V>
 concept Foreign = !kIsStd140<V>;
-// Members of exactly the component type: a glm::vec2 never becomes an Int2 by truncation.
+// Members of exactly the component type (core/vec.hpp): a glm::vec2 never becomes an Int2 by
+// truncation.
 template <class V, class T>
-concept HasXy = requires(const V& v) {
-  { v.x } -> std::same_as<const T&>;
-  { v.y } -> std::same_as<const T&>;
-};
-template <class V, class T>
-concept HasXyz = HasXy<V, T> && requires(const V& v) {
-  { v.z } -> std::same_as<const T&>;
-};
-template <class V, class T>
-concept HasXyzw = HasXyz<V, T> && requires(const V& v) {
+concept HasXyzw = HasMembersXyz<V, T> && requires(const V& v) {
   { v.w } -> std::same_as<const T&>;
 };
 template <class M>
@@ -72,7 +67,7 @@ struct alignas(8) Vec2 {
   constexpr Vec2(T x_, T y_) noexcept : x(x_), y(y_) {}
   /// From any type with members x and y (glm::vec2, glm::ivec2).
   template <class V>
-    requires(detail::Foreign<V> && detail::HasXy<V, T>)
+    requires(detail::Foreign<V> && detail::HasMembersXy<V, T>)
   constexpr Vec2(const V& v) noexcept : x(static_cast<T>(v.x)), y(static_cast<T>(v.y)) {}  // NOLINT: implicit
   /// To any type constructible from two T (glm::vec2, glm::ivec2).
   template <class V>
@@ -94,7 +89,7 @@ struct Float3 {
   constexpr Float3(float x_, float y_, float z_) noexcept : x(x_), y(y_), z(z_) {}
   /// From any type with members x, y and z (glm::vec3).
   template <class V>
-    requires(detail::Foreign<V> && detail::HasXyz<V, float>)
+    requires(detail::Foreign<V> && detail::HasMembersXyz<V, float>)
   constexpr Float3(const V& v) noexcept  // NOLINT: implicit
       : x(static_cast<float>(v.x)), y(static_cast<float>(v.y)), z(static_cast<float>(v.z)) {}
   /// To any type constructible from three floats (glm::vec3).

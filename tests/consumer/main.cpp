@@ -37,7 +37,9 @@ btflod::Result<btflod::BsvtfDirectory> small_container() {
   md.view_directions = md.light_directions;
   md.u_rows = 7 * 7 * 3;
   const std::vector<float> u(size_t{md.u_rows} * md.component_count, 0.25f);
-  const std::vector<float> samples(md.layout().sample_count(), 0.5f);
+  // Varying values: the codec's tolerance scales with each component's range.
+  std::vector<float> samples(md.layout().sample_count());
+  for (size_t i = 0; i < samples.size(); ++i) samples[i] = 0.5f + 0.25f * std::sin(0.1f * static_cast<float>(i));
   const btflod::BsvtfTileInput tile{btflod::TileId{0, 0, 0, 0}, samples, 1.0f};
   auto file =
       btflod::build_bsvtf(md, u, std::span<const btflod::BsvtfTileInput>(&tile, 1), btflod::BsvtfBuildOptions{});

@@ -17,21 +17,13 @@
 
 namespace btflod {
 
-template <class T>
-struct Vector2;
-template <class T>
-struct Vector3;
-
 namespace detail {
+/// A type other than the vectors of this header, which name themselves with a member type
+/// CoreVectorTag (conversions to and from foreign types are implicit).
 template <class V>
-inline constexpr bool kIsCoreVector = false;
-template <class T>
-inline constexpr bool kIsCoreVector<Vector2<T>> = true;
-template <class T>
-inline constexpr bool kIsCoreVector<Vector3<T>> = true;
-/// A type other than the vectors of this header (conversions to and from it are implicit).
-template <class V>
-concept ForeignVector = !kIsCoreVector<V>;
+concept ForeignVector = !requires {
+  typename V::CoreVectorTag;
+};
 // Members of exactly the component type: a glm::dvec2 never becomes a Vector2f silently.
 template <class V, class T>
 concept HasMembersXy = requires(const V& v) {
@@ -50,6 +42,7 @@ concept HasMembersXyz = HasMembersXy<V, T> && requires(const V& v) {
 /// A 2D vector (T = float or double).
 template <class T>
 struct Vector2 {
+  using CoreVectorTag = void;
   T x{}, y{};
 
   constexpr Vector2() noexcept = default;
@@ -83,6 +76,7 @@ struct Vector2 {
 /// A 3D vector (T = float or double).
 template <class T>
 struct Vector3 {
+  using CoreVectorTag = void;
   T x{}, y{}, z{};
 
   constexpr Vector3() noexcept = default;

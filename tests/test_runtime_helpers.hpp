@@ -98,9 +98,10 @@ inline std::vector<float> to_view_major(const EigenTextures& e) {
   return out;
 }
 
-inline std::vector<uint8_t> build(const EigenTextures& e, AngularRowOrder order = AngularRowOrder::light_major) {
+inline std::vector<uint8_t> build(const EigenTextures& e, AngularRowOrder order = AngularRowOrder::light_major,
+                                  uint32_t tile_size = 32) {
   BsvtfFromEigenOptions o;
-  o.tile_size = 32;
+  o.tile_size = tile_size;
   o.border = 4;
   o.light_directions = directions(kLights);
   o.view_directions = directions(kViews);
@@ -183,7 +184,14 @@ struct StreamerOutputBuffers {
   StreamerOutputs outputs() { return StreamerOutputs{tile_out, packet_out, writes_out, events_out}; }
 };
 
-// What an engine keeps: the cache texture (per slot texels), the GPU page table, U′ packets.
+// Index of an upload's slot among all of the Streamer's slots (the cache's global slot): the
+// pool's first slot plus the slot within the pool that the upload names.
+inline uint32_t global_slot(const Streamer& s, const StreamerTileUpload& u) {
+  return s.cache().pool_first_slot(u.pool) + u.slot;
+}
+
+// What an engine keeps: the cache textures (per slot texels, every pool's slots in the
+// cache's global order), the GPU page table, U′ packets.
 struct Engine : StreamerOutputBuffers {
   std::vector<std::vector<uint16_t>> slots;
   std::vector<std::vector<uint32_t>> page_table;  // per texture, flat tile index
@@ -198,7 +206,7 @@ struct Engine : StreamerOutputBuffers {
   }
   void apply(const Streamer& s, const StreamerOutputs& o) {
     for (size_t i = 0; i < o.tile_upload_count; ++i) {
-      slots[o.tile_uploads[i].slot].assign(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end());
+      slots[global_slot(s, o.tile_uploads[i])].assign(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end());
       ++tile_uploads;
     }
     for (size_t i = 0; i < o.packet_upload_count; ++i)

@@ -56,15 +56,17 @@ struct LiveEngine : StreamerOutputBuffers {
   std::vector<std::vector<uint32_t>> page_table;  // per layer, flat tile index
   std::vector<ResidencyEvent> events;
   LiveEngine(const Streamer& s, uint32_t layer_tiles) : StreamerOutputBuffers(s, 512, 64) {
-    const uint32_t stored = s.cache().config().padded_tile_size();
-    slots.assign(s.cache().slot_count(), std::vector<uint16_t>(size_t{stored} * stored * 4, 0));
+    for (uint32_t slot = 0; slot < s.cache().slot_count(); ++slot) {
+      const uint32_t stored = s.cache().pool_config(s.cache().pool_of_slot(slot)).padded_tile_size();
+      slots.emplace_back(size_t{stored} * stored * 4, 0);
+    }
     page_table.assign(s.gpu_layout().page_table_layers, std::vector<uint32_t>(layer_tiles, 0xffffffffu));
     events.reserve(1u << 16);
   }
   void apply(const Streamer& s, const StreamerOutputs& o) {
     for (size_t i = 0; i < o.tile_upload_count; ++i)
       std::copy(o.tile_uploads[i].texels.begin(), o.tile_uploads[i].texels.end(),
-                slots[o.tile_uploads[i].slot].begin());
+                slots[global_slot(s, o.tile_uploads[i])].begin());
     for (size_t i = 0; i < o.page_table_write_count; ++i) {
       const PageTableWrite& w = o.page_table_writes[i];
       page_table[w.tile.texture][s.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
@@ -139,7 +141,8 @@ void check_live_engine(const World& w, const Streamer& s, const LiveEngine& e,
 uint32_t largest_tile_count(const World& w) {
   uint32_t n = 0;
   for (const BsvtfDirectory& d : w.dirs) {
-    const VtLevelTable lv(VtGeometry::make(d.metadata.width, d.metadata.height, 32, 4));
+    const VtLevelTable lv(
+        VtGeometry::make(d.metadata.width, d.metadata.height, d.metadata.tile_size, d.metadata.border));
     n = std::max(n, lv.tile_count());
   }
   return n;
@@ -182,11 +185,12 @@ TEST(StreamerMaterials, CapacityForCoversTheLargestMaterialsLiveAtOnce) {
   EXPECT_NE(std::string(why).find("material id"), std::string::npos) << why;
 }
 
-TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
-  World w = make_world();
-  StreamerConfig cfg = small_config();
-  cfg.capacity = capacity_for(w, 3);
-  cfg.vote_window_frames = 4;
+namespace {
+
+// Ten thousand random adds, removes, frames and job runs on a Streamer created with the first
+// two materials of w and room for three (cfg.capacity), checking the invariants and the
+// engine's copies after every operation; at least ops / upload_divisor tiles must have streamed.
+void random_adds_removes(World& w, const StreamerConfig& cfg, uint32_t upload_divisor) {
   auto created = Streamer::create(std::span<const StreamerMaterial>(w.materials.data(), 2), cfg);
   ASSERT_TRUE(created.ok()) << created.message();
   Streamer& s = *created;
@@ -260,7 +264,7 @@ TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
     }
     for (const auto& [id, layer] : layer_of) ASSERT_EQ(s.first_texture(id), layer) << "material " << id << " moved";
     check_live_engine(w, s, e, file_of, op % 64 == 0);
-    if (HasFatalFailure()) return;
+    if (::testing::Test::HasFatalFailure()) return;
   }
   // Drain: the live materials settle, every removed one is released.
   stream_frames(s, e, 200);
@@ -268,8 +272,8 @@ TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
   EXPECT_EQ(stray_allocations, 0u) << "an operation allocated after create()";
   EXPECT_GT(adds, ops / 50);
   EXPECT_GT(removes, ops / 50);
-  EXPECT_GT(s.scheduler().total().uploads, ops / 2);  // materials lived long enough to stream
-  EXPECT_GT(failed_adds, 0u);                         // the room for three was full at times
+  EXPECT_GT(s.scheduler().total().uploads, ops / upload_divisor);  // materials lived long enough to stream
+  EXPECT_GT(failed_adds, 0u);                                      // the room for three was full at times
   const StreamerStats st = s.stats();
   EXPECT_EQ(st.materials_live, file_of.size());
   EXPECT_EQ(st.materials_removing, 0u);
@@ -287,10 +291,51 @@ TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
     if (s.material_live(id)) {
       EXPECT_TRUE(s.material_ready(id)) << id;
     }
+  // Per pool: its slots and live materials add up to the totals.
+  uint32_t used = 0, live = 0;
+  for (uint32_t p = 0; p < st.pool_count; ++p) {
+    EXPECT_EQ(st.pools[p].slots_used, s.cache().used_count(p));
+    used += st.pools[p].slots_used;
+    live += st.pools[p].materials_live;
+  }
+  EXPECT_EQ(used, st.slots_used);
+  EXPECT_EQ(live, st.materials_live);
   std::printf("%u operations: %llu frames, %llu adds (%llu refused), %llu removes, %llu tile uploads in the engine\n",
               ops, static_cast<unsigned long long>(frames), static_cast<unsigned long long>(adds),
               static_cast<unsigned long long>(failed_adds), static_cast<unsigned long long>(removes),
               static_cast<unsigned long long>(s.scheduler().total().uploads));
+}
+
+}  // namespace
+
+TEST(StreamerMaterials, RandomAddsRemovesAndFramesKeepEveryInvariant) {
+  World w = make_world();
+  StreamerConfig cfg = small_config();
+  cfg.capacity = capacity_for(w, 3);
+  cfg.vote_window_frames = 4;
+  random_adds_removes(w, cfg, 2);
+}
+
+// The same across three cache pools: T = 32 containers go to pool 0 unless they name the small
+// pool 2 (whose adds must evict its own tiles), T = 64 ones to pool 1 (the first that fits).
+// check_invariants() also checks that every slot holds a tile of its own pool.
+TEST(StreamerMaterials, RandomAddsRemovesAcrossPoolsKeepEveryInvariant) {
+  World w;
+  w.add(build(make_eigen(64, 4, 1)));
+  w.add(build(make_eigen(256, 4, 6), AngularRowOrder::light_major, 64));
+  w.add(build(make_eigen(128, 5, 3)));
+  w.add(build(make_eigen(128, 8, 7), AngularRowOrder::light_major, 64));
+  w.add(build(make_eigen(96, 8, 2)));
+  w.finish();
+  w.materials[2].pool = 2;
+  w.materials[4].pool = 2;
+  StreamerConfig cfg = small_config();
+  const CacheConfig pools[] = {CacheConfig{6, 6, 1u << 12, 32, 4, 1}, CacheConfig{4, 3, 1u << 12, 64, 4, 1},
+                               CacheConfig{3, 3, 1u << 12, 32, 4, 1}};
+  cfg.pools = pools;
+  cfg.capacity = capacity_for(w, 3);
+  cfg.vote_window_frames = 4;
+  random_adds_removes(w, cfg, 4);  // fewer tiles: T = 64 materials have a quarter as many
 }
 
 TEST(StreamerMaterials, RemovalFreesSlotsLayersAndVotesAndLeavesOthersAlone) {

@@ -333,5 +333,65 @@ TEST(TileCache, MaterialsWithDifferentTileSizesAreRefused) {
   set.add_material(VtGeometry::make(256, 256, 32, 4), 1);
   const auto r = TileCache::create(set, {4, 4});
   EXPECT_EQ(r.status(), Status::invalid_argument);
-  EXPECT_NE(r.message().find("one cache holds one tile size"), std::string::npos);
+  EXPECT_NE(r.message().find("one pool holds one tile size"), std::string::npos);
+}
+
+// Two pools of different tile sizes in one cache: each material's tiles only in its pool's
+// slots (global ids pool_first_slot(p) …), pool-local slots in the GPU entries, free lists and
+// eviction per pool, every invariant after each step of a random sequence.
+TEST(TileCache, PoolsKeepEachMaterialInItsOwnSlots) {
+  VtSet set;
+  set.add_material(VtGeometry::make(256, 256, 64, 4), 1);  // L = 2, pool 1
+  set.add_material(VtGeometry::make(128, 128, 32, 4), 2);  // L = 2, pool 0
+  const CacheConfig pools[] = {CacheConfig{3, 2, 1u << 12, 32, 4, 1}, CacheConfig{2, 2, 1u << 12, 64, 4, 1}};
+  const uint32_t material_pools[] = {1, 0};
+  // A material whose tile size is not its pool's is refused; so is a pool that does not exist.
+  const uint32_t swapped[] = {0, 1};
+  EXPECT_EQ(TileCache::create_pools(set, pools, {}, swapped).status(), Status::invalid_argument);
+  const uint32_t missing[] = {2, 0};
+  EXPECT_EQ(TileCache::create_pools(set, pools, {}, missing).status(), Status::invalid_argument);
+  auto r = TileCache::create_pools(set, pools, {}, material_pools);
+  ASSERT_TRUE(r.ok()) << r.message();
+  TileCache& c = r.value();
+  EXPECT_EQ(c.pool_count(), 2u);
+  EXPECT_EQ(c.slot_count(), 10u);
+  EXPECT_EQ(c.pool_first_slot(1), 6u);
+  EXPECT_EQ(c.used_count(0), 2u);  // material 1's two roots
+  EXPECT_EQ(c.used_count(1), 1u);  // material 0's root
+  EXPECT_EQ(c.slot_of(TileId{0, 0, 0, 0}), 6u);
+  EXPECT_EQ(gpu_page_entry(c, TileId{0, 0, 0, 0}), pack_page_entry(0, 0));  // first slot of pool 1's texture
+  EXPECT_EQ(c.slot_placement(7).x, 72u);                                    // pool 1: 72-texel slots
+  EXPECT_EQ(c.slot_placement(1).x, 40u);                                    // pool 0: 40-texel slots
+  EXPECT_INVARIANTS(c);
+  std::mt19937 rng(5);
+  uint32_t inserted[2] = {};
+  for (int op = 0; op < 4000; ++op) {
+    const uint32_t t = rng() % 3;
+    const uint32_t pool = c.texture_pool(t);
+    const VtLevelTable& lv = c.set().levels_of(t);
+    const TileId tile = lv.tile(t, 1 + rng() % (lv.tile_count() - 1));
+    if (c.resident(tile)) {
+      ASSERT_EQ(c.remove(tile), Status::success);
+    } else if (c.resident(tile.parent())) {
+      const uint32_t s = c.reserve_slot(pool);
+      if (s == kNoSlot) {
+        EXPECT_EQ(c.free_count(pool), 0u);
+        continue;
+      }
+      ASSERT_EQ(c.pool_of_slot(s), pool);
+      // A slot of the other pool cannot take the tile.
+      const uint32_t other = c.reserve_slot(1 - pool);
+      if (other != kNoSlot) {
+        EXPECT_EQ(c.insert(tile, other, 0), Status::invalid_argument);
+        ASSERT_EQ(c.release_slot(other), Status::success);
+      }
+      ASSERT_EQ(c.add(tile, s, 0), Status::success);
+      ++inserted[pool];
+      EXPECT_EQ(unpack_page_entry_slot(gpu_page_entry(c, tile)), c.pool_local_slot(s));
+      EXPECT_LT(c.pool_local_slot(s), pools[pool].slot_count());
+    }
+    EXPECT_INVARIANTS(c);
+  }
+  EXPECT_GT(inserted[0], 100u);
+  EXPECT_GT(inserted[1], 100u);
 }

@@ -1,9 +1,11 @@
 // btflod — the engine's runtime object: one per world, one update() per frame.
 //
 // A Streamer serves every material of a world, each from its own `.bsvtf` container with its
-// own component count C (⌈C/4⌉ virtual textures), through one tile cache (runtime/vt/cache_config.hpp's
-// CacheConfig, the shape the shaders use), one scheduler (paper 000 §5: P = w·v, add/swap,
-// budgets in real payload bytes) and one pool of decode jobs. Per frame:
+// own component count C (⌈C/4⌉ virtual textures), through one tile cache of one or more pools
+// (runtime/vt/cache_config.hpp's CacheConfig each, the shapes the shaders use: a material's
+// tiles live in its pool's cache texture, which sets their tile size and texel format), one
+// scheduler (paper 000 §5: P = w·v, add/swap, budgets in real payload bytes) and one set of
+// decode jobs. Per frame:
 //
 //   update(feedback words, outputs)
 //     1. finished jobs are collected: tiles decoded (against their parent chain, paper 000 §7)
@@ -76,6 +78,9 @@
 
 namespace btflod {
 
+/// StreamerMaterial::pool for "the first pool whose tile size and border match the container".
+inline constexpr uint32_t kStreamerAnyPool = 0xffffffffu;
+
 /// One material of the world: its parsed container directory (copied at creation) and where
 /// its bytes come from — exactly one of `source` (blocking reads inside jobs) and
 /// `async_source` (engine-owned I/O). Sources must outlive the Streamer.
@@ -85,6 +90,10 @@ struct StreamerMaterial {
   AsyncTileSource* async_source = nullptr;
   /// Row order of U for a version-2 container (which does not store it); ignored otherwise.
   AngularRowOrder assumed_row_order = AngularRowOrder::unspecified;
+  /// Cache pool (StreamerConfig::pools) its tiles live in: an index, whose tile size and border
+  /// must be the container's, or kStreamerAnyPool for the lowest pool whose tile size and border
+  /// are the container's (with one pool: that pool).
+  uint32_t pool = kStreamerAnyPool;
 };
 
 /// What the Streamer does when a read, a checksum or a decode fails (docs/vt.md, "Failures").
@@ -132,13 +141,19 @@ StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candida
 
 /// Everything fixed at creation.
 struct StreamerConfig {
-  /// The cache (slots, layers, tile size, border, texel format); tile size and border must
-  /// match every container. The same value configures the shader generator
-  /// (VirtualTextureConfig). With format rgba8_affine the decode jobs also quantise each tile
-  /// (runtime/vt/cache_format.hpp), on the engine's workers, and the uploads carry unorm8 texels and
-  /// their slot map; with bc5_affine they also encode the quantised tile as BC5 blocks
-  /// (runtime/vt/cache_bc5.hpp), and the uploads carry the blocks and the slot map.
+  /// The cache (slots, layers, tile size, border, texel format) when `pools` is empty: the one
+  /// pool, whose tile size and border must match every container. The same value configures
+  /// the shader generator (VirtualTextureConfig). With format rgba8_affine the decode jobs also
+  /// quantise each tile (runtime/vt/cache_format.hpp), on the engine's workers, and the uploads
+  /// carry unorm8 texels and their slot map; with bc5_affine they also encode the quantised tile
+  /// as BC5 blocks (runtime/vt/cache_bc5.hpp), and the uploads carry the blocks and the slot map.
   CacheConfig cache;
+  /// Cache pools (at most kMaxCachePools), when not empty: pool p is pools[p], a cache texture of
+  /// its own (and slot-map table for the affine formats) with its own slots, and `cache` is not
+  /// used. Each material lives in one pool (StreamerMaterial::pool), whose tile size and border
+  /// are its container's; the page table, U′ texture, budgets and jobs are shared by all pools
+  /// (docs/vt.md, "Cache pools"). Read by create() and memory_required() only (copied).
+  std::span<const CacheConfig> pools{};
   /// Budgets, priorities, hysteresis, LOD bias (runtime/vt/scheduler.hpp). Byte budgets count the
   /// containers' real payload sizes.
   SchedulerConfig scheduler;
@@ -176,9 +191,10 @@ struct StreamerConfig {
   InflateBackend inflate_backend = default_inflate_backend();
 };
 
-/// A tile to copy into cache slot `slot` this frame, valid until the next update().
-/// tile.texture is the global virtual texture (page-table layer). In the cache format of
-/// StreamerConfig::cache: rgba16f fills `texels` ((T+2B)² × 4 half bits) and leaves `unorm8`
+/// A tile to copy into cache slot `slot` of pool `pool`'s cache texture (the slot within that
+/// pool, as the page-table entries name it) this frame, valid until the next update().
+/// tile.texture is the global virtual texture (page-table layer). In the format of the pool
+/// (StreamerConfig::cache with one pool): rgba16f fills `texels` ((T+2B)² × 4 half bits) and leaves `unorm8`
 /// empty; rgba8_affine fills `unorm8` ((T+2B)² × 4 bytes) and `map` (the slot's texel of the
 /// slot-map table) and leaves `texels` empty; bc5_affine fills `bc5` (cache_bc5_tile_bytes(T+2B)
 /// bytes, runtime/vt/cache_bc5.hpp's two-plane layout) and `map`.
@@ -189,6 +205,7 @@ struct StreamerTileUpload {
   std::span<const uint8_t> unorm8{};  // default member initialisers: {slot, tile, texels} stays warning-free
   CacheSlotMap map{};
   std::span<const uint8_t> bc5{};
+  uint32_t pool = 0;  ///< the cache pool (StreamerConfig::pools) of the tile's material
 };
 
 /// A U′ packet: four components (4g … 4g+3) of material `material`, rows × 4 halves in the
@@ -261,11 +278,21 @@ struct StreamerMemory {
   uint64_t allocations = 0;    ///< allocations held (each through the callbacks)
 };
 
+/// Residency of one cache pool.
+struct StreamerPoolStats {
+  uint32_t slots = 0, slots_used = 0;  ///< slots of the pool, of which hold a tile (roots included)
+  uint32_t materials_live = 0;         ///< live materials whose tiles live in the pool
+  uint64_t resident_bytes = 0;  ///< GPU bytes the resident tiles fill (slots_used × slot bytes, slot map included)
+  uint64_t texture_bytes = 0;   ///< GPU bytes of the pool's cache texture and slot-map table
+};
+
 /// A snapshot of the Streamer's state and counters since creation. Cheap (O(jobs)); any frame.
 struct StreamerStats {
   StreamerMemory memory;
-  uint64_t frame = 0;                   ///< update() calls so far
-  uint32_t slots = 0, slots_used = 0;   ///< cache slots, of which hold a tile (roots included)
+  uint64_t frame = 0;                  ///< update() calls so far
+  uint32_t slots = 0, slots_used = 0;  ///< cache slots of every pool, of which hold a tile (roots included)
+  uint32_t pool_count = 1;             ///< cache pools; pools[0 … pool_count) are theirs
+  StreamerPoolStats pools[kMaxCachePools] = {};
   uint32_t materials_live = 0;          ///< materials added and not removed
   uint32_t materials_removing = 0;      ///< removed materials whose jobs have not all ended
   uint32_t materials_ready = 0;         ///< materials whose roots (and U′ unless streamed) are loaded
@@ -291,11 +318,22 @@ struct StreamerStats {
   uint64_t decoder_busy = 0;            ///< run_job() calls that found every decoder busy
 };
 
+/// Shape of one cache pool's GPU resources: its cache texture (and, for the affine formats, its
+/// slot-map table of `slots` RGBA32UI texels).
+struct StreamerPoolLayout {
+  CacheConfig cache;                                             ///< the pool's configuration
+  uint32_t cache_width = 0, cache_height = 0, cache_layers = 0;  ///< texels of the pool's cache texture
+  uint32_t slots = 0;                                            ///< slots (slot-map texels)
+};
+
 /// Shapes of the GPU resources an engine allocates for a Streamer (docs/shaders.md): the
-/// cache texture, the page table (one R32UI 2D-array layer per virtual texture, mip s holding
-/// level L − s of that texture) and the U′ texture (one RGBA16F packet per virtual texture).
+/// cache textures (one per pool; cache_* repeat pool 0's), the page table (one R32UI 2D-array
+/// layer per virtual texture, mip s holding level L − s of that texture) and the U′ texture
+/// (one RGBA16F packet per virtual texture).
 struct StreamerGpuLayout {
-  uint32_t cache_width = 0, cache_height = 0, cache_layers = 0;  ///< texels of the tile cache
+  uint32_t cache_width = 0, cache_height = 0, cache_layers = 0;  ///< texels of pool 0's tile cache
+  uint32_t pool_count = 1;                                       ///< cache pools
+  StreamerPoolLayout pools[kMaxCachePools] = {};                 ///< pools[0 … pool_count)
   uint32_t page_table_width = 0, page_table_height = 0;          ///< finest-level tiles, max over textures
   uint32_t page_table_levels = 0;                                ///< L + 1, max over textures
   uint32_t page_table_layers = 0;                                ///< virtual textures
@@ -344,9 +382,11 @@ class Streamer {
   /// the index, real payload sizes for the byte budgets), the cache, the scheduler, the vote
   /// counter, every job buffer and decoder, and queues the pinned roots and U′ packets.
   /// Errors: invalid_argument (no materials, a material with no or two sources, a container
-  /// whose tile size/border differs from config.cache or whose row order is unknown and not
-  /// assumed, more than 1023 materials — the feedback word's limit), insufficient_space (the
-  /// allocator failed, or fewer slots than virtual textures), bad_data (a directory missing a
+  /// whose tile size/border differs from its pool's (config.cache with one pool) or fits no
+  /// pool, a material naming a pool that does not exist, more than kMaxCachePools pools or an
+  /// invalid one, a row order unknown and not assumed, more than 1023 materials — the feedback
+  /// word's limit), insufficient_space (the allocator failed, or a pool with fewer slots than
+  /// its materials' virtual textures), bad_data (a directory missing a
   /// tile of its hierarchy). Set-up only (allocates).
   static Result<Streamer> create(std::span<const StreamerMaterial> materials, const StreamerConfig& config = {});
 
@@ -374,16 +414,16 @@ class Streamer {
   /// material field of its feedback words) and the first free run of ⌈C/4⌉ page-table layers
   /// (first_texture(id)), both stable until it is removed. Its roots and U′ packets are queued
   /// like create()'s; its page-table texels are written in full by the next update()s;
-  /// material_ready follows. When the cache has fewer free slots than the material has virtual
-  /// textures, the oldest leaf tiles of other materials are evicted to pin its roots (their
-  /// parents keep serving); nothing else of other materials changes.
+  /// material_ready follows. When its pool has fewer free slots than the material has virtual
+  /// textures, the oldest leaf tiles of other materials of that pool are evicted to pin its
+  /// roots (their parents keep serving); nothing else of other materials changes.
   /// Errors (nothing changes then; `why`, when given, points to a static explanation):
-  /// invalid_argument (no directory, not exactly one source, another tile size or border, an
-  /// unknown row order, rows ≠ lights × views × channels, a hierarchy the container does not
-  /// match), bad_data (a tile missing from the directory), insufficient_space (no free id, no
-  /// run of free layers, no free tile entries, a tile, packet, level count or page table larger
-  /// than the capacity allows, or too few evictable slots). Update thread; noexcept; no
-  /// allocation; O(tiles of the material + cache slots).
+  /// invalid_argument (no directory, not exactly one source, a pool that does not exist, a tile
+  /// size or border other than its pool's or than every pool's, an unknown row order, rows ≠ lights × views × channels,
+  /// a hierarchy the container does not match), bad_data (a tile missing from the directory), insufficient_space (no
+  /// free id, no run of free layers, no free tile entries, a tile, packet, level count or page table larger than the
+  /// capacity allows, or too few evictable slots). Update thread; noexcept; no allocation; O(tiles of the material +
+  /// cache slots).
   Status add_material(const StreamerMaterial& material, uint32_t& id, const char** why = nullptr) noexcept;
   /// Removes a live material at any frame: its requests are cancelled, its queued work dropped,
   /// its tiles leave the cache (slots free at once), its feedback words are rejected from now
@@ -444,8 +484,16 @@ class Streamer {
   // --- what the engine can see ----------------------------------------------------------
   /// Memory, residency, jobs and failure counters (StreamerStats). O(jobs), no allocation.
   StreamerStats stats() const noexcept;
-  /// Shapes of the cache texture, page table and U′ texture the engine must allocate.
+  /// Shapes of the cache textures (one per pool), page table and U′ texture the engine must
+  /// allocate.
   StreamerGpuLayout gpu_layout() const noexcept;
+  /// Cache pools (1 without StreamerConfig::pools).
+  uint32_t pool_count() const noexcept;
+  /// Configuration of pool p (StreamerConfig::pools[p], or StreamerConfig::cache with one pool).
+  /// Precondition: p < pool_count().
+  const CacheConfig& pool_config(uint32_t pool) const noexcept;
+  /// Pool of a live material (0 for an id that is not live).
+  uint32_t material_pool(uint32_t material) const noexcept;
 
   // --- state ---------------------------------------------------------------------------
   const TileCache& cache() const noexcept;

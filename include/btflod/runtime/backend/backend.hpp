@@ -89,6 +89,9 @@ struct TileUpload {
   /// bc5_affine: cache_bc5_tile_bytes(T + 2B) = (T + 2B)² · 2 bytes, plane 0 (components 0, 1)
   /// then plane 1 (components 2, 3), each (T + 2B)² / 16 BC5 blocks in row-major block order.
   std::span<const uint8_t> bc5{};
+  /// Cache pool (StreamerTileUpload::pool) whose cache texture holds `slot`; a backend with one
+  /// cache serves pool 0 only.
+  uint32_t pool = 0;
 };
 
 /// Checks a tile upload against the cache: slot in range and the texels of the cache's format,

@@ -27,12 +27,14 @@
 namespace btflod {
 
 /// GPU page-table entry of tile t: pack_page_entry(slot, level) of t when resident, else of its
-/// deepest resident ancestor (the root is pinned, so one exists). Returns pack_page_entry(0, 0)
-/// for a tile outside the hierarchy. noexcept, no allocation, O(level).
+/// deepest resident ancestor (the root is pinned, so one exists). The slot is the one within
+/// the cache texture of the material's pool (TileCache::pool_local_slot; the global slot with
+/// one pool). Returns pack_page_entry(0, 0) for a tile outside the hierarchy. noexcept, no
+/// allocation, O(level).
 inline uint32_t gpu_page_entry(const TileCache& cache, TileId t) noexcept {
   for (;;) {
     const uint32_t s = cache.slot_of(t);
-    if (s != kNoSlot) return pack_page_entry(s, t.level);
+    if (s != kNoSlot) return pack_page_entry(cache.pool_local_slot(s), t.level);
     if (t.level == 0) return pack_page_entry(0, 0);
     t = t.parent();
   }

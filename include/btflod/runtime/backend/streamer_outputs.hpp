@@ -27,13 +27,12 @@ namespace btflod {
 inline constexpr size_t kStreamerUploadBatch = 32;
 
 /// Calls `upload_tiles(std::span<const TileUpload>)` with the tile uploads of `out`, in order, in
-/// batches of at most kStreamerUploadBatch, then `upload_packet(const StreamerPacketUpload&)`
-/// for each U′ packet, in order, then `write_page_table(std::span<const PageTableWrite>)` once with every
-/// page-table write of `out` (when there is any). Returns the first non-success Status a
-/// callback returned (later callbacks are not called), else success. Preconditions: `out` was
-/// filled by Streamer::update() and that Streamer has not been updated since (the texel spans
-/// point into its job buffers). noexcept when the callbacks are; no allocation; same thread as
-/// the update.
+/// batches of at most kStreamerUploadBatch tiles of one cache pool (TileUpload::pool), then `upload_packet(const
+/// StreamerPacketUpload&)` for each U′ packet, in order, then `write_page_table(std::span<const PageTableWrite>)` once
+/// with every page-table write of `out` (when there is any). Returns the first non-success Status a callback returned
+/// (later callbacks are not called), else success. Preconditions: `out` was filled by Streamer::update() and that
+/// Streamer has not been updated since (the texel spans point into its job buffers). noexcept when the callbacks are;
+/// no allocation; same thread as the update.
 template <class UploadTiles, class WritePageTable, class UploadPacket>
 Status forward_streamer_outputs(const StreamerOutputs& out, UploadTiles&& upload_tiles,
                                 WritePageTable&& write_page_table, UploadPacket&& upload_packet) noexcept {
@@ -41,8 +40,9 @@ Status forward_streamer_outputs(const StreamerOutputs& out, UploadTiles&& upload
   size_t n = 0;
   for (size_t i = 0; i < out.tile_upload_count; ++i) {
     const StreamerTileUpload& u = out.tile_uploads[i];
-    batch[n++] = TileUpload{u.slot, u.texels, u.unorm8, u.map, u.bc5};
-    if (n == kStreamerUploadBatch || i + 1 == out.tile_upload_count) {
+    batch[n++] = TileUpload{u.slot, u.texels, u.unorm8, u.map, u.bc5, u.pool};
+    // A batch holds tiles of one pool (one cache texture).
+    if (n == kStreamerUploadBatch || i + 1 == out.tile_upload_count || out.tile_uploads[i + 1].pool != u.pool) {
       if (const Status s = upload_tiles(std::span<const TileUpload>(batch, n)); s != Status::success) return s;
       n = 0;
     }

@@ -18,16 +18,26 @@ struct Streamer::Room {
 
 Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> materials,
                                               const StreamerConfig& config) {
-  if (!config.cache.slot_side_fits_format())
-    return make_error(Status::invalid_argument,
-                      "streamer: a %s cache needs a slot side T+2B that is a multiple of 4 (whole BC5 blocks), "
-                      "found %u+2·%u = %u",
-                      cache_format_name(config.cache.format), config.cache.tile_size, config.cache.border,
-                      config.cache.padded_tile_size());
-  if (!config.cache.valid())
-    return make_error(Status::invalid_argument, "streamer: cache of %u×%u×%u slots of %u+2·%u texels is not valid",
-                      config.cache.slots_x, config.cache.slots_y, config.cache.cache_layers, config.cache.tile_size,
-                      config.cache.border);
+  const std::span<const CacheConfig> pools = detail::streamer_pools(config);
+  if (pools.size() > kMaxCachePools)
+    return make_error(Status::invalid_argument, "streamer: %zu cache pools, at most %u", pools.size(), kMaxCachePools);
+  uint64_t all_slots = 0;
+  for (size_t p = 0; p < pools.size(); ++p) {
+    const CacheConfig& c = pools[p];
+    if (!c.slot_side_fits_format())
+      return make_error(Status::invalid_argument,
+                        "streamer: pool %zu: a %s cache needs a slot side T+2B that is a multiple of 4 (whole BC5 "
+                        "blocks), found %u+2·%u = %u",
+                        p, cache_format_name(c.format), c.tile_size, c.border, c.padded_tile_size());
+    if (!c.valid())
+      return make_error(Status::invalid_argument,
+                        "streamer: pool %zu: cache of %u×%u×%u slots of %u+2·%u texels is not valid", p, c.slots_x,
+                        c.slots_y, c.cache_layers, c.tile_size, c.border);
+    all_slots += c.slot_count();
+  }
+  if (all_slots >= (1u << 24))
+    return make_error(Status::invalid_argument, "streamer: %llu cache slots over all pools, at most 2^24 − 1",
+                      static_cast<unsigned long long>(all_slots));
   if (config.packet_jobs == 0 || config.root_jobs == 0 || config.decode_workers == 0 ||
       config.u_row_order == AngularRowOrder::unspecified)
     return make_error(Status::invalid_argument,
@@ -38,13 +48,15 @@ Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> 
   // What create()'s materials need; the capacity is that unless the config reserves more.
   StreamerCapacity need;
   uint64_t tiles_needed = 0;
+  uint64_t pool_textures[kMaxCachePools] = {};
   for (size_t m = 0; m < materials.size(); ++m) {
     detail::StreamerMaterialNeeds n;
     const char* why = "";
-    if (const Status s = detail::check_streamer_material(materials[m], config.cache, n, &why); s != Status::success)
-      return make_error(s, "streamer: material %zu (%s): %s", m,
+    if (const Status s = detail::check_streamer_material(materials[m], pools, n, &why); s != Status::success)
+      return make_error(s, "streamer: material %zu (%s, pool %d): %s", m,
                         materials[m].directory != nullptr ? materials[m].directory->metadata.material_name.c_str() : "",
-                        why);
+                        materials[m].pool == kStreamerAnyPool ? -1 : static_cast<int>(materials[m].pool), why);
+    pool_textures[n.pool] += n.textures;
     need.textures += n.textures;
     tiles_needed += n.tiles;
     need.material_tiles += n.tiles / n.textures;
@@ -80,10 +92,11 @@ Result<Streamer::Room> Streamer::resolve_room(std::span<const StreamerMaterial> 
     return make_error(Status::invalid_argument,
                       "streamer: a capacity without materials needs textures, tiles and max_level_count (≤ %u)",
                       kMaxTileLevel + 1);
-  if (config.cache.slot_count() < need.textures)
-    return make_error(Status::insufficient_space,
-                      "streamer: %u cache slots cannot pin the roots of %u virtual textures", config.cache.slot_count(),
-                      need.textures);
+  for (size_t p = 0; p < pools.size(); ++p)
+    if (pools[p].slot_count() < pool_textures[p])
+      return make_error(Status::insufficient_space,
+                        "streamer: %u cache slots of pool %zu cannot pin the roots of its %llu virtual textures",
+                        pools[p].slot_count(), p, static_cast<unsigned long long>(pool_textures[p]));
   return Room{need, cap};
 }
 
@@ -113,7 +126,8 @@ Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, c
   const uint64_t set_bytes = ledger->live, set_allocations = ledger->count;  // a create() temporary
   StreamerMemory memory;
   uint64_t mark = ledger->live;
-  auto cache = TileCache::create(set, config.cache, al);
+  const std::span<const CacheConfig> pools = detail::streamer_pools(config);
+  auto cache = TileCache::create_pools(set, pools, al);
   if (!cache) return cache.error();
   memory.tile_cache = ledger->live - mark;
   mark = ledger->live;
@@ -132,8 +146,15 @@ Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, c
   im->ledger = std::exchange(ledger_guard.ledger, nullptr);
   im->allocator = al;
   im->config = config;
+  im->config.pools = {};  // the caller's array is not kept: the pools are copied
+  im->config.cache = pools[0];
+  im->pool_count = static_cast<uint32_t>(pools.size());
+  for (uint32_t p = 0; p < im->pool_count; ++p) {
+    im->pools[p] = pools[p];
+    im->layouts[p] = TileLayout{pools[p].tile_size, pools[p].border, 4};
+    im->max_samples = std::max(im->max_samples, im->layouts[p].sample_count());
+  }
   im->capacity = cap;
-  im->layout = TileLayout{config.cache.tile_size, config.cache.border, 4};
   mark = ledger->live;
   im->payloads = PayloadCache(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512}, al);
   if (im->payloads.allocation_failed())
@@ -159,7 +180,7 @@ Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, c
   im->packet_bytes = cap.max_packet_bytes;
   im->max_rows = cap.max_u_rows;
   const size_t max_packet = cap.max_packet_bytes, max_rows = cap.max_u_rows;
-  const size_t samples = im->layout.sample_count();
+  const size_t samples = im->max_samples;  // every job buffer fits a tile of any pool
   mark = ledger->live;
   if (!im->jobs.allocate(al, nj) ||
       !im->job_bytes.allocate(al, tile_like * im->chain_bytes + size_t{im->packet_jobs} * max_packet) ||
@@ -184,13 +205,16 @@ Result<Streamer> Streamer::create(std::span<const StreamerMaterial> materials, c
   }
   std::fill(im->job_of_request.data(), im->job_of_request.data() + im->job_of_request.size(), kNoJob);
   memory.job_buffers = ledger->live - mark;
-  // One tile decoder per worker the engine declares (not per job).
+  // One tile decoder per worker the engine declares (not per job), per pool: a decoder is
+  // built for one tile layout.
   mark = ledger->live;
-  if (!im->decoder_storage.allocate(al, size_t{config.decode_workers} * sizeof(TileDecoder) + alignof(TileDecoder)) ||
-      !im->decoder_busy.allocate(al, config.decode_workers))
+  const size_t decoders = size_t{config.decode_workers} * im->pool_count;
+  if (!im->decoder_storage.allocate(al, decoders * sizeof(TileDecoder) + alignof(TileDecoder)) ||
+      !im->decoder_busy.allocate(al, decoders))
     return fail("tile decoders");
-  for (uint32_t d = 0; d < config.decode_workers; ++d) {
-    ::new (static_cast<void*>(im->decoder(d))) TileDecoder(im->layout, config.inflate_backend, al);
+  for (uint32_t d = 0; d < decoders; ++d) {
+    ::new (static_cast<void*>(im->decoder(d)))
+        TileDecoder(im->layouts[d / config.decode_workers], config.inflate_backend, al);
     ++im->decoder_count;
   }
   memory.decoders = ledger->live - mark;
@@ -238,14 +262,19 @@ StreamerMemory Streamer::memory_for(const StreamerConfig& config, const Streamer
   // The arrays create() allocates, in the same sizes (tests/test_runtime_memory.cpp checks that
   // every category equals what a created Streamer reports).
   const VtCapacity set{cap.materials, cap.textures, cap.tiles};
-  const AllocationTally cache = TileCache::memory_required(set, config.cache);
-  const AllocationTally sched = Scheduler::memory_required(set, config.cache.slot_count(), config.scheduler);
+  const std::span<const CacheConfig> pools = detail::streamer_pools(config);
+  const AllocationTally cache = TileCache::memory_required(set, pools);
+  uint32_t all_slots = 0;
+  uint64_t samples = 0;
+  for (const CacheConfig& p : pools) {
+    all_slots += p.slot_count();
+    samples = std::max<uint64_t>(samples, TileLayout{p.tile_size, p.border, 4}.sample_count());
+  }
+  const AllocationTally sched = Scheduler::memory_required(set, all_slots, config.scheduler);
   const AllocationTally votes = VoteCounter::memory_required(
       VoteCapacity{cap.materials, cap.material_tiles}, VoteWindowConfig{std::max(1u, config.vote_window_frames), 0});
   const AllocationTally payloads =
       PayloadCache::memory_required(PayloadCacheConfig{config.payload_cache_bytes, 4096, 512});
-  const TileLayout layout{config.cache.tile_size, config.cache.border, 4};
-  const uint64_t samples = layout.sample_count();
   const uint64_t requests = config.scheduler.budgets.requests_in_flight;
   const uint64_t tile_like = requests + config.scheduler.budgets.uploads_per_frame + config.root_jobs;
   const uint64_t packet_jobs = config.packet_jobs;
@@ -258,11 +287,14 @@ StreamerMemory Streamer::memory_for(const StreamerConfig& config, const Streamer
   jobs.array<decltype(Impl::job_of_request)>(requests);
   jobs.array<decltype(Impl::waiting_packets)>(requests);
   AllocationTally decoders;
-  decoders.array<decltype(Impl::decoder_storage)>(uint64_t{config.decode_workers} * sizeof(TileDecoder) +
-                                                  alignof(TileDecoder));
-  decoders.array<decltype(Impl::decoder_busy)>(config.decode_workers);
-  const AllocationTally one_decoder = TileDecoder::memory_required(layout, config.inflate_backend);
-  for (uint32_t d = 0; d < config.decode_workers; ++d) decoders += one_decoder;
+  const uint64_t decoder_count = uint64_t{config.decode_workers} * pools.size();
+  decoders.array<decltype(Impl::decoder_storage)>(decoder_count * sizeof(TileDecoder) + alignof(TileDecoder));
+  decoders.array<decltype(Impl::decoder_busy)>(decoder_count);
+  for (const CacheConfig& p : pools) {
+    const AllocationTally one_decoder =
+        TileDecoder::memory_required(TileLayout{p.tile_size, p.border, 4}, config.inflate_backend);
+    for (uint32_t d = 0; d < config.decode_workers; ++d) decoders += one_decoder;
+  }
   AllocationTally decoded;
   decoded.array<decltype(Impl::decoded)>(config.decoded_cache_tiles);
   decoded.array<decltype(Impl::decoded_floats)>(uint64_t{config.decoded_cache_tiles} * samples);
@@ -375,9 +407,22 @@ StreamerStats Streamer::stats() const noexcept {
   st.frame = im.frame;
   st.slots = im.cache.slot_count();
   st.slots_used = im.cache.used_count();
+  st.pool_count = im.pool_count;
+  for (uint32_t p = 0; p < im.pool_count; ++p) {
+    const CacheConfig& c = im.pools[p];
+    StreamerPoolStats& ps = st.pools[p];
+    ps.slots = c.slot_count();
+    ps.slots_used = im.cache.used_count(p);
+    // One slot: (T + 2B)² texels in the pool's format, and its slot-map texel (affine formats).
+    const uint64_t slot_bytes = uint64_t{c.padded_tile_size()} * c.padded_tile_size() * c.texel_bytes() +
+                                (cache_format_has_slot_map(c.format) ? 16 : 0);
+    ps.resident_bytes = slot_bytes * ps.slots_used;
+    ps.texture_bytes = c.cache_bytes() + c.slot_map_bytes();
+  }
   for (uint32_t m = 0; m < im.materials.size(); ++m) {
     st.materials_ready += im.materials[m].ready ? 1u : 0u;
     st.materials_removing += im.materials[m].life == detail::kMaterialRemoving ? 1u : 0u;
+    if (im.materials[m].life == detail::kMaterialLive) ++st.pools[im.materials[m].pool].materials_live;
   }
   st.materials_live = im.live_materials;
   st.jobs_dropped = im.jobs_dropped;
@@ -409,11 +454,14 @@ StreamerStats Streamer::stats() const noexcept {
 StreamerGpuLayout Streamer::gpu_layout() const noexcept {
   const Impl& im = *impl_;
   StreamerGpuLayout g;
-  const CacheConfig& c = im.config.cache;
-  const uint32_t stored = c.tile_size + 2 * c.border;
-  g.cache_width = c.slots_x * stored;
-  g.cache_height = c.slots_y * stored;
-  g.cache_layers = c.cache_layers;
+  g.pool_count = im.pool_count;
+  for (uint32_t p = 0; p < im.pool_count; ++p) {
+    const CacheConfig& c = im.pools[p];
+    g.pools[p] = StreamerPoolLayout{c, c.cache_width(), c.cache_height(), c.cache_layers, c.slot_count()};
+  }
+  g.cache_width = g.pools[0].cache_width;
+  g.cache_height = g.pools[0].cache_height;
+  g.cache_layers = g.pools[0].cache_layers;
   // Sized by the capacity, so materials added later fit the same resources.
   g.page_table_layers = g.u_packets = im.capacity.textures;
   g.page_table_width = g.page_table_height = 0;
@@ -432,6 +480,9 @@ StreamerGpuLayout Streamer::gpu_layout() const noexcept {
   g.page_table_height = std::max(g.page_table_height, im.capacity.max_finest_tiles);
   return g;
 }
+uint32_t Streamer::pool_count() const noexcept { return impl_->pool_count; }
+const CacheConfig& Streamer::pool_config(uint32_t pool) const noexcept { return impl_->pools[pool]; }
+uint32_t Streamer::material_pool(uint32_t m) const noexcept { return material_live(m) ? impl_->materials[m].pool : 0; }
 const TileCache& Streamer::cache() const noexcept { return impl_->cache; }
 const Scheduler& Streamer::scheduler() const noexcept { return impl_->scheduler; }
 const VoteCounter& Streamer::votes() const noexcept { return impl_->votes; }

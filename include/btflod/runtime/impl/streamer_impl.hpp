@@ -53,6 +53,7 @@ struct StreamerMaterialState {
   uint32_t lights = 0, views = 0, channels = 0, rows = 0;
   AngularRowOrder row_order = AngularRowOrder::light_major;
   uint32_t packet_base = 0;  // index of packet 0 in the packet records (= first_texture)
+  uint32_t pool = 0;         // cache pool of its tiles
   uint32_t roots_loaded = 0, packets_loaded = 0;
   bool ready = false;
   bool failed = false;  // a root or start-up packet was given up (material_failed)
@@ -65,6 +66,7 @@ struct StreamerJob {
   uint8_t kind = kTileJob;
   uint32_t material = 0;
   uint32_t generation = 0;  // the material's generation at launch (stale when it differs)
+  uint32_t pool = 0;        // the material's cache pool (its tile layout and cache format)
   // Everything run_job() reads is captured at launch, so a worker never reads the tables the
   // update thread changes when materials come and go.
   TileSource* source = nullptr;  // blocking source (null: the reads are async)
@@ -120,6 +122,11 @@ struct HeldWork {
   uint8_t packet = 0;
 };
 
+// The cache pools of a configuration: StreamerConfig::pools, or the one pool `cache`.
+inline std::span<const CacheConfig> streamer_pools(const StreamerConfig& c) noexcept {
+  return c.pools.empty() ? std::span<const CacheConfig>(&c.cache, 1) : c.pools;
+}
+
 // What one container needs of the Streamer's reserved room.
 struct StreamerMaterialNeeds {
   VtGeometry geometry;
@@ -127,10 +134,12 @@ struct StreamerMaterialNeeds {
   uint32_t level_count = 0, finest_tiles = 0;
   uint32_t max_tile_bytes = 0, max_packet_bytes = 0, rows = 0;
   AngularRowOrder row_order = AngularRowOrder::unspecified;
+  uint32_t pool = 0;  // the cache pool it goes to
 };
 
-// Checks a material against the cache shape and measures what it needs. No allocation.
-inline Status check_streamer_material(const StreamerMaterial& sm, const CacheConfig& cache,
+// Checks a material against the cache pools (its own, or the first that fits) and measures
+// what it needs. No allocation.
+inline Status check_streamer_material(const StreamerMaterial& sm, std::span<const CacheConfig> pools,
                                       StreamerMaterialNeeds& needs, const char** why) noexcept {
   const auto fail = [&](Status s, const char* text) {
     if (why != nullptr) *why = text;
@@ -139,8 +148,21 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
   if (sm.directory == nullptr || (sm.source == nullptr) == (sm.async_source == nullptr))
     return fail(Status::invalid_argument, "a material needs a directory and exactly one source");
   const BsvtfMetadata& md = sm.directory->metadata;
-  if (md.tile_size != cache.tile_size || md.border != cache.border)
-    return fail(Status::invalid_argument, "the container's tile size or border differs from the cache's");
+  const auto fits = [&](const CacheConfig& c) { return md.tile_size == c.tile_size && md.border == c.border; };
+  if (sm.pool == kStreamerAnyPool) {
+    needs.pool = 0;
+    while (needs.pool < pools.size() && !fits(pools[needs.pool])) ++needs.pool;
+    if (needs.pool == pools.size())
+      return fail(Status::invalid_argument, pools.size() == 1
+                                                ? "the container's tile size or border differs from the cache's"
+                                                : "no cache pool has the container's tile size and border");
+  } else {
+    if (sm.pool >= pools.size())
+      return fail(Status::invalid_argument, "the material names a cache pool that does not exist");
+    needs.pool = sm.pool;
+    if (!fits(pools[sm.pool]))
+      return fail(Status::invalid_argument, "the container's tile size or border differs from its cache pool's");
+  }
   needs.row_order = md.u_row_order != AngularRowOrder::unspecified ? md.u_row_order : sm.assumed_row_order;
   if (needs.row_order == AngularRowOrder::unspecified)
     return fail(Status::invalid_argument,
@@ -181,8 +203,11 @@ inline Status check_streamer_material(const StreamerMaterial& sm, const CacheCon
 struct Streamer::Impl final : StreamerJobQueue {
   detail::AllocationLedger* ledger = nullptr;  // owned by Streamer::destroy()
   RuntimeAllocator allocator;                  // ledger->counting()
-  StreamerConfig config;
-  TileLayout layout;
+  StreamerConfig config;                       // config.pools is empty here: the pools are copied below
+  CacheConfig pools[kMaxCachePools] = {};
+  TileLayout layouts[kMaxCachePools] = {};  // per pool: T, B, 4 components
+  uint32_t pool_count = 1;
+  size_t max_samples = 0;  // the largest pool's samples per tile (job and decoded-cache buffers)
   TileCache cache;
   Scheduler scheduler;
   VoteCounter votes;
@@ -196,7 +221,7 @@ struct Streamer::Impl final : StreamerJobQueue {
   RuntimeArray<uint8_t> job_bytes;
   RuntimeArray<float> job_floats;
   RuntimeArray<uint16_t> job_halves;
-  RuntimeArray<uint8_t> decoder_storage;  // decode_workers TileDecoders
+  RuntimeArray<uint8_t> decoder_storage;  // decode_workers TileDecoders per pool, pool-major
   RuntimeArray<std::atomic<uint8_t>> decoder_busy;
   uint32_t decoder_count = 0;
   std::atomic<uint64_t> decoder_busy_hits{0};
@@ -258,7 +283,7 @@ struct Streamer::Impl final : StreamerJobQueue {
   Status remove_material(uint32_t m) noexcept;
   bool stale(const detail::StreamerJob& job) const noexcept;
   void abandon_reads(uint32_t j) noexcept;
-  bool evict_leaf() noexcept;
+  bool evict_leaf(uint32_t pool) noexcept;
   void purge_cached(uint32_t m) noexcept;
   void announce_materials(StreamerOutputs& out) noexcept;
   void notice(const ResidencyEvent& e) noexcept;
@@ -276,8 +301,10 @@ struct Streamer::Impl final : StreamerJobQueue {
     p += (alignof(TileDecoder) - reinterpret_cast<uintptr_t>(p) % alignof(TileDecoder)) % alignof(TileDecoder);
     return reinterpret_cast<TileDecoder*>(p + size_t{d} * sizeof(TileDecoder));
   }
-  uint32_t claim_decoder() noexcept {
-    for (uint32_t d = 0; d < decoder_count; ++d) {
+  // A free decoder of the pool's layout (decode_workers of them per pool).
+  uint32_t claim_decoder(uint32_t pool) noexcept {
+    const uint32_t per_pool = decoder_count / pool_count;
+    for (uint32_t d = pool * per_pool; d < (pool + 1) * per_pool; ++d) {
       uint8_t expected = 0;
       if (decoder_busy[d].load(std::memory_order_relaxed) == 0 &&
           decoder_busy[d].compare_exchange_strong(expected, 1, std::memory_order_acquire))
@@ -313,7 +340,7 @@ struct Streamer::Impl final : StreamerJobQueue {
     if (job.kind == detail::kPacketJob) {
       s = run_packet(job);
     } else {
-      const uint32_t d = claim_decoder();
+      const uint32_t d = claim_decoder(job.pool);
       if (d == kNoJob) {  // more threads than decode_workers: someone else runs it later
         decoder_busy_hits.fetch_add(1, std::memory_order_relaxed);
         job.state.store(detail::kJobRunnable, std::memory_order_release);
@@ -346,6 +373,8 @@ struct Streamer::Impl final : StreamerJobQueue {
   }
 
   Status run_tile(detail::StreamerJob& job, TileDecoder& decoder) noexcept {
+    const TileLayout& layout = layouts[job.pool];
+    const CacheConfig& cache_config = pools[job.pool];
     // Decode chain_start … tile, each level against the previous one (the first against the
     // cached ancestor `base`, or nothing for the root), alternating between the two buffers.
     float* buffers[2] = {job.out, job.parent};
@@ -372,12 +401,12 @@ struct Streamer::Impl final : StreamerJobQueue {
     job.parent_decoded = decoded_levels >= 2 ? 1 : 0;
     const std::span<const float> values(previous, layout.sample_count());
     uint8_t* bytes = reinterpret_cast<uint8_t*>(job.halves);  // sample_count · 2 bytes
-    if (config.cache.format == CacheFormat::rgba8_affine) {   // unorm8 in the first half of the buffer
+    if (cache_config.format == CacheFormat::rgba8_affine) {   // unorm8 in the first half of the buffer
       job.map = encode_cache_tile_unorm8(values, std::span<uint8_t>(bytes, layout.sample_count()));
-    } else if (config.cache.format == CacheFormat::bc5_affine) {
+    } else if (cache_config.format == CacheFormat::bc5_affine) {
       // The blocks (sample_count / 2 bytes) in the first quarter of the buffer, the unorm8
       // scratch (sample_count bytes) in its second half: the buffer of any format fits both.
-      const uint32_t side = config.cache.padded_tile_size();
+      const uint32_t side = cache_config.padded_tile_size();
       job.map =
           encode_cache_tile_bc5(values, side, std::span<uint8_t>(bytes + layout.sample_count(), layout.sample_count()),
                                 std::span<uint8_t>(bytes, cache_bc5_tile_bytes(side)));
@@ -387,15 +416,18 @@ struct Streamer::Impl final : StreamerJobQueue {
     return Status::success;
   }
 
-  // The upload of a finished tile job into `slot`, in the cache's format.
+  // The upload of a finished tile job into global slot `slot`, in its pool's format (the slot
+  // within the pool's cache texture).
   StreamerTileUpload tile_upload(uint32_t slot, const detail::StreamerJob& job) const noexcept {
-    StreamerTileUpload u{slot, job.tile, {}, {}, {}, {}};
-    if (config.cache.format == CacheFormat::rgba8_affine) {
+    const TileLayout& layout = layouts[job.pool];
+    const CacheConfig& cache_config = pools[job.pool];
+    StreamerTileUpload u{cache.pool_local_slot(slot), job.tile, {}, {}, {}, {}, job.pool};
+    if (cache_config.format == CacheFormat::rgba8_affine) {
       u.unorm8 = std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(job.halves), layout.sample_count());
       u.map = job.map;
-    } else if (config.cache.format == CacheFormat::bc5_affine) {
+    } else if (cache_config.format == CacheFormat::bc5_affine) {
       u.bc5 = std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(job.halves),
-                                       cache_bc5_tile_bytes(config.cache.padded_tile_size()));
+                                       cache_bc5_tile_bytes(cache_config.padded_tile_size()));
       u.map = job.map;
     } else {
       u.texels = std::span<const uint16_t>(job.halves, layout.sample_count());
@@ -594,6 +626,7 @@ struct Streamer::Impl final : StreamerJobQueue {
     job.tile = global;
     job.material = texture_material[global.texture];
     job.generation = materials[job.material].generation;
+    job.pool = materials[job.material].pool;
     job.source = materials[job.material].source;
     launch(j, prepare_chain(job));
   }

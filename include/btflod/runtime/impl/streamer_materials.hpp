@@ -22,8 +22,11 @@ StreamerCapacity streamer_capacity_for(std::span<const StreamerMaterial> candida
     CacheConfig own;
     own.tile_size = sm.directory->metadata.tile_size;
     own.border = sm.directory->metadata.border;
+    StreamerMaterial any_pool = sm;  // measured against a pool of its own shape
+    any_pool.pool = kStreamerAnyPool;
     detail::StreamerMaterialNeeds n;
-    if (detail::check_streamer_material(sm, own, n, nullptr) != Status::success) continue;
+    if (detail::check_streamer_material(any_pool, std::span<const CacheConfig>(&own, 1), n, nullptr) != Status::success)
+      continue;
     textures.push_back(n.textures);
     tiles.push_back(n.tiles);
     material_tiles.push_back(n.tiles / n.textures);
@@ -69,11 +72,12 @@ inline void Streamer::Impl::abandon_reads(uint32_t j) noexcept {
   }
 }
 
-// Evicts the oldest resident leaf tile (not a root, no resident descendant): room for a new
-// material's roots. Returns false when no tile can be evicted.
-inline bool Streamer::Impl::evict_leaf() noexcept {
+// Evicts the oldest resident leaf tile (not a root, no resident descendant) of a pool: room
+// for a new material's roots. Returns false when no tile can be evicted.
+inline bool Streamer::Impl::evict_leaf(uint32_t pool) noexcept {
   uint32_t victim = kNoSlot;
-  for (uint32_t s = 0; s < cache.slot_count(); ++s) {
+  const uint32_t begin = cache.pool_first_slot(pool), end = begin + cache.pool_config(pool).slot_count();
+  for (uint32_t s = begin; s < end; ++s) {
     const SlotInfo& si = cache.slot(s);
     if (si.state != SlotInfo::State::used || si.tile.level == 0 ||
         cache.resident_below_at(si.tile.texture, si.flat_index) != 0)
@@ -91,7 +95,9 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
     return s;
   };
   detail::StreamerMaterialNeeds needs;
-  if (const Status s = detail::check_streamer_material(sm, config.cache, needs, why); s != Status::success) return s;
+  if (const Status s = detail::check_streamer_material(sm, std::span<const CacheConfig>(pools, pool_count), needs, why);
+      s != Status::success)
+    return s;
   const StreamerCapacity& cap = capacity;
   if (needs.level_count > cap.max_level_count || needs.finest_tiles > cap.max_finest_tiles)
     return fail(Status::insufficient_space,
@@ -107,10 +113,11 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
   if (set.largest_free_textures() < needs.textures || set.largest_free_entries() < needs.tiles ||
       votes.largest_free_tiles() < needs.tiles / needs.textures)
     return fail(Status::insufficient_space, "no run of free page-table layers or tile entries is large enough");
-  while (cache.free_count() < needs.textures)
-    if (!evict_leaf()) return fail(Status::insufficient_space, "too few cache slots to pin the material's roots");
+  while (cache.free_count(needs.pool) < needs.textures)
+    if (!evict_leaf(needs.pool))
+      return fail(Status::insufficient_space, "too few slots in its cache pool to pin the material's roots");
   uint32_t got = m;
-  if (scheduler.add_material(cache, needs.geometry, needs.textures, got) != Status::success)
+  if (scheduler.add_material(cache, needs.geometry, needs.textures, got, needs.pool) != Status::success)
     return fail(Status::insufficient_space, "the cache has no room for the material");
   const VtMaterial& vm = set.material(m);
   const VtLevelTable& lv = vm.levels;
@@ -139,6 +146,7 @@ inline Status Streamer::Impl::add_material(const StreamerMaterial& sm, uint32_t&
   ms.rows = md.u_rows;
   ms.row_order = needs.row_order;
   ms.packet_base = vm.first_texture;
+  ms.pool = needs.pool;
   for (uint32_t k = 0; k < vm.texture_count; ++k) {
     const uint32_t t = vm.first_texture + k;
     texture_material[t] = m;

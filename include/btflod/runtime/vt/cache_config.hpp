@@ -24,6 +24,11 @@ constexpr uint32_t pack_page_entry(uint32_t slot, uint32_t resident_level) noexc
 constexpr uint32_t unpack_page_entry_slot(uint32_t entry) noexcept { return entry & kPageEntrySlotMask; }
 constexpr uint32_t unpack_page_entry_level(uint32_t entry) noexcept { return entry >> kPageEntrySlotBits; }
 
+/// Most cache pools one TileCache (and one Streamer) keeps: each pool is a cache texture of its
+/// own shape and format (CacheConfig), with its own slots and free list (docs/vt.md, "Cache
+/// pools"). A fixed bound so the per-pool tables live inside the objects (nothing allocated).
+inline constexpr uint32_t kMaxCachePools = 8;
+
 /// Texel format of the physical tile cache (runtime/vt/cache_format.hpp).
 enum class CacheFormat : uint8_t {
   rgba16f = 0,       ///< the decoded values as half floats: 8 bytes per texel

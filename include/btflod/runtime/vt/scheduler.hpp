@@ -293,10 +293,11 @@ class Scheduler {
   /// Adds a material to the cache (TileCache::add_material, which needs a VtSet reservation)
   /// and to the scheduler: its tiles start with weight 1, energy 0 and config().tile_bytes
   /// (set_weight / set_energy / set_tile_bytes give the real values), scheduling enabled.
-  /// Writes the material id. Errors as TileCache::add_material. noexcept, no allocation.
-  Status add_material(TileCache& cache, const VtGeometry& geometry, uint32_t texture_count,
-                      uint32_t& material) noexcept {
-    const Status st = cache.add_material(geometry, texture_count, material);
+  /// Writes the material id. `pool`: the cache pool its tiles live in. Errors as
+  /// TileCache::add_material. noexcept, no allocation.
+  Status add_material(TileCache& cache, const VtGeometry& geometry, uint32_t texture_count, uint32_t& material,
+                      uint32_t pool = 0) noexcept {
+    const Status st = cache.add_material(geometry, texture_count, material, pool);
     if (st == Status::success) init_material(cache.set(), material);
     return st;
   }
@@ -704,7 +705,10 @@ class Scheduler {
       if (x.texture != y.texture) return x.texture < y.texture;
       return x.a < y.a;
     };
-    const size_t k = std::min<size_t>(pairs_.size(), 2u * config_.budgets.requests_in_flight + 3);
+    // Enough of the cheapest pairs for every swap a frame can issue, per pool (each pool's adds
+    // swap among its own tiles).
+    const size_t k =
+        std::min<size_t>(pairs_.size(), (2u * size_t{config_.budgets.requests_in_flight} + 3) * cache.pool_count());
     std::partial_sort(pairs_.begin(), pairs_.begin() + static_cast<ptrdiff_t>(k), pairs_.end(), less);
     pairs_.resize(k);
     pairs_sorted_ = 1;
@@ -802,16 +806,28 @@ class Scheduler {
       // A swap earlier this frame may have removed the parent or requested this very tile.
       if (requested_[index(c.texture, c.flat)] || !cache.resident(tile.parent())) continue;
       if (!can_request(tile_bytes_[index(c.texture, c.flat)], 1)) return false;
-      if (cache.free_count() == 0) {
+      // The tile goes to its material's pool: a full pool frees room by a swap among its own
+      // tiles (other pools' slots cannot hold it).
+      const uint32_t pool = cache.texture_pool(c.texture);
+      if (cache.free_count(pool) == 0) {
         // §5.2: among the three lowest-cost swaps, the cheapest still valid; only if c* < P*.
         if (!leaves_ready_) collect_leaves(cache, votes);
         if (!pairs_sorted_) build_pairs(cache, votes);
         while (next_pair_ < pairs_.size() && !pair_valid(cache, pairs_[next_pair_])) ++next_pair_;
-        if (next_pair_ == pairs_.size() || !(pairs_[next_pair_].cost < c.priority)) {
+        // The cheapest valid pair of this pool (a pair used by a swap is invalid afterwards:
+        // its leaves left the cache; other pools' pairs stay for their adds).
+        size_t pick = next_pair_;
+        if (cache.pool_count() > 1)
+          while (pick < pairs_.size() &&
+                 (cache.texture_pool(pairs_[pick].texture) != pool || !pair_valid(cache, pairs_[pick])))
+            ++pick;
+        if (pick == pairs_.size() || !(pairs_[pick].cost < c.priority)) {
           ++frame_counters_.swaps_rejected;
-          return true;  // candidates are sorted: no later add is worth a swap either
+          if (cache.pool_count() > 1) continue;  // another pool's add may still find room
+          return true;                           // candidates are sorted: no later add is worth a swap either
         }
-        const Pair p = pairs_[next_pair_++];
+        const Pair p = pairs_[pick];
+        if (pick == next_pair_) ++next_pair_;
         const Leaf* list = &leaves_[static_cast<size_t>(p.texture) * kLeavesPerTexture];
         const VtLevelTable& lv = set.levels_of(p.texture);
         const TileId a = lv.tile(p.texture, list[p.a].flat), b = lv.tile(p.texture, list[p.b].flat);
@@ -824,10 +840,14 @@ class Scheduler {
         TileId ancestor;
         if (cache.swap_remove(a, b, ancestor) != Status::success) continue;
         ++frame_counters_.swaps;
-        if (insert_anc) issue(cache, anc, cache.reserve_slot(), tile_bytes_[index(p.texture, lv.index(anc))], false);
+        if (insert_anc)
+          issue(cache, anc, cache.reserve_slot(pool), tile_bytes_[index(p.texture, lv.index(anc))], false);
       }
-      const uint32_t slot = cache.reserve_slot();
-      if (slot == kNoSlot) return true;
+      const uint32_t slot = cache.reserve_slot(pool);
+      if (slot == kNoSlot) {
+        if (cache.pool_count() > 1) continue;
+        return true;
+      }
       // The parent must survive this frame's swaps (add needs it, §5.2).
       const uint32_t parent_slot = cache.slot_of(tile.parent());
       if (parent_slot != kNoSlot) protected_stamp_[parent_slot] = frame_ + 1;

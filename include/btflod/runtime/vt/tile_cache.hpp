@@ -13,6 +13,14 @@
 // The cache owns a copy of its VtSet and holds no pointer into another object: it can be moved
 // freely (the scheduler takes the cache as an argument of each call).
 //
+// Pools (create_pools()): the slots may be split into up to kMaxCachePools pools, each a cache
+// texture of its own CacheConfig (tile size, border, slot grid, format) with its own free list.
+// Every material lives in one pool (add_material()'s `pool`), its tiles only in that pool's
+// slots, and its tiles' size and border are the pool's. Slot ids are global: pool p owns
+// [pool_first_slot(p), pool_first_slot(p) + pool_config(p).slot_count()); the GPU sees the
+// pool-local slot (pool_local_slot(), what gpu_page_entry() packs into a page-table texel).
+// One pool (create()) is the common case: local and global slots are then the same.
+//
 // Invariants (check_invariants() verifies them; tests call it after every operation):
 //  * the root tile of every virtual texture is resident and pinned, hence every texel of every
 //    virtual texture is covered by some resident tile;
@@ -87,47 +95,86 @@ class TileCache {
   /// not optional, core/allocator.hpp); copies `set` (no pointer kept) with the same allocator.
   static Result<TileCache> create(const VtSet& set, const TileCacheConfig& config = {},
                                   const RuntimeAllocator& allocator = {}) {
-    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
-    uint32_t live_textures = 0, first = kNoMaterial;
+    // The tile size and border: the first live material's, or the configuration's for an empty
+    // reserved set; every other material must match them (create_pools checks).
+    TileCacheConfig c = config;
     for (uint32_t m = 0; m < set.material_count(); ++m)
       if (set.material_live(m)) {
-        live_textures += set.material(m).texture_count;
-        if (first == kNoMaterial) first = m;
+        c.tile_size = set.material(m).levels.geometry.tile_size;
+        c.border = set.material(m).levels.geometry.border;
+        break;
       }
-    if ((live_textures == 0 && !set.reserved()) || slots == 0 || slots >= (1u << 24))
-      return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
-                        live_textures, static_cast<unsigned long long>(slots));
-    if (slots < live_textures)
-      return make_error(Status::insufficient_space,
-                        "tile cache: %llu slots cannot pin the root tiles of %u virtual textures",
-                        static_cast<unsigned long long>(slots), live_textures);
-    // The tile size and border: the materials' (all equal), or the configuration's for an empty
-    // reserved set.
-    const VtGeometry g0 = first != kNoMaterial ? set.material(first).levels.geometry
-                                               : VtGeometry{0, 0, config.tile_size, config.border, 0};
+    return create_pools(set, std::span<const CacheConfig>(&c, 1), allocator);
+  }
+
+  /// create() with the slots split into pools (see the file comment): pool p is a grid of
+  /// pools[p].slot_count() slots of pools[p].tile_size + 2·border texels. The live materials of
+  /// `set` go to pool material_pools[m] (pool 0 when material_pools is shorter), and their tile
+  /// size and border must be that pool's. delta_capacity is pool 0's. Errors: invalid_argument
+  /// for no pool, more than kMaxCachePools, an empty pool, ≥ 2^24 slots in all, a material in a
+  /// pool that does not exist or whose tile size or border differs from its pool's, an empty
+  /// unreserved set; insufficient_space when a pool has fewer slots than its materials have
+  /// virtual textures. Allocates as create().
+  static Result<TileCache> create_pools(const VtSet& set, std::span<const CacheConfig> pools,
+                                        const RuntimeAllocator& allocator = {},
+                                        std::span<const uint32_t> material_pools = {}) {
+    if (pools.empty() || pools.size() > kMaxCachePools)
+      return make_error(Status::invalid_argument, "tile cache: %zu pools (need 1 … %u)", pools.size(), kMaxCachePools);
+    uint64_t slots = 0;
+    for (const CacheConfig& p : pools) {
+      const uint64_t n = static_cast<uint64_t>(p.slots_x) * p.slots_y * p.cache_layers;
+      if (n == 0) return make_error(Status::invalid_argument, "tile cache: a pool without slots");
+      slots += n;
+    }
+    const auto pool_of = [&](uint32_t m) { return m < material_pools.size() ? material_pools[m] : 0u; };
+    uint32_t live_textures = 0;
+    uint64_t pool_textures[kMaxCachePools] = {};
     for (uint32_t m = 0; m < set.material_count(); ++m) {
       if (!set.material_live(m)) continue;
+      live_textures += set.material(m).texture_count;
+      const uint32_t p = pool_of(m);
+      if (p >= pools.size())
+        return make_error(Status::invalid_argument, "tile cache: material %u names pool %u of %zu", m, p, pools.size());
       const VtGeometry& g = set.material(m).levels.geometry;
-      if (g.tile_size != g0.tile_size || g.border != g0.border)
+      if (g.tile_size != pools[p].tile_size || g.border != pools[p].border)
         return make_error(Status::invalid_argument,
-                          "tile cache: material %u has tiles of %u texels with border %u, material %u of %u with %u "
-                          "(one cache holds one tile size)",
-                          m, g.tile_size, g.border, first, g0.tile_size, g0.border);
+                          "tile cache: material %u has tiles of %u texels with border %u, its pool %u holds %u with "
+                          "%u (one pool holds one tile size)",
+                          m, g.tile_size, g.border, p, pools[p].tile_size, pools[p].border);
+      pool_textures[p] += set.material(m).texture_count;
     }
+    if ((live_textures == 0 && !set.reserved()) || slots >= (1u << 24))
+      return make_error(Status::invalid_argument, "tile cache: %u virtual textures, %llu slots (need > 0, < 2^24)",
+                        live_textures, static_cast<unsigned long long>(slots));
+    for (uint32_t p = 0; p < pools.size(); ++p)
+      if (pools[p].slot_count() < pool_textures[p])
+        return make_error(Status::insufficient_space,
+                          "tile cache: %u slots of pool %u cannot pin the root tiles of %llu virtual textures",
+                          pools[p].slot_count(), p, static_cast<unsigned long long>(pool_textures[p]));
     TileCache c{allocator, set};
-    c.config_ = config;
-    c.config_.tile_size = g0.tile_size;
-    c.config_.border = g0.border;
+    c.config_ = pools[0];
+    c.pool_count_ = static_cast<uint32_t>(pools.size());
     c.slots_.assign(slots, SlotInfo{});
     c.visible_.assign(slots, 0);
-    c.free_.reserve(slots);
-    for (uint64_t s = slots; s-- > 0;) c.free_.push_back(static_cast<uint32_t>(s));  // lowest slot on top
+    c.free_.assign(slots, 0);
+    for (uint32_t p = 0, base = 0; p < pools.size(); ++p) {
+      const uint32_t n = pools[p].slot_count();
+      c.pools_[p] = pools[p];
+      c.pool_base_[p] = base;
+      c.pool_free_[p] = n;
+      // Each pool's free list, descending: its lowest slot on top.
+      for (uint32_t i = 0; i < n; ++i) c.free_[base + i] = base + n - 1 - i;
+      base += n;
+    }
+    c.material_pool_.assign(set.material_count(), 0);
+    for (uint32_t m = 0; m < set.material_count(); ++m)
+      if (set.material_live(m)) c.material_pool_[m] = static_cast<uint8_t>(pool_of(m));
     c.textures_.assign(set.texture_count(), Texture{});
     c.slot_of_.assign(set.entry_count(), kNoSlot);
     c.resident_below_.assign(set.entry_count(), 0);
     c.page_table_.assign(set.entry_count(), pack_page_entry(kNoSlot & 0xffffffu, 0));
-    c.deltas_.reserve(config.delta_capacity);
-    c.touched_.reserve(config.delta_capacity);
+    c.deltas_.reserve(pools[0].delta_capacity);
+    c.touched_.reserve(pools[0].delta_capacity);
     for (uint32_t m = 0; m < set.material_count(); ++m)
       if (set.material_live(m)) c.pin_roots(m);
     return c;
@@ -137,11 +184,18 @@ class TileCache {
   /// the set's copy, the slot table, the per-entry and per-texture arrays and the delta
   /// buffers. No allocation.
   static AllocationTally memory_required(const VtCapacity& capacity, const TileCacheConfig& config) noexcept {
-    const uint64_t slots = static_cast<uint64_t>(config.slots_x) * config.slots_y * config.cache_layers;
+    return memory_required(capacity, std::span<const CacheConfig>(&config, 1));
+  }
+  /// What create_pools() allocates for a reserved set and these pools. No allocation.
+  static AllocationTally memory_required(const VtCapacity& capacity, std::span<const CacheConfig> pools) noexcept {
+    uint64_t slots = 0;
+    for (const CacheConfig& p : pools) slots += static_cast<uint64_t>(p.slots_x) * p.slots_y * p.cache_layers;
+    const CacheConfig config = pools.empty() ? CacheConfig{} : pools[0];
     AllocationTally t = VtSet::reserved_memory(capacity);
     t.array<decltype(slots_)>(slots);
     t.array<decltype(visible_)>(slots);
     t.array<decltype(free_)>(slots);
+    t.array<decltype(material_pool_)>(capacity.materials);
     t.array<decltype(textures_)>(capacity.textures);
     t.array<decltype(slot_of_)>(capacity.tile_entries);
     t.array<decltype(resident_below_)>(capacity.tile_entries);
@@ -153,20 +207,23 @@ class TileCache {
 
   /// Adds a material to a cache whose VtSet has a reservation (VtSet::reserve): takes a
   /// material id and ranges from the set (VtSet::add_material) and pins its root tiles in the
-  /// lowest free slots, reported like create()'s (deltas). `material`: in, the free id to take
-  /// or kNoMaterial for the lowest free one; out, the id (kNoMaterial on failure).
-  /// insufficient_space when fewer slots are free than it has virtual textures or the set has
-  /// no room; invalid_argument without a reservation or for another tile size or border.
-  /// Other materials' tiles are not touched. noexcept, no allocation.
-  Status add_material(const VtGeometry& geometry, uint32_t texture_count, uint32_t& material) noexcept {
+  /// lowest free slots of pool `pool`, reported like create()'s (deltas). `material`: in, the
+  /// free id to take or kNoMaterial for the lowest free one; out, the id (kNoMaterial on
+  /// failure). insufficient_space when fewer slots of the pool are free than it has virtual
+  /// textures or the set has no room; invalid_argument without a reservation, for a pool that
+  /// does not exist or for another tile size or border than the pool's. Other materials' tiles
+  /// are not touched. noexcept, no allocation.
+  Status add_material(const VtGeometry& geometry, uint32_t texture_count, uint32_t& material,
+                      uint32_t pool = 0) noexcept {
     const uint32_t wanted = material;
     material = kNoMaterial;
-    if (!set_.reserved() || !geometry.valid() || texture_count == 0 || geometry.tile_size != config_.tile_size ||
-        geometry.border != config_.border)
+    if (!set_.reserved() || !geometry.valid() || texture_count == 0 || pool >= pool_count_ ||
+        geometry.tile_size != pools_[pool].tile_size || geometry.border != pools_[pool].border)
       return Status::invalid_argument;
-    if (free_.size() < texture_count) return Status::insufficient_space;
+    if (pool_free_[pool] < texture_count) return Status::insufficient_space;
     const uint32_t m = set_.add_material(geometry, texture_count, wanted);
     if (m == kNoMaterial) return Status::insufficient_space;
+    material_pool_[m] = static_cast<uint8_t>(pool);
     const VtMaterial& vm = set_.material(m);
     const size_t entries = size_t{vm.levels.tile_count()} * texture_count;
     std::fill_n(slot_of_.begin() + vm.entry_base, entries, kNoSlot);
@@ -190,7 +247,7 @@ class TileCache {
       if (s == kNoSlot) continue;
       slot_of_[e] = kNoSlot;
       visible_[s] = 0;
-      --used_;
+      count_used(s, false);
       free_slot(s);
     }
     const uint32_t t0 = vm.first_texture, t1 = vm.first_texture + vm.texture_count;
@@ -205,14 +262,43 @@ class TileCache {
     return set_.remove_material(material);
   }
 
-  /// S, all slots.
+  /// S, all slots (of every pool).
   uint32_t slot_count() const noexcept { return static_cast<uint32_t>(slots_.size()); }
-  /// Slots in the free list (not reserved, not used).
-  uint32_t free_count() const noexcept { return static_cast<uint32_t>(free_.size()); }
-  /// Slots holding a tile.
+  /// Slots in the free lists (not reserved, not used), over every pool.
+  uint32_t free_count() const noexcept {
+    uint32_t n = 0;
+    for (uint32_t p = 0; p < pool_count_; ++p) n += pool_free_[p];
+    return n;
+  }
+  /// Free slots of pool p (0 for a pool that does not exist).
+  uint32_t free_count(uint32_t pool) const noexcept { return pool < pool_count_ ? pool_free_[pool] : 0; }
+  /// Slots holding a tile, over every pool.
   uint32_t used_count() const noexcept { return used_; }
-  /// The configuration given to create(), with tile_size and border set to the set's.
+  /// Slots of pool p holding a tile (0 for a pool that does not exist).
+  uint32_t used_count(uint32_t pool) const noexcept { return pool < pool_count_ ? pool_used_[pool] : 0; }
+  /// The configuration given to create(), with tile_size and border set to the set's (with
+  /// pools: pool 0's).
   const TileCacheConfig& config() const noexcept { return config_; }
+  /// Pools (1 for create()).
+  uint32_t pool_count() const noexcept { return pool_count_; }
+  /// Shape of pool p. Precondition: p < pool_count().
+  const CacheConfig& pool_config(uint32_t pool) const noexcept { return pools_[pool]; }
+  /// First global slot of pool p. Precondition: p < pool_count().
+  uint32_t pool_first_slot(uint32_t pool) const noexcept { return pool_base_[pool]; }
+  /// Pool of global slot s (pool_count() for s ≥ slot_count()). O(pools).
+  uint32_t pool_of_slot(uint32_t s) const noexcept {
+    uint32_t p = 0;
+    while (p + 1 < pool_count_ && s >= pool_base_[p + 1]) ++p;
+    return s < slots_.size() ? p : pool_count_;
+  }
+  /// Slot s within its pool's cache texture (what the shaders address). Precondition: s < slot_count().
+  uint32_t pool_local_slot(uint32_t s) const noexcept { return s - pool_base_[pool_of_slot(s)]; }
+  /// Pool of material m (0 for an id the set does not know).
+  uint32_t material_pool(uint32_t material) const noexcept {
+    return material < material_pool_.size() ? material_pool_[material] : 0u;
+  }
+  /// Pool of virtual texture t's material (0 for a free texture). Precondition: t < set().texture_count().
+  uint32_t texture_pool(uint32_t texture) const noexcept { return material_pool(set_.material_of(texture)); }
   /// The virtual textures this cache serves (the cache's own copy).
   const VtSet& set() const noexcept { return set_; }
   /// What slot s holds. Precondition: s < slot_count().
@@ -222,12 +308,16 @@ class TileCache {
   /// Top-left texel of slot s inside its cache layer (the i' of eq. 3, border included; the
   /// layer is slot_placement(s).layer). Precondition: s < slot_count().
   void slot_origin(uint32_t s, uint32_t& x, uint32_t& y) const noexcept {
-    const CacheSlotPlacement p = cache_slot_placement(config_, s);
+    const CacheSlotPlacement p = slot_placement(s);
     x = p.x;
     y = p.y;
   }
-  /// Texel origin and layer of slot s (runtime/vt/cache_config.hpp). Precondition: s < slot_count().
-  CacheSlotPlacement slot_placement(uint32_t s) const noexcept { return cache_slot_placement(config_, s); }
+  /// Texel origin and layer of slot s in its pool's cache texture (runtime/vt/cache_config.hpp).
+  /// Precondition: s < slot_count().
+  CacheSlotPlacement slot_placement(uint32_t s) const noexcept {
+    const uint32_t p = pool_of_slot(s);
+    return cache_slot_placement(pools_[p], s - pool_base_[p]);
+  }
 
   /// Slot holding the tile, or kNoSlot. Returns kNoSlot for ids outside the hierarchy. noexcept.
   uint32_t slot_of(const TileId& t) const noexcept {
@@ -260,11 +350,11 @@ class TileCache {
     return {page_table_.data() + textures_[texture].page, textures_[texture].page_entries};
   }
 
-  /// Takes the lowest free slot out of the free list (state reserved). Returns kNoSlot when full.
-  uint32_t reserve_slot() noexcept {
-    if (free_.empty()) return kNoSlot;
-    const uint32_t s = free_.back();
-    free_.pop_back();
+  /// Takes the lowest free slot of pool `pool` out of its free list (state reserved). Returns
+  /// kNoSlot when the pool is full or does not exist.
+  uint32_t reserve_slot(uint32_t pool = 0) noexcept {
+    if (pool >= pool_count_ || pool_free_[pool] == 0) return kNoSlot;
+    const uint32_t s = free_[pool_base_[pool] + --pool_free_[pool]];
     slots_[s].state = SlotInfo::State::reserved;
     return s;
   }
@@ -276,17 +366,19 @@ class TileCache {
   }
 
   /// Makes tile t resident in reserved slot s and updates the page table (no removals).
-  /// invalid_argument when t is outside the hierarchy, already resident, or s not reserved.
+  /// invalid_argument when t is outside the hierarchy, already resident, s not reserved or not
+  /// in the pool of t's material.
   Status insert(const TileId& t, uint32_t s, uint64_t frame) noexcept {
     if (t.texture >= textures_.size() || !set_.levels_of(t.texture).geometry.contains(t) || resident(t) ||
-        s >= slots_.size() || slots_[s].state != SlotInfo::State::reserved)
+        s >= slots_.size() || slots_[s].state != SlotInfo::State::reserved ||
+        pool_of_slot(s) != texture_pool(t.texture))
       return Status::invalid_argument;
     const VtLevelTable& lv = set_.levels_of(t.texture);
     const uint32_t idx = lv.index(t);
     Texture& tx = textures_[t.texture];
     c_slot(tx, idx) = s;
     slots_[s] = SlotInfo{t, idx, frame, SlotInfo::State::used};
-    ++used_;
+    count_used(s, true);
     for (TileId a = t; a.level > 0;) {
       a = a.parent();
       ++below(tx, lv.index(a));
@@ -340,7 +432,7 @@ class TileCache {
         best_level = a.level;
       }
     }
-    --used_;
+    count_used(s, false);
     refresh(t, pack_page_entry(best, best_level));
     push_touched(t);
     free_slot(s);
@@ -403,11 +495,29 @@ class TileCache {
     }
     if (used != used_) return fail(format_message("used count %u != %u", used_, used));
     std::vector<uint8_t> in_free(slots_.size(), 0);
-    for (uint32_t s : free_) {
-      if (s >= slots_.size() || in_free[s] || slots_[s].state != SlotInfo::State::free)
-        return fail(format_message("free list entry %u bad", s));
-      in_free[s] = 1;
+    uint32_t used_in_pools = 0;
+    for (uint32_t p = 0; p < pool_count_; ++p) {
+      const uint32_t end = p + 1 < pool_count_ ? pool_base_[p + 1] : slot_count();
+      uint32_t pool_used = 0;
+      for (uint32_t s = pool_base_[p]; s < end; ++s) {
+        if (slots_[s].state != SlotInfo::State::used) continue;
+        ++pool_used;
+        if (texture_pool(slots_[s].tile.texture) != p)
+          return fail(
+              format_message("slot %u of pool %u holds a tile of pool %u", s, p, texture_pool(slots_[s].tile.texture)));
+      }
+      if (pool_used != pool_used_[p])
+        return fail(format_message("pool %u: used count %u != %u", p, pool_used_[p], pool_used));
+      used_in_pools += pool_used;
+      for (uint32_t i = 0; i < pool_free_[p]; ++i) {
+        const uint32_t s = free_[pool_base_[p] + i];
+        if (s < pool_base_[p] || s >= end || in_free[s] || slots_[s].state != SlotInfo::State::free ||
+            (i > 0 && s >= free_[pool_base_[p] + i - 1]))
+          return fail(format_message("free list entry %u of pool %u bad", s, p));
+        in_free[s] = 1;
+      }
     }
+    if (used_in_pools != used_) return fail(format_message("pools' used counts %u != %u", used_in_pools, used_));
     for (uint32_t s = 0; s < slots_.size(); ++s)
       if (slots_[s].state == SlotInfo::State::free && !in_free[s]) return fail(format_message("slot %u lost", s));
     for (uint32_t t = 0; t < textures_.size(); ++t) {
@@ -474,6 +584,7 @@ class TileCache {
         slots_(CallbackAllocator<SlotInfo>(al)),
         visible_(CallbackAllocator<uint32_t>(al)),
         free_(CallbackAllocator<uint32_t>(al)),
+        material_pool_(CallbackAllocator<uint8_t>(al)),
         textures_(CallbackAllocator<Texture>(al)),
         deltas_(CallbackAllocator<PageTableDelta>(al)),
         touched_(CallbackAllocator<TileId>(al)) {}
@@ -491,11 +602,11 @@ class TileCache {
       tx.stride = vm.texture_count;
       tx.page = set_.texture_offset(t);
       tx.page_entries = lv.tiles_x[L] * lv.tiles_y[L];
-      const uint32_t slot = reserve_slot();
+      const uint32_t slot = reserve_slot(material_pool_[m]);
       // The root covers everything: set the whole table directly, then count visibility.
       c_slot(tx, 0) = slot;
       slots_[slot] = SlotInfo{TileId{t, 0, 0, 0}, 0, 0, SlotInfo::State::used};
-      ++used_;
+      count_used(slot, true);
       std::fill_n(page_table_.begin() + tx.page, tx.page_entries, pack_page_entry(slot, 0));
       visible_[slot] = tx.page_entries;
       push_delta(PageTableDelta{t, 0, 0, lv.tiles_x[L], lv.tiles_y[L], pack_page_entry(slot, 0)});
@@ -504,10 +615,26 @@ class TileCache {
 
   void free_slot(uint32_t s) noexcept {
     slots_[s] = SlotInfo{};
-    // Keep the free list sorted descending so the lowest slot is handed out first (determinism
-    // independent of the order of removals). Insertion is O(free) but only moves integers.
-    auto it = std::lower_bound(free_.begin(), free_.end(), s, [](uint32_t a, uint32_t b) { return a > b; });
-    free_.insert(it, s);  // capacity reserved at create(): no allocation
+    // Keep the pool's free list sorted descending so its lowest slot is handed out first
+    // (determinism independent of the order of removals). Insertion is O(free) but only moves
+    // integers, within the pool's region of free_ (sized at create(): no allocation).
+    const uint32_t p = pool_of_slot(s);
+    uint32_t* begin = free_.data() + pool_base_[p];
+    uint32_t* end = begin + pool_free_[p];
+    uint32_t* it = std::lower_bound(begin, end, s, [](uint32_t a, uint32_t b) { return a > b; });
+    std::copy_backward(it, end, end + 1);
+    *it = s;
+    ++pool_free_[p];
+  }
+  void count_used(uint32_t s, bool more) noexcept {
+    const uint32_t p = pool_of_slot(s);
+    if (more) {
+      ++used_;
+      ++pool_used_[p];
+    } else {
+      --used_;
+      --pool_used_[p];
+    }
   }
 
   void push_delta(const PageTableDelta& d) noexcept {
@@ -568,7 +695,13 @@ class TileCache {
   TileCacheConfig config_;
   Vec<SlotInfo> slots_;
   Vec<uint32_t> visible_;
-  Vec<uint32_t> free_;  // sorted descending; back() is the lowest free slot
+  Vec<uint32_t> free_;  // per pool, [pool_base_, + pool_free_): sorted descending, the last is the lowest free slot
+  Vec<uint8_t> material_pool_;  // per material id: its pool
+  CacheConfig pools_[kMaxCachePools] = {};
+  uint32_t pool_base_[kMaxCachePools] = {};
+  uint32_t pool_free_[kMaxCachePools] = {};
+  uint32_t pool_used_[kMaxCachePools] = {};
+  uint32_t pool_count_ = 1;
   Vec<Texture> textures_;
   Vec<PageTableDelta> deltas_;
   Vec<TileId> touched_;

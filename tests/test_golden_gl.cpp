@@ -4,7 +4,8 @@
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
 // (test_golden_representations.hpp); a live Streamer's materials removed and added on the backend
-// render like a fresh Streamer's (test_golden_streamer.hpp).
+// render like a fresh Streamer's, and two materials in two cache pools of different tile sizes
+// match their CPU references (test_golden_streamer.hpp).
 // Skips with the reason when the GPU API is not available at run time.
 // btflod-link: btflod_gl_backend
 // btflod-label: gpu
@@ -27,4 +28,7 @@ BTFLOD_GOLDEN_PROGRAM_TESTS(GoldenGl, , make_backend)
 TEST(GoldenGl, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenGl, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
+}
+TEST(GoldenGl, TwoCachePoolsOfDifferentTileSizesMatchCpuReference) {
+  btflod::golden::golden_streamer_pools(make_backend);
 }

@@ -72,9 +72,12 @@ struct GoldenStreamingEngine {
     packets.resize(s.packet_uploads_bound());
     handles.assign(s.material_count(), MaterialHandle{});
   }
-  /// Creates the backend's BSVTF material for Streamer material `id`. False (test failed) on error.
+  /// Creates the backend's BSVTF material for Streamer material `id`, reading its Streamer pool's
+  /// cache. False (test failed) on error.
   bool create_material(uint32_t id, const Material& m) {
-    auto h = backend->create_material(m.data(false));
+    FmfMaterialData d = m.data(false);
+    d.cache_pool = streamer->material_pool(id);
+    auto h = backend->create_material(d);
     EXPECT_TRUE(h.ok()) << h.message();
     if (h.ok()) handles[id] = *h;
     return h.ok();
@@ -113,10 +116,12 @@ struct GoldenStreamingEngine {
     return std::any_of(events.begin(), events.end(),
                        [&](const ResidencyEvent& e) { return e.kind == kind && e.material == material; });
   }
-  /// The plane drawn with material id `m`'s BSVTF (its page-table layers and U′).
+  /// The plane drawn with material id `m`'s BSVTF (its page-table layers and U′; its finest
+  /// level, which its pool's tile size sets).
   Image<float> render(MeshHandle mesh, uint32_t m) {
     ShaderParams p = golden_params(golden_camera());
     p.ids = glm::uvec4(streamer->first_texture(m), m, 0u, 0u);
+    p.vt_extent.z = static_cast<float>(streamer->cache().set().material(m).levels.finest_level());
     return render_frame(*backend, ShaderProgram::bsvtf, mesh, handles[m], p);
   }
 };
@@ -210,6 +215,103 @@ inline void golden_streamer_materials_come_and_go(BackendFactory make) {
   EXPECT_GE(same_new, 60.0);
   EXPECT_GE(same_kept, 60.0);
   EXPECT_LT(stale, 40.0) << "the materials must differ for the test to see stale layers";
+}
+
+/// The CPU reference of a streamed material: a single-pool Streamer of `cache`'s shape streams it
+/// on the CPU (every finest tile voted until nothing changes) into a CpuCacheTexture, and
+/// cpu_render() samples V′ through that cache's page tables.
+inline Image<float> streamed_cpu_reference(const StreamedGoldenMaterial& mat, const CacheConfig& cache,
+                                           const ShaderParams& params) {
+  StreamerConfig sc;
+  sc.cache = cache;
+  sc.vote_window_frames = 1;
+  const StreamerMaterial one[1] = {mat.streamer()};
+  auto r = Streamer::create(one, sc);
+  EXPECT_TRUE(r.ok()) << r.message();
+  if (!r.ok()) return Image<float>(kSize, kSize, 4);
+  Streamer& s = *r;
+  CpuCacheTexture cpu(s.cache());
+  std::vector<StreamerTileUpload> tiles(s.tile_uploads_bound());
+  std::vector<StreamerPacketUpload> packets(s.packet_uploads_bound());
+  std::vector<PageTableWrite> writes(4096);
+  std::vector<ResidencyEvent> events(64);
+  std::vector<uint32_t> words;
+  const VtLevelTable& lv = s.cache().set().material(0).levels;
+  const uint32_t L = lv.finest_level();
+  for (uint32_t y = 0; y < lv.tiles_y[L]; ++y)
+    for (uint32_t x = 0; x < lv.tiles_x[L]; ++x) words.push_back(pack_feedback(FeedbackTile{0, L, x, y}));
+  for (uint32_t f = 0, quiet = 0; f < 400 && quiet < 3; ++f) {
+    StreamerOutputs out{tiles, packets, writes, events};
+    EXPECT_EQ(s.update(words, out), Status::success);
+    for (size_t i = 0; i < out.tile_upload_count; ++i) {
+      const StreamerTileUpload& u = out.tile_uploads[i];
+      EXPECT_TRUE(cpu.upload(s.cache(), u.slot, u.texels, u.unorm8, u.map, u.bc5));
+    }
+    s.pump();
+    quiet = out.tile_upload_count > 0 || !s.idle() ? 0 : quiet + 1;
+  }
+  const uint32_t first = s.first_texture(0), textures = s.texture_count(0);
+  return cpu_render(mat.material, params, [&](const SurfaceHit& h, float* out) {
+    for (uint32_t k = 0; k < textures; ++k) cpu.sample(s.cache(), first + k, h.texcoord.x, h.texcoord.y, out + 4 * k);
+  });
+}
+
+/// Two materials in two cache pools of one Streamer — the golden T = 64 cache (pool 0) and a
+/// T = 32 cache (pool 1) — on one backend: the backend keeps a cache texture and a bsvtf
+/// program per pool (Backend::add_cache_pool), each material draws from its pool's, and each
+/// image matches the CPU reference of its material streamed alone (≥ 40 dB), not the other's.
+inline void golden_streamer_pools(BackendFactory make) {
+  ShaderConfig config = golden_streaming_config();
+  config.vt.finest_level = 3;  // the T = 32 material: 8 × 8 finest tiles
+  ShaderConfig config32 = config;
+  config32.vt.tile_size = 32;
+  CacheConfig pool32 = static_cast<const CacheConfig&>(config32.vt);
+  pool32.slots_x = pool32.slots_y = 16;  // 256 slots: 2 × 85 tiles
+  StreamedGoldenMaterial mats[2];
+  make_streamed_material(config, 11u, mats[0]);
+  if (::testing::Test::HasFatalFailure()) return;
+  make_streamed_material(config32, 23u, mats[1]);
+  if (::testing::Test::HasFatalFailure()) return;
+  const CacheConfig pools[2] = {static_cast<const CacheConfig&>(config.vt), pool32};
+  StreamerConfig sc = golden_streamer_config(config);
+  sc.pools = pools;
+  const StreamerMaterial both[2] = {mats[0].streamer(), mats[1].streamer()};
+  auto s = Streamer::create(both, sc);
+  ASSERT_TRUE(s.ok()) << s.message();
+  ASSERT_EQ(s->material_pool(0), 0u);
+  ASSERT_EQ(s->material_pool(1), 1u);
+  const std::unique_ptr<Backend> be = start_backend(make, config, s->gpu_layout().page_table_layers);
+  if (!be) return;
+  auto added = be->add_cache_pool(s->gpu_layout().pools[1].cache);
+  ASSERT_TRUE(added.ok()) << added.message();
+  EXPECT_EQ(*added, 1u);
+  EXPECT_EQ(be->cache_pool_count(), 2u);
+  {
+    FmfMaterialData missing = mats[0].material.data(false);
+    missing.cache_pool = 2;
+    EXPECT_FALSE(be->create_material(missing).ok()) << "a material naming a pool the backend does not have";
+  }
+  auto mesh = create_plane_mesh(*be);
+  ASSERT_TRUE(mesh.ok()) << mesh.message();
+  GoldenStreamingEngine e;
+  e.attach(*be, *s);
+  for (uint32_t m = 0; m < 2; ++m) ASSERT_TRUE(e.create_material(m, mats[m].material));
+  e.converge();
+  ASSERT_TRUE(s->material_ready(0) && s->material_ready(1));
+  EXPECT_GT(s->stats().pools[1].slots_used, 100u) << "the T = 32 material streamed its finest tiles";
+  Image<float> img[2], ref[2];
+  for (uint32_t m = 0; m < 2; ++m) {
+    img[m] = e.render(*mesh, m);
+    ShaderParams p = golden_params(golden_camera());
+    p.vt_extent.z = static_cast<float>(s->cache().set().material(m).levels.finest_level());
+    ref[m] = streamed_cpu_reference(mats[m], pools[m], p);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  for (uint32_t m = 0; m < 2; ++m) {
+    const GoldenPsnr psnr = expect_golden_match(ref[m], img[m], ref[1 - m]);
+    std::printf("[ %s ] cache pools: material %u (T = %u, pool %u) vs CPU reference %.2f dB (vs the other %.2f dB)\n",
+                be->name(), m, pools[m].tile_size, m, psnr.ref, psnr.wrong);
+  }
 }
 
 }  // namespace btflod::golden

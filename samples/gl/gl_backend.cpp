@@ -25,8 +25,16 @@ struct GlMesh {
   GLsizei index_count = 0;
 };
 
+// One cache pool: its cache texture (and slot map for the affine formats) and the bsvtf
+// programs generated for its tile size and format (compile-time constants of the shaders).
+struct GlPool {
+  VirtualTextureConfig vt;
+  GLuint cache = 0, slot_map = 0, bsvtf = 0, bsvtf_feedback = 0;
+};
+
 struct GlMaterial {
   GLuint eigen_abrdfs = 0, angular_index = 0, angular_weight = 0, eigen_textures = 0;
+  uint32_t pool = 0;        ///< cache pool its bsvtf draws read (FmfMaterialData::cache_pool)
   int representation = -1;  ///< index into reps_ for a laplacian / lpca / pca_views material
   uint32_t light_count = 0, view_count = 0, components = 0;  ///< FMF materials: U′'s shape
   std::vector<float> packet_layers;                          // upload_u_packets staging (4 layers of U′)
@@ -68,7 +76,13 @@ class GlBackend final : public Backend {
 
   ~GlBackend() override {
     eglMakeCurrent(display_, surface_, surface_, context_);
-    for (GLuint p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) glDeleteProgram(p);
+    for (GLuint p : {fmf_, feedback_}) glDeleteProgram(p);
+    for (GlPool& p : pools_) {
+      glDeleteProgram(p.bsvtf);
+      glDeleteProgram(p.bsvtf_feedback);
+      GLuint t[2] = {p.cache, p.slot_map};
+      glDeleteTextures(2, t);
+    }
     for (GlMesh& m : meshes_) {
       glDeleteVertexArrays(1, &m.vao);
       glDeleteBuffers(1, &m.vbo);
@@ -84,8 +98,7 @@ class GlBackend final : public Backend {
       glDeleteBuffers(1, &s.pbo);
     }
     destroy_targets();
-    GLuint t[3] = {cache_, page_table_, slot_map_};
-    glDeleteTextures(3, t);
+    glDeleteTextures(1, &page_table_);
     glDeleteBuffers(1, &ubo_);
     if (!owns_context_) return;  // the window keeps its context current until it destroys it
     eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
@@ -103,60 +116,20 @@ class GlBackend final : public Backend {
       return make_error(Status::invalid_argument, "GL: %u virtual textures, expected 1..2048", virtual_texture_count);
     config_ = config;
     vt_layers_ = virtual_texture_count;
-    const ShaderProgram programs[4] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback,
-                                       ShaderProgram::bsvtf_feedback};
-    GLuint* out[4] = {&fmf_, &bsvtf_, &feedback_, &bsvtf_feedback_};
-    for (int i = 0; i < 4; ++i) {
-      Result<GlslProgramSource> src = generate_program(programs[i], GlslTarget::gl450_core, config);
-      if (!src) return src.error();
-      Result<GLuint> prog = compile_gl_program(*src, shader_program_name(programs[i]));
+    const ShaderProgram programs[2] = {ShaderProgram::fmf, ShaderProgram::feedback};
+    GLuint* out[2] = {&fmf_, &feedback_};
+    for (int i = 0; i < 2; ++i) {
+      Result<GLuint> prog = compile_program(programs[i], config);
       if (!prog) return prog.error();
       *out[i] = *prog;
     }
     const VirtualTextureConfig& vt = config.vt;
-    GLint max_size = 0, max_layers = 0;
+    GLint max_size = 0;
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
-    if (vt.cache_width() > static_cast<uint32_t>(max_size) || vt.cache_height() > static_cast<uint32_t>(max_size) ||
-        vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > static_cast<uint32_t>(max_layers) ||
-        (1u << vt.finest_level) > static_cast<uint32_t>(max_size))
-      return make_error(Status::unsupported, "GL: cache %u×%u×%u or page table 2^%u exceeds the limits (%d, %d layers)",
-                        vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level, max_size, max_layers);
-    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_);
-    const bool affine = cache_format_has_slot_map(vt.format);
-    const bool bc5 = vt.format == CacheFormat::bc5_affine;
-    // bc5_affine: two RGTC2 planes per cache layer, plane p of layer L at array layer 2L + p
-    // (runtime/vt/cache_bc5.hpp; the shaders read both).
-    glTextureStorage3D(cache_, 1,
-                       bc5                                      ? GL_COMPRESSED_RG_RGTC2
-                       : vt.format == CacheFormat::rgba8_affine ? GL_RGBA8
-                                                                : GL_RGBA16F,
-                       static_cast<GLsizei>(vt.cache_width()), static_cast<GLsizei>(vt.cache_height()),
-                       static_cast<GLsizei>(vt.cache_layers * (bc5 ? 2 : 1)));
-    glTextureParameteri(cache_, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(cache_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(cache_, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(cache_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    if (bc5) {  // glClearTexImage takes no compressed texture: all-zero blocks decode to 0
-      const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
-                                             vt.cache_layers);
-      glCompressedTextureSubImage3D(cache_, 0, 0, 0, 0, static_cast<GLsizei>(vt.cache_width()),
-                                    static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers * 2),
-                                    GL_COMPRESSED_RG_RGTC2, static_cast<GLsizei>(zero_blocks.size()),
-                                    zero_blocks.data());
-    } else {
-      const float zero[4] = {0, 0, 0, 0};
-      glClearTexImage(cache_, 0, GL_RGBA, GL_FLOAT, zero);
-    }
-    if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (runtime/vt/cache_format.hpp)
-      glCreateTextures(GL_TEXTURE_2D, 1, &slot_map_);
-      glTextureStorage2D(slot_map_, 1, GL_RGBA32UI, static_cast<GLsizei>(cache_slot_map_width(vt)),
-                         static_cast<GLsizei>(cache_slot_map_height(vt)));
-      glTextureParameteri(slot_map_, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-      glTextureParameteri(slot_map_, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-      const GLuint zero_map[4] = {0, 0, 0, 0};
-      glClearTexImage(slot_map_, 0, GL_RGBA_INTEGER, GL_UNSIGNED_INT, zero_map);
-    }
+    if ((1u << vt.finest_level) > static_cast<uint32_t>(max_size))
+      return make_error(Status::unsupported, "GL: page table 2^%u exceeds the limits (%d)", vt.finest_level, max_size);
+    pools_.emplace_back();
+    if (VoidResult v = create_pool(config, pools_.back()); !v) return v;
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &page_table_);
     const GLsizei side = 1 << vt.finest_level;
     glTextureStorage3D(page_table_, static_cast<GLsizei>(vt.finest_level + 1), GL_R32UI, side, side,
@@ -173,6 +146,94 @@ class GlBackend final : public Backend {
       return make_error(Status::unsupported, "GL: error 0x%04x while creating the cache and page table", e);
     initialised_ = true;
     return {};
+  }
+
+  Result<uint32_t> add_cache_pool(const CacheConfig& cache) override {
+    make_current();
+    if (!initialised_) return make_error(Status::invalid_argument, "GL: add_cache_pool before init");
+    if (pools_.size() >= kMaxCachePools)
+      return make_error(Status::invalid_argument, "GL: %zu cache pools already, at most %u", pools_.size(),
+                        kMaxCachePools);
+    ShaderConfig c = config_;
+    static_cast<CacheConfig&>(c.vt) = cache;
+    if (VoidResult v = validate_shader_config(c); !v) return v.error();
+    GlPool pool;
+    if (VoidResult v = create_pool(c, pool); !v) {
+      glDeleteProgram(pool.bsvtf);
+      glDeleteProgram(pool.bsvtf_feedback);
+      GLuint t[2] = {pool.cache, pool.slot_map};
+      glDeleteTextures(2, t);
+      return v.error();
+    }
+    pools_.push_back(pool);
+    return static_cast<uint32_t>(pools_.size() - 1);
+  }
+
+  uint32_t cache_pool_count() const noexcept override { return static_cast<uint32_t>(pools_.size()); }
+
+  // The bsvtf programs and the cache texture (and slot map) of config.vt's cache shape.
+  VoidResult create_pool(const ShaderConfig& config, GlPool& pool) {
+    const VirtualTextureConfig& vt = config.vt;
+    pool.vt = vt;
+    Result<GLuint> bsvtf = compile_program(ShaderProgram::bsvtf, config);
+    if (!bsvtf) return bsvtf.error();
+    pool.bsvtf = *bsvtf;
+    Result<GLuint> words = compile_program(ShaderProgram::bsvtf_feedback, config);
+    if (!words) return words.error();
+    pool.bsvtf_feedback = *words;
+    GLint max_size = 0, max_layers = 0;
+    glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+    glGetIntegerv(GL_MAX_ARRAY_TEXTURE_LAYERS, &max_layers);
+    if (vt.cache_width() > static_cast<uint32_t>(max_size) || vt.cache_height() > static_cast<uint32_t>(max_size) ||
+        vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > static_cast<uint32_t>(max_layers))
+      return make_error(Status::unsupported, "GL: cache %u×%u×%u exceeds the limits (%d, %d layers)", vt.cache_width(),
+                        vt.cache_height(), vt.cache_layers, max_size, max_layers);
+    GLuint& cache_tex = pool.cache;
+    GLuint& map_tex = pool.slot_map;
+    glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &cache_tex);
+    const bool affine = cache_format_has_slot_map(vt.format);
+    const bool bc5 = vt.format == CacheFormat::bc5_affine;
+    // bc5_affine: two RGTC2 planes per cache layer, plane p of layer L at array layer 2L + p
+    // (runtime/vt/cache_bc5.hpp; the shaders read both).
+    glTextureStorage3D(cache_tex, 1,
+                       bc5                                      ? GL_COMPRESSED_RG_RGTC2
+                       : vt.format == CacheFormat::rgba8_affine ? GL_RGBA8
+                                                                : GL_RGBA16F,
+                       static_cast<GLsizei>(vt.cache_width()), static_cast<GLsizei>(vt.cache_height()),
+                       static_cast<GLsizei>(vt.cache_layers * (bc5 ? 2 : 1)));
+    glTextureParameteri(cache_tex, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(cache_tex, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(cache_tex, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(cache_tex, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    if (bc5) {  // glClearTexImage takes no compressed texture: all-zero blocks decode to 0
+      const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
+                                             vt.cache_layers);
+      glCompressedTextureSubImage3D(cache_tex, 0, 0, 0, 0, static_cast<GLsizei>(vt.cache_width()),
+                                    static_cast<GLsizei>(vt.cache_height()), static_cast<GLsizei>(vt.cache_layers * 2),
+                                    GL_COMPRESSED_RG_RGTC2, static_cast<GLsizei>(zero_blocks.size()),
+                                    zero_blocks.data());
+    } else {
+      const float zero[4] = {0, 0, 0, 0};
+      glClearTexImage(cache_tex, 0, GL_RGBA, GL_FLOAT, zero);
+    }
+    if (affine) {  // one RGBA32UI texel per slot: offsets and scales as halves (runtime/vt/cache_format.hpp)
+      glCreateTextures(GL_TEXTURE_2D, 1, &map_tex);
+      glTextureStorage2D(map_tex, 1, GL_RGBA32UI, static_cast<GLsizei>(cache_slot_map_width(vt)),
+                         static_cast<GLsizei>(cache_slot_map_height(vt)));
+      glTextureParameteri(map_tex, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      glTextureParameteri(map_tex, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      const GLuint zero_map[4] = {0, 0, 0, 0};
+      glClearTexImage(map_tex, 0, GL_RGBA_INTEGER, GL_UNSIGNED_INT, zero_map);
+    }
+    if (GLenum e = glGetError(); e != GL_NO_ERROR)
+      return make_error(Status::unsupported, "GL: error 0x%04x while creating a tile cache", e);
+    return {};
+  }
+
+  static Result<GLuint> compile_program(ShaderProgram program, const ShaderConfig& config) {
+    Result<GlslProgramSource> src = generate_program(program, GlslTarget::gl450_core, config);
+    if (!src) return src.error();
+    return compile_gl_program(*src, shader_program_name(program));
   }
 
   Result<MeshHandle> create_mesh(const MeshData& mesh) override {
@@ -209,7 +270,11 @@ class GlBackend final : public Backend {
     make_current();
     if (!initialised_) return make_error(Status::invalid_argument, "GL: create_material before init");
     if (VoidResult v = validate_material(data, config_); !v) return v.error();
+    if (data.cache_pool >= pools_.size())
+      return make_error(Status::invalid_argument, "GL: the material names cache pool %u of %zu", data.cache_pool,
+                        pools_.size());
     GlMaterial m;
+    m.pool = data.cache_pool;
     const std::vector<float> u = pack_eigen_abrdfs_rgba(data);
     glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &m.eigen_abrdfs);
     glTextureStorage3D(m.eigen_abrdfs, 1, GL_RGBA32F, static_cast<GLsizei>(data.light_count),
@@ -277,23 +342,27 @@ class GlBackend final : public Backend {
   Status upload_tiles(std::span<const TileUpload> tiles) noexcept override {
     make_current();
     if (!initialised_) return Status::invalid_argument;
-    const VirtualTextureConfig& vt = config_.vt;
-    const size_t padded = vt.padded_tile_size();
     for (const TileUpload& t : tiles)
-      if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
-    const bool affine = cache_format_has_slot_map(vt.format);
-    const bool bc5 = vt.format == CacheFormat::bc5_affine;
-    const size_t plane_bytes = padded * padded;  // BC5: 16 bytes per 4 × 4 texels
+      if (t.pool >= pools_.size() || check_tile_upload(t, pools_[t.pool].vt) != Status::success)
+        return Status::invalid_argument;
     for (const TileUpload& t : tiles) {
+      // Each tile into its pool's cache texture, in that pool's shape and format.
+      const GlPool& pool = pools_[t.pool];
+      const VirtualTextureConfig& vt = pool.vt;
+      const GLuint cache_tex = pool.cache, map_tex = pool.slot_map;
+      const size_t padded = vt.padded_tile_size();
+      const bool affine = cache_format_has_slot_map(vt.format);
+      const bool bc5 = vt.format == CacheFormat::bc5_affine;
+      const size_t plane_bytes = padded * padded;  // BC5: 16 bytes per 4 × 4 texels
       const SlotPlacement p = slot_placement(vt, t.slot);
       if (bc5) {
         for (uint32_t plane = 0; plane < 2; ++plane)  // plane p of layer L at array layer 2L + p
-          glCompressedTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y),
+          glCompressedTextureSubImage3D(cache_tex, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y),
                                         static_cast<GLint>(2 * p.layer + plane), static_cast<GLsizei>(padded),
                                         static_cast<GLsizei>(padded), 1, GL_COMPRESSED_RG_RGTC2,
                                         static_cast<GLsizei>(plane_bytes), t.bc5.data() + plane * plane_bytes);
       } else {
-        glTextureSubImage3D(cache_, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
+        glTextureSubImage3D(cache_tex, 0, static_cast<GLint>(p.x), static_cast<GLint>(p.y), static_cast<GLint>(p.layer),
                             static_cast<GLsizei>(padded), static_cast<GLsizei>(padded), 1, GL_RGBA,
                             affine ? GL_UNSIGNED_BYTE : GL_HALF_FLOAT,
                             affine ? static_cast<const void*>(t.unorm8.data()) : t.texels.data());
@@ -301,7 +370,7 @@ class GlBackend final : public Backend {
       if (affine) {
         const CacheSlotMapTexel m = cache_slot_map_texel(vt, t.slot);
         const std::array<uint32_t, 4> packed = pack_cache_slot_map(t.map);
-        glTextureSubImage2D(slot_map_, 0, static_cast<GLint>(m.x), static_cast<GLint>(m.y), 1, 1, GL_RGBA_INTEGER,
+        glTextureSubImage2D(map_tex, 0, static_cast<GLint>(m.x), static_cast<GLint>(m.y), 1, 1, GL_RGBA_INTEGER,
                             GL_UNSIGNED_INT, packed.data());
       }
     }
@@ -382,9 +451,9 @@ class GlBackend final : public Backend {
       if (!m.eigen_textures) return Status::invalid_argument;  // BSVTF-only material
       prog = fmf_;
     } else if (program == ShaderProgram::bsvtf) {
-      prog = bsvtf_;
+      prog = pools_[m.pool].bsvtf;
     } else if (program == ShaderProgram::bsvtf_feedback) {
-      prog = bsvtf_feedback_;
+      prog = pools_[m.pool].bsvtf_feedback;
     } else {
       return Status::invalid_argument;
     }
@@ -398,9 +467,10 @@ class GlBackend final : public Backend {
     if (program == ShaderProgram::fmf) {
       bind(ShaderBinding::eigen_textures, m.eigen_textures);
     } else {
-      bind(ShaderBinding::tile_cache, cache_);
+      // The material's pool: its cache texture (and slot map) with the page table all pools share.
+      bind(ShaderBinding::tile_cache, pools_[m.pool].cache);
       bind(ShaderBinding::page_table, page_table_);
-      if (slot_map_) bind(ShaderBinding::slot_map, slot_map_);
+      if (pools_[m.pool].slot_map) bind(ShaderBinding::slot_map, pools_[m.pool].slot_map);
     }
     if (words) {
       // Colour and every pixel's feedback word (fragment output 1). The word target is cleared
@@ -630,8 +700,9 @@ class GlBackend final : public Backend {
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;
-  GLuint fmf_ = 0, bsvtf_ = 0, feedback_ = 0, bsvtf_feedback_ = 0;
-  GLuint cache_ = 0, page_table_ = 0, slot_map_ = 0, ubo_ = 0;
+  GLuint fmf_ = 0, feedback_ = 0;
+  std::vector<GlPool> pools_;  // pool 0: init()'s config.vt; then add_cache_pool()'s
+  GLuint page_table_ = 0, ubo_ = 0;
   GLuint color_fbo_ = 0, color_tex_ = 0, color_depth_ = 0;
   GLuint feedback_fbo_ = 0, feedback_tex_ = 0, feedback_depth_ = 0;
   GLuint color_feedback_fbo_ = 0, feedback_full_tex_ = 0;

@@ -73,6 +73,9 @@ struct FmfMaterialData {
   /// The encoding of U'·V'ᵀ (EigenTextures::transform); must equal ShaderConfig::value_transform,
   /// which the programs decode with.
   ValueTransform transform{};
+  /// Cache pool whose texture its bsvtf and bsvtf_feedback draws read (Backend::add_cache_pool;
+  /// the Streamer's material_pool() of the material). 0: init()'s cache.
+  uint32_t cache_pool = 0;
 };
 
 /// One tile to copy into a cache slot: (T + 2B)² RGBA texels (4 components), row-major,
@@ -715,9 +718,25 @@ class Backend {
     return make_error(Status::unsupported, "%s: no spmm program", name());
   }
 
+  /// Adds a cache pool (docs/vt.md, "Cache pools"): a cache texture of `cache`'s shape and format
+  /// (and its slot-map table for the affine formats) and bsvtf / bsvtf_feedback programs
+  /// generated for init()'s config with `cache` in place of its cache shape (tile size and
+  /// format are compile-time constants of the shaders). Pools are numbered in order, init()'s
+  /// cache being pool 0, so adding a Streamer's pools 1, 2, … in order makes the numbers match
+  /// (StreamerTileUpload::pool, TileUpload::pool, FmfMaterialData::cache_pool). The page table
+  /// and U′ textures are shared. Returns the pool's index; invalid_argument before init(), past
+  /// kMaxCachePools or for a cache shape validate_shader_config() refuses; unsupported when the
+  /// backend has no pools (the default) or the GPU's limits are exceeded. Set-up only.
+  virtual Result<uint32_t> add_cache_pool(const CacheConfig&) {
+    return make_error(Status::unsupported, "%s: one cache pool only", name());
+  }
+  /// Cache pools: 1 after init() plus one per add_cache_pool() (0 before init()).
+  virtual uint32_t cache_pool_count() const noexcept { return 1; }
+
   // --- streaming (per frame; no allocation, no GPU wait) ----------------------------------
-  /// Copies tiles into cache slots. Returns invalid_argument (and uploads nothing) when a slot
-  /// is out of range or a span has the wrong size.
+  /// Copies tiles into cache slots of their pools' cache textures (TileUpload::pool). Returns
+  /// invalid_argument (and uploads nothing) when a pool does not exist, a slot is out of its
+  /// pool's range or a span has the wrong size for its pool.
   virtual Status upload_tiles(std::span<const TileUpload> tiles) noexcept = 0;
   /// Overwrites page-table texels. Returns invalid_argument (and applies nothing) when a write
   /// names a layer, mip or texel outside the page table.

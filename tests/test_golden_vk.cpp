@@ -4,7 +4,8 @@
 // the laplacian (eq. 7 level blending), lpca (3 clusters), pca_views (k = 3 of 9 views) and spmm
 // (paper 003, three residual switches) programs against the representations' CPU evaluators
 // (test_golden_representations.hpp); a live Streamer's materials removed and added on the backend
-// render like a fresh Streamer's (test_golden_streamer.hpp).
+// render like a fresh Streamer's, and two materials in two cache pools of different tile sizes
+// match their CPU references (test_golden_streamer.hpp).
 // The HLSL programs (VkBackendOptions::hlsl_programs, SPIR-V from glslang's HLSL front end)
 // render the FMF and the partial-cache BSVTF scenes like the Vulkan GLSL programs (>= 60 dB), and
 // pass every golden test above against the same CPU references.
@@ -75,6 +76,12 @@ BTFLOD_GOLDEN_PROGRAM_TESTS(GoldenVk, Hlsl, make_hlsl_backend)
 TEST(GoldenVk, UPacketUploadsMatchAMaterialCreatedWithThem) { btflod::golden::golden_fmf_u_packets(make_backend); }
 TEST(GoldenVk, StreamerMaterialsComeAndGoOnTheGpu) {
   btflod::golden::golden_streamer_materials_come_and_go(make_backend);
+}
+TEST(GoldenVk, TwoCachePoolsOfDifferentTileSizesMatchCpuReference) {
+  btflod::golden::golden_streamer_pools(make_backend);
+}
+TEST(GoldenVk, HlslTwoCachePoolsOfDifferentTileSizesMatchCpuReference) {
+  btflod::golden::golden_streamer_pools(make_hlsl_backend);
 }
 TEST(GoldenVk, HlslFmfRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::fmf); }
 TEST(GoldenVk, HlslBsvtfPartialCacheRendersLikeGlsl) { hlsl_matches_glsl(btflod::ShaderProgram::bsvtf); }

@@ -29,8 +29,9 @@ VkBackend::~VkBackend() {
     destroy(color_readback_);
     destroy(ubo_all_);
     destroy_targets();
-    for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) destroy(*t);
-    for (VkPipeline p : {fmf_, bsvtf_, feedback_, bsvtf_feedback_}) vkDestroyPipeline(vk_.device, p, nullptr);
+    for (Texture* t : {&page_table_, &dummy_float_, &dummy_uint_}) destroy(*t);
+    for (VkCachePool& p : pools_) destroy(p);
+    for (VkPipeline p : {fmf_, feedback_}) vkDestroyPipeline(vk_.device, p, nullptr);
     vkDestroyPipelineLayout(vk_.device, pipeline_layout_, nullptr);
     vkDestroyDescriptorPool(vk_.device, descriptor_pool_, nullptr);
     vkDestroyDescriptorSetLayout(vk_.device, set_layout_, nullptr);
@@ -116,65 +117,21 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
     return make_error(Status::invalid_argument, "Vulkan: %u virtual textures, expected 1..%u", virtual_texture_count,
                       vk_.properties.limits.maxImageArrayLayers);
   const VirtualTextureConfig& vt = config.vt;
-  if (vt.cache_width() > vk_.properties.limits.maxImageDimension2D ||
-      vt.cache_height() > vk_.properties.limits.maxImageDimension2D ||
-      vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > vk_.properties.limits.maxImageArrayLayers ||
-      (1u << vt.finest_level) > vk_.properties.limits.maxImageDimension2D)
-    return make_error(Status::unsupported, "Vulkan: cache %u×%u×%u or page table 2^%u exceeds the device limits",
-                      vt.cache_width(), vt.cache_height(), vt.cache_layers, vt.finest_level);
+  if ((1u << vt.finest_level) > vk_.properties.limits.maxImageDimension2D)
+    return make_error(Status::unsupported, "Vulkan: page table 2^%u exceeds the device limits", vt.finest_level);
   config_ = config;
   vt_layers_ = virtual_texture_count;
   if (VoidResult r = create_layout(); !r) return r;
-  const ShaderProgram programs[4] = {ShaderProgram::fmf, ShaderProgram::bsvtf, ShaderProgram::feedback,
-                                     ShaderProgram::bsvtf_feedback};
-  VkPipeline* out[4] = {&fmf_, &bsvtf_, &feedback_, &bsvtf_feedback_};
-  for (int i = 0; i < 4; ++i) {
-    Result<GlslProgramSource> src = options_.hlsl_programs
-                                        ? generate_hlsl_program(programs[i], config)
-                                        : generate_program(programs[i], GlslTarget::vulkan450, config);
-    if (!src) return src.error();
-    Result<VkPipeline> p = create_pipeline(
-        *src, shader_program_name(programs[i]),
-        programs[i] == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT, VK_NULL_HANDLE,
-        programs[i] == ShaderProgram::bsvtf_feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_UNDEFINED,
-        options_.hlsl_programs);
+  const ShaderProgram programs[2] = {ShaderProgram::fmf, ShaderProgram::feedback};
+  VkPipeline* out[2] = {&fmf_, &feedback_};
+  for (int i = 0; i < 2; ++i) {
+    Result<VkPipeline> p = create_program_pipeline(programs[i], config);
     if (!p) return p.error();
     *out[i] = *p;
   }
-  // Cache and page table (GENERAL layout, cleared to 0: entry 0 = slot 0 at level 0).
-  const bool affine = cache_format_has_slot_map(vt.format);
-  const bool bc5 = vt.format == CacheFormat::bc5_affine;
-  if (bc5) {
-    if (!vk_.texture_compression_bc)
-      return make_error(Status::unsupported,
-                        "Vulkan: a bc5_affine cache needs the textureCompressionBC feature, which %s lacks",
-                        vk_.properties.deviceName);
-    VkFormatProperties fp{};
-    vkGetPhysicalDeviceFormatProperties(vk_.physical, VK_FORMAT_BC5_UNORM_BLOCK, &fp);
-    if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
-      return make_error(Status::unsupported, "Vulkan: %s cannot filter VK_FORMAT_BC5_UNORM_BLOCK linearly",
-                        vk_.properties.deviceName);
-  }
-  // bc5_affine: two BC5 planes per cache layer, plane p of layer L at array layer 2L + p
-  // (runtime/vt/cache_bc5.hpp; the shaders read both).
-  if (VoidResult r = create_texture(cache_,
-                                    bc5                                      ? VK_FORMAT_BC5_UNORM_BLOCK
-                                    : vt.format == CacheFormat::rgba8_affine ? VK_FORMAT_R8G8B8A8_UNORM
-                                                                             : VK_FORMAT_R16G16B16A16_SFLOAT,
-                                    vt.cache_width(), vt.cache_height(), vt.cache_layers * (bc5 ? 2 : 1), 1);
-      !r)
-    return r;
-  if (bc5) {  // vkCmdClearColorImage takes no compressed image: all-zero blocks decode to 0
-    const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
-                                           vt.cache_layers);
-    if (VoidResult r = upload_texture(cache_, {zero_blocks.data()}, 1); !r) return r;  // 1 byte a texel
-  }
-  // rgba8_affine: one RGBA32UI texel per slot (runtime/vt/cache_format.hpp); otherwise a 1×1 stand-in
-  // the rgba16f programs never read. A 2D view: the shaders declare a usampler2D.
-  if (VoidResult r = create_texture(slot_map_, VK_FORMAT_R32G32B32A32_UINT, affine ? cache_slot_map_width(vt) : 1,
-                                    affine ? cache_slot_map_height(vt) : 1, 1, 1, 0, false);
-      !r)
-    return r;
+  pools_.emplace_back();
+  if (VoidResult r = create_pool(config, pools_.back()); !r) return r;
+  // Page table (GENERAL layout, cleared to 0: entry 0 = slot 0 at level 0).
   if (VoidResult r = create_texture(page_table_, VK_FORMAT_R32_UINT, 1u << vt.finest_level, 1u << vt.finest_level,
                                     virtual_texture_count, vt.finest_level + 1);
       !r)
@@ -184,8 +141,7 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
   {
     VkCommandBuffer cmd = VK_NULL_HANDLE;
     if (VoidResult r = begin_one_shot(cmd); !r) return r;
-    for (Texture* t : {&cache_, &page_table_, &slot_map_, &dummy_float_, &dummy_uint_}) {
-      if (t == &cache_ && bc5) continue;  // filled with zero blocks above
+    for (Texture* t : {&page_table_, &dummy_float_, &dummy_uint_}) {
       VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, t->mips, 0, t->layers};
       VkClearColorValue zero{};  // all-zero bits: 0.0f and 0u alike
       vkCmdClearColorImage(cmd, t->image, VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
@@ -214,6 +170,101 @@ VoidResult VkBackend::init(const ShaderConfig& config, uint32_t virtual_texture_
   return {};
 }
 
+Result<VkPipeline> VkBackend::create_program_pipeline(ShaderProgram program, const ShaderConfig& config) {
+  Result<GlslProgramSource> src = options_.hlsl_programs ? generate_hlsl_program(program, config)
+                                                         : generate_program(program, GlslTarget::vulkan450, config);
+  if (!src) return src.error();
+  return create_pipeline(
+      *src, shader_program_name(program),
+      program == ShaderProgram::feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_R32G32B32A32_SFLOAT, VK_NULL_HANDLE,
+      program == ShaderProgram::bsvtf_feedback ? VK_FORMAT_R32_UINT : VK_FORMAT_UNDEFINED, options_.hlsl_programs);
+}
+
+void VkBackend::destroy(VkCachePool& pool) {
+  destroy(pool.cache);
+  destroy(pool.slot_map);
+  for (VkPipeline p : {pool.bsvtf, pool.bsvtf_feedback}) vkDestroyPipeline(vk_.device, p, nullptr);
+  pool.bsvtf = pool.bsvtf_feedback = VK_NULL_HANDLE;
+}
+
+Result<uint32_t> VkBackend::add_cache_pool(const CacheConfig& cache) {
+  if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: add_cache_pool before init");
+  if (pools_.size() >= kMaxCachePools)
+    return make_error(Status::invalid_argument, "Vulkan: %zu cache pools already, at most %u", pools_.size(),
+                      kMaxCachePools);
+  ShaderConfig c = config_;
+  static_cast<CacheConfig&>(c.vt) = cache;
+  if (VoidResult v = validate_shader_config(c); !v) return v.error();
+  VkCachePool pool;
+  if (VoidResult r = create_pool(c, pool); !r) {
+    destroy(pool);
+    return r.error();
+  }
+  pools_.push_back(pool);
+  return static_cast<uint32_t>(pools_.size() - 1);
+}
+
+VoidResult VkBackend::create_pool(const ShaderConfig& config, VkCachePool& pool) {
+  const VirtualTextureConfig& vt = config.vt;
+  pool.vt = vt;
+  if (vt.cache_width() > vk_.properties.limits.maxImageDimension2D ||
+      vt.cache_height() > vk_.properties.limits.maxImageDimension2D ||
+      vt.cache_layers * (vt.format == CacheFormat::bc5_affine ? 2u : 1u) > vk_.properties.limits.maxImageArrayLayers)
+    return make_error(Status::unsupported, "Vulkan: cache %u×%u×%u exceeds the device limits", vt.cache_width(),
+                      vt.cache_height(), vt.cache_layers);
+  Result<VkPipeline> bsvtf = create_program_pipeline(ShaderProgram::bsvtf, config);
+  if (!bsvtf) return bsvtf.error();
+  pool.bsvtf = *bsvtf;
+  Result<VkPipeline> words = create_program_pipeline(ShaderProgram::bsvtf_feedback, config);
+  if (!words) return words.error();
+  pool.bsvtf_feedback = *words;
+  Texture& cache_tex = pool.cache;
+  Texture& map_tex = pool.slot_map;
+  // Cache (GENERAL layout, cleared to 0).
+  const bool affine = cache_format_has_slot_map(vt.format);
+  const bool bc5 = vt.format == CacheFormat::bc5_affine;
+  if (bc5) {
+    if (!vk_.texture_compression_bc)
+      return make_error(Status::unsupported,
+                        "Vulkan: a bc5_affine cache needs the textureCompressionBC feature, which %s lacks",
+                        vk_.properties.deviceName);
+    VkFormatProperties fp{};
+    vkGetPhysicalDeviceFormatProperties(vk_.physical, VK_FORMAT_BC5_UNORM_BLOCK, &fp);
+    if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
+      return make_error(Status::unsupported, "Vulkan: %s cannot filter VK_FORMAT_BC5_UNORM_BLOCK linearly",
+                        vk_.properties.deviceName);
+  }
+  // bc5_affine: two BC5 planes per cache layer, plane p of layer L at array layer 2L + p
+  // (runtime/vt/cache_bc5.hpp; the shaders read both).
+  if (VoidResult r = create_texture(cache_tex,
+                                    bc5                                      ? VK_FORMAT_BC5_UNORM_BLOCK
+                                    : vt.format == CacheFormat::rgba8_affine ? VK_FORMAT_R8G8B8A8_UNORM
+                                                                             : VK_FORMAT_R16G16B16A16_SFLOAT,
+                                    vt.cache_width(), vt.cache_height(), vt.cache_layers * (bc5 ? 2 : 1), 1);
+      !r)
+    return r;
+  if (bc5) {  // vkCmdClearColorImage takes no compressed image: all-zero blocks decode to 0
+    const std::vector<uint8_t> zero_blocks(static_cast<size_t>(vt.cache_width()) * vt.cache_height() * 2 *
+                                           vt.cache_layers);
+    if (VoidResult r = upload_texture(cache_tex, {zero_blocks.data()}, 1); !r) return r;  // 1 byte a texel
+  }
+  // rgba8_affine: one RGBA32UI texel per slot (runtime/vt/cache_format.hpp); otherwise a 1×1 stand-in
+  // the rgba16f programs never read. A 2D view: the shaders declare a usampler2D.
+  if (VoidResult r = create_texture(map_tex, VK_FORMAT_R32G32B32A32_UINT, affine ? cache_slot_map_width(vt) : 1,
+                                    affine ? cache_slot_map_height(vt) : 1, 1, 1, 0, false);
+      !r)
+    return r;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  if (VoidResult r = begin_one_shot(cmd); !r) return r;
+  for (Texture* t : {&cache_tex, &map_tex}) {
+    if (t == &cache_tex && bc5) continue;  // filled with zero blocks above
+    VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, t->mips, 0, t->layers};
+    VkClearColorValue zero{};  // all-zero bits: 0.0f and 0u alike
+    vkCmdClearColorImage(cmd, t->image, VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &range);
+  }
+  return end_one_shot(cmd);
+}
+
 Result<MeshHandle> VkBackend::create_mesh(const MeshData& mesh) {
   if (VoidResult v = validate_mesh(mesh); !v) return v.error();
   VkMesh m;
@@ -233,7 +284,11 @@ Result<MeshHandle> VkBackend::create_mesh(const MeshData& mesh) {
 Result<MaterialHandle> VkBackend::create_material(const FmfMaterialData& data) {
   if (!initialised_) return make_error(Status::invalid_argument, "Vulkan: create_material before init");
   if (VoidResult v = validate_material(data, config_); !v) return v.error();
+  if (data.cache_pool >= pools_.size())
+    return make_error(Status::invalid_argument, "Vulkan: the material names cache pool %u of %zu", data.cache_pool,
+                      pools_.size());
   VkMaterial m;
+  m.pool = data.cache_pool;
   m.light_count = data.light_count;
   m.view_count = data.view_count;
   m.components = data.components;
@@ -314,19 +369,26 @@ Status VkBackend::destroy_material(MaterialHandle material) {
 
 Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
   if (!initialised_) return Status::invalid_argument;
-  const VirtualTextureConfig& vt = config_.vt;
-  const size_t padded = vt.padded_tile_size();
-  const bool affine = cache_format_has_slot_map(vt.format);
-  const bool bc5 = vt.format == CacheFormat::bc5_affine;
-  const size_t bytes = padded * padded * vt.texel_bytes();  // bc5_affine: both planes
-  const size_t map_bytes = affine ? 16 : 0;                 // pack_cache_slot_map
-  for (const TileUpload& t : tiles)
-    if (check_tile_upload(t, vt) != Status::success) return Status::invalid_argument;
-  FrameContext& c = open_context();
-  // Each map copy starts 16-byte aligned (an RGBA32UI texel): up to 15 bytes of padding per tile.
-  if (c.staging_offset + (bytes + (affine ? map_bytes + 15 : 0)) * tiles.size() > c.staging.size)
-    return Status::insufficient_space;
+  // Each tile's staging bytes in its pool's format; each map copy starts 16-byte aligned (an
+  // RGBA32UI texel): up to 15 bytes of padding per tile.
+  size_t staging = 0;
   for (const TileUpload& t : tiles) {
+    if (t.pool >= pools_.size() || check_tile_upload(t, pools_[t.pool].vt) != Status::success)
+      return Status::invalid_argument;
+    const VirtualTextureConfig& vt = pools_[t.pool].vt;
+    staging += size_t{vt.padded_tile_size()} * vt.padded_tile_size() * vt.texel_bytes() +
+               (cache_format_has_slot_map(vt.format) ? 16 + 15 : 0);
+  }
+  FrameContext& c = open_context();
+  if (c.staging_offset + staging > c.staging.size) return Status::insufficient_space;
+  for (const TileUpload& t : tiles) {
+    const VkCachePool& pool = pools_[t.pool];
+    const VirtualTextureConfig& vt = pool.vt;
+    const size_t padded = vt.padded_tile_size();
+    const bool affine = cache_format_has_slot_map(vt.format);
+    const bool bc5 = vt.format == CacheFormat::bc5_affine;
+    const size_t bytes = padded * padded * vt.texel_bytes();  // bc5_affine: both planes
+    const size_t map_bytes = affine ? 16 : 0;                 // pack_cache_slot_map
     if (affine) {
       c.staging_offset = (c.staging_offset + 15) & ~VkDeviceSize{15};
       const std::array<uint32_t, 4> packed = pack_cache_slot_map(t.map);
@@ -337,7 +399,7 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
       region.imageOffset = {static_cast<int32_t>(m.x), static_cast<int32_t>(m.y), 0};
       region.imageExtent = {1, 1, 1};
-      vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, slot_map_.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+      vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, pool.slot_map.image, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
       c.staging_offset += map_bytes;
     }
     std::memcpy(static_cast<char*>(c.staging.mapped) + c.staging_offset,
@@ -357,7 +419,7 @@ Status VkBackend::upload_tiles(std::span<const TileUpload> tiles) noexcept {
       region.imageOffset = {static_cast<int32_t>(p.x), static_cast<int32_t>(p.y), 0};
       region.imageExtent = {static_cast<uint32_t>(padded), static_cast<uint32_t>(padded), 1};
     }
-    vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, cache_.image, VK_IMAGE_LAYOUT_GENERAL, planes, regions);
+    vkCmdCopyBufferToImage(c.cmd, c.staging.buffer, pool.cache.image, VK_IMAGE_LAYOUT_GENERAL, planes, regions);
     c.staging_offset += bytes;
   }
   full_barrier(c.cmd);
@@ -468,9 +530,9 @@ Status VkBackend::draw(ShaderProgram program, MeshHandle mesh, MaterialHandle ma
   if (program == ShaderProgram::fmf && m.eigen_textures.image)
     pipeline = fmf_;
   else if (program == ShaderProgram::bsvtf)
-    pipeline = bsvtf_;
+    pipeline = pools_[m.pool].bsvtf;  // its pool's tile size and format; its set binds the pool's cache
   else if (program == ShaderProgram::bsvtf_feedback)
-    pipeline = bsvtf_feedback_;
+    pipeline = pools_[m.pool].bsvtf_feedback;
   else
     return Status::invalid_argument;
   const ShaderParams material_params = params_for_material(params, m.components);

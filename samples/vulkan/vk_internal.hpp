@@ -53,9 +53,18 @@ struct VkMesh {
   uint32_t index_count = 0;
 };
 
+/// One cache pool: its cache texture, its slot map (a 1 × 1 stand-in for rgba16f) and the bsvtf
+/// pipelines generated for its tile size and format (compile-time constants of the shaders).
+struct VkCachePool {
+  VirtualTextureConfig vt;
+  Texture cache, slot_map;
+  VkPipeline bsvtf = VK_NULL_HANDLE, bsvtf_feedback = VK_NULL_HANDLE;
+};
+
 struct VkMaterial {
   Texture eigen_abrdfs, angular_index, angular_weight, eigen_textures;
   VkDescriptorSet set = VK_NULL_HANDLE;
+  uint32_t pool = 0;  ///< cache pool its set binds (FmfMaterialData::cache_pool)
   /// laplacian / lpca / pca_views materials: their program (fmf = an FMF material), textures
   /// and pipeline (generated with representation_config()).
   ShaderProgram program = ShaderProgram::fmf;
@@ -209,6 +218,8 @@ class VkBackend final : public Backend {
   VoidResult init(const ShaderConfig& config, uint32_t virtual_texture_count) override;
   Result<MeshHandle> create_mesh(const MeshData& mesh) override;
   Result<MaterialHandle> create_material(const FmfMaterialData& data) override;
+  Result<uint32_t> add_cache_pool(const CacheConfig& cache) override;
+  uint32_t cache_pool_count() const noexcept override { return static_cast<uint32_t>(pools_.size()); }
   Result<MaterialHandle> create_laplacian_material(const LaplacianMaterialData& d) override;
   Result<MaterialHandle> create_lpca_material(const LpcaMaterialData& d) override;
   Result<MaterialHandle> create_pca_views_material(const PcaViewsMaterialData& d) override;
@@ -267,9 +278,16 @@ class VkBackend final : public Backend {
 
   // --- pipelines and descriptors ----------------------------------------------------------
   VoidResult create_layout();
+  /// The pipeline of `program` generated for `config` (GLSL or HLSL as the options say).
+  Result<VkPipeline> create_program_pipeline(ShaderProgram program, const ShaderConfig& config);
+  /// The bsvtf pipelines and the cleared cache texture and slot map of config.vt's cache shape
+  /// in `pool` (what it made is in `pool` on failure too: the caller destroys it).
+  VoidResult create_pool(const ShaderConfig& config, VkCachePool& pool);
+  void destroy(VkCachePool& pool);
 
-  /// A descriptor set with the per-frame UBO (dynamic offset), the cache and page table, and the
-  /// material's textures (dummies when m is null or has no V').
+  /// A descriptor set with the per-frame UBO (dynamic offset), the cache of the material's pool
+  /// (pool 0 when m is null) and the page table, and the material's textures (dummies when m is
+  /// null or has no V').
   Result<VkDescriptorSet> allocate_set(const VkMaterial* m);
   Buffer& shared_ubo() { return ubo_all_; }
 
@@ -311,8 +329,8 @@ class VkBackend final : public Backend {
   VkDescriptorSetLayout set_layout_ = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
-  VkPipeline fmf_ = VK_NULL_HANDLE, bsvtf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
-  VkPipeline bsvtf_feedback_ = VK_NULL_HANDLE;
+  VkPipeline fmf_ = VK_NULL_HANDLE, feedback_ = VK_NULL_HANDLE;
+  std::vector<VkCachePool> pools_;  ///< pool 0: init()'s config.vt; then add_cache_pool()'s
   VkDescriptorSet feedback_set_ = VK_NULL_HANDLE;
   // Set and pipeline layouts of the laplacian, lpca, pca_views and spmm programs (created on first use).
   VkDescriptorSetLayout rep_set_layout_[4] = {VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE};
@@ -320,7 +338,7 @@ class VkBackend final : public Backend {
   ShaderConfig config_;
   uint32_t vt_layers_ = 0;
   bool initialised_ = false;
-  Texture cache_, page_table_, slot_map_, dummy_float_, dummy_uint_;
+  Texture page_table_, dummy_float_, dummy_uint_;
   Texture color_, color_depth_, feedback_color_, feedback_depth_;
   Texture feedback_full_;  ///< bsvtf_feedback: every pixel's word (R32_UINT, screen size)
   Buffer ubo_all_, color_readback_;

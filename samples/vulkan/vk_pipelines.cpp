@@ -68,9 +68,9 @@ Result<VkDescriptorSet> VkBackend::allocate_set(const VkMaterial* m) {
       image(m ? m->angular_index : dummy_uint_, nearest_),
       image(m ? m->angular_weight : dummy_float_, nearest_),
       image(m && m->eigen_textures.image ? m->eigen_textures : dummy_float_, linear_repeat_),
-      image(cache_, linear_clamp_),
+      image(pools_[m ? m->pool : 0].cache, linear_clamp_),
       image(page_table_, nearest_),
-      image(slot_map_, nearest_),
+      image(pools_[m ? m->pool : 0].slot_map, nearest_),
   };
   VkWriteDescriptorSet w[kSetBindingCount];
   for (uint32_t i = 0; i < kSetBindingCount; ++i) {

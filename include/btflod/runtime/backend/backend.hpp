@@ -761,7 +761,9 @@ class Backend {
   /// program does not fit the material.
   virtual Status draw(ShaderProgram program, MeshHandle mesh, MaterialHandle material,
                       const ShaderParams& params) noexcept = 0;
-  /// Draws a mesh into the feedback target (paper 000 eq. 1–2). A frame whose colour pass uses
+  /// Draws a mesh into the feedback target (paper 000 eq. 1–2). The feedback program is
+  /// generated for init()'s cache (pool 0's tile size): materials of a pool with another tile
+  /// size write their words with ShaderProgram::bsvtf_feedback draws instead. A frame whose colour pass uses
   /// ShaderProgram::bsvtf_feedback needs none: draw() then writes the words of every pixel and
   /// end_frame() reads back FrameDesc's sample of them (subsample_feedback()), replacing what
   /// draw_feedback() wrote in that frame.

@@ -8,6 +8,8 @@
 // material arrives damaged (its root tile fails its checksum): it fails cleanly, once, the rest
 // of the world streams on, and at frame 60 the engine removes it and adds a fourth material in
 // its place on the running Streamer (a level streaming in; ids and layers of the others stay).
+// The second material was built with tiles of 64 texels, the others with 32: the Streamer keeps
+// two cache pools (one cache texture each) and every material streams into its own.
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -23,7 +25,7 @@ using namespace btflod;
 namespace {
 
 // 1. Offline: a factorisation (here synthetic eigen-textures V′ and U′) → a .bsvtf file.
-std::vector<uint8_t> make_container(uint32_t components, float frequency) {
+std::vector<uint8_t> make_container(uint32_t components, float frequency, uint32_t tile_size = 32) {
   EigenTextures e;
   e.textures.resize(256, 256, static_cast<int>(components));
   for (int y = 0; y < 256; ++y)
@@ -34,7 +36,7 @@ std::vector<uint8_t> make_container(uint32_t components, float frequency) {
   e.view_count = 3;
   e.angular.assign(size_t{3} * 3 * 3 * components, 0.1f);
   BsvtfFromEigenOptions options;
-  options.tile_size = 32;  // T; 4 texels of border (B) by default
+  options.tile_size = tile_size;  // T; 4 texels of border (B) by default
   options.light_directions = {0, 0, 1, 0.6f, 0, 0.8f, 0, 0.6f, 0.8f};
   options.view_directions = options.light_directions;
   auto file = build_bsvtf_from_eigen_textures(e, options);
@@ -43,9 +45,9 @@ std::vector<uint8_t> make_container(uint32_t components, float frequency) {
 
 // The engine's side of the GPU: what the shaders read.
 struct FakeGpu {
-  std::vector<std::vector<uint16_t>> slots;        // cache texture, one RGBA16F tile per slot
-  std::vector<std::vector<uint32_t>> page_tables;  // per virtual texture, all levels
-  std::vector<std::vector<uint16_t>> u_packets;    // per virtual texture
+  std::vector<std::vector<std::vector<uint16_t>>> pools;  // per cache pool: its texture, one RGBA16F tile per slot
+  std::vector<std::vector<uint32_t>> page_tables;         // per virtual texture, all levels
+  std::vector<std::vector<uint16_t>> u_packets;           // per virtual texture
 };
 
 // A camera sliding over two side-by-side materials (the bottom rows see the third): each
@@ -69,7 +71,7 @@ std::vector<uint32_t> render_feedback(const Streamer& s, uint32_t frame) {
 
 int main() {
   // 2. Containers and their sources (a file, an HTTP range source or memory, as here).
-  std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f),
+  std::vector<std::vector<uint8_t>> files = {make_container(8, 0.05f), make_container(5, 0.09f, 64),
                                              make_container(4, 0.02f), make_container(6, 0.07f)};
   files[2][read_bsvtf(files[2])->find(TileId{0, 0, 0, 0})->offset + 9] ^= 0xff;  // damaged in transit
   std::vector<BsvtfDirectory> directories;
@@ -85,9 +87,12 @@ int main() {
   for (size_t i = 0; i < files.size(); ++i) materials.push_back({&directories[i], &sources[i], nullptr});
   const std::span<const StreamerMaterial> first_three(materials.data(), 3);
 
-  // 3. One Streamer for the world. The CacheConfig is also the shaders' VirtualTextureConfig.
+  // 3. One Streamer for the world, with a cache pool per tile size. Each CacheConfig is also the
+  // shaders' VirtualTextureConfig of the materials in that pool (a bsvtf program per pool).
   StreamerConfig config;
-  config.cache = CacheConfig{8, 8, 1u << 14, 32, 4, 1};  // 64 slots of 40×40 texels
+  const CacheConfig pools[2] = {CacheConfig{8, 8, 1u << 14, 32, 4, 1},   // 64 slots of 40×40 texels
+                                CacheConfig{4, 4, 1u << 14, 64, 4, 1}};  // 16 slots of 72×72 texels
+  config.pools = pools;  // a material goes to the pool of its tile size (StreamerMaterial::pool)
   config.scheduler.budgets.uploads_per_frame = 8;
   config.vote_window_frames = 1;
   config.decode_workers = 2;                              // the most threads that run jobs at once
@@ -104,7 +109,8 @@ int main() {
   std::vector<ResidencyEvent> events(64);
   std::vector<uint32_t> jobs(64);  // decode jobs update() claims for the engine
   FakeGpu gpu;
-  gpu.slots.resize(streamer.cache().slot_count());  // shapes: streamer.gpu_layout()
+  const StreamerGpuLayout layout = streamer.gpu_layout();  // the shapes to allocate
+  for (uint32_t p = 0; p < layout.pool_count; ++p) gpu.pools.emplace_back(layout.pools[p].slots);
   for (uint32_t t = 0; t < streamer.gpu_layout().page_table_layers; ++t)
     gpu.page_tables.emplace_back(streamer.cache().set().levels_of(t).tile_count(), 0u);
   gpu.u_packets.resize(streamer.gpu_layout().u_packets);
@@ -120,7 +126,7 @@ int main() {
     const Status applied = forward_streamer_outputs(
         out,
         [&](std::span<const TileUpload> batch) noexcept {  // glTexSubImage3D / vkCmdCopyBufferToImage
-          for (const TileUpload& t : batch) gpu.slots[t.slot].assign(t.texels.begin(), t.texels.end());
+          for (const TileUpload& t : batch) gpu.pools[t.pool][t.slot].assign(t.texels.begin(), t.texels.end());
           return Status::success;
         },
         [&](std::span<const PageTableWrite> texels) noexcept {  // one R32UI texel each
@@ -174,7 +180,7 @@ int main() {
   }
 
   // 6. Check: every slot the cache uses holds texels, every page-table texel the shader reads at
-  // a resident tile names that tile's slot.
+  // a resident tile names that tile's slot within its pool's cache texture.
   uint32_t bad = 0, resident = 0;
   const TileCache& cache = streamer.cache();
   for (uint32_t t = 0; t < cache.set().texture_count(); ++t) {
@@ -184,7 +190,10 @@ int main() {
       const uint32_t slot = cache.slot_of(id);
       if (slot == kNoSlot) continue;
       ++resident;
-      if (gpu.slots[slot].empty() || gpu.page_tables[t][i] != pack_page_entry(slot, id.level)) ++bad;
+      const uint32_t local = cache.pool_local_slot(slot);
+      if (gpu.pools[cache.pool_of_slot(slot)][local].empty() ||
+          gpu.page_tables[t][i] != pack_page_entry(local, id.level))
+        ++bad;
     }
   }
   const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_ready(2);
@@ -192,6 +201,10 @@ int main() {
   std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used, %llu bytes read\n",
               static_cast<unsigned long long>(uploads), static_cast<unsigned long long>(page_writes), resident,
               cache.used_count(), cache.slot_count(), static_cast<unsigned long long>(st.bytes_read));
+  for (uint32_t p = 0; p < st.pool_count; ++p)
+    std::printf("pool %u (T = %u): %u of %u slots used by %u materials, %.2f MiB of tiles\n", p,
+                streamer.pool_config(p).tile_size, st.pools[p].slots_used, st.pools[p].slots,
+                st.pools[p].materials_live, st.pools[p].resident_bytes / 1048576.0);
   std::printf("memory %.2f MiB (job buffers %.2f, decoders %.2f, payload cache %.2f); %llu failed tile reads\n",
               st.memory.total / 1048576.0, st.memory.job_buffers / 1048576.0, st.memory.decoders / 1048576.0,
               st.memory.payload_cache / 1048576.0, static_cast<unsigned long long>(st.tile_failures));

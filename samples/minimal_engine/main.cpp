@@ -1,15 +1,12 @@
 // btflod-minimal-engine — what an engine writes to stream BTF materials with btflod: build (or
 // load) `.bsvtf` containers, create one Streamer for the world, and once per frame hand it the
-// feedback words and copy its outputs to the GPU. The "GPU" here is plain arrays (a cache
-// texture of slots, one page table per virtual texture, U′ packets) and the feedback comes
-// from a camera sliding over two materials; a real engine renders the generated shaders' feedback
-// pass instead (docs/shaders.md). Decode jobs run on btflod's ThreadExecutor first, then on the
-// engine's own loop from the handles update() hands out (StreamerOutputs::runnable_jobs). A third
-// material arrives damaged (its root tile fails its checksum): it fails cleanly, once, the rest
-// of the world streams on, and at frame 60 the engine removes it and adds a fourth material in
-// its place on the running Streamer (a level streaming in; ids and layers of the others stay).
-// The second material was built with tiles of 64 texels, the others with 32: the Streamer keeps
-// two cache pools (one cache texture each) and every material streams into its own.
+// feedback words and copy its outputs to the GPU (plain arrays here; the feedback comes from a
+// camera sliding over two materials, where a real engine renders the generated shaders' feedback
+// pass, docs/shaders.md). Decode jobs run on btflod's ThreadExecutor, then on the engine's loop
+// (StreamerOutputs::runnable_jobs). A third material arrives damaged (its root fails its
+// checksum): it fails cleanly, once, and at frame 60 the engine removes it and adds a fourth in
+// its place on the running Streamer (ids and layers of the others stay). The second material has
+// tiles of 64 texels, the others 32: two cache pools (a cache texture each) serve them.
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -42,13 +39,6 @@ std::vector<uint8_t> make_container(uint32_t components, float frequency, uint32
   auto file = build_bsvtf_from_eigen_textures(e, options);
   return file ? std::move(*file) : std::vector<uint8_t>{};
 }
-
-// The engine's side of the GPU: what the shaders read.
-struct FakeGpu {
-  std::vector<std::vector<std::vector<uint16_t>>> pools;  // per cache pool: its texture, one RGBA16F tile per slot
-  std::vector<std::vector<uint32_t>> page_tables;         // per virtual texture, all levels
-  std::vector<std::vector<uint16_t>> u_packets;           // per virtual texture
-};
 
 // A camera sliding over two side-by-side materials (the bottom rows see the third): each
 // feedback texel names the tile (level, x, y) of the material it sees (runtime/lod/feedback.hpp).
@@ -85,7 +75,6 @@ int main() {
   }
   std::vector<StreamerMaterial> materials;
   for (size_t i = 0; i < files.size(); ++i) materials.push_back({&directories[i], &sources[i], nullptr});
-  const std::span<const StreamerMaterial> first_three(materials.data(), 3);
 
   // 3. One Streamer for the world, with a cache pool per tile size. Each CacheConfig is also the
   // shaders' VirtualTextureConfig of the materials in that pool (a bsvtf program per pool).
@@ -98,7 +87,7 @@ int main() {
   config.decode_workers = 2;                              // the most threads that run jobs at once
   config.failure.startup_attempts = 3;                    // a root that fails 3 times fails its material
   config.capacity = streamer_capacity_for(materials, 3);  // room for any three, added and removed live
-  auto created = Streamer::create(first_three, config);
+  auto created = Streamer::create(std::span<const StreamerMaterial>(materials).first(3), config);
   if (!created) return std::fprintf(stderr, "streamer: %s\n", created.message().c_str()), 1;
   Streamer streamer = std::move(*created);
 
@@ -108,15 +97,19 @@ int main() {
   std::vector<PageTableWrite> writes(4096);
   std::vector<ResidencyEvent> events(64);
   std::vector<uint32_t> jobs(64);  // decode jobs update() claims for the engine
-  FakeGpu gpu;
+  // The engine's side of the GPU, what the shaders read: per cache pool its texture (one RGBA16F
+  // tile per slot), per virtual texture its page table (all levels) and U′ packet.
+  std::vector<std::vector<std::vector<uint16_t>>> gpu_pools;
+  std::vector<std::vector<uint32_t>> page_tables;
+  std::vector<std::vector<uint16_t>> u_packets;
   const StreamerGpuLayout layout = streamer.gpu_layout();  // the shapes to allocate
-  for (uint32_t p = 0; p < layout.pool_count; ++p) gpu.pools.emplace_back(layout.pools[p].slots);
-  for (uint32_t t = 0; t < streamer.gpu_layout().page_table_layers; ++t)
-    gpu.page_tables.emplace_back(streamer.cache().set().levels_of(t).tile_count(), 0u);
-  gpu.u_packets.resize(streamer.gpu_layout().u_packets);
+  for (uint32_t p = 0; p < layout.pool_count; ++p) gpu_pools.emplace_back(layout.pools[p].slots);
+  for (uint32_t t = 0; t < layout.page_table_layers; ++t)
+    page_tables.emplace_back(streamer.cache().set().levels_of(t).tile_count(), 0u);
+  u_packets.resize(layout.u_packets);
 
   // 5. The frame loop: feedback in, outputs copied to the GPU.
-  uint64_t uploads = 0, page_writes = 0;
+  unsigned long long uploads = 0, page_writes = 0;
   auto frame_update = [&](uint32_t frame) -> Status {
     const std::vector<uint32_t> feedback = render_feedback(streamer, frame);  // GPU readback
     StreamerOutputs out{tiles, packets, writes, events, jobs};
@@ -126,33 +119,32 @@ int main() {
     const Status applied = forward_streamer_outputs(
         out,
         [&](std::span<const TileUpload> batch) noexcept {  // glTexSubImage3D / vkCmdCopyBufferToImage
-          for (const TileUpload& t : batch) gpu.pools[t.pool][t.slot].assign(t.texels.begin(), t.texels.end());
+          for (const TileUpload& t : batch) gpu_pools[t.pool][t.slot].assign(t.texels.begin(), t.texels.end());
           return Status::success;
         },
         [&](std::span<const PageTableWrite> texels) noexcept {  // one R32UI texel each
           for (const PageTableWrite& w : texels)
-            gpu.page_tables[w.tile.texture][streamer.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
+            page_tables[w.tile.texture][streamer.cache().set().levels_of(w.tile.texture).index(w.tile)] = w.entry;
           return Status::success;
         },
         [&](const StreamerPacketUpload& p) noexcept {  // U′: rows × 4 halves, light-major
-          gpu.u_packets[p.texture].assign(p.halves.begin(), p.halves.end());
+          u_packets[p.texture].assign(p.halves.begin(), p.halves.end());
           return Status::success;
         });
     if (applied != Status::success) return applied;
-    for (size_t i = 0; i < out.event_count; ++i)
-      if (events[i].kind == ResidencyEventKind::material_ready)
-        std::printf("frame %3u: material %u ready (roots and U' loaded)\n", frame, events[i].material);
-      else if (events[i].kind == ResidencyEventKind::material_failed)  // retry_material() after a repair
-        std::printf("frame %3u: material %u failed (%s); its tiles are not requested\n", frame, events[i].material,
-                    status_name(events[i].status));
-      else if (events[i].kind == ResidencyEventKind::material_removed)
-        std::printf("frame %3u: material %u removed, page-table layers %u-%u free\n", frame, events[i].material,
-                    events[i].tile.texture, events[i].tile.texture + events[i].layers - 1);
+    for (size_t i = 0; i < out.event_count; ++i) {
+      const ResidencyEvent& e = events[i];
+      const char* what = e.kind == ResidencyEventKind::material_ready ? "ready (roots and U' loaded)"
+                         : e.kind == ResidencyEventKind::material_failed
+                             ? "failed: tiles not requested"  // retry_material()
+                         : e.kind == ResidencyEventKind::material_removed ? "removed: its layers and slots are free"
+                                                                          : nullptr;
+      if (what) std::printf("frame %3u: material %u %s (%s)\n", frame, e.material, what, status_name(e.status));
+    }
     for (size_t i = 0; i < out.runnable_job_count; ++i) streamer.run_job(jobs[i]);  // the engine's workers
     uploads += out.tile_upload_count;
     page_writes += out.page_table_write_count;
-    // (the engine renders here: the BSVTF pass with the generated bsvtf_feedback program, whose
-    // colour pass also writes the feedback words read back next frame; docs/shaders.md)
+    // (the engine renders here: its bsvtf_feedback colour pass also writes next frame's feedback)
     return Status::success;
   };
   {
@@ -161,12 +153,12 @@ int main() {
       if (frame_update(frame) != Status::success) return 1;
       if (frame != 60) continue;  // a level change: the damaged material goes, a new one comes
       uint32_t id = 0;
-      const char* why = "";
+      const char* why = "";  // add_material()'s reason when it refuses
       if (streamer.remove_material(2) != Status::success ||
           streamer.add_material(materials[3], id, &why) != Status::success)
         return std::fprintf(stderr, "add: %s\n", why), 1;
       for (uint32_t t = streamer.first_texture(id); t < streamer.first_texture(id) + streamer.texture_count(id); ++t)
-        gpu.page_tables[t].assign(streamer.cache().set().levels_of(t).tile_count(), 0u);  // the layer's new shape
+        page_tables[t].assign(streamer.cache().set().levels_of(t).tile_count(), 0u);  // the layer's new shape
       std::printf("frame %3u: material %u added (id %u, layers from %u)\n", frame, 3u, id, streamer.first_texture(id));
     }
   }  // the workers stop with the executor
@@ -179,35 +171,30 @@ int main() {
     if (uploads + page_writes == before && streamer.idle()) break;
   }
 
-  // 6. Check: every slot the cache uses holds texels, every page-table texel the shader reads at
-  // a resident tile names that tile's slot within its pool's cache texture.
+  // 6. Check: a resident tile's slot holds texels, its page-table texel names that slot in its pool.
   uint32_t bad = 0, resident = 0;
   const TileCache& cache = streamer.cache();
   for (uint32_t t = 0; t < cache.set().texture_count(); ++t) {
     const VtLevelTable& lv = cache.set().levels_of(t);
     for (uint32_t i = 0; i < lv.tile_count(); ++i) {
-      const TileId id = lv.tile(t, i);
-      const uint32_t slot = cache.slot_of(id);
+      const uint32_t slot = cache.slot_of(lv.tile(t, i));
       if (slot == kNoSlot) continue;
       ++resident;
       const uint32_t local = cache.pool_local_slot(slot);
-      if (gpu.pools[cache.pool_of_slot(slot)][local].empty() ||
-          gpu.page_tables[t][i] != pack_page_entry(local, id.level))
-        ++bad;
+      bad += gpu_pools[cache.pool_of_slot(slot)][local].empty() ||
+             page_tables[t][i] != pack_page_entry(local, lv.tile(t, i).level);
     }
   }
   const bool ready = streamer.material_ready(0) && streamer.material_ready(1) && streamer.material_ready(2);
   const StreamerStats st = streamer.stats();  // cheap enough for every frame
-  std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used, %llu bytes read\n",
-              static_cast<unsigned long long>(uploads), static_cast<unsigned long long>(page_writes), resident,
-              cache.used_count(), cache.slot_count(), static_cast<unsigned long long>(st.bytes_read));
+  std::printf("%llu tile uploads, %llu page-table writes, %u resident tiles, %u slots of %u used\n", uploads,
+              page_writes, resident, cache.used_count(), cache.slot_count());
   for (uint32_t p = 0; p < st.pool_count; ++p)
     std::printf("pool %u (T = %u): %u of %u slots used by %u materials, %.2f MiB of tiles\n", p,
                 streamer.pool_config(p).tile_size, st.pools[p].slots_used, st.pools[p].slots,
                 st.pools[p].materials_live, st.pools[p].resident_bytes / 1048576.0);
-  std::printf("memory %.2f MiB (job buffers %.2f, decoders %.2f, payload cache %.2f); %llu failed tile reads\n",
-              st.memory.total / 1048576.0, st.memory.job_buffers / 1048576.0, st.memory.decoders / 1048576.0,
-              st.memory.payload_cache / 1048576.0, static_cast<unsigned long long>(st.tile_failures));
+  std::printf("memory %.2f MiB (jobs %.2f, decoders %.2f); %u failed tile reads\n", st.memory.total / 1048576.0,
+              st.memory.job_buffers / 1048576.0, st.memory.decoders / 1048576.0, unsigned(st.tile_failures));
   std::printf("converged: %s\n", ready && bad == 0 && resident > 2 * cache.set().texture_count() ? "yes" : "no");
   return ready && bad == 0 ? 0 : 1;
 }

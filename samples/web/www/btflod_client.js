@@ -774,10 +774,14 @@ export class BtflodClient {
     return q / this.materials.length;
   }
 
-  /// True when nothing is in flight or queued, the view misses no tile it voted for, and the
-  /// scheduler's overload LOD bias is back at 0 (votes at full detail).
+  /// True when the Streamer has seen the view (a feedback readback reached update()), nothing is
+  /// in flight or queued, the view misses no tile it voted for, and the scheduler's overload LOD
+  /// bias is back at 0 (votes at full detail). Before the first readback there are no votes, so
+  /// nothing counts as missing: where fences signal late (headless SwiftShader under load) the
+  /// first frames would otherwise look converged with the root tiles alone.
   converged() {
     if (this.fixedOrder) return this.orderLeft === 0;
+    if (!this.stats.feedbackReadbacks) return false;
     let packets = true;
     const ip = this.M._malloc(64);
     for (const m of this.materials) {

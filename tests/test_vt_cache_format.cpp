@@ -33,6 +33,26 @@ std::vector<float> random_tile(size_t texels, uint32_t seed) {
   return v;
 }
 
+// Samples both Streamers' CPU caches at 64 × 64 points of every virtual texture (their page
+// tables must agree: same requests, same order) and returns the largest |compact − wide| and the
+// largest |wide| value seen.
+void compare_cpu_caches(const Streamer& compact, const CpuCacheTexture& compact_texture, const Streamer& wide,
+                        const CpuCacheTexture& wide_texture, double& worst, double& range) {
+  for (uint32_t t = 0; t < compact.cache().set().texture_count(); ++t)
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        float a[4], b[4];
+        const float u = (x + 0.5f) / 64.0f, v = (y + 0.5f) / 64.0f;
+        ASSERT_EQ(compact.cache().page_table(t)[0], wide.cache().page_table(t)[0]);
+        compact_texture.sample(compact.cache(), t, u, v, a);
+        wide_texture.sample(wide.cache(), t, u, v, b);
+        for (int c = 0; c < 4; ++c) {
+          worst = std::max(worst, std::fabs(static_cast<double>(a[c]) - b[c]));
+          range = std::max(range, std::fabs(static_cast<double>(b[c])));
+        }
+      }
+}
+
 }  // namespace
 
 TEST(CacheFormat, ConfigSizesFollowTheFormat) {
@@ -240,19 +260,8 @@ TEST(CacheFormat, StreamerUploadsTheEncodedTiles) {
   // Both caches hold every tile by now (same requests, same order): sample both everywhere.
   ASSERT_EQ(compact.cache().used_count(), wide.cache().used_count());
   double worst = 0.0, range = 0.0;
-  for (uint32_t t = 0; t < compact.cache().set().texture_count(); ++t)
-    for (int y = 0; y < 64; ++y)
-      for (int x = 0; x < 64; ++x) {
-        float a[4], b[4];
-        const float u = (x + 0.5f) / 64.0f, v = (y + 0.5f) / 64.0f;
-        ASSERT_EQ(compact.cache().page_table(t)[0], wide.cache().page_table(t)[0]);
-        tex8.sample(compact.cache(), t, u, v, a);
-        tex16.sample(wide.cache(), t, u, v, b);
-        for (int c = 0; c < 4; ++c) {
-          worst = std::max(worst, std::fabs(static_cast<double>(a[c]) - b[c]));
-          range = std::max(range, std::fabs(static_cast<double>(b[c])));
-        }
-      }
+  compare_cpu_caches(compact, tex8, wide, tex16, worst, range);
+  if (HasFatalFailure()) return;
   std::printf("rgba8_affine vs rgba16f CPU cache: max |diff| %.3g over values up to %.3g\n", worst, range);
   EXPECT_GT(range, 0.1);
   EXPECT_LT(worst, range / 255.0);  // within one step of the largest range: the maps are applied
@@ -409,19 +418,8 @@ TEST(CacheFormatBc5, StreamerUploadsTheEncodedTiles) {
   EXPECT_GT(compared, 20u);
   ASSERT_EQ(compact.cache().used_count(), wide.cache().used_count());
   double worst = 0.0, range = 0.0;
-  for (uint32_t t = 0; t < compact.cache().set().texture_count(); ++t)
-    for (int y = 0; y < 64; ++y)
-      for (int x = 0; x < 64; ++x) {
-        float a[4], b[4];
-        const float u = (x + 0.5f) / 64.0f, v = (y + 0.5f) / 64.0f;
-        ASSERT_EQ(compact.cache().page_table(t)[0], wide.cache().page_table(t)[0]);
-        tex5.sample(compact.cache(), t, u, v, a);
-        tex16.sample(wide.cache(), t, u, v, b);
-        for (int c = 0; c < 4; ++c) {
-          worst = std::max(worst, std::fabs(static_cast<double>(a[c]) - b[c]));
-          range = std::max(range, std::fabs(static_cast<double>(b[c])));
-        }
-      }
+  compare_cpu_caches(compact, tex5, wide, tex16, worst, range);
+  if (HasFatalFailure()) return;
   std::printf(
       "bc5_affine vs rgba16f: worst value error %.3g of the slot's scale; CPU cache max |diff| %.3g over "
       "values up to %.3g\n",

@@ -137,6 +137,13 @@ void report(benchmark::State& state, const Corpus& c) {
   state.counters["wire_B_bc5_zstd19"] = c.zstd19_bytes / n;
 }
 
+// One DCT tile of the corpus decoded into `out`, against its parent's decoded values if it has one.
+Status decode_tile(TileDecoder& decoder, const Tile& t, std::span<float> out) {
+  return decoder.decode(std::span<const uint8_t>(t.payload, t.payload_size),
+                        t.parent ? std::span<const float>(t.parent, out.size()) : std::span<const float>(), t.qx, t.qy,
+                        out);
+}
+
 // Today's client work per tile, first half: the DCT tile decoded against its parent.
 void BM_Bc5Wire_DctDecode(benchmark::State& state) {
   const Corpus* c = corpus_or_skip(state);
@@ -145,9 +152,7 @@ void BM_Bc5Wire_DctDecode(benchmark::State& state) {
   std::vector<float> out(c->layout.sample_count());
   for (auto _ : state)
     for (const Tile& t : c->tiles) {
-      const Status s = decoder.decode(
-          std::span<const uint8_t>(t.payload, t.payload_size),
-          t.parent ? std::span<const float>(t.parent, out.size()) : std::span<const float>(), t.qx, t.qy, out);
+      const Status s = decode_tile(decoder, t, out);
       benchmark::DoNotOptimize(s);
       benchmark::DoNotOptimize(out.data());
     }
@@ -179,9 +184,7 @@ void BM_Bc5Wire_StreamTime(benchmark::State& state) {
   std::vector<uint8_t> scratch(c->layout.sample_count()), blocks(cache_bc5_tile_bytes(c->side));
   for (auto _ : state)
     for (const Tile& t : c->tiles) {
-      const Status s = decoder.decode(
-          std::span<const uint8_t>(t.payload, t.payload_size),
-          t.parent ? std::span<const float>(t.parent, out.size()) : std::span<const float>(), t.qx, t.qy, out);
+      const Status s = decode_tile(decoder, t, out);
       benchmark::DoNotOptimize(s);
       const CacheSlotMap map = encode_cache_tile_bc5(out, c->side, scratch, blocks);
       benchmark::DoNotOptimize(map);
